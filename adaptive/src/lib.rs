@@ -1,0 +1,2 @@
+//! `adaptive`: see the workspace README. (Being built.)
+#![deny(missing_docs)]

@@ -1,0 +1,2 @@
+//! estimator-core
+#![deny(missing_docs)]

@@ -1,0 +1,2 @@
+//! `ins-gnss`: see the workspace README. (Being built.)
+#![deny(missing_docs)]

@@ -1,0 +1,45 @@
+//! Manifold states with ⊕/⊖ whose dimensions are checked at compile time.
+//!
+//! | item | what |
+//! |---|---|
+//! | [`Manifold`] | the ⊕/⊖ contract (right perturbation), tangent dimension as a type |
+//! | [`So3`] | rotations on a unit quaternion: `exp`, `log`, [`right_jacobian`], [`right_jacobian_inverse`] |
+//! | [`So2`] | planar rotations (headings, bearings) |
+//! | [`Rn`], [`R1`], [`R2`], [`R3`] | Euclidean blocks (`nalgebra::SVector<f64, N>`) |
+//! | tuples `(A, B, …)` up to 6 parts | products whose dimension is the type-level sum of the parts |
+//! | [`composite_state!`] | named product states with a typed [`Block`] constant per field |
+//! | [`numdiff`] | central-difference Jacobians through ⊕/⊖ |
+//! | `testing` (feature) | the public law harness and proptest strategies |
+//!
+//! # Convention
+//!
+//! Right (body-frame) perturbation everywhere: `R ⊕ δθ = R·Exp(δθ)`,
+//! `S ⊖ R = Log(R⁻¹·S)`, Euclidean blocks additive, `true = nominal ⊕ δx`.
+//!
+//! # Generic code
+//!
+//! Generic items carry one bound per dimension, `DefaultAllocator: DimAlloc<M::Dim>`;
+//! concrete code never writes it.
+#![deny(missing_docs)]
+#![allow(non_snake_case)]
+
+mod euclid;
+pub mod numdiff;
+pub mod product;
+mod so2;
+mod so3;
+mod traits;
+
+#[cfg(feature = "testing")]
+pub mod testing;
+
+pub use euclid::{Rn, R1, R2, R3};
+pub use product::Block;
+pub use so2::{wrap_angle, So2};
+pub use so3::{
+    hat, left_jacobian, left_jacobian_inverse, right_jacobian, right_jacobian_inverse, So3,
+};
+pub use traits::{DimAlloc, Manifold, OminusJacobians, OplusJacobians, Tangent, TangentMatrix};
+
+/// nalgebra, re-exported so that macros and users agree on the version.
+pub use nalgebra;

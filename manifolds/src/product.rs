@@ -1,0 +1,357 @@
+//! Product states: tuples of manifolds and named composite states.
+//!
+//! The tangent of a product is the concatenation of its parts' tangents, in order, and its
+//! dimension is their type-level sum (`(So3, R3, R3, R3, R3)` has `Dim = Const<15>`).
+//! ⊕ and ⊖ act block by block, so every Jacobian is block diagonal.
+
+use core::marker::PhantomData;
+use core::ops::Range;
+
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, DimName, DimNameAdd, DimNameSum, OMatrix, OVector};
+
+use crate::traits::{DimAlloc, Manifold, Tangent, TangentMatrix};
+
+/// Copy of the block of `v` that starts at `offset` and has `B::DIM` rows.
+pub fn block_of<D, B>(v: &OVector<f64, D>, offset: usize) -> OVector<f64, B>
+where
+    D: DimName,
+    B: DimName,
+    DefaultAllocator: Allocator<D> + Allocator<B>,
+{
+    OVector::<f64, B>::from_fn(|i, _| v[offset + i])
+}
+
+/// Write `b` into `v` from row `offset` on.
+pub fn set_block<D, B>(v: &mut OVector<f64, D>, offset: usize, b: &OVector<f64, B>)
+where
+    D: DimName,
+    B: DimName,
+    DefaultAllocator: Allocator<D> + Allocator<B>,
+{
+    for i in 0..B::DIM {
+        v[offset + i] = b[i];
+    }
+}
+
+/// Write the square block `b` on the diagonal of `m` at `(offset, offset)`.
+pub fn set_diagonal_block<D, B>(m: &mut OMatrix<f64, D, D>, offset: usize, b: &OMatrix<f64, B, B>)
+where
+    D: DimName,
+    B: DimName,
+    DefaultAllocator: Allocator<D, D> + Allocator<B, B>,
+{
+    for c in 0..B::DIM {
+        for r in 0..B::DIM {
+            m[(offset + r, offset + c)] = b[(r, c)];
+        }
+    }
+}
+
+/// A typed handle on one block of a composite state's tangent space: its offset and
+/// the manifold it belongs to. Composite states expose one per field (e.g.
+/// `InsState::ATT`), so code names blocks instead of using bare indices.
+pub struct Block<M> {
+    offset: usize,
+    _m: PhantomData<fn() -> M>,
+}
+
+impl<M> Clone for Block<M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<M> Copy for Block<M> {}
+
+impl<M> core::fmt::Debug for Block<M> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "Block({}..)", self.offset)
+    }
+}
+
+impl<M: Manifold> Block<M>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    /// A block starting at `offset`.
+    pub const fn new(offset: usize) -> Self {
+        Self { offset, _m: PhantomData }
+    }
+
+    /// First tangent index of the block.
+    pub const fn start(&self) -> usize {
+        self.offset
+    }
+
+    /// Tangent dimension of the block.
+    pub const fn len(&self) -> usize {
+        M::DIM
+    }
+
+    /// Blocks are never empty unless their manifold is zero-dimensional.
+    pub const fn is_empty(&self) -> bool {
+        M::DIM == 0
+    }
+
+    /// The tangent index range of the block.
+    pub const fn range(&self) -> Range<usize> {
+        self.offset..self.offset + M::DIM
+    }
+
+    /// The block's part of a full tangent vector (or of a gain column, a residual …).
+    pub fn of<D: DimName>(&self, v: &OVector<f64, D>) -> Tangent<M>
+    where
+        DefaultAllocator: Allocator<D>,
+    {
+        block_of::<D, M::Dim>(v, self.offset)
+    }
+
+    /// The block's diagonal sub-matrix of a full covariance.
+    pub fn cov<D: DimName>(&self, P: &OMatrix<f64, D, D>) -> TangentMatrix<M>
+    where
+        DefaultAllocator: Allocator<D, D>,
+    {
+        TangentMatrix::<M>::from_fn(|r, c| P[(self.offset + r, self.offset + c)])
+    }
+
+    /// 1σ of each component of the block from a full covariance.
+    pub fn sigma<D: DimName>(&self, P: &OMatrix<f64, D, D>) -> Tangent<M>
+    where
+        DefaultAllocator: Allocator<D, D>,
+    {
+        Tangent::<M>::from_fn(|r, _| P[(self.offset + r, self.offset + r)].max(0.0).sqrt())
+    }
+}
+
+macro_rules! impl_tuple_manifold {
+    (
+        dim = $Dim:ty;
+        bounds = [$($bound:tt)*];
+        $($T:ident . $idx:tt),+
+    ) => {
+        impl<$($T: Manifold),+> Manifold for ($($T,)+)
+        where
+            $($bound)*
+            DefaultAllocator: $(DimAlloc<$T::Dim> +)+ DimAlloc<$Dim>,
+        {
+            type Dim = $Dim;
+
+            fn origin() -> Self {
+                ($($T::origin(),)+)
+            }
+
+            fn oplus(&self, delta: &Tangent<Self>) -> Self {
+                let mut _off = 0usize;
+                ($({
+                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    _off += $T::DIM;
+                    self.$idx.oplus(&d)
+                },)+)
+            }
+
+            fn ominus(&self, origin: &Self) -> Tangent<Self> {
+                let mut out = Tangent::<Self>::zeros();
+                let mut _off = 0usize;
+                $(
+                    set_block(&mut out, _off, &self.$idx.ominus(&origin.$idx));
+                    _off += $T::DIM;
+                )+
+                out
+            }
+
+            fn is_finite(&self) -> bool {
+                true $(&& self.$idx.is_finite())+
+            }
+
+            fn oplus_jacobians(&self, delta: &Tangent<Self>) -> crate::OplusJacobians<Self> {
+                let mut J_y_x = TangentMatrix::<Self>::zeros();
+                let mut J_y_delta = TangentMatrix::<Self>::zeros();
+                let mut _off = 0usize;
+                $(
+                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    let j = self.$idx.oplus_jacobians(&d);
+                    set_diagonal_block(&mut J_y_x, _off, &j.J_y_x);
+                    set_diagonal_block(&mut J_y_delta, _off, &j.J_y_delta);
+                    _off += $T::DIM;
+                )+
+                crate::OplusJacobians { J_y_x, J_y_delta }
+            }
+
+            fn ominus_jacobians(&self, origin: &Self) -> crate::OminusJacobians<Self> {
+                let mut J_d_y = TangentMatrix::<Self>::zeros();
+                let mut J_d_x = TangentMatrix::<Self>::zeros();
+                let mut _off = 0usize;
+                $(
+                    let j = self.$idx.ominus_jacobians(&origin.$idx);
+                    set_diagonal_block(&mut J_d_y, _off, &j.J_d_y);
+                    set_diagonal_block(&mut J_d_x, _off, &j.J_d_x);
+                    _off += $T::DIM;
+                )+
+                crate::OminusJacobians { J_d_y, J_d_x }
+            }
+        }
+    };
+}
+
+type S2<A, B> = DimNameSum<<A as Manifold>::Dim, <B as Manifold>::Dim>;
+type S3<A, B, C> = DimNameSum<S2<A, B>, <C as Manifold>::Dim>;
+type S4<A, B, C, D> = DimNameSum<S3<A, B, C>, <D as Manifold>::Dim>;
+type S5<A, B, C, D, E> = DimNameSum<S4<A, B, C, D>, <E as Manifold>::Dim>;
+type S6<A, B, C, D, E, F> = DimNameSum<S5<A, B, C, D, E>, <F as Manifold>::Dim>;
+
+impl_tuple_manifold!(
+    dim = S2<A, B>;
+    bounds = [A::Dim: DimNameAdd<B::Dim>,];
+    A.0, B.1
+);
+impl_tuple_manifold!(
+    dim = S3<A, B, C>;
+    bounds = [A::Dim: DimNameAdd<B::Dim>, S2<A, B>: DimNameAdd<C::Dim>,];
+    A.0, B.1, C.2
+);
+impl_tuple_manifold!(
+    dim = S4<A, B, C, D>;
+    bounds = [
+        A::Dim: DimNameAdd<B::Dim>,
+        S2<A, B>: DimNameAdd<C::Dim>,
+        S3<A, B, C>: DimNameAdd<D::Dim>,
+    ];
+    A.0, B.1, C.2, D.3
+);
+impl_tuple_manifold!(
+    dim = S5<A, B, C, D, E>;
+    bounds = [
+        A::Dim: DimNameAdd<B::Dim>,
+        S2<A, B>: DimNameAdd<C::Dim>,
+        S3<A, B, C>: DimNameAdd<D::Dim>,
+        S4<A, B, C, D>: DimNameAdd<E::Dim>,
+    ];
+    A.0, B.1, C.2, D.3, E.4
+);
+impl_tuple_manifold!(
+    dim = S6<A, B, C, D, E, F>;
+    bounds = [
+        A::Dim: DimNameAdd<B::Dim>,
+        S2<A, B>: DimNameAdd<C::Dim>,
+        S3<A, B, C>: DimNameAdd<D::Dim>,
+        S4<A, B, C, D>: DimNameAdd<E::Dim>,
+        S5<A, B, C, D, E>: DimNameAdd<F::Dim>,
+    ];
+    A.0, B.1, C.2, D.3, E.4, F.5
+);
+
+/// Define a named composite state whose tangent dimension is the sum of its fields',
+/// known at compile time, with a typed [`Block`] constant per field.
+///
+/// ```
+/// use manifolds::{composite_state, Manifold, So3, R3};
+///
+/// composite_state! {
+///     /// An INS-like state.
+///     pub struct Ins {
+///         /// Attitude `R_nb`.
+///         pub att: So3 => ATT,
+///         /// Velocity.
+///         pub vel: R3 => VEL,
+///         /// Position.
+///         pub pos: R3 => POS,
+///         /// Gyro bias.
+///         pub bg: R3 => BG,
+///         /// Accelerometer bias.
+///         pub ba: R3 => BA,
+///     }
+/// }
+/// // The dimension is a type: a 15×15 covariance is a stack matrix.
+/// let p = nalgebra::OMatrix::<f64, <Ins as Manifold>::Dim, <Ins as Manifold>::Dim>::identity();
+/// assert_eq!(p.nrows(), 15);
+/// assert_eq!(Ins::VEL.range(), 3..6);
+/// assert_eq!(Ins::BA.range(), 12..15);
+/// ```
+#[macro_export]
+macro_rules! composite_state {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $Name:ident {
+            $(
+                $(#[$fmeta:meta])*
+                $fvis:vis $field:ident : $T:ty => $BLOCK:ident
+            ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq)]
+        $vis struct $Name {
+            $( $(#[$fmeta])* $fvis $field: $T, )+
+        }
+
+        $crate::composite_state!(@blocks $Name, 0usize, $($field : $T => $BLOCK),+);
+
+        impl $crate::Manifold for $Name {
+            type Dim = $crate::nalgebra::Const<{ 0usize $(+ <$T as $crate::Manifold>::DIM)+ }>;
+
+            fn origin() -> Self {
+                Self { $( $field: <$T as $crate::Manifold>::origin(), )+ }
+            }
+
+            fn oplus(&self, delta: &$crate::Tangent<Self>) -> Self {
+                Self {
+                    $( $field: self.$field.oplus(&Self::$BLOCK.of(delta)), )+
+                }
+            }
+
+            fn ominus(&self, origin: &Self) -> $crate::Tangent<Self> {
+                let mut out = $crate::Tangent::<Self>::zeros();
+                $(
+                    $crate::product::set_block(
+                        &mut out,
+                        Self::$BLOCK.start(),
+                        &self.$field.ominus(&origin.$field),
+                    );
+                )+
+                out
+            }
+
+            fn is_finite(&self) -> bool {
+                true $(&& self.$field.is_finite())+
+            }
+
+            fn oplus_jacobians(
+                &self,
+                delta: &$crate::Tangent<Self>,
+            ) -> $crate::OplusJacobians<Self> {
+                let mut J_y_x = $crate::TangentMatrix::<Self>::zeros();
+                let mut J_y_delta = $crate::TangentMatrix::<Self>::zeros();
+                $(
+                    let j = self.$field.oplus_jacobians(&Self::$BLOCK.of(delta));
+                    $crate::product::set_diagonal_block(&mut J_y_x, Self::$BLOCK.start(), &j.J_y_x);
+                    $crate::product::set_diagonal_block(
+                        &mut J_y_delta,
+                        Self::$BLOCK.start(),
+                        &j.J_y_delta,
+                    );
+                )+
+                $crate::OplusJacobians { J_y_x, J_y_delta }
+            }
+
+            fn ominus_jacobians(&self, origin: &Self) -> $crate::OminusJacobians<Self> {
+                let mut J_d_y = $crate::TangentMatrix::<Self>::zeros();
+                let mut J_d_x = $crate::TangentMatrix::<Self>::zeros();
+                $(
+                    let j = self.$field.ominus_jacobians(&origin.$field);
+                    $crate::product::set_diagonal_block(&mut J_d_y, Self::$BLOCK.start(), &j.J_d_y);
+                    $crate::product::set_diagonal_block(&mut J_d_x, Self::$BLOCK.start(), &j.J_d_x);
+                )+
+                $crate::OminusJacobians { J_d_y, J_d_x }
+            }
+        }
+    };
+
+    (@blocks $Name:ident, $off:expr, $field:ident : $T:ty => $BLOCK:ident $(, $rf:ident : $rT:ty => $RB:ident)*) => {
+        impl $Name {
+            #[doc = concat!("Tangent block of `", stringify!($field), "`.")]
+            pub const $BLOCK: $crate::Block<$T> = $crate::Block::new($off);
+        }
+        $crate::composite_state!(@blocks $Name, $off + <$T as $crate::Manifold>::DIM $(, $rf : $rT => $RB)*);
+    };
+    (@blocks $Name:ident, $off:expr) => {};
+}

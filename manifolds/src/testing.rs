@@ -1,0 +1,441 @@
+//! The public law harness (feature `testing`): checks the ⊕/⊖ identities and every
+//! provided Jacobian of any [`Manifold`] against central differences through ⊕/⊖, plus
+//! proptest strategies for the built-in types.
+//!
+//! Run it on your own manifold the way the project runs it on its own:
+//!
+//! ```ignore
+//! use manifolds::testing::{LawSampler, manifold_law_tests};
+//! impl LawSampler for MyState { /* strategies for points and tangents */ }
+//! manifold_law_tests!(my_state_laws, MyState);
+//! ```
+//!
+//! The macro generates four tests: at the origin, near the origin (|δ| ≈ 1e-8), at
+//! random points (proptest) and at the chart boundary (|δ| near π for rotations).
+
+use core::f64::consts::PI;
+use core::fmt;
+
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, DimName, OMatrix, SVector, Vector1, Vector3};
+use proptest::prelude::*;
+use proptest::strategy::BoxedStrategy;
+
+use crate::numdiff;
+use crate::product::set_block;
+use crate::traits::{DimAlloc, Manifold, Tangent};
+use crate::{So2, So3};
+
+/// Tolerances of the law checks.
+#[derive(Clone, Copy, Debug)]
+pub struct LawTolerance {
+    /// Identities, relative to `max(1, |δ|)`.
+    pub law: f64,
+    /// Jacobians, max-abs difference relative to `max(1, max|J|)`.
+    pub jacobian: f64,
+    /// Central-difference step.
+    pub step: f64,
+}
+
+impl Default for LawTolerance {
+    fn default() -> Self {
+        Self { law: 1e-9, jacobian: 1e-6, step: 1e-6 }
+    }
+}
+
+/// A violated law: which one, by how much, where.
+#[derive(Clone, Debug)]
+pub struct LawViolation {
+    /// The law, e.g. `"x ⊕ (y ⊖ x) = y"`.
+    pub law: &'static str,
+    /// The measured error.
+    pub error: f64,
+    /// The tolerance it exceeded.
+    pub tolerance: f64,
+    /// The point, the other point and the tangent, printed.
+    pub at: String,
+}
+
+impl fmt::Display for LawViolation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "law `{}` violated: error {:.3e} > tolerance {:.3e} at {}",
+            self.law, self.error, self.tolerance, self.at
+        )
+    }
+}
+
+impl std::error::Error for LawViolation {}
+
+fn max_abs<R: DimName, C: DimName>(m: &OMatrix<f64, R, C>) -> f64
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    m.iter().fold(0.0_f64, |a, v| a.max(v.abs()))
+}
+
+/// Check every ⊕/⊖ law and every Jacobian of `M` at `x`, another point `y` and a
+/// tangent `delta` inside the chart. Returns the first violation found.
+///
+/// Laws: `x ⊕ 0 = x`, `x ⊕ (y ⊖ x) = y`, `(x ⊕ δ) ⊖ x = δ`; Jacobians of
+/// `x ⊕ δ` (w.r.t. `x` and `δ`) and of `(x ⊕ δ) ⊖ x` (w.r.t. both points) against
+/// central differences through ⊕/⊖. Points are compared through ⊖, never with `==`.
+pub fn check_laws<M: Manifold>(
+    x: &M,
+    y: &M,
+    delta: &Tangent<M>,
+    tol: LawTolerance,
+) -> Result<(), LawViolation>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    let at = || format!("x = {x:?}, y = {y:?}, δ = {:?}", delta.as_slice());
+    let check = |law: &'static str, error: f64, tolerance: f64| {
+        if error.is_finite() && error <= tolerance {
+            Ok(())
+        } else {
+            Err(LawViolation { law, error, tolerance, at: at() })
+        }
+    };
+    let scale = delta.norm().max(1.0);
+
+    let zero = Tangent::<M>::zeros();
+    check("x ⊕ 0 = x", x.oplus(&zero).ominus(x).norm(), tol.law)?;
+    let y_minus_x = y.ominus(x);
+    check(
+        "x ⊕ (y ⊖ x) = y",
+        x.oplus(&y_minus_x).ominus(y).norm(),
+        tol.law * y_minus_x.norm().max(1.0),
+    )?;
+    let x_plus_d = x.oplus(delta);
+    check("(x ⊕ δ) ⊖ x = δ", (x_plus_d.ominus(x) - delta).norm(), tol.law * scale)?;
+
+    let jac = |law: &'static str, analytic: &OMatrix<f64, M::Dim, M::Dim>, numeric| {
+        let err = max_abs(&(analytic - numeric));
+        check(law, err, tol.jacobian * max_abs(analytic).max(1.0))
+    };
+    let op = x.oplus_jacobians(delta);
+    let n_x = numdiff::jacobian(x, |xp| xp.oplus(delta).ominus(&x_plus_d), tol.step);
+    jac("J of x ⊕ δ w.r.t. x", &op.J_y_x, &n_x)?;
+    let n_d = numdiff::jacobian_of_tangent::<M, M::Dim>(
+        delta,
+        |d| x.oplus(d).ominus(&x_plus_d),
+        tol.step,
+    );
+    jac("J of x ⊕ δ w.r.t. δ", &op.J_y_delta, &n_d)?;
+
+    // ⊖ Jacobians at a pair whose difference is δ (inside the chart by construction).
+    let om = x_plus_d.ominus_jacobians(x);
+    let n_y = numdiff::jacobian(&x_plus_d, |yp| yp.ominus(x), tol.step);
+    jac("J of y ⊖ x w.r.t. y", &om.J_d_y, &n_y)?;
+    let n_xo = numdiff::jacobian(x, |xp| x_plus_d.ominus(xp), tol.step);
+    jac("J of y ⊖ x w.r.t. x", &om.J_d_x, &n_xo)?;
+    Ok(())
+}
+
+/// Sample points and tangents of a manifold for the law harness.
+pub trait LawSampler: Manifold
+where
+    DefaultAllocator: DimAlloc<Self::Dim>,
+{
+    /// Points spread over the manifold (or a large box of a vector space).
+    fn arb_point() -> BoxedStrategy<Self>;
+    /// Tangents inside the chart (for rotations: angle below π − 1e-3).
+    fn arb_tangent() -> BoxedStrategy<Tangent<Self>>;
+    /// Tangents at the chart boundary (for rotations: angle π − 1e-4 along several axes).
+    /// Empty for flat spaces.
+    fn boundary_tangents() -> Vec<Tangent<Self>> {
+        Vec::new()
+    }
+}
+
+/// A tangent of norm `norm` along the (normalised) direction `dir`.
+pub fn scaled<M: Manifold>(dir: &Tangent<M>, norm: f64) -> Tangent<M>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    let n = dir.norm();
+    if n > 0.0 {
+        dir * (norm / n)
+    } else {
+        let mut e = Tangent::<M>::zeros();
+        if M::DIM > 0 {
+            e[0] = norm;
+        }
+        e
+    }
+}
+
+/// A uniformly distributed random rotation (normalised 4-D box sample, rejection of the
+/// corners and of near-zero samples).
+pub fn arb_so3() -> BoxedStrategy<So3> {
+    prop::array::uniform4(-1.0f64..1.0)
+        .prop_filter("inside the unit ball, away from 0", |a| {
+            let n2: f64 = a.iter().map(|v| v * v).sum();
+            n2 > 1e-2 && n2 <= 1.0
+        })
+        .prop_map(|a| {
+            So3::from_quaternion(nalgebra::UnitQuaternion::from_quaternion(
+                nalgebra::Quaternion::new(a[0], a[1], a[2], a[3]),
+            ))
+        })
+        .boxed()
+}
+
+/// Rotation vectors with angle below `max_angle`.
+pub fn arb_rotation_vector(max_angle: f64) -> BoxedStrategy<Vector3<f64>> {
+    prop::array::uniform3(-max_angle..max_angle)
+        .prop_filter("angle below the bound", move |a| {
+            (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() < max_angle
+        })
+        .prop_map(|a| Vector3::new(a[0], a[1], a[2]))
+        .boxed()
+}
+
+/// Vectors of `R^N` with components in `(-scale, scale)`.
+pub fn arb_rn<const N: usize>(scale: f64) -> BoxedStrategy<SVector<f64, N>> {
+    prop::collection::vec(-scale..scale, N).prop_map(|v| SVector::<f64, N>::from_vec(v)).boxed()
+}
+
+impl LawSampler for So3 {
+    fn arb_point() -> BoxedStrategy<Self> {
+        arb_so3()
+    }
+    fn arb_tangent() -> BoxedStrategy<Vector3<f64>> {
+        arb_rotation_vector(PI - 1e-3)
+    }
+    fn boundary_tangents() -> Vec<Vector3<f64>> {
+        let a = PI - 1e-4;
+        [Vector3::x(), Vector3::y(), Vector3::z(), Vector3::new(1.0, -2.0, 0.5)]
+            .iter()
+            .map(|d| d.normalize() * a)
+            .collect()
+    }
+}
+
+impl LawSampler for So2 {
+    fn arb_point() -> BoxedStrategy<Self> {
+        (-PI..PI).prop_map(So2::new).boxed()
+    }
+    fn arb_tangent() -> BoxedStrategy<Vector1<f64>> {
+        (-(PI - 1e-3)..(PI - 1e-3)).prop_map(Vector1::new).boxed()
+    }
+    fn boundary_tangents() -> Vec<Vector1<f64>> {
+        vec![Vector1::new(PI - 1e-4), Vector1::new(-(PI - 1e-4))]
+    }
+}
+
+impl<const N: usize> LawSampler for SVector<f64, N> {
+    fn arb_point() -> BoxedStrategy<Self> {
+        arb_rn::<N>(1e3)
+    }
+    fn arb_tangent() -> BoxedStrategy<Self> {
+        arb_rn::<N>(10.0)
+    }
+}
+
+/// Embed each boundary tangent of a part at `offset` into an otherwise zero tangent.
+pub fn embed_boundary<Whole: Manifold, Part: LawSampler>(offset: usize) -> Vec<Tangent<Whole>>
+where
+    DefaultAllocator: DimAlloc<Whole::Dim> + DimAlloc<Part::Dim>,
+{
+    Part::boundary_tangents()
+        .iter()
+        .map(|b| {
+            let mut t = Tangent::<Whole>::zeros();
+            set_block(&mut t, offset, b);
+            t
+        })
+        .collect()
+}
+
+/// Concatenate part tangents into a whole tangent (for composite strategies).
+pub fn concat_tangent<Whole: Manifold>(parts: &[&[f64]]) -> Tangent<Whole>
+where
+    DefaultAllocator: DimAlloc<Whole::Dim>,
+{
+    let mut t = Tangent::<Whole>::zeros();
+    let mut i = 0;
+    for p in parts {
+        for v in *p {
+            t[i] = *v;
+            i += 1;
+        }
+    }
+    t
+}
+
+impl<A: LawSampler + 'static, B: LawSampler + 'static> LawSampler for (A, B)
+where
+    A::Dim: nalgebra::DimNameAdd<B::Dim>,
+    DefaultAllocator:
+        DimAlloc<A::Dim> + DimAlloc<B::Dim> + DimAlloc<nalgebra::DimNameSum<A::Dim, B::Dim>>,
+    Tangent<A>: 'static,
+    Tangent<B>: 'static,
+{
+    fn arb_point() -> BoxedStrategy<Self> {
+        (A::arb_point(), B::arb_point()).boxed()
+    }
+    fn arb_tangent() -> BoxedStrategy<Tangent<Self>> {
+        (A::arb_tangent(), B::arb_tangent())
+            .prop_map(|(a, b)| concat_tangent::<Self>(&[a.as_slice(), b.as_slice()]))
+            .boxed()
+    }
+    fn boundary_tangents() -> Vec<Tangent<Self>> {
+        let mut v = embed_boundary::<Self, A>(0);
+        v.extend(embed_boundary::<Self, B>(A::DIM));
+        v
+    }
+}
+
+impl<A, B, C> LawSampler for (A, B, C)
+where
+    A: LawSampler + 'static,
+    B: LawSampler + 'static,
+    C: LawSampler + 'static,
+    A::Dim: nalgebra::DimNameAdd<B::Dim>,
+    nalgebra::DimNameSum<A::Dim, B::Dim>: nalgebra::DimNameAdd<C::Dim>,
+    DefaultAllocator: DimAlloc<A::Dim>
+        + DimAlloc<B::Dim>
+        + DimAlloc<C::Dim>
+        + DimAlloc<nalgebra::DimNameSum<A::Dim, B::Dim>>
+        + DimAlloc<nalgebra::DimNameSum<nalgebra::DimNameSum<A::Dim, B::Dim>, C::Dim>>,
+    Tangent<A>: 'static,
+    Tangent<B>: 'static,
+    Tangent<C>: 'static,
+{
+    fn arb_point() -> BoxedStrategy<Self> {
+        (A::arb_point(), B::arb_point(), C::arb_point()).boxed()
+    }
+    fn arb_tangent() -> BoxedStrategy<Tangent<Self>> {
+        (A::arb_tangent(), B::arb_tangent(), C::arb_tangent())
+            .prop_map(|(a, b, c)| {
+                concat_tangent::<Self>(&[a.as_slice(), b.as_slice(), c.as_slice()])
+            })
+            .boxed()
+    }
+    fn boundary_tangents() -> Vec<Tangent<Self>> {
+        let mut v = embed_boundary::<Self, A>(0);
+        v.extend(embed_boundary::<Self, B>(A::DIM));
+        v.extend(embed_boundary::<Self, C>(A::DIM + B::DIM));
+        v
+    }
+}
+
+/// Deterministic near-identity tangents: `|δ| = 1e-8` along each axis and one diagonal.
+pub fn near_identity_tangents<M: Manifold>() -> Vec<Tangent<M>>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    let mut out = Vec::new();
+    for i in 0..M::DIM {
+        let mut e = Tangent::<M>::zeros();
+        e[i] = 1e-8;
+        out.push(e.clone());
+        out.push(-e);
+    }
+    let diag = Tangent::<M>::from_element(1.0);
+    out.push(scaled::<M>(&diag, 1e-8));
+    out
+}
+
+/// Run the laws at the origin (δ = 0 and a unit-ish δ).
+pub fn check_at_identity<M: LawSampler>(tol: LawTolerance) -> Result<(), LawViolation>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    let o = M::origin();
+    check_laws(&o, &o, &Tangent::<M>::zeros(), tol)?;
+    let unit = scaled::<M>(&Tangent::<M>::from_element(1.0), 0.5);
+    check_laws(&o, &o.oplus(&unit), &unit, tol)
+}
+
+/// Run the laws near the origin: every tangent of `|δ| = 1e-8`, at the origin and at a
+/// point `1e-8` away from it.
+pub fn check_near_identity<M: LawSampler>(tol: LawTolerance) -> Result<(), LawViolation>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    let o = M::origin();
+    for d in near_identity_tangents::<M>() {
+        let near = o.oplus(&d);
+        check_laws(&o, &near, &d, tol)?;
+        check_laws(&near, &o, &(-d.clone()), tol)?;
+    }
+    Ok(())
+}
+
+/// Run the laws at the chart boundary (no-op for flat spaces), from the origin and from
+/// a generic point.
+pub fn check_boundary<M: LawSampler>(tol: LawTolerance) -> Result<(), LawViolation>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    let o = M::origin();
+    let generic = o.oplus(&scaled::<M>(&Tangent::<M>::from_fn(|i, _| 0.3 + 0.1 * i as f64), 0.7));
+    for b in M::boundary_tangents() {
+        for x in [&o, &generic] {
+            let y = x.oplus(&b);
+            check_laws(x, &y, &b, tol)?;
+        }
+    }
+    Ok(())
+}
+
+/// Generate the four law tests for a [`LawSampler`] type in a module named `$name`.
+///
+/// ```ignore
+/// manifolds::manifold_law_tests!(so3_laws, manifolds::So3);
+/// ```
+#[macro_export]
+macro_rules! manifold_law_tests {
+    ($name:ident, $T:ty) => {
+        $crate::manifold_law_tests!($name, $T, $crate::testing::LawTolerance::default());
+    };
+    ($name:ident, $T:ty, $tol:expr) => {
+        mod $name {
+            #[allow(unused_imports)]
+            use super::*;
+            use $crate::testing::proptest::prelude::*;
+            use $crate::testing::LawSampler as _;
+
+            #[test]
+            fn at_identity() {
+                if let Err(e) = $crate::testing::check_at_identity::<$T>($tol) {
+                    panic!("{e}");
+                }
+            }
+
+            #[test]
+            fn near_identity() {
+                if let Err(e) = $crate::testing::check_near_identity::<$T>($tol) {
+                    panic!("{e}");
+                }
+            }
+
+            #[test]
+            fn at_chart_boundary() {
+                if let Err(e) = $crate::testing::check_boundary::<$T>($tol) {
+                    panic!("{e}");
+                }
+            }
+
+            $crate::testing::proptest::proptest! {
+                #![proptest_config($crate::testing::proptest::prelude::ProptestConfig::with_cases(256))]
+                #[test]
+                fn at_random_points(
+                    x in <$T>::arb_point(),
+                    y in <$T>::arb_point(),
+                    d in <$T>::arb_tangent(),
+                ) {
+                    if let Err(e) = $crate::testing::check_laws(&x, &y, &d, $tol) {
+                        return Err(TestCaseError::fail(e.to_string()));
+                    }
+                }
+            }
+        }
+    };
+}
+
+pub use proptest;

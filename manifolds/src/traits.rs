@@ -1,0 +1,134 @@
+//! The [`Manifold`] trait, its tangent-space aliases and the allocator bundle.
+
+use core::fmt::Debug;
+
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector, U1};
+
+use crate::numdiff;
+
+/// Every allocator bound that generic code over one tangent dimension `D` needs, in one
+/// trait: vectors, square matrices and row vectors of size `D`.
+///
+/// Generic items carry the single bound `DefaultAllocator: DimAlloc<M::Dim>`; concrete
+/// dimensions (`Const<N>`) satisfy it automatically, so users writing concrete models
+/// never see it.
+pub trait DimAlloc<D: DimName>: Allocator<D> + Allocator<D, D> + Allocator<U1, D> {}
+
+impl<D: DimName, T> DimAlloc<D> for T where T: Allocator<D> + Allocator<D, D> + Allocator<U1, D> {}
+
+/// A tangent vector of manifold `M` (stack-allocated for constant dimensions).
+pub type Tangent<M> = OVector<f64, <M as Manifold>::Dim>;
+
+/// A square matrix over the tangent space of `M` (covariances, Jacobians of ⊕/⊖).
+pub type TangentMatrix<M> = OMatrix<f64, <M as Manifold>::Dim, <M as Manifold>::Dim>;
+
+/// Jacobians of `y = x ⊕ δ`, each taken through ⊕/⊖ at zero perturbation:
+/// `J_y_x = ∂((x ⊕ ε) ⊕ δ ⊖ y)/∂ε` and `J_y_delta = ∂((x ⊕ (δ + ε)) ⊖ y)/∂ε`.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug)]
+pub struct OplusJacobians<M: Manifold>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    /// `∂(x ⊕ δ)/∂x`.
+    pub J_y_x: TangentMatrix<M>,
+    /// `∂(x ⊕ δ)/∂δ`; at the injected correction this is the exact reset Jacobian.
+    pub J_y_delta: TangentMatrix<M>,
+}
+
+/// Jacobians of `δ = y ⊖ x`: `J_d_y = ∂((y ⊕ ε) ⊖ x)/∂ε`, `J_d_x = ∂(y ⊖ (x ⊕ ε))/∂ε`.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug)]
+pub struct OminusJacobians<M: Manifold>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    /// `∂(y ⊖ x)/∂y`.
+    pub J_d_y: TangentMatrix<M>,
+    /// `∂(y ⊖ x)/∂x`.
+    pub J_d_x: TangentMatrix<M>,
+}
+
+/// A smooth manifold with a retraction `⊕` and its local inverse `⊖`.
+///
+/// # Contract
+///
+/// For every point `x`, every `y` near `x` and every tangent `δ` inside the chart
+/// (for rotations: `|δ| < π`):
+///
+/// ```text
+/// x ⊕ 0        = x
+/// x ⊕ (y ⊖ x)  = y
+/// (x ⊕ δ) ⊖ x  = δ
+/// ```
+///
+/// # Perturbation side
+///
+/// One convention, stated once for the whole project: **right (body-frame)
+/// perturbation**. For a rotation, `R ⊕ δθ = R · Exp(δθ)` and `S ⊖ R = Log(R⁻¹ · S)`;
+/// Euclidean blocks are additive. A true state is `nominal ⊕ δx` everywhere, with no
+/// per-block sign flips. A different side would be a different type, never a flag.
+///
+/// # Jacobians
+///
+/// [`oplus_jacobians`](Manifold::oplus_jacobians) and
+/// [`ominus_jacobians`](Manifold::ominus_jacobians) default to central differences taken
+/// through ⊕/⊖; built-in types override them with analytic forms, and the law harness
+/// (`manifolds::testing`, feature `testing`) checks every override against differences.
+///
+/// # Example
+///
+/// ```
+/// use manifolds::{Manifold, So3, Tangent};
+/// use nalgebra::Vector3;
+///
+/// let x = So3::exp(&Vector3::new(0.1, -0.2, 0.3));
+/// let d = Vector3::new(0.01, 0.02, -0.03);
+/// let y = x.oplus(&d);
+/// assert!((y.ominus(&x) - d).norm() < 1e-12);           // (x ⊕ δ) ⊖ x = δ
+/// assert!(x.oplus(&y.ominus(&x)).ominus(&y).norm() < 1e-12); // x ⊕ (y ⊖ x) = y
+/// ```
+pub trait Manifold: Clone + Debug
+where
+    DefaultAllocator: DimAlloc<Self::Dim>,
+{
+    /// Dimension of the tangent space (`Const<N>` for concrete types).
+    type Dim: DimName;
+
+    /// The tangent dimension as a value.
+    const DIM: usize = <Self::Dim as DimName>::DIM;
+
+    /// A distinguished point: the identity of a group, the zero of a vector space.
+    fn origin() -> Self;
+
+    /// `self ⊕ delta`.
+    fn oplus(&self, delta: &Tangent<Self>) -> Self;
+
+    /// `self ⊖ origin`: the tangent at `origin` that carries it to `self`.
+    fn ominus(&self, origin: &Self) -> Tangent<Self>;
+
+    /// True when every number in the representation is finite.
+    fn is_finite(&self) -> bool;
+
+    /// Jacobians of `self ⊕ delta`. Default: central differences through ⊕/⊖.
+    fn oplus_jacobians(&self, delta: &Tangent<Self>) -> OplusJacobians<Self> {
+        let y = self.oplus(delta);
+        OplusJacobians {
+            J_y_x: numdiff::jacobian(self, |x| x.oplus(delta).ominus(&y), numdiff::DEFAULT_STEP),
+            J_y_delta: numdiff::jacobian_of_tangent::<Self, Self::Dim>(
+                delta,
+                |d| self.oplus(d).ominus(&y),
+                numdiff::DEFAULT_STEP,
+            ),
+        }
+    }
+
+    /// Jacobians of `self ⊖ origin`. Default: central differences through ⊕/⊖.
+    fn ominus_jacobians(&self, origin: &Self) -> OminusJacobians<Self> {
+        OminusJacobians {
+            J_d_y: numdiff::jacobian(self, |y| y.ominus(origin), numdiff::DEFAULT_STEP),
+            J_d_x: numdiff::jacobian(origin, |x| self.ominus(x), numdiff::DEFAULT_STEP),
+        }
+    }
+}

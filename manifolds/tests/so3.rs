@@ -1,0 +1,60 @@
+//! SO(3) specifics beyond the generic laws: exp/log near 0 and π, Jacobian inverses,
+//! Euler angles.
+
+use approx::assert_relative_eq;
+use core::f64::consts::PI;
+use manifolds::{right_jacobian, right_jacobian_inverse, So3};
+use nalgebra::{Matrix3, Vector3};
+use proptest::prelude::*;
+
+#[test]
+fn exp_log_round_trip_near_zero_and_pi() {
+    for angle in [0.0, 1e-12, 1e-8, 1e-4, 1e-2 - 1e-9, 1e-2 + 1e-9, 1.0, 3.0, PI - 1e-6, PI - 1e-9]
+    {
+        for axis in [Vector3::x(), Vector3::new(1.0, 2.0, -3.0).normalize()] {
+            let phi = axis * angle;
+            let back = So3::exp(&phi).log();
+            assert!((back - phi).norm() <= 1e-12 * angle.max(1.0), "angle {angle}: {back:?}");
+        }
+    }
+}
+
+#[test]
+fn log_at_pi_has_angle_pi() {
+    let r = So3::exp(&(Vector3::new(0.0, 0.0, 1.0) * PI));
+    assert_relative_eq!(r.log().norm(), PI, epsilon = 1e-12);
+}
+
+#[test]
+fn jacobian_inverse_is_inverse_near_zero_and_pi() {
+    for angle in [0.0, 1e-9, 1e-3, 1e-2, 0.5, 2.0, PI - 1e-4] {
+        let phi = Vector3::new(0.3, -0.5, 0.8).normalize() * angle;
+        let prod = right_jacobian(&phi) * right_jacobian_inverse(&phi);
+        assert!((prod - Matrix3::identity()).abs().max() < 1e-10, "angle {angle}");
+    }
+}
+
+#[test]
+fn exp_of_sum_linearises_with_right_jacobian() {
+    // Exp(φ + δ) ≈ Exp(φ) Exp(Jr(φ) δ) to second order in δ.
+    let phi = Vector3::new(0.7, -1.1, 0.4);
+    let d = Vector3::new(1e-6, -2e-6, 3e-6);
+    let lhs = So3::exp(&(phi + d));
+    let rhs = So3::exp(&phi) * So3::exp(&(right_jacobian(&phi) * d));
+    assert!((lhs.inverse() * rhs).log().norm() < 1e-11);
+}
+
+proptest! {
+    #[test]
+    fn euler_round_trip(roll in -3.1f64..3.1, pitch in -1.5f64..1.5, yaw in -3.1f64..3.1) {
+        let (r, p, y) = So3::from_euler(roll, pitch, yaw).euler();
+        prop_assert!((r - roll).abs() < 1e-9 && (p - pitch).abs() < 1e-9 && (y - yaw).abs() < 1e-9);
+    }
+
+    #[test]
+    fn matrix_is_orthonormal(a in -3.0f64..3.0, b in -3.0f64..3.0, c in -3.0f64..3.0) {
+        let m = So3::exp(&Vector3::new(a, b, c)).matrix();
+        prop_assert!((m.transpose() * m - Matrix3::identity()).abs().max() < 1e-12);
+        prop_assert!((m.determinant() - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,2 @@
+//! `models`: see the workspace README. (Being built.)
+#![deny(missing_docs)]
