@@ -195,7 +195,7 @@ pub fn arb_rotation_vector(max_angle: f64) -> BoxedStrategy<Vector3<f64>> {
 
 /// Vectors of `R^N` with components in `(-scale, scale)`.
 pub fn arb_rn<const N: usize>(scale: f64) -> BoxedStrategy<SVector<f64, N>> {
-    prop::collection::vec(-scale..scale, N).prop_map(|v| SVector::<f64, N>::from_vec(v)).boxed()
+    prop::collection::vec(-scale..scale, N).prop_map(SVector::<f64, N>::from_vec).boxed()
 }
 
 impl LawSampler for So3 {

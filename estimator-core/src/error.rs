@@ -1,0 +1,71 @@
+//! Typed failures of the filter. After any error the filter's state and covariance are
+//! exactly what they were before the call.
+
+use core::fmt;
+
+/// What went wrong, and with which quantity.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum FilterError {
+    /// A covariance (named by `what`) has no Cholesky factor.
+    NotPositiveDefinite {
+        /// The matrix, e.g. `"measurement noise R"`.
+        what: &'static str,
+    },
+    /// A covariance is not symmetric within tolerance.
+    NotSymmetric {
+        /// The matrix.
+        what: &'static str,
+        /// Largest `|A − Aᵀ|` entry.
+        asymmetry: f64,
+    },
+    /// A NaN or infinity in an input or a result.
+    NonFinite {
+        /// The quantity, e.g. `"measurement z"`, `"updated covariance P"`.
+        what: &'static str,
+    },
+    /// A runtime-sized matrix has the wrong shape.
+    DimensionMismatch {
+        /// The matrix.
+        what: &'static str,
+        /// `(rows, cols)` expected.
+        expected: (usize, usize),
+        /// `(rows, cols)` given.
+        found: (usize, usize),
+    },
+    /// A time step that is negative or not finite.
+    InvalidTimeStep {
+        /// The offending step in seconds.
+        dt: f64,
+    },
+}
+
+impl fmt::Display for FilterError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FilterError::NotPositiveDefinite { what } => write!(
+                f,
+                "{what} is not positive definite (Cholesky failed); check the noise settings \
+                 and the initial covariance — the filter was left unchanged"
+            ),
+            FilterError::NotSymmetric { what, asymmetry } => write!(
+                f,
+                "{what} is not symmetric (largest |A − Aᵀ| = {asymmetry:.3e}); \
+                 pass a symmetric matrix — the filter was left unchanged"
+            ),
+            FilterError::NonFinite { what } => {
+                write!(f, "{what} contains NaN or infinity — the filter was left unchanged")
+            }
+            FilterError::DimensionMismatch { what, expected, found } => write!(
+                f,
+                "{what} is {}×{}, expected {}×{}",
+                found.0, found.1, expected.0, expected.1
+            ),
+            FilterError::InvalidTimeStep { dt } => {
+                write!(f, "time step {dt} s is negative or not finite (time went backwards?)")
+            }
+        }
+    }
+}
+
+impl std::error::Error for FilterError {}

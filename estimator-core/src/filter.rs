@@ -1,0 +1,367 @@
+//! The error-state Kalman filter on a manifold state.
+//!
+//! The filter owns the nominal state `x̂` and the error covariance `P`; models are
+//! stateless and passed to each call, so one filter takes any number of measurement
+//! models. Steps, with the equation each implements:
+//!
+//! ```text
+//! predict   x̂⁻ = f(x̂, u, dt)                 P⁻ = Φ P Φᵀ + Q_d
+//! innovate  r = z ⊖ h(x̂⁻)                    S = H P⁻ Hᵀ + R
+//! adapt     (strategy) P⁻* = λ_P P⁻, R* , or reject
+//! gain      K = P⁻* Hᵀ S*⁻¹                   (Cholesky solve of S* Kᵀ = H P⁻*)
+//! update    δx = K r                          P = (I−KH) P⁻* (I−KH)ᵀ + K R* Kᵀ   (Joseph)
+//! inject    x̂ ← x̂ ⊕ δx                        P ← G P Gᵀ,  G = ∂((x̂ ⊕ (δx+ε)) ⊖ (x̂ ⊕ δx))/∂ε
+//! ```
+//!
+//! The Joseph form is Bar-Shalom, Li & Kirubarajan (2001) eq. 5.2.3-18; the reset
+//! Jacobian `G` is, for a rotation block, `Jr(δθ) ≈ I − ½[δθ×]` (Solà 2017, §7.2;
+//! paper `fused-iae-afkf` eq. 21–22).
+
+use nalgebra::{DefaultAllocator, OMatrix};
+
+use manifolds::{DimAlloc, Manifold};
+
+use crate::adapt::{Adaptation, FixedNoise, NoiseStrategy, PostUpdate, QAdjust, Verdict};
+use crate::error::FilterError;
+use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize};
+use crate::report::{NoObserver, Observer, UpdateReport};
+use crate::traits::{Cov, FilterAlloc, MeasurementModel, ProcessModel, StateDim};
+
+/// How the covariance is reset after injecting the correction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ResetMode {
+    /// `P ← G P Gᵀ` with the exact reset Jacobian `G` from ⊕ (default).
+    #[default]
+    Exact,
+    /// `G = I`, the common simplification.
+    Identity,
+}
+
+/// Covariance update formula.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UpdateForm {
+    /// `(I−KH) P (I−KH)ᵀ + K R Kᵀ`: symmetric and positive semi-definite for any gain
+    /// (default).
+    #[default]
+    Joseph,
+    /// `P − K H P`: cheaper, exact only for the optimal gain.
+    Short,
+}
+
+/// An error-state Kalman filter on the manifold state `X` with noise strategy `A`.
+///
+/// ```
+/// use estimator_core::{ErrorStateFilter, FixedNoise, MeasurementJacobians, MeasurementModel};
+/// use nalgebra::{Matrix1x2, Matrix2, Vector1, Vector2};
+///
+/// struct PosSensor;
+/// impl MeasurementModel for PosSensor {
+///     type State = Vector2<f64>;
+///     type Measurement = Vector1<f64>;
+///     fn predict(&self, x: &Vector2<f64>) -> Vector1<f64> { Vector1::new(x[0]) }
+///     fn jacobian(&self, _: &Vector2<f64>) -> MeasurementJacobians<nalgebra::U1, nalgebra::U2> {
+///         MeasurementJacobians { H: Matrix1x2::new(1.0, 0.0) }
+///     }
+/// }
+///
+/// let mut f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
+/// let report = f.update(&PosSensor, &Vector1::new(1.0), &nalgebra::Matrix1::new(1.0)).unwrap();
+/// assert!((f.state()[0] - 0.5).abs() < 1e-12);
+/// assert!((report.nis - 0.5).abs() < 1e-12);
+/// ```
+#[allow(non_snake_case)]
+#[derive(Clone, Debug)]
+pub struct ErrorStateFilter<X: Manifold, A: NoiseStrategy = FixedNoise>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    x: X,
+    P: Cov<X::Dim>,
+    strategy: A,
+    reset: ResetMode,
+    form: UpdateForm,
+    time: f64,
+    epoch: u64,
+    q_adjust: QAdjust<X::Dim>,
+}
+
+#[allow(non_snake_case)]
+impl<X: Manifold, A: NoiseStrategy> ErrorStateFilter<X, A>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    /// A filter at `x0` with covariance `P0` (checked: finite, symmetric, positive
+    /// definite) and the given strategy.
+    pub fn new(x0: X, P0: Cov<X::Dim>, strategy: A) -> Result<Self, FilterError> {
+        if !x0.is_finite() {
+            return Err(FilterError::NonFinite { what: "initial state x0" });
+        }
+        check_covariance("initial covariance P0", &P0)?;
+        Ok(Self {
+            x: x0,
+            P: P0,
+            strategy,
+            reset: ResetMode::default(),
+            form: UpdateForm::default(),
+            time: 0.0,
+            epoch: 0,
+            q_adjust: QAdjust::Keep,
+        })
+    }
+
+    /// Choose the reset Jacobian.
+    pub fn with_reset(mut self, reset: ResetMode) -> Self {
+        self.reset = reset;
+        self
+    }
+
+    /// Choose the covariance update formula.
+    pub fn with_update_form(mut self, form: UpdateForm) -> Self {
+        self.form = form;
+        self
+    }
+
+    /// Start the filter clock at `t` seconds.
+    pub fn with_time(mut self, t: f64) -> Self {
+        self.time = t;
+        self
+    }
+
+    /// The nominal state.
+    pub fn state(&self) -> &X {
+        &self.x
+    }
+
+    /// The error covariance.
+    pub fn covariance(&self) -> &Cov<X::Dim> {
+        &self.P
+    }
+
+    /// The strategy (to read its diagnostics).
+    pub fn strategy(&self) -> &A {
+        &self.strategy
+    }
+
+    /// The strategy, mutably (to retune it).
+    pub fn strategy_mut(&mut self) -> &mut A {
+        &mut self.strategy
+    }
+
+    /// Filter time in seconds (advanced by `predict`).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Number of updates that produced a verdict so far.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
+    }
+
+    /// The current process-noise adjustment requested by the strategy.
+    pub fn process_noise_adjustment(&self) -> &QAdjust<X::Dim> {
+        &self.q_adjust
+    }
+
+    /// Replace the nominal state (e.g. after an external re-initialisation).
+    pub fn set_state(&mut self, x: X) -> Result<(), FilterError> {
+        if !x.is_finite() {
+            return Err(FilterError::NonFinite { what: "state x" });
+        }
+        self.x = x;
+        Ok(())
+    }
+
+    /// Replace the covariance (checked like `P0`).
+    pub fn set_covariance(&mut self, P: Cov<X::Dim>) -> Result<(), FilterError> {
+        check_covariance("covariance P", &P)?;
+        self.P = P;
+        Ok(())
+    }
+
+    /// Propagate over `dt ≥ 0` seconds with `model` and input `u`:
+    /// `x̂⁻ = f(x̂, u, dt)`, `P⁻ = Φ P Φᵀ + Q_d` (or the model's structured form).
+    pub fn predict<PM>(&mut self, model: &PM, u: &PM::Input, dt: f64) -> Result<(), FilterError>
+    where
+        PM: ProcessModel<State = X>,
+    {
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(FilterError::InvalidTimeStep { dt });
+        }
+        let (x_next, mut jac) = model.step(&self.x, u, dt);
+        match &self.q_adjust {
+            QAdjust::Keep | QAdjust::Model => {}
+            QAdjust::Scale(s) => jac.Q *= *s,
+            QAdjust::Rate(q) => jac.Q = q * dt,
+        }
+        let mut P = self.P.clone();
+        model.propagate_covariance(&mut P, &jac);
+        symmetrize(&mut P);
+        if !x_next.is_finite() {
+            return Err(FilterError::NonFinite { what: "propagated state" });
+        }
+        check_finite("propagated covariance P", &P)?;
+        self.x = x_next;
+        self.P = P;
+        self.time += dt;
+        Ok(())
+    }
+
+    /// Update with measurement `z` of `model` and noise `R` (checked: finite, symmetric,
+    /// positive definite). Returns the report; a rejected measurement is `Ok` with
+    /// `verdict = Rejected`. On `Err` the state and covariance are unchanged.
+    pub fn update<MM>(
+        &mut self,
+        model: &MM,
+        z: &MM::Measurement,
+        R: &Cov<StateDim<MM::Measurement>>,
+    ) -> Result<UpdateReport<StateDim<MM::Measurement>>, FilterError>
+    where
+        MM: MeasurementModel<State = X>,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+    {
+        self.update_observed(model, z, R, &mut NoObserver)
+    }
+
+    /// [`update`](Self::update) with an observer that receives the report.
+    pub fn update_observed<MM, O>(
+        &mut self,
+        model: &MM,
+        z: &MM::Measurement,
+        R: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<UpdateReport<StateDim<MM::Measurement>>, FilterError>
+    where
+        MM: MeasurementModel<State = X>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+    {
+        if !z.is_finite() {
+            return Err(FilterError::NonFinite { what: "measurement z" });
+        }
+        check_covariance("measurement noise R", R)?;
+
+        let z_hat = model.predict(&self.x);
+        let r = model.residual(z, &z_hat);
+        let H = model.jacobian(&self.x).H;
+        check_finite("innovation r = z ⊖ h(x)", &r)?;
+        check_finite("measurement Jacobian H", &H)?;
+
+        // S = H P⁻ Hᵀ + R
+        let HP = &H * &self.P;
+        let HPHt = &HP * H.transpose();
+        let mut S = &HPHt + R;
+        symmetrize(&mut S);
+        let chol_S = cholesky("innovation covariance S = H P Hᵀ + R", S.clone())?;
+        // NIS = rᵀ S⁻¹ r
+        let nis = r.dot(&chol_S.solve(&r));
+
+        let epoch = self.epoch + 1;
+        let mut a = Adaptation {
+            stream: model.stream(),
+            epoch,
+            time: self.time,
+            innovation: &r,
+            H: &H,
+            P_prior: &self.P,
+            HPHt: &HPHt,
+            R_nominal: R,
+            S: &S,
+            nis,
+            prior_scale: 1.0,
+            R: R.clone(),
+            verdict: Verdict::Accepted,
+            reason: "",
+            factors: Default::default(),
+            q: QAdjust::Keep,
+        };
+        self.strategy.adapt(&mut a);
+        let Adaptation { stream, prior_scale, R: R_used, verdict, reason, factors, q, .. } = a;
+
+        let report = UpdateReport {
+            stream,
+            epoch,
+            time: self.time,
+            innovation: r.clone(),
+            S,
+            nis,
+            verdict,
+            reason,
+            factors,
+        };
+
+        if verdict == Verdict::Rejected {
+            self.epoch = epoch;
+            self.apply_q(q);
+            observer.on_update(&report);
+            return Ok(report);
+        }
+        if !(prior_scale.is_finite() && prior_scale > 0.0) {
+            return Err(FilterError::NonFinite { what: "strategy prior scale λ_P" });
+        }
+        check_covariance("adapted measurement noise R*", &R_used)?;
+
+        // S* = λ_P H P⁻ Hᵀ + R*
+        let mut S_used = &HPHt * prior_scale + &R_used;
+        symmetrize(&mut S_used);
+        let chol = cholesky("adapted innovation covariance S*", S_used)?;
+        let P_prior = &self.P * prior_scale;
+        let HP_used = HP * prior_scale;
+        // K = P⁻* Hᵀ S*⁻¹, solved as S* Kᵀ = H P⁻* (S*, P⁻* symmetric)
+        let K = chol.solve(&HP_used).transpose();
+        let dx = &K * &r;
+
+        let mut P_new = match self.form {
+            UpdateForm::Joseph => {
+                // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ
+                let IKH = Cov::<X::Dim>::identity() - &K * &H;
+                &IKH * &P_prior * IKH.transpose() + &K * &R_used * K.transpose()
+            }
+            // P = P⁻ − K H P⁻
+            UpdateForm::Short => &P_prior - &K * &HP_used,
+        };
+        symmetrize(&mut P_new);
+
+        let x_new = self.x.oplus(&dx);
+        if self.reset == ResetMode::Exact {
+            // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx
+            let G = self.x.oplus_jacobians(&dx).J_y_delta;
+            P_new = &G * &P_new * G.transpose();
+            symmetrize(&mut P_new);
+        }
+        check_finite("state correction δx", &dx)?;
+        if !x_new.is_finite() {
+            return Err(FilterError::NonFinite { what: "updated state" });
+        }
+        check_finite("updated covariance P", &P_new)?;
+
+        self.x = x_new;
+        self.P = P_new;
+        self.epoch = epoch;
+        self.apply_q(q);
+        let mut post =
+            PostUpdate { stream, time: self.time, K: &K, innovation: &r, q: QAdjust::Keep };
+        self.strategy.after_update(&mut post);
+        let q_post = post.q;
+        self.apply_q(q_post);
+        observer.on_update(&report);
+        Ok(report)
+    }
+
+    fn apply_q(&mut self, q: QAdjust<X::Dim>) {
+        match q {
+            QAdjust::Keep => {}
+            QAdjust::Model => self.q_adjust = QAdjust::Keep,
+            other => self.q_adjust = other,
+        }
+    }
+}
+
+impl<X: Manifold, A: NoiseStrategy> ErrorStateFilter<X, A>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    /// The 1σ of every error-state component.
+    pub fn sigma(&self) -> OMatrix<f64, X::Dim, nalgebra::U1> {
+        OMatrix::<f64, X::Dim, nalgebra::U1>::from_fn(|i, _| self.P[(i, i)].max(0.0).sqrt())
+    }
+}

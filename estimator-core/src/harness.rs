@@ -1,0 +1,118 @@
+//! Checks of any model's analytic Jacobians against central differences through ⊕/⊖
+//! ([`manifolds::numdiff`]).
+
+use core::fmt;
+
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, DimName, OMatrix};
+
+use manifolds::{numdiff, DimAlloc, Manifold};
+
+use crate::traits::{FilterAlloc, MeasurementModel, ProcessModel, StateDim};
+
+/// An analytic Jacobian that disagrees with its numerical reference.
+#[derive(Clone, Debug)]
+pub struct JacobianMismatch {
+    /// Which Jacobian.
+    pub what: &'static str,
+    /// Largest absolute difference.
+    pub max_error: f64,
+    /// The tolerance it exceeded (already scaled).
+    pub tolerance: f64,
+    /// Row and column of the largest difference.
+    pub at: (usize, usize),
+    /// Analytic and numerical values there.
+    pub values: (f64, f64),
+}
+
+impl fmt::Display for JacobianMismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: entry {:?} analytic {:.9e} vs numerical {:.9e} (|Δ| {:.3e} > tol {:.3e})",
+            self.what, self.at, self.values.0, self.values.1, self.max_error, self.tolerance
+        )
+    }
+}
+
+impl std::error::Error for JacobianMismatch {}
+
+/// Compare two matrices with a tolerance relative to `max(1, max|numeric|)`.
+pub fn compare<R: DimName, C: DimName>(
+    what: &'static str,
+    analytic: &OMatrix<f64, R, C>,
+    numeric: &OMatrix<f64, R, C>,
+    rel_tol: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    let scale = numeric.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+    let tolerance = rel_tol * scale;
+    let mut worst = (0.0_f64, (0, 0));
+    for c in 0..C::DIM {
+        for r in 0..R::DIM {
+            let d = (analytic[(r, c)] - numeric[(r, c)]).abs();
+            // A NaN entry counts as an infinite difference.
+            let d = if d.is_nan() { f64::INFINITY } else { d };
+            if d > worst.0 {
+                worst = (d, (r, c));
+            }
+        }
+    }
+    if worst.0 <= tolerance {
+        Ok(())
+    } else {
+        let at = worst.1;
+        Err(JacobianMismatch {
+            what,
+            max_error: worst.0,
+            tolerance,
+            at,
+            values: (analytic[at], numeric[at]),
+        })
+    }
+}
+
+/// Check a process model's `Φ` against `∂(f(x ⊕ δ) ⊖ f(x))/∂δ` by central differences.
+pub fn check_process_model<PM: ProcessModel>(
+    model: &PM,
+    x: &PM::State,
+    u: &PM::Input,
+    dt: f64,
+    rel_tol: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: DimAlloc<StateDim<PM::State>>,
+{
+    let analytic = model.jacobians(x, u, dt).Phi;
+    let numeric = numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), 1e-6);
+    compare("process transition Φ", &analytic, &numeric, rel_tol)
+}
+
+/// Check a measurement model's `H` against `∂(h(x ⊕ δ) ⊖ h(x))/∂δ` by central
+/// differences.
+pub fn check_measurement_model<MM: MeasurementModel>(
+    model: &MM,
+    x: &MM::State,
+    rel_tol: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: FilterAlloc<StateDim<MM::State>, StateDim<MM::Measurement>>,
+{
+    let analytic = model.jacobian(x).H;
+    let numeric = numdiff::jacobian_between(x, |xp| model.predict(xp), 1e-6);
+    compare("measurement Jacobian H", &analytic, &numeric, rel_tol)
+}
+
+/// Numerical Jacobian of any map between manifolds, `∂(f(x ⊕ ε) ⊖ f(x))/∂ε`, for
+/// checking Jacobians that are not part of a model trait (e.g. a continuous-time `F`).
+pub fn numerical_jacobian<X: Manifold, Y: Manifold>(
+    x: &X,
+    f: impl Fn(&X) -> Y,
+) -> OMatrix<f64, Y::Dim, X::Dim>
+where
+    DefaultAllocator: DimAlloc<X::Dim> + DimAlloc<Y::Dim> + Allocator<Y::Dim, X::Dim>,
+{
+    numdiff::jacobian_between(x, f, 1e-6)
+}

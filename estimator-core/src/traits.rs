@@ -1,0 +1,161 @@
+//! The model traits: what a user implements to put a system into the filter.
+
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, DimName, OMatrix};
+
+use manifolds::{DimAlloc, Manifold, Tangent};
+
+use crate::adapt::StreamId;
+
+/// Every allocator bound that generic code over a state dimension `N` and a measurement
+/// dimension `M` needs, in one trait (design decision 2). Concrete `Const` dimensions
+/// satisfy it automatically.
+pub trait FilterAlloc<N: DimName, M: DimName>:
+    DimAlloc<N> + DimAlloc<M> + Allocator<N, M> + Allocator<M, N>
+{
+}
+
+impl<N: DimName, M: DimName, T> FilterAlloc<N, M> for T where
+    T: DimAlloc<N> + DimAlloc<M> + Allocator<N, M> + Allocator<M, N>
+{
+}
+
+/// Tangent dimension of a state type.
+pub type StateDim<X> = <X as Manifold>::Dim;
+
+/// A square matrix over a tangent space of dimension `N` (covariances, Φ, Q).
+pub type Cov<N> = OMatrix<f64, N, N>;
+
+/// Jacobians of one prediction step, defined at zero error in the tangent spaces.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug)]
+pub struct ProcessJacobians<N: DimName>
+where
+    DefaultAllocator: Allocator<N, N>,
+{
+    /// Error-state transition `Φ = ∂(f(x ⊕ δ) ⊖ f(x))/∂δ` over the step.
+    pub Phi: Cov<N>,
+    /// Discrete process-noise covariance `Q_d` of the step (may depend on the state).
+    pub Q: Cov<N>,
+}
+
+/// Measurement Jacobian `H = ∂(h(x ⊕ δ) ⊖ h(x))/∂δ` at `δ = 0`.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug)]
+pub struct MeasurementJacobians<M: DimName, N: DimName>
+where
+    DefaultAllocator: Allocator<M, N>,
+{
+    /// `∂h/∂δx` through ⊕ on the state and ⊖ on the measurement.
+    pub H: OMatrix<f64, M, N>,
+}
+
+/// A process model `x_{k+1} = f(x_k, u_k, dt)` with its error-state Jacobians.
+///
+/// Contract: stateless (evaluating it never mutates it); `Phi` is the Jacobian of
+/// `f(x ⊕ δ) ⊖ f(x)` at `δ = 0` (right perturbation, see [`manifolds::Manifold`]);
+/// [`check_process_model`](crate::harness::check_process_model) verifies it against
+/// central differences.
+///
+/// ```
+/// use estimator_core::{ProcessJacobians, ProcessModel};
+/// use nalgebra::{Matrix2, Vector2};
+///
+/// /// 1-D constant velocity: state (position, velocity).
+/// struct Cv { q: f64 }
+/// impl ProcessModel for Cv {
+///     type State = Vector2<f64>;
+///     type Input = ();
+///     fn propagate(&self, x: &Vector2<f64>, _: &(), dt: f64) -> Vector2<f64> {
+///         Vector2::new(x[0] + dt * x[1], x[1])
+///     }
+///     fn jacobians(&self, _: &Vector2<f64>, _: &(), dt: f64) -> ProcessJacobians<nalgebra::U2> {
+///         let Phi = Matrix2::new(1.0, dt, 0.0, 1.0);
+///         // Q = q · [dt³/3 dt²/2; dt²/2 dt] (white-noise acceleration)
+///         let Q = Matrix2::new(dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt) * self.q;
+///         ProcessJacobians { Phi, Q }
+///     }
+/// }
+/// ```
+pub trait ProcessModel
+where
+    DefaultAllocator: DimAlloc<StateDim<Self::State>>,
+{
+    /// The state manifold.
+    type State: Manifold;
+    /// The input (IMU sample, control …); `()` for autonomous models.
+    type Input;
+
+    /// Propagate the nominal state over `dt` seconds.
+    fn propagate(&self, x: &Self::State, u: &Self::Input, dt: f64) -> Self::State;
+
+    /// Transition and process noise of the step from `x` over `dt`.
+    fn jacobians(
+        &self,
+        x: &Self::State,
+        u: &Self::Input,
+        dt: f64,
+    ) -> ProcessJacobians<StateDim<Self::State>>;
+
+    /// Both at once; override when they share work (mechanization and its Jacobians).
+    fn step(
+        &self,
+        x: &Self::State,
+        u: &Self::Input,
+        dt: f64,
+    ) -> (Self::State, ProcessJacobians<StateDim<Self::State>>) {
+        (self.propagate(x, u, dt), self.jacobians(x, u, dt))
+    }
+
+    /// `P ← Φ P Φᵀ + Q`. The dense default costs `2N³` multiply-adds; override it to
+    /// exploit the sparsity of Φ (the INS model does).
+    #[allow(non_snake_case)]
+    fn propagate_covariance(
+        &self,
+        P: &mut Cov<StateDim<Self::State>>,
+        jac: &ProcessJacobians<StateDim<Self::State>>,
+    ) {
+        // P⁻ = Φ P Φᵀ + Q_d
+        *P = &jac.Phi * &*P * jac.Phi.transpose() + &jac.Q;
+    }
+}
+
+/// A measurement model `z = h(x) ⊕ v`, `v ~ N(0, R)`, where `z` may live on a manifold.
+///
+/// The residual is `r = z ⊖ h(x̂)` (so a bearing that crosses ±π gives a small residual,
+/// not 2π). Contract: stateless; `H = ∂(h(x ⊕ δ) ⊖ h(x))/∂δ` at `δ = 0`, checked by
+/// [`check_measurement_model`](crate::harness::check_measurement_model).
+pub trait MeasurementModel
+where
+    DefaultAllocator: FilterAlloc<StateDim<Self::State>, StateDim<Self::Measurement>>,
+{
+    /// The state manifold.
+    type State: Manifold;
+    /// The measurement manifold (`SVector<f64, M>` for plain vectors).
+    type Measurement: Manifold;
+
+    /// Predicted measurement `h(x)`.
+    fn predict(&self, x: &Self::State) -> Self::Measurement;
+
+    /// `H` at `x`.
+    fn jacobian(
+        &self,
+        x: &Self::State,
+    ) -> MeasurementJacobians<StateDim<Self::Measurement>, StateDim<Self::State>>;
+
+    /// Residual `z ⊖ ẑ`.
+    fn residual(
+        &self,
+        z: &Self::Measurement,
+        z_hat: &Self::Measurement,
+    ) -> Tangent<Self::Measurement> {
+        z.ominus(z_hat)
+    }
+
+    /// The measurement stream this model feeds; adaptive strategies keep one window per
+    /// stream. Default: one stream per model type. Override to split one type into
+    /// several streams (two antennas, two cameras).
+    fn stream(&self) -> StreamId {
+        StreamId::of::<Self>()
+    }
+}

@@ -1,0 +1,157 @@
+//! The adaptation hook: a small test strategy scales P⁻, replaces R, rejects, adjusts Q
+//! and keeps per-stream state; the filter applies and reports every decision.
+
+#![allow(non_snake_case)]
+
+mod common;
+
+use common::close;
+use estimator_core::linear::{LinearMeasurement, LinearProcess};
+use estimator_core::{
+    Adaptation, ErrorStateFilter, FilterAlloc, FixedNoise, NoiseStrategy, QAdjust, StreamId,
+    StreamMap, UpdateLog, Verdict,
+};
+use nalgebra::{DefaultAllocator, DimName, Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
+
+/// Rejects when NIS > gate; on the 2nd, 4th … update of *each stream* doubles R and
+/// scales P⁻ by 1.5; counts updates per stream.
+#[derive(Default)]
+struct TestStrategy {
+    gate: f64,
+    counts: StreamMap<u32>,
+}
+
+impl NoiseStrategy for TestStrategy {
+    fn name(&self) -> &'static str {
+        "test"
+    }
+    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        let n = self.counts.get_or_insert_with(a.stream, || 0);
+        *n += 1;
+        if a.nis > self.gate {
+            a.verdict = Verdict::Rejected;
+            a.reason = "nis above gate";
+        } else if n.is_multiple_of(2) {
+            a.R = a.R_nominal * 2.0;
+            a.prior_scale = 1.5;
+            a.verdict = Verdict::Inflated;
+            a.reason = "even update";
+            a.factors.lambda_p = 1.5;
+            a.factors.lambda_r = 2.0;
+            a.q = QAdjust::Scale(3.0);
+        }
+    }
+}
+
+fn pos() -> LinearMeasurement<1, 2> {
+    LinearMeasurement::new(Matrix1x2::new(1.0, 0.0)).on_stream("pos")
+}
+fn vel() -> LinearMeasurement<1, 2> {
+    LinearMeasurement::new(Matrix1x2::new(0.0, 1.0)).on_stream("vel")
+}
+
+#[test]
+fn fixed_noise_is_zero_sized() {
+    assert_eq!(core::mem::size_of::<FixedNoise>(), 0);
+}
+
+#[test]
+fn inflation_equals_an_update_with_scaled_prior_and_noise() {
+    let p0 = Matrix2::new(2.0, 0.3, 0.3, 1.0);
+    let x0 = Vector2::new(0.5, -0.2);
+    let r = Matrix1::new(0.4);
+    let mut f =
+        ErrorStateFilter::new(x0, p0, TestStrategy { gate: 1e9, ..Default::default() }).unwrap();
+    let rep1 = f.update(&pos(), &Vector1::new(1.0), &r).unwrap();
+    assert_eq!(rep1.verdict, Verdict::Accepted);
+    let after_first = *f.covariance();
+    let x_first = *f.state();
+    let rep2 = f.update(&pos(), &Vector1::new(1.2), &r).unwrap();
+    assert_eq!(rep2.verdict, Verdict::Inflated);
+    assert_eq!(rep2.reason, "even update");
+    assert!((rep2.factors.lambda_p - 1.5).abs() < 1e-15);
+
+    // The same second update done by hand with a fixed filter on 1.5·P and 2·R.
+    let mut reference = ErrorStateFilter::new(x_first, after_first * 1.5, FixedNoise).unwrap();
+    reference.update(&pos(), &Vector1::new(1.2), &(r * 2.0)).unwrap();
+    assert!(close(f.state(), reference.state(), 1e-12));
+    assert!(close(f.covariance(), reference.covariance(), 1e-12));
+
+    // The requested Q scaling applies to the following predictions.
+    let q = Matrix2::identity() * 0.1;
+    let process = LinearProcess { F: Matrix2::identity(), Q: q };
+    let before = *f.covariance();
+    f.predict(&process, &(), 1.0).unwrap();
+    assert!(close(f.covariance(), &(before + q * 3.0), 1e-12));
+}
+
+#[test]
+fn rejection_leaves_state_and_covariance_and_is_reported() {
+    let mut f = ErrorStateFilter::new(
+        Vector2::zeros(),
+        Matrix2::identity(),
+        TestStrategy { gate: 4.0, ..Default::default() },
+    )
+    .unwrap();
+    let mut log = UpdateLog::default();
+    let rep =
+        f.update_observed(&pos(), &Vector1::new(100.0), &Matrix1::new(1.0), &mut log).unwrap();
+    assert_eq!(rep.verdict, Verdict::Rejected);
+    assert!((rep.nis - 100.0 * 100.0 / 2.0).abs() < 1e-9);
+    assert!(f.state().norm() < 1e-15);
+    assert!(close(f.covariance(), &Matrix2::identity(), 1e-15));
+    assert_eq!(log.counts(), (0, 0, 1));
+    assert_eq!(log.entries[0].reason, "nis above gate");
+    assert_eq!(f.epoch(), 1);
+}
+
+#[test]
+fn strategy_state_is_kept_per_stream() {
+    let mut f = ErrorStateFilter::new(
+        Vector2::zeros(),
+        Matrix2::identity(),
+        TestStrategy { gate: 1e9, ..Default::default() },
+    )
+    .unwrap();
+    let mut log = UpdateLog::default();
+    let r = Matrix1::new(1.0);
+    // pos, vel, pos, vel: each stream sees its own 1st and 2nd update.
+    for m in [pos(), vel(), pos(), vel()] {
+        f.update_observed(&m, &Vector1::new(0.1), &r, &mut log).unwrap();
+    }
+    let verdicts: Vec<_> = log.entries.iter().map(|e| e.verdict).collect();
+    assert_eq!(
+        verdicts,
+        [Verdict::Accepted, Verdict::Accepted, Verdict::Inflated, Verdict::Inflated]
+    );
+    assert_eq!(f.strategy().counts.len(), 2);
+    assert_eq!(f.strategy().counts.get(StreamId::named("pos")), Some(&2));
+    assert_ne!(log.entries[0].stream, log.entries[1].stream);
+}
+
+/// A strategy that breaks the contract (NaN R) makes the update fail cleanly.
+struct Broken;
+impl NoiseStrategy for Broken {
+    fn name(&self) -> &'static str {
+        "broken"
+    }
+    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        a.R[(0, 0)] = f64::NAN;
+        a.verdict = Verdict::Inflated;
+    }
+}
+
+#[test]
+fn contract_breaking_strategy_gives_typed_error_and_unchanged_filter() {
+    let mut f = ErrorStateFilter::new(Vector2::new(1.0, 2.0), Matrix2::identity(), Broken).unwrap();
+    let e = f.update(&pos(), &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap_err();
+    assert_eq!(e, estimator_core::FilterError::NonFinite { what: "adapted measurement noise R*" });
+    assert!((f.state() - Vector2::new(1.0, 2.0)).norm() < 1e-15);
+    assert!(close(f.covariance(), &Matrix2::identity(), 1e-15));
+}

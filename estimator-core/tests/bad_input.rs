@@ -1,0 +1,119 @@
+//! Bad input gets a typed error naming the cause, and leaves the filter unchanged.
+
+#![allow(non_snake_case)]
+
+use estimator_core::linalg::fixed_from_dynamic;
+use estimator_core::linear::{LinearMeasurement, LinearProcess};
+use estimator_core::{ErrorStateFilter, FilterError, FixedNoise};
+use nalgebra::{DMatrix, Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
+
+fn filter() -> ErrorStateFilter<Vector3<f64>> {
+    ErrorStateFilter::new(Vector3::new(1.0, 2.0, 3.0), Matrix3::identity() * 2.0, FixedNoise)
+        .unwrap()
+}
+
+fn sensor() -> LinearMeasurement<2, 3> {
+    LinearMeasurement::new(Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0))
+}
+
+fn assert_unchanged(f: &ErrorStateFilter<Vector3<f64>>) {
+    let g = filter();
+    assert!((f.state() - g.state()).norm() < 1e-15);
+    assert!((f.covariance() - g.covariance()).norm() < 1e-15);
+}
+
+#[test]
+fn non_pd_p0_is_rejected() {
+    let p0 = Matrix3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0); // eigenvalues 3, −1, 1
+    let e = ErrorStateFilter::new(Vector3::zeros(), p0, FixedNoise).unwrap_err();
+    assert_eq!(e, FilterError::NotPositiveDefinite { what: "initial covariance P0" });
+    assert!(e.to_string().contains("initial covariance P0"));
+}
+
+#[test]
+fn asymmetric_p0_is_rejected() {
+    let mut p0 = Matrix3::identity();
+    p0[(0, 1)] = 0.1;
+    assert!(matches!(
+        ErrorStateFilter::new(Vector3::zeros(), p0, FixedNoise),
+        Err(FilterError::NotSymmetric { what: "initial covariance P0", .. })
+    ));
+}
+
+#[test]
+fn nan_state_is_rejected() {
+    assert!(matches!(
+        ErrorStateFilter::new(Vector3::new(f64::NAN, 0.0, 0.0), Matrix3::identity(), FixedNoise),
+        Err(FilterError::NonFinite { what: "initial state x0" })
+    ));
+}
+
+#[test]
+fn non_pd_r_is_rejected_and_filter_unchanged() {
+    let mut f = filter();
+    let r = Matrix2::new(1.0, 0.0, 0.0, -1.0);
+    let e = f.update(&sensor(), &Vector2::new(1.0, 1.0), &r).unwrap_err();
+    assert_eq!(e, FilterError::NotPositiveDefinite { what: "measurement noise R" });
+    assert_unchanged(&f);
+    assert_eq!(f.epoch(), 0);
+}
+
+#[test]
+fn nan_measurement_is_rejected_and_filter_unchanged() {
+    let mut f = filter();
+    let e = f.update(&sensor(), &Vector2::new(f64::NAN, 1.0), &Matrix2::identity()).unwrap_err();
+    assert_eq!(e, FilterError::NonFinite { what: "measurement z" });
+    assert_unchanged(&f);
+}
+
+#[test]
+fn infinite_r_is_rejected() {
+    let mut f = filter();
+    let r = Matrix2::new(f64::INFINITY, 0.0, 0.0, 1.0);
+    assert!(matches!(
+        f.update(&sensor(), &Vector2::zeros(), &r),
+        Err(FilterError::NonFinite { what: "measurement noise R" })
+    ));
+    assert_unchanged(&f);
+}
+
+#[test]
+fn negative_or_nan_dt_is_rejected() {
+    let mut f = filter();
+    let m = LinearProcess { F: Matrix3::identity(), Q: Matrix3::identity() };
+    assert_eq!(f.predict(&m, &(), -0.1).unwrap_err(), FilterError::InvalidTimeStep { dt: -0.1 });
+    assert!(matches!(f.predict(&m, &(), f64::NAN), Err(FilterError::InvalidTimeStep { .. })));
+    assert_unchanged(&f);
+}
+
+#[test]
+fn nan_in_process_noise_leaves_filter_unchanged() {
+    let mut f = filter();
+    let mut q = Matrix3::identity();
+    q[(1, 1)] = f64::NAN;
+    let m = LinearProcess { F: Matrix3::identity(), Q: q };
+    assert_eq!(
+        f.predict(&m, &(), 0.1).unwrap_err(),
+        FilterError::NonFinite { what: "propagated covariance P" }
+    );
+    assert_unchanged(&f);
+    assert!(f.time().abs() < 1e-15);
+}
+
+#[test]
+fn wrong_sized_runtime_matrix_is_a_typed_error() {
+    let d = DMatrix::<f64>::identity(3, 2);
+    let e =
+        fixed_from_dynamic::<nalgebra::U2, nalgebra::U2>("measurement noise R", &d).unwrap_err();
+    assert_eq!(
+        e,
+        FilterError::DimensionMismatch {
+            what: "measurement noise R",
+            expected: (2, 2),
+            found: (3, 2)
+        }
+    );
+    assert!(e.to_string().contains("3×2, expected 2×2"));
+    let ok = fixed_from_dynamic::<nalgebra::U3, nalgebra::U2>("H", &d).unwrap();
+    assert!((ok[(1, 1)] - 1.0).abs() < 1e-15);
+}
