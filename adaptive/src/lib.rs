@@ -1,2 +1,51 @@
-//! `adaptive`: see the workspace README. (Being built.)
+//! Noise-adaptation strategies for [`estimator_core::ErrorStateFilter`]: each one reads
+//! the innovation sequence and may scale `P⁻`, replace `R` (and `Q`), or reject a
+//! measurement. Swap them with one type or, at run time, one name.
+//!
+//! | strategy | name | adapts | reference |
+//! |---|---|---|---|
+//! | [`FixedNoise`] | `fixed` | nothing (the standard KF) | — |
+//! | [`Iae`] | `iae` | `R` (and optionally `Q`) from a window of innovations | Mohamed & Schwarz 1999 |
+//! | [`Afkf`] | `afkf` | a fading factor on `P⁻` | Xia et al. 1994 |
+//! | [`FusedDualWindow`] | `fused` | `λ_P` on `P⁻` and `λ_R` on `R` from two windows; gross errors skipped | paper `fused-iae-afkf` |
+//! | [`Iakf`] | `iakf`, `iakf-epoch` | `R` inflated when a χ² test fails | paper `iakf-chi-square` |
+//! | [`SageHusa`] | `sage-husa` | recursive `R` with forgetting | Sage & Husa 1969 |
+//! | [`AnyStrategy`] | any of the above | run-time choice by name | — |
+//!
+//! Every strategy keeps its windows per measurement stream
+//! ([`estimator_core::StreamId`]), works for any measurement dimension and any state
+//! manifold, keeps `R`, `Q` and `P` symmetric positive definite whatever the
+//! innovations, and reports each decision (DOM, λ_P, λ_R, verdict, reason) in the
+//! filter's [`estimator_core::UpdateReport`].
+//!
+//! ```
+//! use adaptive::{AnyStrategy, Iakf};
+//! use estimator_core::{ErrorStateFilter, NoiseStrategy};
+//! use nalgebra::{Matrix2, Vector2};
+//!
+//! // By type …
+//! let f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), Iakf::default()).unwrap();
+//! // … or by name.
+//! let g: AnyStrategy = "sage-husa".parse().unwrap();
+//! assert_eq!(g.name(), "sage-husa");
+//! # let _ = f;
+//! ```
 #![deny(missing_docs)]
+#![allow(non_snake_case)]
+
+mod afkf;
+mod any;
+mod fused;
+mod iae;
+mod iakf;
+mod sage_husa;
+pub mod window;
+
+pub use afkf::{Afkf, FadingAt, MismatchEstimate};
+pub use any::{AnyStrategy, UnknownStrategy, STRATEGY_NAMES};
+pub use estimator_core::FixedNoise;
+pub use fused::FusedDualWindow;
+pub use iae::Iae;
+pub use iakf::{Iakf, Inflation};
+pub use sage_husa::SageHusa;
+pub use window::NoiseBounds;

@@ -124,8 +124,9 @@ where
     Keep,
     /// Use the model's `Q_d` times this factor.
     Scale(f64),
-    /// Use `rate · dt` instead of the model's `Q_d` (a covariance per second).
-    Rate(Cov<N>),
+    /// Add `rate · dt` to the model's `Q_d` (an extra covariance per second; the model's
+    /// `Q_d` stays as a floor, so `P` stays positive definite).
+    AddRate(Cov<N>),
     /// Back to the model's `Q_d`.
     Model,
 }
@@ -207,6 +208,13 @@ pub trait NoiseStrategy {
     fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
     where
         DefaultAllocator: FilterAlloc<N, M>;
+
+    /// Factor `λ` on `Φ P Φᵀ` in every prediction, `P⁻ = λ Φ P Φᵀ + Q_d` (a fading-memory
+    /// filter). Default 1.
+    #[inline]
+    fn prediction_fading(&self) -> f64 {
+        1.0
+    }
 
     /// Called after an accepted or inflated update with the gain used.
     fn after_update<N: DimName, M: DimName>(&mut self, _p: &mut PostUpdate<'_, N, M>)

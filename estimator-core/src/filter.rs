@@ -5,7 +5,7 @@
 //! models. Steps, with the equation each implements:
 //!
 //! ```text
-//! predict   x̂⁻ = f(x̂, u, dt)                 P⁻ = Φ P Φᵀ + Q_d
+//! predict   x̂⁻ = f(x̂, u, dt)                 P⁻ = λ Φ P Φᵀ + Q_d   (λ = 1 unless fading)
 //! innovate  r = z ⊖ h(x̂⁻)                    S = H P⁻ Hᵀ + R
 //! adapt     (strategy) P⁻* = λ_P P⁻, R* , or reject
 //! gain      K = P⁻* Hᵀ S*⁻¹                   (Cholesky solve of S* Kᵀ = H P⁻*)
@@ -191,9 +191,17 @@ where
         match &self.q_adjust {
             QAdjust::Keep | QAdjust::Model => {}
             QAdjust::Scale(s) => jac.Q *= *s,
-            QAdjust::Rate(q) => jac.Q = q * dt,
+            QAdjust::AddRate(q) => jac.Q += q * dt,
         }
         let mut P = self.P.clone();
+        let fading = self.strategy.prediction_fading();
+        if fading != 1.0 {
+            if !(fading.is_finite() && fading > 0.0) {
+                return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
+            }
+            // λ Φ P Φᵀ = Φ (λ P) Φᵀ
+            P *= fading;
+        }
         model.propagate_covariance(&mut P, &jac);
         symmetrize(&mut P);
         if !x_next.is_finite() {
@@ -277,13 +285,14 @@ where
         self.strategy.adapt(&mut a);
         let Adaptation { stream, prior_scale, R: R_used, verdict, reason, factors, q, .. } = a;
 
-        let report = UpdateReport {
+        let mut report = UpdateReport {
             stream,
             epoch,
             time: self.time,
             innovation: r.clone(),
             S,
             nis,
+            nis_adapted: f64::NAN,
             verdict,
             reason,
             factors,
@@ -304,6 +313,7 @@ where
         let mut S_used = &HPHt * prior_scale + &R_used;
         symmetrize(&mut S_used);
         let chol = cholesky("adapted innovation covariance S*", S_used)?;
+        report.nis_adapted = r.dot(&chol.solve(&r));
         let P_prior = &self.P * prior_scale;
         let HP_used = HP * prior_scale;
         // K = P⁻* Hᵀ S*⁻¹, solved as S* Kᵀ = H P⁻* (S*, P⁻* symmetric)

@@ -26,6 +26,9 @@ where
     pub S: OMatrix<f64, M, M>,
     /// `rᵀ S⁻¹ r` with the nominal `S`.
     pub nis: f64,
+    /// `rᵀ S*⁻¹ r` with the innovation covariance actually used,
+    /// `S* = λ_P H P⁻ Hᵀ + R*` (equal to `nis` for a plain accept; NaN when rejected).
+    pub nis_adapted: f64,
     /// Accepted, inflated or rejected.
     pub verdict: Verdict,
     /// Why (from the strategy; `""` for a plain accept).
@@ -46,6 +49,7 @@ where
             time: self.time,
             dim: M::DIM,
             nis: self.nis,
+            nis_adapted: self.nis_adapted,
             verdict: self.verdict,
             reason: self.reason,
             factors: self.factors,
@@ -64,8 +68,10 @@ pub struct UpdateSummary {
     pub time: f64,
     /// Measurement dimension (degrees of freedom of the NIS).
     pub dim: usize,
-    /// Normalised innovation squared.
+    /// Normalised innovation squared (nominal `S`).
     pub nis: f64,
+    /// NIS with the adapted `S*` (NaN when rejected).
+    pub nis_adapted: f64,
     /// The verdict.
     pub verdict: Verdict,
     /// Why.

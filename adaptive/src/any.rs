@@ -1,0 +1,105 @@
+//! Run-time selection of a strategy by name (for the program and configuration files).
+
+use core::fmt;
+use core::str::FromStr;
+
+use estimator_core::{Adaptation, FilterAlloc, FixedNoise, NoiseStrategy, PostUpdate};
+use nalgebra::{DefaultAllocator, DimName};
+
+use crate::{Afkf, FusedDualWindow, Iae, Iakf, Inflation, SageHusa};
+
+/// Any of the crate's strategies, chosen at run time. Static dispatch by `match`; a filter
+/// typed `ErrorStateFilter<X, AnyStrategy>` can run every strategy.
+#[derive(Clone, Debug)]
+pub enum AnyStrategy {
+    /// [`FixedNoise`].
+    Fixed(FixedNoise),
+    /// [`Iae`].
+    Iae(Iae),
+    /// [`Afkf`].
+    Afkf(Afkf),
+    /// [`FusedDualWindow`].
+    Fused(FusedDualWindow),
+    /// [`Iakf`].
+    Iakf(Iakf),
+    /// [`SageHusa`].
+    SageHusa(SageHusa),
+}
+
+/// The names [`AnyStrategy::from_str`] accepts.
+pub const STRATEGY_NAMES: [&str; 7] =
+    ["fixed", "iae", "afkf", "fused", "iakf", "iakf-epoch", "sage-husa"];
+
+/// An unknown strategy name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UnknownStrategy(pub String);
+
+impl fmt::Display for UnknownStrategy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "unknown strategy `{}`; choose one of: {}", self.0, STRATEGY_NAMES.join(", "))
+    }
+}
+
+impl std::error::Error for UnknownStrategy {}
+
+impl FromStr for AnyStrategy {
+    type Err = UnknownStrategy;
+
+    /// `fixed`, `iae`, `afkf`, `fused`, `iakf` (Raw inflation), `iakf-epoch`
+    /// (EpochScaled), `sage-husa`; each with its paper defaults.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.trim().to_ascii_lowercase().as_str() {
+            "fixed" | "kf" => AnyStrategy::Fixed(FixedNoise),
+            "iae" => AnyStrategy::Iae(Iae::default()),
+            "afkf" => AnyStrategy::Afkf(Afkf::default()),
+            "fused" => AnyStrategy::Fused(FusedDualWindow::default()),
+            "iakf" => AnyStrategy::Iakf(Iakf::default()),
+            "iakf-epoch" => AnyStrategy::Iakf(Iakf::new(0.05, Inflation::EpochScaled)),
+            "sage-husa" | "sagehusa" | "akf" => AnyStrategy::SageHusa(SageHusa::default()),
+            _ => return Err(UnknownStrategy(s.to_string())),
+        })
+    }
+}
+
+impl Default for AnyStrategy {
+    fn default() -> Self {
+        AnyStrategy::Fixed(FixedNoise)
+    }
+}
+
+macro_rules! dispatch {
+    ($self:ident, $s:ident => $e:expr) => {
+        match $self {
+            AnyStrategy::Fixed($s) => $e,
+            AnyStrategy::Iae($s) => $e,
+            AnyStrategy::Afkf($s) => $e,
+            AnyStrategy::Fused($s) => $e,
+            AnyStrategy::Iakf($s) => $e,
+            AnyStrategy::SageHusa($s) => $e,
+        }
+    };
+}
+
+impl NoiseStrategy for AnyStrategy {
+    fn name(&self) -> &'static str {
+        dispatch!(self, s => s.name())
+    }
+
+    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        dispatch!(self, s => s.adapt(a))
+    }
+
+    fn prediction_fading(&self) -> f64 {
+        dispatch!(self, s => s.prediction_fading())
+    }
+
+    fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        dispatch!(self, s => s.after_update(p))
+    }
+}
