@@ -74,7 +74,8 @@ where
     }
 }
 
-/// Check a process model's `Φ` against `∂(f(x ⊕ δ) ⊖ f(x))/∂δ` by central differences.
+/// Check a process model's `Φ` against `∂(f(x ⊕ δ) ⊖ f(x))/∂δ` by central differences
+/// (step 1e-6 in every tangent direction).
 pub fn check_process_model<PM: ProcessModel>(
     model: &PM,
     x: &PM::State,
@@ -85,13 +86,29 @@ pub fn check_process_model<PM: ProcessModel>(
 where
     DefaultAllocator: DimAlloc<StateDim<PM::State>>,
 {
+    check_process_model_with_step(model, x, u, dt, rel_tol, 1e-6)
+}
+
+/// [`check_process_model`] with a chosen difference step (states with large coordinates,
+/// such as geodetic positions, need steps of about 1e-3 to stay above rounding).
+pub fn check_process_model_with_step<PM: ProcessModel>(
+    model: &PM,
+    x: &PM::State,
+    u: &PM::Input,
+    dt: f64,
+    rel_tol: f64,
+    step: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: DimAlloc<StateDim<PM::State>>,
+{
     let analytic = model.jacobians(x, u, dt).Phi;
-    let numeric = numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), 1e-6);
+    let numeric = numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), step);
     compare("process transition Φ", &analytic, &numeric, rel_tol)
 }
 
 /// Check a measurement model's `H` against `∂(h(x ⊕ δ) ⊖ h(x))/∂δ` by central
-/// differences.
+/// differences (step 1e-6).
 pub fn check_measurement_model<MM: MeasurementModel>(
     model: &MM,
     x: &MM::State,
@@ -100,8 +117,21 @@ pub fn check_measurement_model<MM: MeasurementModel>(
 where
     DefaultAllocator: FilterAlloc<StateDim<MM::State>, StateDim<MM::Measurement>>,
 {
+    check_measurement_model_with_step(model, x, rel_tol, 1e-6)
+}
+
+/// [`check_measurement_model`] with a chosen difference step.
+pub fn check_measurement_model_with_step<MM: MeasurementModel>(
+    model: &MM,
+    x: &MM::State,
+    rel_tol: f64,
+    step: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: FilterAlloc<StateDim<MM::State>, StateDim<MM::Measurement>>,
+{
     let analytic = model.jacobian(x).H;
-    let numeric = numdiff::jacobian_between(x, |xp| model.predict(xp), 1e-6);
+    let numeric = numdiff::jacobian_between(x, |xp| model.predict(xp), step);
     compare("measurement Jacobian H", &analytic, &numeric, rel_tol)
 }
 
@@ -110,9 +140,10 @@ where
 pub fn numerical_jacobian<X: Manifold, Y: Manifold>(
     x: &X,
     f: impl Fn(&X) -> Y,
+    step: f64,
 ) -> OMatrix<f64, Y::Dim, X::Dim>
 where
     DefaultAllocator: DimAlloc<X::Dim> + DimAlloc<Y::Dim> + Allocator<Y::Dim, X::Dim>,
 {
-    numdiff::jacobian_between(x, f, 1e-6)
+    numdiff::jacobian_between(x, f, step)
 }

@@ -1,0 +1,151 @@
+//! WGS-84 Earth model: ellipsoid, normal gravity, radii of curvature, Earth and transport
+//! rates, and geodetic ↔ ECEF ↔ local NED conversions.
+//!
+//! Constants: NIMA TR8350.2 (WGS-84), 3rd ed. Normal gravity: Somigliana's closed form
+//! with the second-order height correction (TR8350.2 eq. 4-1 and 4-3).
+
+use nalgebra::{Matrix3, Vector3};
+
+/// Semi-major axis `a`, m.
+pub const A: f64 = 6_378_137.0;
+/// Flattening `f`.
+pub const F: f64 = 1.0 / 298.257_223_563;
+/// First eccentricity squared `e² = f (2 − f)`.
+pub const E2: f64 = F * (2.0 - F);
+/// Semi-minor axis `b = a (1 − f)`, m.
+pub const B: f64 = A * (1.0 - F);
+/// Earth rotation rate `ω_ie`, rad/s.
+pub const OMEGA_IE: f64 = 7.292_115e-5;
+/// Earth's gravitational constant `GM`, m³/s².
+pub const GM: f64 = 3.986_004_418e14;
+/// Normal gravity at the equator, m/s².
+pub const GAMMA_E: f64 = 9.780_325_335_9;
+/// Normal gravity at the poles, m/s².
+pub const GAMMA_P: f64 = 9.832_184_937_8;
+
+/// Meridian radius of curvature `R_M(φ) = a (1 − e²) / (1 − e² sin²φ)^{3/2}`, m.
+pub fn meridian_radius(lat: f64) -> f64 {
+    let s = lat.sin();
+    let w = 1.0 - E2 * s * s;
+    A * (1.0 - E2) / (w * w.sqrt())
+}
+
+/// Prime-vertical radius of curvature `R_N(φ) = a / (1 − e² sin²φ)^{1/2}`, m.
+pub fn prime_vertical_radius(lat: f64) -> f64 {
+    let s = lat.sin();
+    A / (1.0 - E2 * s * s).sqrt()
+}
+
+/// `dR_N/dφ = R_N e² sin φ cos φ / (1 − e² sin²φ)`, m/rad.
+pub fn prime_vertical_radius_derivative(lat: f64) -> f64 {
+    let (s, c) = lat.sin_cos();
+    prime_vertical_radius(lat) * E2 * s * c / (1.0 - E2 * s * s)
+}
+
+/// Both radii `(R_M, R_N)`.
+pub fn radii(lat: f64) -> (f64, f64) {
+    (meridian_radius(lat), prime_vertical_radius(lat))
+}
+
+/// Normal gravity magnitude at geodetic latitude `lat` (rad) and height `h` (m), m/s².
+pub fn normal_gravity(lat: f64, h: f64) -> f64 {
+    let s2 = lat.sin().powi(2);
+    let k = B * GAMMA_P / (A * GAMMA_E) - 1.0;
+    let g0 = GAMMA_E * (1.0 + k * s2) / (1.0 - E2 * s2).sqrt();
+    let m = OMEGA_IE * OMEGA_IE * A * A * B / GM;
+    g0 * (1.0 - 2.0 / A * (1.0 + F + m - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h)
+}
+
+/// Partial derivatives of [`normal_gravity`]: `(∂g/∂φ [m/s²/rad], ∂g/∂h [1/s²])`.
+pub fn normal_gravity_gradient(lat: f64, h: f64) -> (f64, f64) {
+    let (s, c) = lat.sin_cos();
+    let s2 = s * s;
+    let k = B * GAMMA_P / (A * GAMMA_E) - 1.0;
+    let w = 1.0 - E2 * s2;
+    let g0 = GAMMA_E * (1.0 + k * s2) / w.sqrt();
+    // dg0/dφ = γe [2k s c / √w + (1 + k s²) e² s c / w^{3/2}]
+    let dg0 = GAMMA_E * (2.0 * k * s * c / w.sqrt() + (1.0 + k * s2) * E2 * s * c / (w * w.sqrt()));
+    let m = OMEGA_IE * OMEGA_IE * A * A * B / GM;
+    let hf = 1.0 - 2.0 / A * (1.0 + F + m - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h;
+    // d(hf)/dφ = (2/a)(4 f s c) h
+    let dhf_dlat = 2.0 / A * (4.0 * F * s * c) * h;
+    let dhf_dh = -2.0 / A * (1.0 + F + m - 2.0 * F * s2) + 6.0 * h / (A * A);
+    (dg0 * hf + g0 * dhf_dlat, g0 * dhf_dh)
+}
+
+/// Gravity vector in NED (down positive), m/s².
+pub fn gravity_ned(lat: f64, h: f64) -> Vector3<f64> {
+    Vector3::new(0.0, 0.0, normal_gravity(lat, h))
+}
+
+/// Earth rate in NED, `ω_ie^n = ω [cos φ, 0, −sin φ]`, rad/s.
+pub fn earth_rate_ned(lat: f64) -> Vector3<f64> {
+    Vector3::new(OMEGA_IE * lat.cos(), 0.0, -OMEGA_IE * lat.sin())
+}
+
+/// Transport rate `ω_en^n = [v_E/(R_N+h), −v_N/(R_M+h), −v_E tan φ/(R_N+h)]`, rad/s.
+pub fn transport_rate(lat: f64, h: f64, v_n: &Vector3<f64>) -> Vector3<f64> {
+    let (rm, rn) = radii(lat);
+    Vector3::new(v_n.y / (rn + h), -v_n.x / (rm + h), -v_n.y * lat.tan() / (rn + h))
+}
+
+/// Geodetic (lat, lon rad; h m) → ECEF, m.
+pub fn geodetic_to_ecef(lat: f64, lon: f64, h: f64) -> Vector3<f64> {
+    let rn = prime_vertical_radius(lat);
+    let (sl, cl) = lat.sin_cos();
+    let (so, co) = lon.sin_cos();
+    Vector3::new((rn + h) * cl * co, (rn + h) * cl * so, (rn * (1.0 - E2) + h) * sl)
+}
+
+/// ECEF → geodetic `(lat, lon, h)` by Bowring's start and Newton iterations on latitude
+/// (converges to < 1e-12 rad in 3–4 iterations anywhere outside the Earth's centre).
+pub fn ecef_to_geodetic(r: &Vector3<f64>) -> (f64, f64, f64) {
+    let lon = r.y.atan2(r.x);
+    let p = (r.x * r.x + r.y * r.y).sqrt();
+    if p < 1e-9 {
+        let lat =
+            if r.z >= 0.0 { core::f64::consts::FRAC_PI_2 } else { -core::f64::consts::FRAC_PI_2 };
+        return (lat, lon, r.z.abs() - B);
+    }
+    // Bowring's initial value.
+    let ep2 = (A * A - B * B) / (B * B);
+    let theta = (r.z * A).atan2(p * B);
+    let (st, ct) = theta.sin_cos();
+    let mut lat = (r.z + ep2 * B * st.powi(3)).atan2(p - E2 * A * ct.powi(3));
+    for _ in 0..5 {
+        let rn = prime_vertical_radius(lat);
+        let h = p / lat.cos() - rn;
+        let next = r.z.atan2(p * (1.0 - E2 * rn / (rn + h)));
+        let done = (next - lat).abs() < 1e-14;
+        lat = next;
+        if done {
+            break;
+        }
+    }
+    let rn = prime_vertical_radius(lat);
+    let h =
+        if lat.cos().abs() > 1e-6 { p / lat.cos() - rn } else { r.z / lat.sin() - rn * (1.0 - E2) };
+    (lat, lon, h)
+}
+
+/// Rotation from ECEF to the local NED frame at (lat, lon): `v_n = C_ne v_e`.
+pub fn ecef_to_ned_rotation(lat: f64, lon: f64) -> Matrix3<f64> {
+    let (sl, cl) = lat.sin_cos();
+    let (so, co) = lon.sin_cos();
+    Matrix3::new(-sl * co, -sl * so, cl, -so, co, 0.0, -cl * co, -cl * so, -sl)
+}
+
+/// NED coordinates (m) of a geodetic point relative to a reference point (exact, through
+/// ECEF).
+pub fn geodetic_to_local_ned(reference: (f64, f64, f64), point: (f64, f64, f64)) -> Vector3<f64> {
+    let r0 = geodetic_to_ecef(reference.0, reference.1, reference.2);
+    let r = geodetic_to_ecef(point.0, point.1, point.2);
+    ecef_to_ned_rotation(reference.0, reference.1) * (r - r0)
+}
+
+/// Geodetic point at NED offset `ned` (m) from a reference point (exact, through ECEF).
+pub fn local_ned_to_geodetic(reference: (f64, f64, f64), ned: &Vector3<f64>) -> (f64, f64, f64) {
+    let r0 = geodetic_to_ecef(reference.0, reference.1, reference.2);
+    let r = r0 + ecef_to_ned_rotation(reference.0, reference.1).transpose() * ned;
+    ecef_to_geodetic(&r)
+}

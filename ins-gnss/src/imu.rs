@@ -1,0 +1,147 @@
+//! IMU data and error specifications.
+//!
+//! Newtypes keep angular and velocity increments from being swapped; units are SI inside
+//! (rad, m/s, s). Datasheet units (deg/√h, m/s/√h, deg/h, mGal, hours) are converted at
+//! the boundary by [`ImuNoise::from_datasheet`].
+
+use nalgebra::Vector3;
+
+/// One IMU sample: increments over `(t − dt, t]` in the body frame (FRD).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSample {
+    /// End of the interval, s.
+    pub t: f64,
+    /// Length of the interval, s.
+    pub dt: f64,
+    /// Angular increment `∫ ω_ib^b dt`, rad.
+    pub dtheta: Vector3<f64>,
+    /// Velocity increment `∫ f^b dt`, m/s.
+    pub dvel: Vector3<f64>,
+}
+
+impl ImuSample {
+    /// From increments.
+    pub fn from_increments(t: f64, dt: f64, dtheta: Vector3<f64>, dvel: Vector3<f64>) -> Self {
+        Self { t, dt, dtheta, dvel }
+    }
+
+    /// From rates (rad/s, m/s²) held over the interval (trapezoid of the previous and
+    /// current rates when `previous` is given, rectangle otherwise).
+    pub fn from_rates(
+        t: f64,
+        dt: f64,
+        gyro: Vector3<f64>,
+        accel: Vector3<f64>,
+        previous: Option<(Vector3<f64>, Vector3<f64>)>,
+    ) -> Self {
+        let (w, f) = match previous {
+            Some((w0, f0)) => ((gyro + w0) * 0.5, (accel + f0) * 0.5),
+            None => (gyro, accel),
+        };
+        Self { t, dt, dtheta: w * dt, dvel: f * dt }
+    }
+
+    /// Mean angular rate over the interval, rad/s.
+    pub fn rate(&self) -> Vector3<f64> {
+        self.dtheta / self.dt
+    }
+
+    /// Mean specific force over the interval, m/s².
+    pub fn specific_force(&self) -> Vector3<f64> {
+        self.dvel / self.dt
+    }
+
+    /// Split at `t_split ∈ (t − dt, t)`: the first part ends at `t_split`, the second at
+    /// `t`; increments are shared linearly (the exact split of a constant-rate interval).
+    pub fn split(&self, t_split: f64) -> (ImuSample, ImuSample) {
+        let t0 = self.t - self.dt;
+        let a = ((t_split - t0) / self.dt).clamp(0.0, 1.0);
+        let first =
+            ImuSample { t: t_split, dt: self.dt * a, dtheta: self.dtheta * a, dvel: self.dvel * a };
+        let second = ImuSample {
+            t: self.t,
+            dt: self.dt * (1.0 - a),
+            dtheta: self.dtheta * (1.0 - a),
+            dvel: self.dvel * (1.0 - a),
+        };
+        (first, second)
+    }
+}
+
+/// How the IMU biases evolve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BiasModel {
+    /// First-order Gauss–Markov with correlation time τ (s): `ḃ = −b/τ + w`,
+    /// `E[w²] = 2σ²/τ`, σ the steady-state (bias instability) figure.
+    GaussMarkov {
+        /// Correlation time, s.
+        tau: f64,
+    },
+    /// Random walk `ḃ = w` with `E[w²] = σ²` per second (σ in units/√s).
+    RandomWalk,
+}
+
+/// IMU noise and bias specification, SI units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuNoise {
+    /// Angular random walk, rad/√s (per axis).
+    pub arw: Vector3<f64>,
+    /// Velocity random walk, m/s/√s (per axis).
+    pub vrw: Vector3<f64>,
+    /// Gyro bias σ: steady-state for Gauss–Markov (rad/s), density for random walk (rad/s/√s).
+    pub gyro_bias: Vector3<f64>,
+    /// Accelerometer bias σ: steady-state (m/s²) or density (m/s²/√s).
+    pub accel_bias: Vector3<f64>,
+    /// Bias dynamics.
+    pub bias_model: BiasModel,
+}
+
+/// deg/√h → rad/√s.
+pub const DEG_PER_SQRT_H: f64 = core::f64::consts::PI / 180.0 / 60.0;
+/// m/s/√h → m/s/√s.
+pub const M_S_PER_SQRT_H: f64 = 1.0 / 60.0;
+/// deg/h → rad/s.
+pub const DEG_PER_H: f64 = core::f64::consts::PI / 180.0 / 3600.0;
+/// mGal → m/s².
+pub const MGAL: f64 = 1e-5;
+
+impl ImuNoise {
+    /// From datasheet units, as in KF-GINS configurations: ARW deg/√h, VRW m/s/√h,
+    /// bias instabilities deg/h and mGal, Gauss–Markov correlation time in hours.
+    pub fn from_datasheet(
+        arw_deg_sqrt_h: Vector3<f64>,
+        vrw_m_s_sqrt_h: Vector3<f64>,
+        gyro_bias_deg_h: Vector3<f64>,
+        accel_bias_mgal: Vector3<f64>,
+        corr_time_h: f64,
+    ) -> Self {
+        Self {
+            arw: arw_deg_sqrt_h * DEG_PER_SQRT_H,
+            vrw: vrw_m_s_sqrt_h * M_S_PER_SQRT_H,
+            gyro_bias: gyro_bias_deg_h * DEG_PER_H,
+            accel_bias: accel_bias_mgal * MGAL,
+            bias_model: BiasModel::GaussMarkov { tau: corr_time_h * 3600.0 },
+        }
+    }
+
+    /// Power spectral densities of the bias driving noise `(gyro, accel)`.
+    pub fn bias_psd(&self) -> (Vector3<f64>, Vector3<f64>) {
+        match self.bias_model {
+            BiasModel::GaussMarkov { tau } => (
+                self.gyro_bias.map(|s| 2.0 * s * s / tau),
+                self.accel_bias.map(|s| 2.0 * s * s / tau),
+            ),
+            BiasModel::RandomWalk => {
+                (self.gyro_bias.map(|s| s * s), self.accel_bias.map(|s| s * s))
+            }
+        }
+    }
+
+    /// `1/τ` of the bias model (0 for a random walk).
+    pub fn inverse_tau(&self) -> f64 {
+        match self.bias_model {
+            BiasModel::GaussMarkov { tau } if tau > 0.0 && tau.is_finite() => 1.0 / tau,
+            _ => 0.0,
+        }
+    }
+}

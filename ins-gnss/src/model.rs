@@ -1,0 +1,313 @@
+//! The 15-state error model and the INS process model.
+//!
+//! Continuous error dynamics for `δx = [δθ, δv, δp, δb_g, δb_a]` (right attitude error,
+//! NED-metre position error), derived for this project from `R = R̂ Exp(δθ)`,
+//! `Ṙ = R[ω_ib×] − [ω_in×]R`, `v̇ = R f + g − (2ω_ie + ω_en) × v`:
+//!
+//! ```text
+//! δθ̇ = −[ω̂×] δθ − R̂ᵀ (N_v δv + N_p δp) − δb_g − n_g
+//! δv̇ = −R̂[f̂×] δθ + (−[(2ω_ie+ω_en)×] + [v×]N_v) δv + ([v×](2 D_ie + D_en) + G_p) δp − R̂ δb_a − R̂ n_a
+//! δṗ = δv + F_pp δp
+//! δḃ = −b/τ + w                                       (Gauss–Markov; 0 for a random walk)
+//! ```
+//!
+//! where `N_v = ∂ω_en/∂v`, `D_ie = ∂ω_ie/∂δp`, `D_en = ∂ω_en/∂δp`, `N_p = D_ie + D_en`,
+//! `G_p` the latitude and height derivatives of normal gravity, and `F_pp` the curvature terms of the
+//! NED-metre position error (derived from `δN = (R_M+h)δφ`, `δE = (R_N+h)cos φ δλ`,
+//! `δD = −δh`). The flat-earth model keeps only `−[ω̂×]`, `−R̂[f̂×]`, `I`, `−I`, `−R̂` and
+//! the bias terms (paper `fused-iae-afkf` eq. 8–12).
+//!
+//! Discretisation: `Φ = I + F dt`; `Q_d = (Φ D Φᵀ + D) dt/2` (trapezoid) with
+//! `D = G Q_c Gᵀ = blockdiag(diag(ARW²), R̂ diag(VRW²) R̂ᵀ, 0, diag(q_bg), diag(q_ba))`.
+
+use estimator_core::{Cov, ProcessJacobians, ProcessModel};
+use manifolds::{hat, So3};
+use nalgebra::{Const, Matrix3, SMatrix, Vector3};
+
+use crate::earth::{
+    earth_rate_ned, normal_gravity_gradient, prime_vertical_radius_derivative, radii,
+    transport_rate,
+};
+use crate::imu::{ImuNoise, ImuSample};
+use crate::mechanization::{self, Increments, Mechanization, Nav};
+use crate::state::InsState;
+
+/// 15×15 matrices of the error state.
+pub type M15 = SMatrix<f64, 15, 15>;
+
+/// Block index of the attitude error (blocks of 3 rows: θ, v, p, b_g, b_a).
+pub const B_TH: usize = 0;
+/// Block index of the velocity error.
+pub const B_V: usize = 1;
+/// Block index of the position error.
+pub const B_P: usize = 2;
+/// Block index of the gyro-bias error.
+pub const B_BG: usize = 3;
+/// Block index of the accelerometer-bias error.
+pub const B_BA: usize = 4;
+
+/// Non-zero 3×3 blocks of `Φ = I + F dt` (rows θ, v, p, b_g, b_a).
+pub const PHI_PATTERN: [[bool; 5]; 5] = [
+    [true, true, true, true, false],
+    [true, true, true, false, true],
+    [false, true, true, false, false],
+    [false, false, false, true, false],
+    [false, false, false, false, true],
+];
+
+/// Non-zero blocks of `D = G Q_c Gᵀ` (block diagonal, no position noise).
+const D_PATTERN: [[bool; 5]; 5] = [
+    [true, false, false, false, false],
+    [false, true, false, false, false],
+    [false, false, false, false, false],
+    [false, false, false, true, false],
+    [false, false, false, false, true],
+];
+
+const FULL: [[bool; 5]; 5] = [[true; 5]; 5];
+
+/// The input of one prediction: the previous and the current raw IMU samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuInput {
+    /// The sample before (for coning and sculling); `None` at start-up.
+    pub prev: Option<ImuSample>,
+    /// The sample that ends this interval.
+    pub cur: ImuSample,
+}
+
+/// The INS process model: mechanization, error model and noise.
+#[derive(Clone, Debug)]
+pub struct InsModel {
+    /// Which mechanization.
+    pub mechanization: Mechanization,
+    /// IMU noise specification.
+    pub noise: ImuNoise,
+}
+
+impl InsModel {
+    /// A WGS-84 NED model with the given noise.
+    pub fn wgs84(noise: ImuNoise) -> Self {
+        Self { mechanization: Mechanization::Wgs84, noise }
+    }
+
+    /// Bias-corrected increments for state `x`.
+    pub fn corrected(x: &InsState, u: &ImuInput) -> Increments {
+        let c = &u.cur;
+        let (dtheta_prev, dvel_prev) = match &u.prev {
+            Some(p) => (p.dtheta - x.bg * p.dt, p.dvel - x.ba * p.dt),
+            None => (Vector3::zeros(), Vector3::zeros()),
+        };
+        Increments {
+            dtheta_prev,
+            dvel_prev,
+            dtheta: c.dtheta - x.bg * c.dt,
+            dvel: c.dvel - x.ba * c.dt,
+            dt: c.dt,
+        }
+    }
+
+    /// The continuous error-state matrix `F` at `x` with corrected rate `w` (rad/s) and
+    /// specific force `f` (m/s²).
+    pub fn error_dynamics(&self, x: &InsState, w: &Vector3<f64>, f: &Vector3<f64>) -> M15 {
+        let mut F = M15::zeros();
+        let c = x.att.matrix();
+        let inv_tau = self.noise.inverse_tau();
+        put(&mut F, B_TH, B_TH, &(-hat(w)));
+        put(&mut F, B_TH, B_BG, &(-Matrix3::identity()));
+        put(&mut F, B_V, B_TH, &(-c * hat(f)));
+        put(&mut F, B_V, B_BA, &(-c));
+        put(&mut F, B_P, B_V, &Matrix3::identity());
+        put(&mut F, B_BG, B_BG, &(Matrix3::identity() * -inv_tau));
+        put(&mut F, B_BA, B_BA, &(Matrix3::identity() * -inv_tau));
+        if let Mechanization::Wgs84 = self.mechanization {
+            let (lat, h, v) = (x.pos.lat, x.pos.h, x.vel);
+            let (rm, rn) = radii(lat);
+            let (rmh, rnh) = (rm + h, rn + h);
+            let t = lat.tan();
+            let w_ie = earth_rate_ned(lat);
+            let w_en = transport_rate(lat, h, &v);
+            // N_v = ∂ω_en/∂v
+            let nv = Matrix3::new(0.0, 1.0 / rnh, 0.0, -1.0 / rmh, 0.0, 0.0, 0.0, -t / rnh, 0.0);
+            // D_ie = ∂ω_ie/∂δp (through δφ = δN/(R_M+h))
+            let om = crate::earth::OMEGA_IE;
+            let d_ie = Matrix3::new(
+                -om * lat.sin() / rmh,
+                0.0,
+                0.0, //
+                0.0,
+                0.0,
+                0.0, //
+                -om * lat.cos() / rmh,
+                0.0,
+                0.0,
+            );
+            // D_en = ∂ω_en/∂δp (δφ = δN/(R_M+h), δh = −δD)
+            let d_en = Matrix3::new(
+                0.0,
+                0.0,
+                v.y / (rnh * rnh), //
+                0.0,
+                0.0,
+                -v.x / (rmh * rmh), //
+                -v.y / (rnh * rmh * lat.cos().powi(2)),
+                0.0,
+                -v.y * t / (rnh * rnh),
+            );
+            let np = d_ie + d_en;
+            put(&mut F, B_TH, B_V, &(-c.transpose() * nv));
+            put(&mut F, B_TH, B_P, &(-c.transpose() * np));
+            let vx = hat(&v);
+            put(&mut F, B_V, B_V, &(-hat(&(w_ie * 2.0 + w_en)) + vx * nv));
+            // δg_D = ∂g/∂φ · δN/(R_M+h) − ∂g/∂h · δD
+            let (dg_dlat, dg_dh) = normal_gravity_gradient(lat, h);
+            let mut gp = Matrix3::zeros();
+            gp[(2, 0)] = dg_dlat / rmh;
+            gp[(2, 2)] = -dg_dh;
+            put(&mut F, B_V, B_P, &(vx * (d_ie * 2.0 + d_en) + gp));
+            // The E row keeps dR_N/dφ (in the N row the dR_M/dφ terms cancel).
+            let rn_prime = prime_vertical_radius_derivative(lat);
+            let fpp = Matrix3::new(
+                -v.z / rmh,
+                0.0,
+                v.x / rmh, //
+                v.y * t / rmh - v.y * rn_prime / (rnh * rmh),
+                -(v.z / rnh + v.x * t / rmh) + v.x * rn_prime / (rnh * rmh),
+                v.y / rnh, //
+                0.0,
+                0.0,
+                0.0,
+            );
+            put(&mut F, B_P, B_P, &fpp);
+        }
+        F
+    }
+
+    /// Noise input matrix `G` (15×12) for `w = [n_g, n_a, w_bg, w_ba]`:
+    /// `δθ̇ ∋ −n_g`, `δv̇ ∋ −R̂ n_a`, `δḃ_g ∋ w_bg`, `δḃ_a ∋ w_ba`.
+    pub fn noise_input(att: &So3) -> SMatrix<f64, 15, 12> {
+        let mut G = SMatrix::<f64, 15, 12>::zeros();
+        G.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-Matrix3::identity()));
+        G.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-att.matrix()));
+        G.fixed_view_mut::<3, 3>(9, 6).copy_from(&Matrix3::identity());
+        G.fixed_view_mut::<3, 3>(12, 9).copy_from(&Matrix3::identity());
+        G
+    }
+
+    /// Power spectral densities `Q_c = diag(ARW², VRW², q_bg, q_ba)` (12 values).
+    pub fn noise_psd(&self) -> nalgebra::SVector<f64, 12> {
+        let n = &self.noise;
+        let (qbg, qba) = n.bias_psd();
+        let mut q = nalgebra::SVector::<f64, 12>::zeros();
+        for i in 0..3 {
+            q[i] = n.arw[i] * n.arw[i];
+            q[3 + i] = n.vrw[i] * n.vrw[i];
+            q[6 + i] = qbg[i];
+            q[9 + i] = qba[i];
+        }
+        q
+    }
+
+    /// `D = G Q_c Gᵀ` at attitude `att` (block diagonal: θ, v, b_g, b_a).
+    pub fn noise_density(&self, att: &So3) -> M15 {
+        let q = self.noise_psd();
+        let mut D = M15::zeros();
+        let g =
+            |i: usize| Matrix3::from_diagonal(&Vector3::new(q[3 * i], q[3 * i + 1], q[3 * i + 2]));
+        put(&mut D, B_TH, B_TH, &g(0));
+        let c = att.matrix();
+        // −R̂ diag(VRW²) (−R̂)ᵀ
+        put(&mut D, B_V, B_V, &(c * g(1) * c.transpose()));
+        put(&mut D, B_BG, B_BG, &g(2));
+        put(&mut D, B_BA, B_BA, &g(3));
+        D
+    }
+}
+
+/// Write a 3×3 block at block position (r, c).
+pub fn put(m: &mut M15, r: usize, c: usize, b: &Matrix3<f64>) {
+    m.fixed_view_mut::<3, 3>(3 * r, 3 * c).copy_from(b);
+}
+
+#[allow(clippy::needless_range_loop)] // block indices address three matrices at once
+/// `Φ M Φᵀ` for a block-sparse `Φ` (pattern `pp`) and a symmetric `M` whose non-zero
+/// blocks are `pm`, skipping zero blocks; the result is exactly symmetric.
+pub fn sandwich(phi: &M15, pp: &[[bool; 5]; 5], m: &M15, pm: &[[bool; 5]; 5]) -> M15 {
+    // A = Φ M, block by block, with its own pattern.
+    let mut a = M15::zeros();
+    let mut pa = [[false; 5]; 5];
+    for i in 0..5 {
+        for k in 0..5 {
+            if !pp[i][k] {
+                continue;
+            }
+            let phi_ik = phi.fixed_view::<3, 3>(3 * i, 3 * k);
+            for c in 0..5 {
+                if !pm[k][c] {
+                    continue;
+                }
+                let prod = phi_ik * m.fixed_view::<3, 3>(3 * k, 3 * c);
+                let mut dst = a.fixed_view_mut::<3, 3>(3 * i, 3 * c);
+                dst += prod;
+                pa[i][c] = true;
+            }
+        }
+    }
+    // R = A Φᵀ, upper blocks, mirrored.
+    let mut r = M15::zeros();
+    for i in 0..5 {
+        for j in i..5 {
+            let mut acc = Matrix3::zeros();
+            let mut any = false;
+            for k in 0..5 {
+                if pa[i][k] && pp[j][k] {
+                    acc += a.fixed_view::<3, 3>(3 * i, 3 * k)
+                        * phi.fixed_view::<3, 3>(3 * j, 3 * k).transpose();
+                    any = true;
+                }
+            }
+            if any {
+                r.fixed_view_mut::<3, 3>(3 * i, 3 * j).copy_from(&acc);
+                if i != j {
+                    r.fixed_view_mut::<3, 3>(3 * j, 3 * i).copy_from(&acc.transpose());
+                }
+            }
+        }
+    }
+    estimator_core::linalg::symmetrize(&mut r);
+    r
+}
+
+impl ProcessModel for InsModel {
+    type State = InsState;
+    type Input = ImuInput;
+
+    fn propagate(&self, x: &InsState, u: &ImuInput, _dt: f64) -> InsState {
+        let inc = Self::corrected(x, u);
+        let nav = Nav { att: x.att, vel: x.vel, pos: x.pos };
+        let next = mechanization::step(&self.mechanization, &nav, &inc);
+        // Gauss–Markov biases decay towards zero: b⁺ = b·exp(−dt/τ).
+        let decay = (-inc.dt * self.noise.inverse_tau()).exp();
+        InsState { att: next.att, vel: next.vel, pos: next.pos, bg: x.bg * decay, ba: x.ba * decay }
+    }
+
+    fn jacobians(&self, x: &InsState, u: &ImuInput, _dt: f64) -> ProcessJacobians<Const<15>> {
+        let inc = Self::corrected(x, u);
+        let dt = inc.dt;
+        let (w, f) = if dt > 0.0 {
+            (inc.dtheta / dt, inc.dvel / dt)
+        } else {
+            (Vector3::zeros(), Vector3::zeros())
+        };
+        // Φ = I + F dt
+        let Phi = M15::identity() + self.error_dynamics(x, &w, &f) * dt;
+        // Q_d = (Φ D Φᵀ + D) dt/2
+        let D = self.noise_density(&x.att);
+        let Q = (sandwich(&Phi, &PHI_PATTERN, &D, &D_PATTERN) + D) * (0.5 * dt);
+        ProcessJacobians { Phi, Q }
+    }
+
+    /// `P ← Φ P Φᵀ + Q_d` skipping the zero blocks of `Φ` (13 of 25 blocks are non-zero).
+    fn propagate_covariance(&self, P: &mut Cov<Const<15>>, jac: &ProcessJacobians<Const<15>>) {
+        *P = sandwich(&jac.Phi, &PHI_PATTERN, P, &FULL) + jac.Q;
+    }
+}

@@ -1,0 +1,285 @@
+//! The INS/GNSS navigator: the 15-state error-state filter driven by IMU samples, with
+//! GNSS epochs applied at their exact time.
+//!
+//! A GNSS epoch that falls inside an IMU interval `(t − dt, t]` splits it: the increments
+//! are shared linearly, the filter is propagated to the GNSS time, updated, then
+//! propagated over the rest of the interval (no snapping to the nearest IMU epoch).
+
+use core::fmt;
+
+use estimator_core::{
+    ErrorStateFilter, FilterError, FixedNoise, NoiseStrategy, Observer, UpdateSummary,
+};
+use nalgebra::{Matrix3, SMatrix, Vector3};
+
+use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
+use crate::imu::ImuSample;
+use crate::model::{ImuInput, InsModel, M15};
+use crate::state::InsState;
+
+/// 1σ of the initial state, SI units (rad, m/s, m, rad/s, m/s²).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InitialStd {
+    /// Attitude (roll, pitch, yaw) error, rad.
+    pub att: Vector3<f64>,
+    /// Velocity error (N, E, D), m/s.
+    pub vel: Vector3<f64>,
+    /// Position error (N, E, D), m.
+    pub pos: Vector3<f64>,
+    /// Gyro bias, rad/s.
+    pub bg: Vector3<f64>,
+    /// Accelerometer bias, m/s².
+    pub ba: Vector3<f64>,
+}
+
+impl InitialStd {
+    /// The diagonal initial covariance.
+    pub fn covariance(&self) -> M15 {
+        let mut d = nalgebra::SVector::<f64, 15>::zeros();
+        for i in 0..3 {
+            d[i] = self.att[i].powi(2);
+            d[3 + i] = self.vel[i].powi(2);
+            d[6 + i] = self.pos[i].powi(2);
+            d[9 + i] = self.bg[i].powi(2);
+            d[12 + i] = self.ba[i].powi(2);
+        }
+        M15::from_diagonal(&d)
+    }
+}
+
+/// Where the navigator starts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InitialState {
+    /// Time of the state, s.
+    pub time: f64,
+    /// The state.
+    pub state: InsState,
+    /// Its 1σ.
+    pub std: InitialStd,
+}
+
+/// How GNSS epochs are used.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssConfig {
+    /// Antenna lever arm (FRD), m.
+    pub lever_arm: Vector3<f64>,
+    /// Use the velocity of epochs that have one (6-D update) instead of position only.
+    pub use_velocity: bool,
+    /// Replace the file's position σ (N, E, D), m.
+    pub pos_std: Option<Vector3<f64>>,
+    /// Replace the file's velocity σ, m/s.
+    pub vel_std: Option<Vector3<f64>>,
+}
+
+impl Default for GnssConfig {
+    fn default() -> Self {
+        Self { lever_arm: Vector3::zeros(), use_velocity: true, pos_std: None, vel_std: None }
+    }
+}
+
+/// A failure of the navigator, with the time it happened.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NavError {
+    /// The filter refused an input or produced a non-finite result.
+    Filter {
+        /// Time, s.
+        t: f64,
+        /// What the filter said.
+        source: FilterError,
+    },
+    /// A sample or epoch earlier than the navigator's time.
+    TimeWentBackwards {
+        /// The offending time, s.
+        t: f64,
+        /// The navigator's time, s.
+        now: f64,
+    },
+    /// A sample with a non-finite value or a non-positive interval.
+    BadSample {
+        /// Time, s.
+        t: f64,
+        /// What is wrong.
+        what: &'static str,
+    },
+}
+
+impl fmt::Display for NavError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            NavError::Filter { t, source } => write!(f, "at t = {t:.6} s: {source}"),
+            NavError::TimeWentBackwards { t, now } => {
+                write!(f, "time went backwards: {t:.6} s after {now:.6} s")
+            }
+            NavError::BadSample { t, what } => write!(f, "at t = {t:.6} s: {what}"),
+        }
+    }
+}
+
+impl std::error::Error for NavError {}
+
+/// Two times closer than this are the same epoch, s.
+pub const TIME_EPSILON: f64 = 1e-6;
+
+/// The INS/GNSS navigator over any noise strategy.
+#[derive(Clone, Debug)]
+pub struct Navigator<A: NoiseStrategy = FixedNoise> {
+    filter: ErrorStateFilter<InsState, A>,
+    model: InsModel,
+    gnss: GnssConfig,
+    prev: Option<ImuSample>,
+    rate: Vector3<f64>,
+    time: f64,
+}
+
+impl<A: NoiseStrategy> Navigator<A> {
+    /// A navigator at `init`, with process model `model`, strategy and GNSS settings.
+    pub fn new(
+        init: &InitialState,
+        model: InsModel,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let filter = ErrorStateFilter::new(init.state.clone(), init.std.covariance(), strategy)
+            .map_err(|source| NavError::Filter { t: init.time, source })?
+            .with_time(init.time);
+        Ok(Self { filter, model, gnss, prev: None, rate: Vector3::zeros(), time: init.time })
+    }
+
+    /// Current time, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The nominal state.
+    pub fn state(&self) -> &InsState {
+        self.filter.state()
+    }
+
+    /// The error covariance.
+    pub fn covariance(&self) -> &M15 {
+        self.filter.covariance()
+    }
+
+    /// The underlying filter.
+    pub fn filter(&self) -> &ErrorStateFilter<InsState, A> {
+        &self.filter
+    }
+
+    /// The process model.
+    pub fn model(&self) -> &InsModel {
+        &self.model
+    }
+
+    /// 1σ of the 15 error states.
+    pub fn sigma(&self) -> nalgebra::SVector<f64, 15> {
+        self.filter.sigma()
+    }
+
+    /// Process one IMU sample and the GNSS epochs with `t ∈ (now, imu.t]` (sorted), each
+    /// at its exact time. Returns the update summaries in order.
+    pub fn process<O: Observer>(
+        &mut self,
+        imu: &ImuSample,
+        gnss: &[GnssEpoch],
+        observer: &mut O,
+    ) -> Result<Vec<UpdateSummary>, NavError> {
+        let mut out = Vec::new();
+        self.process_into(imu, gnss, observer, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`process`](Self::process) appending summaries to `out` (no allocation when `out`
+    /// has capacity).
+    pub fn process_into<O: Observer>(
+        &mut self,
+        imu: &ImuSample,
+        gnss: &[GnssEpoch],
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+    ) -> Result<(), NavError> {
+        if !(imu.t.is_finite() && imu.dt.is_finite() && imu.dt > 0.0) {
+            return Err(NavError::BadSample {
+                t: imu.t,
+                what: "IMU time or interval not finite or not positive",
+            });
+        }
+        if !(imu.dtheta.iter().chain(imu.dvel.iter()).all(|v| v.is_finite())) {
+            return Err(NavError::BadSample { t: imu.t, what: "IMU increment is NaN or infinite" });
+        }
+        if imu.t < self.time + TIME_EPSILON {
+            return Err(NavError::TimeWentBackwards { t: imu.t, now: self.time });
+        }
+        let mut rest = *imu;
+        for g in gnss {
+            if g.t < self.time - TIME_EPSILON {
+                return Err(NavError::TimeWentBackwards { t: g.t, now: self.time });
+            }
+            if g.t > imu.t + TIME_EPSILON {
+                break;
+            }
+            if g.t < rest.t - TIME_EPSILON && g.t > self.time + TIME_EPSILON {
+                let (first, second) = rest.split(g.t);
+                self.propagate(&first)?;
+                rest = second;
+            } else if g.t >= rest.t - TIME_EPSILON {
+                self.propagate(&rest)?;
+                rest.dt = 0.0;
+            }
+            out.push(self.update(g, observer)?);
+        }
+        if rest.dt > 0.0 {
+            self.propagate(&rest)?;
+        }
+        self.time = imu.t;
+        Ok(())
+    }
+
+    fn propagate(&mut self, s: &ImuSample) -> Result<(), NavError> {
+        if s.dt <= 0.0 {
+            return Ok(());
+        }
+        let input = ImuInput { prev: self.prev, cur: *s };
+        self.filter
+            .predict(&self.model, &input, s.dt)
+            .map_err(|source| NavError::Filter { t: s.t, source })?;
+        self.prev = Some(*s);
+        self.rate = s.rate();
+        self.time = s.t;
+        Ok(())
+    }
+
+    /// Apply one GNSS epoch now (its time must be the navigator's time).
+    fn update<O: Observer>(
+        &mut self,
+        g: &GnssEpoch,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, NavError> {
+        let err = |source| NavError::Filter { t: g.t, source };
+        let pos_std = self.gnss.pos_std.unwrap_or(g.pos_std);
+        let lever = self.gnss.lever_arm;
+        match (self.gnss.use_velocity, g.vel) {
+            (true, Some((v, v_std))) => {
+                let v_std = self.gnss.vel_std.unwrap_or(v_std);
+                let mut d = nalgebra::SVector::<f64, 6>::zeros();
+                for i in 0..3 {
+                    d[i] = pos_std[i].powi(2);
+                    d[3 + i] = v_std[i].powi(2);
+                }
+                let model = GnssPosVel { lever_arm: lever, gyro_rate: self.rate };
+                let r = SMatrix::<f64, 6, 6>::from_diagonal(&d);
+                self.filter
+                    .update_observed(&model, &(g.pos, v), &r, observer)
+                    .map(|r| r.summary())
+                    .map_err(err)
+            }
+            _ => {
+                let model = GnssPosition { lever_arm: lever };
+                let r = Matrix3::from_diagonal(&pos_std.component_mul(&pos_std));
+                self.filter
+                    .update_observed(&model, &g.pos, &r, observer)
+                    .map(|r| r.summary())
+                    .map_err(err)
+            }
+        }
+    }
+}

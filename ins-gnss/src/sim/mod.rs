@@ -1,0 +1,100 @@
+//! The simulator: exact trajectories ([`trajectory`]), sensor errors ([`sensors`]), and
+//! [`simulate`], which turns them into a dataset (IMU increments, GNSS epochs, truth) at
+//! any IMU rate, seeded and deterministic.
+
+pub mod scenarios;
+pub mod sensors;
+pub mod trajectory;
+
+use nalgebra::Vector3;
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+
+use crate::earth::{earth_rate_ned, transport_rate};
+use crate::gnss::GnssEpoch;
+use crate::imu::ImuSample;
+use crate::state::InsState;
+
+pub use sensors::{GnssSim, GnssWindow, GnssWindowKind, ImuCorruptor, ImuErrors};
+pub use trajectory::{Kinematics, Segment, Start, Trajectory, TrajectoryError};
+
+/// One truth record: the true navigation state and the true IMU biases.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TruthRecord {
+    /// Time, s.
+    pub t: f64,
+    /// True state (biases are the total true biases).
+    pub state: InsState,
+    /// Exact instantaneous `ω_ib^b` (rad/s) and `f^b` (m/s²).
+    pub rates: (Vector3<f64>, Vector3<f64>),
+}
+
+/// A simulated dataset.
+#[derive(Clone, Debug, Default)]
+pub struct SimDataset {
+    /// IMU samples (increments), from the first interval on.
+    pub imu: Vec<ImuSample>,
+    /// GNSS epochs.
+    pub gnss: Vec<GnssEpoch>,
+    /// Truth at the start and at every IMU epoch.
+    pub truth: Vec<TruthRecord>,
+}
+
+/// Simulate `traj` with an IMU at `imu_rate_hz` and a GNSS receiver; `seed` fixes the IMU
+/// noise stream and `seed + 1` the GNSS one.
+pub fn simulate(
+    traj: &Trajectory,
+    imu_rate_hz: f64,
+    imu: &ImuErrors,
+    gnss: &GnssSim,
+    seed: u64,
+) -> SimDataset {
+    let mut rng_imu = StdRng::seed_from_u64(seed);
+    let mut rng_gnss = StdRng::seed_from_u64(seed.wrapping_add(1));
+    let mut corruptor = ImuCorruptor::new(*imu, &mut rng_imu);
+    let dt = 1.0 / imu_rate_hz;
+    let t0 = traj.start_time();
+    let n = ((traj.end_time() - t0) / dt + 1e-9).floor() as usize;
+    let mut out = SimDataset {
+        imu: Vec::with_capacity(n),
+        truth: Vec::with_capacity(n + 1),
+        gnss: Vec::new(),
+    };
+    let truth_at = |t: f64, biases: (Vector3<f64>, Vector3<f64>)| {
+        let k = traj.at(t);
+        TruthRecord {
+            t,
+            state: InsState { att: k.att, vel: k.vel, pos: k.pos, bg: biases.0, ba: biases.1 },
+            rates: (k.w_ib_b, k.f_b),
+        }
+    };
+    out.truth.push(truth_at(t0, corruptor.biases()));
+    for i in 1..=n {
+        let (ta, tb) = (t0 + (i - 1) as f64 * dt, t0 + i as f64 * dt);
+        let (dth, dv) = traj.increments(ta, tb);
+        let (mth, mdv) = corruptor.corrupt(&dth, &dv, dt, &mut rng_imu);
+        out.imu.push(ImuSample { t: tb, dt, dtheta: mth, dvel: mdv });
+        out.truth.push(truth_at(tb, corruptor.biases()));
+    }
+    // GNSS epochs on their own clock, from t0 on.
+    if gnss.rate_hz > 0.0 {
+        let step = 1.0 / gnss.rate_hz;
+        let m = ((traj.end_time() - t0) / step + 1e-9).floor() as usize;
+        for j in 0..=m {
+            let t = t0 + j as f64 * step;
+            let Some((factor, outliers)) = gnss.conditions(t) else { continue };
+            let k = traj.at(t);
+            let lever_n = k.att.rotate(&gnss.lever_arm);
+            let ant = manifolds::Manifold::oplus(&k.pos, &lever_n);
+            let pos = gnss.corrupt_position(&ant, factor, outliers, &mut rng_gnss);
+            let vel = gnss.vel_sigma.map(|s| {
+                let w_in = earth_rate_ned(k.pos.lat) + transport_rate(k.pos.lat, k.pos.h, &k.vel);
+                let v_ant =
+                    k.vel + k.att.rotate(&k.w_ib_b.cross(&gnss.lever_arm)) - w_in.cross(&lever_n);
+                (gnss.corrupt_velocity(&v_ant, &s, factor, &mut rng_gnss), s)
+            });
+            out.gnss.push(GnssEpoch { t, pos, pos_std: gnss.pos_sigma, vel });
+        }
+    }
+    out
+}
