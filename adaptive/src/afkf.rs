@@ -1,6 +1,6 @@
 //! Adaptive fading Kalman filter (AFKF).
 
-use estimator_core::{Adaptation, FilterAlloc, NoiseStrategy, StreamMap, Verdict};
+use estimator_core::{Adaptation, FilterAlloc, NoiseStrategy, PriorScaling, StreamMap, Verdict};
 use nalgebra::{DefaultAllocator, DimName};
 
 use crate::window::{trace_ratio, InnovationWindow};
@@ -69,6 +69,10 @@ pub struct Afkf {
     pub fixed_lambda: Option<f64>,
     /// Where the adaptive λ is applied. Default [`FadingAt::Update`].
     pub apply_at: FadingAt,
+    /// How λ scales `P⁻` at the update. Default [`PriorScaling::MeasurementSubspace`]
+    /// (same gain as full scaling; full scaling made the INS covariance overflow in our
+    /// demo within 440 s, because GNSS cannot see every direction it inflates).
+    pub scaling: PriorScaling,
     streams: StreamMap<AfkfStream>,
     last_lambda: f64,
 }
@@ -86,6 +90,7 @@ impl Default for Afkf {
             lambda_max: 100.0,
             fixed_lambda: None,
             apply_at: FadingAt::Update,
+            scaling: PriorScaling::default(),
             streams: StreamMap::new(),
             last_lambda: 1.0,
         }
@@ -176,7 +181,10 @@ impl NoiseStrategy for Afkf {
         let lambda = if raw.is_finite() { raw.clamp(1.0, self.lambda_max.max(1.0)) } else { 1.0 };
         a.factors.lambda_p = lambda;
         match self.apply_at {
-            FadingAt::Update => a.prior_scale = lambda,
+            FadingAt::Update => {
+                a.prior_scale = lambda;
+                a.prior_scaling = self.scaling;
+            }
             FadingAt::Prediction => self.last_lambda = lambda,
         }
         if lambda > 1.0 {

@@ -1,6 +1,6 @@
 //! Fused dual-window IAE + AFKF.
 
-use estimator_core::{Adaptation, FilterAlloc, NoiseStrategy, StreamMap, Verdict};
+use estimator_core::{Adaptation, FilterAlloc, NoiseStrategy, PriorScaling, StreamMap, Verdict};
 use nalgebra::{DefaultAllocator, DimName};
 
 use crate::window::InnovationWindow;
@@ -10,7 +10,7 @@ use crate::window::InnovationWindow;
 ///
 /// ```text
 /// DOM_k(N) = tr(Ĉ_k(N)) / tr(S_k)        S_k = H P⁻ Hᵀ + R (un-scaled)
-/// λ_P = max(1, DOM_k(N_P))               P⁻* = λ_P P⁻
+/// λ_P = max(1, DOM_k(N_P))               P⁻* = λ_P P⁻  (along the measurement subspace by default)
 /// λ_R = clamp(DOM_k(N_R), λ_R,min, λ_R,max)   R* = λ_R R
 /// ```
 ///
@@ -42,6 +42,9 @@ pub struct FusedDualWindow {
     pub lambda_r_bounds: (f64, f64),
     /// Upper bound on λ_P. Default 100.
     pub lambda_p_max: f64,
+    /// How λ_P scales `P⁻`. Default [`PriorScaling::MeasurementSubspace`] (the paper's
+    /// gain, without inflating what the measurement cannot see).
+    pub scaling: PriorScaling,
     streams: StreamMap<FusedStream>,
 }
 
@@ -61,6 +64,7 @@ impl Default for FusedDualWindow {
             max_consecutive_rejections: 5,
             lambda_r_bounds: (0.1, 100.0),
             lambda_p_max: 100.0,
+            scaling: PriorScaling::default(),
             streams: StreamMap::new(),
         }
     }
@@ -116,6 +120,7 @@ impl NoiseStrategy for FusedDualWindow {
         a.factors.lambda_p = lambda_p;
         a.factors.lambda_r = lambda_r;
         a.prior_scale = lambda_p;
+        a.prior_scaling = self.scaling;
         a.R = a.R_nominal * lambda_r;
         a.verdict = Verdict::Inflated;
         a.reason = if readmitted {

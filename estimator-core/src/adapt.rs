@@ -114,6 +114,20 @@ impl Default for Factors {
     }
 }
 
+/// How a prior scale `λ = prior_scale` is applied to `P⁻`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PriorScaling {
+    /// Along the measurement subspace only:
+    /// `P⁻* = P⁻ + (λ − 1) P⁻Hᵀ (H P⁻ Hᵀ)⁻¹ H P⁻` (default). `H P⁻* = λ H P⁻`, so the gain
+    /// and the state correction are exactly those of full scaling, but directions the
+    /// measurement cannot see are not inflated — with full scaling they grow by λ at every
+    /// update and the covariance eventually overflows.
+    #[default]
+    MeasurementSubspace,
+    /// `P⁻* = λ P⁻`, the textbook form.
+    Full,
+}
+
 /// How the strategy wants the process noise of the following predictions changed.
 #[derive(Clone, Debug, PartialEq)]
 pub enum QAdjust<N: DimName>
@@ -134,8 +148,8 @@ where
 /// One decision: inputs the strategy reads, outputs it may change.
 ///
 /// On entry the outputs hold the nominal values (`prior_scale = 1`, `R = R_nominal`,
-/// `verdict = Accepted`). The filter then uses `P⁻* = prior_scale·P⁻` and `R`, or skips
-/// the update when `verdict = Rejected`.
+/// `verdict = Accepted`). The filter then scales `P⁻` as `prior_scaling` says, uses `R`,
+/// or skips the update when `verdict = Rejected`.
 #[allow(non_snake_case)]
 pub struct Adaptation<'a, N: DimName, M: DimName>
 where
@@ -163,6 +177,8 @@ where
     pub nis: f64,
     /// Output: factor on `P⁻` (≥ 1 inflates).
     pub prior_scale: f64,
+    /// Output: how `prior_scale` is applied.
+    pub prior_scaling: PriorScaling,
     /// Output: the `R` to use (symmetric positive definite; the filter checks).
     pub R: OMatrix<f64, M, M>,
     /// Output: the verdict.

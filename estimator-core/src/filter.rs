@@ -21,7 +21,9 @@ use nalgebra::{DefaultAllocator, OMatrix};
 
 use manifolds::{DimAlloc, Manifold};
 
-use crate::adapt::{Adaptation, FixedNoise, NoiseStrategy, PostUpdate, QAdjust, Verdict};
+use crate::adapt::{
+    Adaptation, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, Verdict,
+};
 use crate::error::FilterError;
 use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize};
 use crate::report::{NoObserver, Observer, UpdateReport};
@@ -276,6 +278,7 @@ where
             S: &S,
             nis,
             prior_scale: 1.0,
+            prior_scaling: PriorScaling::default(),
             R: R.clone(),
             verdict: Verdict::Accepted,
             reason: "",
@@ -283,7 +286,17 @@ where
             q: QAdjust::Keep,
         };
         self.strategy.adapt(&mut a);
-        let Adaptation { stream, prior_scale, R: R_used, verdict, reason, factors, q, .. } = a;
+        let Adaptation {
+            stream,
+            prior_scale,
+            prior_scaling,
+            R: R_used,
+            verdict,
+            reason,
+            factors,
+            q,
+            ..
+        } = a;
 
         let mut report = UpdateReport {
             stream,
@@ -309,12 +322,12 @@ where
         }
         check_covariance("adapted measurement noise R*", &R_used)?;
 
-        // S* = λ_P H P⁻ Hᵀ + R*
+        // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻)
         let mut S_used = &HPHt * prior_scale + &R_used;
         symmetrize(&mut S_used);
         let chol = cholesky("adapted innovation covariance S*", S_used)?;
         report.nis_adapted = r.dot(&chol.solve(&r));
-        let P_prior = &self.P * prior_scale;
+        let P_prior = scale_prior(&self.P, &HP, &HPHt, prior_scale, prior_scaling);
         let HP_used = HP * prior_scale;
         // K = P⁻* Hᵀ S*⁻¹, solved as S* Kᵀ = H P⁻* (S*, P⁻* symmetric)
         let K = chol.solve(&HP_used).transpose();
@@ -364,6 +377,32 @@ where
             other => self.q_adjust = other,
         }
     }
+}
+
+/// `P⁻*` for a prior scale `λ`: `λ P⁻`, or `P⁻ + (λ − 1) (HP⁻)ᵀ (HP⁻Hᵀ)⁻¹ (HP⁻)` along the
+/// measurement subspace (falls back to `λ P⁻` when `H P⁻ Hᵀ` is singular).
+fn scale_prior<N: nalgebra::DimName, M: nalgebra::DimName>(
+    P: &Cov<N>,
+    HP: &OMatrix<f64, M, N>,
+    HPHt: &Cov<M>,
+    lambda: f64,
+    mode: PriorScaling,
+) -> Cov<N>
+where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    if lambda == 1.0 {
+        return P.clone();
+    }
+    if mode == PriorScaling::MeasurementSubspace {
+        if let Some(c) = HPHt.clone().cholesky() {
+            // (HP)ᵀ (HPHᵀ)⁻¹ (HP)
+            let mut out = P + HP.transpose() * c.solve(HP) * (lambda - 1.0);
+            symmetrize(&mut out);
+            return out;
+        }
+    }
+    P * lambda
 }
 
 impl<X: Manifold, A: NoiseStrategy> ErrorStateFilter<X, A>

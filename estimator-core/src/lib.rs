@@ -30,8 +30,8 @@ pub mod report;
 pub mod traits;
 
 pub use adapt::{
-    Adaptation, Factors, FixedNoise, NoiseStrategy, PostUpdate, QAdjust, StreamId, StreamMap,
-    Verdict,
+    Adaptation, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, StreamId,
+    StreamMap, Verdict,
 };
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode, UpdateForm};

@@ -17,14 +17,21 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+pub mod cli;
+pub mod config;
 pub mod earth;
+pub mod eval;
 pub mod gnss;
 pub mod imu;
 pub mod init;
+pub mod io;
 pub mod mechanization;
 pub mod model;
 pub mod navigator;
+pub mod plot;
 pub mod position;
+pub mod run;
+pub mod scenario;
 pub mod sim;
 pub mod state;
 

@@ -28,7 +28,7 @@ use crate::earth::{
     earth_rate_ned, normal_gravity_gradient, prime_vertical_radius_derivative, radii,
     transport_rate,
 };
-use crate::imu::{ImuNoise, ImuSample};
+use crate::imu::{BiasModel, ImuNoise, ImuSample};
 use crate::mechanization::{self, Increments, Mechanization, Nav};
 use crate::state::InsState;
 
@@ -285,8 +285,12 @@ impl ProcessModel for InsModel {
         let inc = Self::corrected(x, u);
         let nav = Nav { att: x.att, vel: x.vel, pos: x.pos };
         let next = mechanization::step(&self.mechanization, &nav, &inc);
-        // Gauss–Markov biases decay towards zero: b⁺ = b·exp(−dt/τ).
-        let decay = (-inc.dt * self.noise.inverse_tau()).exp();
+        // A Gauss–Markov bias estimate decays towards zero, b⁺ = b·exp(−dt/τ); the other
+        // models hold it (see `BiasModel`).
+        let decay = match self.noise.bias_model {
+            BiasModel::GaussMarkov { tau } if tau > 0.0 => (-inc.dt / tau).exp(),
+            _ => 1.0,
+        };
         InsState { att: next.att, vel: next.vel, pos: next.pos, bg: x.bg * decay, ba: x.ba * decay }
     }
 

@@ -40,6 +40,35 @@ pub struct SimDataset {
     pub truth: Vec<TruthRecord>,
 }
 
+/// Exact IMU increments and truth kinematics of a trajectory at one IMU rate: the
+/// expensive, error-free part of a simulation, computed once and reused for every seed.
+#[derive(Clone, Debug)]
+pub struct ExactImu {
+    /// Exact samples (no sensor errors).
+    pub samples: Vec<ImuSample>,
+    /// Truth at the start and at the end of every sample.
+    pub kinematics: Vec<Kinematics>,
+}
+
+impl ExactImu {
+    /// Integrate `traj` at `imu_rate_hz`.
+    pub fn new(traj: &Trajectory, imu_rate_hz: f64) -> Self {
+        let dt = 1.0 / imu_rate_hz;
+        let t0 = traj.start_time();
+        let n = ((traj.end_time() - t0) / dt + 1e-9).floor() as usize;
+        let mut samples = Vec::with_capacity(n);
+        let mut kinematics = Vec::with_capacity(n + 1);
+        kinematics.push(traj.at(t0));
+        for i in 1..=n {
+            let (ta, tb) = (t0 + (i - 1) as f64 * dt, t0 + i as f64 * dt);
+            let (dtheta, dvel) = traj.increments(ta, tb);
+            samples.push(ImuSample { t: tb, dt, dtheta, dvel });
+            kinematics.push(traj.at(tb));
+        }
+        Self { samples, kinematics }
+    }
+}
+
 /// Simulate `traj` with an IMU at `imu_rate_hz` and a GNSS receiver; `seed` fixes the IMU
 /// noise stream and `seed + 1` the GNSS one.
 pub fn simulate(
@@ -49,33 +78,38 @@ pub fn simulate(
     gnss: &GnssSim,
     seed: u64,
 ) -> SimDataset {
+    simulate_from(&ExactImu::new(traj, imu_rate_hz), traj, imu, gnss, seed)
+}
+
+/// [`simulate`] from precomputed exact data (the cheap, per-seed part).
+pub fn simulate_from(
+    exact: &ExactImu,
+    traj: &Trajectory,
+    imu: &ImuErrors,
+    gnss: &GnssSim,
+    seed: u64,
+) -> SimDataset {
     let mut rng_imu = StdRng::seed_from_u64(seed);
     let mut rng_gnss = StdRng::seed_from_u64(seed.wrapping_add(1));
     let mut corruptor = ImuCorruptor::new(*imu, &mut rng_imu);
-    let dt = 1.0 / imu_rate_hz;
-    let t0 = traj.start_time();
-    let n = ((traj.end_time() - t0) / dt + 1e-9).floor() as usize;
+    let n = exact.samples.len();
     let mut out = SimDataset {
         imu: Vec::with_capacity(n),
         truth: Vec::with_capacity(n + 1),
         gnss: Vec::new(),
     };
-    let truth_at = |t: f64, biases: (Vector3<f64>, Vector3<f64>)| {
-        let k = traj.at(t);
-        TruthRecord {
-            t,
-            state: InsState { att: k.att, vel: k.vel, pos: k.pos, bg: biases.0, ba: biases.1 },
-            rates: (k.w_ib_b, k.f_b),
-        }
+    let record = |k: &Kinematics, biases: (Vector3<f64>, Vector3<f64>)| TruthRecord {
+        t: k.t,
+        state: InsState { att: k.att, vel: k.vel, pos: k.pos, bg: biases.0, ba: biases.1 },
+        rates: (k.w_ib_b, k.f_b),
     };
-    out.truth.push(truth_at(t0, corruptor.biases()));
-    for i in 1..=n {
-        let (ta, tb) = (t0 + (i - 1) as f64 * dt, t0 + i as f64 * dt);
-        let (dth, dv) = traj.increments(ta, tb);
-        let (mth, mdv) = corruptor.corrupt(&dth, &dv, dt, &mut rng_imu);
-        out.imu.push(ImuSample { t: tb, dt, dtheta: mth, dvel: mdv });
-        out.truth.push(truth_at(tb, corruptor.biases()));
+    out.truth.push(record(&exact.kinematics[0], corruptor.biases()));
+    for (s, k) in exact.samples.iter().zip(&exact.kinematics[1..]) {
+        let (dtheta, dvel) = corruptor.corrupt(&s.dtheta, &s.dvel, s.dt, &mut rng_imu);
+        out.imu.push(ImuSample { dtheta, dvel, ..*s });
+        out.truth.push(record(k, corruptor.biases()));
     }
+    let t0 = traj.start_time();
     // GNSS epochs on their own clock, from t0 on.
     if gnss.rate_hz > 0.0 {
         let step = 1.0 / gnss.rate_hz;

@@ -65,7 +65,7 @@ impl ImuCorruptor {
     /// Start with the Gauss–Markov bias drawn from its steady state (zero for a random walk).
     pub fn new(errors: ImuErrors, rng: &mut StdRng) -> Self {
         let (bg, ba) = match errors.noise.bias_model {
-            BiasModel::GaussMarkov { .. } => (
+            BiasModel::GaussMarkov { .. } | BiasModel::GaussMarkovHeld { .. } => (
                 normal3(rng).component_mul(&errors.noise.gyro_bias),
                 normal3(rng).component_mul(&errors.noise.accel_bias),
             ),
@@ -99,7 +99,7 @@ impl ImuCorruptor {
             + ba * dt
             + normal3(rng).component_mul(&e.noise.vrw) * sq;
         match e.noise.bias_model {
-            BiasModel::GaussMarkov { tau } if tau > 0.0 => {
+            BiasModel::GaussMarkov { tau } | BiasModel::GaussMarkovHeld { tau } if tau > 0.0 => {
                 let phi = (-dt / tau).exp();
                 let s = (1.0 - phi * phi).sqrt();
                 self.bg = self.bg * phi + normal3(rng).component_mul(&e.noise.gyro_bias) * s;

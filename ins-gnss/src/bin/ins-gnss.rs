@@ -1,0 +1,118 @@
+//! The `ins-gnss` program: run a dataset, evaluate a result, simulate a dataset, compare
+//! strategies; with no arguments, a built-in demo. See `ins-gnss --help`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use ins_gnss::cli;
+
+#[derive(Parser)]
+#[command(
+    name = "ins-gnss",
+    version,
+    about = "15-state INS/GNSS navigation with adaptive noise strategies"
+)]
+struct Args {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a dataset from a TOML or KF-GINS YAML configuration.
+    Run {
+        /// Configuration file (.toml, or KF-GINS .yaml).
+        config: PathBuf,
+        /// Noise strategy: fixed, iae, afkf, fused, iakf, iakf-epoch, sage-husa.
+        #[arg(long)]
+        strategy: Option<String>,
+        /// Output directory (default: the configuration's output path).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Evaluate against this truth file at the end (11 columns).
+        #[arg(long)]
+        truth: Option<PathBuf>,
+        /// Seconds skipped at the start of the evaluation.
+        #[arg(long, default_value_t = 0.0)]
+        skip: f64,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+        /// Write SVG plots into the output directory (needs a truth file).
+        #[arg(long)]
+        plots: bool,
+    },
+    /// Evaluate a navigation result against a truth file.
+    Eval {
+        /// Result (11 columns).
+        result: PathBuf,
+        /// Truth or reference (11 columns).
+        truth: PathBuf,
+        /// Seconds skipped at the start.
+        #[arg(long, default_value_t = 0.0)]
+        skip: f64,
+        /// Extra statistics inside `T0,T1` (absolute seconds); repeatable.
+        #[arg(long = "window", value_parser = cli::parse_window)]
+        windows: Vec<(f64, f64)>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Simulate a dataset (IMU, GNSS, truth, config) from a scenario file.
+    Simulate {
+        /// Scenario file (TOML; see `ins-gnss/scenarios/`).
+        scenario: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Run several strategies on one dataset and print one table.
+    Compare {
+        /// Configuration file.
+        config: PathBuf,
+        /// Comma-separated strategy names.
+        #[arg(long, value_delimiter = ',', default_value = "fixed,iae,afkf,fused,iakf,sage-husa")]
+        strategies: Vec<String>,
+        /// Truth file (default: the configuration's `data.truth`).
+        #[arg(long)]
+        truth: Option<PathBuf>,
+        /// Seconds skipped at the start of the evaluation.
+        #[arg(long, default_value_t = 0.0)]
+        skip: f64,
+        /// Output directory (one sub-directory per strategy).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let result = match args.command {
+        None => cli::demo(),
+        Some(Command::Run { config, strategy, out, truth, skip, quiet, plots }) => cli::run(
+            &config,
+            strategy.as_deref(),
+            out.as_deref(),
+            truth.as_deref(),
+            skip,
+            !quiet,
+            plots,
+        ),
+        Some(Command::Eval { result, truth, skip, windows, json }) => {
+            cli::eval(&result, &truth, skip, &windows, json)
+        }
+        Some(Command::Simulate { scenario, out }) => cli::simulate(&scenario, &out),
+        Some(Command::Compare { config, strategies, truth, skip, out }) => {
+            cli::compare(&config, &strategies, truth.as_deref(), skip, out.as_deref())
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,285 @@
+//! The subcommands of the `ins-gnss` program, as library functions (the binary only
+//! parses arguments). Errors are returned, never `exit`ed.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use adaptive::AnyStrategy;
+
+use crate::config::Config;
+use crate::eval::{evaluate, Evaluation, Stats};
+use crate::run::{run as run_config, RunSummary};
+
+/// Any error of a subcommand, as text for the user.
+pub type CliError = Box<dyn std::error::Error>;
+
+/// Parse `T0,T1`.
+pub fn parse_window(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(',').ok_or_else(|| format!("window `{s}` must be T0,T1"))?;
+    let a: f64 = a.trim().parse().map_err(|_| format!("window start `{a}` is not a number"))?;
+    let b: f64 = b.trim().parse().map_err(|_| format!("window end `{b}` is not a number"))?;
+    if b <= a {
+        return Err(format!("window `{s}`: end must be after start"));
+    }
+    Ok((a, b))
+}
+
+fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
+    Ok(name.parse::<AnyStrategy>()?)
+}
+
+/// Print a run summary.
+pub fn print_summary(s: &RunSummary) {
+    println!(
+        "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {} rejected; \
+         skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s; output {}",
+        s.strategy,
+        s.imu_epochs,
+        s.span.0,
+        s.span.1,
+        s.gnss_epochs,
+        s.accepted,
+        s.inflated,
+        s.rejected,
+        s.imu_skipped.total() - s.imu_skipped.gaps,
+        s.imu_skipped.gaps,
+        s.gnss_skipped.total(),
+        s.wall_time,
+        s.imu_epochs as f64 / s.wall_time.max(1e-9),
+        s.out_dir.display()
+    );
+}
+
+/// `ins-gnss run`.
+pub fn run(
+    config: &Path,
+    strategy_name: Option<&str>,
+    out: Option<&Path>,
+    truth: Option<&Path>,
+    skip: f64,
+    progress: bool,
+    plots: bool,
+) -> Result<(), CliError> {
+    let cfg = Config::load(config)?;
+    let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
+    let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
+    let bar = progress.then(|| progress_bar(&cfg));
+    let mut tick = |t: f64| {
+        if let Some(b) = &bar {
+            b.0.set_position(((t - b.1) * 1000.0).max(0.0) as u64);
+        }
+    };
+    let summary = run_config(&cfg, strategy(&name)?, &out_dir, Some(&mut tick))?;
+    if let Some(b) = bar {
+        b.0.finish_and_clear();
+    }
+    print_summary(&summary);
+    let truth = truth.map(Path::to_path_buf).or_else(|| cfg.data.truth.clone());
+    if let Some(truth) = truth {
+        let ev = evaluate(&out_dir.join("nav.txt"), &truth, skip, &[])?;
+        print_table(&[(&name, &ev.overall)]);
+        if plots {
+            let files = crate::plot::write_all(&out_dir, &truth)?;
+            for f in files {
+                println!("plot: {}", f.display());
+            }
+        }
+    } else if plots {
+        return Err("--plots needs a truth file (--truth or data.truth)".into());
+    }
+    Ok(())
+}
+
+fn progress_bar(cfg: &Config) -> (indicatif::ProgressBar, f64) {
+    let start = cfg.data.start_time.unwrap_or(0.0);
+    let len = cfg.data.end_time.map(|e| ((e - start) * 1000.0) as u64).unwrap_or(0);
+    let bar = if len > 0 {
+        indicatif::ProgressBar::new(len)
+    } else {
+        indicatif::ProgressBar::new_spinner()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos} ms of data",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    (bar, start)
+}
+
+/// Print a table of statistics, one row per labelled result.
+pub fn print_table(rows: &[(&str, &Stats)]) {
+    println!(
+        "| {:12} | {:>7} | {:>7} | {:>7} | {:>7} | {:>8} | {:>8} | {:>8} | {:>8} | {:>8} |",
+        "strategy",
+        "N RMS",
+        "E RMS",
+        "D RMS",
+        "horiz",
+        "horiz max",
+        "3D RMS",
+        "vel RMS",
+        "roll °",
+        "pitch °"
+    );
+    for (name, s) in rows {
+        println!(
+            "| {:12} | {:7.3} | {:7.3} | {:7.3} | {:7.3} | {:8.3} | {:8.3} | {:8.4} | {:8.4} | {:8.4} | yaw RMS {:.4}° max {:.3}°",
+            name,
+            s.north.rms,
+            s.east.rms,
+            s.down.rms,
+            s.horizontal.rms,
+            s.horizontal.max,
+            s.position_3d.rms,
+            s.velocity_3d.rms,
+            s.roll.rms,
+            s.pitch.rms,
+            s.yaw.rms,
+            s.yaw.max
+        );
+    }
+}
+
+fn print_eval(ev: &Evaluation) {
+    println!("epochs compared: {} (unmatched {})", ev.overall.epochs, ev.unmatched);
+    let mut rows: Vec<(&str, &Stats)> = vec![(ev.overall.label.as_str(), &ev.overall)];
+    for w in &ev.windows {
+        rows.push((w.label.as_str(), w));
+    }
+    println!(
+        "| {:16} | {:>6} | {:>21} | {:>21} | {:>21} | {:>21} |",
+        "span",
+        "epochs",
+        "N rms/max/mean m",
+        "E rms/max/mean m",
+        "D rms/max/mean m",
+        "horiz rms/max m"
+    );
+    for (label, s) in &rows {
+        let f = |x: &crate::eval::Stat| format!("{:.3}/{:.3}/{:+.3}", x.rms, x.max, x.mean);
+        println!(
+            "| {:16} | {:6} | {:>21} | {:>21} | {:>21} | {:>21} |",
+            label,
+            s.epochs,
+            f(&s.north),
+            f(&s.east),
+            f(&s.down),
+            format!("{:.3}/{:.3}", s.horizontal.rms, s.horizontal.max)
+        );
+    }
+    println!(
+        "| {:16} | {:>21} | {:>21} | {:>21} | {:>21} |",
+        "span", "3D rms/max m", "vel 3D rms/max m/s", "roll rms/max °", "pitch rms/max °"
+    );
+    for (label, s) in &rows {
+        let f = |x: &crate::eval::Stat| format!("{:.4}/{:.4}", x.rms, x.max);
+        println!(
+            "| {:16} | {:>21} | {:>21} | {:>21} | {:>21} | yaw rms/max {}",
+            label,
+            f(&s.position_3d),
+            f(&s.velocity_3d),
+            f(&s.roll),
+            f(&s.pitch),
+            f(&s.yaw)
+        );
+    }
+}
+
+/// `ins-gnss eval`.
+pub fn eval(
+    result: &Path,
+    truth: &Path,
+    skip: f64,
+    windows: &[(f64, f64)],
+    json: bool,
+) -> Result<(), CliError> {
+    let ev = evaluate(result, truth, skip, windows)?;
+    if ev.overall.epochs == 0 {
+        return Err(
+            format!("no epoch of {} falls inside the truth's time span", result.display()).into()
+        );
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&ev)?);
+    } else {
+        print_eval(&ev);
+    }
+    Ok(())
+}
+
+/// `ins-gnss simulate`.
+pub fn simulate(scenario: &Path, out: &Path) -> Result<(), CliError> {
+    let sc = crate::scenario::Scenario::load(scenario)?;
+    let written = sc.write_dataset(out)?;
+    for f in written {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// `ins-gnss compare`.
+pub fn compare(
+    config: &Path,
+    names: &[String],
+    truth: Option<&Path>,
+    skip: f64,
+    out: Option<&Path>,
+) -> Result<(), CliError> {
+    let cfg = Config::load(config)?;
+    let truth = truth
+        .map(Path::to_path_buf)
+        .or_else(|| cfg.data.truth.clone())
+        .ok_or("compare needs a truth file (--truth or data.truth)")?;
+    let base = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
+    let mut evals = Vec::new();
+    for name in names {
+        let dir = base.join(name);
+        let s = run_config(&cfg, strategy(name)?, &dir, None)?;
+        print_summary(&s);
+        evals.push((name.clone(), evaluate(&dir.join("nav.txt"), &truth, skip, &[])?));
+    }
+    let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (n.as_str(), &e.overall)).collect();
+    print_table(&rows);
+    Ok(())
+}
+
+/// The built-in demo (no arguments).
+pub fn demo() -> Result<(), CliError> {
+    let t = Instant::now();
+    let dir = PathBuf::from("ins-gnss-demo");
+    let written = crate::scenario::Scenario::demo().write_dataset(&dir)?;
+    println!("demo: simulated a 600 s drive with a GNSS interference window (200–260 s) and a 60 s outage (400–460 s) into {}", dir.display());
+    for f in &written {
+        println!("  {}", f.display());
+    }
+    let cfg_path = dir.join("config.toml");
+    let cfg = Config::load(&cfg_path)?;
+    let truth = dir.join("truth.nav");
+    let names = ["fixed", "iae", "afkf", "fused", "iakf", "sage-husa"];
+    let mut evals = Vec::new();
+    for name in names {
+        let out = dir.join("out").join(name);
+        let s = run_config(&cfg, strategy(name)?, &out, None)?;
+        print_summary(&s);
+        let ev = evaluate(&out.join("nav.txt"), &truth, 30.0, &[(200.0, 260.0), (400.0, 460.0)])?;
+        evals.push((name, ev));
+    }
+    println!("\nwhole run after 30 s:");
+    let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (*n, &e.overall)).collect();
+    print_table(&rows);
+    println!("\ninside the interference window 200–260 s:");
+    let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (*n, &e.windows[0])).collect();
+    print_table(&rows);
+    println!("\ninside the outage 400–460 s:");
+    let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (*n, &e.windows[1])).collect();
+    print_table(&rows);
+    for name in names {
+        let out = dir.join("out").join(name);
+        for f in crate::plot::write_all(&out, &truth)? {
+            println!("plot: {}", f.display());
+        }
+    }
+    println!("demo finished in {:.1} s", t.elapsed().as_secs_f64());
+    Ok(())
+}

@@ -1,0 +1,523 @@
+//! Run configuration: our TOML format (documented in `ins-gnss/config.example.toml`)
+//! and KF-GINS YAML configurations, accepted as they are. Paths are relative to the
+//! configuration file. Units at this boundary are the datasheet ones (degrees, deg/h,
+//! mGal, deg/√h, m/s/√h, hours); everything is converted to SI when the filter is built.
+
+use core::fmt;
+use std::path::{Path, PathBuf};
+
+use manifolds::So3;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
+use crate::io::{BadLinePolicy, ImuFormat};
+use crate::mechanization::Mechanization;
+use crate::navigator::{GnssConfig, InitialState, InitialStd};
+use crate::position::GeoPos;
+use crate::state::InsState;
+
+/// A configuration that cannot be used, with the file and the key.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConfigError {
+    /// The configuration file.
+    pub path: PathBuf,
+    /// What is wrong (names the key).
+    pub message: String,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.path.display(), self.message)
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+/// Input files and their timing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataSection {
+    /// IMU file.
+    pub imu: PathBuf,
+    /// GNSS file (7 or 13 columns).
+    pub gnss: PathBuf,
+    /// Output directory. Default `out`.
+    #[serde(default = "default_output")]
+    pub output: PathBuf,
+    /// IMU sampling rate, Hz.
+    pub imu_rate: f64,
+    /// `increments` (default) or `rates`.
+    #[serde(default)]
+    pub imu_format: ImuFormatName,
+    /// Time of the initial state, s (default: the first IMU sample).
+    #[serde(default)]
+    pub start_time: Option<f64>,
+    /// Last time to process, s (default: the end of the IMU file).
+    #[serde(default)]
+    pub end_time: Option<f64>,
+    /// `error` (default) or `skip`: what to do with malformed lines.
+    #[serde(default)]
+    pub bad_lines: PolicyName,
+    /// Largest IMU gap, in IMU intervals. Default 5.
+    #[serde(default = "default_max_gap")]
+    pub max_gap: f64,
+    /// A truth file for evaluation (11 columns), optional.
+    #[serde(default)]
+    pub truth: Option<PathBuf>,
+}
+
+fn default_output() -> PathBuf {
+    PathBuf::from("out")
+}
+fn default_max_gap() -> f64 {
+    5.0
+}
+
+/// IMU format names in configs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ImuFormatName {
+    /// Increments.
+    #[default]
+    Increments,
+    /// Rates (CSV with header).
+    Rates,
+}
+
+/// Bad-line policy names in configs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PolicyName {
+    /// Stop at the first malformed line.
+    #[default]
+    Error,
+    /// Skip and count.
+    Skip,
+}
+
+/// Initial state and its 1σ, datasheet units.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitSection {
+    /// Latitude, longitude (deg), height (m).
+    pub position: [f64; 3],
+    /// NED velocity, m/s.
+    pub velocity: [f64; 3],
+    /// Roll, pitch, yaw, deg.
+    pub attitude: [f64; 3],
+    /// Gyro bias, deg/h. Default 0.
+    #[serde(default)]
+    pub gyro_bias: [f64; 3],
+    /// Accelerometer bias, mGal. Default 0.
+    #[serde(default)]
+    pub accel_bias: [f64; 3],
+    /// Position 1σ (N, E, D), m.
+    pub position_std: [f64; 3],
+    /// Velocity 1σ, m/s.
+    pub velocity_std: [f64; 3],
+    /// Attitude 1σ, deg.
+    pub attitude_std: [f64; 3],
+    /// Gyro bias 1σ, deg/h.
+    pub gyro_bias_std: [f64; 3],
+    /// Accelerometer bias 1σ, mGal.
+    pub accel_bias_std: [f64; 3],
+}
+
+/// IMU noise, datasheet units.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSection {
+    /// Angular random walk, deg/√h.
+    pub arw: [f64; 3],
+    /// Velocity random walk, m/s/√h.
+    pub vrw: [f64; 3],
+    /// Gyro bias instability (Gauss–Markov σ), deg/h.
+    pub gyro_bias_std: [f64; 3],
+    /// Accelerometer bias instability, mGal.
+    pub accel_bias_std: [f64; 3],
+    /// Gauss–Markov correlation time, hours.
+    pub corr_time: f64,
+    /// How the filter models the biases: `random-walk` (default; density `σ √(2/τ)`),
+    /// `gauss-markov`, or `gauss-markov-held` (KF-GINS's behaviour). See
+    /// [`BiasModel`](crate::imu::BiasModel) for the measured difference.
+    #[serde(default)]
+    pub bias_model: BiasModelName,
+}
+
+/// Bias-model names in configs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BiasModelName {
+    /// Random walk driven by the Gauss–Markov noise density.
+    #[default]
+    RandomWalk,
+    /// Gauss–Markov, estimate decaying.
+    GaussMarkov,
+    /// Gauss–Markov covariance, estimate held (KF-GINS).
+    GaussMarkovHeld,
+}
+
+/// GNSS use.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssSection {
+    /// Antenna lever arm in the body frame (FRD), m.
+    #[serde(default)]
+    pub lever_arm: [f64; 3],
+    /// Use the velocity columns of 13-column files. Default true.
+    #[serde(default = "yes")]
+    pub use_velocity: bool,
+    /// Replace the file's position σ (N, E, D), m.
+    #[serde(default)]
+    pub position_std: Option<[f64; 3]>,
+    /// Replace the file's velocity σ, m/s.
+    #[serde(default)]
+    pub velocity_std: Option<[f64; 3]>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl Default for GnssSection {
+    fn default() -> Self {
+        Self { lever_arm: [0.0; 3], use_velocity: true, position_std: None, velocity_std: None }
+    }
+}
+
+/// Filter choices.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterSection {
+    /// Noise strategy name (`fixed`, `iae`, `afkf`, `fused`, `iakf`, `iakf-epoch`,
+    /// `sage-husa`). Default `fixed`; `--strategy` overrides it.
+    #[serde(default = "fixed")]
+    pub strategy: String,
+    /// `wgs84` (default) or `flat-earth`.
+    #[serde(default)]
+    pub mechanization: MechanizationName,
+}
+
+fn fixed() -> String {
+    "fixed".into()
+}
+
+impl Default for FilterSection {
+    fn default() -> Self {
+        Self { strategy: fixed(), mechanization: MechanizationName::default() }
+    }
+}
+
+/// Mechanization names in configs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MechanizationName {
+    /// WGS-84 NED.
+    #[default]
+    Wgs84,
+    /// Flat earth around the initial position.
+    FlatEarth,
+}
+
+/// A whole run configuration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Files.
+    pub data: DataSection,
+    /// Initial state.
+    pub init: InitSection,
+    /// IMU noise.
+    pub imu_noise: NoiseSection,
+    /// GNSS use.
+    #[serde(default)]
+    pub gnss: GnssSection,
+    /// Filter choices.
+    #[serde(default)]
+    pub filter: FilterSection,
+}
+
+fn v3(a: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+impl Config {
+    /// Load a TOML (`.toml`) or KF-GINS YAML (`.yaml`, `.yml`) configuration; relative
+    /// paths are resolved against the file's directory.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let err = |message: String| ConfigError { path: path.to_path_buf(), message };
+        let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        let mut cfg = match ext.as_str() {
+            "yaml" | "yml" => kf_gins::from_yaml(&text).map_err(err)?,
+            _ => toml::from_str::<Config>(&text).map_err(|e| err(e.to_string()))?,
+        };
+        let base = path.parent().unwrap_or_else(|| Path::new("."));
+        for p in [&mut cfg.data.imu, &mut cfg.data.gnss, &mut cfg.data.output] {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        }
+        if let Some(t) = cfg.data.truth.as_mut() {
+            if t.is_relative() {
+                *t = base.join(&*t);
+            }
+        }
+        cfg.validate().map_err(err)?;
+        Ok(cfg)
+    }
+
+    /// Check ranges and signs; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |name: &str, a: &[f64; 3]| {
+            if a.iter().all(|v| v.is_finite() && *v > 0.0) {
+                Ok(())
+            } else {
+                Err(format!("`{name}` must be three positive numbers, got {a:?}"))
+            }
+        };
+        let nonneg = |name: &str, a: &[f64; 3]| {
+            if a.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                Ok(())
+            } else {
+                Err(format!("`{name}` must be three non-negative numbers, got {a:?}"))
+            }
+        };
+        if !(self.data.imu_rate.is_finite() && self.data.imu_rate > 0.0) {
+            return Err(format!(
+                "`data.imu_rate` must be positive (Hz), got {}",
+                self.data.imu_rate
+            ));
+        }
+        if !(self.data.max_gap.is_finite() && self.data.max_gap >= 1.0) {
+            return Err(format!(
+                "`data.max_gap` must be at least 1 (IMU intervals), got {}",
+                self.data.max_gap
+            ));
+        }
+        let i = &self.init;
+        if i.position[0].abs() > 90.0 || i.position[1].abs() > 360.0 {
+            return Err(format!(
+                "`init.position` latitude/longitude out of range (degrees): {:?}",
+                i.position
+            ));
+        }
+        pos("init.position_std", &i.position_std)?;
+        pos("init.velocity_std", &i.velocity_std)?;
+        pos("init.attitude_std", &i.attitude_std)?;
+        pos("init.gyro_bias_std", &i.gyro_bias_std)?;
+        pos("init.accel_bias_std", &i.accel_bias_std)?;
+        let n = &self.imu_noise;
+        nonneg("imu_noise.arw", &n.arw)?;
+        nonneg("imu_noise.vrw", &n.vrw)?;
+        nonneg("imu_noise.gyro_bias_std", &n.gyro_bias_std)?;
+        nonneg("imu_noise.accel_bias_std", &n.accel_bias_std)?;
+        if !(n.corr_time.is_finite() && n.corr_time > 0.0) {
+            return Err(format!(
+                "`imu_noise.corr_time` must be positive (hours), got {}",
+                n.corr_time
+            ));
+        }
+        if let Some(s) = &self.gnss.position_std {
+            pos("gnss.position_std", s)?;
+        }
+        if let Some(s) = &self.gnss.velocity_std {
+            pos("gnss.velocity_std", s)?;
+        }
+        self.filter
+            .strategy
+            .parse::<adaptive::AnyStrategy>()
+            .map_err(|e| format!("`filter.strategy`: {e}"))?;
+        Ok(())
+    }
+
+    /// The IMU noise in SI units.
+    pub fn imu_noise(&self) -> ImuNoise {
+        let n = &self.imu_noise;
+        let noise = ImuNoise::from_datasheet(
+            v3(n.arw),
+            v3(n.vrw),
+            v3(n.gyro_bias_std),
+            v3(n.accel_bias_std),
+            n.corr_time,
+        );
+        let tau = n.corr_time * 3600.0;
+        noise.with_bias_model(match n.bias_model {
+            BiasModelName::RandomWalk => BiasModel::RandomWalk,
+            BiasModelName::GaussMarkov => BiasModel::GaussMarkov { tau },
+            BiasModelName::GaussMarkovHeld => BiasModel::GaussMarkovHeld { tau },
+        })
+    }
+
+    /// The initial position.
+    pub fn initial_position(&self) -> GeoPos {
+        let p = self.init.position;
+        GeoPos::from_degrees(p[0], p[1], p[2])
+    }
+
+    /// The initial state at `time`.
+    pub fn initial_state(&self, time: f64) -> InitialState {
+        let i = &self.init;
+        let d = core::f64::consts::PI / 180.0;
+        let state = InsState {
+            att: So3::from_euler(i.attitude[0] * d, i.attitude[1] * d, i.attitude[2] * d),
+            vel: v3(i.velocity),
+            pos: self.initial_position(),
+            bg: v3(i.gyro_bias) * DEG_PER_H,
+            ba: v3(i.accel_bias) * MGAL,
+        };
+        let std = InitialStd {
+            att: v3(i.attitude_std) * d,
+            vel: v3(i.velocity_std),
+            pos: v3(i.position_std),
+            bg: v3(i.gyro_bias_std) * DEG_PER_H,
+            ba: v3(i.accel_bias_std) * MGAL,
+        };
+        InitialState { time, state, std }
+    }
+
+    /// GNSS settings.
+    pub fn gnss_config(&self) -> GnssConfig {
+        GnssConfig {
+            lever_arm: v3(self.gnss.lever_arm),
+            use_velocity: self.gnss.use_velocity,
+            pos_std: self.gnss.position_std.map(v3),
+            vel_std: self.gnss.velocity_std.map(v3),
+        }
+    }
+
+    /// The mechanization.
+    pub fn mechanization(&self) -> Mechanization {
+        match self.filter.mechanization {
+            MechanizationName::Wgs84 => Mechanization::Wgs84,
+            MechanizationName::FlatEarth => {
+                Mechanization::FlatEarth { reference: self.initial_position() }
+            }
+        }
+    }
+
+    /// IMU format.
+    pub fn imu_format(&self) -> ImuFormat {
+        match self.data.imu_format {
+            ImuFormatName::Increments => ImuFormat::Increments,
+            ImuFormatName::Rates => ImuFormat::Rates,
+        }
+    }
+
+    /// Bad-line policy.
+    pub fn bad_lines(&self) -> BadLinePolicy {
+        match self.data.bad_lines {
+            PolicyName::Error => BadLinePolicy::Error,
+            PolicyName::Skip => BadLinePolicy::Skip,
+        }
+    }
+}
+
+mod kf_gins {
+    //! KF-GINS YAML configurations (keys as in its `dataset/kf-gins.yaml`).
+
+    use std::path::PathBuf;
+
+    use yaml_rust2::{Yaml, YamlLoader};
+
+    use super::*;
+
+    fn num(y: &Yaml) -> Option<f64> {
+        match y {
+            Yaml::Real(s) => s.parse().ok(),
+            Yaml::Integer(i) => Some(*i as f64),
+            _ => None,
+        }
+    }
+
+    fn get<'a>(doc: &'a Yaml, key: &str) -> Result<&'a Yaml, String> {
+        let mut node = doc;
+        for part in key.split('.') {
+            node = &node[part];
+        }
+        if node.is_badvalue() || node.is_null() {
+            Err(format!("missing key `{key}`"))
+        } else {
+            Ok(node)
+        }
+    }
+
+    fn scalar(doc: &Yaml, key: &str) -> Result<f64, String> {
+        num(get(doc, key)?).ok_or_else(|| format!("key `{key}` must be a number"))
+    }
+
+    fn triple(doc: &Yaml, key: &str) -> Result<[f64; 3], String> {
+        let v = get(doc, key)?;
+        let arr = v.as_vec().ok_or_else(|| format!("key `{key}` must be a list of 3 numbers"))?;
+        if arr.len() != 3 {
+            return Err(format!("key `{key}` must have 3 numbers, has {}", arr.len()));
+        }
+        let mut out = [0.0; 3];
+        for (o, y) in out.iter_mut().zip(arr) {
+            *o = num(y).ok_or_else(|| format!("key `{key}` must contain numbers"))?;
+        }
+        Ok(out)
+    }
+
+    fn text(doc: &Yaml, key: &str) -> Result<String, String> {
+        get(doc, key)?
+            .as_str()
+            .map(str::to_string)
+            .ok_or_else(|| format!("key `{key}` must be a string"))
+    }
+
+    /// Build our configuration from a KF-GINS YAML text. The scale-factor keys
+    /// (`initgyrscale`, `initaccscale`, `initsgstd`, `initsastd`, `imunoise.gsstd`,
+    /// `imunoise.asstd`) are accepted and ignored: this filter has 15 states.
+    pub fn from_yaml(text_in: &str) -> Result<Config, String> {
+        let docs =
+            YamlLoader::load_from_str(text_in).map_err(|e| format!("not valid YAML: {e}"))?;
+        let doc = docs.first().ok_or("empty YAML document")?;
+        let imudatalen = num(get(doc, "imudatalen").unwrap_or(&Yaml::Integer(7))).unwrap_or(7.0);
+        if imudatalen != 7.0 && imudatalen != 8.0 {
+            return Err(format!("key `imudatalen` must be 7 or 8, got {imudatalen}"));
+        }
+        let end = scalar(doc, "endtime").unwrap_or(-1.0);
+        let output = text(doc, "outputpath").unwrap_or_else(|_| "out".into());
+        Ok(Config {
+            data: DataSection {
+                imu: PathBuf::from(text(doc, "imupath")?),
+                gnss: PathBuf::from(text(doc, "gnsspath")?),
+                output: PathBuf::from(output),
+                imu_rate: scalar(doc, "imudatarate")?,
+                imu_format: ImuFormatName::Increments,
+                start_time: Some(scalar(doc, "starttime")?),
+                end_time: (end > 0.0).then_some(end),
+                bad_lines: PolicyName::Error,
+                max_gap: default_max_gap(),
+                truth: None,
+            },
+            init: InitSection {
+                position: triple(doc, "initpos")?,
+                velocity: triple(doc, "initvel")?,
+                attitude: triple(doc, "initatt")?,
+                gyro_bias: triple(doc, "initgyrbias").unwrap_or([0.0; 3]),
+                accel_bias: triple(doc, "initaccbias").unwrap_or([0.0; 3]),
+                position_std: triple(doc, "initposstd")?,
+                velocity_std: triple(doc, "initvelstd")?,
+                attitude_std: triple(doc, "initattstd")?,
+                gyro_bias_std: triple(doc, "initbgstd")?,
+                accel_bias_std: triple(doc, "initbastd")?,
+            },
+            imu_noise: NoiseSection {
+                arw: triple(doc, "imunoise.arw")?,
+                vrw: triple(doc, "imunoise.vrw")?,
+                gyro_bias_std: triple(doc, "imunoise.gbstd")?,
+                accel_bias_std: triple(doc, "imunoise.abstd")?,
+                corr_time: scalar(doc, "imunoise.corrtime")?,
+                bias_model: BiasModelName::default(),
+            },
+            gnss: GnssSection {
+                lever_arm: triple(doc, "antlever").unwrap_or([0.0; 3]),
+                ..GnssSection::default()
+            },
+            filter: FilterSection::default(),
+        })
+    }
+}

@@ -1,0 +1,488 @@
+//! The plain-text formats of the open INS/GNSS tools (KF-GINS, OB_GINS, i2Nav datasets),
+//! read and written so people can switch without converting:
+//!
+//! | file | columns |
+//! |---|---|
+//! | IMU increments | `t dθx dθy dθz [rad] dvx dvy dvz [m/s]` (FRD, over the previous interval), optional 8th column (odometer, ignored) |
+//! | IMU rates (CSV with a header) | `t gx gy gz [rad/s] ax ay az [m/s²]` |
+//! | GNSS | `t lat lon [deg] h [m] σN σE σD [m]` (7) or `… vN vE vD σvN σvE σvD` (13) |
+//! | navigation / truth | `week t lat lon h vN vE vD roll pitch yaw [deg]` (11) |
+//!
+//! # Bad-line policy
+//!
+//! With [`BadLinePolicy::Error`] (the default) the first malformed line stops the read with
+//! a [`LineError`] naming file and line. With [`BadLinePolicy::Skip`] a malformed line
+//! (wrong column count, non-numeric, NaN/inf, time backwards, duplicate time) is skipped
+//! and counted in [`SkipCounts`]; an IMU gap longer than allowed is *bridged* (the sample
+//! is used with the real interval) and counted. File-level problems (missing, empty,
+//! values in the wrong units) are always errors.
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::path::Path;
+
+use manifolds::So3;
+use nalgebra::Vector3;
+
+use super::lines::{LineError, LineErrorKind, NumericLines};
+use crate::gnss::GnssEpoch;
+use crate::imu::ImuSample;
+use crate::position::GeoPos;
+
+/// What to do with a malformed line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BadLinePolicy {
+    /// Stop with an error naming file and line (default).
+    #[default]
+    Error,
+    /// Skip the line and count it.
+    Skip,
+}
+
+/// Lines skipped (or gaps bridged) under [`BadLinePolicy::Skip`], by cause.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SkipCounts {
+    /// Wrong column count, non-numeric or non-finite values.
+    pub malformed: usize,
+    /// Time earlier than the previous line.
+    pub backwards: usize,
+    /// Time equal to the previous line.
+    pub duplicate: usize,
+    /// IMU gaps longer than allowed that were bridged.
+    pub gaps: usize,
+}
+
+impl SkipCounts {
+    /// Total.
+    pub fn total(&self) -> usize {
+        self.malformed + self.backwards + self.duplicate + self.gaps
+    }
+}
+
+/// Open a file for buffered reading, with a located error.
+pub fn open(path: &Path) -> Result<BufReader<File>, LineError> {
+    File::open(path).map(|f| BufReader::with_capacity(1 << 16, f)).map_err(|e| LineError {
+        path: path.to_path_buf(),
+        line: 0,
+        kind: LineErrorKind::Io(e.to_string()),
+    })
+}
+
+/// IMU file format.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ImuFormat {
+    /// Increments, 7 or 8 columns (default).
+    #[default]
+    Increments,
+    /// Rates with a header line.
+    Rates,
+}
+
+/// Checks one record's time against the previous one.
+fn check_time(prev: Option<f64>, t: f64) -> Result<(), LineErrorKind> {
+    match prev {
+        Some(p) if t < p => Err(LineErrorKind::TimeBackwards { t, previous: p }),
+        Some(p) if t == p => Err(LineErrorKind::DuplicateTime { t }),
+        _ => Ok(()),
+    }
+}
+
+fn count(counts: &mut SkipCounts, kind: &LineErrorKind) {
+    match kind {
+        LineErrorKind::TimeBackwards { .. } => counts.backwards += 1,
+        LineErrorKind::DuplicateTime { .. } => counts.duplicate += 1,
+        LineErrorKind::Gap { .. } => counts.gaps += 1,
+        _ => counts.malformed += 1,
+    }
+}
+
+/// Streaming IMU reader.
+pub struct ImuReader<R: BufRead> {
+    lines: NumericLines<R>,
+    format: ImuFormat,
+    nominal_dt: f64,
+    max_gap: f64,
+    policy: BadLinePolicy,
+    prev_t: Option<f64>,
+    prev_rates: Option<(Vector3<f64>, Vector3<f64>)>,
+    header_done: bool,
+    /// What was skipped so far.
+    pub skipped: SkipCounts,
+    records: usize,
+}
+
+impl ImuReader<BufReader<File>> {
+    /// Open an IMU file at `rate_hz` (the first sample's interval is `1/rate_hz`; a gap
+    /// longer than `max_gap_factor / rate_hz` is an error or a counted bridge).
+    pub fn open(
+        path: &Path,
+        format: ImuFormat,
+        rate_hz: f64,
+        max_gap_factor: f64,
+        policy: BadLinePolicy,
+    ) -> Result<Self, LineError> {
+        Ok(Self::new(open(path)?, path, format, rate_hz, max_gap_factor, policy))
+    }
+}
+
+impl<R: BufRead> ImuReader<R> {
+    /// Read from any `BufRead`.
+    pub fn new(
+        inner: R,
+        path: &Path,
+        format: ImuFormat,
+        rate_hz: f64,
+        max_gap_factor: f64,
+        policy: BadLinePolicy,
+    ) -> Self {
+        let nominal_dt = 1.0 / rate_hz;
+        Self {
+            lines: NumericLines::new(inner, path),
+            format,
+            nominal_dt,
+            max_gap: nominal_dt * max_gap_factor,
+            policy,
+            prev_t: None,
+            prev_rates: None,
+            header_done: format == ImuFormat::Increments,
+            skipped: SkipCounts::default(),
+            records: 0,
+        }
+    }
+
+    /// The next sample, `Ok(None)` at the end.
+    pub fn next_sample(&mut self) -> Result<Option<ImuSample>, LineError> {
+        if !self.header_done {
+            // Rates: the first data line is a header naming the columns.
+            match self.lines.next_text()? {
+                Some(h)
+                    if h.split(|c: char| c == ',' || c.is_whitespace())
+                        .filter(|s| !s.is_empty())
+                        .count()
+                        == 7
+                        && h.chars().any(|c| c.is_alphabetic()) => {}
+                Some(_) => return Err(self.lines.error(LineErrorKind::WrongUnits(
+                    "a rate-type IMU file needs a header line `t,gx,gy,gz,ax,ay,az` (rad/s, m/s²)"
+                        .into(),
+                ))),
+                None => return Err(self.lines.error(LineErrorKind::Empty)),
+            }
+            self.header_done = true;
+        }
+        loop {
+            let rec = match self.lines.next_record() {
+                Ok(Some(r)) => r,
+                Ok(None) => {
+                    if self.records == 0 {
+                        return Err(LineError {
+                            path: self.lines.path().to_path_buf(),
+                            line: 0,
+                            kind: LineErrorKind::Empty,
+                        });
+                    }
+                    return Ok(None);
+                }
+                Err(e) => {
+                    if self.policy == BadLinePolicy::Skip && !matches!(e.kind, LineErrorKind::Io(_))
+                    {
+                        count(&mut self.skipped, &e.kind);
+                        continue;
+                    }
+                    return Err(e);
+                }
+            };
+            let allowed: &[usize] = match self.format {
+                ImuFormat::Increments => &[7, 8],
+                ImuFormat::Rates => &[7],
+            };
+            let checked = if !allowed.contains(&rec.len()) {
+                Err(LineErrorKind::ColumnCount { expected: allowed.to_vec(), found: rec.len() })
+            } else {
+                check_time(self.prev_t, rec[0]).map(|_| {
+                    (
+                        rec[0],
+                        Vector3::new(rec[1], rec[2], rec[3]),
+                        Vector3::new(rec[4], rec[5], rec[6]),
+                    )
+                })
+            };
+            let (t, a, b) = match checked {
+                Ok(v) => v,
+                Err(kind) => {
+                    if self.policy == BadLinePolicy::Skip {
+                        count(&mut self.skipped, &kind);
+                        continue;
+                    }
+                    return Err(self.lines.error(kind));
+                }
+            };
+            let dt = match self.prev_t {
+                Some(p) => t - p,
+                None => self.nominal_dt,
+            };
+            if dt > self.max_gap {
+                let kind = LineErrorKind::Gap { gap: dt, allowed: self.max_gap };
+                if self.policy == BadLinePolicy::Error {
+                    return Err(self.lines.error(kind));
+                }
+                count(&mut self.skipped, &kind);
+            }
+            let sample = match self.format {
+                ImuFormat::Increments => {
+                    // Increments that are really rates: a stationary accelerometer gives
+                    // |Δv| ≈ 9.8 m/s in one interval, i.e. > 100 g.
+                    if b.norm() / dt > 1000.0 || a.norm() / dt > 50.0 {
+                        return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                            "|Δθ| = {:.3} rad and |Δv| = {:.3} m/s in {dt:.4} s look like rates, not increments; \
+                             set the IMU format to rates",
+                            a.norm(),
+                            b.norm()
+                        ))));
+                    }
+                    ImuSample { t, dt, dtheta: a, dvel: b }
+                }
+                ImuFormat::Rates => {
+                    let s = ImuSample::from_rates(t, dt, a, b, self.prev_rates);
+                    self.prev_rates = Some((a, b));
+                    s
+                }
+            };
+            self.prev_t = Some(t);
+            self.records += 1;
+            return Ok(Some(sample));
+        }
+    }
+
+    /// Line number of the last sample.
+    pub fn line(&self) -> usize {
+        self.lines.line()
+    }
+}
+
+/// Streaming GNSS reader (7 or 13 columns, detected from the first data line).
+pub struct GnssReader<R: BufRead> {
+    lines: NumericLines<R>,
+    policy: BadLinePolicy,
+    columns: Option<usize>,
+    prev_t: Option<f64>,
+    /// What was skipped so far.
+    pub skipped: SkipCounts,
+    records: usize,
+}
+
+impl GnssReader<BufReader<File>> {
+    /// Open a GNSS file.
+    pub fn open(path: &Path, policy: BadLinePolicy) -> Result<Self, LineError> {
+        Ok(Self::new(open(path)?, path, policy))
+    }
+}
+
+impl<R: BufRead> GnssReader<R> {
+    /// Read from any `BufRead`.
+    pub fn new(inner: R, path: &Path, policy: BadLinePolicy) -> Self {
+        Self {
+            lines: NumericLines::new(inner, path),
+            policy,
+            columns: None,
+            prev_t: None,
+            skipped: SkipCounts::default(),
+            records: 0,
+        }
+    }
+
+    /// 7 (position) or 13 (position + velocity), once the first line is read.
+    pub fn columns(&self) -> Option<usize> {
+        self.columns
+    }
+
+    /// The next epoch, `Ok(None)` at the end.
+    pub fn next_epoch(&mut self) -> Result<Option<GnssEpoch>, LineError> {
+        loop {
+            let rec = match self.lines.next_record() {
+                Ok(Some(r)) => r,
+                Ok(None) => {
+                    if self.records == 0 {
+                        return Err(LineError {
+                            path: self.lines.path().to_path_buf(),
+                            line: 0,
+                            kind: LineErrorKind::Empty,
+                        });
+                    }
+                    return Ok(None);
+                }
+                Err(e) => {
+                    if self.policy == BadLinePolicy::Skip && !matches!(e.kind, LineErrorKind::Io(_))
+                    {
+                        count(&mut self.skipped, &e.kind);
+                        continue;
+                    }
+                    return Err(e);
+                }
+            };
+            let n = rec.len();
+            let expected: Vec<usize> = match self.columns {
+                Some(c) => vec![c],
+                None => vec![7, 13],
+            };
+            let result = if !expected.contains(&n) {
+                Err(LineErrorKind::ColumnCount { expected, found: n })
+            } else if rec[1].abs() > 90.0 || rec[2].abs() > 360.0 {
+                Err(LineErrorKind::WrongUnits(format!(
+                    "latitude {} / longitude {} out of range (degrees expected)",
+                    rec[1], rec[2]
+                )))
+            } else if rec[4..7].iter().any(|s| *s <= 0.0)
+                || (n == 13 && rec[10..13].iter().any(|s| *s <= 0.0))
+            {
+                Err(LineErrorKind::WrongUnits("standard deviations must be positive".into()))
+            } else {
+                check_time(self.prev_t, rec[0]).map(|_| GnssEpoch {
+                    t: rec[0],
+                    pos: GeoPos::from_degrees(rec[1], rec[2], rec[3]),
+                    pos_std: Vector3::new(rec[4], rec[5], rec[6]),
+                    vel: (n == 13).then(|| {
+                        (
+                            Vector3::new(rec[7], rec[8], rec[9]),
+                            Vector3::new(rec[10], rec[11], rec[12]),
+                        )
+                    }),
+                })
+            };
+            match result {
+                Ok(e) => {
+                    self.columns.get_or_insert(n);
+                    self.prev_t = Some(e.t);
+                    self.records += 1;
+                    return Ok(Some(e));
+                }
+                Err(kind) => {
+                    let fatal = matches!(kind, LineErrorKind::WrongUnits(_)) && self.records == 0;
+                    if self.policy == BadLinePolicy::Skip && !fatal {
+                        count(&mut self.skipped, &kind);
+                        continue;
+                    }
+                    return Err(self.lines.error(kind));
+                }
+            }
+        }
+    }
+}
+
+/// One navigation record (result or truth).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NavRecord {
+    /// GPS week (0 when unknown).
+    pub week: f64,
+    /// Time, s.
+    pub t: f64,
+    /// Position.
+    pub pos: GeoPos,
+    /// NED velocity, m/s.
+    pub vel: Vector3<f64>,
+    /// Roll, pitch, yaw, rad.
+    pub att: Vector3<f64>,
+}
+
+impl NavRecord {
+    /// The attitude as a rotation.
+    pub fn rotation(&self) -> So3 {
+        So3::from_euler(self.att.x, self.att.y, self.att.z)
+    }
+}
+
+/// Streaming reader of 11-column navigation files.
+pub struct NavReader<R: BufRead> {
+    lines: NumericLines<R>,
+    prev_t: Option<f64>,
+}
+
+impl NavReader<BufReader<File>> {
+    /// Open a navigation or truth file.
+    pub fn open(path: &Path) -> Result<Self, LineError> {
+        Ok(Self { lines: NumericLines::new(open(path)?, path), prev_t: None })
+    }
+}
+
+impl<R: BufRead> NavReader<R> {
+    /// Read from any `BufRead`.
+    pub fn new(inner: R, path: &Path) -> Self {
+        Self { lines: NumericLines::new(inner, path), prev_t: None }
+    }
+
+    /// The next record, `Ok(None)` at the end.
+    pub fn next_record(&mut self) -> Result<Option<NavRecord>, LineError> {
+        let Some(r) = self.lines.next_record()? else { return Ok(None) };
+        if r.len() != 11 {
+            let found = r.len();
+            return Err(self.lines.error(LineErrorKind::ColumnCount { expected: vec![11], found }));
+        }
+        let d = core::f64::consts::PI / 180.0;
+        let rec = NavRecord {
+            week: r[0],
+            t: r[1],
+            pos: GeoPos::from_degrees(r[2], r[3], r[4]),
+            vel: Vector3::new(r[5], r[6], r[7]),
+            att: Vector3::new(r[8] * d, r[9] * d, r[10] * d),
+        };
+        if let Err(kind) = check_time(self.prev_t, rec.t) {
+            return Err(self.lines.error(kind));
+        }
+        self.prev_t = Some(rec.t);
+        Ok(Some(rec))
+    }
+}
+
+/// Writes the 11-column navigation format (lat/lon to 1e-10°, h to 0.1 mm, velocity to
+/// 0.01 mm/s, attitude to 1e-8°).
+pub fn write_nav<W: Write>(w: &mut W, r: &NavRecord) -> std::io::Result<()> {
+    let d = 180.0 / core::f64::consts::PI;
+    writeln!(
+        w,
+        "{:.0} {:.6} {:.10} {:.10} {:.4} {:.5} {:.5} {:.5} {:.8} {:.8} {:.8}",
+        r.week,
+        r.t,
+        r.pos.lat * d,
+        r.pos.lon * d,
+        r.pos.h,
+        r.vel.x,
+        r.vel.y,
+        r.vel.z,
+        r.att.x * d,
+        r.att.y * d,
+        r.att.z * d
+    )
+}
+
+/// Writes one GNSS epoch in the 7- or 13-column format.
+pub fn write_gnss<W: Write>(w: &mut W, e: &GnssEpoch) -> std::io::Result<()> {
+    let d = 180.0 / core::f64::consts::PI;
+    write!(
+        w,
+        "{:.3} {:.10} {:.10} {:.4} {:.4} {:.4} {:.4}",
+        e.t,
+        e.pos.lat * d,
+        e.pos.lon * d,
+        e.pos.h,
+        e.pos_std.x,
+        e.pos_std.y,
+        e.pos_std.z
+    )?;
+    if let Some((v, s)) = e.vel {
+        write!(w, " {:.5} {:.5} {:.5} {:.5} {:.5} {:.5}", v.x, v.y, v.z, s.x, s.y, s.z)?;
+    }
+    writeln!(w)
+}
+
+/// Writes one IMU sample in the 7-column increment format.
+pub fn write_imu<W: Write>(w: &mut W, s: &ImuSample) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "{:.6} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e}",
+        s.t, s.dtheta.x, s.dtheta.y, s.dtheta.z, s.dvel.x, s.dvel.y, s.dvel.z
+    )
+}
+
+/// Create a file for buffered writing.
+pub fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
+    Ok(BufWriter::with_capacity(1 << 16, File::create(path)?))
+}

@@ -1,0 +1,194 @@
+//! A streaming reader of numeric text lines with located, typed errors.
+//!
+//! Lines are split on whitespace and commas; blank lines and lines starting with `#` or
+//! `%` are comments. Each record is checked for its column count and for values that
+//! are not numbers or not finite. Memory does not grow with the file: one line buffer and
+//! one value buffer are reused.
+
+use core::fmt;
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+
+/// What is wrong with a line (or a file).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LineErrorKind {
+    /// The file could not be opened or read.
+    Io(String),
+    /// The file has no data line.
+    Empty,
+    /// The line has a column count the format does not allow.
+    ColumnCount {
+        /// Allowed counts.
+        expected: Vec<usize>,
+        /// Found.
+        found: usize,
+    },
+    /// A field is not a number.
+    NotNumeric {
+        /// 1-based column.
+        column: usize,
+        /// The text.
+        text: String,
+    },
+    /// A field is NaN or infinite.
+    NonFinite {
+        /// 1-based column.
+        column: usize,
+    },
+    /// The time is earlier than the previous line's.
+    TimeBackwards {
+        /// This line's time, s.
+        t: f64,
+        /// The previous time, s.
+        previous: f64,
+    },
+    /// The time equals the previous line's.
+    DuplicateTime {
+        /// The time, s.
+        t: f64,
+    },
+    /// The gap to the previous line is longer than allowed.
+    Gap {
+        /// The gap, s.
+        gap: f64,
+        /// The largest gap allowed, s.
+        allowed: f64,
+    },
+    /// Values that cannot be what the format says (e.g. rates where increments are
+    /// expected).
+    WrongUnits(String),
+}
+
+/// A located error: file, 1-based line, what.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineError {
+    /// The file.
+    pub path: PathBuf,
+    /// 1-based line number (0 for file-level errors).
+    pub line: usize,
+    /// What is wrong.
+    pub kind: LineErrorKind,
+}
+
+impl fmt::Display for LineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let p = self.path.display();
+        let l = self.line;
+        match &self.kind {
+            LineErrorKind::Io(e) => write!(f, "{p}: cannot read: {e}"),
+            LineErrorKind::Empty => write!(f, "{p}: no data lines"),
+            LineErrorKind::ColumnCount { expected, found } => {
+                let e: Vec<String> = expected.iter().map(|c| c.to_string()).collect();
+                write!(f, "{p}:{l}: {found} columns, expected {}", e.join(" or "))
+            }
+            LineErrorKind::NotNumeric { column, text } => {
+                write!(f, "{p}:{l}: column {column} is not a number: `{text}`")
+            }
+            LineErrorKind::NonFinite { column } => {
+                write!(f, "{p}:{l}: column {column} is NaN or infinite")
+            }
+            LineErrorKind::TimeBackwards { t, previous } => {
+                write!(f, "{p}:{l}: time goes backwards ({t} after {previous})")
+            }
+            LineErrorKind::DuplicateTime { t } => write!(f, "{p}:{l}: duplicate time {t}"),
+            LineErrorKind::Gap { gap, allowed } => {
+                write!(f, "{p}:{l}: gap of {gap:.6} s before this line (allowed {allowed:.6} s)")
+            }
+            LineErrorKind::WrongUnits(m) => write!(f, "{p}:{l}: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for LineError {}
+
+/// Reads numeric records from any `BufRead`.
+pub struct NumericLines<R: BufRead> {
+    inner: R,
+    path: PathBuf,
+    line: usize,
+    buf: String,
+    values: Vec<f64>,
+}
+
+impl<R: BufRead> NumericLines<R> {
+    /// Wrap a reader; `path` names it in errors.
+    pub fn new(inner: R, path: &Path) -> Self {
+        Self { inner, path: path.to_path_buf(), line: 0, buf: String::new(), values: Vec::new() }
+    }
+
+    /// The file name used in errors.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Line number of the last record returned.
+    pub fn line(&self) -> usize {
+        self.line
+    }
+
+    /// An error at the current line.
+    pub fn error(&self, kind: LineErrorKind) -> LineError {
+        LineError { path: self.path.clone(), line: self.line, kind }
+    }
+
+    /// Next raw data line (comments and blank lines skipped), as text.
+    pub fn next_text(&mut self) -> Result<Option<&str>, LineError> {
+        Ok(if self.advance()? { Some(self.buf.trim()) } else { None })
+    }
+
+    /// Move to the next data line; false at the end of the file.
+    fn advance(&mut self) -> Result<bool, LineError> {
+        loop {
+            self.buf.clear();
+            let n = self.inner.read_line(&mut self.buf).map_err(|e| LineError {
+                path: self.path.clone(),
+                line: self.line + 1,
+                kind: LineErrorKind::Io(e.to_string()),
+            })?;
+            if n == 0 {
+                return Ok(false);
+            }
+            self.line += 1;
+            let t = self.buf.trim();
+            if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
+                continue;
+            }
+            return Ok(true);
+        }
+    }
+
+    /// Next record of numbers; `Ok(None)` at the end of the file.
+    pub fn next_record(&mut self) -> Result<Option<&[f64]>, LineError> {
+        if !self.advance()? {
+            return Ok(None);
+        }
+        let text = self.buf.trim();
+        let values = &mut self.values;
+        values.clear();
+        let mut failure = None;
+        for (i, field) in text
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .enumerate()
+        {
+            match field.parse::<f64>() {
+                Ok(v) if v.is_finite() => values.push(v),
+                Ok(_) => {
+                    failure = Some(LineErrorKind::NonFinite { column: i + 1 });
+                    break;
+                }
+                Err(_) => {
+                    failure = Some(LineErrorKind::NotNumeric {
+                        column: i + 1,
+                        text: field.chars().take(40).collect(),
+                    });
+                    break;
+                }
+            }
+        }
+        match failure {
+            Some(kind) => Err(self.error(kind)),
+            None => Ok(Some(&self.values)),
+        }
+    }
+}

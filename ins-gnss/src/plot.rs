@@ -1,0 +1,179 @@
+//! SVG plots of a run: position and attitude errors with ±3σ envelopes, and the
+//! adaptation factors. Reads the run's output files and the truth; writes
+//! `errors_position.svg`, `errors_attitude.svg` and `adaptation.svg`.
+
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+
+use crate::eval::errors;
+use crate::io::formats::open;
+use crate::io::{NavReader, NumericLines};
+
+type Series = Vec<(f64, f64)>;
+
+fn read_columns(path: &Path) -> Result<Vec<Vec<f64>>, String> {
+    let mut lines = NumericLines::new(open(path).map_err(|e| e.to_string())?, path);
+    let mut out = Vec::new();
+    while let Some(r) = lines.next_record().map_err(|e| e.to_string())? {
+        out.push(r.to_vec());
+    }
+    Ok(out)
+}
+
+fn read_updates(path: &Path) -> Result<Vec<(f64, f64, f64, f64)>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() < 10 {
+            return Err(format!("{}:{}: expected 10 columns", path.display(), i + 1));
+        }
+        let num = |s: &str| s.trim().parse::<f64>().unwrap_or(f64::NAN);
+        out.push((num(f[0]), num(f[7]), num(f[8]), num(f[9])));
+    }
+    Ok(out)
+}
+
+/// Errors of the result against the truth, decimated to at most ~4,000 points.
+fn error_series(result: &Path, truth: &Path) -> Result<[Series; 6], String> {
+    let mut res = NavReader::open(result).map_err(|e| e.to_string())?;
+    let mut tru = NavReader::open(truth).map_err(|e| e.to_string())?;
+    let mut all: Vec<(f64, [f64; 6])> = Vec::new();
+    let mut t_rec = tru.next_record().map_err(|e| e.to_string())?;
+    while let Some(r) = res.next_record().map_err(|e| e.to_string())? {
+        while let Some(t) = &t_rec {
+            if t.t >= r.t - 1e-6 {
+                break;
+            }
+            t_rec = tru.next_record().map_err(|e| e.to_string())?;
+        }
+        if let Some(t) = &t_rec {
+            if (t.t - r.t).abs() < 1e-6 {
+                let (dp, _, da) = errors(&r, t);
+                all.push((r.t, [dp.x, dp.y, dp.z, da.x, da.y, da.z]));
+            }
+        }
+    }
+    let step = (all.len() / 4000).max(1);
+    let mut out: [Series; 6] = Default::default();
+    for (t, e) in all.iter().step_by(step) {
+        for k in 0..6 {
+            out[k].push((*t, e[k]));
+        }
+    }
+    Ok(out)
+}
+
+fn panel(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    title: &str,
+    unit: &str,
+    err: &Series,
+    sigma3: &Series,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+    let (t0, t1) = (
+        err.first().map(|p| p.0).unwrap_or(0.0),
+        err.last().map(|p| p.0).unwrap_or(1.0).max(err.first().map(|p| p.0 + 1.0).unwrap_or(1.0)),
+    );
+    let m = err
+        .iter()
+        .chain(sigma3.iter())
+        .map(|p| p.1.abs())
+        .filter(|v| v.is_finite())
+        .fold(1e-6_f64, f64::max);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(28)
+        .y_label_area_size(56)
+        .build_cartesian_2d(t0..t1, -m * 1.05..m * 1.05)
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc(unit).draw().map_err(e)?;
+    chart.draw_series(LineSeries::new(err.iter().copied(), &BLUE)).map_err(e)?.label("error");
+    chart.draw_series(LineSeries::new(sigma3.iter().copied(), &RED)).map_err(e)?.label("±3σ");
+    chart.draw_series(LineSeries::new(sigma3.iter().map(|p| (p.0, -p.1)), &RED)).map_err(e)?;
+    chart.configure_series_labels().border_style(BLACK).draw().map_err(e)?;
+    Ok(())
+}
+
+/// Write the plots of the run in `out_dir` against `truth`; returns the files written.
+pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
+    let errs = error_series(&out_dir.join("nav.txt"), truth)?;
+    let std = read_columns(&out_dir.join("std.txt"))?;
+    let s3 = |col: usize| -> Series { std.iter().map(|r| (r[0], 3.0 * r[col])).collect() };
+    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+    let mut written = Vec::new();
+
+    let p = out_dir.join("errors_position.svg");
+    {
+        let root = SVGBackend::new(&p, (1000, 900)).into_drawing_area();
+        root.fill(&WHITE).map_err(e)?;
+        let areas = root.split_evenly((3, 1));
+        for (k, name) in ["north", "east", "down"].iter().enumerate() {
+            panel(&areas[k], &format!("position error, {name}"), "m", &errs[k], &s3(1 + k))?;
+        }
+        root.present().map_err(e)?;
+    }
+    written.push(p);
+
+    let p = out_dir.join("errors_attitude.svg");
+    {
+        let root = SVGBackend::new(&p, (1000, 900)).into_drawing_area();
+        root.fill(&WHITE).map_err(e)?;
+        let areas = root.split_evenly((3, 1));
+        for (k, name) in ["roll", "pitch", "yaw"].iter().enumerate() {
+            panel(&areas[k], &format!("attitude error, {name}"), "deg", &errs[3 + k], &s3(7 + k))?;
+        }
+        root.present().map_err(e)?;
+    }
+    written.push(p);
+
+    let ups = read_updates(&out_dir.join("updates.csv"))?;
+    let p = out_dir.join("adaptation.svg");
+    {
+        let root = SVGBackend::new(&p, (1000, 600)).into_drawing_area();
+        root.fill(&WHITE).map_err(e)?;
+        let (t0, t1) = (
+            ups.first().map(|u| u.0).unwrap_or(0.0),
+            ups.last()
+                .map(|u| u.0)
+                .unwrap_or(1.0)
+                .max(ups.first().map(|u| u.0 + 1.0).unwrap_or(1.0)),
+        );
+        let top = ups
+            .iter()
+            .flat_map(|u| [u.2, u.3])
+            .filter(|v| v.is_finite())
+            .fold(2.0_f64, f64::max)
+            .min(1e3);
+        let mut chart = ChartBuilder::on(&root)
+            .caption("adaptation factors (λ_P on P⁻, λ_R on R)", ("sans-serif", 16))
+            .margin(8)
+            .x_label_area_size(28)
+            .y_label_area_size(56)
+            .build_cartesian_2d(t0..t1, (0.01f64..top * 1.2).log_scale())
+            .map_err(e)?;
+        chart.configure_mesh().x_desc("t [s]").y_desc("factor").draw().map_err(e)?;
+        let finite = |v: f64| v.is_finite() && v > 0.0;
+        chart
+            .draw_series(LineSeries::new(
+                ups.iter().filter(|u| finite(u.2)).map(|u| (u.0, u.2)),
+                &BLUE,
+            ))
+            .map_err(e)?
+            .label("λ_P");
+        chart
+            .draw_series(LineSeries::new(
+                ups.iter().filter(|u| finite(u.3)).map(|u| (u.0, u.3)),
+                &RED,
+            ))
+            .map_err(e)?
+            .label("λ_R");
+        chart.configure_series_labels().border_style(BLACK).draw().map_err(e)?;
+        root.present().map_err(e)?;
+    }
+    written.push(p);
+    Ok(written)
+}

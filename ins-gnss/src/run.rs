@@ -1,0 +1,312 @@
+//! One run of the navigator over files, streaming: the IMU and GNSS files are read line
+//! by line, results are written as they are produced, and memory does not grow with the
+//! dataset.
+//!
+//! Outputs (in the output directory):
+//! - `nav.txt`: the 11-column navigation result at every IMU epoch;
+//! - `std.txt`: `t`, 1σ of position N E D (m), velocity N E D (m/s), roll pitch yaw
+//!   (deg), gyro bias x y z (deg/h), accelerometer bias x y z (mGal), after every GNSS
+//!   epoch and at the end;
+//! - `imu_errors.txt`: `t`, gyro bias x y z (deg/h), accelerometer bias x y z (mGal), at
+//!   the same epochs;
+//! - `updates.csv`: one row per GNSS epoch: time, stream, dimension, NIS, adapted NIS,
+//!   decision, reason, DOM, λ_P, λ_R.
+
+use core::fmt;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use adaptive::AnyStrategy;
+use estimator_core::{NoObserver, NoiseStrategy, UpdateSummary, Verdict};
+use nalgebra::Vector3;
+
+use crate::config::Config;
+use crate::gnss::GnssEpoch;
+use crate::imu::{DEG_PER_H, MGAL};
+use crate::io::formats::{create, write_nav};
+use crate::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
+use crate::model::InsModel;
+use crate::navigator::{NavError, Navigator};
+
+/// Why a run stopped.
+#[derive(Debug)]
+pub enum RunError {
+    /// A configuration problem.
+    Config(crate::config::ConfigError),
+    /// A malformed input line or unreadable file.
+    Input(LineError),
+    /// The filter failed (with time).
+    Navigation(NavError),
+    /// Writing an output failed.
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        message: String,
+    },
+    /// The IMU file ends before the start time or has no sample after it.
+    NoData(String),
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RunError::Config(e) => write!(f, "{e}"),
+            RunError::Input(e) => write!(f, "{e}"),
+            RunError::Navigation(e) => write!(f, "navigation failed {e}"),
+            RunError::Output { path, message } => {
+                write!(f, "{}: cannot write: {message}", path.display())
+            }
+            RunError::NoData(m) => write!(f, "{m}"),
+        }
+    }
+}
+
+impl std::error::Error for RunError {}
+
+impl From<LineError> for RunError {
+    fn from(e: LineError) -> Self {
+        RunError::Input(e)
+    }
+}
+
+impl From<NavError> for RunError {
+    fn from(e: NavError) -> Self {
+        RunError::Navigation(e)
+    }
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default)]
+pub struct RunSummary {
+    /// Strategy name.
+    pub strategy: String,
+    /// IMU epochs processed.
+    pub imu_epochs: usize,
+    /// GNSS epochs used (accepted + inflated + rejected).
+    pub gnss_epochs: usize,
+    /// Accepted updates.
+    pub accepted: usize,
+    /// Inflated updates.
+    pub inflated: usize,
+    /// Rejected updates.
+    pub rejected: usize,
+    /// IMU lines skipped / gaps bridged.
+    pub imu_skipped: SkipCounts,
+    /// GNSS lines skipped.
+    pub gnss_skipped: SkipCounts,
+    /// First and last processed time, s.
+    pub span: (f64, f64),
+    /// Wall time, s.
+    pub wall_time: f64,
+    /// Output directory.
+    pub out_dir: PathBuf,
+}
+
+/// Called every `every` IMU epochs with the current time, for progress bars.
+pub type Progress<'a> = &'a mut dyn FnMut(f64);
+
+struct Outputs {
+    dir: PathBuf,
+    nav: std::io::BufWriter<std::fs::File>,
+    std: std::io::BufWriter<std::fs::File>,
+    imu_err: std::io::BufWriter<std::fs::File>,
+    updates: std::io::BufWriter<std::fs::File>,
+}
+
+impl Outputs {
+    fn create(dir: &Path) -> Result<Self, RunError> {
+        let out =
+            |path: PathBuf, e: std::io::Error| RunError::Output { path, message: e.to_string() };
+        std::fs::create_dir_all(dir).map_err(|e| out(dir.to_path_buf(), e))?;
+        let open = |name: &str| {
+            let p = dir.join(name);
+            create(&p).map_err(|e| out(p, e))
+        };
+        let mut o = Outputs {
+            dir: dir.to_path_buf(),
+            nav: open("nav.txt")?,
+            std: open("std.txt")?,
+            imu_err: open("imu_errors.txt")?,
+            updates: open("updates.csv")?,
+        };
+        writeln!(
+            o.updates,
+            "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r"
+        )
+        .map_err(|e| out(dir.join("updates.csv"), e))?;
+        Ok(o)
+    }
+
+    fn err(&self, name: &str, e: std::io::Error) -> RunError {
+        RunError::Output { path: self.dir.join(name), message: e.to_string() }
+    }
+}
+
+/// The navigation record of a state.
+pub fn nav_record(t: f64, x: &crate::state::InsState) -> NavRecord {
+    let (r, p, y) = x.euler();
+    NavRecord { week: 0.0, t, pos: x.pos, vel: x.vel, att: Vector3::new(r, p, y) }
+}
+
+fn write_std<A: NoiseStrategy>(o: &mut Outputs, t: f64, nav: &Navigator<A>) -> std::io::Result<()> {
+    let s = nav.sigma();
+    let d = 180.0 / core::f64::consts::PI;
+    let x = nav.state();
+    write!(o.std, "{t:.6}")?;
+    for i in 6..9 {
+        write!(o.std, " {:.6}", s[i])?;
+    }
+    for i in 3..6 {
+        write!(o.std, " {:.6}", s[i])?;
+    }
+    for i in 0..3 {
+        write!(o.std, " {:.8}", s[i] * d)?;
+    }
+    for i in 9..12 {
+        write!(o.std, " {:.6}", s[i] / DEG_PER_H)?;
+    }
+    for i in 12..15 {
+        write!(o.std, " {:.6}", s[i] / MGAL)?;
+    }
+    writeln!(o.std)?;
+    writeln!(
+        o.imu_err,
+        "{t:.6} {:.6} {:.6} {:.6} {:.6} {:.6} {:.6}",
+        x.bg.x / DEG_PER_H,
+        x.bg.y / DEG_PER_H,
+        x.bg.z / DEG_PER_H,
+        x.ba.x / MGAL,
+        x.ba.y / MGAL,
+        x.ba.z / MGAL
+    )
+}
+
+fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
+    let stream = match u.dim {
+        6 => "gnss-pos-vel",
+        _ => "gnss-pos",
+    };
+    writeln!(
+        o.updates,
+        "{:.6},{stream},{},{:.6},{:.6},{},\"{}\",{:.6},{:.6},{:.6}",
+        u.time,
+        u.dim,
+        u.nis,
+        u.nis_adapted,
+        u.verdict.as_str(),
+        u.reason,
+        u.factors.dom,
+        u.factors.lambda_p,
+        u.factors.lambda_r
+    )
+}
+
+/// Run `config` with `strategy`, writing into `out_dir`. `progress` (if any) is called
+/// with the current time every 2,000 IMU epochs.
+pub fn run(
+    config: &Config,
+    strategy: AnyStrategy,
+    out_dir: &Path,
+    mut progress: Option<Progress<'_>>,
+) -> Result<RunSummary, RunError> {
+    let wall = Instant::now();
+    let mut imu = ImuReader::open(
+        &config.data.imu,
+        config.imu_format(),
+        config.data.imu_rate,
+        config.data.max_gap,
+        config.bad_lines(),
+    )?;
+    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
+    let mut out = Outputs::create(out_dir)?;
+
+    // Start: the configured time, or the first IMU sample; samples up to it are skipped.
+    let first =
+        imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
+    let start = config.data.start_time.unwrap_or(first.t);
+    let end = config.data.end_time.unwrap_or(f64::INFINITY);
+    let mut pending = Some(first);
+    let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+    let mut nav =
+        Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
+    let mut summary = RunSummary {
+        strategy: nav.filter().strategy().name().to_string(),
+        out_dir: out_dir.to_path_buf(),
+        span: (start, start),
+        ..Default::default()
+    };
+
+    let mut next_gnss: Option<GnssEpoch> = gnss.next_epoch()?;
+    let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
+    let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
+    loop {
+        let sample = match pending.take() {
+            Some(s) => s,
+            None => match imu.next_sample()? {
+                Some(s) => s,
+                None => break,
+            },
+        };
+        if sample.t <= start + 1e-9 {
+            continue;
+        }
+        if sample.t > end + 1e-9 {
+            break;
+        }
+        batch.clear();
+        while let Some(g) = next_gnss {
+            if g.t > sample.t + 1e-9 {
+                break;
+            }
+            if g.t > start + 1e-9 {
+                batch.push(g);
+            }
+            next_gnss = gnss.next_epoch()?;
+        }
+        updates.clear();
+        nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)?;
+        summary.imu_epochs += 1;
+        write_nav(&mut out.nav, &nav_record(sample.t, nav.state()))
+            .map_err(|e| out.err("nav.txt", e))?;
+        for u in &updates {
+            summary.gnss_epochs += 1;
+            match u.verdict {
+                Verdict::Accepted => summary.accepted += 1,
+                Verdict::Inflated => summary.inflated += 1,
+                Verdict::Rejected => summary.rejected += 1,
+            }
+            write_update(&mut out, u).map_err(|e| out.err("updates.csv", e))?;
+        }
+        if !updates.is_empty() {
+            write_std(&mut out, sample.t, &nav).map_err(|e| out.err("std.txt", e))?;
+        }
+        summary.span.1 = sample.t;
+        if summary.imu_epochs.is_multiple_of(2000) {
+            if let Some(p) = progress.as_mut() {
+                p(sample.t);
+            }
+        }
+    }
+    if summary.imu_epochs == 0 {
+        return Err(RunError::NoData(format!(
+            "no IMU sample after the start time {start} s in {}",
+            config.data.imu.display()
+        )));
+    }
+    write_std(&mut out, summary.span.1, &nav).map_err(|e| out.err("std.txt", e))?;
+    for (w, name) in [
+        (&mut out.nav, "nav.txt"),
+        (&mut out.std, "std.txt"),
+        (&mut out.imu_err, "imu_errors.txt"),
+        (&mut out.updates, "updates.csv"),
+    ] {
+        w.flush()
+            .map_err(|e| RunError::Output { path: out_dir.join(name), message: e.to_string() })?;
+    }
+    summary.imu_skipped = imu.skipped;
+    summary.gnss_skipped = gnss.skipped;
+    summary.wall_time = wall.elapsed().as_secs_f64();
+    Ok(summary)
+}

@@ -1,0 +1,445 @@
+//! Scenario files for `ins-gnss simulate`: a trajectory from segments, IMU errors, a
+//! GNSS receiver with windows, and the initial uncertainty the generated configuration
+//! should state. Units are the datasheet ones (deg, deg/s, deg/h, mGal, ppm, hours).
+//! A commented example is `ins-gnss/scenarios/drive.toml`.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{Config, DataSection, FilterSection, GnssSection, InitSection, NoiseSection};
+use crate::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
+use crate::io::formats::{create, write_gnss, write_imu, write_nav};
+use crate::position::GeoPos;
+use crate::run::nav_record;
+use crate::sim::{
+    self, GnssSim, GnssWindow, GnssWindowKind, ImuErrors, Segment, Start, Trajectory,
+};
+
+/// One motion segment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentSpec {
+    /// `stop`, `straight`, `turn`, `accelerate`, `decelerate`, `climb`.
+    pub kind: String,
+    /// Duration, s.
+    pub duration: f64,
+    /// Yaw rate for `turn`, pitch rate for `climb`, deg/s.
+    #[serde(default)]
+    pub rate: f64,
+    /// Acceleration for `accelerate` / deceleration for `decelerate`, m/s² (positive).
+    #[serde(default)]
+    pub accel: f64,
+}
+
+/// Start of the trajectory.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartSpec {
+    /// Time, s.
+    #[serde(default)]
+    pub time: f64,
+    /// Latitude, longitude (deg), height (m).
+    pub position: [f64; 3],
+    /// Speed, m/s.
+    #[serde(default)]
+    pub speed: f64,
+    /// Yaw, deg.
+    #[serde(default)]
+    pub yaw: f64,
+    /// Pitch, deg.
+    #[serde(default)]
+    pub pitch: f64,
+}
+
+/// IMU errors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuSpec {
+    /// Sampling rate, Hz.
+    pub rate: f64,
+    /// ARW, deg/√h.
+    pub arw: f64,
+    /// VRW, m/s/√h.
+    pub vrw: f64,
+    /// Gyro bias instability (Gauss–Markov σ), deg/h.
+    pub gyro_bias_std: f64,
+    /// Accelerometer bias instability, mGal.
+    pub accel_bias_std: f64,
+    /// Correlation time, hours.
+    pub corr_time: f64,
+    /// Constant gyro turn-on bias, deg/h.
+    #[serde(default)]
+    pub gyro_turn_on: [f64; 3],
+    /// Constant accelerometer turn-on bias, mGal.
+    #[serde(default)]
+    pub accel_turn_on: [f64; 3],
+    /// Gyro scale-factor error, ppm.
+    #[serde(default)]
+    pub gyro_scale_ppm: [f64; 3],
+    /// Accelerometer scale-factor error, ppm.
+    #[serde(default)]
+    pub accel_scale_ppm: [f64; 3],
+}
+
+/// A GNSS window.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindowSpec {
+    /// Start, s.
+    pub start: f64,
+    /// End, s.
+    pub end: f64,
+    /// `outage`, `interference` or `outliers`.
+    pub kind: String,
+    /// Noise factor for `interference`.
+    #[serde(default)]
+    pub factor: f64,
+    /// Probability per epoch for `outliers`.
+    #[serde(default)]
+    pub probability: f64,
+    /// Outlier size in σ per axis.
+    #[serde(default)]
+    pub sigmas: f64,
+}
+
+/// GNSS receiver.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssSpec {
+    /// Rate, Hz.
+    pub rate: f64,
+    /// Position σ (N, E, D), m.
+    pub position_std: [f64; 3],
+    /// Velocity σ, m/s (absent: position-only 7-column file).
+    #[serde(default)]
+    pub velocity_std: Option<[f64; 3]>,
+    /// Lever arm (FRD), m.
+    #[serde(default)]
+    pub lever_arm: [f64; 3],
+    /// Windows.
+    #[serde(default, rename = "window")]
+    pub windows: Vec<WindowSpec>,
+}
+
+/// The initial uncertainty written into the generated configuration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitSpec {
+    /// Attitude 1σ, deg.
+    pub attitude_std: [f64; 3],
+    /// Velocity 1σ, m/s.
+    pub velocity_std: [f64; 3],
+    /// Position 1σ, m.
+    pub position_std: [f64; 3],
+    /// Errors actually added to the initial state given to the filter: attitude (deg),
+    /// velocity (m/s), position (m).
+    #[serde(default)]
+    pub attitude_error: [f64; 3],
+    /// Initial velocity error, m/s.
+    #[serde(default)]
+    pub velocity_error: [f64; 3],
+    /// Initial position error (N, E, D), m.
+    #[serde(default)]
+    pub position_error: [f64; 3],
+}
+
+/// A scenario file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Random seed.
+    pub seed: u64,
+    /// Start.
+    pub start: StartSpec,
+    /// Segments, in order.
+    #[serde(rename = "segment")]
+    pub segments: Vec<SegmentSpec>,
+    /// IMU.
+    pub imu: ImuSpec,
+    /// GNSS.
+    pub gnss: GnssSpec,
+    /// Initial uncertainty.
+    pub init: InitSpec,
+}
+
+fn v3(a: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+fn io_err(path: &Path, e: std::io::Error) -> String {
+    format!("{}: {e}", path.display())
+}
+
+impl Scenario {
+    /// Load a scenario file; errors name the file and the key.
+    pub fn load(path: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| io_err(path, e))?;
+        toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// The built-in demo: the 600 s drive, a consumer MEMS IMU at 100 Hz, GNSS position
+    /// and velocity at 1 Hz with interference (×8 noise) at 200–260 s and an outage at
+    /// 400–460 s.
+    pub fn demo() -> Self {
+        let (start, segs) = sim::scenarios::drive_600s();
+        let d = 180.0 / core::f64::consts::PI;
+        let segments = segs
+            .iter()
+            .map(|s| {
+                let (kind, rate, accel) = if s.yaw_rate != 0.0 {
+                    ("turn", s.yaw_rate * d, 0.0)
+                } else if s.pitch_rate != 0.0 {
+                    ("climb", s.pitch_rate * d, 0.0)
+                } else if s.accel > 0.0 {
+                    ("accelerate", 0.0, s.accel)
+                } else if s.accel < 0.0 {
+                    ("decelerate", 0.0, -s.accel)
+                } else {
+                    ("straight", 0.0, 0.0)
+                };
+                SegmentSpec { kind: kind.into(), duration: s.duration, rate, accel }
+            })
+            .collect();
+        Scenario {
+            seed: 7,
+            start: StartSpec {
+                time: start.t,
+                position: [start.pos.lat * d, start.pos.lon * d, start.pos.h],
+                speed: start.speed,
+                yaw: start.yaw * d,
+                pitch: start.pitch * d,
+            },
+            segments,
+            imu: ImuSpec {
+                rate: 100.0,
+                arw: 0.3,
+                vrw: 0.1,
+                gyro_bias_std: 10.0,
+                accel_bias_std: 100.0,
+                corr_time: 1.0,
+                gyro_turn_on: [50.0, -40.0, 30.0],
+                accel_turn_on: [500.0, -400.0, 300.0],
+                gyro_scale_ppm: [0.0; 3],
+                accel_scale_ppm: [0.0; 3],
+            },
+            gnss: GnssSpec {
+                rate: 1.0,
+                position_std: [1.0, 1.0, 2.0],
+                velocity_std: Some([0.05; 3]),
+                lever_arm: [0.5, 0.2, -1.0],
+                windows: vec![
+                    WindowSpec {
+                        start: 200.0,
+                        end: 260.0,
+                        kind: "interference".into(),
+                        factor: 8.0,
+                        probability: 0.0,
+                        sigmas: 0.0,
+                    },
+                    WindowSpec {
+                        start: 400.0,
+                        end: 460.0,
+                        kind: "outage".into(),
+                        factor: 0.0,
+                        probability: 0.0,
+                        sigmas: 0.0,
+                    },
+                ],
+            },
+            init: InitSpec {
+                attitude_std: [1.0, 1.0, 3.0],
+                velocity_std: [0.1; 3],
+                position_std: [2.0, 2.0, 3.0],
+                attitude_error: [0.5, -0.5, 2.0],
+                velocity_error: [0.05, -0.05, 0.02],
+                position_error: [1.0, -1.0, 1.5],
+            },
+        }
+    }
+
+    /// The trajectory.
+    pub fn trajectory(&self) -> Result<Trajectory, String> {
+        let r = core::f64::consts::PI / 180.0;
+        let segs: Result<Vec<Segment>, String> = self
+            .segments
+            .iter()
+            .enumerate()
+            .map(|(i, s)| match s.kind.as_str() {
+                "stop" => Ok(Segment::stop(s.duration)),
+                "straight" => Ok(Segment::straight(s.duration)),
+                "turn" => Ok(Segment::turn(s.duration, s.rate * r)),
+                "climb" => Ok(Segment::climb(s.duration, s.rate * r)),
+                "accelerate" => Ok(Segment::accelerate(s.duration, s.accel)),
+                "decelerate" => Ok(Segment::decelerate(s.duration, s.accel)),
+                other => Err(format!(
+                    "segment {i}: unknown kind `{other}` (stop, straight, turn, accelerate, decelerate, climb)"
+                )),
+            })
+            .collect();
+        let p = self.start.position;
+        let start = Start {
+            t: self.start.time,
+            pos: GeoPos::from_degrees(p[0], p[1], p[2]),
+            speed: self.start.speed,
+            yaw: self.start.yaw * r,
+            pitch: self.start.pitch * r,
+        };
+        Trajectory::new(start, &segs?).map_err(|e| e.to_string())
+    }
+
+    /// IMU errors in SI units.
+    pub fn imu_errors(&self) -> ImuErrors {
+        let i = &self.imu;
+        ImuErrors {
+            noise: ImuNoise {
+                arw: Vector3::repeat(i.arw * DEG_PER_SQRT_H),
+                vrw: Vector3::repeat(i.vrw * M_S_PER_SQRT_H),
+                gyro_bias: Vector3::repeat(i.gyro_bias_std * DEG_PER_H),
+                accel_bias: Vector3::repeat(i.accel_bias_std * MGAL),
+                bias_model: BiasModel::GaussMarkov { tau: i.corr_time * 3600.0 },
+            },
+            gyro_turn_on: v3(i.gyro_turn_on) * DEG_PER_H,
+            accel_turn_on: v3(i.accel_turn_on) * MGAL,
+            gyro_scale: v3(i.gyro_scale_ppm) * 1e-6,
+            accel_scale: v3(i.accel_scale_ppm) * 1e-6,
+        }
+    }
+
+    /// The GNSS receiver.
+    pub fn gnss_sim(&self) -> Result<GnssSim, String> {
+        let windows: Result<Vec<GnssWindow>, String> = self
+            .gnss
+            .windows
+            .iter()
+            .enumerate()
+            .map(|(i, w)| {
+                let kind = match w.kind.as_str() {
+                    "outage" => GnssWindowKind::Outage,
+                    "interference" if w.factor > 0.0 => {
+                        GnssWindowKind::Interference { factor: w.factor }
+                    }
+                    "outliers" if w.probability >= 0.0 && w.sigmas > 0.0 => {
+                        GnssWindowKind::Outliers { probability: w.probability, sigmas: w.sigmas }
+                    }
+                    "interference" => {
+                        return Err(format!("gnss.window {i}: interference needs `factor` > 0"))
+                    }
+                    "outliers" => {
+                        return Err(format!(
+                            "gnss.window {i}: outliers need `probability` and `sigmas` > 0"
+                        ))
+                    }
+                    other => {
+                        return Err(format!(
+                        "gnss.window {i}: unknown kind `{other}` (outage, interference, outliers)"
+                    ))
+                    }
+                };
+                Ok(GnssWindow { start: w.start, end: w.end, kind })
+            })
+            .collect();
+        Ok(GnssSim {
+            rate_hz: self.gnss.rate,
+            pos_sigma: v3(self.gnss.position_std),
+            vel_sigma: self.gnss.velocity_std.map(v3),
+            lever_arm: v3(self.gnss.lever_arm),
+            windows: windows?,
+        })
+    }
+
+    /// Simulate and write `IMU.txt`, `GNSS.txt`, `truth.nav` and `config.toml` into `dir`.
+    pub fn write_dataset(&self, dir: &Path) -> Result<Vec<PathBuf>, String> {
+        let traj = self.trajectory()?;
+        let gnss = self.gnss_sim()?;
+        if !(self.imu.rate.is_finite() && self.imu.rate > 0.0) {
+            return Err(format!("imu.rate must be positive, got {}", self.imu.rate));
+        }
+        let data = sim::simulate(&traj, self.imu.rate, &self.imu_errors(), &gnss, self.seed);
+        std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+        let paths: Vec<PathBuf> = ["IMU.txt", "GNSS.txt", "truth.nav", "config.toml"]
+            .iter()
+            .map(|n| dir.join(n))
+            .collect();
+        let mut w = create(&paths[0]).map_err(|e| io_err(&paths[0], e))?;
+        for s in &data.imu {
+            write_imu(&mut w, s).map_err(|e| io_err(&paths[0], e))?;
+        }
+        w.flush().map_err(|e| io_err(&paths[0], e))?;
+        let mut w = create(&paths[1]).map_err(|e| io_err(&paths[1], e))?;
+        for g in &data.gnss {
+            write_gnss(&mut w, g).map_err(|e| io_err(&paths[1], e))?;
+        }
+        w.flush().map_err(|e| io_err(&paths[1], e))?;
+        let mut w = create(&paths[2]).map_err(|e| io_err(&paths[2], e))?;
+        for r in &data.truth {
+            write_nav(&mut w, &nav_record(r.t, &r.state)).map_err(|e| io_err(&paths[2], e))?;
+        }
+        w.flush().map_err(|e| io_err(&paths[2], e))?;
+        let cfg = self.config(&data.truth[0].state, data.truth[0].t);
+        let text = toml::to_string_pretty(&cfg).map_err(|e| e.to_string())?;
+        let header = "# Generated by `ins-gnss simulate`: the initial state is the truth plus the scenario's\n\
+                      # init errors; noise settings match the simulated IMU.\n";
+        std::fs::write(&paths[3], format!("{header}{text}")).map_err(|e| io_err(&paths[3], e))?;
+        Ok(paths)
+    }
+
+    /// The configuration matching this scenario (paths relative to the dataset).
+    pub fn config(&self, truth0: &crate::state::InsState, t0: f64) -> Config {
+        use manifolds::Manifold;
+        let d = 180.0 / core::f64::consts::PI;
+        let ie = &self.init;
+        let mut delta = manifolds::Tangent::<crate::state::InsState>::zeros();
+        for k in 0..3 {
+            delta[k] = ie.attitude_error[k] / d;
+            delta[3 + k] = ie.velocity_error[k];
+            delta[6 + k] = ie.position_error[k];
+        }
+        let x0 = truth0.oplus(&delta);
+        let (r, p, y) = x0.euler();
+        let i = &self.imu;
+        let total = |gm: f64, turn_on: [f64; 3]| {
+            let m = turn_on.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+            let s = (gm * gm + m * m).sqrt().max(1e-6);
+            [s; 3]
+        };
+        Config {
+            data: DataSection {
+                imu: "IMU.txt".into(),
+                gnss: "GNSS.txt".into(),
+                output: "out".into(),
+                imu_rate: i.rate,
+                imu_format: Default::default(),
+                start_time: Some(t0),
+                end_time: None,
+                bad_lines: Default::default(),
+                max_gap: 5.0,
+                truth: Some("truth.nav".into()),
+            },
+            init: InitSection {
+                position: [x0.pos.lat * d, x0.pos.lon * d, x0.pos.h],
+                velocity: [x0.vel.x, x0.vel.y, x0.vel.z],
+                attitude: [r * d, p * d, y * d],
+                gyro_bias: [0.0; 3],
+                accel_bias: [0.0; 3],
+                position_std: ie.position_std,
+                velocity_std: ie.velocity_std,
+                attitude_std: ie.attitude_std,
+                gyro_bias_std: total(i.gyro_bias_std, i.gyro_turn_on),
+                accel_bias_std: total(i.accel_bias_std, i.accel_turn_on),
+            },
+            imu_noise: NoiseSection {
+                arw: [i.arw.max(1e-6); 3],
+                vrw: [i.vrw.max(1e-6); 3],
+                gyro_bias_std: [i.gyro_bias_std; 3],
+                accel_bias_std: [i.accel_bias_std; 3],
+                corr_time: i.corr_time,
+                bias_model: crate::config::BiasModelName::default(),
+            },
+            gnss: GnssSection { lever_arm: self.gnss.lever_arm, ..GnssSection::default() },
+            filter: FilterSection::default(),
+        }
+    }
+}
