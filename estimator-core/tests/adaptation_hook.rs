@@ -8,8 +8,8 @@ mod common;
 use common::close;
 use estimator_core::linear::{LinearMeasurement, LinearProcess};
 use estimator_core::{
-    Adaptation, ErrorStateFilter, FilterAlloc, FixedNoise, NoiseStrategy, QAdjust, StreamId,
-    StreamMap, UpdateLog, Verdict,
+    Adaptation, ErrorStateFilter, FilterAlloc, FixedNoise, NoiseStrategy, PriorScaling, QAdjust,
+    StreamId, StreamMap, UpdateLog, Verdict,
 };
 use nalgebra::{DefaultAllocator, DimName, Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
 
@@ -19,6 +19,7 @@ use nalgebra::{DefaultAllocator, DimName, Matrix1, Matrix1x2, Matrix2, Vector1, 
 struct TestStrategy {
     gate: f64,
     counts: StreamMap<u32>,
+    scaling: PriorScaling,
 }
 
 impl NoiseStrategy for TestStrategy {
@@ -37,6 +38,7 @@ impl NoiseStrategy for TestStrategy {
         } else if n.is_multiple_of(2) {
             a.R = a.R_nominal * 2.0;
             a.prior_scale = 1.5;
+            a.prior_scaling = self.scaling;
             a.verdict = Verdict::Inflated;
             a.reason = "even update";
             a.factors.lambda_p = 1.5;
@@ -63,8 +65,8 @@ fn inflation_equals_an_update_with_scaled_prior_and_noise() {
     let p0 = Matrix2::new(2.0, 0.3, 0.3, 1.0);
     let x0 = Vector2::new(0.5, -0.2);
     let r = Matrix1::new(0.4);
-    let mut f =
-        ErrorStateFilter::new(x0, p0, TestStrategy { gate: 1e9, ..Default::default() }).unwrap();
+    let strategy = TestStrategy { gate: 1e9, scaling: PriorScaling::Full, ..Default::default() };
+    let mut f = ErrorStateFilter::new(x0, p0, strategy).unwrap();
     let rep1 = f.update(&pos(), &Vector1::new(1.0), &r).unwrap();
     assert_eq!(rep1.verdict, Verdict::Accepted);
     let after_first = *f.covariance();
@@ -154,4 +156,32 @@ fn contract_breaking_strategy_gives_typed_error_and_unchanged_filter() {
     assert_eq!(e, estimator_core::FilterError::NonFinite { what: "adapted measurement noise R*" });
     assert!((f.state() - Vector2::new(1.0, 2.0)).norm() < 1e-15);
     assert!(close(f.covariance(), &Matrix2::identity(), 1e-15));
+}
+
+#[test]
+fn subspace_scaling_gives_the_full_scaling_correction_without_inflating_unseen_directions() {
+    // State (position, velocity, an unobserved bias); only position is measured.
+    use nalgebra::{Matrix1x3, Matrix3, Vector3};
+    let p0 = Matrix3::new(2.0, 0.3, 0.1, 0.3, 1.0, 0.0, 0.1, 0.0, 5.0);
+    let x0 = Vector3::new(0.5, -0.2, 0.0);
+    let sensor = LinearMeasurement::new(Matrix1x3::new(1.0, 0.0, 0.0));
+    let r = Matrix1::new(0.4);
+    let z = Vector1::new(1.7);
+    let run = |scaling| {
+        let strategy = TestStrategy { gate: 1e9, scaling, ..Default::default() };
+        let mut f = ErrorStateFilter::new(x0, p0, strategy).unwrap();
+        f.update(&sensor, &Vector1::new(0.5), &r).unwrap(); // first: accepted
+        let before = *f.covariance();
+        f.update(&sensor, &z, &r).unwrap(); // second: λ = 1.5
+        (before, *f.state(), *f.covariance())
+    };
+    let (_, x_full, p_full) = run(PriorScaling::Full);
+    let (before, x_sub, p_sub) = run(PriorScaling::MeasurementSubspace);
+    // Same gain, same correction.
+    assert!(close(&x_sub, &x_full, 1e-12));
+    // The measured component's posterior agrees; the unobserved bias is not inflated:
+    // with subspace scaling its variance can only shrink, with full scaling it grows.
+    assert!((p_sub[(0, 0)] - p_full[(0, 0)]).abs() < 1e-12);
+    assert!(p_sub[(2, 2)] <= before[(2, 2)] + 1e-12);
+    assert!(p_full[(2, 2)] > before[(2, 2)] * 1.4);
 }
