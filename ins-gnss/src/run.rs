@@ -23,6 +23,7 @@ use nalgebra::Vector3;
 
 use crate::config::Config;
 use crate::gnss::GnssEpoch;
+use crate::imu::ImuSample;
 use crate::imu::{DEG_PER_H, MGAL};
 use crate::io::formats::{create, write_nav};
 use crate::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
@@ -107,16 +108,17 @@ pub struct RunSummary {
 /// Called every `every` IMU epochs with the current time, for progress bars.
 pub type Progress<'a> = &'a mut dyn FnMut(f64);
 
+/// The outputs written by the filter thread (`nav.txt` goes to the writer thread).
 struct Outputs {
     dir: PathBuf,
-    nav: std::io::BufWriter<std::fs::File>,
     std: std::io::BufWriter<std::fs::File>,
     imu_err: std::io::BufWriter<std::fs::File>,
     updates: std::io::BufWriter<std::fs::File>,
 }
 
 impl Outputs {
-    fn create(dir: &Path) -> Result<Self, RunError> {
+    /// Create the output directory and files; returns the outputs and `nav.txt`.
+    fn create(dir: &Path) -> Result<(Self, std::io::BufWriter<std::fs::File>), RunError> {
         let out =
             |path: PathBuf, e: std::io::Error| RunError::Output { path, message: e.to_string() };
         std::fs::create_dir_all(dir).map_err(|e| out(dir.to_path_buf(), e))?;
@@ -124,9 +126,9 @@ impl Outputs {
             let p = dir.join(name);
             create(&p).map_err(|e| out(p, e))
         };
+        let nav = open("nav.txt")?;
         let mut o = Outputs {
             dir: dir.to_path_buf(),
-            nav: open("nav.txt")?,
             std: open("std.txt")?,
             imu_err: open("imu_errors.txt")?,
             updates: open("updates.csv")?,
@@ -136,7 +138,7 @@ impl Outputs {
             "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r"
         )
         .map_err(|e| out(dir.join("updates.csv"), e))?;
-        Ok(o)
+        Ok((o, nav))
     }
 
     fn err(&self, name: &str, e: std::io::Error) -> RunError {
@@ -203,8 +205,16 @@ fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
     )
 }
 
+/// Samples or records per message between the pipeline's threads.
+const BATCH: usize = 1024;
+
 /// Run `config` with `strategy`, writing into `out_dir`. `progress` (if any) is called
 /// with the current time every 2,000 IMU epochs.
+///
+/// The run is a three-stage pipeline over bounded channels: a reader thread parses the
+/// IMU file, this thread runs the filter, a writer thread formats and writes `nav.txt`.
+/// Memory is bounded by the channels (a few batches of 1,024 samples), whatever the
+/// length of the dataset.
 pub fn run(
     config: &Config,
     strategy: AnyStrategy,
@@ -220,14 +230,13 @@ pub fn run(
         config.bad_lines(),
     )?;
     let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
-    let mut out = Outputs::create(out_dir)?;
+    let (mut out, nav_file) = Outputs::create(out_dir)?;
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
     let first =
         imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
     let start = config.data.start_time.unwrap_or(first.t);
     let end = config.data.end_time.unwrap_or(f64::INFINITY);
-    let mut pending = Some(first);
     let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
     let mut nav =
         Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
@@ -238,57 +247,120 @@ pub fn run(
         ..Default::default()
     };
 
-    let mut next_gnss: Option<GnssEpoch> = gnss.next_epoch()?;
-    let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
-    let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
-    loop {
-        let sample = match pending.take() {
-            Some(s) => s,
-            None => match imu.next_sample()? {
-                Some(s) => s,
-                None => break,
-            },
-        };
-        if sample.t <= start + 1e-9 {
-            continue;
-        }
-        if sample.t > end + 1e-9 {
-            break;
-        }
-        batch.clear();
-        while let Some(g) = next_gnss {
-            if g.t > sample.t + 1e-9 {
-                break;
+    std::thread::scope(|scope| -> Result<(), RunError> {
+        let (imu_tx, imu_rx) =
+            std::sync::mpsc::sync_channel::<Result<Vec<ImuSample>, LineError>>(4);
+        let (nav_tx, nav_rx) = std::sync::mpsc::sync_channel::<Vec<NavRecord>>(4);
+        let reader = scope.spawn(move || {
+            let mut batch = Vec::with_capacity(BATCH);
+            batch.push(first);
+            loop {
+                match imu.next_sample() {
+                    Ok(Some(s)) => {
+                        batch.push(s);
+                        if batch.len() == BATCH
+                            && imu_tx
+                                .send(Ok(std::mem::replace(&mut batch, Vec::with_capacity(BATCH))))
+                                .is_err()
+                        {
+                            break;
+                        }
+                    }
+                    Ok(None) => {
+                        let _ = imu_tx.send(Ok(batch));
+                        break;
+                    }
+                    Err(e) => {
+                        let _ = imu_tx.send(Ok(std::mem::take(&mut batch)));
+                        let _ = imu_tx.send(Err(e));
+                        break;
+                    }
+                }
             }
-            if g.t > start + 1e-9 {
-                batch.push(g);
+            imu.skipped
+        });
+        let nav_path = out_dir.join("nav.txt");
+        let writer = scope.spawn(move || -> Result<(), RunError> {
+            let mut w = nav_file;
+            for batch in nav_rx {
+                for r in &batch {
+                    write_nav(&mut w, r).map_err(|e| RunError::Output {
+                        path: nav_path.clone(),
+                        message: e.to_string(),
+                    })?;
+                }
             }
-            next_gnss = gnss.next_epoch()?;
-        }
-        updates.clear();
-        nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)?;
-        summary.imu_epochs += 1;
-        write_nav(&mut out.nav, &nav_record(sample.t, nav.state()))
-            .map_err(|e| out.err("nav.txt", e))?;
-        for u in &updates {
-            summary.gnss_epochs += 1;
-            match u.verdict {
-                Verdict::Accepted => summary.accepted += 1,
-                Verdict::Inflated => summary.inflated += 1,
-                Verdict::Rejected => summary.rejected += 1,
+            w.flush()
+                .map_err(|e| RunError::Output { path: nav_path.clone(), message: e.to_string() })
+        });
+
+        let result = (|| -> Result<(), RunError> {
+            let mut next_gnss: Option<GnssEpoch> = gnss.next_epoch()?;
+            let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
+            let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
+            let mut records = Vec::with_capacity(BATCH);
+            'outer: for message in &imu_rx {
+                for sample in message? {
+                    if sample.t <= start + 1e-9 {
+                        continue;
+                    }
+                    if sample.t > end + 1e-9 {
+                        break 'outer;
+                    }
+                    batch.clear();
+                    while let Some(g) = next_gnss {
+                        if g.t > sample.t + 1e-9 {
+                            break;
+                        }
+                        if g.t > start + 1e-9 {
+                            batch.push(g);
+                        }
+                        next_gnss = gnss.next_epoch()?;
+                    }
+                    updates.clear();
+                    nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)?;
+                    summary.imu_epochs += 1;
+                    records.push(nav_record(sample.t, nav.state()));
+                    if records.len() == BATCH
+                        && nav_tx
+                            .send(std::mem::replace(&mut records, Vec::with_capacity(BATCH)))
+                            .is_err()
+                    {
+                        break 'outer;
+                    }
+                    for u in &updates {
+                        summary.gnss_epochs += 1;
+                        match u.verdict {
+                            Verdict::Accepted => summary.accepted += 1,
+                            Verdict::Inflated => summary.inflated += 1,
+                            Verdict::Rejected => summary.rejected += 1,
+                        }
+                        write_update(&mut out, u).map_err(|e| out.err("updates.csv", e))?;
+                    }
+                    if !updates.is_empty() {
+                        write_std(&mut out, sample.t, &nav).map_err(|e| out.err("std.txt", e))?;
+                    }
+                    summary.span.1 = sample.t;
+                    if summary.imu_epochs.is_multiple_of(2000) {
+                        if let Some(p) = progress.as_mut() {
+                            p(sample.t);
+                        }
+                    }
+                }
             }
-            write_update(&mut out, u).map_err(|e| out.err("updates.csv", e))?;
-        }
-        if !updates.is_empty() {
-            write_std(&mut out, sample.t, &nav).map_err(|e| out.err("std.txt", e))?;
-        }
-        summary.span.1 = sample.t;
-        if summary.imu_epochs.is_multiple_of(2000) {
-            if let Some(p) = progress.as_mut() {
-                p(sample.t);
-            }
-        }
-    }
+            let _ = nav_tx.send(records);
+            Ok(())
+        })();
+        drop(nav_tx);
+        drop(imu_rx);
+        let written =
+            writer.join().map_err(|_| RunError::NoData("the writer thread panicked".into()))?;
+        summary.imu_skipped =
+            reader.join().map_err(|_| RunError::NoData("the reader thread panicked".into()))?;
+        result?;
+        written
+    })?;
+
     if summary.imu_epochs == 0 {
         return Err(RunError::NoData(format!(
             "no IMU sample after the start time {start} s in {}",
@@ -297,7 +369,6 @@ pub fn run(
     }
     write_std(&mut out, summary.span.1, &nav).map_err(|e| out.err("std.txt", e))?;
     for (w, name) in [
-        (&mut out.nav, "nav.txt"),
         (&mut out.std, "std.txt"),
         (&mut out.imu_err, "imu_errors.txt"),
         (&mut out.updates, "updates.csv"),
@@ -305,7 +376,6 @@ pub fn run(
         w.flush()
             .map_err(|e| RunError::Output { path: out_dir.join(name), message: e.to_string() })?;
     }
-    summary.imu_skipped = imu.skipped;
     summary.gnss_skipped = gnss.skipped;
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)

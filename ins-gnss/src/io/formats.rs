@@ -436,21 +436,24 @@ impl<R: BufRead> NavReader<R> {
 /// 0.01 mm/s, attitude to 1e-8°).
 pub fn write_nav<W: Write>(w: &mut W, r: &NavRecord) -> std::io::Result<()> {
     let d = 180.0 / core::f64::consts::PI;
-    writeln!(
-        w,
-        "{:.0} {:.6} {:.10} {:.10} {:.4} {:.5} {:.5} {:.5} {:.8} {:.8} {:.8}",
-        r.week,
-        r.t,
-        r.pos.lat * d,
-        r.pos.lon * d,
-        r.pos.h,
-        r.vel.x,
-        r.vel.y,
-        r.vel.z,
-        r.att.x * d,
-        r.att.y * d,
-        r.att.z * d
-    )
+    let mut line = Vec::with_capacity(160);
+    super::fixed::push_row(
+        &mut line,
+        &[
+            (r.week, 0),
+            (r.t, 6),
+            (r.pos.lat * d, 10),
+            (r.pos.lon * d, 10),
+            (r.pos.h, 4),
+            (r.vel.x, 5),
+            (r.vel.y, 5),
+            (r.vel.z, 5),
+            (r.att.x * d, 8),
+            (r.att.y * d, 8),
+            (r.att.z * d, 8),
+        ],
+    );
+    w.write_all(&line)
 }
 
 /// Writes one GNSS epoch in the 7- or 13-column format.

@@ -106,14 +106,14 @@ pub struct NumericLines<R: BufRead> {
     inner: R,
     path: PathBuf,
     line: usize,
-    buf: String,
+    buf: Vec<u8>,
     values: Vec<f64>,
 }
 
 impl<R: BufRead> NumericLines<R> {
     /// Wrap a reader; `path` names it in errors.
     pub fn new(inner: R, path: &Path) -> Self {
-        Self { inner, path: path.to_path_buf(), line: 0, buf: String::new(), values: Vec::new() }
+        Self { inner, path: path.to_path_buf(), line: 0, buf: Vec::new(), values: Vec::new() }
     }
 
     /// The file name used in errors.
@@ -133,14 +133,21 @@ impl<R: BufRead> NumericLines<R> {
 
     /// Next raw data line (comments and blank lines skipped), as text.
     pub fn next_text(&mut self) -> Result<Option<&str>, LineError> {
-        Ok(if self.advance()? { Some(self.buf.trim()) } else { None })
+        if !self.advance()? {
+            return Ok(None);
+        }
+        match std::str::from_utf8(&self.buf) {
+            Ok(t) => Ok(Some(t.trim())),
+            Err(_) => Err(self
+                .error(LineErrorKind::NotNumeric { column: 0, text: "(not UTF-8 text)".into() })),
+        }
     }
 
     /// Move to the next data line; false at the end of the file.
     fn advance(&mut self) -> Result<bool, LineError> {
         loop {
             self.buf.clear();
-            let n = self.inner.read_line(&mut self.buf).map_err(|e| LineError {
+            let n = self.inner.read_until(b'\n', &mut self.buf).map_err(|e| LineError {
                 path: self.path.clone(),
                 line: self.line + 1,
                 kind: LineErrorKind::Io(e.to_string()),
@@ -149,11 +156,10 @@ impl<R: BufRead> NumericLines<R> {
                 return Ok(false);
             }
             self.line += 1;
-            let t = self.buf.trim();
-            if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
-                continue;
+            match self.buf.iter().find(|b| !b.is_ascii_whitespace()) {
+                None | Some(b'#') | Some(b'%') => continue,
+                Some(_) => return Ok(true),
             }
-            return Ok(true);
         }
     }
 
@@ -162,15 +168,19 @@ impl<R: BufRead> NumericLines<R> {
         if !self.advance()? {
             return Ok(None);
         }
-        let text = self.buf.trim();
         let values = &mut self.values;
         values.clear();
         let mut failure = None;
-        for (i, field) in text
-            .split(|c: char| c.is_whitespace() || c == ',')
-            .filter(|s| !s.is_empty())
-            .enumerate()
-        {
+        let fields =
+            self.buf.split(|b| b.is_ascii_whitespace() || *b == b',').filter(|s| !s.is_empty());
+        for (i, bytes) in fields.enumerate() {
+            let Ok(field) = std::str::from_utf8(bytes) else {
+                failure = Some(LineErrorKind::NotNumeric {
+                    column: i + 1,
+                    text: "(not UTF-8 text)".into(),
+                });
+                break;
+            };
             match field.parse::<f64>() {
                 Ok(v) if v.is_finite() => values.push(v),
                 Ok(_) => {

@@ -1,5 +1,6 @@
 //! File formats: streaming readers and writers with located, typed errors.
 
+pub mod fixed;
 pub mod formats;
 pub mod lines;
 
