@@ -114,6 +114,12 @@ impl Afkf {
         self
     }
 
+    /// Scale `P⁻` along the measurement subspace (default) or in full.
+    pub fn with_scaling(mut self, scaling: PriorScaling) -> Self {
+        self.scaling = scaling;
+        self
+    }
+
     /// The fading-memory filter with constant `λ = alpha²`.
     pub fn fading_memory(alpha: f64) -> Self {
         Self { fixed_lambda: Some(alpha * alpha), ..Self::default() }

@@ -17,6 +17,8 @@
 //! Jacobian `G` is, for a rotation block, `Jr(δθ) ≈ I − ½[δθ×]` (Solà 2017, §7.2;
 //! paper `fused-iae-afkf` eq. 21–22).
 
+use std::borrow::Cow;
+
 use nalgebra::{DefaultAllocator, OMatrix};
 
 use manifolds::{DimAlloc, Manifold};
@@ -24,6 +26,7 @@ use manifolds::{DimAlloc, Manifold};
 use crate::adapt::{
     Adaptation, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, Verdict,
 };
+use crate::backend::{CovBackend, StaticCov};
 use crate::error::FilterError;
 use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize};
 use crate::report::{NoObserver, Observer, UpdateReport};
@@ -50,7 +53,8 @@ pub enum UpdateForm {
     Short,
 }
 
-/// An error-state Kalman filter on the manifold state `X` with noise strategy `A`.
+/// An error-state Kalman filter on the manifold state `X` with noise strategy `A` and
+/// covariance back-end `B` (default: stack-allocated nalgebra, see [`crate::backend`]).
 ///
 /// ```
 /// use estimator_core::{ErrorStateFilter, FixedNoise, MeasurementJacobians, MeasurementModel};
@@ -73,12 +77,20 @@ pub enum UpdateForm {
 /// ```
 #[allow(non_snake_case)]
 #[derive(Clone, Debug)]
-pub struct ErrorStateFilter<X: Manifold, A: NoiseStrategy = FixedNoise>
-where
+pub struct ErrorStateFilter<
+    X: Manifold,
+    A: NoiseStrategy = FixedNoise,
+    B: CovBackend<X::Dim> = StaticCov,
+> where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     x: X,
-    P: Cov<X::Dim>,
+    P: B::Cov,
+    /// Scratch for the next covariance (swapped in when a step succeeds).
+    P_next: B::Cov,
+    /// Second scratch (the scaled prior of an update).
+    P_aux: B::Cov,
+    backend: B,
     strategy: A,
     reset: ResetMode,
     form: UpdateForm,
@@ -88,20 +100,45 @@ where
 }
 
 #[allow(non_snake_case)]
-impl<X: Manifold, A: NoiseStrategy> ErrorStateFilter<X, A>
+impl<X: Manifold, A: NoiseStrategy> ErrorStateFilter<X, A, StaticCov>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     /// A filter at `x0` with covariance `P0` (checked: finite, symmetric, positive
-    /// definite) and the given strategy.
+    /// definite) and the given strategy, on the default (static) back-end.
     pub fn new(x0: X, P0: Cov<X::Dim>, strategy: A) -> Result<Self, FilterError> {
+        Self::with_backend(x0, P0, strategy, StaticCov)
+    }
+
+    /// The error covariance.
+    pub fn covariance(&self) -> &Cov<X::Dim> {
+        &self.P
+    }
+}
+
+#[allow(non_snake_case)]
+impl<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>> ErrorStateFilter<X, A, B>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    /// A filter on the back-end `backend` (e.g. `DynamicCov::default()`, `FaerCov::default()`).
+    pub fn with_backend(
+        x0: X,
+        P0: Cov<X::Dim>,
+        strategy: A,
+        backend: B,
+    ) -> Result<Self, FilterError> {
         if !x0.is_finite() {
             return Err(FilterError::NonFinite { what: "initial state x0" });
         }
         check_covariance("initial covariance P0", &P0)?;
+        let P = B::from_static(&P0);
         Ok(Self {
             x: x0,
-            P: P0,
+            P_next: P.clone(),
+            P_aux: P.clone(),
+            P,
+            backend,
             strategy,
             reset: ResetMode::default(),
             form: UpdateForm::default(),
@@ -134,8 +171,14 @@ where
         &self.x
     }
 
-    /// The error covariance.
-    pub fn covariance(&self) -> &Cov<X::Dim> {
+    /// The error covariance as a static matrix (borrowed on the static back-end, copied
+    /// on the others).
+    pub fn covariance_matrix(&self) -> Cow<'_, Cov<X::Dim>> {
+        B::as_static(&self.P)
+    }
+
+    /// The covariance in the back-end's own storage.
+    pub fn covariance_raw(&self) -> &B::Cov {
         &self.P
     }
 
@@ -176,12 +219,18 @@ where
     /// Replace the covariance (checked like `P0`).
     pub fn set_covariance(&mut self, P: Cov<X::Dim>) -> Result<(), FilterError> {
         check_covariance("covariance P", &P)?;
-        self.P = P;
+        self.P = B::from_static(&P);
         Ok(())
     }
 
+    /// The 1σ of every error-state component.
+    pub fn sigma(&self) -> OMatrix<f64, X::Dim, nalgebra::U1> {
+        OMatrix::<f64, X::Dim, nalgebra::U1>::from_fn(|i, _| B::diag(&self.P, i).max(0.0).sqrt())
+    }
+
     /// Propagate over `dt ≥ 0` seconds with `model` and input `u`:
-    /// `x̂⁻ = f(x̂, u, dt)`, `P⁻ = Φ P Φᵀ + Q_d` (or the model's structured form).
+    /// `x̂⁻ = f(x̂, u, dt)`, `P⁻ = λ Φ P Φᵀ + Q_d` (λ = 1 unless the strategy fades; on the
+    /// static back-end the model's structured propagation is used).
     pub fn predict<PM>(&mut self, model: &PM, u: &PM::Input, dt: f64) -> Result<(), FilterError>
     where
         PM: ProcessModel<State = X>,
@@ -195,23 +244,32 @@ where
             QAdjust::Scale(s) => jac.Q *= *s,
             QAdjust::AddRate(q) => jac.Q += q * dt,
         }
-        let mut P = self.P.clone();
         let fading = self.strategy.prediction_fading();
-        if fading != 1.0 {
-            if !(fading.is_finite() && fading > 0.0) {
-                return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
-            }
-            // λ Φ P Φᵀ = Φ (λ P) Φᵀ
-            P *= fading;
+        if !(fading.is_finite() && fading > 0.0) {
+            return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
         }
-        model.propagate_covariance(&mut P, &jac);
-        symmetrize(&mut P);
+        let static_view = B::as_static(&self.P);
+        match (B::static_mut(&mut self.P_next), static_view) {
+            (Some(next), Cow::Borrowed(P)) => {
+                next.copy_from(P);
+                if fading != 1.0 {
+                    // λ Φ P Φᵀ = Φ (λ P) Φᵀ
+                    *next *= fading;
+                }
+                model.propagate_covariance(next, &jac);
+                symmetrize(next);
+            }
+            (_, view) => {
+                drop(view);
+                self.backend.propagate(&self.P, &jac.Phi, &jac.Q, fading, &mut self.P_next);
+            }
+        }
         if !x_next.is_finite() {
             return Err(FilterError::NonFinite { what: "propagated state" });
         }
-        check_finite("propagated covariance P", &P)?;
+        B::check_finite("propagated covariance P", &self.P_next)?;
         self.x = x_next;
-        self.P = P;
+        core::mem::swap(&mut self.P, &mut self.P_next);
         self.time += dt;
         Ok(())
     }
@@ -257,7 +315,7 @@ where
         check_finite("measurement Jacobian H", &H)?;
 
         // S = H P⁻ Hᵀ + R
-        let HP = &H * &self.P;
+        let HP = self.backend.h_times_p(&H, &self.P);
         let HPHt = &HP * H.transpose();
         let mut S = &HPHt + R;
         symmetrize(&mut S);
@@ -266,13 +324,14 @@ where
         let nis = r.dot(&chol_S.solve(&r));
 
         let epoch = self.epoch + 1;
+        let P_view = B::as_static(&self.P);
         let mut a = Adaptation {
             stream: model.stream(),
             epoch,
             time: self.time,
             innovation: &r,
             H: &H,
-            P_prior: &self.P,
+            P_prior: &P_view,
             HPHt: &HPHt,
             R_nominal: R,
             S: &S,
@@ -297,6 +356,7 @@ where
             q,
             ..
         } = a;
+        drop(P_view);
 
         let mut report = UpdateReport {
             stream,
@@ -327,38 +387,60 @@ where
         symmetrize(&mut S_used);
         let chol = cholesky("adapted innovation covariance S*", S_used)?;
         report.nis_adapted = r.dot(&chol.solve(&r));
-        let P_prior = scale_prior(&self.P, &HP, &HPHt, prior_scale, prior_scaling);
+
+        // P⁻*: λ P⁻, or P⁻ + (λ − 1) (HP)ᵀ (HPHᵀ)⁻¹ (HP) along the measurement subspace.
+        let scaled = if prior_scale == 1.0 {
+            false
+        } else {
+            let subspace = match prior_scaling {
+                PriorScaling::MeasurementSubspace => HPHt.clone().cholesky().map(|c| c.solve(&HP)),
+                PriorScaling::Full => None,
+            };
+            match subspace {
+                Some(A) => self.backend.scale_add(
+                    &self.P,
+                    1.0,
+                    prior_scale - 1.0,
+                    &HP,
+                    &A,
+                    &mut self.P_aux,
+                ),
+                None => {
+                    self.backend.scale_add(&self.P, prior_scale, 0.0, &HP, &HP, &mut self.P_aux)
+                }
+            }
+            true
+        };
         let HP_used = HP * prior_scale;
         // K = P⁻* Hᵀ S*⁻¹, solved as S* Kᵀ = H P⁻* (S*, P⁻* symmetric)
         let K = chol.solve(&HP_used).transpose();
         let dx = &K * &r;
+        check_finite("state correction δx", &dx)?;
 
-        let mut P_new = match self.form {
-            UpdateForm::Joseph => {
-                // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ
-                let IKH = Cov::<X::Dim>::identity() - &K * &H;
-                &IKH * &P_prior * IKH.transpose() + &K * &R_used * K.transpose()
-            }
-            // P = P⁻ − K H P⁻
-            UpdateForm::Short => &P_prior - &K * &HP_used,
-        };
-        symmetrize(&mut P_new);
+        let prior = if scaled { &self.P_aux } else { &self.P };
+        // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
+        self.backend.update(
+            prior,
+            &K,
+            &H,
+            &R_used,
+            self.form == UpdateForm::Short,
+            &mut self.P_next,
+        );
 
         let x_new = self.x.oplus(&dx);
         if self.reset == ResetMode::Exact {
             // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx
             let G = self.x.oplus_jacobians(&dx).J_y_delta;
-            P_new = &G * &P_new * G.transpose();
-            symmetrize(&mut P_new);
+            self.backend.sandwich_in_place(&mut self.P_next, &G);
         }
-        check_finite("state correction δx", &dx)?;
         if !x_new.is_finite() {
             return Err(FilterError::NonFinite { what: "updated state" });
         }
-        check_finite("updated covariance P", &P_new)?;
+        B::check_finite("updated covariance P", &self.P_next)?;
 
         self.x = x_new;
-        self.P = P_new;
+        core::mem::swap(&mut self.P, &mut self.P_next);
         self.epoch = epoch;
         self.apply_q(q);
         let mut post =
@@ -376,41 +458,5 @@ where
             QAdjust::Model => self.q_adjust = QAdjust::Keep,
             other => self.q_adjust = other,
         }
-    }
-}
-
-/// `P⁻*` for a prior scale `λ`: `λ P⁻`, or `P⁻ + (λ − 1) (HP⁻)ᵀ (HP⁻Hᵀ)⁻¹ (HP⁻)` along the
-/// measurement subspace (falls back to `λ P⁻` when `H P⁻ Hᵀ` is singular).
-fn scale_prior<N: nalgebra::DimName, M: nalgebra::DimName>(
-    P: &Cov<N>,
-    HP: &OMatrix<f64, M, N>,
-    HPHt: &Cov<M>,
-    lambda: f64,
-    mode: PriorScaling,
-) -> Cov<N>
-where
-    DefaultAllocator: FilterAlloc<N, M>,
-{
-    if lambda == 1.0 {
-        return P.clone();
-    }
-    if mode == PriorScaling::MeasurementSubspace {
-        if let Some(c) = HPHt.clone().cholesky() {
-            // (HP)ᵀ (HPHᵀ)⁻¹ (HP)
-            let mut out = P + HP.transpose() * c.solve(HP) * (lambda - 1.0);
-            symmetrize(&mut out);
-            return out;
-        }
-    }
-    P * lambda
-}
-
-impl<X: Manifold, A: NoiseStrategy> ErrorStateFilter<X, A>
-where
-    DefaultAllocator: DimAlloc<X::Dim>,
-{
-    /// The 1σ of every error-state component.
-    pub fn sigma(&self) -> OMatrix<f64, X::Dim, nalgebra::U1> {
-        OMatrix::<f64, X::Dim, nalgebra::U1>::from_fn(|i, _| self.P[(i, i)].max(0.0).sqrt())
     }
 }

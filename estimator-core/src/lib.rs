@@ -9,6 +9,7 @@
 //! | [`NoiseStrategy`], [`FixedNoise`], [`Adaptation`] | the adaptation hook and its zero-sized default |
 //! | [`UpdateReport`], [`Observer`], [`UpdateLog`] | per-update telemetry |
 //! | [`FilterError`] | typed failures; the filter is unchanged after any of them |
+//! | [`backend`] | covariance back-ends: nalgebra static (default), nalgebra dynamic, faer |
 //! | [`consistency`] | NEES / NIS and χ² bands |
 //! | [`harness`] | analytic vs numerical Jacobians through ⊕/⊖ for any model |
 //! | [`linalg`] | checks and Cholesky helpers with typed errors |
@@ -20,6 +21,7 @@
 #![allow(non_snake_case)]
 
 pub mod adapt;
+pub mod backend;
 pub mod consistency;
 pub mod error;
 pub mod filter;
@@ -33,6 +35,7 @@ pub use adapt::{
     Adaptation, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, StreamId,
     StreamMap, Verdict,
 };
+pub use backend::{CovBackend, DynamicCov, FaerCov, StaticCov};
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode, UpdateForm};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
