@@ -1,0 +1,223 @@
+//! Filter benchmarks (single-threaded), see `benches/README.md` for a table of results:
+//!
+//! - predict and update vs state dimension (6 … 240) × covariance back-end;
+//! - one 15-state INS epoch (mechanization + covariance propagation), dense vs structured;
+//! - one GNSS position+velocity update of the INS filter;
+//! - a whole run of the simulator's 10-minute drive at 200 Hz (IMU epochs per second).
+//!
+//! Run: `cargo bench --bench filters` (add a filter, e.g. `-- ins_epoch`, to run a part).
+//! The 240-state static matrices are large, so the benches run on a thread with a 256 MiB
+//! stack.
+
+#![allow(non_snake_case)]
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput};
+use estimator::core::linear::{LinearMeasurement, LinearProcess};
+use estimator::core::{
+    CovBackend, DynamicCov, ErrorStateFilter, FaerCov, FixedNoise, NoObserver, ProcessJacobians,
+    ProcessModel, StaticCov,
+};
+use estimator::ins_gnss::model::ImuInput;
+use estimator::ins_gnss::sim::{scenarios, simulate, GnssSim, Trajectory};
+use estimator::ins_gnss::{
+    GnssConfig, GnssPosVel, InitialState, InitialStd, InsModel, InsState, Navigator,
+};
+use nalgebra::{Const, SMatrix, SVector, Vector3};
+
+fn linear_problem<const N: usize>(
+) -> (LinearProcess<N>, LinearMeasurement<3, N>, SMatrix<f64, N, N>) {
+    // A contraction at every size (row sums ≤ 0.98 + 0.012): repeated predictions converge
+    // to a steady state instead of overflowing.
+    let F = SMatrix::<f64, N, N>::from_fn(|i, j| {
+        if i == j {
+            0.98
+        } else {
+            ((i * 31 + j * 17) % 13) as f64 * 1e-3 / N as f64
+        }
+    });
+    let Q = SMatrix::<f64, N, N>::identity() * 1e-3;
+    let H = SMatrix::<f64, 3, N>::from_fn(|i, j| if j % 3 == i { 1.0 } else { 0.0 });
+    let P0 = SMatrix::<f64, N, N>::from_fn(|i, j| {
+        if i == j {
+            1.0
+        } else {
+            0.01 / (1.0 + (i as f64 - j as f64).abs())
+        }
+    });
+    (LinearProcess { F, Q }, LinearMeasurement::new(H), P0)
+}
+
+fn bench_dim_backend<const N: usize, B: CovBackend<Const<N>>>(c: &mut Criterion, backend: B) {
+    let (process, sensor, P0) = linear_problem::<N>();
+    let name = B::NAME;
+    let mut f = ErrorStateFilter::with_backend(SVector::<f64, N>::zeros(), P0, FixedNoise, backend)
+        .unwrap();
+    let mut g = c.benchmark_group("predict");
+    g.bench_with_input(BenchmarkId::new(name, N), &N, |b, _| {
+        b.iter(|| f.predict(black_box(&process), &(), 0.01).unwrap())
+    });
+    g.finish();
+    let R = SMatrix::<f64, 3, 3>::identity();
+    let zs: Vec<SVector<f64, 3>> =
+        (0..16).map(|k| SVector::<f64, 3>::from_element(k as f64 * 0.01)).collect();
+    let mut k = 0;
+    let mut g = c.benchmark_group("update");
+    g.bench_with_input(BenchmarkId::new(name, N), &N, |b, _| {
+        b.iter(|| {
+            k = (k + 1) % zs.len();
+            black_box(f.update(&sensor, &zs[k], &R).unwrap().nis)
+        })
+    });
+    g.finish();
+}
+
+fn dims(c: &mut Criterion) {
+    macro_rules! all_backends {
+        ($($n:literal),*) => {$(
+            bench_dim_backend::<$n, _>(c, StaticCov);
+            bench_dim_backend::<$n, _>(c, DynamicCov::default());
+            bench_dim_backend::<$n, _>(c, FaerCov::default());
+        )*};
+    }
+    all_backends!(6, 9, 15, 21, 30, 60, 120, 240);
+}
+
+/// The INS model with the dense default propagation, for comparison.
+struct DenseIns(InsModel);
+
+impl ProcessModel for DenseIns {
+    type State = InsState;
+    type Input = ImuInput;
+    fn propagate(&self, x: &InsState, u: &ImuInput, dt: f64) -> InsState {
+        self.0.propagate(x, u, dt)
+    }
+    fn jacobians(&self, x: &InsState, u: &ImuInput, dt: f64) -> ProcessJacobians<Const<15>> {
+        self.0.jacobians(x, u, dt)
+    }
+}
+
+fn ins_setup() -> (InsState, SMatrix<f64, 15, 15>, ImuInput, InsModel) {
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs[..4]).unwrap();
+    let data = simulate(
+        &traj,
+        200.0,
+        &scenarios::mems_imu(),
+        &GnssSim {
+            rate_hz: 0.0,
+            pos_sigma: Vector3::zeros(),
+            vel_sigma: None,
+            lever_arm: Vector3::zeros(),
+            windows: vec![],
+        },
+        1,
+    );
+    let k = 8000;
+    let u = ImuInput { prev: Some(data.imu[k - 1]), cur: data.imu[k] };
+    let P = SMatrix::<f64, 15, 15>::from_fn(|i, j| if i == j { 1e-2 } else { 1e-5 });
+    (data.truth[k].state.clone(), P, u, InsModel::wgs84(scenarios::mems_imu().noise))
+}
+
+fn ins(c: &mut Criterion) {
+    let (x, P, u, model) = ins_setup();
+    let mut g = c.benchmark_group("ins_epoch");
+    let mut f = ErrorStateFilter::new(x.clone(), P, FixedNoise).unwrap();
+    g.bench_function("structured", |b| b.iter(|| f.predict(&model, black_box(&u), 0.005).unwrap()));
+    let dense = DenseIns(model.clone());
+    let mut f = ErrorStateFilter::new(x.clone(), P, FixedNoise).unwrap();
+    g.bench_function("dense", |b| b.iter(|| f.predict(&dense, black_box(&u), 0.005).unwrap()));
+    g.bench_function("mechanization_only", |b| {
+        b.iter(|| black_box(model.propagate(black_box(&x), &u, 0.005)))
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("gnss_update");
+    let mut f = ErrorStateFilter::new(x.clone(), P, FixedNoise).unwrap();
+    let m = GnssPosVel { lever_arm: Vector3::new(0.3, 0.0, -1.0), gyro_rate: u.cur.rate() };
+    let z = (m_predict(&m, &x), x.vel);
+    let R = SMatrix::<f64, 6, 6>::from_diagonal(&SVector::<f64, 6>::new(
+        1.0, 1.0, 4.0, 0.01, 0.01, 0.01,
+    ));
+    g.bench_function("pos_vel_15_states", |b| {
+        b.iter(|| {
+            f.set_covariance(P).unwrap();
+            black_box(f.update(&m, black_box(&z), &R).unwrap().nis)
+        })
+    });
+    g.bench_function("set_covariance_only", |b| b.iter(|| f.set_covariance(black_box(P)).unwrap()));
+    g.finish();
+}
+
+fn m_predict(m: &GnssPosVel, x: &InsState) -> estimator::ins_gnss::GeoPos {
+    use estimator::core::MeasurementModel;
+    m.predict(x).0
+}
+
+fn whole_run(c: &mut Criterion) {
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs).unwrap();
+    let gnss = GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::new(1.0, 1.0, 2.0),
+        vel_sigma: Some(Vector3::repeat(0.05)),
+        lever_arm: Vector3::zeros(),
+        windows: vec![],
+    };
+    let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &gnss, 2);
+    let deg = core::f64::consts::PI / 180.0;
+    let std = InitialStd {
+        att: Vector3::repeat(deg),
+        vel: Vector3::repeat(0.1),
+        pos: Vector3::repeat(2.0),
+        bg: Vector3::repeat(3e-4),
+        ba: Vector3::repeat(5e-3),
+    };
+    let init = InitialState { time: data.truth[0].t, state: data.truth[0].state.clone(), std };
+    let mut g = c.benchmark_group("whole_run");
+    g.throughput(Throughput::Elements(data.imu.len() as u64));
+    g.sample_size(10);
+    g.bench_function("drive_600s_200hz_imu_epochs", |b| {
+        b.iter(|| {
+            let mut nav = Navigator::new(
+                &init,
+                InsModel::wgs84(scenarios::mems_imu().noise),
+                FixedNoise,
+                GnssConfig::default(),
+            )
+            .unwrap();
+            let mut out = Vec::with_capacity(4);
+            let mut g = 0;
+            for s in &data.imu {
+                let first = g;
+                while g < data.gnss.len() && data.gnss[g].t <= s.t + 1e-9 {
+                    g += 1;
+                }
+                out.clear();
+                nav.process_into(s, &data.gnss[first..g], &mut NoObserver, &mut out).unwrap();
+            }
+            black_box(nav.state().pos.lat)
+        })
+    });
+    g.finish();
+}
+
+fn main() {
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(|| {
+            let mut c = Criterion::default()
+                .warm_up_time(Duration::from_millis(500))
+                .measurement_time(Duration::from_secs(2))
+                .configure_from_args();
+            ins(&mut c);
+            whole_run(&mut c);
+            dims(&mut c);
+            c.final_summary();
+        })
+        .expect("bench thread")
+        .join()
+        .expect("bench thread panicked");
+}
