@@ -85,11 +85,12 @@ pub struct ErrorStateFilter<
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     x: X,
-    P: B::Cov,
-    /// Scratch for the next covariance (swapped in when a step succeeds).
-    P_next: B::Cov,
-    /// Second scratch (the scaled prior of an update).
-    P_aux: B::Cov,
+    /// Three covariance buffers: the current one, the next one (made current when a step
+    /// succeeds, by swapping indices, not data) and the scaled prior of an update.
+    bufs: [B::Cov; 3],
+    /// Index of the current covariance in `bufs`; the next is `(cur + 1) % 3`, the
+    /// auxiliary `(cur + 2) % 3`.
+    cur: usize,
     backend: B,
     strategy: A,
     reset: ResetMode,
@@ -112,7 +113,7 @@ where
 
     /// The error covariance.
     pub fn covariance(&self) -> &Cov<X::Dim> {
-        &self.P
+        &self.bufs[self.cur]
     }
 }
 
@@ -135,9 +136,8 @@ where
         let P = B::from_static(&P0);
         Ok(Self {
             x: x0,
-            P_next: P.clone(),
-            P_aux: P.clone(),
-            P,
+            bufs: [P.clone(), P.clone(), P],
+            cur: 2,
             backend,
             strategy,
             reset: ResetMode::default(),
@@ -174,12 +174,27 @@ where
     /// The error covariance as a static matrix (borrowed on the static back-end, copied
     /// on the others).
     pub fn covariance_matrix(&self) -> Cow<'_, Cov<X::Dim>> {
-        B::as_static(&self.P)
+        B::as_static(&self.bufs[self.cur])
     }
 
     /// The covariance in the back-end's own storage.
     pub fn covariance_raw(&self) -> &B::Cov {
-        &self.P
+        &self.bufs[self.cur]
+    }
+
+    /// `(current, next, auxiliary)` buffers, disjointly borrowed.
+    fn buffers(&mut self) -> (&B::Cov, &mut B::Cov, &mut B::Cov) {
+        let [a, b, c] = &mut self.bufs;
+        match self.cur {
+            0 => (a, b, c),
+            1 => (b, c, a),
+            _ => (c, a, b),
+        }
+    }
+
+    /// Make the next buffer the current one.
+    fn commit(&mut self) {
+        self.cur = (self.cur + 1) % 3;
     }
 
     /// The strategy (to read its diagnostics).
@@ -219,13 +234,15 @@ where
     /// Replace the covariance (checked like `P0`).
     pub fn set_covariance(&mut self, P: Cov<X::Dim>) -> Result<(), FilterError> {
         check_covariance("covariance P", &P)?;
-        self.P = B::from_static(&P);
+        self.bufs[self.cur] = B::from_static(&P);
         Ok(())
     }
 
     /// The 1σ of every error-state component.
     pub fn sigma(&self) -> OMatrix<f64, X::Dim, nalgebra::U1> {
-        OMatrix::<f64, X::Dim, nalgebra::U1>::from_fn(|i, _| B::diag(&self.P, i).max(0.0).sqrt())
+        OMatrix::<f64, X::Dim, nalgebra::U1>::from_fn(|i, _| {
+            B::diag(&self.bufs[self.cur], i).max(0.0).sqrt()
+        })
     }
 
     /// Propagate over `dt ≥ 0` seconds with `model` and input `u`:
@@ -248,8 +265,9 @@ where
         if !(fading.is_finite() && fading > 0.0) {
             return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
         }
-        let static_view = B::as_static(&self.P);
-        match (B::static_mut(&mut self.P_next), static_view) {
+        let mut backend = core::mem::take(&mut self.backend);
+        let (P, next, _) = self.buffers();
+        match (B::static_mut(next), B::as_static(P)) {
             (Some(next), Cow::Borrowed(P)) => {
                 next.copy_from(P);
                 if fading != 1.0 {
@@ -259,17 +277,18 @@ where
                 model.propagate_covariance(next, &jac);
                 symmetrize(next);
             }
-            (_, view) => {
-                drop(view);
-                self.backend.propagate(&self.P, &jac.Phi, &jac.Q, fading, &mut self.P_next);
+            _ => {
+                let (P, next, _) = self.buffers();
+                backend.propagate(P, &jac.Phi, &jac.Q, fading, next);
             }
         }
+        self.backend = backend;
         if !x_next.is_finite() {
             return Err(FilterError::NonFinite { what: "propagated state" });
         }
-        B::check_finite("propagated covariance P", &self.P_next)?;
+        B::check_finite("propagated covariance P", &self.bufs[(self.cur + 1) % 3])?;
         self.x = x_next;
-        core::mem::swap(&mut self.P, &mut self.P_next);
+        self.commit();
         self.time += dt;
         Ok(())
     }
@@ -315,7 +334,7 @@ where
         check_finite("measurement Jacobian H", &H)?;
 
         // S = H P⁻ Hᵀ + R
-        let HP = self.backend.h_times_p(&H, &self.P);
+        let HP = self.backend.h_times_p(&H, &self.bufs[self.cur]);
         let HPHt = &HP * H.transpose();
         let mut S = &HPHt + R;
         symmetrize(&mut S);
@@ -324,7 +343,7 @@ where
         let nis = r.dot(&chol_S.solve(&r));
 
         let epoch = self.epoch + 1;
-        let P_view = B::as_static(&self.P);
+        let P_view = B::as_static(&self.bufs[self.cur]);
         let mut a = Adaptation {
             stream: model.stream(),
             epoch,
@@ -389,6 +408,9 @@ where
         report.nis_adapted = r.dot(&chol.solve(&r));
 
         // P⁻*: λ P⁻, or P⁻ + (λ − 1) (HP)ᵀ (HPHᵀ)⁻¹ (HP) along the measurement subspace.
+        let mut backend = core::mem::take(&mut self.backend);
+        let form = self.form;
+        let (P, next, aux) = self.buffers();
         let scaled = if prior_scale == 1.0 {
             false
         } else {
@@ -397,17 +419,8 @@ where
                 PriorScaling::Full => None,
             };
             match subspace {
-                Some(A) => self.backend.scale_add(
-                    &self.P,
-                    1.0,
-                    prior_scale - 1.0,
-                    &HP,
-                    &A,
-                    &mut self.P_aux,
-                ),
-                None => {
-                    self.backend.scale_add(&self.P, prior_scale, 0.0, &HP, &HP, &mut self.P_aux)
-                }
+                Some(A) => backend.scale_add(P, 1.0, prior_scale - 1.0, &HP, &A, aux),
+                None => backend.scale_add(P, prior_scale, 0.0, &HP, &HP, aux),
             }
             true
         };
@@ -415,32 +428,26 @@ where
         // K = P⁻* Hᵀ S*⁻¹, solved as S* Kᵀ = H P⁻* (S*, P⁻* symmetric)
         let K = chol.solve(&HP_used).transpose();
         let dx = &K * &r;
-        check_finite("state correction δx", &dx)?;
 
-        let prior = if scaled { &self.P_aux } else { &self.P };
+        let prior: &B::Cov = if scaled { aux } else { P };
         // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
-        self.backend.update(
-            prior,
-            &K,
-            &H,
-            &R_used,
-            self.form == UpdateForm::Short,
-            &mut self.P_next,
-        );
-
+        backend.update(prior, &K, &H, &R_used, form == UpdateForm::Short, next);
         let x_new = self.x.oplus(&dx);
         if self.reset == ResetMode::Exact {
             // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx
             let G = self.x.oplus_jacobians(&dx).J_y_delta;
-            self.backend.sandwich_in_place(&mut self.P_next, &G);
+            let (_, next, _) = self.buffers();
+            backend.sandwich_in_place(next, &G);
         }
+        self.backend = backend;
+        check_finite("state correction δx", &dx)?;
         if !x_new.is_finite() {
             return Err(FilterError::NonFinite { what: "updated state" });
         }
-        B::check_finite("updated covariance P", &self.P_next)?;
+        B::check_finite("updated covariance P", &self.bufs[(self.cur + 1) % 3])?;
 
         self.x = x_new;
-        core::mem::swap(&mut self.P, &mut self.P_next);
+        self.commit();
         self.epoch = epoch;
         self.apply_q(q);
         let mut post =

@@ -206,35 +206,44 @@ impl InsModel {
 
 type Cols = [[f64; 15]; 15];
 
+/// Columns padded to 16 rows: four 4-wide vectors each.
+type Cols16 = [[f64; 16]; 15];
+
+/// `acc += a·x` over 16 entries; fused in the AVX2+FMA path (without the instruction
+/// `mul_add` is a slow library call).
 #[inline(always)]
-fn axpy<const LO: usize, const HI: usize>(y: &mut [f64; 15], x: &[f64; 15], a: f64) {
-    for r in LO..HI {
-        y[r] += x[r] * a;
+fn axpy16<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 16], a: f64) {
+    for r in 0..16 {
+        acc[r] = if FMA { x[r].mul_add(a, acc[r]) } else { acc[r] + x[r] * a };
     }
 }
 
-/// `y += a·x` restricted to the non-zero rows of column `k` of the INS `Φ`
-/// (θ cols: θ,v rows; v and p cols: θ,v,p; b_g cols: θ,b_g; b_a cols: v,b_a).
+/// `Φ M` into padded columns. Each output column is accumulated in a local array that
+/// stays in registers (writing partial ranges of a column in memory instead made every
+/// step wait on a failed store-to-load forward).
 #[inline(always)]
-fn axpy_phi_col(k: usize, y: &mut [f64; 15], x: &[f64; 15], a: f64) {
-    match k / 3 {
-        0 => axpy::<0, 6>(y, x, a),
-        1 | 2 => axpy::<0, 9>(y, x, a),
-        3 => {
-            axpy::<0, 3>(y, x, a);
-            axpy::<9, 12>(y, x, a);
-        }
-        _ => {
-            axpy::<3, 6>(y, x, a);
-            axpy::<12, 15>(y, x, a);
-        }
+fn times_padded<const FMA: bool>(phi: &Cols, m: &Cols) -> Cols16 {
+    let mut fp: Cols16 = [[0.0; 16]; 15];
+    for (dst, src) in fp.iter_mut().zip(phi) {
+        dst[..15].copy_from_slice(src);
     }
+    let mut a: Cols16 = [[0.0; 16]; 15];
+    for (acol, mcol) in a.iter_mut().zip(m) {
+        let mut acc = [0.0_f64; 16];
+        for (fk, &mk) in fp.iter().zip(mcol) {
+            if mk != 0.0 {
+                axpy16::<FMA>(&mut acc, fk, mk);
+            }
+        }
+        *acol = acc;
+    }
+    a
 }
 
 /// `Φ M` for the INS `Φ`, skipping zero entries of `M`, on nalgebra's column arrays.
 pub fn phi_times(phi: &M15, m: &M15) -> M15 {
     dispatch(
-        || phi_times_kernel(phi, m),
+        || phi_times_kernel::<false>(phi, m),
         || {
             // SAFETY: only called after `is_x86_feature_detected!` confirmed AVX2 and FMA.
             #[cfg(target_arch = "x86_64")]
@@ -242,7 +251,7 @@ pub fn phi_times(phi: &M15, m: &M15) -> M15 {
                 phi_times_avx2(phi, m)
             }
             #[cfg(not(target_arch = "x86_64"))]
-            phi_times_kernel(phi, m)
+            phi_times_kernel::<false>(phi, m)
         },
     )
 }
@@ -265,28 +274,23 @@ fn dispatch<T>(portable: impl FnOnce() -> T, fast: impl FnOnce() -> T) -> T {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn phi_times_avx2(phi: &M15, m: &M15) -> M15 {
-    phi_times_kernel(phi, m)
+    phi_times_kernel::<true>(phi, m)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn phi_sandwich_avx2(phi: &M15, m: &M15) -> M15 {
-    phi_sandwich_kernel(phi, m)
+    phi_sandwich_kernel::<true>(phi, m)
 }
 
 #[inline(always)]
-fn phi_times_kernel(phi: &M15, m: &M15) -> M15 {
-    let f: &Cols = &phi.data.0;
-    let mut a = M15::zeros();
-    let out: &mut Cols = &mut a.data.0;
-    for (acol, mcol) in out.iter_mut().zip(&m.data.0) {
-        for (k, (&mk, fcol)) in mcol.iter().zip(f).enumerate() {
-            if mk != 0.0 {
-                axpy_phi_col(k, acol, fcol, mk);
-            }
-        }
+fn phi_times_kernel<const FMA: bool>(phi: &M15, m: &M15) -> M15 {
+    let a = times_padded::<FMA>(&phi.data.0, &m.data.0);
+    let mut out = M15::zeros();
+    for (dst, src) in out.data.0.iter_mut().zip(&a) {
+        dst.copy_from_slice(&src[..15]);
     }
-    a
+    out
 }
 
 /// `Φ M Φᵀ` for the INS `Φ` and a symmetric `M`, on the raw column arrays: both products
@@ -294,7 +298,7 @@ fn phi_times_kernel(phi: &M15, m: &M15) -> M15 {
 /// multiply-adds instead of 6,750), with compile-time lengths so the loops vectorise.
 pub fn phi_sandwich(phi: &M15, m: &M15) -> M15 {
     dispatch(
-        || phi_sandwich_kernel(phi, m),
+        || phi_sandwich_kernel::<false>(phi, m),
         || {
             // SAFETY: only called after `is_x86_feature_detected!` confirmed AVX2 and FMA.
             #[cfg(target_arch = "x86_64")]
@@ -302,34 +306,21 @@ pub fn phi_sandwich(phi: &M15, m: &M15) -> M15 {
                 phi_sandwich_avx2(phi, m)
             }
             #[cfg(not(target_arch = "x86_64"))]
-            phi_sandwich_kernel(phi, m)
+            phi_sandwich_kernel::<false>(phi, m)
         },
     )
 }
 
 #[inline(always)]
-fn phi_sandwich_kernel(phi: &M15, m: &M15) -> M15 {
+fn phi_sandwich_kernel<const FMA: bool>(phi: &M15, m: &M15) -> M15 {
     let f: &Cols = &phi.data.0;
-    // A = Φ M in columns padded to 16 rows, so that every column update below is four
-    // full 4-wide vectors (row 15 stays zero).
-    let mut a = [[0.0_f64; 16]; 15];
-    for (acol, mcol) in a.iter_mut().zip(&m.data.0) {
-        let y: &mut [f64; 15] = (&mut acol[..15]).try_into().expect("15 rows");
-        for (k, (&mk, fcol)) in mcol.iter().zip(f).enumerate() {
-            if mk != 0.0 {
-                axpy_phi_col(k, y, fcol, mk);
-            }
-        }
-    }
-    // R = A Φᵀ: column j of R is Σ_k A[:, k] Φ[j, k] over the non-zero k of row j.
-    let mut r = [[0.0_f64; 16]; 15];
-    for (j, ocol) in r.iter_mut().enumerate() {
-        let mut add = |k: usize| {
-            let fjk = f[k][j];
-            for (x, y) in ocol.iter_mut().zip(&a[k]) {
-                *x += y * fjk;
-            }
-        };
+    let a = times_padded::<FMA>(f, &m.data.0);
+    // R = A Φᵀ: column j of R is Σ_k A[:, k] Φ[j, k] over the non-zero k of row j of Φ
+    // (θ rows: θ v p b_g; v rows: θ v p b_a; p rows: v p; bias rows: the diagonal).
+    let mut r: Cols16 = [[0.0; 16]; 15];
+    for (j, rcol) in r.iter_mut().enumerate() {
+        let mut acc = [0.0_f64; 16];
+        let mut add = |k: usize| axpy16::<FMA>(&mut acc, &a[k], f[k][j]);
         match j / 3 {
             0 => (0..12).for_each(&mut add),
             1 => {
@@ -339,6 +330,7 @@ fn phi_sandwich_kernel(phi: &M15, m: &M15) -> M15 {
             2 => (3..9).for_each(&mut add),
             _ => add(j),
         }
+        *rcol = acc;
     }
     // Copy out, symmetrised: out = (R + Rᵀ)/2.
     let mut out = M15::zeros();
@@ -382,12 +374,36 @@ impl ProcessModel for InsModel {
             (Vector3::zeros(), Vector3::zeros())
         };
         // Φ = I + F dt
-        let Phi = M15::identity() + self.error_dynamics(x, &w, &f) * dt;
+        // Φ = I + F dt, in place
+        let mut Phi = self.error_dynamics(x, &w, &f);
+        Phi *= dt;
+        for i in 0..15 {
+            Phi[(i, i)] += 1.0;
+        }
         // Q_d = (Φ D + D Φᵀ) dt/2: the trapezoid (Φ D Φᵀ + D) dt/2 to second order in dt
-        // (they differ by (Φ−I) D (Φ−I)ᵀ dt/2 = O(dt³)).
-        let D = self.noise_density(&x.att);
-        let PD = phi_times(&Phi, &D);
-        let Q = (PD + PD.transpose()) * (0.5 * dt);
+        // (they differ by (Φ−I) D (Φ−I)ᵀ dt/2 = O(dt³)). D = G Q_c Gᵀ is block diagonal,
+        // so Φ D is Φ's columns scaled (θ, b_g, b_a) and one 3×3 product (v).
+        let q = self.noise_psd();
+        let c = x.att.matrix();
+        let d_vv = c * Matrix3::from_diagonal(&Vector3::new(q[3], q[4], q[5])) * c.transpose();
+        let f: &[[f64; 15]; 15] = &Phi.data.0;
+        let mut pd = [[0.0_f64; 15]; 15];
+        for k in 0..3 {
+            for r in 0..15 {
+                pd[k][r] = f[k][r] * q[k];
+                pd[9 + k][r] = f[9 + k][r] * q[6 + k];
+                pd[12 + k][r] = f[12 + k][r] * q[9 + k];
+                pd[3 + k][r] =
+                    f[3][r] * d_vv[(0, k)] + f[4][r] * d_vv[(1, k)] + f[5][r] * d_vv[(2, k)];
+            }
+        }
+        let mut Q = M15::zeros();
+        let h = 0.5 * dt;
+        for (col, qcol) in Q.data.0.iter_mut().enumerate() {
+            for (row, v) in qcol.iter_mut().enumerate() {
+                *v = (pd[col][row] + pd[row][col]) * h;
+            }
+        }
         ProcessJacobians { Phi, Q }
     }
 

@@ -1,0 +1,40 @@
+//! A tight loop of INS epochs (mechanization + covariance propagation) for profilers:
+//! `cargo build --profile profiling -p ins-gnss --example epoch_loop` then run it under
+//! `perf record` or `valgrind --tool=callgrind`. Prints the time per epoch.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use estimator_core::{ErrorStateFilter, FixedNoise};
+use ins_gnss::model::ImuInput;
+use ins_gnss::sim::{scenarios, simulate, GnssSim, Trajectory};
+use ins_gnss::InsModel;
+use nalgebra::{SMatrix, Vector3};
+
+fn main() {
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs[..4]).unwrap();
+    let none = GnssSim {
+        rate_hz: 0.0,
+        pos_sigma: Vector3::zeros(),
+        vel_sigma: None,
+        lever_arm: Vector3::zeros(),
+        windows: vec![],
+    };
+    let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &none, 1);
+    let model = InsModel::wgs84(scenarios::mems_imu().noise);
+    let p = SMatrix::<f64, 15, 15>::from_fn(|i, j| if i == j { 1e-2 } else { 1e-5 });
+    let n = 2_000_000;
+    let mut f = ErrorStateFilter::new(data.truth[100].state.clone(), p, FixedNoise).unwrap();
+    let t = Instant::now();
+    for k in 0..n {
+        let i = 100 + k % 8000;
+        let u = ImuInput { prev: Some(data.imu[i - 1]), cur: data.imu[i] };
+        f.predict(&model, black_box(&u), 0.005).unwrap();
+        if k % 8000 == 0 {
+            f.set_covariance(p).unwrap();
+        }
+    }
+    println!("{:.3} µs per epoch", t.elapsed().as_secs_f64() / n as f64 * 1e6);
+    black_box(f.state());
+}
