@@ -10,6 +10,15 @@ use crate::config::Config;
 use crate::eval::{evaluate, Evaluation, Stats};
 use crate::run::{run as run_config, RunSummary};
 
+/// `println!` that never panics: a closed standard output (`ins-gnss eval … | head`) ends
+/// the output quietly instead of aborting the program.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 /// Any error of a subcommand, as text for the user.
 pub type CliError = Box<dyn std::error::Error>;
 
@@ -30,7 +39,7 @@ fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
 
 /// Print a run summary.
 pub fn print_summary(s: &RunSummary) {
-    println!(
+    out!(
         "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {} rejected; \
          skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s; output {}",
         s.strategy,
@@ -50,17 +59,35 @@ pub fn print_summary(s: &RunSummary) {
     );
 }
 
+/// Options of `ins-gnss run`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunOptions<'a> {
+    /// Strategy name (default: the configuration's).
+    pub strategy: Option<&'a str>,
+    /// Bias model name (default: the configuration's).
+    pub bias_model: Option<&'a str>,
+    /// Output directory (default: the configuration's).
+    pub out: Option<&'a Path>,
+    /// Truth file for an evaluation at the end.
+    pub truth: Option<&'a Path>,
+    /// Seconds skipped by the evaluation.
+    pub skip: f64,
+    /// Show a progress bar.
+    pub progress: bool,
+    /// Write SVG plots.
+    pub plots: bool,
+}
+
 /// `ins-gnss run`.
-pub fn run(
-    config: &Path,
-    strategy_name: Option<&str>,
-    out: Option<&Path>,
-    truth: Option<&Path>,
-    skip: f64,
-    progress: bool,
-    plots: bool,
-) -> Result<(), CliError> {
-    let cfg = Config::load(config)?;
+pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
+    let (strategy_name, out, truth, skip, progress, plots) =
+        (o.strategy, o.out, o.truth, o.skip, o.progress, o.plots);
+    let mut cfg = Config::load(config)?;
+    if let Some(b) = o.bias_model {
+        cfg.imu_noise.bias_model = toml::Value::String(b.to_string()).try_into().map_err(|_| {
+            format!("unknown bias model `{b}`: random-walk, gauss-markov, gauss-markov-held")
+        })?;
+    }
     let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
     let bar = progress.then(|| progress_bar(&cfg));
@@ -81,7 +108,7 @@ pub fn run(
         if plots {
             let files = crate::plot::write_all(&out_dir, &truth)?;
             for f in files {
-                println!("plot: {}", f.display());
+                out!("plot: {}", f.display());
             }
         }
     } else if plots {
@@ -109,7 +136,7 @@ fn progress_bar(cfg: &Config) -> (indicatif::ProgressBar, f64) {
 
 /// Print a table of statistics, one row per labelled result.
 pub fn print_table(rows: &[(&str, &Stats)]) {
-    println!(
+    out!(
         "| {:12} | {:>7} | {:>7} | {:>7} | {:>7} | {:>8} | {:>8} | {:>8} | {:>8} | {:>8} |",
         "strategy",
         "N RMS",
@@ -123,7 +150,7 @@ pub fn print_table(rows: &[(&str, &Stats)]) {
         "pitch °"
     );
     for (name, s) in rows {
-        println!(
+        out!(
             "| {:12} | {:7.3} | {:7.3} | {:7.3} | {:7.3} | {:8.3} | {:8.3} | {:8.4} | {:8.4} | {:8.4} | yaw RMS {:.4}° max {:.3}°",
             name,
             s.north.rms,
@@ -142,12 +169,19 @@ pub fn print_table(rows: &[(&str, &Stats)]) {
 }
 
 fn print_eval(ev: &Evaluation) {
-    println!("epochs compared: {} (unmatched {})", ev.overall.epochs, ev.unmatched);
+    out!("epochs compared: {} (unmatched {})", ev.overall.epochs, ev.unmatched);
+    if !ev.windows.is_empty() {
+        out!(
+            "windows: RMS over windows of the maximum horizontal error {:.3} m, vertical {:.3} m",
+            ev.windows_rms_of_max_horizontal,
+            ev.windows_rms_of_max_vertical
+        );
+    }
     let mut rows: Vec<(&str, &Stats)> = vec![(ev.overall.label.as_str(), &ev.overall)];
     for w in &ev.windows {
         rows.push((w.label.as_str(), w));
     }
-    println!(
+    out!(
         "| {:16} | {:>6} | {:>21} | {:>21} | {:>21} | {:>21} |",
         "span",
         "epochs",
@@ -158,7 +192,7 @@ fn print_eval(ev: &Evaluation) {
     );
     for (label, s) in &rows {
         let f = |x: &crate::eval::Stat| format!("{:.3}/{:.3}/{:+.3}", x.rms, x.max, x.mean);
-        println!(
+        out!(
             "| {:16} | {:6} | {:>21} | {:>21} | {:>21} | {:>21} |",
             label,
             s.epochs,
@@ -168,13 +202,17 @@ fn print_eval(ev: &Evaluation) {
             format!("{:.3}/{:.3}", s.horizontal.rms, s.horizontal.max)
         );
     }
-    println!(
+    out!(
         "| {:16} | {:>21} | {:>21} | {:>21} | {:>21} |",
-        "span", "3D rms/max m", "vel 3D rms/max m/s", "roll rms/max °", "pitch rms/max °"
+        "span",
+        "3D rms/max m",
+        "vel 3D rms/max m/s",
+        "roll rms/max °",
+        "pitch rms/max °"
     );
     for (label, s) in &rows {
         let f = |x: &crate::eval::Stat| format!("{:.4}/{:.4}", x.rms, x.max);
-        println!(
+        out!(
             "| {:16} | {:>21} | {:>21} | {:>21} | {:>21} | yaw rms/max {}",
             label,
             f(&s.position_3d),
@@ -201,7 +239,7 @@ pub fn eval(
         );
     }
     if json {
-        println!("{}", serde_json::to_string_pretty(&ev)?);
+        out!("{}", serde_json::to_string_pretty(&ev)?);
     } else {
         print_eval(&ev);
     }
@@ -213,7 +251,7 @@ pub fn simulate(scenario: &Path, out: &Path) -> Result<(), CliError> {
     let sc = crate::scenario::Scenario::load(scenario)?;
     let written = sc.write_dataset(out)?;
     for f in written {
-        println!("wrote {}", f.display());
+        out!("wrote {}", f.display());
     }
     Ok(())
 }
@@ -249,9 +287,9 @@ pub fn demo() -> Result<(), CliError> {
     let t = Instant::now();
     let dir = PathBuf::from("ins-gnss-demo");
     let written = crate::scenario::Scenario::demo().write_dataset(&dir)?;
-    println!("demo: simulated a 600 s drive with a GNSS interference window (200–260 s) and a 60 s outage (400–460 s) into {}", dir.display());
+    out!("demo: simulated a 600 s drive with a GNSS interference window (200–260 s) and a 60 s outage (400–460 s) into {}", dir.display());
     for f in &written {
-        println!("  {}", f.display());
+        out!("  {}", f.display());
     }
     let cfg_path = dir.join("config.toml");
     let cfg = Config::load(&cfg_path)?;
@@ -265,21 +303,21 @@ pub fn demo() -> Result<(), CliError> {
         let ev = evaluate(&out.join("nav.txt"), &truth, 30.0, &[(200.0, 260.0), (400.0, 460.0)])?;
         evals.push((name, ev));
     }
-    println!("\nwhole run after 30 s:");
+    out!("\nwhole run after 30 s:");
     let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (*n, &e.overall)).collect();
     print_table(&rows);
-    println!("\ninside the interference window 200–260 s:");
+    out!("\ninside the interference window 200–260 s:");
     let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (*n, &e.windows[0])).collect();
     print_table(&rows);
-    println!("\ninside the outage 400–460 s:");
+    out!("\ninside the outage 400–460 s:");
     let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (*n, &e.windows[1])).collect();
     print_table(&rows);
     for name in names {
         let out = dir.join("out").join(name);
         for f in crate::plot::write_all(&out, &truth)? {
-            println!("plot: {}", f.display());
+            out!("plot: {}", f.display());
         }
     }
-    println!("demo finished in {:.1} s", t.elapsed().as_secs_f64());
+    out!("demo finished in {:.1} s", t.elapsed().as_secs_f64());
     Ok(())
 }

@@ -1,7 +1,11 @@
 //! Evaluation of a navigation result against a truth (or reference) file: RMS, maximum
 //! and mean of the NED position errors, horizontal, 3-D, velocity, roll, pitch, yaw, over
-//! the whole run after a skip and per time window (e.g. GNSS outages). Streaming: the
-//! truth is interpolated linearly between its two records around each result epoch.
+//! the whole run after a skip and per time window (e.g. GNSS outages), and for windows
+//! the RMS over windows of each window's maximum horizontal error (the outage score of
+//! the KF-GINS authors). The reference is an 11-column navigation file or a 4-column
+//! `t lat lon h` position file (then only positions are evaluated). Streaming: the
+//! reference is interpolated linearly between its two records around each result epoch,
+//! never across a gap longer than 1 s.
 
 use std::path::Path;
 
@@ -31,6 +35,10 @@ pub struct Stat {
 
 impl Stat {
     fn push(&mut self, v: f64) {
+        if v.is_nan() {
+            // A reference without this quantity (a position-only RTK file).
+            return;
+        }
         self.sum += v;
         self.sum_sq += v * v;
         self.n += 1;
@@ -107,8 +115,68 @@ pub struct Evaluation {
     pub overall: Stats,
     /// Per requested window.
     pub windows: Vec<Stats>,
-    /// Result epochs without truth around them (outside the truth's span).
+    /// RMS over the windows of each window's maximum horizontal error, m (the score of
+    /// outage tests: each window a simulated GNSS outage). NaN without windows.
+    pub windows_rms_of_max_horizontal: f64,
+    /// The same for the vertical error, m.
+    pub windows_rms_of_max_vertical: f64,
+    /// Result epochs without truth around them (outside the truth's span, or inside a
+    /// gap of the reference longer than 1 s).
     pub unmatched: usize,
+}
+
+/// Largest gap of the reference that is interpolated across, s.
+pub const MAX_REFERENCE_GAP: f64 = 1.0;
+
+/// Reads a reference: the 11-column navigation format, or `t lat lon h` (4 columns, e.g.
+/// RTK-fixed positions), whose velocity and attitude are NaN (not evaluated).
+struct RefReader {
+    lines: crate::io::NumericLines<std::io::BufReader<std::fs::File>>,
+    prev_t: Option<f64>,
+}
+
+impl RefReader {
+    fn open(path: &Path) -> Result<Self, LineError> {
+        Ok(Self {
+            lines: crate::io::NumericLines::new(crate::io::formats::open(path)?, path),
+            prev_t: None,
+        })
+    }
+
+    fn next_record(&mut self) -> Result<Option<NavRecord>, LineError> {
+        let Some(r) = self.lines.next_record()? else { return Ok(None) };
+        let d = core::f64::consts::PI / 180.0;
+        let rec = match r.len() {
+            11 => NavRecord {
+                week: r[0],
+                t: r[1],
+                pos: crate::position::GeoPos::from_degrees(r[2], r[3], r[4]),
+                vel: Vector3::new(r[5], r[6], r[7]),
+                att: Vector3::new(r[8] * d, r[9] * d, r[10] * d),
+            },
+            4 => NavRecord {
+                week: 0.0,
+                t: r[0],
+                pos: crate::position::GeoPos::from_degrees(r[1], r[2], r[3]),
+                vel: Vector3::repeat(f64::NAN),
+                att: Vector3::repeat(f64::NAN),
+            },
+            found => {
+                return Err(self
+                    .lines
+                    .error(crate::io::LineErrorKind::ColumnCount { expected: vec![11, 4], found }))
+            }
+        };
+        if let Some(p) = self.prev_t {
+            if rec.t <= p {
+                return Err(self
+                    .lines
+                    .error(crate::io::LineErrorKind::TimeBackwards { t: rec.t, previous: p }));
+            }
+        }
+        self.prev_t = Some(rec.t);
+        Ok(Some(rec))
+    }
 }
 
 fn interpolate(a: &NavRecord, b: &NavRecord, t: f64) -> NavRecord {
@@ -146,19 +214,102 @@ pub fn errors(r: &NavRecord, t: &NavRecord) -> (Vector3<f64>, Vector3<f64>, Vect
 
 /// Evaluate `result` against `truth`, skipping the first `skip` seconds of the result,
 /// with extra statistics inside each `(t0, t1)` window (absolute times).
+///
+/// An 11-column truth is compared at the result's epochs (truth interpolated); a 4-column
+/// position reference, usually sparser than the result (RTK at a few Hz), is compared at
+/// its own epochs (result interpolated), so no reference position is invented between
+/// fixes.
 pub fn evaluate(
     result: &Path,
     truth: &Path,
     skip: f64,
     windows: &[(f64, f64)],
 ) -> Result<Evaluation, LineError> {
-    let mut res = NavReader::open(result)?;
-    let mut tru = NavReader::open(truth)?;
-    let mut ev = Evaluation {
+    if reference_columns(truth)? == 4 {
+        return evaluate_at_reference(result, truth, skip, windows);
+    }
+    evaluate_at_result(result, truth, skip, windows)
+}
+
+fn reference_columns(path: &Path) -> Result<usize, LineError> {
+    let mut lines = crate::io::NumericLines::new(crate::io::formats::open(path)?, path);
+    Ok(lines.next_record()?.map(|r| r.len()).unwrap_or(0))
+}
+
+fn finish_windows(ev: &mut Evaluation) {
+    let used: Vec<&Stats> = ev.windows.iter().filter(|w| w.epochs > 0).collect();
+    if !used.is_empty() {
+        let n = used.len() as f64;
+        ev.windows_rms_of_max_horizontal =
+            (used.iter().map(|w| w.horizontal.max.powi(2)).sum::<f64>() / n).sqrt();
+        ev.windows_rms_of_max_vertical =
+            (used.iter().map(|w| w.down.max.powi(2)).sum::<f64>() / n).sqrt();
+    }
+}
+
+fn new_evaluation(skip: f64, windows: &[(f64, f64)]) -> Evaluation {
+    Evaluation {
         overall: Stats::new(format!("after {skip} s")),
         windows: windows.iter().map(|(a, b)| Stats::new(format!("{a}–{b}"))).collect(),
+        windows_rms_of_max_horizontal: f64::NAN,
+        windows_rms_of_max_vertical: f64::NAN,
         unmatched: 0,
-    };
+    }
+}
+
+fn evaluate_at_reference(
+    result: &Path,
+    reference: &Path,
+    skip: f64,
+    windows: &[(f64, f64)],
+) -> Result<Evaluation, LineError> {
+    let mut res = NavReader::open(result)?;
+    let mut refs = RefReader::open(reference)?;
+    let mut ev = new_evaluation(skip, windows);
+    let (mut r0, mut r1) = (res.next_record()?, res.next_record()?);
+    let start = r0.as_ref().map(|r| r.t).unwrap_or(0.0);
+    while let Some(f) = refs.next_record()? {
+        while let (Some(_), Some(b)) = (&r0, &r1) {
+            if b.t >= f.t {
+                break;
+            }
+            r0 = r1;
+            r1 = res.next_record()?;
+        }
+        let here = match (&r0, &r1) {
+            (Some(a), Some(b))
+                if a.t <= f.t + 1e-9 && b.t >= f.t - 1e-9 && b.t - a.t <= MAX_REFERENCE_GAP =>
+            {
+                interpolate(a, b, f.t)
+            }
+            _ => {
+                ev.unmatched += 1;
+                continue;
+            }
+        };
+        let (dp, dv, da) = errors(&here, &f);
+        if f.t - start >= skip {
+            ev.overall.push(&dp, &dv, &da);
+        }
+        for (w, (a, b)) in ev.windows.iter_mut().zip(windows) {
+            if f.t >= *a && f.t <= *b {
+                w.push(&dp, &dv, &da);
+            }
+        }
+    }
+    finish_windows(&mut ev);
+    Ok(ev)
+}
+
+fn evaluate_at_result(
+    result: &Path,
+    truth: &Path,
+    skip: f64,
+    windows: &[(f64, f64)],
+) -> Result<Evaluation, LineError> {
+    let mut res = NavReader::open(result)?;
+    let mut tru = RefReader::open(truth)?;
+    let mut ev = new_evaluation(skip, windows);
     let (mut t0, mut t1) = (tru.next_record()?, tru.next_record()?);
     let mut first_t = None;
     while let Some(r) = res.next_record()? {
@@ -172,7 +323,11 @@ pub fn evaluate(
             t1 = tru.next_record()?;
         }
         let truth_here = match (&t0, &t1) {
-            (Some(a), Some(b)) if a.t <= r.t + 1e-9 && b.t >= r.t - 1e-9 => interpolate(a, b, r.t),
+            (Some(a), Some(b))
+                if a.t <= r.t + 1e-9 && b.t >= r.t - 1e-9 && b.t - a.t <= MAX_REFERENCE_GAP =>
+            {
+                interpolate(a, b, r.t)
+            }
             (Some(a), _) if (a.t - r.t).abs() < 1e-6 => *a,
             _ => {
                 ev.unmatched += 1;
@@ -189,5 +344,6 @@ pub fn evaluate(
             }
         }
     }
+    finish_windows(&mut ev);
     Ok(ev)
 }

@@ -122,3 +122,49 @@ fn kf_gins_yaml_as_it_is_on_navego() {
     assert!(horiz <= 1.57 && yaw <= 0.57);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn drive_0708_outage_score_with_a_position_only_reference() {
+    // The KF-GINS authors' outage score: RMS over the ten 15 s outages of the maximum
+    // horizontal error against RTK-fixed positions (4-column reference).
+    let Some(data) = std::env::var_os("ESTIMATOR_DATA_DIR")
+        .map(PathBuf::from)
+        .filter(|d| d.join("drive-0708").is_dir())
+    else {
+        eprintln!("skipped: set ESTIMATOR_DATA_DIR to run this test");
+        return;
+    };
+    let d = data.join("drive-0708");
+    let dir = temp("d0708");
+    let out = bin()
+        .arg("run")
+        .arg(d.join("kf-gins-outage15.yaml"))
+        .arg("--out")
+        .arg(&dir)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let windows: Vec<(f64, f64)> =
+        serde_json::from_str(&std::fs::read_to_string(d.join("outage_windows_15s.json")).unwrap())
+            .unwrap();
+    let mut cmd = bin();
+    cmd.arg("eval").arg(dir.join("nav.txt")).arg(d.join("ref_rtkfix.txt")).arg("--json");
+    for (a, b) in &windows {
+        cmd.arg("--window").arg(format!("{a},{b}"));
+    }
+    let out = cmd.output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let score = v["windows_rms_of_max_horizontal"].as_f64().unwrap();
+    let vertical = v["windows_rms_of_max_vertical"].as_f64().unwrap();
+    eprintln!("drive-0708, ten 15 s outages: RMS of max horizontal drift {score:.2} m, vertical {vertical:.2} m (KF-GINS 12.4 / 1.08)");
+    // What we measure (see README): within 15 % of KF-GINS's 12.4 m, not better.
+    assert!(score > 1.0 && score < 12.4 * 1.15, "score {score}");
+    for w in v["windows"].as_array().unwrap() {
+        assert!(w["epochs"].as_u64().unwrap() >= 55, "each outage has its RTK fixes");
+    }
+    // Position-only reference: attitude statistics are empty, not NaN-polluted.
+    assert!(v["overall"]["yaw"]["rms"].as_f64().unwrap().abs() < 1e-12);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

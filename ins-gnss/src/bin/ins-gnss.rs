@@ -43,6 +43,9 @@ enum Command {
         /// Write SVG plots into the output directory (needs a truth file).
         #[arg(long)]
         plots: bool,
+        /// Override the bias model: random-walk, gauss-markov, gauss-markov-held.
+        #[arg(long)]
+        bias_model: Option<String>,
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
@@ -91,15 +94,18 @@ fn main() -> ExitCode {
     let args = Args::parse();
     let result = match args.command {
         None => cli::demo(),
-        Some(Command::Run { config, strategy, out, truth, skip, quiet, plots }) => cli::run(
-            &config,
-            strategy.as_deref(),
-            out.as_deref(),
-            truth.as_deref(),
-            skip,
-            !quiet,
-            plots,
-        ),
+        Some(Command::Run { config, strategy, out, truth, skip, quiet, plots, bias_model }) => {
+            let o = cli::RunOptions {
+                strategy: strategy.as_deref(),
+                bias_model: bias_model.as_deref(),
+                out: out.as_deref(),
+                truth: truth.as_deref(),
+                skip,
+                progress: !quiet,
+                plots,
+            };
+            cli::run(&config, &o)
+        }
         Some(Command::Eval { result, truth, skip, windows, json }) => {
             cli::eval(&result, &truth, skip, &windows, json)
         }
