@@ -14,6 +14,25 @@ fn temp(name: &str) -> PathBuf {
     d
 }
 
+/// The sample data directory `name` under `ESTIMATOR_DATA_DIR`, or `None` (and a
+/// "skipped" line) when it is not set.
+fn sample_data(name: &str) -> Option<PathBuf> {
+    let dir = std::env::var_os("ESTIMATOR_DATA_DIR")
+        .map(|d| PathBuf::from(d).join(name))
+        .filter(|d| d.is_dir());
+    if dir.is_none() {
+        eprintln!("skipped: set ESTIMATOR_DATA_DIR to run this test");
+    }
+    dir
+}
+
+/// `ins-gnss run CONFIG --out DIR --quiet`, asserting success.
+fn run_quiet(config: &Path, out_dir: &Path) {
+    let out =
+        bin().arg("run").arg(config).arg("--out").arg(out_dir).arg("--quiet").output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
 #[test]
 fn simulate_run_eval_compare() {
     let dir = temp("sim");
@@ -89,27 +108,13 @@ fn errors_exit_non_zero_with_a_message() {
 
 #[test]
 fn kf_gins_yaml_as_it_is_on_navego() {
-    let Some(data) = std::env::var_os("ESTIMATOR_DATA_DIR")
-        .map(PathBuf::from)
-        .filter(|d| d.join("navego").is_dir())
-    else {
-        eprintln!("skipped: set ESTIMATOR_DATA_DIR to run this test");
-        return;
-    };
+    let Some(data) = sample_data("navego") else { return };
     let dir = temp("navego");
-    let out = bin()
-        .arg("run")
-        .arg(data.join("navego/kf-gins-ADIS16488.yaml"))
-        .arg("--out")
-        .arg(&dir)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    run_quiet(&data.join("kf-gins-ADIS16488.yaml"), &dir);
     let out = bin()
         .arg("eval")
         .arg(dir.join("nav.txt"))
-        .arg(data.join("navego/truth.nav"))
+        .arg(data.join("truth.nav"))
         .args(["--skip", "60", "--json"])
         .output()
         .unwrap();
@@ -127,24 +132,9 @@ fn kf_gins_yaml_as_it_is_on_navego() {
 fn drive_0708_outage_score_with_a_position_only_reference() {
     // The KF-GINS authors' outage score: RMS over the ten 15 s outages of the maximum
     // horizontal error against RTK-fixed positions (4-column reference).
-    let Some(data) = std::env::var_os("ESTIMATOR_DATA_DIR")
-        .map(PathBuf::from)
-        .filter(|d| d.join("drive-0708").is_dir())
-    else {
-        eprintln!("skipped: set ESTIMATOR_DATA_DIR to run this test");
-        return;
-    };
-    let d = data.join("drive-0708");
+    let Some(d) = sample_data("drive-0708") else { return };
     let dir = temp("d0708");
-    let out = bin()
-        .arg("run")
-        .arg(d.join("kf-gins-outage15.yaml"))
-        .arg("--out")
-        .arg(&dir)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    run_quiet(&d.join("kf-gins-outage15.yaml"), &dir);
     let windows: Vec<(f64, f64)> =
         serde_json::from_str(&std::fs::read_to_string(d.join("outage_windows_15s.json")).unwrap())
             .unwrap();

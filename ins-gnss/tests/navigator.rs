@@ -56,13 +56,8 @@ fn max_nis(snap: bool) -> f64 {
     )
     .unwrap();
     let mut log = UpdateLog::default();
-    let mut g = 0;
-    for s in &data.imu {
-        let first = g;
-        while g < data.gnss.len() && data.gnss[g].t <= s.t + 1e-9 {
-            g += 1;
-        }
-        nav.process(s, &data.gnss[first..g], &mut log).unwrap();
+    for (s, gnss) in data.replay() {
+        nav.process(s, gnss, &mut log).unwrap();
     }
     assert!(log.entries.len() > 70);
     log.entries.iter().filter(|e| e.time > 35.0).map(|e| e.nis).fold(0.0, f64::max)

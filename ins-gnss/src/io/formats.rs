@@ -96,6 +96,34 @@ fn count(counts: &mut SkipCounts, kind: &LineErrorKind) {
     }
 }
 
+/// Move `lines` to its next record under `policy`: a malformed line is an error, or a
+/// counted skip; `false` at the end of the file, `Empty` when it had no record at all.
+/// The record is then `lines.values()`.
+fn next_record<R: BufRead>(
+    lines: &mut NumericLines<R>,
+    policy: BadLinePolicy,
+    skipped: &mut SkipCounts,
+    records_so_far: usize,
+) -> Result<bool, LineError> {
+    loop {
+        match lines.next_record() {
+            Ok(Some(_)) => return Ok(true),
+            Ok(None) if records_so_far == 0 => {
+                return Err(LineError {
+                    path: lines.path().to_path_buf(),
+                    line: 0,
+                    kind: LineErrorKind::Empty,
+                })
+            }
+            Ok(None) => return Ok(false),
+            Err(e) if policy == BadLinePolicy::Skip && !matches!(e.kind, LineErrorKind::Io(_)) => {
+                count(skipped, &e.kind)
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}
+
 /// Streaming IMU reader.
 pub struct ImuReader<R: BufRead> {
     lines: NumericLines<R>,
@@ -170,27 +198,10 @@ impl<R: BufRead> ImuReader<R> {
             self.header_done = true;
         }
         loop {
-            let rec = match self.lines.next_record() {
-                Ok(Some(r)) => r,
-                Ok(None) => {
-                    if self.records == 0 {
-                        return Err(LineError {
-                            path: self.lines.path().to_path_buf(),
-                            line: 0,
-                            kind: LineErrorKind::Empty,
-                        });
-                    }
-                    return Ok(None);
-                }
-                Err(e) => {
-                    if self.policy == BadLinePolicy::Skip && !matches!(e.kind, LineErrorKind::Io(_))
-                    {
-                        count(&mut self.skipped, &e.kind);
-                        continue;
-                    }
-                    return Err(e);
-                }
-            };
+            if !next_record(&mut self.lines, self.policy, &mut self.skipped, self.records)? {
+                return Ok(None);
+            }
+            let rec = self.lines.values();
             let allowed: &[usize] = match self.format {
                 ImuFormat::Increments => &[7, 8],
                 ImuFormat::Rates => &[7],
@@ -298,27 +309,10 @@ impl<R: BufRead> GnssReader<R> {
     /// The next epoch, `Ok(None)` at the end.
     pub fn next_epoch(&mut self) -> Result<Option<GnssEpoch>, LineError> {
         loop {
-            let rec = match self.lines.next_record() {
-                Ok(Some(r)) => r,
-                Ok(None) => {
-                    if self.records == 0 {
-                        return Err(LineError {
-                            path: self.lines.path().to_path_buf(),
-                            line: 0,
-                            kind: LineErrorKind::Empty,
-                        });
-                    }
-                    return Ok(None);
-                }
-                Err(e) => {
-                    if self.policy == BadLinePolicy::Skip && !matches!(e.kind, LineErrorKind::Io(_))
-                    {
-                        count(&mut self.skipped, &e.kind);
-                        continue;
-                    }
-                    return Err(e);
-                }
-            };
+            if !next_record(&mut self.lines, self.policy, &mut self.skipped, self.records)? {
+                return Ok(None);
+            }
+            let rec = self.lines.values();
             let n = rec.len();
             let expected: Vec<usize> = match self.columns {
                 Some(c) => vec![c],

@@ -163,6 +163,11 @@ impl<R: BufRead> NumericLines<R> {
         }
     }
 
+    /// The values of the last record returned by [`next_record`](Self::next_record).
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
     /// Next record of numbers; `Ok(None)` at the end of the file.
     pub fn next_record(&mut self) -> Result<Option<&[f64]>, LineError> {
         if !self.advance()? {

@@ -40,6 +40,22 @@ pub struct SimDataset {
     pub truth: Vec<TruthRecord>,
 }
 
+impl SimDataset {
+    /// Every IMU sample with the GNSS epochs that fall in its interval, `t ≤ sample.t`
+    /// and after the previous sample, in order: the input of
+    /// [`Navigator::process`](crate::Navigator::process). Does not allocate.
+    pub fn replay(&self) -> impl Iterator<Item = (&ImuSample, &[GnssEpoch])> + '_ {
+        let mut g = 0;
+        self.imu.iter().map(move |s| {
+            let first = g;
+            while g < self.gnss.len() && self.gnss[g].t <= s.t + 1e-9 {
+                g += 1;
+            }
+            (s, &self.gnss[first..g])
+        })
+    }
+}
+
 /// Exact IMU increments and truth kinematics of a trajectory at one IMU rate: the
 /// expensive, error-free part of a simulation, computed once and reused for every seed.
 #[derive(Clone, Debug)]

@@ -109,13 +109,8 @@ pub fn run<A: NoiseStrategy>(
     let mut nav = Navigator::new(&init, model, strategy, cfg).unwrap();
     let mut log = UpdateLog::default();
     let mut records = Vec::new();
-    let mut g = 0;
-    for (k, s) in data.imu.iter().enumerate() {
-        let first = g;
-        while g < data.gnss.len() && data.gnss[g].t <= s.t + 1e-9 {
-            g += 1;
-        }
-        nav.process(s, &data.gnss[first..g], &mut log).unwrap();
+    for (k, (s, gnss)) in data.replay().enumerate() {
+        nav.process(s, gnss, &mut log).unwrap();
         if (s.t - s.t.round()).abs() < 1e-9 {
             let truth = &data.truth[k + 1].state;
             let error = truth.ominus(nav.state());
