@@ -269,12 +269,13 @@ where
         let (P, next, _) = self.buffers();
         match (B::static_mut(next), B::as_static(P)) {
             (Some(next), Cow::Borrowed(P)) => {
-                next.copy_from(P);
-                if fading != 1.0 {
+                if fading == 1.0 {
+                    model.propagate_covariance(P, &jac, next);
+                } else {
                     // λ Φ P Φᵀ = Φ (λ P) Φᵀ
-                    *next *= fading;
+                    let scaled = P * fading;
+                    model.propagate_covariance(&scaled, &jac, next);
                 }
-                model.propagate_covariance(next, &jac);
                 symmetrize(next);
             }
             _ => {

@@ -107,16 +107,18 @@ where
         (self.propagate(x, u, dt), self.jacobians(x, u, dt))
     }
 
-    /// `P ← Φ P Φᵀ + Q`. The dense default costs `2N³` multiply-adds; override it to
-    /// exploit the sparsity of Φ (the INS model does).
+    /// `out ← Φ P Φᵀ + Q`. The dense default costs `2N³` multiply-adds; override it to
+    /// exploit the sparsity of Φ (the INS model does). `out` need not be symmetric on
+    /// return; the filter symmetrises it.
     #[allow(non_snake_case)]
     fn propagate_covariance(
         &self,
-        P: &mut Cov<StateDim<Self::State>>,
+        P: &Cov<StateDim<Self::State>>,
         jac: &ProcessJacobians<StateDim<Self::State>>,
+        out: &mut Cov<StateDim<Self::State>>,
     ) {
         // P⁻ = Φ P Φᵀ + Q_d
-        *P = &jac.Phi * &*P * jac.Phi.transpose() + &jac.Q;
+        *out = &jac.Phi * P * jac.Phi.transpose() + &jac.Q;
     }
 }
 

@@ -223,6 +223,8 @@ fn axpy16<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 16], a: f64) {
 /// step wait on a failed store-to-load forward).
 #[inline(always)]
 fn times_padded<const FMA: bool>(phi: &Cols, m: &Cols) -> Cols16 {
+    // Plain loops, no closures: a closure is a separate function that does not inherit
+    // the caller's `target_feature`, and `mul_add` outside it is a library call.
     let mut fp: Cols16 = [[0.0; 16]; 15];
     for (dst, src) in fp.iter_mut().zip(phi) {
         dst[..15].copy_from_slice(src);
@@ -263,12 +265,19 @@ pub fn phi_times(phi: &M15, m: &M15) -> M15 {
 fn dispatch<T>(portable: impl FnOnce() -> T, fast: impl FnOnce() -> T) -> T {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+        if has_avx2_fma() {
             return fast();
         }
     }
     let _ = &fast;
     portable()
+}
+
+/// Whether this x86-64 CPU has AVX2 and FMA (cached by the standard library).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn has_avx2_fma() -> bool {
+    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -279,8 +288,8 @@ unsafe fn phi_times_avx2(phi: &M15, m: &M15) -> M15 {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn phi_sandwich_avx2(phi: &M15, m: &M15) -> M15 {
-    phi_sandwich_kernel::<true>(phi, m)
+unsafe fn phi_sandwich_avx2(phi: &M15, m: &M15, q: &M15, out: &mut M15) {
+    phi_sandwich_kernel::<true>(phi, m, q, out)
 }
 
 #[inline(always)]
@@ -297,22 +306,26 @@ fn phi_times_kernel<const FMA: bool>(phi: &M15, m: &M15) -> M15 {
 /// are sums of column updates over the non-zero ranges of `Φ` only (≈3,100
 /// multiply-adds instead of 6,750), with compile-time lengths so the loops vectorise.
 pub fn phi_sandwich(phi: &M15, m: &M15) -> M15 {
-    dispatch(
-        || phi_sandwich_kernel::<false>(phi, m),
-        || {
-            // SAFETY: only called after `is_x86_feature_detected!` confirmed AVX2 and FMA.
-            #[cfg(target_arch = "x86_64")]
-            unsafe {
-                phi_sandwich_avx2(phi, m)
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            phi_sandwich_kernel::<false>(phi, m)
-        },
-    )
+    let mut out = M15::zeros();
+    phi_sandwich_into(phi, m, &M15::zeros(), &mut out);
+    out
+}
+
+/// `out ← Φ M Φᵀ + Q` (symmetrised), without temporaries of the result.
+pub fn phi_sandwich_into(phi: &M15, m: &M15, q: &M15, out: &mut M15) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above).
+            unsafe { phi_sandwich_avx2(phi, m, q, out) };
+            return;
+        }
+    }
+    phi_sandwich_kernel::<false>(phi, m, q, out)
 }
 
 #[inline(always)]
-fn phi_sandwich_kernel<const FMA: bool>(phi: &M15, m: &M15) -> M15 {
+fn phi_sandwich_kernel<const FMA: bool>(phi: &M15, m: &M15, q: &M15, out: &mut M15) {
     let f: &Cols = &phi.data.0;
     let a = times_padded::<FMA>(f, &m.data.0);
     // R = A Φᵀ: column j of R is Σ_k A[:, k] Φ[j, k] over the non-zero k of row j of Φ
@@ -320,27 +333,27 @@ fn phi_sandwich_kernel<const FMA: bool>(phi: &M15, m: &M15) -> M15 {
     let mut r: Cols16 = [[0.0; 16]; 15];
     for (j, rcol) in r.iter_mut().enumerate() {
         let mut acc = [0.0_f64; 16];
-        let mut add = |k: usize| axpy16::<FMA>(&mut acc, &a[k], f[k][j]);
-        match j / 3 {
-            0 => (0..12).for_each(&mut add),
-            1 => {
-                (0..9).for_each(&mut add);
-                (12..15).for_each(&mut add);
-            }
-            2 => (3..9).for_each(&mut add),
-            _ => add(j),
+        let (lo1, hi1, lo2, hi2) = match j / 3 {
+            0 => (0, 12, 0, 0),
+            1 => (0, 9, 12, 15),
+            2 => (3, 9, 0, 0),
+            _ => (j, j + 1, 0, 0),
+        };
+        for k in lo1..hi1 {
+            axpy16::<FMA>(&mut acc, &a[k], f[k][j]);
+        }
+        for k in lo2..hi2 {
+            axpy16::<FMA>(&mut acc, &a[k], f[k][j]);
         }
         *rcol = acc;
     }
-    // Copy out, symmetrised: out = (R + Rᵀ)/2.
-    let mut out = M15::zeros();
-    let o: &mut Cols = &mut out.data.0;
+    // out = (R + Rᵀ)/2 + Q
+    let (o, qc): (&mut Cols, &Cols) = (&mut out.data.0, &q.data.0);
     for c in 0..15 {
         for row in 0..15 {
-            o[c][row] = 0.5 * (r[c][row] + r[row][c]);
+            o[c][row] = 0.5 * (r[c][row] + r[row][c]) + qc[c][row];
         }
     }
-    out
 }
 
 /// Write a 3×3 block at block position (r, c).
@@ -407,9 +420,14 @@ impl ProcessModel for InsModel {
         ProcessJacobians { Phi, Q }
     }
 
-    /// `P ← Φ P Φᵀ + Q_d` with the block structure of `Φ` (13 of 25 blocks non-zero,
-    /// four of them scalar).
-    fn propagate_covariance(&self, P: &mut Cov<Const<15>>, jac: &ProcessJacobians<Const<15>>) {
-        *P = phi_sandwich(&jac.Phi, P) + jac.Q;
+    /// `out ← Φ P Φᵀ + Q_d` with the block structure of `Φ` (13 of 25 blocks non-zero,
+    /// four of them scalar), written straight into `out`.
+    fn propagate_covariance(
+        &self,
+        P: &Cov<Const<15>>,
+        jac: &ProcessJacobians<Const<15>>,
+        out: &mut Cov<Const<15>>,
+    ) {
+        phi_sandwich_into(&jac.Phi, P, &jac.Q, out);
     }
 }

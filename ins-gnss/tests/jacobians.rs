@@ -250,8 +250,8 @@ fn structured_propagation_equals_dense() {
         let jac = model.jacobians(&x, &u, u.cur.dt);
         let a = SMatrix::<f64, 15, 15>::from_fn(|r, c| ((r * 7 + c * 3) % 11) as f64 * 0.1);
         let p0 = a * a.transpose() + M15::identity();
-        let mut p = p0;
-        model.propagate_covariance(&mut p, &jac);
+        let mut p = M15::zeros();
+        model.propagate_covariance(&p0, &jac, &mut p);
         let dense = jac.Phi * p0 * jac.Phi.transpose() + jac.Q;
         assert!((p - dense).abs().max() <= 1e-12 * dense.abs().max());
     }
