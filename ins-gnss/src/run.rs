@@ -250,7 +250,9 @@ pub fn run(
     std::thread::scope(|scope| -> Result<(), RunError> {
         let (imu_tx, imu_rx) =
             std::sync::mpsc::sync_channel::<Result<Vec<ImuSample>, LineError>>(4);
-        let (nav_tx, nav_rx) = std::sync::mpsc::sync_channel::<Vec<NavRecord>>(4);
+        // States, not records: the writer thread does the Euler conversion.
+        let (nav_tx, nav_rx) =
+            std::sync::mpsc::sync_channel::<Vec<(f64, crate::state::InsState)>>(4);
         let reader = scope.spawn(move || {
             let mut batch = Vec::with_capacity(BATCH);
             batch.push(first);
@@ -283,8 +285,8 @@ pub fn run(
         let writer = scope.spawn(move || -> Result<(), RunError> {
             let mut w = nav_file;
             for batch in nav_rx {
-                for r in &batch {
-                    write_nav(&mut w, r).map_err(|e| RunError::Output {
+                for (t, x) in &batch {
+                    write_nav(&mut w, &nav_record(*t, x)).map_err(|e| RunError::Output {
                         path: nav_path.clone(),
                         message: e.to_string(),
                     })?;
@@ -320,7 +322,7 @@ pub fn run(
                     updates.clear();
                     nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)?;
                     summary.imu_epochs += 1;
-                    records.push(nav_record(sample.t, nav.state()));
+                    records.push((sample.t, nav.state().clone()));
                     if records.len() == BATCH
                         && nav_tx
                             .send(std::mem::replace(&mut records, Vec::with_capacity(BATCH)))
