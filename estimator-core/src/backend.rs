@@ -189,374 +189,255 @@ where
     }
 }
 
-fn symmetrize_dyn(m: &mut DMatrix<f64>) {
-    let n = m.nrows();
+/// The dense matrix operations the dynamic back-ends need; implemented for nalgebra's
+/// `DMatrix` and faer's `Mat`, so [`DenseCov`] is written once.
+pub trait Dense: Clone + core::fmt::Debug {
+    /// Name of the back-end.
+    const NAME: &'static str;
+    /// An `r × c` zero matrix.
+    fn zeros(r: usize, c: usize) -> Self;
+    /// Rows.
+    fn rows(&self) -> usize;
+    /// Columns.
+    fn cols(&self) -> usize;
+    /// Entry `(r, c)`.
+    fn get(&self, r: usize, c: usize) -> f64;
+    /// Set entry `(r, c)`.
+    fn set(&mut self, r: usize, c: usize, v: f64);
+    /// `out ← β out + α op(a) op(b)` with `op` the transpose when the flag is set
+    /// (`DMatrix` allocates for a transposed `b`; the back-end never asks for one).
+    #[allow(clippy::too_many_arguments)]
+    fn gemm(out: &mut Self, beta: f64, alpha: f64, a: &Self, at: bool, b: &Self, bt: bool);
+}
+
+impl Dense for DMatrix<f64> {
+    const NAME: &'static str = "nalgebra-dynamic";
+    fn zeros(r: usize, c: usize) -> Self {
+        DMatrix::zeros(r, c)
+    }
+    fn rows(&self) -> usize {
+        self.nrows()
+    }
+    fn cols(&self) -> usize {
+        self.ncols()
+    }
+    fn get(&self, r: usize, c: usize) -> f64 {
+        self[(r, c)]
+    }
+    fn set(&mut self, r: usize, c: usize, v: f64) {
+        self[(r, c)] = v;
+    }
+    fn gemm(out: &mut Self, beta: f64, alpha: f64, a: &Self, at: bool, b: &Self, bt: bool) {
+        match (at, bt) {
+            (false, false) => out.gemm(alpha, a, b, beta),
+            (false, true) => out.gemm(alpha, a, &b.transpose(), beta),
+            (true, false) => out.gemm_tr(alpha, a, b, beta),
+            (true, true) => out.gemm_tr(alpha, a, &b.transpose(), beta),
+        }
+    }
+}
+
+impl Dense for Mat<f64> {
+    const NAME: &'static str = "faer";
+    fn zeros(r: usize, c: usize) -> Self {
+        Mat::zeros(r, c)
+    }
+    fn rows(&self) -> usize {
+        self.nrows()
+    }
+    fn cols(&self) -> usize {
+        self.ncols()
+    }
+    fn get(&self, r: usize, c: usize) -> f64 {
+        self[(r, c)]
+    }
+    fn set(&mut self, r: usize, c: usize, v: f64) {
+        self[(r, c)] = v;
+    }
+    fn gemm(out: &mut Self, beta: f64, alpha: f64, a: &Self, at: bool, b: &Self, bt: bool) {
+        // faer accumulates or replaces: scale the output first when 0 < β ≠ 1.
+        let accum = if beta == 0.0 {
+            Accum::Replace
+        } else {
+            if beta != 1.0 {
+                for c in 0..out.ncols() {
+                    for r in 0..out.nrows() {
+                        out[(r, c)] *= beta;
+                    }
+                }
+            }
+            Accum::Add
+        };
+        let (a, b) = (a.as_ref(), b.as_ref());
+        let a = if at { a.transpose() } else { a };
+        let b = if bt { b.transpose() } else { b };
+        faer::linalg::matmul::matmul(out.as_mut(), accum, a, b, alpha, Par::Seq);
+    }
+}
+
+fn symmetrize_dense<D: Dense>(m: &mut D) {
+    let n = m.rows();
     for c in 0..n {
         for r in (c + 1)..n {
-            let v = 0.5 * (m[(r, c)] + m[(c, r)]);
-            m[(r, c)] = v;
-            m[(c, r)] = v;
+            let v = 0.5 * (m.get(r, c) + m.get(c, r));
+            m.set(r, c, v);
+            m.set(c, r, v);
         }
     }
 }
 
-fn to_dyn<R: DimName, C: DimName>(m: &OMatrix<f64, R, C>, out: &mut DMatrix<f64>)
+/// Copy a static matrix into a dense one (reshaped when the size differs).
+fn to_dense<D: Dense, R: DimName, C: DimName>(m: &OMatrix<f64, R, C>, out: &mut D)
 where
     DefaultAllocator: nalgebra::allocator::Allocator<R, C>,
 {
-    if out.shape() != (R::DIM, C::DIM) {
-        *out = DMatrix::zeros(R::DIM, C::DIM);
-    }
-    out.copy_from(m);
-}
-
-/// nalgebra `DMatrix` storage with its (matrixmultiply) products.
-#[derive(Clone, Debug, Default)]
-pub struct DynamicCov {
-    phi: DMatrix<f64>,
-    tmp: DMatrix<f64>,
-    tmp2: DMatrix<f64>,
-}
-
-impl<N: DimName> CovBackend<N> for DynamicCov
-where
-    DefaultAllocator: DimAlloc<N>,
-{
-    type Cov = DMatrix<f64>;
-    const NAME: &'static str = "nalgebra-dynamic";
-
-    fn from_static(P: &Cov<N>) -> DMatrix<f64> {
-        DMatrix::from_fn(N::DIM, N::DIM, |r, c| P[(r, c)])
-    }
-
-    fn as_static(P: &DMatrix<f64>) -> Cow<'_, Cov<N>> {
-        Cow::Owned(Cov::<N>::from_fn(|r, c| P[(r, c)]))
-    }
-
-    fn diag(P: &DMatrix<f64>, i: usize) -> f64 {
-        P[(i, i)]
-    }
-
-    fn propagate(
-        &mut self,
-        P: &DMatrix<f64>,
-        Phi: &Cov<N>,
-        Q: &Cov<N>,
-        lambda: f64,
-        out: &mut DMatrix<f64>,
-    ) {
-        let n = N::DIM;
-        to_dyn(Phi, &mut self.phi);
-        if self.tmp.shape() != (n, n) {
-            self.tmp = DMatrix::zeros(n, n);
-        }
-        // tmp = Φ P; out = λ tmp Φᵀ + Q
-        self.tmp.gemm(1.0, &self.phi, P, 0.0);
-        to_dyn(Q, out);
-        out.gemm(lambda, &self.tmp, &self.phi.transpose(), 1.0);
-        symmetrize_dyn(out);
-    }
-
-    fn h_times_p<M: DimName>(
-        &mut self,
-        H: &OMatrix<f64, M, N>,
-        P: &DMatrix<f64>,
-    ) -> OMatrix<f64, M, N>
-    where
-        DefaultAllocator: FilterAlloc<N, M>,
-    {
-        // (H P)_{ij} = Σ_k H_ik P_kj, with P symmetric: row i of H against columns of P.
-        OMatrix::<f64, M, N>::from_fn(|i, j| (0..N::DIM).map(|k| H[(i, k)] * P[(k, j)]).sum())
-    }
-
-    fn scale_add<M: DimName>(
-        &mut self,
-        P: &DMatrix<f64>,
-        a: f64,
-        b: f64,
-        U: &OMatrix<f64, M, N>,
-        V: &OMatrix<f64, M, N>,
-        out: &mut DMatrix<f64>,
-    ) where
-        DefaultAllocator: FilterAlloc<N, M>,
-    {
-        out.copy_from(P);
-        *out *= a;
-        to_dyn(U, &mut self.tmp);
-        to_dyn(V, &mut self.tmp2);
-        out.gemm_tr(b, &self.tmp, &self.tmp2, 1.0);
-        symmetrize_dyn(out);
-    }
-
-    fn update<M: DimName>(
-        &mut self,
-        P: &DMatrix<f64>,
-        K: &OMatrix<f64, N, M>,
-        H: &OMatrix<f64, M, N>,
-        R: &OMatrix<f64, M, M>,
-        short: bool,
-        out: &mut DMatrix<f64>,
-    ) where
-        DefaultAllocator: FilterAlloc<N, M>,
-    {
-        let n = N::DIM;
-        if short {
-            let kh = K * H;
-            to_dyn(&kh, &mut self.tmp);
-            out.copy_from(P);
-            out.gemm(-1.0, &self.tmp, P, 1.0);
-        } else {
-            // I − K H
-            let ikh = Cov::<N>::identity() - K * H;
-            to_dyn(&ikh, &mut self.phi);
-            if self.tmp.shape() != (n, n) {
-                self.tmp = DMatrix::zeros(n, n);
-            }
-            self.tmp.gemm(1.0, &self.phi, P, 0.0);
-            let krk = K * R * K.transpose();
-            to_dyn(&krk, out);
-            out.gemm(1.0, &self.tmp, &self.phi.transpose(), 1.0);
-        }
-        symmetrize_dyn(out);
-    }
-
-    fn sandwich_in_place(&mut self, P: &mut DMatrix<f64>, G: &Cov<N>) {
-        let n = N::DIM;
-        to_dyn(G, &mut self.phi);
-        if self.tmp.shape() != (n, n) {
-            self.tmp = DMatrix::zeros(n, n);
-        }
-        self.tmp.gemm(1.0, &self.phi, P, 0.0);
-        P.gemm(1.0, &self.tmp, &self.phi.transpose(), 0.0);
-        symmetrize_dyn(P);
-    }
-
-    fn check_finite(what: &'static str, P: &DMatrix<f64>) -> Result<(), FilterError> {
-        if P.iter().all(|v| v.is_finite()) {
-            Ok(())
-        } else {
-            Err(FilterError::NonFinite { what })
-        }
-    }
-}
-
-fn to_faer<R: DimName, C: DimName>(m: &OMatrix<f64, R, C>, out: &mut Mat<f64>)
-where
-    DefaultAllocator: nalgebra::allocator::Allocator<R, C>,
-{
-    if out.nrows() != R::DIM || out.ncols() != C::DIM {
-        *out = Mat::zeros(R::DIM, C::DIM);
+    if out.rows() != R::DIM || out.cols() != C::DIM {
+        *out = D::zeros(R::DIM, C::DIM);
     }
     for c in 0..C::DIM {
         for r in 0..R::DIM {
-            out[(r, c)] = m[(r, c)];
+            out.set(r, c, m[(r, c)]);
         }
     }
 }
 
-fn symmetrize_faer(m: &mut Mat<f64>) {
-    let n = m.nrows();
-    for c in 0..n {
-        for r in (c + 1)..n {
-            let v = 0.5 * (m[(r, c)] + m[(c, r)]);
-            m[(r, c)] = v;
-            m[(c, r)] = v;
-        }
+fn ensure<D: Dense>(m: &mut D, n: usize) {
+    if m.rows() != n || m.cols() != n {
+        *m = D::zeros(n, n);
     }
 }
+
+/// A heap-allocated dense covariance with scratch buffers (allocated on first use).
+#[derive(Clone, Debug)]
+pub struct DenseCov<D: Dense> {
+    phi: D,
+    tmp: D,
+    tmp2: D,
+}
+
+impl<D: Dense> Default for DenseCov<D> {
+    fn default() -> Self {
+        Self { phi: D::zeros(0, 0), tmp: D::zeros(0, 0), tmp2: D::zeros(0, 0) }
+    }
+}
+
+/// nalgebra `DMatrix` storage with its (matrixmultiply) products.
+pub type DynamicCov = DenseCov<DMatrix<f64>>;
 
 /// `faer::Mat` storage with faer's single-threaded products.
-#[derive(Clone, Debug)]
-pub struct FaerCov {
-    phi: Mat<f64>,
-    tmp: Mat<f64>,
-    tmp2: Mat<f64>,
-}
+pub type FaerCov = DenseCov<Mat<f64>>;
 
-impl Default for FaerCov {
-    fn default() -> Self {
-        Self { phi: Mat::zeros(0, 0), tmp: Mat::zeros(0, 0), tmp2: Mat::zeros(0, 0) }
-    }
-}
-
-impl<N: DimName> CovBackend<N> for FaerCov
+impl<N: DimName, D: Dense> CovBackend<N> for DenseCov<D>
 where
     DefaultAllocator: DimAlloc<N>,
 {
-    type Cov = Mat<f64>;
-    const NAME: &'static str = "faer";
+    type Cov = D;
+    const NAME: &'static str = D::NAME;
 
-    fn from_static(P: &Cov<N>) -> Mat<f64> {
-        Mat::from_fn(N::DIM, N::DIM, |r, c| P[(r, c)])
+    fn from_static(P: &Cov<N>) -> D {
+        let mut out = D::zeros(N::DIM, N::DIM);
+        to_dense(P, &mut out);
+        out
     }
 
-    fn as_static(P: &Mat<f64>) -> Cow<'_, Cov<N>> {
-        Cow::Owned(Cov::<N>::from_fn(|r, c| P[(r, c)]))
+    fn as_static(P: &D) -> Cow<'_, Cov<N>> {
+        Cow::Owned(Cov::<N>::from_fn(|r, c| P.get(r, c)))
     }
 
-    fn diag(P: &Mat<f64>, i: usize) -> f64 {
-        P[(i, i)]
+    fn diag(P: &D, i: usize) -> f64 {
+        P.get(i, i)
     }
 
-    fn propagate(
-        &mut self,
-        P: &Mat<f64>,
-        Phi: &Cov<N>,
-        Q: &Cov<N>,
-        lambda: f64,
-        out: &mut Mat<f64>,
-    ) {
-        let n = N::DIM;
-        to_faer(Phi, &mut self.phi);
-        if self.tmp.nrows() != n {
-            self.tmp = Mat::zeros(n, n);
-        }
-        faer::linalg::matmul::matmul(
-            self.tmp.as_mut(),
-            Accum::Replace,
-            self.phi.as_ref(),
-            P.as_ref(),
-            1.0,
-            Par::Seq,
-        );
-        to_faer(Q, out);
-        faer::linalg::matmul::matmul(
-            out.as_mut(),
-            Accum::Add,
-            self.tmp.as_ref(),
-            self.phi.as_ref().transpose(),
-            lambda,
-            Par::Seq,
-        );
-        symmetrize_faer(out);
+    fn propagate(&mut self, P: &D, Phi: &Cov<N>, Q: &Cov<N>, lambda: f64, out: &mut D) {
+        ensure(&mut self.tmp, N::DIM);
+        to_dense(Phi, &mut self.phi);
+        to_dense(&Phi.transpose(), &mut self.tmp2);
+        // tmp = Φ P; out = λ tmp Φᵀ + Q (Φᵀ copied, so no product allocates)
+        D::gemm(&mut self.tmp, 0.0, 1.0, &self.phi, false, P, false);
+        to_dense(Q, out);
+        D::gemm(out, 1.0, lambda, &self.tmp, false, &self.tmp2, false);
+        symmetrize_dense(out);
     }
 
-    fn h_times_p<M: DimName>(&mut self, H: &OMatrix<f64, M, N>, P: &Mat<f64>) -> OMatrix<f64, M, N>
+    fn h_times_p<M: DimName>(&mut self, H: &OMatrix<f64, M, N>, P: &D) -> OMatrix<f64, M, N>
     where
         DefaultAllocator: FilterAlloc<N, M>,
     {
-        OMatrix::<f64, M, N>::from_fn(|i, j| (0..N::DIM).map(|k| H[(i, k)] * P[(k, j)]).sum())
+        OMatrix::<f64, M, N>::from_fn(|i, j| (0..N::DIM).map(|k| H[(i, k)] * P.get(k, j)).sum())
     }
 
     fn scale_add<M: DimName>(
         &mut self,
-        P: &Mat<f64>,
+        P: &D,
         a: f64,
         b: f64,
         U: &OMatrix<f64, M, N>,
         V: &OMatrix<f64, M, N>,
-        out: &mut Mat<f64>,
+        out: &mut D,
     ) where
         DefaultAllocator: FilterAlloc<N, M>,
     {
-        let n = N::DIM;
-        if out.nrows() != n {
-            *out = Mat::zeros(n, n);
-        }
-        for c in 0..n {
-            for r in 0..n {
-                out[(r, c)] = a * P[(r, c)];
+        ensure(out, N::DIM);
+        for c in 0..N::DIM {
+            for r in 0..N::DIM {
+                out.set(r, c, a * P.get(r, c));
             }
         }
-        to_faer(U, &mut self.tmp);
-        to_faer(V, &mut self.tmp2);
-        faer::linalg::matmul::matmul(
-            out.as_mut(),
-            Accum::Add,
-            self.tmp.as_ref().transpose(),
-            self.tmp2.as_ref(),
-            b,
-            Par::Seq,
-        );
-        symmetrize_faer(out);
+        to_dense(U, &mut self.tmp);
+        to_dense(V, &mut self.tmp2);
+        // out += b Uᵀ V
+        D::gemm(out, 1.0, b, &self.tmp, true, &self.tmp2, false);
+        symmetrize_dense(out);
     }
 
     fn update<M: DimName>(
         &mut self,
-        P: &Mat<f64>,
+        P: &D,
         K: &OMatrix<f64, N, M>,
         H: &OMatrix<f64, M, N>,
         R: &OMatrix<f64, M, M>,
         short: bool,
-        out: &mut Mat<f64>,
+        out: &mut D,
     ) where
         DefaultAllocator: FilterAlloc<N, M>,
     {
         let n = N::DIM;
-        if out.nrows() != n {
-            *out = Mat::zeros(n, n);
-        }
+        ensure(out, n);
         if short {
-            to_faer(&(K * H), &mut self.tmp);
+            // P = P⁻ − (K H) P⁻
+            to_dense(&(K * H), &mut self.tmp);
             for c in 0..n {
                 for r in 0..n {
-                    out[(r, c)] = P[(r, c)];
+                    out.set(r, c, P.get(r, c));
                 }
             }
-            faer::linalg::matmul::matmul(
-                out.as_mut(),
-                Accum::Add,
-                self.tmp.as_ref(),
-                P.as_ref(),
-                -1.0,
-                Par::Seq,
-            );
+            D::gemm(out, 1.0, -1.0, &self.tmp, false, P, false);
         } else {
-            to_faer(&(Cov::<N>::identity() - K * H), &mut self.phi);
-            if self.tmp.nrows() != n {
-                self.tmp = Mat::zeros(n, n);
-            }
-            faer::linalg::matmul::matmul(
-                self.tmp.as_mut(),
-                Accum::Replace,
-                self.phi.as_ref(),
-                P.as_ref(),
-                1.0,
-                Par::Seq,
-            );
-            to_faer(&(K * R * K.transpose()), out);
-            faer::linalg::matmul::matmul(
-                out.as_mut(),
-                Accum::Add,
-                self.tmp.as_ref(),
-                self.phi.as_ref().transpose(),
-                1.0,
-                Par::Seq,
-            );
+            // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ
+            let ikh = Cov::<N>::identity() - K * H;
+            to_dense(&ikh, &mut self.phi);
+            to_dense(&ikh.transpose(), &mut self.tmp2);
+            ensure(&mut self.tmp, n);
+            D::gemm(&mut self.tmp, 0.0, 1.0, &self.phi, false, P, false);
+            to_dense(&(K * R * K.transpose()), out);
+            D::gemm(out, 1.0, 1.0, &self.tmp, false, &self.tmp2, false);
         }
-        symmetrize_faer(out);
+        symmetrize_dense(out);
     }
 
-    fn sandwich_in_place(&mut self, P: &mut Mat<f64>, G: &Cov<N>) {
-        let n = N::DIM;
-        to_faer(G, &mut self.phi);
-        if self.tmp.nrows() != n {
-            self.tmp = Mat::zeros(n, n);
-        }
-        faer::linalg::matmul::matmul(
-            self.tmp.as_mut(),
-            Accum::Replace,
-            self.phi.as_ref(),
-            P.as_ref(),
-            1.0,
-            Par::Seq,
-        );
-        faer::linalg::matmul::matmul(
-            P.as_mut(),
-            Accum::Replace,
-            self.tmp.as_ref(),
-            self.phi.as_ref().transpose(),
-            1.0,
-            Par::Seq,
-        );
-        symmetrize_faer(P);
+    fn sandwich_in_place(&mut self, P: &mut D, G: &Cov<N>) {
+        ensure(&mut self.tmp, N::DIM);
+        to_dense(G, &mut self.phi);
+        to_dense(&G.transpose(), &mut self.tmp2);
+        D::gemm(&mut self.tmp, 0.0, 1.0, &self.phi, false, P, false);
+        D::gemm(P, 0.0, 1.0, &self.tmp, false, &self.tmp2, false);
+        symmetrize_dense(P);
     }
 
-    fn check_finite(what: &'static str, P: &Mat<f64>) -> Result<(), FilterError> {
-        let n = P.nrows();
-        for c in 0..n {
-            for r in 0..n {
-                if !P[(r, c)].is_finite() {
+    fn check_finite(what: &'static str, P: &D) -> Result<(), FilterError> {
+        for c in 0..P.cols() {
+            for r in 0..P.rows() {
+                if !P.get(r, c).is_finite() {
                     return Err(FilterError::NonFinite { what });
                 }
             }

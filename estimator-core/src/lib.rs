@@ -35,7 +35,7 @@ pub use adapt::{
     Adaptation, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, StreamId,
     StreamMap, Verdict,
 };
-pub use backend::{CovBackend, DynamicCov, FaerCov, StaticCov};
+pub use backend::{CovBackend, DenseCov, DynamicCov, FaerCov, StaticCov};
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode, UpdateForm};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};

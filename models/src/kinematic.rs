@@ -187,6 +187,41 @@ pub fn singer_q_closed_form(alpha: f64, T: f64) -> SMatrix<f64, 3, 3> {
     SMatrix::<f64, 3, 3>::new(q11, q12, q13, q12, q22, q23, q13, q23, q33)
 }
 
+/// First-order Markov acceleration relaxing towards `abar` (zero: Singer; the current
+/// mean: CS): `x⁺ = Φ x + U ā` with `U = [T²/2 − Φ₀₂, T − Φ₁₂, 1 − Φ₂₂]`, the response to a
+/// constant ā.
+fn markov_propagate<const D: usize>(
+    x: &CaState<D>,
+    abar: &SVector<f64, D>,
+    alpha: f64,
+    T: f64,
+) -> CaState<D> {
+    let p = markov_phi(alpha, T);
+    let u = [T * T / 2.0 - p[(0, 2)], T - p[(1, 2)], 1.0 - p[(2, 2)]];
+    (
+        x.0 + x.1 * p[(0, 1)] + x.2 * p[(0, 2)] + abar * u[0],
+        x.1 + x.2 * p[(1, 2)] + abar * u[1],
+        x.2 * p[(2, 2)] + abar * u[2],
+    )
+}
+
+/// `Φ` and `Q = 2α σ²(axis) · Q_unit` of the Markov acceleration on `D` axes.
+fn markov_jacobians<const D: usize>(
+    alpha: f64,
+    T: f64,
+    sigma2: impl Fn(usize) -> f64,
+) -> ProcessJacobians<Dim3<D>>
+where
+    Const<D>: DimNameAdd<Const<D>>,
+    Dim2<D>: DimNameAdd<Const<D>>,
+    DefaultAllocator: DimAlloc<Dim3<D>>,
+{
+    ProcessJacobians {
+        Phi: kron(&markov_phi(alpha, T), D, |_| 1.0),
+        Q: kron(&singer_q_unit(alpha, T), D, |a| 2.0 * alpha * sigma2(a)),
+    }
+}
+
 /// The Singer model: zero-mean first-order Markov acceleration with maneuver time constant
 /// `1/α` and acceleration variance `σ_m²` per axis.
 #[derive(Clone, Debug)]
@@ -206,9 +241,9 @@ where
     type State = CaState<D>;
     type Input = ();
 
+    /// The CS propagation with a zero mean acceleration.
     fn propagate(&self, x: &CaState<D>, _: &(), T: f64) -> CaState<D> {
-        let p = markov_phi(self.alpha, T);
-        (x.0 + x.1 * p[(0, 1)] + x.2 * p[(0, 2)], x.1 + x.2 * p[(1, 2)], x.2 * p[(2, 2)])
+        markov_propagate(x, &SVector::zeros(), self.alpha, T)
     }
 
     fn jacobians(
@@ -217,10 +252,7 @@ where
         _: &(),
         T: f64,
     ) -> ProcessJacobians<<CaState<D> as Manifold>::Dim> {
-        ProcessJacobians {
-            Phi: kron(&markov_phi(self.alpha, T), D, |_| 1.0),
-            Q: kron(&singer_q_unit(self.alpha, T), D, |a| 2.0 * self.alpha * self.sigma2[a]),
-        }
+        markov_jacobians::<D>(self.alpha, T, |a| self.sigma2[a])
     }
 }
 
@@ -247,14 +279,7 @@ where
 
     /// `x⁺ = Φ x + U ā` with `U = (I − Φ) [0 0 1]ᵀ`-type input gains.
     fn propagate(&self, x: &CaState<D>, abar: &SVector<f64, D>, T: f64) -> CaState<D> {
-        let p = markov_phi(self.alpha, T);
-        // U = [T²/2 − p02, T − p12, 1 − p22]: the response to a constant ā.
-        let u = [T * T / 2.0 - p[(0, 2)], T - p[(1, 2)], 1.0 - p[(2, 2)]];
-        (
-            x.0 + x.1 * p[(0, 1)] + x.2 * p[(0, 2)] + abar * u[0],
-            x.1 + x.2 * p[(1, 2)] + abar * u[1],
-            x.2 * p[(2, 2)] + abar * u[2],
-        )
+        markov_propagate(x, abar, self.alpha, T)
     }
 
     fn jacobians(
@@ -263,11 +288,6 @@ where
         abar: &SVector<f64, D>,
         T: f64,
     ) -> ProcessJacobians<<CaState<D> as Manifold>::Dim> {
-        ProcessJacobians {
-            Phi: kron(&markov_phi(self.alpha, T), D, |_| 1.0),
-            Q: kron(&singer_q_unit(self.alpha, T), D, |a| {
-                2.0 * self.alpha * self.variance.variance(abar[a])
-            }),
-        }
+        markov_jacobians::<D>(self.alpha, T, |a| self.variance.variance(abar[a]))
     }
 }
