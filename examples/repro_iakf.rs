@@ -1,0 +1,141 @@
+//! Reproduction of the χ²-gated IAKF paper's simulation (paper `iakf-chi-square`, §4):
+//! a car with accelerations and turns; gyro bias 5°/h, ARW 0.5°/√h, accelerometer bias
+//! 400 µg; GNSS position at 1 Hz with 3 m noise and interference at 400–450 s (noise × 8,
+//! up to ≈ 24 m) that the receiver does not report. Filters: `fixed` (KF), `sage-husa`
+//! (the paper's AKF), `iakf` (Raw inflation) and `iakf-epoch` (EpochScaled), and the
+//! paper's IAKF without our convergence guard (`iakf-unguarded`).
+//!
+//! Each row is the mean ± std over the seeds of the per-run mean and maximum |east|,
+//! |north| and horizontal error (truth at 1 Hz, from 30 s on); per-seed results go to a
+//! CSV. Seeds run in parallel (rayon).
+//!
+//! Run: `cargo run --release --example repro_iakf [SEEDS] [CSV]` (defaults 50,
+//! `repro-out/iakf_seeds.csv`).
+
+use std::io::Write;
+
+use estimator::adaptive::AnyStrategy;
+use estimator::core::NoObserver;
+use estimator::ins_gnss::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, M_S_PER_SQRT_H};
+use estimator::ins_gnss::sim::{scenarios, simulate_from, ExactImu, GnssSim, GnssWindow, GnssWindowKind, ImuErrors, Trajectory};
+use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, InsState, Navigator};
+use estimator::manifolds::{Manifold, Tangent};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+/// The filters; `iakf-unguarded` is the paper's IAKF without our re-admission guard
+/// (`max_consecutive` = ∞), to show what the guard costs under sustained interference.
+const STRATEGIES: [&str; 5] = ["fixed", "sage-husa", "iakf", "iakf-epoch", "iakf-unguarded"];
+
+fn strategy(name: &str) -> AnyStrategy {
+    match name {
+        "iakf-unguarded" => {
+            let mut s = estimator::adaptive::Iakf::default();
+            s.max_consecutive = u32::MAX;
+            AnyStrategy::Iakf(s)
+        }
+        other => other.parse().expect("known strategy"),
+    }
+}
+const G: f64 = 9.80665;
+
+fn imu() -> ImuErrors {
+    ImuErrors {
+        noise: ImuNoise {
+            arw: Vector3::repeat(0.5 * DEG_PER_SQRT_H),
+            vrw: Vector3::repeat(0.1 * M_S_PER_SQRT_H),
+            gyro_bias: Vector3::repeat(0.5 * DEG_PER_H),
+            accel_bias: Vector3::repeat(20e-6 * G),
+            bias_model: BiasModel::GaussMarkov { tau: 3600.0 },
+        },
+        gyro_turn_on: Vector3::new(5.0, -5.0, 5.0) * DEG_PER_H,
+        accel_turn_on: Vector3::new(400e-6, -400e-6, 400e-6) * G,
+        gyro_scale: Vector3::zeros(),
+        accel_scale: Vector3::zeros(),
+    }
+}
+
+/// Per run: (mean |E|, mean |N|, mean horizontal, max |E|, max |N|, max horizontal), m.
+fn run(exact: &ExactImu, traj: &Trajectory, gnss: &GnssSim, seed: u64, strategy: &str) -> [f64; 6] {
+    let errors = imu();
+    let data = simulate_from(exact, traj, &errors, gnss, seed);
+    let deg = core::f64::consts::PI / 180.0;
+    let std = InitialStd {
+        att: Vector3::new(0.5 * deg, 0.5 * deg, 2.0 * deg),
+        vel: Vector3::repeat(0.1),
+        pos: Vector3::repeat(3.0),
+        bg: Vector3::repeat(5.5 * DEG_PER_H),
+        ba: Vector3::repeat(450e-6 * G),
+    };
+    // The filter starts with a small, seeded error inside its P0.
+    let mut d = Tangent::<InsState>::zeros();
+    let s = |k: u64| ((seed * 7 + k * 13) % 11) as f64 / 10.0 - 0.5;
+    for i in 0..3 {
+        d[i] = std.att[i] * s(i as u64);
+        d[6 + i] = std.pos[i] * s(3 + i as u64);
+    }
+    let truth0 = &data.truth[0].state;
+    let x0 = InsState { bg: Vector3::zeros(), ba: Vector3::zeros(), ..truth0.oplus(&d) };
+    let init = InitialState { time: data.truth[0].t, state: x0, std };
+    let model = InsModel::wgs84(errors.noise.with_bias_model(BiasModel::RandomWalk));
+    let strategy = self::strategy(strategy);
+    let mut nav = Navigator::new(&init, model, strategy, GnssConfig::default()).expect("valid start");
+    let (mut sum, mut max, mut n) = ([0.0; 3], [0.0_f64; 3], 0.0);
+    let mut out = Vec::with_capacity(4);
+    for (k, (sample, epochs)) in data.replay().enumerate() {
+        out.clear();
+        nav.process_into(sample, epochs, &mut NoObserver, &mut out).expect("filter step");
+        if sample.t >= 30.0 && (sample.t - sample.t.round()).abs() < 1e-6 {
+            let e = nav.state().pos.ominus(&data.truth[k + 1].state.pos);
+            let v = [e.y.abs(), e.x.abs(), (e.x * e.x + e.y * e.y).sqrt()];
+            for i in 0..3 {
+                sum[i] += v[i];
+                max[i] = max[i].max(v[i]);
+            }
+            n += 1.0;
+        }
+    }
+    [sum[0] / n, sum[1] / n, sum[2] / n, max[0], max[1], max[2]]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let seeds: u64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(50);
+    let csv = std::path::PathBuf::from(args.next().unwrap_or_else(|| "repro-out/iakf_seeds.csv".into()));
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs)?;
+    let exact = ExactImu::new(&traj, 100.0);
+    let gnss = GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::new(3.0, 3.0, 5.0),
+        vel_sigma: None,
+        lever_arm: Vector3::zeros(),
+        windows: vec![GnssWindow { start: 400.0, end: 450.0, kind: GnssWindowKind::Interference { factor: 8.0 } }],
+    };
+    let jobs: Vec<(u64, &str)> = (0..seeds).flat_map(|s| STRATEGIES.iter().map(move |n| (s, *n))).collect();
+    let results: Vec<(u64, &str, [f64; 6])> = jobs.par_iter().map(|&(s, n)| (s, n, run(&exact, &traj, &gnss, s, n))).collect();
+
+    if let Some(dir) = csv.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&csv)?);
+    writeln!(f, "seed,strategy,mean_east,mean_north,mean_horizontal,max_east,max_north,max_horizontal")?;
+    for (s, n, r) in &results {
+        writeln!(f, "{s},{n},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}", r[0], r[1], r[2], r[3], r[4], r[5])?;
+    }
+    println!("{} seeds; per-seed results in {}\n", seeds, csv.display());
+    println!("| filter | mean E (m) | mean N (m) | mean horizontal (m) | max E (m) | max N (m) | max horizontal (m) |");
+    println!("|---|---|---|---|---|---|---|");
+    for name in STRATEGIES {
+        let rows: Vec<&[f64; 6]> = results.iter().filter(|r| r.1 == name).map(|r| &r.2).collect();
+        let n = rows.len() as f64;
+        let cell = |i: usize| {
+            let m = rows.iter().map(|r| r[i]).sum::<f64>() / n;
+            let sd = (rows.iter().map(|r| (r[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+            format!("{m:.3} ± {sd:.3}")
+        };
+        println!("| {name} | {} | {} | {} | {} | {} | {} |", cell(0), cell(1), cell(2), cell(3), cell(4), cell(5));
+    }
+    println!("\nPaper (one run): mean horizontal KF 1.316, AKF 1.279, IAKF 1.198 m; max 8.668, 5.845, 5.234 m.");
+    Ok(())
+}
