@@ -17,7 +17,9 @@ use std::io::Write;
 use estimator::adaptive::AnyStrategy;
 use estimator::core::NoObserver;
 use estimator::ins_gnss::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, M_S_PER_SQRT_H};
-use estimator::ins_gnss::sim::{scenarios, simulate_from, ExactImu, GnssSim, GnssWindow, GnssWindowKind, ImuErrors, Trajectory};
+use estimator::ins_gnss::sim::{
+    scenarios, simulate_from, ExactImu, GnssSim, GnssWindow, GnssWindowKind, ImuErrors, Trajectory,
+};
 use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, InsState, Navigator};
 use estimator::manifolds::{Manifold, Tangent};
 use nalgebra::Vector3;
@@ -79,7 +81,8 @@ fn run(exact: &ExactImu, traj: &Trajectory, gnss: &GnssSim, seed: u64, strategy:
     let init = InitialState { time: data.truth[0].t, state: x0, std };
     let model = InsModel::wgs84(errors.noise.with_bias_model(BiasModel::RandomWalk));
     let strategy = self::strategy(strategy);
-    let mut nav = Navigator::new(&init, model, strategy, GnssConfig::default()).expect("valid start");
+    let mut nav =
+        Navigator::new(&init, model, strategy, GnssConfig::default()).expect("valid start");
     let (mut sum, mut max, mut n) = ([0.0; 3], [0.0_f64; 3], 0.0);
     let mut out = Vec::with_capacity(4);
     for (k, (sample, epochs)) in data.replay().enumerate() {
@@ -101,7 +104,8 @@ fn run(exact: &ExactImu, traj: &Trajectory, gnss: &GnssSim, seed: u64, strategy:
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let seeds: u64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(50);
-    let csv = std::path::PathBuf::from(args.next().unwrap_or_else(|| "repro-out/iakf_seeds.csv".into()));
+    let csv =
+        std::path::PathBuf::from(args.next().unwrap_or_else(|| "repro-out/iakf_seeds.csv".into()));
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs)?;
     let exact = ExactImu::new(&traj, 100.0);
@@ -110,18 +114,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         pos_sigma: Vector3::new(3.0, 3.0, 5.0),
         vel_sigma: None,
         lever_arm: Vector3::zeros(),
-        windows: vec![GnssWindow { start: 400.0, end: 450.0, kind: GnssWindowKind::Interference { factor: 8.0 } }],
+        windows: vec![GnssWindow {
+            start: 400.0,
+            end: 450.0,
+            kind: GnssWindowKind::Interference { factor: 8.0 },
+        }],
     };
-    let jobs: Vec<(u64, &str)> = (0..seeds).flat_map(|s| STRATEGIES.iter().map(move |n| (s, *n))).collect();
-    let results: Vec<(u64, &str, [f64; 6])> = jobs.par_iter().map(|&(s, n)| (s, n, run(&exact, &traj, &gnss, s, n))).collect();
+    let jobs: Vec<(u64, &str)> =
+        (0..seeds).flat_map(|s| STRATEGIES.iter().map(move |n| (s, *n))).collect();
+    let results: Vec<(u64, &str, [f64; 6])> =
+        jobs.par_iter().map(|&(s, n)| (s, n, run(&exact, &traj, &gnss, s, n))).collect();
 
     if let Some(dir) = csv.parent() {
         std::fs::create_dir_all(dir)?;
     }
     let mut f = std::io::BufWriter::new(std::fs::File::create(&csv)?);
-    writeln!(f, "seed,strategy,mean_east,mean_north,mean_horizontal,max_east,max_north,max_horizontal")?;
+    writeln!(
+        f,
+        "seed,strategy,mean_east,mean_north,mean_horizontal,max_east,max_north,max_horizontal"
+    )?;
     for (s, n, r) in &results {
-        writeln!(f, "{s},{n},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}", r[0], r[1], r[2], r[3], r[4], r[5])?;
+        writeln!(
+            f,
+            "{s},{n},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            r[0], r[1], r[2], r[3], r[4], r[5]
+        )?;
     }
     println!("{} seeds; per-seed results in {}\n", seeds, csv.display());
     println!("| filter | mean E (m) | mean N (m) | mean horizontal (m) | max E (m) | max N (m) | max horizontal (m) |");
@@ -131,10 +148,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let n = rows.len() as f64;
         let cell = |i: usize| {
             let m = rows.iter().map(|r| r[i]).sum::<f64>() / n;
-            let sd = (rows.iter().map(|r| (r[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+            let sd =
+                (rows.iter().map(|r| (r[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
             format!("{m:.3} ± {sd:.3}")
         };
-        println!("| {name} | {} | {} | {} | {} | {} | {} |", cell(0), cell(1), cell(2), cell(3), cell(4), cell(5));
+        println!(
+            "| {name} | {} | {} | {} | {} | {} | {} |",
+            cell(0),
+            cell(1),
+            cell(2),
+            cell(3),
+            cell(4),
+            cell(5)
+        );
     }
     println!("\nPaper (one run): mean horizontal KF 1.316, AKF 1.279, IAKF 1.198 m; max 8.668, 5.845, 5.234 m.");
     Ok(())
