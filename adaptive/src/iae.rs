@@ -142,7 +142,9 @@ impl NoiseStrategy for Iae {
         if tr > s.c_cap {
             c *= s.c_cap / tr;
         }
-        let q = p.K * c * p.K.transpose() / dt;
+        let mut q = p.K * c * p.K.transpose() / dt;
+        // Exactly symmetric (models may rely on a symmetric Q, see SYMMETRIC_PROPAGATION).
+        estimator_core::linalg::symmetrize(&mut q);
         if q.iter().all(|v| v.is_finite()) {
             p.q = QAdjust::AddRate(q);
         }

@@ -276,7 +276,9 @@ where
                     let scaled = P * fading;
                     model.propagate_covariance(&scaled, &jac, next);
                 }
-                symmetrize(next);
+                if !PM::SYMMETRIC_PROPAGATION {
+                    symmetrize(next);
+                }
             }
             _ => {
                 let (P, next, _) = self.buffers();

@@ -107,6 +107,10 @@ where
         (self.propagate(x, u, dt), self.jacobians(x, u, dt))
     }
 
+    /// True when [`propagate_covariance`](Self::propagate_covariance) returns an exactly
+    /// symmetric matrix, so the filter can skip symmetrising it. Default false.
+    const SYMMETRIC_PROPAGATION: bool = false;
+
     /// `out ← Φ P Φᵀ + Q`. The dense default costs `2N³` multiply-adds; override it to
     /// exploit the sparsity of Φ (the INS model does). `out` need not be symmetric on
     /// return; the filter symmetrises it.

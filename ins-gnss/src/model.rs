@@ -365,6 +365,9 @@ impl ProcessModel for InsModel {
     type State = InsState;
     type Input = ImuInput;
 
+    /// The kernel writes `(R + Rᵀ)/2 + Q` with `Q` built symmetric.
+    const SYMMETRIC_PROPAGATION: bool = true;
+
     fn propagate(&self, x: &InsState, u: &ImuInput, _dt: f64) -> InsState {
         let inc = Self::corrected(x, u);
         let nav = Nav { att: x.att, vel: x.vel, pos: x.pos };
