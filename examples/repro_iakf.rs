@@ -27,9 +27,9 @@ use rayon::prelude::*;
 
 /// The filters; `iakf-unguarded` is the paper's IAKF without our re-admission guard
 /// (`max_consecutive` = ∞), to show what the guard costs under sustained interference.
-const STRATEGIES: [&str; 5] = ["fixed", "sage-husa", "iakf", "iakf-epoch", "iakf-unguarded"];
+pub const STRATEGIES: [&str; 5] = ["fixed", "sage-husa", "iakf", "iakf-epoch", "iakf-unguarded"];
 
-fn strategy(name: &str) -> AnyStrategy {
+pub fn strategy(name: &str) -> AnyStrategy {
     match name {
         "iakf-unguarded" => {
             let mut s = estimator::adaptive::Iakf::default();
@@ -41,7 +41,7 @@ fn strategy(name: &str) -> AnyStrategy {
 }
 const G: f64 = 9.80665;
 
-fn imu() -> ImuErrors {
+pub fn imu() -> ImuErrors {
     ImuErrors {
         noise: ImuNoise {
             arw: Vector3::repeat(0.5 * DEG_PER_SQRT_H),
@@ -58,7 +58,13 @@ fn imu() -> ImuErrors {
 }
 
 /// Per run: (mean |E|, mean |N|, mean horizontal, max |E|, max |N|, max horizontal), m.
-fn run(exact: &ExactImu, traj: &Trajectory, gnss: &GnssSim, seed: u64, strategy: &str) -> [f64; 6] {
+pub fn run(
+    exact: &ExactImu,
+    traj: &Trajectory,
+    gnss: &GnssSim,
+    seed: u64,
+    strategy: &str,
+) -> [f64; 6] {
     let errors = imu();
     let data = simulate_from(exact, traj, &errors, gnss, seed);
     let deg = core::f64::consts::PI / 180.0;
@@ -101,15 +107,9 @@ fn run(exact: &ExactImu, traj: &Trajectory, gnss: &GnssSim, seed: u64, strategy:
     [sum[0] / n, sum[1] / n, sum[2] / n, max[0], max[1], max[2]]
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let seeds: u64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(50);
-    let csv =
-        std::path::PathBuf::from(args.next().unwrap_or_else(|| "repro-out/iakf_seeds.csv".into()));
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs)?;
-    let exact = ExactImu::new(&traj, 100.0);
-    let gnss = GnssSim {
+/// The paper's receiver: position at 1 Hz, σ 3 m (5 m down), noise × 8 at 400–450 s.
+pub fn gnss() -> GnssSim {
+    GnssSim {
         rate_hz: 1.0,
         pos_sigma: Vector3::new(3.0, 3.0, 5.0),
         vel_sigma: None,
@@ -119,7 +119,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             end: 450.0,
             kind: GnssWindowKind::Interference { factor: 8.0 },
         }],
-    };
+    }
+}
+
+#[allow(dead_code)] // the test that includes this file as a module does not call it
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let seeds: u64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(50);
+    let csv =
+        std::path::PathBuf::from(args.next().unwrap_or_else(|| "repro-out/iakf_seeds.csv".into()));
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs)?;
+    let exact = ExactImu::new(&traj, 100.0);
+    let gnss = gnss();
     let jobs: Vec<(u64, &str)> =
         (0..seeds).flat_map(|s| STRATEGIES.iter().map(move |n| (s, *n))).collect();
     let results: Vec<(u64, &str, [f64; 6])> =

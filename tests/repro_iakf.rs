@@ -1,0 +1,40 @@
+//! The χ²-gated IAKF paper's conclusion as we measure it (`docs/results.md`), on a
+//! reduced seed count that runs in CI: on the paper's scenario the Sage–Husa filter
+//! lowers the maximum horizontal error against the fixed KF, and the IAKF with the `Raw`
+//! inflation does not (the paper reports the opposite). The full 50-seed table:
+//! `cargo run --release --example repro_iakf`.
+
+#[allow(dead_code)]
+#[path = "../examples/repro_iakf.rs"]
+mod repro;
+
+use estimator::ins_gnss::sim::{scenarios, ExactImu, Trajectory};
+
+#[test]
+fn iakf_paper_conclusion_as_measured() {
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs).unwrap();
+    let exact = ExactImu::new(&traj, 100.0);
+    let gnss = repro::gnss();
+    let seeds = 0..6u64;
+    let (e, t, g) = (&exact, &traj, &gnss);
+    let mean_max = |name: &str| {
+        let v: Vec<f64> = std::thread::scope(|s| {
+            let handles: Vec<_> = seeds
+                .clone()
+                .map(|seed| s.spawn(move || repro::run(e, t, g, seed, name)[5]))
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    let fixed = mean_max("fixed");
+    let sage = mean_max("sage-husa");
+    let iakf = mean_max("iakf");
+    eprintln!("mean max horizontal over 6 seeds: fixed {fixed:.2} m, sage-husa {sage:.2} m, iakf (Raw) {iakf:.2} m");
+    assert!(sage < 0.85 * fixed, "Sage–Husa should cut the maximum error: {sage} vs {fixed}");
+    assert!(
+        iakf > 0.95 * fixed,
+        "IAKF (Raw) did not beat the KF in our measurement: {iakf} vs {fixed}"
+    );
+}
