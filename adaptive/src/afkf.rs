@@ -44,12 +44,17 @@ pub enum FadingAt {
 /// applied in prediction) the strategy is the fading-memory filter
 /// `P⁻ = α² Φ P Φᵀ + Q`: FilterPy's `FadingKalmanFilter` with memory α is `λ = α²`.
 ///
-/// Default estimator: a window of N = 20 (as the paper's IAE window). Measured on the
-/// crate's constant-velocity test scenario with an exactly right model (8 seeds,
-/// `debug_afkf` in `tests/claims.rs`): window 20 costs +5 % position RMS over the fixed
-/// filter, the recursive form with ρ = 0.95 (whose newest sample weighs ≈ ½) +26 %; with
-/// a 10× under-stated Q both cut the mean NEES from 31.5 to 13.0 (window) and 11.0
-/// (recursive).
+/// Default estimator: a window of N = 20 (as the paper's IAE window). On the crate's
+/// constant-velocity scenario with an exactly right model (`cargo run --release -p
+/// adaptive --example strategy_sweep`, 8 seeds, q = 0.002) the window costs +4.5 %
+/// position RMS over the fixed filter and the recursive form with ρ = 0.95 (whose newest
+/// sample weighs ≈ ½) +22 %. With a 10× under-stated Q (`cargo test -p adaptive --test
+/// claims -- --nocapture`, 10 seeds) the mean NEES drops from 32.3 (fixed) to 29.1 with
+/// the default measurement-subspace scaling, and to 13.1 with full scaling (measured
+/// before subspace scaling became the default): full scaling also inflates the
+/// velocity the position fixes cannot see — which is what makes it diverge in the INS.
+/// AFKF amplifies outliers (it reads them as model mismatch and trusts the next
+/// measurement more).
 ///
 /// Decisions: `Inflated` when `λ > 1`, otherwise `Accepted`. Never rejects, never
 /// changes `R`.
