@@ -236,27 +236,98 @@ fn reference_columns(path: &Path) -> Result<usize, LineError> {
     Ok(lines.next_record()?.map(|r| r.len()).unwrap_or(0))
 }
 
-fn finish_windows(ev: &mut Evaluation) {
-    let used: Vec<&Stats> = ev.windows.iter().filter(|w| w.epochs > 0).collect();
-    if !used.is_empty() {
-        let n = used.len() as f64;
-        ev.windows_rms_of_max_horizontal =
-            (used.iter().map(|w| w.horizontal.max.powi(2)).sum::<f64>() / n).sqrt();
-        ev.windows_rms_of_max_vertical =
-            (used.iter().map(|w| w.down.max.powi(2)).sum::<f64>() / n).sqrt();
+/// A pair of consecutive records of one time-ordered stream around a query time.
+struct Bracket<F> {
+    next: F,
+    a: Option<NavRecord>,
+    b: Option<NavRecord>,
+}
+
+impl<F: FnMut() -> Result<Option<NavRecord>, LineError>> Bracket<F> {
+    fn new(mut next: F) -> Result<Self, LineError> {
+        let a = next()?;
+        let b = next()?;
+        Ok(Self { next, a, b })
+    }
+
+    /// Time of the stream's first record.
+    fn first_t(&self) -> Option<f64> {
+        self.a.as_ref().map(|r| r.t)
+    }
+
+    /// The stream interpolated at `t` (non-decreasing across calls), or `None` when `t`
+    /// is outside the stream or inside a gap longer than [`MAX_REFERENCE_GAP`].
+    fn at(&mut self, t: f64) -> Result<Option<NavRecord>, LineError> {
+        while let (Some(_), Some(b)) = (&self.a, &self.b) {
+            if b.t >= t {
+                break;
+            }
+            self.a = self.b.take();
+            self.b = (self.next)()?;
+        }
+        Ok(match (&self.a, &self.b) {
+            (Some(a), Some(b))
+                if a.t <= t + 1e-9 && b.t >= t - 1e-9 && b.t - a.t <= MAX_REFERENCE_GAP =>
+            {
+                Some(interpolate(a, b, t))
+            }
+            _ => None,
+        })
+    }
+
+    /// The current lower record when it falls on `t` (the stream's last record, which
+    /// [`Bracket::at`] cannot bracket).
+    fn exact(&self, t: f64) -> Option<NavRecord> {
+        self.a.filter(|a| (a.t - t).abs() < 1e-6)
     }
 }
 
-fn new_evaluation(skip: f64, windows: &[(f64, f64)]) -> Evaluation {
-    Evaluation {
-        overall: Stats::new(format!("after {skip} s")),
-        windows: windows.iter().map(|(a, b)| Stats::new(format!("{a}–{b}"))).collect(),
-        windows_rms_of_max_horizontal: f64::NAN,
-        windows_rms_of_max_vertical: f64::NAN,
-        unmatched: 0,
+impl Evaluation {
+    fn new(skip: f64, windows: &[(f64, f64)]) -> Self {
+        Self {
+            overall: Stats::new(format!("after {skip} s")),
+            windows: windows.iter().map(|(a, b)| Stats::new(format!("{a}–{b}"))).collect(),
+            windows_rms_of_max_horizontal: f64::NAN,
+            windows_rms_of_max_vertical: f64::NAN,
+            unmatched: 0,
+        }
+    }
+
+    /// Adds the errors `(result, reference)` at time `t`: to the whole run when `t` is
+    /// at least `skip` after `start`, and to every window that contains `t`.
+    fn push(
+        &mut self,
+        result: &NavRecord,
+        reference: &NavRecord,
+        t: f64,
+        start: f64,
+        skip: f64,
+        windows: &[(f64, f64)],
+    ) {
+        let (dp, dv, da) = errors(result, reference);
+        if t - start >= skip {
+            self.overall.push(&dp, &dv, &da);
+        }
+        for (w, (a, b)) in self.windows.iter_mut().zip(windows) {
+            if t >= *a && t <= *b {
+                w.push(&dp, &dv, &da);
+            }
+        }
+    }
+
+    fn finish_windows(&mut self) {
+        let used: Vec<&Stats> = self.windows.iter().filter(|w| w.epochs > 0).collect();
+        if !used.is_empty() {
+            let n = used.len() as f64;
+            self.windows_rms_of_max_horizontal =
+                (used.iter().map(|w| w.horizontal.max.powi(2)).sum::<f64>() / n).sqrt();
+            self.windows_rms_of_max_vertical =
+                (used.iter().map(|w| w.down.max.powi(2)).sum::<f64>() / n).sqrt();
+        }
     }
 }
 
+/// Evaluates the result at the reference's epochs (the result interpolated).
 fn evaluate_at_reference(
     result: &Path,
     reference: &Path,
@@ -265,42 +336,20 @@ fn evaluate_at_reference(
 ) -> Result<Evaluation, LineError> {
     let mut res = NavReader::open(result)?;
     let mut refs = RefReader::open(reference)?;
-    let mut ev = new_evaluation(skip, windows);
-    let (mut r0, mut r1) = (res.next_record()?, res.next_record()?);
-    let start = r0.as_ref().map(|r| r.t).unwrap_or(0.0);
+    let mut ev = Evaluation::new(skip, windows);
+    let mut res = Bracket::new(|| res.next_record())?;
+    let start = res.first_t().unwrap_or(0.0);
     while let Some(f) = refs.next_record()? {
-        while let (Some(_), Some(b)) = (&r0, &r1) {
-            if b.t >= f.t {
-                break;
-            }
-            r0 = r1;
-            r1 = res.next_record()?;
-        }
-        let here = match (&r0, &r1) {
-            (Some(a), Some(b))
-                if a.t <= f.t + 1e-9 && b.t >= f.t - 1e-9 && b.t - a.t <= MAX_REFERENCE_GAP =>
-            {
-                interpolate(a, b, f.t)
-            }
-            _ => {
-                ev.unmatched += 1;
-                continue;
-            }
-        };
-        let (dp, dv, da) = errors(&here, &f);
-        if f.t - start >= skip {
-            ev.overall.push(&dp, &dv, &da);
-        }
-        for (w, (a, b)) in ev.windows.iter_mut().zip(windows) {
-            if f.t >= *a && f.t <= *b {
-                w.push(&dp, &dv, &da);
-            }
+        match res.at(f.t)? {
+            Some(here) => ev.push(&here, &f, f.t, start, skip, windows),
+            None => ev.unmatched += 1,
         }
     }
-    finish_windows(&mut ev);
+    ev.finish_windows();
     Ok(ev)
 }
 
+/// Evaluates the result at its own epochs (the truth interpolated).
 fn evaluate_at_result(
     result: &Path,
     truth: &Path,
@@ -309,41 +358,16 @@ fn evaluate_at_result(
 ) -> Result<Evaluation, LineError> {
     let mut res = NavReader::open(result)?;
     let mut tru = RefReader::open(truth)?;
-    let mut ev = new_evaluation(skip, windows);
-    let (mut t0, mut t1) = (tru.next_record()?, tru.next_record()?);
+    let mut ev = Evaluation::new(skip, windows);
+    let mut tru = Bracket::new(|| tru.next_record())?;
     let mut first_t = None;
     while let Some(r) = res.next_record()? {
         let start = *first_t.get_or_insert(r.t);
-        // Advance the truth bracket until t1 ≥ r.t.
-        while let (Some(_), Some(b)) = (&t0, &t1) {
-            if b.t >= r.t {
-                break;
-            }
-            t0 = t1;
-            t1 = tru.next_record()?;
-        }
-        let truth_here = match (&t0, &t1) {
-            (Some(a), Some(b))
-                if a.t <= r.t + 1e-9 && b.t >= r.t - 1e-9 && b.t - a.t <= MAX_REFERENCE_GAP =>
-            {
-                interpolate(a, b, r.t)
-            }
-            (Some(a), _) if (a.t - r.t).abs() < 1e-6 => *a,
-            _ => {
-                ev.unmatched += 1;
-                continue;
-            }
-        };
-        let (dp, dv, da) = errors(&r, &truth_here);
-        if r.t - start >= skip {
-            ev.overall.push(&dp, &dv, &da);
-        }
-        for (w, (a, b)) in ev.windows.iter_mut().zip(windows) {
-            if r.t >= *a && r.t <= *b {
-                w.push(&dp, &dv, &da);
-            }
+        match tru.at(r.t)?.or_else(|| tru.exact(r.t)) {
+            Some(truth_here) => ev.push(&r, &truth_here, r.t, start, skip, windows),
+            None => ev.unmatched += 1,
         }
     }
-    finish_windows(&mut ev);
+    ev.finish_windows();
     Ok(ev)
 }
