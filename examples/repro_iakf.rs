@@ -16,10 +16,9 @@ use std::io::Write;
 
 use estimator::adaptive::AnyStrategy;
 use estimator::core::NoObserver;
-use estimator::ins_gnss::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, M_S_PER_SQRT_H};
-use estimator::ins_gnss::sim::{
-    scenarios, simulate_from, ExactImu, GnssSim, GnssWindow, GnssWindowKind, ImuErrors, Trajectory,
-};
+use estimator::ins_gnss::imu::{BiasModel, DEG_PER_H};
+use estimator::ins_gnss::scenario::Scenario;
+use estimator::ins_gnss::sim::{simulate_from, ExactImu, GnssSim, ImuErrors, Trajectory};
 use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, InsState, Navigator};
 use estimator::manifolds::{Manifold, Tangent};
 use nalgebra::Vector3;
@@ -39,22 +38,18 @@ pub fn strategy(name: &str) -> AnyStrategy {
         other => other.parse().expect("known strategy"),
     }
 }
-const G: f64 = 9.80665;
+/// The paper's scenario, shared with `ins-gnss simulate`: the car drive, the IMU errors
+/// and the GNSS receiver (`ins-gnss/scenarios/iakf-chi-square.toml`).
+pub fn scenario() -> Scenario {
+    Scenario::parse(
+        include_str!("../ins-gnss/scenarios/iakf-chi-square.toml"),
+        "iakf-chi-square.toml",
+    )
+    .expect("the bundled scenario parses")
+}
 
 pub fn imu() -> ImuErrors {
-    ImuErrors {
-        noise: ImuNoise {
-            arw: Vector3::repeat(0.5 * DEG_PER_SQRT_H),
-            vrw: Vector3::repeat(0.1 * M_S_PER_SQRT_H),
-            gyro_bias: Vector3::repeat(0.5 * DEG_PER_H),
-            accel_bias: Vector3::repeat(20e-6 * G),
-            bias_model: BiasModel::GaussMarkov { tau: 3600.0 },
-        },
-        gyro_turn_on: Vector3::new(5.0, -5.0, 5.0) * DEG_PER_H,
-        accel_turn_on: Vector3::new(400e-6, -400e-6, 400e-6) * G,
-        gyro_scale: Vector3::zeros(),
-        accel_scale: Vector3::zeros(),
-    }
+    scenario().imu_errors()
 }
 
 /// Per run: (mean |E|, mean |N|, mean horizontal, max |E|, max |N|, max horizontal), m.
@@ -68,6 +63,7 @@ pub fn run(
     let errors = imu();
     let data = simulate_from(exact, traj, &errors, gnss, seed);
     let deg = core::f64::consts::PI / 180.0;
+    const G: f64 = 9.80665;
     let std = InitialStd {
         att: Vector3::new(0.5 * deg, 0.5 * deg, 2.0 * deg),
         vel: Vector3::repeat(0.1),
@@ -109,17 +105,7 @@ pub fn run(
 
 /// The paper's receiver: position at 1 Hz, σ 3 m (5 m down), noise × 8 at 400–450 s.
 pub fn gnss() -> GnssSim {
-    GnssSim {
-        rate_hz: 1.0,
-        pos_sigma: Vector3::new(3.0, 3.0, 5.0),
-        vel_sigma: None,
-        lever_arm: Vector3::zeros(),
-        windows: vec![GnssWindow {
-            start: 400.0,
-            end: 450.0,
-            kind: GnssWindowKind::Interference { factor: 8.0 },
-        }],
-    }
+    scenario().gnss_sim().expect("valid receiver")
 }
 
 #[allow(dead_code)] // the test that includes this file as a module does not call it
@@ -128,8 +114,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seeds: u64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(50);
     let csv =
         std::path::PathBuf::from(args.next().unwrap_or_else(|| "repro-out/iakf_seeds.csv".into()));
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs)?;
+    let traj = scenario().trajectory()?;
     let exact = ExactImu::new(&traj, 100.0);
     let gnss = gnss();
     let jobs: Vec<(u64, &str)> =

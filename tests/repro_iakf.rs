@@ -8,12 +8,11 @@
 #[path = "../examples/repro_iakf.rs"]
 mod repro;
 
-use estimator::ins_gnss::sim::{scenarios, ExactImu, Trajectory};
+use estimator::ins_gnss::sim::ExactImu;
 
 #[test]
 fn iakf_paper_conclusion_as_measured() {
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs).unwrap();
+    let traj = repro::scenario().trajectory().unwrap();
     let exact = ExactImu::new(&traj, 100.0);
     let gnss = repro::gnss();
     let seeds = 0..6u64;

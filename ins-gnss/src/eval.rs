@@ -225,10 +225,12 @@ pub fn evaluate(
     skip: f64,
     windows: &[(f64, f64)],
 ) -> Result<Evaluation, LineError> {
+    let mut res = NavReader::open(result)?;
+    let mut refs = RefReader::open(truth)?;
     if reference_columns(truth)? == 4 {
-        return evaluate_at_reference(result, truth, skip, windows);
+        return evaluate_at_reference(|| res.next_record(), || refs.next_record(), skip, windows);
     }
-    evaluate_at_result(result, truth, skip, windows)
+    evaluate_at_result(|| res.next_record(), || refs.next_record(), skip, windows)
 }
 
 fn reference_columns(path: &Path) -> Result<usize, LineError> {
@@ -282,92 +284,141 @@ impl<F: FnMut() -> Result<Option<NavRecord>, LineError>> Bracket<F> {
     }
 }
 
-impl Evaluation {
-    fn new(skip: f64, windows: &[(f64, f64)]) -> Self {
+/// Incremental evaluation, for results produced in memory (Monte Carlo runs, tests):
+/// add `(result, reference)` pairs in time order, then [`Evaluator::finish`]. The file
+/// evaluation ([`evaluate`]) is built on it.
+#[derive(Clone, Debug)]
+pub struct Evaluator {
+    ev: Evaluation,
+    skip: f64,
+    windows: Vec<(f64, f64)>,
+    start: Option<f64>,
+}
+
+impl Evaluator {
+    /// Statistics after the first `skip` seconds (counted from the first pair added, or
+    /// from [`Evaluator::with_start`]) and inside each `(t0, t1)` window (absolute
+    /// times).
+    pub fn new(skip: f64, windows: &[(f64, f64)]) -> Self {
         Self {
-            overall: Stats::new(format!("after {skip} s")),
-            windows: windows.iter().map(|(a, b)| Stats::new(format!("{a}–{b}"))).collect(),
-            windows_rms_of_max_horizontal: f64::NAN,
-            windows_rms_of_max_vertical: f64::NAN,
-            unmatched: 0,
+            ev: Evaluation {
+                overall: Stats::new(format!("after {skip} s")),
+                windows: windows.iter().map(|(a, b)| Stats::new(format!("{a}–{b}"))).collect(),
+                windows_rms_of_max_horizontal: f64::NAN,
+                windows_rms_of_max_vertical: f64::NAN,
+                unmatched: 0,
+            },
+            skip,
+            windows: windows.to_vec(),
+            start: None,
         }
     }
 
-    /// Adds the errors `(result, reference)` at time `t`: to the whole run when `t` is
-    /// at least `skip` after `start`, and to every window that contains `t`.
-    fn push(
-        &mut self,
-        result: &NavRecord,
-        reference: &NavRecord,
-        t: f64,
-        start: f64,
-        skip: f64,
-        windows: &[(f64, f64)],
-    ) {
+    /// Count the skip from `t0` instead of the first pair's time.
+    pub fn with_start(mut self, t0: f64) -> Self {
+        self.start = Some(t0);
+        self
+    }
+
+    /// Adds the errors of `result` against `reference` at the reference's time: to the
+    /// whole run when it is at least `skip` after the start, and to every window that
+    /// contains it.
+    pub fn add(&mut self, result: &NavRecord, reference: &NavRecord) {
+        let t = reference.t;
+        let start = *self.start.get_or_insert(t);
         let (dp, dv, da) = errors(result, reference);
-        if t - start >= skip {
-            self.overall.push(&dp, &dv, &da);
+        if t - start >= self.skip {
+            self.ev.overall.push(&dp, &dv, &da);
         }
-        for (w, (a, b)) in self.windows.iter_mut().zip(windows) {
+        for (w, (a, b)) in self.ev.windows.iter_mut().zip(&self.windows) {
             if t >= *a && t <= *b {
                 w.push(&dp, &dv, &da);
             }
         }
     }
 
-    fn finish_windows(&mut self) {
-        let used: Vec<&Stats> = self.windows.iter().filter(|w| w.epochs > 0).collect();
+    /// Counts a result epoch without a reference around it.
+    pub fn unmatched(&mut self) {
+        self.ev.unmatched += 1;
+    }
+
+    /// The statistics, with the per-window score.
+    pub fn finish(mut self) -> Evaluation {
+        let used: Vec<&Stats> = self.ev.windows.iter().filter(|w| w.epochs > 0).collect();
         if !used.is_empty() {
             let n = used.len() as f64;
-            self.windows_rms_of_max_horizontal =
+            self.ev.windows_rms_of_max_horizontal =
                 (used.iter().map(|w| w.horizontal.max.powi(2)).sum::<f64>() / n).sqrt();
-            self.windows_rms_of_max_vertical =
+            self.ev.windows_rms_of_max_vertical =
                 (used.iter().map(|w| w.down.max.powi(2)).sum::<f64>() / n).sqrt();
         }
+        self.ev
     }
+}
+
+/// Read a whole reference file (11-column navigation or 4-column positions) into memory,
+/// for repeated in-memory evaluations ([`evaluate_records`]).
+pub fn read_reference(path: &Path) -> Result<Vec<NavRecord>, LineError> {
+    let mut r = RefReader::open(path)?;
+    let mut out = Vec::new();
+    while let Some(rec) = r.next_record()? {
+        out.push(rec);
+    }
+    Ok(out)
+}
+
+/// [`evaluate`] on records in memory (both time-ordered): a reference without velocity
+/// (read from a 4-column file) is compared at its own epochs, a full one at the result's.
+pub fn evaluate_records(
+    results: &[NavRecord],
+    reference: &[NavRecord],
+    skip: f64,
+    windows: &[(f64, f64)],
+) -> Evaluation {
+    let (mut res, mut refs) = (results.iter().copied(), reference.iter().copied());
+    let positions_only = reference.first().is_some_and(|r| r.vel.x.is_nan());
+    let out = if positions_only {
+        evaluate_at_reference(|| Ok(res.next()), || Ok(refs.next()), skip, windows)
+    } else {
+        evaluate_at_result(|| Ok(res.next()), || Ok(refs.next()), skip, windows)
+    };
+    // In memory nothing can fail to read.
+    out.unwrap_or_default()
 }
 
 /// Evaluates the result at the reference's epochs (the result interpolated).
 fn evaluate_at_reference(
-    result: &Path,
-    reference: &Path,
+    result: impl FnMut() -> Result<Option<NavRecord>, LineError>,
+    mut reference: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     skip: f64,
     windows: &[(f64, f64)],
 ) -> Result<Evaluation, LineError> {
-    let mut res = NavReader::open(result)?;
-    let mut refs = RefReader::open(reference)?;
-    let mut ev = Evaluation::new(skip, windows);
-    let mut res = Bracket::new(|| res.next_record())?;
-    let start = res.first_t().unwrap_or(0.0);
-    while let Some(f) = refs.next_record()? {
+    let mut res = Bracket::new(result)?;
+    let mut ev = Evaluator::new(skip, windows).with_start(res.first_t().unwrap_or(0.0));
+    while let Some(f) = reference()? {
         match res.at(f.t)? {
-            Some(here) => ev.push(&here, &f, f.t, start, skip, windows),
-            None => ev.unmatched += 1,
+            Some(here) => ev.add(&here, &f),
+            None => ev.unmatched(),
         }
     }
-    ev.finish_windows();
-    Ok(ev)
+    Ok(ev.finish())
 }
 
 /// Evaluates the result at its own epochs (the truth interpolated).
 fn evaluate_at_result(
-    result: &Path,
-    truth: &Path,
+    mut result: impl FnMut() -> Result<Option<NavRecord>, LineError>,
+    truth: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     skip: f64,
     windows: &[(f64, f64)],
 ) -> Result<Evaluation, LineError> {
-    let mut res = NavReader::open(result)?;
-    let mut tru = RefReader::open(truth)?;
-    let mut ev = Evaluation::new(skip, windows);
-    let mut tru = Bracket::new(|| tru.next_record())?;
-    let mut first_t = None;
-    while let Some(r) = res.next_record()? {
-        let start = *first_t.get_or_insert(r.t);
+    let mut tru = Bracket::new(truth)?;
+    let mut ev = Evaluator::new(skip, windows);
+    while let Some(r) = result()? {
+        ev.start.get_or_insert(r.t);
         match tru.at(r.t)?.or_else(|| tru.exact(r.t)) {
-            Some(truth_here) => ev.push(&r, &truth_here, r.t, start, skip, windows),
-            None => ev.unmatched += 1,
+            Some(truth_here) => ev.add(&r, &truth_here),
+            None => ev.unmatched(),
         }
     }
-    ev.finish_windows();
-    Ok(ev)
+    Ok(ev.finish())
 }

@@ -65,6 +65,54 @@ fn error_series(result: &Path, truth: &Path) -> Result<[Series; 6], String> {
     Ok(out)
 }
 
+/// One line of a panel: label, points, colour, and whether its mirror image (−y) is drawn
+/// too (a ±3σ envelope).
+type Line<'a> = (&'a str, &'a [(f64, f64)], RGBColor, bool);
+
+/// Draw `lines` in one panel; the y range is symmetric about 0 when `symmetric`, else
+/// from 0 up.
+fn draw_lines(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    title: &str,
+    unit: &str,
+    lines: &[Line<'_>],
+    symmetric: bool,
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+    let points = || lines.iter().flat_map(|l| l.1.iter());
+    let t0 = points().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let t0 = if t0.is_finite() { t0 } else { 0.0 };
+    let t1 = points().map(|p| p.0).fold(t0 + 1.0, f64::max);
+    let m = points().map(|p| p.1.abs()).filter(|v| v.is_finite()).fold(1e-6_f64, f64::max);
+    let y0 = if symmetric { -m * 1.05 } else { 0.0 };
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(28)
+        .y_label_area_size(56)
+        .build_cartesian_2d(t0..t1, y0..m * 1.05)
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc(unit).draw().map_err(e)?;
+    for (label, pts, colour, mirror) in lines {
+        let c = *colour;
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c))
+            .map_err(e)?
+            .label(*label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c));
+        if *mirror {
+            chart.draw_series(LineSeries::new(pts.iter().map(|p| (p.0, -p.1)), c)).map_err(e)?;
+        }
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
+
 fn panel(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     title: &str,
@@ -72,29 +120,42 @@ fn panel(
     err: &Series,
     sigma3: &Series,
 ) -> Result<(), String> {
+    draw_lines(area, title, unit, &[("error", err, BLUE, false), ("±3σ", sigma3, RED, true)], true)
+}
+
+/// Several runs side by side: one panel per entry of `panels` (title, unit), each with
+/// one line per labelled series (e.g. the absolute heading error of each strategy), in
+/// the order of `labels`. Series longer than 1,000 points are decimated. Writes `path`.
+pub fn comparison(
+    path: &Path,
+    panels: &[(&str, &str)],
+    labels: &[&str],
+    series: &[Vec<Series>],
+) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
-    let (t0, t1) = (
-        err.first().map(|p| p.0).unwrap_or(0.0),
-        err.last().map(|p| p.0).unwrap_or(1.0).max(err.first().map(|p| p.0 + 1.0).unwrap_or(1.0)),
-    );
-    let m = err
-        .iter()
-        .chain(sigma3.iter())
-        .map(|p| p.1.abs())
-        .filter(|v| v.is_finite())
-        .fold(1e-6_f64, f64::max);
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 16))
-        .margin(8)
-        .x_label_area_size(28)
-        .y_label_area_size(56)
-        .build_cartesian_2d(t0..t1, -m * 1.05..m * 1.05)
-        .map_err(e)?;
-    chart.configure_mesh().x_desc("t [s]").y_desc(unit).draw().map_err(e)?;
-    chart.draw_series(LineSeries::new(err.iter().copied(), &BLUE)).map_err(e)?.label("error");
-    chart.draw_series(LineSeries::new(sigma3.iter().copied(), &RED)).map_err(e)?.label("±3σ");
-    chart.draw_series(LineSeries::new(sigma3.iter().map(|p| (p.0, -p.1)), &RED)).map_err(e)?;
-    chart.configure_series_labels().border_style(BLACK).draw().map_err(e)?;
+    let root = SVGBackend::new(path, (1000, 320 * panels.len() as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(e)?;
+    let areas = root.split_evenly((panels.len(), 1));
+    for (k, (title, unit)) in panels.iter().enumerate() {
+        let decimated: Vec<Series> = series
+            .get(k)
+            .map(|lines| {
+                lines
+                    .iter()
+                    .map(|l| l.iter().step_by((l.len() / 1000).max(1)).copied().collect())
+                    .collect()
+            })
+            .unwrap_or_default();
+        let lines: Vec<Line<'_>> = decimated
+            .iter()
+            .zip(labels)
+            .enumerate()
+            .map(|(i, (l, name))| (*name, l.as_slice(), Palette99::pick(i).to_rgba().rgb(), false))
+            .map(|(n, l, (r, g, b), m)| (n, l, RGBColor(r, g, b), m))
+            .collect();
+        draw_lines(&areas[k], title, unit, &lines, false)?;
+    }
+    root.present().map_err(e)?;
     Ok(())
 }
 

@@ -105,6 +105,20 @@ pub struct RunSummary {
     pub out_dir: PathBuf,
 }
 
+impl RunSummary {
+    /// Count the verdicts of one epoch's updates.
+    fn tally(&mut self, updates: &[UpdateSummary]) {
+        for u in updates {
+            self.gnss_epochs += 1;
+            match u.verdict {
+                Verdict::Accepted => self.accepted += 1,
+                Verdict::Inflated => self.inflated += 1,
+                Verdict::Rejected => self.rejected += 1,
+            }
+        }
+    }
+}
+
 /// Called every `every` IMU epochs with the current time, for progress bars.
 pub type Progress<'a> = &'a mut dyn FnMut(f64);
 
@@ -330,13 +344,8 @@ pub fn run(
                     {
                         break 'outer;
                     }
+                    summary.tally(&updates);
                     for u in &updates {
-                        summary.gnss_epochs += 1;
-                        match u.verdict {
-                            Verdict::Accepted => summary.accepted += 1,
-                            Verdict::Inflated => summary.inflated += 1,
-                            Verdict::Rejected => summary.rejected += 1,
-                        }
                         write_update(&mut out, u).map_err(|e| out.err("updates.csv", e))?;
                     }
                     if !updates.is_empty() {
@@ -379,6 +388,79 @@ pub fn run(
             .map_err(|e| RunError::Output { path: out_dir.join(name), message: e.to_string() })?;
     }
     summary.gnss_skipped = gnss.skipped;
+    summary.wall_time = wall.elapsed().as_secs_f64();
+    Ok(summary)
+}
+
+/// Read the configured IMU and GNSS files whole, with the same checks and skip policy as
+/// [`run`], for repeated in-memory runs ([`run_slices`]): Monte Carlo over injected
+/// errors, strategy sweeps. Memory grows with the dataset (≈ 64 bytes per IMU sample).
+pub fn load_inputs(config: &Config) -> Result<(Vec<ImuSample>, Vec<GnssEpoch>), RunError> {
+    let mut imu = ImuReader::open(
+        &config.data.imu,
+        config.imu_format(),
+        config.data.imu_rate,
+        config.data.max_gap,
+        config.bad_lines(),
+    )?;
+    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
+    let (mut samples, mut epochs) = (Vec::new(), Vec::new());
+    while let Some(s) = imu.next_sample()? {
+        samples.push(s);
+    }
+    while let Some(g) = gnss.next_epoch()? {
+        epochs.push(g);
+    }
+    Ok((samples, epochs))
+}
+
+/// [`run`] on data in memory, without output files: the same start and end times, the
+/// same GNSS batching. `each(k, t, state)` is called after IMU sample `imu[k]` (at time
+/// `t`) has been processed. The summary counts epochs and verdicts; its skip counts and
+/// output directory are empty.
+pub fn run_slices(
+    config: &Config,
+    strategy: AnyStrategy,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    mut each: impl FnMut(usize, f64, &crate::state::InsState),
+) -> Result<RunSummary, RunError> {
+    let wall = Instant::now();
+    let first = imu.first().ok_or_else(|| RunError::NoData("no IMU samples".into()))?;
+    let start = config.data.start_time.unwrap_or(first.t);
+    let end = config.data.end_time.unwrap_or(f64::INFINITY);
+    let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+    let mut nav =
+        Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
+    let mut summary = RunSummary {
+        strategy: nav.filter().strategy().name().to_string(),
+        span: (start, start),
+        ..Default::default()
+    };
+    let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
+    // GNSS epochs at or before the start are not used.
+    let mut g = gnss.partition_point(|e| e.t <= start + 1e-9);
+    for (k, sample) in imu.iter().enumerate() {
+        if sample.t <= start + 1e-9 {
+            continue;
+        }
+        if sample.t > end + 1e-9 {
+            break;
+        }
+        let first = g;
+        while g < gnss.len() && gnss[g].t <= sample.t + 1e-9 {
+            g += 1;
+        }
+        updates.clear();
+        nav.process_into(sample, &gnss[first..g], &mut NoObserver, &mut updates)?;
+        summary.imu_epochs += 1;
+        summary.tally(&updates);
+        summary.span.1 = sample.t;
+        each(k, sample.t, nav.state());
+    }
+    if summary.imu_epochs == 0 {
+        return Err(RunError::NoData(format!("no IMU sample after the start time {start} s")));
+    }
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }
