@@ -86,6 +86,17 @@ pub fn run_with_model(
     flight: &LoiteringFlight,
     samples: &[Sample],
 ) -> Result<AttitudeErrors, FilterError> {
+    run_traced(model, flight, samples, |_, _| {})
+}
+
+/// [`run_with_model`], calling `each(t, [roll, pitch, yaw] error in degrees)` after every
+/// sample (for plots).
+pub fn run_traced(
+    model: &AhrsModel,
+    flight: &LoiteringFlight,
+    samples: &[Sample],
+    mut each: impl FnMut(f64, [f64; 3]),
+) -> Result<AttitudeErrors, FilterError> {
     let meas = AhrsMeasurement { g_n: flight.g_n, m_n: flight.m_n };
     let x0 = AhrsState { att: flight.attitude(0.0), bg: Vector3::zeros(), acc: Vector3::zeros() };
     let mut f = ErrorStateFilter::new(x0, SMatrix::<f64, 9, 9>::identity() * 0.01, FixedNoise)?;
@@ -98,6 +109,7 @@ pub fn run_with_model(
         let z = SVector::<f64, 6>::from_iterator(s.accel.iter().chain(s.mag.iter()).copied());
         f.update(&meas, &z, &r)?;
         let e = euler_error(&f.state().att, &s.att);
+        each(s.t, e);
         for k in 0..3 {
             max[k] = max[k].max(e[k].abs());
             sq[k] += e[k] * e[k];
