@@ -18,9 +18,11 @@ where
     DefaultAllocator: Allocator<R, C>,
 {
     // Branch-free: an entry is NaN or ±∞ exactly when its exponent bits are all ones; an
-    // integer OR-reduction over that flag vectorises (a float sum would not).
+    // integer OR-reduction of that flag over the contiguous storage vectorises (a float
+    // sum would not, and nalgebra's strided iterator does not either).
     const EXP: u64 = 0x7ff0_0000_0000_0000;
-    if m.iter().fold(0u64, |acc, v| acc | u64::from(v.to_bits() & EXP == EXP)) == 0 {
+    let flags = m.as_slice().iter().fold(0u64, |acc, v| acc | u64::from(v.to_bits() & EXP == EXP));
+    if flags == 0 {
         Ok(())
     } else {
         Err(FilterError::NonFinite { what })

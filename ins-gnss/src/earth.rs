@@ -25,31 +25,45 @@ pub const GAMMA_P: f64 = 9.832_184_937_8;
 
 /// Meridian radius of curvature `R_M(φ) = a (1 − e²) / (1 − e² sin²φ)^{3/2}`, m.
 pub fn meridian_radius(lat: f64) -> f64 {
-    let s = lat.sin();
-    let w = 1.0 - E2 * s * s;
-    A * (1.0 - E2) / (w * w.sqrt())
+    radii_from_sin(lat.sin()).0
 }
 
 /// Prime-vertical radius of curvature `R_N(φ) = a / (1 − e² sin²φ)^{1/2}`, m.
 pub fn prime_vertical_radius(lat: f64) -> f64 {
-    let s = lat.sin();
-    A / (1.0 - E2 * s * s).sqrt()
+    radii_from_sin(lat.sin()).1
 }
 
 /// `dR_N/dφ = R_N e² sin φ cos φ / (1 − e² sin²φ)`, m/rad.
 pub fn prime_vertical_radius_derivative(lat: f64) -> f64 {
     let (s, c) = lat.sin_cos();
-    prime_vertical_radius(lat) * E2 * s * c / (1.0 - E2 * s * s)
+    prime_vertical_radius_derivative_sc(s, c)
+}
+
+/// [`prime_vertical_radius_derivative`] from `sin φ`, `cos φ`.
+pub fn prime_vertical_radius_derivative_sc(s: f64, c: f64) -> f64 {
+    radii_from_sin(s).1 * E2 * s * c / (1.0 - E2 * s * s)
 }
 
 /// Both radii `(R_M, R_N)`.
 pub fn radii(lat: f64) -> (f64, f64) {
-    (meridian_radius(lat), prime_vertical_radius(lat))
+    radii_from_sin(lat.sin())
+}
+
+/// Both radii `(R_M, R_N)` from `sin φ` (for callers that already have it: the error
+/// model evaluates every latitude function of one epoch from one `sin_cos`).
+pub fn radii_from_sin(s: f64) -> (f64, f64) {
+    let w = 1.0 - E2 * s * s;
+    (A * (1.0 - E2) / (w * w.sqrt()), A / w.sqrt())
 }
 
 /// Normal gravity magnitude at geodetic latitude `lat` (rad) and height `h` (m), m/s².
 pub fn normal_gravity(lat: f64, h: f64) -> f64 {
-    let s2 = lat.sin().powi(2);
+    normal_gravity_from_sin(lat.sin(), h)
+}
+
+/// [`normal_gravity`] from `sin φ`.
+pub fn normal_gravity_from_sin(s: f64, h: f64) -> f64 {
+    let s2 = s * s;
     let k = B * GAMMA_P / (A * GAMMA_E) - 1.0;
     let g0 = GAMMA_E * (1.0 + k * s2) / (1.0 - E2 * s2).sqrt();
     let m = OMEGA_IE * OMEGA_IE * A * A * B / GM;
@@ -59,6 +73,11 @@ pub fn normal_gravity(lat: f64, h: f64) -> f64 {
 /// Partial derivatives of [`normal_gravity`]: `(∂g/∂φ [m/s²/rad], ∂g/∂h [1/s²])`.
 pub fn normal_gravity_gradient(lat: f64, h: f64) -> (f64, f64) {
     let (s, c) = lat.sin_cos();
+    normal_gravity_gradient_sc(s, c, h)
+}
+
+/// [`normal_gravity_gradient`] from `sin φ`, `cos φ`.
+pub fn normal_gravity_gradient_sc(s: f64, c: f64, h: f64) -> (f64, f64) {
     let s2 = s * s;
     let k = B * GAMMA_P / (A * GAMMA_E) - 1.0;
     let w = 1.0 - E2 * s2;
@@ -80,13 +99,24 @@ pub fn gravity_ned(lat: f64, h: f64) -> Vector3<f64> {
 
 /// Earth rate in NED, `ω_ie^n = ω [cos φ, 0, −sin φ]`, rad/s.
 pub fn earth_rate_ned(lat: f64) -> Vector3<f64> {
-    Vector3::new(OMEGA_IE * lat.cos(), 0.0, -OMEGA_IE * lat.sin())
+    let (s, c) = lat.sin_cos();
+    earth_rate_ned_sc(s, c)
+}
+
+/// [`earth_rate_ned`] from `sin φ`, `cos φ`.
+pub fn earth_rate_ned_sc(s: f64, c: f64) -> Vector3<f64> {
+    Vector3::new(OMEGA_IE * c, 0.0, -OMEGA_IE * s)
 }
 
 /// Transport rate `ω_en^n = [v_E/(R_N+h), −v_N/(R_M+h), −v_E tan φ/(R_N+h)]`, rad/s.
 pub fn transport_rate(lat: f64, h: f64, v_n: &Vector3<f64>) -> Vector3<f64> {
     let (rm, rn) = radii(lat);
-    Vector3::new(v_n.y / (rn + h), -v_n.x / (rm + h), -v_n.y * lat.tan() / (rn + h))
+    transport_rate_with(rm + h, rn + h, lat.tan(), v_n)
+}
+
+/// [`transport_rate`] from `R_M + h`, `R_N + h` and `tan φ`.
+pub fn transport_rate_with(rmh: f64, rnh: f64, tan_lat: f64, v_n: &Vector3<f64>) -> Vector3<f64> {
+    Vector3::new(v_n.y / rnh, -v_n.x / rmh, -v_n.y * tan_lat / rnh)
 }
 
 /// Geodetic (lat, lon rad; h m) → ECEF, m.

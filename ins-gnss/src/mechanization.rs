@@ -22,7 +22,10 @@
 use manifolds::So3;
 use nalgebra::{Matrix3, Vector3};
 
-use crate::earth::{earth_rate_ned, gravity_ned, radii, transport_rate};
+use crate::earth::{
+    earth_rate_ned_sc, gravity_ned, normal_gravity_from_sin, radii, radii_from_sin,
+    transport_rate_with,
+};
 use crate::position::GeoPos;
 
 /// Which mechanization (and matching error model) to use.
@@ -81,10 +84,9 @@ fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 
 /// Geodetic position after moving with average NED velocity `v_avg` for `dt`, with radii
 /// at the midpoint height and latitude.
-fn integrate_position(p: &GeoPos, v_avg: &Vector3<f64>, dt: f64) -> GeoPos {
+fn integrate_position(p: &GeoPos, rm0: f64, v_avg: &Vector3<f64>, dt: f64) -> GeoPos {
     let h1 = p.h - v_avg.z * dt;
     let h_mid = 0.5 * (p.h + h1);
-    let (rm0, _) = radii(p.lat);
     let lat_guess = p.lat + v_avg.x * dt / (rm0 + h_mid);
     let lat_mid = 0.5 * (p.lat + lat_guess);
     let (rm, rn) = radii(lat_mid);
@@ -102,17 +104,22 @@ pub fn wgs84_step(nav: &Nav, inc: &Increments) -> Nav {
     let r_nb = nav.att.matrix();
     let f_n = r_nb * dv_b;
 
-    // Predictor with the start-of-interval navigation quantities.
-    let accel = |p: &GeoPos, v: &Vector3<f64>| {
-        let w_ie = earth_rate_ned(p.lat);
-        let w_en = transport_rate(p.lat, p.h, v);
+    // Predictor with the start-of-interval navigation quantities. Each position's
+    // latitude functions come from one `sin_cos`.
+    let accel = |p: &GeoPos, v: &Vector3<f64>, s: f64, c: f64| {
+        let (rm, rn) = radii_from_sin(s);
+        let w_ie = earth_rate_ned_sc(s, c);
+        let w_en = transport_rate_with(rm + p.h, rn + p.h, s / c, v);
         let zeta = (w_ie + w_en) * dt;
-        let dv_gc = (gravity_ned(p.lat, p.h) - (w_ie * 2.0 + w_en).cross(v)) * dt;
+        let g = Vector3::new(0.0, 0.0, normal_gravity_from_sin(s, p.h));
+        let dv_gc = (g - (w_ie * 2.0 + w_en).cross(v)) * dt;
         (zeta, dv_gc)
     };
-    let (zeta0, dv_gc0) = accel(&nav.pos, &nav.vel);
+    let (s0, c0) = nav.pos.lat.sin_cos();
+    let rm0 = radii_from_sin(s0).0;
+    let (zeta0, dv_gc0) = accel(&nav.pos, &nav.vel, s0, c0);
     let v_pred = nav.vel + f_n - skew(&zeta0) * f_n * 0.5 + dv_gc0;
-    let p_pred = integrate_position(&nav.pos, &((nav.vel + v_pred) * 0.5), dt);
+    let p_pred = integrate_position(&nav.pos, rm0, &((nav.vel + v_pred) * 0.5), dt);
     // Corrector at the midpoint.
     let p_mid = GeoPos {
         lat: 0.5 * (nav.pos.lat + p_pred.lat),
@@ -120,9 +127,10 @@ pub fn wgs84_step(nav: &Nav, inc: &Increments) -> Nav {
         h: 0.5 * (nav.pos.h + p_pred.h),
     };
     let v_mid = (nav.vel + v_pred) * 0.5;
-    let (zeta, dv_gc) = accel(&p_mid, &v_mid);
+    let (sm, cm) = p_mid.lat.sin_cos();
+    let (zeta, dv_gc) = accel(&p_mid, &v_mid, sm, cm);
     let vel = nav.vel + f_n - skew(&zeta) * f_n * 0.5 + dv_gc;
-    let pos = integrate_position(&nav.pos, &((nav.vel + vel) * 0.5), dt);
+    let pos = integrate_position(&nav.pos, rm0, &((nav.vel + vel) * 0.5), dt);
     let att = So3::exp(&(-zeta)) * nav.att * So3::exp(&phi_b);
     Nav { att, vel, pos }
 }

@@ -26,8 +26,8 @@ use manifolds::{hat, So3};
 use nalgebra::{Const, Matrix3, SMatrix, Vector3};
 
 use crate::earth::{
-    earth_rate_ned, normal_gravity_gradient, prime_vertical_radius_derivative, radii,
-    transport_rate,
+    earth_rate_ned_sc, normal_gravity_gradient_sc, prime_vertical_radius_derivative_sc,
+    radii_from_sin, transport_rate_with,
 };
 use crate::imu::{BiasModel, ImuNoise, ImuSample};
 use crate::mechanization::{self, Increments, Mechanization, Nav};
@@ -101,24 +101,26 @@ impl InsModel {
         put(&mut F, B_BG, B_BG, &(Matrix3::identity() * -inv_tau));
         put(&mut F, B_BA, B_BA, &(Matrix3::identity() * -inv_tau));
         if let Mechanization::Wgs84 = self.mechanization {
+            // Every latitude function of this epoch from one `sin_cos`.
             let (lat, h, v) = (x.pos.lat, x.pos.h, x.vel);
-            let (rm, rn) = radii(lat);
+            let (sl, cl) = lat.sin_cos();
+            let (rm, rn) = radii_from_sin(sl);
             let (rmh, rnh) = (rm + h, rn + h);
-            let t = lat.tan();
-            let w_ie = earth_rate_ned(lat);
-            let w_en = transport_rate(lat, h, &v);
+            let t = sl / cl;
+            let w_ie = earth_rate_ned_sc(sl, cl);
+            let w_en = transport_rate_with(rmh, rnh, t, &v);
             // N_v = ∂ω_en/∂v
             let nv = Matrix3::new(0.0, 1.0 / rnh, 0.0, -1.0 / rmh, 0.0, 0.0, 0.0, -t / rnh, 0.0);
             // D_ie = ∂ω_ie/∂δp (through δφ = δN/(R_M+h))
             let om = crate::earth::OMEGA_IE;
             let d_ie = Matrix3::new(
-                -om * lat.sin() / rmh,
+                -om * sl / rmh,
                 0.0,
                 0.0, //
                 0.0,
                 0.0,
                 0.0, //
-                -om * lat.cos() / rmh,
+                -om * cl / rmh,
                 0.0,
                 0.0,
             );
@@ -130,7 +132,7 @@ impl InsModel {
                 0.0,
                 0.0,
                 -v.x / (rmh * rmh), //
-                -v.y / (rnh * rmh * lat.cos().powi(2)),
+                -v.y / (rnh * rmh * (cl * cl)),
                 0.0,
                 -v.y * t / (rnh * rnh),
             );
@@ -140,13 +142,13 @@ impl InsModel {
             let vx = hat(&v);
             put(&mut F, B_V, B_V, &(-hat(&(w_ie * 2.0 + w_en)) + vx * nv));
             // δg_D = ∂g/∂φ · δN/(R_M+h) − ∂g/∂h · δD
-            let (dg_dlat, dg_dh) = normal_gravity_gradient(lat, h);
+            let (dg_dlat, dg_dh) = normal_gravity_gradient_sc(sl, cl, h);
             let mut gp = Matrix3::zeros();
             gp[(2, 0)] = dg_dlat / rmh;
             gp[(2, 2)] = -dg_dh;
             put(&mut F, B_V, B_P, &(vx * (d_ie * 2.0 + d_en) + gp));
             // The E row keeps dR_N/dφ (in the N row the dR_M/dφ terms cancel).
-            let rn_prime = prime_vertical_radius_derivative(lat);
+            let rn_prime = prime_vertical_radius_derivative_sc(sl, cl);
             let fpp = Matrix3::new(
                 -v.z / rmh,
                 0.0,
@@ -218,31 +220,44 @@ fn axpy16<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 16], a: f64) {
     }
 }
 
-/// `Φ M` into padded columns. Each output column is accumulated in a local array that
-/// stays in registers (writing partial ranges of a column in memory instead made every
-/// step wait on a failed store-to-load forward).
+/// `acc[lo..hi] += a·x[lo..hi]`, fused in the AVX2+FMA path.
+#[inline(always)]
+fn axpy_range<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 15], a: f64, lo: usize, hi: usize) {
+    for r in lo..hi {
+        acc[r] = if FMA { x[r].mul_add(a, acc[r]) } else { acc[r] + x[r] * a };
+    }
+}
+
+/// `Φ M` for the INS `Φ` into padded columns, over the non-zero rows of each column of
+/// `Φ` only: θ, v and p columns have rows θ v p (0..9), the b_g columns rows θ and their
+/// own diagonal, the b_a columns rows v and their diagonal. Each output column is
+/// accumulated in a local array that stays in registers (writing partial ranges of a
+/// column in memory instead made every step wait on a failed store-to-load forward).
 #[inline(always)]
 fn times_padded<const FMA: bool>(phi: &Cols, m: &Cols) -> Cols16 {
     // Plain loops, no closures: a closure is a separate function that does not inherit
     // the caller's `target_feature`, and `mul_add` outside it is a library call.
-    let mut fp: Cols16 = [[0.0; 16]; 15];
-    for (dst, src) in fp.iter_mut().zip(phi) {
-        dst[..15].copy_from_slice(src);
-    }
     let mut a: Cols16 = [[0.0; 16]; 15];
     for (acol, mcol) in a.iter_mut().zip(m) {
         let mut acc = [0.0_f64; 16];
-        for (fk, &mk) in fp.iter().zip(mcol) {
-            if mk != 0.0 {
-                axpy16::<FMA>(&mut acc, fk, mk);
-            }
+        for k in 0..9 {
+            // Rows 9..12 of these columns are zero: a 12-row update is three vectors.
+            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], 0, 12);
+        }
+        for k in 9..12 {
+            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], 0, 3);
+            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], k, k + 1);
+        }
+        for k in 12..15 {
+            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], 3, 6);
+            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], k, k + 1);
         }
         *acol = acc;
     }
     a
 }
 
-/// `Φ M` for the INS `Φ`, skipping zero entries of `M`, on nalgebra's column arrays.
+/// `Φ M` for the INS `Φ` (its zero blocks skipped), on nalgebra's column arrays.
 pub fn phi_times(phi: &M15, m: &M15) -> M15 {
     dispatch(
         || phi_times_kernel::<false>(phi, m),
