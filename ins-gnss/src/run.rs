@@ -219,6 +219,41 @@ fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
     )
 }
 
+type FileReader = std::io::BufReader<std::fs::File>;
+
+/// The configured IMU and GNSS readers (format, rate, gap limit, skip policy).
+fn open_inputs(
+    config: &Config,
+) -> Result<(ImuReader<FileReader>, GnssReader<FileReader>), RunError> {
+    let imu = ImuReader::open(
+        &config.data.imu,
+        config.imu_format(),
+        config.data.imu_rate,
+        config.data.max_gap,
+        config.bad_lines(),
+    )?;
+    Ok((imu, GnssReader::open(&config.data.gnss, config.bad_lines())?))
+}
+
+/// The navigator at the start time (the configured one, or the first IMU sample's
+/// `first_t`), the run's summary with its span started there, and the end time.
+fn start_navigator(
+    config: &Config,
+    strategy: AnyStrategy,
+    first_t: f64,
+) -> Result<(Navigator<AnyStrategy>, RunSummary, f64), RunError> {
+    let start = config.data.start_time.unwrap_or(first_t);
+    let end = config.data.end_time.unwrap_or(f64::INFINITY);
+    let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+    let nav = Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
+    let summary = RunSummary {
+        strategy: nav.filter().strategy().name().to_string(),
+        span: (start, start),
+        ..Default::default()
+    };
+    Ok((nav, summary, end))
+}
+
 /// Samples or records per message between the pipeline's threads.
 const BATCH: usize = 1024;
 
@@ -236,30 +271,15 @@ pub fn run(
     mut progress: Option<Progress<'_>>,
 ) -> Result<RunSummary, RunError> {
     let wall = Instant::now();
-    let mut imu = ImuReader::open(
-        &config.data.imu,
-        config.imu_format(),
-        config.data.imu_rate,
-        config.data.max_gap,
-        config.bad_lines(),
-    )?;
-    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
+    let (mut imu, mut gnss) = open_inputs(config)?;
     let (mut out, nav_file) = Outputs::create(out_dir)?;
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
     let first =
         imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
-    let start = config.data.start_time.unwrap_or(first.t);
-    let end = config.data.end_time.unwrap_or(f64::INFINITY);
-    let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
-    let mut nav =
-        Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
-    let mut summary = RunSummary {
-        strategy: nav.filter().strategy().name().to_string(),
-        out_dir: out_dir.to_path_buf(),
-        span: (start, start),
-        ..Default::default()
-    };
+    let (mut nav, mut summary, end) = start_navigator(config, strategy, first.t)?;
+    let start = summary.span.0;
+    summary.out_dir = out_dir.to_path_buf();
 
     std::thread::scope(|scope| -> Result<(), RunError> {
         let (imu_tx, imu_rx) =
@@ -396,14 +416,7 @@ pub fn run(
 /// [`run`], for repeated in-memory runs ([`run_slices`]): Monte Carlo over injected
 /// errors, strategy sweeps. Memory grows with the dataset (≈ 64 bytes per IMU sample).
 pub fn load_inputs(config: &Config) -> Result<(Vec<ImuSample>, Vec<GnssEpoch>), RunError> {
-    let mut imu = ImuReader::open(
-        &config.data.imu,
-        config.imu_format(),
-        config.data.imu_rate,
-        config.data.max_gap,
-        config.bad_lines(),
-    )?;
-    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
+    let (mut imu, mut gnss) = open_inputs(config)?;
     let (mut samples, mut epochs) = (Vec::new(), Vec::new());
     while let Some(s) = imu.next_sample()? {
         samples.push(s);
@@ -427,16 +440,8 @@ pub fn run_slices(
 ) -> Result<RunSummary, RunError> {
     let wall = Instant::now();
     let first = imu.first().ok_or_else(|| RunError::NoData("no IMU samples".into()))?;
-    let start = config.data.start_time.unwrap_or(first.t);
-    let end = config.data.end_time.unwrap_or(f64::INFINITY);
-    let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
-    let mut nav =
-        Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
-    let mut summary = RunSummary {
-        strategy: nav.filter().strategy().name().to_string(),
-        span: (start, start),
-        ..Default::default()
-    };
+    let (mut nav, mut summary, end) = start_navigator(config, strategy, first.t)?;
+    let start = summary.span.0;
     let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
     // GNSS epochs at or before the start are not used.
     let mut g = gnss.partition_point(|e| e.t <= start + 1e-9);
