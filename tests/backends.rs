@@ -95,9 +95,9 @@ fn three_backends_agree_to_1e_12() {
     for (name, s) in strategies {
         // The short form is exact only for the optimal gain: use it with the fixed strategy.
         let forms: &[UpdateForm] = if name == "fixed" {
-            &[UpdateForm::Joseph, UpdateForm::Short]
+            &[UpdateForm::Joseph, UpdateForm::JosephFactored, UpdateForm::Short]
         } else {
-            &[UpdateForm::Joseph]
+            &[UpdateForm::Joseph, UpdateForm::JosephFactored]
         };
         for &form in forms {
             let (xs, ps) = run(&p, s.clone(), StaticCov, form);

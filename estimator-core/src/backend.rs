@@ -21,8 +21,30 @@ use nalgebra::{DMatrix, DefaultAllocator, DimName, OMatrix};
 use manifolds::DimAlloc;
 
 use crate::error::FilterError;
+use crate::kernels::{self, Entries, Sandwich};
 use crate::linalg::{check_finite, symmetrize};
 use crate::traits::{Cov, FilterAlloc};
+
+/// Covariance update formula.
+///
+/// The two Joseph variants compute the same function of `K`, so both keep the Joseph
+/// form's first-order insensitivity to errors in the gain; they differ in cost and in
+/// rounding.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UpdateForm {
+    /// The Joseph form multiplied out, `P + V Kᵀ + K Vᵀ` with `V = K S/2 − P Hᵀ` and
+    /// `S = H P Hᵀ + R`: `(I−KH) P (I−KH)ᵀ + K R Kᵀ` for any gain, exactly symmetric,
+    /// `2N²M` multiply-adds instead of `2N³` (default). Its rounding errors scale with
+    /// `‖P‖`; when `R` is many orders of magnitude below `H P Hᵀ` prefer
+    /// [`JosephFactored`](Self::JosephFactored).
+    #[default]
+    Joseph,
+    /// The textbook product `(I−KH) P (I−KH)ᵀ + K R Kᵀ` (Bar-Shalom et al. 2001,
+    /// eq. 5.2.3-18): a sum of two positive semi-definite products, `O(N³)`.
+    JosephFactored,
+    /// `P − K H P` (symmetrised): cheapest, exact only for the optimal gain.
+    Short,
+}
 
 /// Storage and products of the covariance. See the [module docs](self).
 pub trait CovBackend<N: DimName>: Clone + core::fmt::Debug + Default
@@ -81,21 +103,26 @@ where
     ) where
         DefaultAllocator: FilterAlloc<N, M>;
 
-    /// Joseph form `out ← (I − K H) P (I − K H)ᵀ + K R Kᵀ`, or the short form
-    /// `out ← P − K (H P)` when `short` (exactly symmetric either way).
+    /// The covariance update in the given [`UpdateForm`], exactly symmetric:
+    /// `out ← (I − K H) P (I − K H)ᵀ + K R Kᵀ` (Joseph, multiplied out or factored) or
+    /// `out ← P − K (H P)` (short). `HP = H P` and `S = H P Hᵀ + R` are the caller's.
     #[allow(clippy::too_many_arguments)]
     fn update<M: DimName>(
         &mut self,
         P: &Self::Cov,
         K: &OMatrix<f64, N, M>,
         H: &OMatrix<f64, M, N>,
+        HP: &OMatrix<f64, M, N>,
         R: &OMatrix<f64, M, M>,
-        short: bool,
+        S: &OMatrix<f64, M, M>,
+        form: UpdateForm,
         out: &mut Self::Cov,
     ) where
         DefaultAllocator: FilterAlloc<N, M>;
 
-    /// `P ← G P Gᵀ` in place (the reset).
+    /// `P ← G P Gᵀ` in place (the reset); nothing when `G = I`, `O(N·nnz)` when `G`
+    /// differs from the identity in a few rows (see
+    /// [`sparse_sandwich_in_place`](crate::kernels::sparse_sandwich_in_place)).
     fn sandwich_in_place(&mut self, P: &mut Self::Cov, G: &Cov<N>);
 
     /// `Err(NonFinite)` when any entry is NaN or infinite.
@@ -139,7 +166,10 @@ where
     where
         DefaultAllocator: FilterAlloc<N, M>,
     {
-        H * P
+        // H P = (P Hᵀ)ᵀ for the symmetric P, over the non-zero entries of H only.
+        let mut PHt = OMatrix::<f64, N, M>::zeros();
+        kernels::p_times_ht(P, H, PHt.as_mut_slice());
+        PHt.transpose()
     }
 
     fn scale_add<M: DimName>(
@@ -162,26 +192,38 @@ where
         P: &Cov<N>,
         K: &OMatrix<f64, N, M>,
         H: &OMatrix<f64, M, N>,
+        HP: &OMatrix<f64, M, N>,
         R: &OMatrix<f64, M, M>,
-        short: bool,
+        S: &OMatrix<f64, M, M>,
+        form: UpdateForm,
         out: &mut Cov<N>,
     ) where
         DefaultAllocator: FilterAlloc<N, M>,
     {
-        if short {
-            // P = P⁻ − K H P⁻
-            *out = P - K * (H * P);
-        } else {
-            // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ   (Bar-Shalom et al. 2001, eq. 5.2.3-18)
-            let IKH = Cov::<N>::identity() - K * H;
-            *out = &IKH * P * IKH.transpose() + K * R * K.transpose();
+        match form {
+            UpdateForm::Joseph => {
+                // P + V Kᵀ + K Vᵀ, V = K S/2 − (H P)ᵀ
+                kernels::joseph_update(P, K, S, &HP.transpose(), out);
+            }
+            UpdateForm::JosephFactored => {
+                // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ   (Bar-Shalom et al. 2001, eq. 5.2.3-18)
+                let IKH = Cov::<N>::identity() - K * H;
+                *out = &IKH * P * IKH.transpose() + K * R * K.transpose();
+                symmetrize(out);
+            }
+            UpdateForm::Short => {
+                // P = P⁻ − K H P⁻
+                *out = P - K * HP;
+                symmetrize(out);
+            }
         }
-        symmetrize(out);
     }
 
     fn sandwich_in_place(&mut self, P: &mut Cov<N>, G: &Cov<N>) {
-        *P = G * &*P * G.transpose();
-        symmetrize(P);
+        if kernels::sparse_sandwich_in_place(P, G) == Sandwich::Dense {
+            *P = G * &*P * G.transpose();
+            symmetrize(P);
+        }
     }
 
     fn check_finite(what: &'static str, P: &Cov<N>) -> Result<(), FilterError> {
@@ -191,7 +233,7 @@ where
 
 /// The dense matrix operations the dynamic back-ends need; implemented for nalgebra's
 /// `DMatrix` and faer's `Mat`, so [`DenseCov`] is written once.
-pub trait Dense: Clone + core::fmt::Debug {
+pub trait Dense: Clone + core::fmt::Debug + Entries {
     /// Name of the back-end.
     const NAME: &'static str;
     /// An `r × c` zero matrix.
@@ -200,10 +242,6 @@ pub trait Dense: Clone + core::fmt::Debug {
     fn rows(&self) -> usize;
     /// Columns.
     fn cols(&self) -> usize;
-    /// Entry `(r, c)`.
-    fn get(&self, r: usize, c: usize) -> f64;
-    /// Set entry `(r, c)`.
-    fn set(&mut self, r: usize, c: usize, v: f64);
     /// `out ← β out + α op(a) op(b)` with `op` the transpose when the flag is set
     /// (`DMatrix` allocates for a transposed `b`; the back-end never asks for one).
     #[allow(clippy::too_many_arguments)]
@@ -220,12 +258,6 @@ impl Dense for DMatrix<f64> {
     }
     fn cols(&self) -> usize {
         self.ncols()
-    }
-    fn get(&self, r: usize, c: usize) -> f64 {
-        self[(r, c)]
-    }
-    fn set(&mut self, r: usize, c: usize, v: f64) {
-        self[(r, c)] = v;
     }
     fn gemm(out: &mut Self, beta: f64, alpha: f64, a: &Self, at: bool, b: &Self, bt: bool) {
         match (at, bt) {
@@ -247,12 +279,6 @@ impl Dense for Mat<f64> {
     }
     fn cols(&self) -> usize {
         self.ncols()
-    }
-    fn get(&self, r: usize, c: usize) -> f64 {
-        self[(r, c)]
-    }
-    fn set(&mut self, r: usize, c: usize, v: f64) {
-        self[(r, c)] = v;
     }
     fn gemm(out: &mut Self, beta: f64, alpha: f64, a: &Self, at: bool, b: &Self, bt: bool) {
         // faer accumulates or replaces: scale the output first when 0 < β ≠ 1.
@@ -279,9 +305,9 @@ fn symmetrize_dense<D: Dense>(m: &mut D) {
     let n = m.rows();
     for c in 0..n {
         for r in (c + 1)..n {
-            let v = 0.5 * (m.get(r, c) + m.get(c, r));
-            m.set(r, c, v);
-            m.set(c, r, v);
+            let v = 0.5 * (m.at(r, c) + m.at(c, r));
+            m.put(r, c, v);
+            m.put(c, r, v);
         }
     }
 }
@@ -291,19 +317,54 @@ fn to_dense<D: Dense, R: DimName, C: DimName>(m: &OMatrix<f64, R, C>, out: &mut 
 where
     DefaultAllocator: nalgebra::allocator::Allocator<R, C>,
 {
-    if out.rows() != R::DIM || out.cols() != C::DIM {
-        *out = D::zeros(R::DIM, C::DIM);
-    }
-    for c in 0..C::DIM {
-        for r in 0..R::DIM {
-            out.set(r, c, m[(r, c)]);
-        }
+    ensure_shape(out, R::DIM, C::DIM);
+    for (c, col) in m.as_slice().chunks_exact(R::DIM).enumerate() {
+        out.col_mut(c).copy_from_slice(col);
     }
 }
 
 fn ensure<D: Dense>(m: &mut D, n: usize) {
-    if m.rows() != n || m.cols() != n {
-        *m = D::zeros(n, n);
+    ensure_shape(m, n, n);
+}
+
+fn ensure_shape<D: Dense>(m: &mut D, r: usize, c: usize) {
+    if m.rows() != r || m.cols() != c {
+        *m = D::zeros(r, c);
+    }
+}
+
+fn copy_dense<D: Dense>(from: &D, to: &mut D) {
+    ensure_shape(to, from.rows(), from.cols());
+    for c in 0..from.cols() {
+        to.col_mut(c).copy_from_slice(from.col(c));
+    }
+}
+
+/// Make `m` exactly symmetric by copying its upper triangle onto the lower one.
+fn mirror_upper<D: Dense>(m: &mut D) {
+    for c in 0..m.cols() {
+        for r in (c + 1)..m.rows() {
+            m.put(r, c, m.at(c, r));
+        }
+    }
+}
+
+impl Entries for Mat<f64> {
+    #[inline(always)]
+    fn at(&self, r: usize, c: usize) -> f64 {
+        self[(r, c)]
+    }
+    #[inline(always)]
+    fn put(&mut self, r: usize, c: usize, v: f64) {
+        self[(r, c)] = v;
+    }
+    #[inline(always)]
+    fn col(&self, c: usize) -> &[f64] {
+        self.col_as_slice(c)
+    }
+    #[inline(always)]
+    fn col_mut(&mut self, c: usize) -> &mut [f64] {
+        self.col_as_slice_mut(c)
     }
 }
 
@@ -313,11 +374,16 @@ pub struct DenseCov<D: Dense> {
     phi: D,
     tmp: D,
     tmp2: D,
+    /// `N × 2M` and `2M × N` factors of the multiplied-out Joseph update, `M × N` `H`.
+    wide: D,
+    tall: D,
+    h: D,
 }
 
 impl<D: Dense> Default for DenseCov<D> {
     fn default() -> Self {
-        Self { phi: D::zeros(0, 0), tmp: D::zeros(0, 0), tmp2: D::zeros(0, 0) }
+        let z = || D::zeros(0, 0);
+        Self { phi: z(), tmp: z(), tmp2: z(), wide: z(), tall: z(), h: z() }
     }
 }
 
@@ -341,11 +407,15 @@ where
     }
 
     fn as_static(P: &D) -> Cow<'_, Cov<N>> {
-        Cow::Owned(Cov::<N>::from_fn(|r, c| P.get(r, c)))
+        let mut out = Cov::<N>::zeros();
+        for (c, col) in out.as_mut_slice().chunks_exact_mut(N::DIM).enumerate() {
+            col.copy_from_slice(P.col(c));
+        }
+        Cow::Owned(out)
     }
 
     fn diag(P: &D, i: usize) -> f64 {
-        P.get(i, i)
+        P.at(i, i)
     }
 
     fn propagate(&mut self, P: &D, Phi: &Cov<N>, Q: &Cov<N>, lambda: f64, out: &mut D) {
@@ -363,7 +433,10 @@ where
     where
         DefaultAllocator: FilterAlloc<N, M>,
     {
-        OMatrix::<f64, M, N>::from_fn(|i, j| (0..N::DIM).map(|k| H[(i, k)] * P.get(k, j)).sum())
+        to_dense(H, &mut self.h);
+        ensure_shape(&mut self.wide, M::DIM, N::DIM);
+        D::gemm(&mut self.wide, 0.0, 1.0, &self.h, false, P, false);
+        OMatrix::<f64, M, N>::from_fn(|i, j| self.wide.at(i, j))
     }
 
     fn scale_add<M: DimName>(
@@ -380,7 +453,7 @@ where
         ensure(out, N::DIM);
         for c in 0..N::DIM {
             for r in 0..N::DIM {
-                out.set(r, c, a * P.get(r, c));
+                out.put(r, c, a * P.at(r, c));
             }
         }
         to_dense(U, &mut self.tmp);
@@ -395,37 +468,84 @@ where
         P: &D,
         K: &OMatrix<f64, N, M>,
         H: &OMatrix<f64, M, N>,
+        HP: &OMatrix<f64, M, N>,
         R: &OMatrix<f64, M, M>,
-        short: bool,
+        S: &OMatrix<f64, M, M>,
+        form: UpdateForm,
         out: &mut D,
     ) where
         DefaultAllocator: FilterAlloc<N, M>,
     {
-        let n = N::DIM;
-        ensure(out, n);
-        if short {
-            // P = P⁻ − (K H) P⁻
-            to_dense(&(K * H), &mut self.tmp);
-            for c in 0..n {
-                for r in 0..n {
-                    out.set(r, c, P.get(r, c));
+        let (n, m) = (N::DIM, M::DIM);
+        match form {
+            UpdateForm::Joseph => {
+                // P + V Kᵀ + K Vᵀ = P + [V K] [K V]ᵀ, V = K S/2 − (H P)ᵀ: one N × 2M × N product
+                let V = K * (S * 0.5) - HP.transpose();
+                ensure_shape(&mut self.wide, n, 2 * m);
+                ensure_shape(&mut self.tall, 2 * m, n);
+                for j in 0..m {
+                    for r in 0..n {
+                        self.wide.put(r, j, V[(r, j)]);
+                        self.wide.put(r, m + j, K[(r, j)]);
+                        self.tall.put(j, r, K[(r, j)]);
+                        self.tall.put(m + j, r, V[(r, j)]);
+                    }
                 }
+                copy_dense(P, out);
+                D::gemm(out, 1.0, 1.0, &self.wide, false, &self.tall, false);
+                mirror_upper(out);
             }
-            D::gemm(out, 1.0, -1.0, &self.tmp, false, P, false);
-        } else {
-            // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ
-            let ikh = Cov::<N>::identity() - K * H;
-            to_dense(&ikh, &mut self.phi);
-            to_dense(&ikh.transpose(), &mut self.tmp2);
-            ensure(&mut self.tmp, n);
-            D::gemm(&mut self.tmp, 0.0, 1.0, &self.phi, false, P, false);
-            to_dense(&(K * R * K.transpose()), out);
-            D::gemm(out, 1.0, 1.0, &self.tmp, false, &self.tmp2, false);
+            UpdateForm::JosephFactored => {
+                // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, with I − K H and its transpose
+                // written straight into the dense buffers.
+                ensure(&mut self.phi, n);
+                ensure(&mut self.tmp2, n);
+                for c in 0..n {
+                    for r in 0..n {
+                        let kh: f64 = (0..m).map(|j| K[(r, j)] * H[(j, c)]).sum();
+                        let v = if r == c { 1.0 - kh } else { -kh };
+                        self.phi.put(r, c, v);
+                        self.tmp2.put(c, r, v);
+                    }
+                }
+                ensure(&mut self.tmp, n);
+                D::gemm(&mut self.tmp, 0.0, 1.0, &self.phi, false, P, false);
+                // K R Kᵀ as (K R) (Kᵀ)
+                let KR = K * R;
+                ensure_shape(&mut self.wide, n, m);
+                ensure_shape(&mut self.tall, m, n);
+                for j in 0..m {
+                    for r in 0..n {
+                        self.wide.put(r, j, KR[(r, j)]);
+                        self.tall.put(j, r, K[(r, j)]);
+                    }
+                }
+                ensure(out, n);
+                D::gemm(out, 0.0, 1.0, &self.wide, false, &self.tall, false);
+                D::gemm(out, 1.0, 1.0, &self.tmp, false, &self.tmp2, false);
+                symmetrize_dense(out);
+            }
+            UpdateForm::Short => {
+                // P = P⁻ − K (H P⁻)
+                ensure_shape(&mut self.wide, n, m);
+                ensure_shape(&mut self.tall, m, n);
+                for j in 0..m {
+                    for r in 0..n {
+                        self.wide.put(r, j, K[(r, j)]);
+                        self.tall.put(j, r, HP[(j, r)]);
+                    }
+                }
+                copy_dense(P, out);
+                D::gemm(out, 1.0, -1.0, &self.wide, false, &self.tall, false);
+                symmetrize_dense(out);
+            }
         }
-        symmetrize_dense(out);
     }
 
     fn sandwich_in_place(&mut self, P: &mut D, G: &Cov<N>) {
+        if kernels::sparse_sandwich_in_place(P, G) != Sandwich::Dense {
+            return;
+        }
         ensure(&mut self.tmp, N::DIM);
         to_dense(G, &mut self.phi);
         to_dense(&G.transpose(), &mut self.tmp2);
@@ -435,13 +555,15 @@ where
     }
 
     fn check_finite(what: &'static str, P: &D) -> Result<(), FilterError> {
-        for c in 0..P.cols() {
-            for r in 0..P.rows() {
-                if !P.get(r, c).is_finite() {
-                    return Err(FilterError::NonFinite { what });
-                }
-            }
+        // The OR-reduction of `linalg::check_finite`, column by column.
+        const EXP: u64 = 0x7ff0_0000_0000_0000;
+        let flags = (0..P.cols()).fold(0u64, |acc, c| {
+            P.col(c).iter().fold(acc, |a, v| a | u64::from(v.to_bits() & EXP == EXP))
+        });
+        if flags == 0 {
+            Ok(())
+        } else {
+            Err(FilterError::NonFinite { what })
         }
-        Ok(())
     }
 }

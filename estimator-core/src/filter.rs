@@ -9,7 +9,8 @@
 //! innovate  r = z ⊖ h(x̂⁻)                    S = H P⁻ Hᵀ + R
 //! adapt     (strategy) P⁻* = λ_P P⁻, R* , or reject
 //! gain      K = P⁻* Hᵀ S*⁻¹                   (Cholesky solve of S* Kᵀ = H P⁻*)
-//! update    δx = K r                          P = (I−KH) P⁻* (I−KH)ᵀ + K R* Kᵀ   (Joseph)
+//! update    δx = K r                          P = (I−KH) P⁻* (I−KH)ᵀ + K R* Kᵀ   (Joseph,
+//!                                             multiplied out: see UpdateForm)
 //! inject    x̂ ← x̂ ⊕ δx                        P ← G P Gᵀ,  G = ∂((x̂ ⊕ (δx+ε)) ⊖ (x̂ ⊕ δx))/∂ε
 //! ```
 //!
@@ -26,8 +27,10 @@ use manifolds::{DimAlloc, Manifold};
 use crate::adapt::{
     Adaptation, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, Verdict,
 };
+pub use crate::backend::UpdateForm;
 use crate::backend::{CovBackend, StaticCov};
 use crate::error::FilterError;
+use crate::kernels;
 use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize};
 use crate::report::{NoObserver, Observer, UpdateReport};
 use crate::traits::{Cov, FilterAlloc, MeasurementModel, ProcessModel, StateDim};
@@ -40,17 +43,6 @@ pub enum ResetMode {
     Exact,
     /// `G = I`, the common simplification.
     Identity,
-}
-
-/// Covariance update formula.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum UpdateForm {
-    /// `(I−KH) P (I−KH)ᵀ + K R Kᵀ`: symmetric and positive semi-definite for any gain
-    /// (default).
-    #[default]
-    Joseph,
-    /// `P − K H P`: cheaper, exact only for the optimal gain.
-    Short,
 }
 
 /// An error-state Kalman filter on the manifold state `X` with noise strategy `A` and
@@ -133,6 +125,9 @@ where
             return Err(FilterError::NonFinite { what: "initial state x0" });
         }
         check_covariance("initial covariance P0", &P0)?;
+        // Stored exactly symmetric (the check allows a relative 1e-9 asymmetry).
+        let mut P0 = P0;
+        symmetrize(&mut P0);
         let P = B::from_static(&P0);
         Ok(Self {
             x: x0,
@@ -234,6 +229,8 @@ where
     /// Replace the covariance (checked like `P0`).
     pub fn set_covariance(&mut self, P: Cov<X::Dim>) -> Result<(), FilterError> {
         check_covariance("covariance P", &P)?;
+        let mut P = P;
+        symmetrize(&mut P);
         self.bufs[self.cur] = B::from_static(&P);
         Ok(())
     }
@@ -402,13 +399,20 @@ where
         if !(prior_scale.is_finite() && prior_scale > 0.0) {
             return Err(FilterError::NonFinite { what: "strategy prior scale λ_P" });
         }
-        check_covariance("adapted measurement noise R*", &R_used)?;
-
-        // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻)
-        let mut S_used = &HPHt * prior_scale + &R_used;
-        symmetrize(&mut S_used);
-        let chol = cholesky("adapted innovation covariance S*", S_used)?;
-        report.nis_adapted = r.dot(&chol.solve(&r));
+        // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻); when the strategy
+        // changed nothing, S* = S and its factor is the one already computed.
+        let adapted = prior_scale != 1.0 || R_used != *R;
+        let (S_used, chol) = if adapted {
+            check_covariance("adapted measurement noise R*", &R_used)?;
+            let mut S_used = &HPHt * prior_scale + &R_used;
+            symmetrize(&mut S_used);
+            let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
+            report.nis_adapted = r.dot(&chol.solve(&r));
+            (S_used, chol)
+        } else {
+            report.nis_adapted = nis;
+            (report.S.clone(), chol_S)
+        };
 
         // P⁻*: λ P⁻, or P⁻ + (λ − 1) (HP)ᵀ (HPHᵀ)⁻¹ (HP) along the measurement subspace.
         let mut backend = core::mem::take(&mut self.backend);
@@ -428,17 +432,18 @@ where
             true
         };
         let HP_used = HP * prior_scale;
-        // K = P⁻* Hᵀ S*⁻¹, solved as S* Kᵀ = H P⁻* (S*, P⁻* symmetric)
-        let K = chol.solve(&HP_used).transpose();
+        // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
+        let mut K = HP_used.transpose();
+        kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
         let dx = &K * &r;
 
         let prior: &B::Cov = if scaled { aux } else { P };
         // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
-        backend.update(prior, &K, &H, &R_used, form == UpdateForm::Short, next);
+        backend.update(prior, &K, &H, &HP_used, &R_used, &S_used, form, next);
         let x_new = self.x.oplus(&dx);
         if self.reset == ResetMode::Exact {
             // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx
-            let G = self.x.oplus_jacobians(&dx).J_y_delta;
+            let G = self.x.oplus_jacobian_delta(&dx);
             let (_, next, _) = self.buffers();
             backend.sandwich_in_place(next, &G);
         }

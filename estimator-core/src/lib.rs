@@ -12,6 +12,7 @@
 //! | [`backend`] | covariance back-ends: nalgebra static (default), nalgebra dynamic, faer |
 //! | [`consistency`] | NEES / NIS and χ² bands |
 //! | [`harness`] | analytic vs numerical Jacobians through ⊕/⊖ for any model |
+//! | [`kernels`] | small column-major kernels (AVX2/FMA when the CPU has them) for the static back-end and structured models |
 //! | [`linalg`] | checks and Cholesky helpers with typed errors |
 //! | [`linear`] | linear-Gaussian models (the plain Kalman filter as a special case) |
 //!
@@ -26,6 +27,7 @@ pub mod consistency;
 pub mod error;
 pub mod filter;
 pub mod harness;
+pub mod kernels;
 pub mod linalg;
 pub mod linear;
 pub mod report;
@@ -35,9 +37,9 @@ pub use adapt::{
     Adaptation, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, StreamId,
     StreamMap, Verdict,
 };
-pub use backend::{CovBackend, DenseCov, DynamicCov, FaerCov, StaticCov};
+pub use backend::{CovBackend, DenseCov, DynamicCov, FaerCov, StaticCov, UpdateForm};
 pub use error::FilterError;
-pub use filter::{ErrorStateFilter, ResetMode, UpdateForm};
+pub use filter::{ErrorStateFilter, ResetMode};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
 pub use traits::{
     Cov, FilterAlloc, MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessModel,

@@ -21,6 +21,7 @@
 //! `(Φ D Φᵀ + D) dt/2` to second order in dt) with
 //! `D = G Q_c Gᵀ = blockdiag(diag(ARW²), R̂ diag(VRW²) R̂ᵀ, 0, diag(q_bg), diag(q_ba))`.
 
+use estimator_core::kernels::{has_avx2_fma, madd};
 use estimator_core::{Cov, ProcessJacobians, ProcessModel};
 use manifolds::{hat, So3};
 use nalgebra::{Const, Matrix3, SMatrix, Vector3};
@@ -87,11 +88,81 @@ impl InsModel {
         }
     }
 
+    /// The mechanization step from corrected increments.
+    fn propagate_with(&self, x: &InsState, inc: &Increments) -> InsState {
+        let nav = Nav { att: x.att, vel: x.vel, pos: x.pos };
+        let next = mechanization::step(&self.mechanization, &nav, inc);
+        // A Gauss–Markov bias estimate decays towards zero, b⁺ = b·exp(−dt/τ); the other
+        // models hold it (see `BiasModel`).
+        let decay = match self.noise.bias_model {
+            BiasModel::GaussMarkov { tau } if tau > 0.0 => (-inc.dt / tau).exp(),
+            _ => 1.0,
+        };
+        InsState { att: next.att, vel: next.vel, pos: next.pos, bg: x.bg * decay, ba: x.ba * decay }
+    }
+
+    /// `Φ` and `Q_d` of the step from corrected increments and `c = R̂`.
+    fn jacobians_with(
+        &self,
+        x: &InsState,
+        inc: &Increments,
+        c: &Matrix3<f64>,
+    ) -> ProcessJacobians<Const<15>> {
+        let inc = *inc;
+        let dt = inc.dt;
+        let (w, f) = if dt > 0.0 {
+            (inc.dtheta / dt, inc.dvel / dt)
+        } else {
+            (Vector3::zeros(), Vector3::zeros())
+        };
+        // Φ = I + F dt, in place
+        let mut Phi = self.error_dynamics_with(x, &w, &f, c);
+        Phi *= dt;
+        for i in 0..15 {
+            Phi[(i, i)] += 1.0;
+        }
+        // Q_d = (Φ D + D Φᵀ) dt/2: the trapezoid (Φ D Φᵀ + D) dt/2 to second order in dt
+        // (they differ by (Φ−I) D (Φ−I)ᵀ dt/2 = O(dt³)). D = G Q_c Gᵀ is block diagonal,
+        // so Φ D is Φ's columns scaled (θ, b_g, b_a) and one 3×3 product (v).
+        let q = self.noise_psd();
+        let d_vv = c * Matrix3::from_diagonal(&Vector3::new(q[3], q[4], q[5])) * c.transpose();
+        let f: &[[f64; 15]; 15] = &Phi.data.0;
+        let mut pd = [[0.0_f64; 15]; 15];
+        for k in 0..3 {
+            for r in 0..15 {
+                pd[k][r] = f[k][r] * q[k];
+                pd[9 + k][r] = f[9 + k][r] * q[6 + k];
+                pd[12 + k][r] = f[12 + k][r] * q[9 + k];
+                pd[3 + k][r] =
+                    f[3][r] * d_vv[(0, k)] + f[4][r] * d_vv[(1, k)] + f[5][r] * d_vv[(2, k)];
+            }
+        }
+        let mut Q = M15::zeros();
+        let h = 0.5 * dt;
+        for (col, qcol) in Q.data.0.iter_mut().enumerate() {
+            for (row, v) in qcol.iter_mut().enumerate() {
+                *v = (pd[col][row] + pd[row][col]) * h;
+            }
+        }
+        ProcessJacobians { Phi, Q }
+    }
+
     /// The continuous error-state matrix `F` at `x` with corrected rate `w` (rad/s) and
     /// specific force `f` (m/s²).
     pub fn error_dynamics(&self, x: &InsState, w: &Vector3<f64>, f: &Vector3<f64>) -> M15 {
+        self.error_dynamics_with(x, w, f, &x.att.matrix())
+    }
+
+    /// [`error_dynamics`](Self::error_dynamics) with the attitude matrix `c = R̂` given.
+    fn error_dynamics_with(
+        &self,
+        x: &InsState,
+        w: &Vector3<f64>,
+        f: &Vector3<f64>,
+        c: &Matrix3<f64>,
+    ) -> M15 {
         let mut F = M15::zeros();
-        let c = x.att.matrix();
+        let c = *c;
         let inv_tau = self.noise.inverse_tau();
         put(&mut F, B_TH, B_TH, &(-hat(w)));
         put(&mut F, B_TH, B_BG, &(-Matrix3::identity()));
@@ -216,7 +287,7 @@ type Cols16 = [[f64; 16]; 15];
 #[inline(always)]
 fn axpy16<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 16], a: f64) {
     for r in 0..16 {
-        acc[r] = if FMA { x[r].mul_add(a, acc[r]) } else { acc[r] + x[r] * a };
+        acc[r] = madd::<FMA>(x[r], a, acc[r]);
     }
 }
 
@@ -224,7 +295,7 @@ fn axpy16<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 16], a: f64) {
 #[inline(always)]
 fn axpy_range<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 15], a: f64, lo: usize, hi: usize) {
     for r in lo..hi {
-        acc[r] = if FMA { x[r].mul_add(a, acc[r]) } else { acc[r] + x[r] * a };
+        acc[r] = madd::<FMA>(x[r], a, acc[r]);
     }
 }
 
@@ -286,13 +357,6 @@ fn dispatch<T>(portable: impl FnOnce() -> T, fast: impl FnOnce() -> T) -> T {
     }
     let _ = &fast;
     portable()
-}
-
-/// Whether this x86-64 CPU has AVX2 and FMA (cached by the standard library).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn has_avx2_fma() -> bool {
-    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -384,58 +448,22 @@ impl ProcessModel for InsModel {
     const SYMMETRIC_PROPAGATION: bool = true;
 
     fn propagate(&self, x: &InsState, u: &ImuInput, _dt: f64) -> InsState {
-        let inc = Self::corrected(x, u);
-        let nav = Nav { att: x.att, vel: x.vel, pos: x.pos };
-        let next = mechanization::step(&self.mechanization, &nav, &inc);
-        // A Gauss–Markov bias estimate decays towards zero, b⁺ = b·exp(−dt/τ); the other
-        // models hold it (see `BiasModel`).
-        let decay = match self.noise.bias_model {
-            BiasModel::GaussMarkov { tau } if tau > 0.0 => (-inc.dt / tau).exp(),
-            _ => 1.0,
-        };
-        InsState { att: next.att, vel: next.vel, pos: next.pos, bg: x.bg * decay, ba: x.ba * decay }
+        self.propagate_with(x, &Self::corrected(x, u))
     }
 
     fn jacobians(&self, x: &InsState, u: &ImuInput, _dt: f64) -> ProcessJacobians<Const<15>> {
+        self.jacobians_with(x, &Self::corrected(x, u), &x.att.matrix())
+    }
+
+    /// Mechanization and Jacobians sharing the corrected increments and `R̂`.
+    fn step(
+        &self,
+        x: &InsState,
+        u: &ImuInput,
+        _dt: f64,
+    ) -> (InsState, ProcessJacobians<Const<15>>) {
         let inc = Self::corrected(x, u);
-        let dt = inc.dt;
-        let (w, f) = if dt > 0.0 {
-            (inc.dtheta / dt, inc.dvel / dt)
-        } else {
-            (Vector3::zeros(), Vector3::zeros())
-        };
-        // Φ = I + F dt
-        // Φ = I + F dt, in place
-        let mut Phi = self.error_dynamics(x, &w, &f);
-        Phi *= dt;
-        for i in 0..15 {
-            Phi[(i, i)] += 1.0;
-        }
-        // Q_d = (Φ D + D Φᵀ) dt/2: the trapezoid (Φ D Φᵀ + D) dt/2 to second order in dt
-        // (they differ by (Φ−I) D (Φ−I)ᵀ dt/2 = O(dt³)). D = G Q_c Gᵀ is block diagonal,
-        // so Φ D is Φ's columns scaled (θ, b_g, b_a) and one 3×3 product (v).
-        let q = self.noise_psd();
-        let c = x.att.matrix();
-        let d_vv = c * Matrix3::from_diagonal(&Vector3::new(q[3], q[4], q[5])) * c.transpose();
-        let f: &[[f64; 15]; 15] = &Phi.data.0;
-        let mut pd = [[0.0_f64; 15]; 15];
-        for k in 0..3 {
-            for r in 0..15 {
-                pd[k][r] = f[k][r] * q[k];
-                pd[9 + k][r] = f[9 + k][r] * q[6 + k];
-                pd[12 + k][r] = f[12 + k][r] * q[9 + k];
-                pd[3 + k][r] =
-                    f[3][r] * d_vv[(0, k)] + f[4][r] * d_vv[(1, k)] + f[5][r] * d_vv[(2, k)];
-            }
-        }
-        let mut Q = M15::zeros();
-        let h = 0.5 * dt;
-        for (col, qcol) in Q.data.0.iter_mut().enumerate() {
-            for (row, v) in qcol.iter_mut().enumerate() {
-                *v = (pd[col][row] + pd[row][col]) * h;
-            }
-        }
-        ProcessJacobians { Phi, Q }
+        (self.propagate_with(x, &inc), self.jacobians_with(x, &inc, &x.att.matrix()))
     }
 
     /// `out ← Φ P Φᵀ + Q_d` with the block structure of `Φ` (13 of 25 blocks non-zero,

@@ -84,10 +84,14 @@ impl Manifold for GeoPos {
     /// displacements under a kilometre) and is taken by central differences of 1 mm.
     fn oplus_jacobians(&self, d: &Vector3<f64>) -> OplusJacobians<Self> {
         let y = self.oplus(d);
-        let (mx, my) = (self.metric(), y.metric());
-        let J_y_delta = Matrix3::from_diagonal(&Vector3::new(my.x / mx.x, my.y / mx.y, 1.0));
+        let J_y_delta = self.oplus_jacobian_delta(d);
         let J_y_x = manifolds::numdiff::jacobian(self, |xp| xp.oplus(d).ominus(&y), 1e-3);
         OplusJacobians { J_y_x, J_y_delta }
+    }
+
+    fn oplus_jacobian_delta(&self, d: &Vector3<f64>) -> Matrix3<f64> {
+        let (mx, my) = (self.metric(), self.oplus(d).metric());
+        Matrix3::from_diagonal(&Vector3::new(my.x / mx.x, my.y / mx.y, 1.0))
     }
 
     /// `J_d_y = diag(m_x / m_y)` exactly; `J_d_x` by central differences of 1 mm.

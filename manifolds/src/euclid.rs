@@ -36,6 +36,10 @@ impl<const N: usize> Manifold for SVector<f64, N> {
         OplusJacobians { J_y_x: SMatrix::identity(), J_y_delta: SMatrix::identity() }
     }
 
+    fn oplus_jacobian_delta(&self, _delta: &Self) -> SMatrix<f64, N, N> {
+        SMatrix::identity()
+    }
+
     fn ominus_jacobians(&self, _origin: &Self) -> OminusJacobians<Self> {
         OminusJacobians { J_d_y: SMatrix::identity(), J_d_x: -SMatrix::<f64, N, N>::identity() }
     }

@@ -177,6 +177,17 @@ macro_rules! impl_tuple_manifold {
                 crate::OplusJacobians { J_y_x, J_y_delta }
             }
 
+            fn oplus_jacobian_delta(&self, delta: &Tangent<Self>) -> TangentMatrix<Self> {
+                let mut J_y_delta = TangentMatrix::<Self>::zeros();
+                let mut _off = 0usize;
+                $(
+                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    set_diagonal_block(&mut J_y_delta, _off, &self.$idx.oplus_jacobian_delta(&d));
+                    _off += $T::DIM;
+                )+
+                J_y_delta
+            }
+
             fn ominus_jacobians(&self, origin: &Self) -> crate::OminusJacobians<Self> {
                 let mut J_d_y = TangentMatrix::<Self>::zeros();
                 let mut J_d_x = TangentMatrix::<Self>::zeros();
@@ -331,6 +342,21 @@ macro_rules! composite_state {
                     );
                 )+
                 $crate::OplusJacobians { J_y_x, J_y_delta }
+            }
+
+            fn oplus_jacobian_delta(
+                &self,
+                delta: &$crate::Tangent<Self>,
+            ) -> $crate::TangentMatrix<Self> {
+                let mut J_y_delta = $crate::TangentMatrix::<Self>::zeros();
+                $(
+                    $crate::product::set_diagonal_block(
+                        &mut J_y_delta,
+                        Self::$BLOCK.start(),
+                        &self.$field.oplus_jacobian_delta(&Self::$BLOCK.of(delta)),
+                    );
+                )+
+                J_y_delta
             }
 
             fn ominus_jacobians(&self, origin: &Self) -> $crate::OminusJacobians<Self> {

@@ -198,6 +198,10 @@ impl Manifold for So3 {
         }
     }
 
+    fn oplus_jacobian_delta(&self, delta: &Vector3<f64>) -> Matrix3<f64> {
+        right_jacobian(delta)
+    }
+
     /// With `τ = y ⊖ x`: `J_d_y = Jr⁻¹(τ)`, `J_d_x = −Jl⁻¹(τ)`.
     fn ominus_jacobians(&self, origin: &Self) -> OminusJacobians<Self> {
         let tau = self.ominus(origin);

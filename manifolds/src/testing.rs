@@ -124,6 +124,7 @@ where
         tol.step,
     );
     jac("J of x ⊕ δ w.r.t. δ", &op.J_y_delta, &n_d)?;
+    jac("oplus_jacobian_delta = J_y_delta", &x.oplus_jacobian_delta(delta), &op.J_y_delta)?;
 
     // ⊖ Jacobians at a pair whose difference is δ (inside the chart by construction).
     let om = x_plus_d.ominus_jacobians(x);

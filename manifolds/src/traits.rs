@@ -124,6 +124,13 @@ where
         }
     }
 
+    /// `∂(self ⊕ δ)/∂δ` alone: the reset Jacobian of an error-state filter, needed at every
+    /// update. Default: `oplus_jacobians(delta).J_y_delta`; override it when `J_y_x` is
+    /// costly (the product manifolds and the geodetic position do).
+    fn oplus_jacobian_delta(&self, delta: &Tangent<Self>) -> TangentMatrix<Self> {
+        self.oplus_jacobians(delta).J_y_delta
+    }
+
     /// Jacobians of `self ⊖ origin`. Default: central differences through ⊕/⊖.
     fn ominus_jacobians(&self, origin: &Self) -> OminusJacobians<Self> {
         OminusJacobians {

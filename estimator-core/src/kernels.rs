@@ -1,0 +1,407 @@
+//! Small dense kernels on column-major storage for the static back-end and for models
+//! with structured products, plus the CPU-feature dispatch they share.
+//!
+//! Each kernel is written once as an `#[inline(always)]` body generic over a `FMA` flag:
+//! on x86-64 CPUs with AVX2 and FMA it is compiled inside a `#[target_feature]` wrapper,
+//! where `f64::mul_add` is one instruction and the loops use 256-bit vectors; elsewhere
+//! it runs as plain multiply-then-add (`mul_add` without the instruction is a slow
+//! library call). The two paths differ by one rounding per multiply-add.
+
+use nalgebra::{DefaultAllocator, DimName, OMatrix};
+
+use manifolds::DimAlloc;
+
+use crate::traits::FilterAlloc;
+
+/// Whether this CPU has AVX2 and FMA (cached by the standard library); always false off
+/// x86-64.
+#[inline(always)]
+pub fn has_avx2_fma() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// `a·x + acc`, fused when `FMA`.
+#[inline(always)]
+pub fn madd<const FMA: bool>(x: f64, a: f64, acc: f64) -> f64 {
+    if FMA {
+        x.mul_add(a, acc)
+    } else {
+        acc + x * a
+    }
+}
+
+/// The Joseph update multiplied out: `out ← P + V Kᵀ + K Vᵀ` with `V = K S/2 − U`,
+/// for a symmetric `N × N` `P`, the gain `K` and `U = P Hᵀ` (`N × M`) and a symmetric
+/// `S` (`M × M`); the result is made exactly symmetric by mirroring the upper triangle.
+/// `N M² + N(N+1)M` multiply-adds.
+///
+/// With `S = H P Hᵀ + R` this is `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for any `K` (see
+/// [`crate::UpdateForm::Joseph`]).
+pub fn joseph_update<N: DimName, M: DimName>(
+    p: &Cov<N>,
+    k: &OMatrix<f64, N, M>,
+    s: &OMatrix<f64, M, M>,
+    u: &OMatrix<f64, N, M>,
+    out: &mut Cov<N>,
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        if has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above).
+            unsafe { joseph_update_avx2::<N, M>(p, k, s, u, out) };
+            return;
+        }
+    }
+    joseph_update_body::<N, M, false>(p, k, s, u, out)
+}
+
+type Cov<N> = OMatrix<f64, N, N>;
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn joseph_update_avx2<N: DimName, M: DimName>(
+    p: &Cov<N>,
+    k: &OMatrix<f64, N, M>,
+    s: &OMatrix<f64, M, M>,
+    u: &OMatrix<f64, N, M>,
+    out: &mut Cov<N>,
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    joseph_update_body::<N, M, true>(p, k, s, u, out)
+}
+
+#[inline(always)]
+fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
+    p: &Cov<N>,
+    k: &OMatrix<f64, N, M>,
+    s: &OMatrix<f64, M, M>,
+    u: &OMatrix<f64, N, M>,
+    out: &mut Cov<N>,
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    let (n, m) = (N::DIM, M::DIM);
+    // V = K S/2 − U, column by column
+    let mut v = u.clone_owned();
+    {
+        let (ks, ss, vs) = (k.as_slice(), s.as_slice(), v.as_mut_slice());
+        for j in 0..m {
+            let vj = &mut vs[j * n..(j + 1) * n];
+            for x in vj.iter_mut() {
+                *x = -*x;
+            }
+            for i in 0..m {
+                let a = 0.5 * ss[j * m + i];
+                let ki = &ks[i * n..(i + 1) * n];
+                for r in 0..n {
+                    vj[r] = madd::<FMA>(ki[r], a, vj[r]);
+                }
+            }
+        }
+    }
+    let (k, v) = (k.as_slice(), v.as_slice());
+    let (p, o) = (p.as_slice(), out.as_mut_slice());
+    // The upper triangle, column by column (rows 0..=c), then mirrored.
+    for c in 0..n {
+        let col = &mut o[c * n..c * n + c + 1];
+        col.copy_from_slice(&p[c * n..c * n + c + 1]);
+        for j in 0..m {
+            let (kj, vj) = (&k[j * n..j * n + c + 1], &v[j * n..j * n + c + 1]);
+            let (kc, vc) = (kj[c], vj[c]);
+            for r in 0..=c {
+                col[r] = madd::<FMA>(kj[r], vc, madd::<FMA>(vj[r], kc, col[r]));
+            }
+        }
+    }
+    for c in 0..n {
+        for r in (c + 1)..n {
+            o[c * n + r] = o[r * n + c];
+        }
+    }
+}
+
+/// `K ← K S⁻¹` in place for `S = L Lᵀ` (`L` the lower-triangular Cholesky factor; its
+/// upper triangle is not read): the gain `K = P Hᵀ S⁻¹` from `U = P Hᵀ` by a forward
+/// and a back substitution over whole columns, `N M²` multiply-adds.
+pub fn right_solve_cholesky<N: DimName, M: DimName>(
+    l: &OMatrix<f64, M, M>,
+    k: &mut OMatrix<f64, N, M>,
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        if has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above).
+            unsafe { right_solve_avx2::<N, M>(l, k) };
+            return;
+        }
+    }
+    right_solve_body::<N, M, false>(l, k)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn right_solve_avx2<N: DimName, M: DimName>(
+    l: &OMatrix<f64, M, M>,
+    k: &mut OMatrix<f64, N, M>,
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    right_solve_body::<N, M, true>(l, k)
+}
+
+#[inline(always)]
+fn right_solve_body<N: DimName, M: DimName, const FMA: bool>(
+    l: &OMatrix<f64, M, M>,
+    k: &mut OMatrix<f64, N, M>,
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    let (n, m) = (N::DIM, M::DIM);
+    let ks = k.as_mut_slice();
+    // Y Lᵀ = U:  Y[:, j] = (U[:, j] − Σ_{i<j} Y[:, i] L[j, i]) / L[j, j]
+    for j in 0..m {
+        let (done, rest) = ks.split_at_mut(j * n);
+        let kj = &mut rest[..n];
+        for i in 0..j {
+            let a = -l[(j, i)];
+            let yi = &done[i * n..(i + 1) * n];
+            for r in 0..n {
+                kj[r] = madd::<FMA>(yi[r], a, kj[r]);
+            }
+        }
+        let d = 1.0 / l[(j, j)];
+        for x in kj.iter_mut() {
+            *x *= d;
+        }
+    }
+    // K L = Y:  K[:, j] = (Y[:, j] − Σ_{i>j} K[:, i] L[i, j]) / L[j, j]
+    for j in (0..m).rev() {
+        let (head, done) = ks.split_at_mut((j + 1) * n);
+        let kj = &mut head[j * n..];
+        for i in (j + 1)..m {
+            let a = -l[(i, j)];
+            let ki = &done[(i - j - 1) * n..(i - j) * n];
+            for r in 0..n {
+                kj[r] = madd::<FMA>(ki[r], a, kj[r]);
+            }
+        }
+        let d = 1.0 / l[(j, j)];
+        for x in kj.iter_mut() {
+            *x *= d;
+        }
+    }
+}
+
+/// `P Hᵀ` (`N × M`, column-major into `out`) for a symmetric `P`, skipping the zero
+/// entries of `H`: column `i` of the result is `Σ_k H[i, k] P[:, k]` over the non-zero
+/// `H[i, k]` only (a GNSS or magnetometer `H` touches a few states).
+pub fn p_times_ht<N: DimName, M: DimName>(p: &Cov<N>, h: &OMatrix<f64, M, N>, out: &mut [f64])
+where
+    DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>,
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        if has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above).
+            unsafe { p_times_ht_avx2::<N, M>(p, h, out) };
+            return;
+        }
+    }
+    p_times_ht_body::<N, M, false>(p, h, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn p_times_ht_avx2<N: DimName, M: DimName>(
+    p: &Cov<N>,
+    h: &OMatrix<f64, M, N>,
+    out: &mut [f64],
+) where
+    DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>,
+{
+    p_times_ht_body::<N, M, true>(p, h, out)
+}
+
+#[inline(always)]
+fn p_times_ht_body<N: DimName, M: DimName, const FMA: bool>(
+    p: &Cov<N>,
+    h: &OMatrix<f64, M, N>,
+    out: &mut [f64],
+) where
+    DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>,
+{
+    let (n, m) = (N::DIM, M::DIM);
+    let (p, hs) = (p.as_slice(), h.as_slice());
+    for i in 0..m {
+        let col = &mut out[i * n..(i + 1) * n];
+        col.fill(0.0);
+        for kk in 0..n {
+            let a = hs[kk * m + i];
+            if a != 0.0 {
+                let pk = &p[kk * n..(kk + 1) * n];
+                for r in 0..n {
+                    col[r] = madd::<FMA>(pk[r], a, col[r]);
+                }
+            }
+        }
+    }
+}
+
+/// Column access to a square column-major matrix, so the structured reset
+/// ([`sparse_sandwich_in_place`]) is written once for every back-end.
+pub trait Entries {
+    /// Entry `(r, c)`.
+    fn at(&self, r: usize, c: usize) -> f64;
+    /// Set entry `(r, c)`.
+    fn put(&mut self, r: usize, c: usize, v: f64);
+    /// Column `c`, contiguous.
+    fn col(&self, c: usize) -> &[f64];
+    /// Column `c`, contiguous and mutable.
+    fn col_mut(&mut self, c: usize) -> &mut [f64];
+}
+
+impl<R: nalgebra::Dim, C: nalgebra::Dim, S> Entries for nalgebra::Matrix<f64, R, C, S>
+where
+    S: nalgebra::RawStorageMut<f64, R, C> + nalgebra::IsContiguous,
+{
+    #[inline(always)]
+    fn at(&self, r: usize, c: usize) -> f64 {
+        self[(r, c)]
+    }
+    #[inline(always)]
+    fn put(&mut self, r: usize, c: usize, v: f64) {
+        self[(r, c)] = v;
+    }
+    #[inline(always)]
+    fn col(&self, c: usize) -> &[f64] {
+        let n = self.nrows();
+        &self.as_slice()[c * n..(c + 1) * n]
+    }
+    #[inline(always)]
+    fn col_mut(&mut self, c: usize) -> &mut [f64] {
+        let n = self.nrows();
+        &mut self.as_mut_slice()[c * n..(c + 1) * n]
+    }
+}
+
+/// Most non-identity entries of `G` the structured reset handles (a rotation block has 9).
+const MAX_TERMS: usize = 48;
+/// Most rows of `G` that differ from the identity for the structured reset.
+const MAX_ROWS: usize = 12;
+
+/// What [`sparse_sandwich_in_place`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sandwich {
+    /// `G` is the identity: nothing to do.
+    Identity,
+    /// `G` differs from the identity in a few rows: done in place.
+    Done,
+    /// `G` is too dense for the structured path: the caller must do the dense product.
+    Dense,
+}
+
+/// `P ← G P Gᵀ` in place for a symmetric `P` when `G` differs from the identity in at
+/// most 12 rows (the set `T`) with at most 48 non-zero entries among them (an
+/// error-state reset touches the rotation blocks only). With `t_i = Σ_k G[i, k] P[:, k]`
+/// for `i ∈ T` (column axpys), the result is `P` outside the rows and columns of `T`,
+/// `t_i` in row and column `i`, and `Σ_k G[i, k] t_j[k]` at `(i, j) ∈ T × T`; it is
+/// exactly symmetric. About `N · nnz` multiply-adds instead of `2N³`. Returns
+/// [`Sandwich::Dense`] (and leaves `P` unchanged) when `G` has more structure than that.
+pub fn sparse_sandwich_in_place<E: Entries, N: DimName>(p: &mut E, g: &Cov<N>) -> Sandwich
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    let n = N::DIM;
+    // The rows of G that are not e_i (found in one pass over the column-major storage),
+    // then their non-zero entries (column, value): row t's are terms[start[t]..start[t + 1]].
+    let gs = g.as_slice();
+    let mut rows = [0usize; MAX_ROWS];
+    let mut nr = 0;
+    for (c, col) in gs.chunks_exact(n).enumerate() {
+        // A branch-free test of the whole column first (it vectorises): most columns of
+        // a reset Jacobian are those of the identity.
+        // (v − δ_rc with its sign bit shifted out is 0 exactly when v = δ_rc.)
+        let off_identity = col
+            .iter()
+            .enumerate()
+            .fold(0u64, |a, (r, &v)| a | ((v - if r == c { 1.0 } else { 0.0 }).to_bits() << 1));
+        if off_identity == 0 {
+            continue;
+        }
+        for (r, &v) in col.iter().enumerate() {
+            if v != if r == c { 1.0 } else { 0.0 } && !rows[..nr].contains(&r) {
+                if nr == MAX_ROWS {
+                    return Sandwich::Dense;
+                }
+                rows[nr] = r;
+                nr += 1;
+            }
+        }
+    }
+    if nr == 0 {
+        return Sandwich::Identity;
+    }
+    rows[..nr].sort_unstable();
+    let mut terms = [(0usize, 0.0f64); MAX_TERMS];
+    let mut start = [0usize; MAX_ROWS + 1];
+    let mut nt = 0;
+    for (t, &i) in rows[..nr].iter().enumerate() {
+        for c in 0..n {
+            let v = gs[c * n + i];
+            if v != 0.0 {
+                if nt == MAX_TERMS {
+                    return Sandwich::Dense;
+                }
+                terms[nt] = (c, v);
+                nt += 1;
+            }
+        }
+        start[t + 1] = nt;
+    }
+    let rows = &rows[..nr];
+    let row_terms = |t: usize| &terms[start[t]..start[t + 1]];
+    // t_i = Σ_k G[i, k] P[:, k]  (row i of G P, as P is symmetric)
+    let mut tv: [nalgebra::OVector<f64, N>; MAX_ROWS] =
+        core::array::from_fn(|_| nalgebra::OVector::<f64, N>::zeros());
+    for (t, ti) in tv.iter_mut().enumerate().take(nr) {
+        let ti = ti.as_mut_slice();
+        for &(k, gk) in row_terms(t) {
+            for (x, &pk) in ti.iter_mut().zip(p.col(k)) {
+                *x += gk * pk;
+            }
+        }
+    }
+    // (G P Gᵀ)[i, j] on T × T = Σ_k G[i, k] t_j[k]
+    let mut w = [[0.0f64; MAX_ROWS]; MAX_ROWS];
+    for (a, wa) in w.iter_mut().enumerate().take(nr) {
+        for (b, wab) in wa.iter_mut().enumerate().take(nr) {
+            *wab = row_terms(a).iter().map(|&(k, gk)| gk * tv[b][k]).sum();
+        }
+    }
+    for (t, &i) in rows.iter().enumerate() {
+        p.col_mut(i).copy_from_slice(tv[t].as_slice());
+        for (r, &v) in tv[t].iter().enumerate() {
+            p.put(i, r, v);
+        }
+    }
+    for (a, &i) in rows.iter().enumerate() {
+        for (b, &j) in rows.iter().enumerate().skip(a) {
+            // one value for both (i, j) and (j, i): exactly symmetric
+            p.put(i, j, w[a][b]);
+            p.put(j, i, w[a][b]);
+        }
+    }
+    Sandwich::Done
+}

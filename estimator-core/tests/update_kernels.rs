@@ -1,0 +1,201 @@
+//! Laws of the structured update kernels, against the textbook dense products:
+//!
+//! - the multiplied-out Joseph form equals `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for *any*
+//!   gain `K` (not only the optimal one), on all three back-ends, and is exactly symmetric;
+//! - the structured reset `G P Gᵀ` (identity rows skipped) equals the dense product, for
+//!   sparse, identity and dense `G`;
+//! - `H P` over the non-zero entries of `H` equals the dense product.
+
+#![allow(non_snake_case)]
+
+use estimator_core::kernels::{right_solve_cholesky, sparse_sandwich_in_place, Sandwich};
+use estimator_core::{CovBackend, DynamicCov, FaerCov, StaticCov, UpdateForm};
+use nalgebra::{Const, SMatrix};
+use proptest::prelude::*;
+
+const N: usize = 15;
+const M: usize = 6;
+
+type MatN = SMatrix<f64, N, N>;
+
+fn spd(a: &MatN, diag: f64) -> MatN {
+    a * a.transpose() * 0.1 + MatN::identity() * diag
+}
+
+fn rel(a: &MatN, b: &MatN) -> f64 {
+    (a - b).abs().max() / b.abs().max()
+}
+
+fn dense_joseph(
+    P: &MatN,
+    K: &SMatrix<f64, N, M>,
+    H: &SMatrix<f64, M, N>,
+    R: &SMatrix<f64, M, M>,
+) -> MatN {
+    let IKH = MatN::identity() - K * H;
+    IKH * P * IKH.transpose() + K * R * K.transpose()
+}
+
+fn update_on<B: CovBackend<Const<N>>>(
+    P: &MatN,
+    K: &SMatrix<f64, N, M>,
+    H: &SMatrix<f64, M, N>,
+    R: &SMatrix<f64, M, M>,
+    form: UpdateForm,
+) -> MatN {
+    let mut backend = B::default();
+    let Pb = B::from_static(P);
+    let HP = backend.h_times_p(H, &Pb);
+    let S = HP * H.transpose() + R;
+    let S = (S + S.transpose()) * 0.5;
+    let mut out = B::from_static(&MatN::zeros());
+    backend.update(&Pb, K, H, &HP, R, &S, form, &mut out);
+    B::as_static(&out).into_owned()
+}
+
+fn matrix<const R: usize, const C: usize>() -> impl Strategy<Value = SMatrix<f64, R, C>> {
+    proptest::collection::vec(-1.0..1.0f64, R * C).prop_map(|v| SMatrix::from_column_slice(&v))
+}
+
+/// A measurement matrix with some zero entries (like a GNSS `H`).
+fn sparse_h() -> impl Strategy<Value = SMatrix<f64, M, N>> {
+    (matrix::<M, N>(), proptest::collection::vec(any::<bool>(), M * N)).prop_map(|(h, keep)| {
+        SMatrix::from_fn(|i, j| if keep[j * M + i] { h[(i, j)] } else { 0.0 })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn joseph_multiplied_out_equals_factored_for_any_gain(
+        a in matrix::<N, N>(),
+        K in matrix::<N, M>(),
+        H in sparse_h(),
+        r in matrix::<M, M>(),
+    ) {
+        let P = spd(&a, 0.5);
+        let R = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let reference = dense_joseph(&P, &K, &H, &R);
+        let outs = [
+            update_on::<StaticCov>(&P, &K, &H, &R, UpdateForm::Joseph),
+            update_on::<DynamicCov>(&P, &K, &H, &R, UpdateForm::Joseph),
+            update_on::<FaerCov>(&P, &K, &H, &R, UpdateForm::Joseph),
+            update_on::<StaticCov>(&P, &K, &H, &R, UpdateForm::JosephFactored),
+            update_on::<DynamicCov>(&P, &K, &H, &R, UpdateForm::JosephFactored),
+            update_on::<FaerCov>(&P, &K, &H, &R, UpdateForm::JosephFactored),
+        ];
+        for (i, out) in outs.iter().enumerate() {
+            prop_assert!(rel(out, &reference) < 1e-12, "variant {i}: {:e}", rel(out, &reference));
+            // exactly symmetric
+            prop_assert_eq!((out - out.transpose()).abs().max(), 0.0, "variant {}", i);
+        }
+    }
+
+    #[test]
+    fn short_form_equals_joseph_for_the_optimal_gain(
+        a in matrix::<N, N>(),
+        H in sparse_h(),
+        r in matrix::<M, M>(),
+    ) {
+        let P = spd(&a, 0.5);
+        let R = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let S = H * P * H.transpose() + R;
+        let K = P * H.transpose() * S.try_inverse().unwrap();
+        let joseph = update_on::<StaticCov>(&P, &K, &H, &R, UpdateForm::Joseph);
+        for out in [
+            update_on::<StaticCov>(&P, &K, &H, &R, UpdateForm::Short),
+            update_on::<DynamicCov>(&P, &K, &H, &R, UpdateForm::Short),
+            update_on::<FaerCov>(&P, &K, &H, &R, UpdateForm::Short),
+        ] {
+            prop_assert!(rel(&out, &joseph) < 1e-10, "{:e}", rel(&out, &joseph));
+        }
+    }
+
+    #[test]
+    fn gain_by_column_substitution_equals_cholesky_solve(u in matrix::<N, M>(), r in matrix::<M, M>()) {
+        let S = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let chol = S.cholesky().unwrap();
+        let reference = chol.solve(&u.transpose()).transpose();
+        let mut K = u;
+        right_solve_cholesky(chol.l_dirty(), &mut K);
+        let scale = reference.abs().max().max(1.0);
+        prop_assert!((K - reference).abs().max() <= 1e-12 * scale);
+        // and K S = U
+        prop_assert!((K * S - u).abs().max() <= 1e-12 * scale * S.abs().max());
+    }
+
+    #[test]
+    fn h_times_p_skipping_zeros_equals_dense(a in matrix::<N, N>(), H in sparse_h()) {
+        let P = spd(&a, 0.5);
+        let dense = H * P;
+        let scale = dense.abs().max().max(1.0);
+        let s = StaticCov.h_times_p(&H, &P);
+        let d = DynamicCov::default().h_times_p(&H, &<DynamicCov as CovBackend<Const<N>>>::from_static(&P));
+        let f = FaerCov::default().h_times_p(&H, &<FaerCov as CovBackend<Const<N>>>::from_static(&P));
+        for (name, x) in [("static", s), ("dynamic", d), ("faer", f)] {
+            prop_assert!((x - dense).abs().max() <= 1e-14 * scale, "{name}");
+        }
+    }
+
+    /// `G` = identity with a random 3×3 block at rows/columns `3b..3b+3` (a rotation
+    /// reset) and optionally a random extra row.
+    #[test]
+    fn structured_reset_equals_dense_sandwich(
+        a in matrix::<N, N>(),
+        blk in matrix::<3, 3>(),
+        b in 0usize..5,
+        extra in proptest::option::of((0usize..N, matrix::<1, N>())),
+    ) {
+        let P = spd(&a, 0.5);
+        let mut G = MatN::identity();
+        G.fixed_view_mut::<3, 3>(3 * b, 3 * b).copy_from(&(SMatrix::<f64, 3, 3>::identity() + blk * 0.1));
+        if let Some((row, v)) = extra {
+            G.set_row(row, &v);
+        }
+        let dense = G * P * G.transpose();
+        for (name, out) in [
+            ("static", {
+                let mut p = P;
+                StaticCov.sandwich_in_place(&mut p, &G);
+                p
+            }),
+            ("dynamic", {
+                let mut p = <DynamicCov as CovBackend<Const<N>>>::from_static(&P);
+                <DynamicCov as CovBackend<Const<N>>>::sandwich_in_place(&mut DynamicCov::default(), &mut p, &G);
+                <DynamicCov as CovBackend<Const<N>>>::as_static(&p).into_owned()
+            }),
+            ("faer", {
+                let mut p = <FaerCov as CovBackend<Const<N>>>::from_static(&P);
+                <FaerCov as CovBackend<Const<N>>>::sandwich_in_place(&mut FaerCov::default(), &mut p, &G);
+                <FaerCov as CovBackend<Const<N>>>::as_static(&p).into_owned()
+            }),
+        ] {
+            prop_assert!(rel(&out, &dense) < 1e-13, "{name}: {:e}", rel(&out, &dense));
+            prop_assert_eq!((out - out.transpose()).abs().max(), 0.0, "{}", name);
+        }
+    }
+}
+
+#[test]
+fn reset_paths_are_chosen_by_structure() {
+    let P = spd(&MatN::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 - 2.0), 1.0);
+    // identity: untouched
+    let mut p = P;
+    assert_eq!(sparse_sandwich_in_place(&mut p, &MatN::identity()), Sandwich::Identity);
+    assert_eq!(p, P);
+    // one rotation block: structured
+    let mut G = MatN::identity();
+    G[(0, 1)] = 0.01;
+    G[(1, 0)] = -0.01;
+    assert_eq!(sparse_sandwich_in_place(&mut p, &G), Sandwich::Done);
+    assert!(rel(&p, &(G * P * G.transpose())) < 1e-14);
+    // every row touched: left to the dense product, P unchanged
+    let dense_G = MatN::identity() + MatN::from_element(1e-3);
+    let mut q = P;
+    assert_eq!(sparse_sandwich_in_place(&mut q, &dense_G), Sandwich::Dense);
+    assert_eq!(q, P);
+    let mut q = P;
+    StaticCov.sandwich_in_place(&mut q, &dense_G);
+    assert!(rel(&q, &(dense_G * P * dense_G.transpose())) < 1e-14);
+}
