@@ -246,6 +246,11 @@ pub trait Dense: Clone + core::fmt::Debug + Entries {
     /// (`DMatrix` allocates for a transposed `b`; the back-end never asks for one).
     #[allow(clippy::too_many_arguments)]
     fn gemm(out: &mut Self, beta: f64, alpha: f64, a: &Self, at: bool, b: &Self, bt: bool);
+    /// `out ← β out + α a b` where only the lower triangle of `out` (diagonal included)
+    /// is needed: the caller mirrors it. Default: the full product.
+    fn gemm_lower(out: &mut Self, beta: f64, alpha: f64, a: &Self, b: &Self) {
+        Self::gemm(out, beta, alpha, a, false, b, false)
+    }
 }
 
 impl Dense for DMatrix<f64> {
@@ -287,8 +292,8 @@ impl Dense for Mat<f64> {
         } else {
             if beta != 1.0 {
                 for c in 0..out.ncols() {
-                    for r in 0..out.nrows() {
-                        out[(r, c)] *= beta;
+                    for v in out.col_as_slice_mut(c) {
+                        *v *= beta;
                     }
                 }
             }
@@ -298,6 +303,34 @@ impl Dense for Mat<f64> {
         let a = if at { a.transpose() } else { a };
         let b = if bt { b.transpose() } else { b };
         faer::linalg::matmul::matmul(out.as_mut(), accum, a, b, alpha, Par::Seq);
+    }
+    /// faer computes the lower triangle only (half the multiply-adds of a square result).
+    fn gemm_lower(out: &mut Self, beta: f64, alpha: f64, a: &Self, b: &Self) {
+        use faer::linalg::matmul::triangular::{matmul, BlockStructure};
+        let accum = if beta == 0.0 {
+            Accum::Replace
+        } else {
+            if beta != 1.0 {
+                for c in 0..out.ncols() {
+                    for v in out.col_as_slice_mut(c) {
+                        *v *= beta;
+                    }
+                }
+            }
+            Accum::Add
+        };
+        let rect = BlockStructure::Rectangular;
+        matmul(
+            out.as_mut(),
+            BlockStructure::TriangularLower,
+            accum,
+            a.as_ref(),
+            rect,
+            b.as_ref(),
+            rect,
+            alpha,
+            Par::Seq,
+        );
     }
 }
 
@@ -340,11 +373,11 @@ fn copy_dense<D: Dense>(from: &D, to: &mut D) {
     }
 }
 
-/// Make `m` exactly symmetric by copying its upper triangle onto the lower one.
-fn mirror_upper<D: Dense>(m: &mut D) {
+/// Make `m` exactly symmetric by copying its lower triangle onto the upper one.
+fn mirror_lower<D: Dense>(m: &mut D) {
     for c in 0..m.cols() {
         for r in (c + 1)..m.rows() {
-            m.put(r, c, m.at(c, r));
+            m.put(c, r, m.at(r, c));
         }
     }
 }
@@ -425,8 +458,8 @@ where
         // tmp = Φ P; out = λ tmp Φᵀ + Q (Φᵀ copied, so no product allocates)
         D::gemm(&mut self.tmp, 0.0, 1.0, &self.phi, false, P, false);
         to_dense(Q, out);
-        D::gemm(out, 1.0, lambda, &self.tmp, false, &self.tmp2, false);
-        symmetrize_dense(out);
+        D::gemm_lower(out, 1.0, lambda, &self.tmp, &self.tmp2);
+        mirror_lower(out);
     }
 
     fn h_times_p<M: DimName>(&mut self, H: &OMatrix<f64, M, N>, P: &D) -> OMatrix<f64, M, N>
@@ -492,8 +525,8 @@ where
                     }
                 }
                 copy_dense(P, out);
-                D::gemm(out, 1.0, 1.0, &self.wide, false, &self.tall, false);
-                mirror_upper(out);
+                D::gemm_lower(out, 1.0, 1.0, &self.wide, &self.tall);
+                mirror_lower(out);
             }
             UpdateForm::JosephFactored => {
                 // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, with I − K H and its transpose
