@@ -157,9 +157,12 @@ where
     }
 
     fn propagate(&mut self, P: &Cov<N>, Phi: &Cov<N>, Q: &Cov<N>, lambda: f64, out: &mut Cov<N>) {
-        // P⁻ = λ Φ P Φᵀ + Q_d
-        *out = Phi * P * Phi.transpose() * lambda + Q;
-        symmetrize(out);
+        // P⁻ = λ Φ P Φᵀ + Q_d = Φ (λ P) Φᵀ + Q_d
+        if lambda == 1.0 {
+            kernels::dense_sandwich(Phi, P, Q, out);
+        } else {
+            kernels::dense_sandwich(Phi, &(P * lambda), Q, out);
+        }
     }
 
     fn h_times_p<M: DimName>(&mut self, H: &OMatrix<f64, M, N>, P: &Cov<N>) -> OMatrix<f64, M, N>

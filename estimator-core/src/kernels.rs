@@ -130,6 +130,116 @@ fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
     }
 }
 
+/// `out ← Φ P Φᵀ + Q` for square `N × N` matrices with symmetric `P` and `Q`, exactly
+/// symmetric: `A = Φ P` by column axpys, then the lower triangle of `A Φᵀ + Q` and its
+/// mirror. `N³ + N²(N+1)/2` multiply-adds, vectorised along the columns. The default
+/// [`ProcessModel::propagate_covariance`](crate::ProcessModel::propagate_covariance).
+pub fn dense_sandwich<N: DimName>(phi: &Cov<N>, p: &Cov<N>, q: &Cov<N>, out: &mut Cov<N>)
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        if has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above).
+            unsafe { dense_sandwich_avx2::<N>(phi, p, q, out) };
+            return;
+        }
+    }
+    dense_sandwich_body::<N, false>(phi, p, q, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn dense_sandwich_avx2<N: DimName>(phi: &Cov<N>, p: &Cov<N>, q: &Cov<N>, out: &mut Cov<N>)
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    dense_sandwich_body::<N, true>(phi, p, q, out)
+}
+
+#[inline(always)]
+fn dense_sandwich_body<N: DimName, const FMA: bool>(
+    phi: &Cov<N>,
+    p: &Cov<N>,
+    q: &Cov<N>,
+    out: &mut Cov<N>,
+) where
+    DefaultAllocator: DimAlloc<N>,
+{
+    let n = N::DIM;
+    let mut a = Cov::<N>::zeros();
+    let (f, ps) = (phi.as_slice(), p.as_slice());
+    // A[:, j] = Σ_k Φ[:, k] P[k, j]
+    for (j, acol) in a.as_mut_slice().chunks_exact_mut(n).enumerate() {
+        lincomb::<FMA>(f, n, &ps[j * n..], 1, 0, None, acol);
+    }
+    // out[j.., j] = Q[j.., j] + Σ_k A[j.., k] Φ[j, k]
+    let (a, qs, o) = (a.as_slice(), q.as_slice(), out.as_mut_slice());
+    for j in 0..n {
+        let init = &qs[j * n + j..(j + 1) * n];
+        lincomb::<FMA>(a, n, &f[j..], n, j, Some(init), &mut o[j * n + j..(j + 1) * n]);
+    }
+    for c in 0..n {
+        for r in (c + 1)..n {
+            o[r * n + c] = o[c * n + r];
+        }
+    }
+}
+
+/// `out[r − lo] = init[r − lo] + Σ_k m[k n + r] · coef[k · stride]` for `r ∈ lo..n`
+/// (a combination of the columns of the column-major `n × n` matrix `m`, rows `lo..`),
+/// accumulated eight and four rows at a time in registers: accumulating in memory
+/// instead chains every multiply-add through a store and a reload.
+#[inline(always)]
+fn lincomb<const FMA: bool>(
+    m: &[f64],
+    n: usize,
+    coef: &[f64],
+    stride: usize,
+    lo: usize,
+    init: Option<&[f64]>,
+    out: &mut [f64],
+) {
+    let start = |r: usize| init.map_or(0.0, |i| i[r - lo]);
+    let mut r0 = lo;
+    while r0 + 8 <= n {
+        let mut acc = [0.0f64; 8];
+        for (t, x) in acc.iter_mut().enumerate() {
+            *x = start(r0 + t);
+        }
+        for k in 0..n {
+            let (c, col) = (coef[k * stride], &m[k * n + r0..k * n + r0 + 8]);
+            for t in 0..8 {
+                acc[t] = madd::<FMA>(col[t], c, acc[t]);
+            }
+        }
+        out[r0 - lo..r0 - lo + 8].copy_from_slice(&acc);
+        r0 += 8;
+    }
+    while r0 + 4 <= n {
+        let mut acc = [0.0f64; 4];
+        for (t, x) in acc.iter_mut().enumerate() {
+            *x = start(r0 + t);
+        }
+        for k in 0..n {
+            let (c, col) = (coef[k * stride], &m[k * n + r0..k * n + r0 + 4]);
+            for t in 0..4 {
+                acc[t] = madd::<FMA>(col[t], c, acc[t]);
+            }
+        }
+        out[r0 - lo..r0 - lo + 4].copy_from_slice(&acc);
+        r0 += 4;
+    }
+    for r in r0..n {
+        let mut x = start(r);
+        for k in 0..n {
+            x = madd::<FMA>(m[k * n + r], coef[k * stride], x);
+        }
+        out[r - lo] = x;
+    }
+}
+
 /// `K ← K S⁻¹` in place for `S = L Lᵀ` (`L` the lower-triangular Cholesky factor; its
 /// upper triangle is not read): the gain `K = P Hᵀ S⁻¹` from `U = P Hᵀ` by a forward
 /// and a back substitution over whole columns, `N M²` multiply-adds.

@@ -4,11 +4,14 @@
 //!   gain `K` (not only the optimal one), on all three back-ends, and is exactly symmetric;
 //! - the structured reset `G P Gᵀ` (identity rows skipped) equals the dense product, for
 //!   sparse, identity and dense `G`;
-//! - `H P` over the non-zero entries of `H` equals the dense product.
+//! - `H P` over the non-zero entries of `H` equals the dense product;
+//! - the dense `Φ P Φᵀ + Q` kernel equals nalgebra's products.
 
 #![allow(non_snake_case)]
 
-use estimator_core::kernels::{right_solve_cholesky, sparse_sandwich_in_place, Sandwich};
+use estimator_core::kernels::{
+    dense_sandwich, right_solve_cholesky, sparse_sandwich_in_place, Sandwich,
+};
 use estimator_core::{CovBackend, DynamicCov, FaerCov, StaticCov, UpdateForm};
 use nalgebra::{Const, SMatrix};
 use proptest::prelude::*;
@@ -123,6 +126,17 @@ proptest! {
         prop_assert!((K - reference).abs().max() <= 1e-12 * scale);
         // and K S = U
         prop_assert!((K * S - u).abs().max() <= 1e-12 * scale * S.abs().max());
+    }
+
+    #[test]
+    fn dense_sandwich_kernel_equals_nalgebra(f in matrix::<N, N>(), a in matrix::<N, N>(), b in matrix::<N, N>()) {
+        let (P, Q) = (spd(&a, 0.5), spd(&b, 0.1));
+        let reference = f * P * f.transpose() + Q;
+        let mut out = MatN::zeros();
+        dense_sandwich(&f, &P, &Q, &mut out);
+        prop_assert!(rel(&out, &reference) < 1e-13, "{:e}", rel(&out, &reference));
+        // exact symmetry is the kernel's contract (lower triangle mirrored)
+        prop_assert_eq!((out - out.transpose()).abs().max(), 0.0);
     }
 
     #[test]
