@@ -91,41 +91,26 @@ fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
     DefaultAllocator: FilterAlloc<N, M>,
 {
     let (n, m) = (N::DIM, M::DIM);
-    // V = K S/2 − U, column by column
-    let mut v = u.clone_owned();
-    {
-        let (ks, ss, vs) = (k.as_slice(), s.as_slice(), v.as_mut_slice());
-        for j in 0..m {
-            let vj = &mut vs[j * n..(j + 1) * n];
-            for x in vj.iter_mut() {
-                *x = -*x;
-            }
-            for i in 0..m {
-                let a = 0.5 * ss[j * m + i];
-                let ki = &ks[i * n..(i + 1) * n];
-                for r in 0..n {
-                    vj[r] = madd::<FMA>(ki[r], a, vj[r]);
-                }
-            }
-        }
+    // V = K (S/2) − U, column by column
+    let half_s = s * 0.5;
+    let minus_u = -u;
+    let mut v = OMatrix::<f64, N, M>::zeros();
+    let (ks, hs, mu) = (k.as_slice(), half_s.as_slice(), minus_u.as_slice());
+    for (j, vcol) in v.as_mut_slice().chunks_exact_mut(n).enumerate() {
+        lincomb::<FMA>(ks, n, m, &hs[j * m..], 1, 0, Some(&mu[j * n..(j + 1) * n]), vcol);
     }
-    let (k, v) = (k.as_slice(), v.as_slice());
-    let (p, o) = (p.as_slice(), out.as_mut_slice());
-    // The upper triangle, column by column (rows 0..=c), then mirrored.
+    // Lower triangle of P + K Vᵀ + V Kᵀ, column c from row c: two combinations of M
+    // columns each, then mirrored.
+    let (vs, ps, o) = (v.as_slice(), p.as_slice(), out.as_mut_slice());
+    let mut tmp = nalgebra::OVector::<f64, N>::zeros();
     for c in 0..n {
-        let col = &mut o[c * n..c * n + c + 1];
-        col.copy_from_slice(&p[c * n..c * n + c + 1]);
-        for j in 0..m {
-            let (kj, vj) = (&k[j * n..j * n + c + 1], &v[j * n..j * n + c + 1]);
-            let (kc, vc) = (kj[c], vj[c]);
-            for r in 0..=c {
-                col[r] = madd::<FMA>(kj[r], vc, madd::<FMA>(vj[r], kc, col[r]));
-            }
-        }
+        let t = &mut tmp.as_mut_slice()[c..];
+        lincomb::<FMA>(ks, n, m, &vs[c..], n, c, Some(&ps[c * n + c..(c + 1) * n]), t);
+        lincomb::<FMA>(vs, n, m, &ks[c..], n, c, Some(t), &mut o[c * n + c..(c + 1) * n]);
     }
     for c in 0..n {
         for r in (c + 1)..n {
-            o[c * n + r] = o[r * n + c];
+            o[r * n + c] = o[c * n + r];
         }
     }
 }
@@ -172,13 +157,13 @@ fn dense_sandwich_body<N: DimName, const FMA: bool>(
     let (f, ps) = (phi.as_slice(), p.as_slice());
     // A[:, j] = Σ_k Φ[:, k] P[k, j]
     for (j, acol) in a.as_mut_slice().chunks_exact_mut(n).enumerate() {
-        lincomb::<FMA>(f, n, &ps[j * n..], 1, 0, None, acol);
+        lincomb::<FMA>(f, n, n, &ps[j * n..], 1, 0, None, acol);
     }
     // out[j.., j] = Q[j.., j] + Σ_k A[j.., k] Φ[j, k]
     let (a, qs, o) = (a.as_slice(), q.as_slice(), out.as_mut_slice());
     for j in 0..n {
         let init = &qs[j * n + j..(j + 1) * n];
-        lincomb::<FMA>(a, n, &f[j..], n, j, Some(init), &mut o[j * n + j..(j + 1) * n]);
+        lincomb::<FMA>(a, n, n, &f[j..], n, j, Some(init), &mut o[j * n + j..(j + 1) * n]);
     }
     for c in 0..n {
         for r in (c + 1)..n {
@@ -187,14 +172,17 @@ fn dense_sandwich_body<N: DimName, const FMA: bool>(
     }
 }
 
-/// `out[r − lo] = init[r − lo] + Σ_k m[k n + r] · coef[k · stride]` for `r ∈ lo..n`
-/// (a combination of the columns of the column-major `n × n` matrix `m`, rows `lo..`),
+/// `out[r − lo] = init[r − lo] + Σ_k m[k n + r] · coef[k · stride]` for `r ∈ lo..n`,
+/// `k < kcols` (a combination of the columns of the column-major `n × kcols` matrix `m`,
+/// rows `lo..`),
 /// accumulated eight and four rows at a time in registers: accumulating in memory
 /// instead chains every multiply-add through a store and a reload.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn lincomb<const FMA: bool>(
     m: &[f64],
     n: usize,
+    kcols: usize,
     coef: &[f64],
     stride: usize,
     lo: usize,
@@ -208,7 +196,7 @@ fn lincomb<const FMA: bool>(
         for (t, x) in acc.iter_mut().enumerate() {
             *x = start(r0 + t);
         }
-        for k in 0..n {
+        for k in 0..kcols {
             let (c, col) = (coef[k * stride], &m[k * n + r0..k * n + r0 + 8]);
             for t in 0..8 {
                 acc[t] = madd::<FMA>(col[t], c, acc[t]);
@@ -222,7 +210,7 @@ fn lincomb<const FMA: bool>(
         for (t, x) in acc.iter_mut().enumerate() {
             *x = start(r0 + t);
         }
-        for k in 0..n {
+        for k in 0..kcols {
             let (c, col) = (coef[k * stride], &m[k * n + r0..k * n + r0 + 4]);
             for t in 0..4 {
                 acc[t] = madd::<FMA>(col[t], c, acc[t]);
@@ -233,7 +221,7 @@ fn lincomb<const FMA: bool>(
     }
     for r in r0..n {
         let mut x = start(r);
-        for k in 0..n {
+        for k in 0..kcols {
             x = madd::<FMA>(m[k * n + r], coef[k * stride], x);
         }
         out[r - lo] = x;
