@@ -5,9 +5,11 @@
 //!
 //! | back-end | `P` | products | best for |
 //! |---|---|---|---|
-//! | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | nalgebra static, or the model's structured propagation | small states (INS: 15) |
-//! | [`DynamicCov`] | `DMatrix<f64>` | nalgebra dynamic (matrixmultiply) | medium states, sizes known at run time |
-//! | [`FaerCov`] | `faer::Mat<f64>` | faer (single-threaded) | large states |
+//! | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | [`crate::kernels`] (AVX2/FMA when available), or the model's structured propagation | up to ~30 states; the update at any size |
+//! | [`DynamicCov`] | `DMatrix<f64>` | nalgebra dynamic (matrixmultiply) | sizes known only at run time |
+//! | [`FaerCov`] | `faer::Mat<f64>` | faer (single-threaded; lower triangles of symmetric products) | large states (predict from ~60) |
+//!
+//! (`benches/README.md` has the measured table.)
 //!
 //! Every operation writes into a caller-provided output so the filter stays unchanged
 //! when a step fails. The dynamic back-ends allocate their scratch buffers once, on first
