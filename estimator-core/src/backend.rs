@@ -36,13 +36,15 @@ use crate::traits::{Cov, FilterAlloc};
 pub enum UpdateForm {
     /// The Joseph form multiplied out, `P + V Kᵀ + K Vᵀ` with `V = K S/2 − P Hᵀ` and
     /// `S = H P Hᵀ + R`: `(I−KH) P (I−KH)ᵀ + K R Kᵀ` for any gain, exactly symmetric,
-    /// `2N²M` multiply-adds instead of `2N³` (default). Its rounding errors scale with
-    /// `‖P‖`; when `R` is many orders of magnitude below `H P Hᵀ` prefer
-    /// [`JosephFactored`](Self::JosephFactored).
+    /// about `N²M` multiply-adds instead of `2N³` (default). Against
+    /// [`JosephFactored`](Self::JosephFactored) with measurements up to 1e12 times more
+    /// precise than the prior: the same `P` to 6e-15 relative, both positive definite
+    /// (`estimator-core/tests/update_kernels.rs`).
     #[default]
     Joseph,
     /// The textbook product `(I−KH) P (I−KH)ᵀ + K R Kᵀ` (Bar-Shalom et al. 2001,
-    /// eq. 5.2.3-18): a sum of two positive semi-definite products, `O(N³)`.
+    /// eq. 5.2.3-18): a sum of two positive semi-definite products, `O(N³)`; the
+    /// reference the default is tested against.
     JosephFactored,
     /// `P − K H P` (symmetrised): cheapest, exact only for the optimal gain.
     Short,
