@@ -503,3 +503,48 @@ where
     }
     Sandwich::Done
 }
+
+/// The same kernels without the AVX2/FMA path — what CPUs without those instructions
+/// run — so tests can compare both paths on any machine.
+pub mod portable {
+    use super::*;
+
+    /// [`super::joseph_update`] without FMA.
+    pub fn joseph_update<N: DimName, M: DimName>(
+        p: &Cov<N>,
+        k: &OMatrix<f64, N, M>,
+        s: &OMatrix<f64, M, M>,
+        u: &OMatrix<f64, N, M>,
+        out: &mut Cov<N>,
+    ) where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        joseph_update_body::<N, M, false>(p, k, s, u, out)
+    }
+
+    /// [`super::dense_sandwich`] without FMA.
+    pub fn dense_sandwich<N: DimName>(phi: &Cov<N>, p: &Cov<N>, q: &Cov<N>, out: &mut Cov<N>)
+    where
+        DefaultAllocator: DimAlloc<N>,
+    {
+        dense_sandwich_body::<N, false>(phi, p, q, out)
+    }
+
+    /// [`super::right_solve_cholesky`] without FMA.
+    pub fn right_solve_cholesky<N: DimName, M: DimName>(
+        l: &OMatrix<f64, M, M>,
+        k: &mut OMatrix<f64, N, M>,
+    ) where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        right_solve_body::<N, M, false>(l, k)
+    }
+
+    /// [`super::p_times_ht`] without FMA.
+    pub fn p_times_ht<N: DimName, M: DimName>(p: &Cov<N>, h: &OMatrix<f64, M, N>, out: &mut [f64])
+    where
+        DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>,
+    {
+        p_times_ht_body::<N, M, false>(p, h, out)
+    }
+}

@@ -139,6 +139,38 @@ proptest! {
         prop_assert_eq!((out - out.transpose()).abs().max(), 0.0);
     }
 
+    /// The dispatched kernels (AVX2/FMA on this machine when the CPU has them) and the
+    /// portable ones agree to rounding.
+    #[test]
+    fn fma_and_portable_paths_agree(
+        a in matrix::<N, N>(),
+        f in matrix::<N, N>(),
+        K in matrix::<N, M>(),
+        H in sparse_h(),
+        r in matrix::<M, M>(),
+    ) {
+        use estimator_core::kernels::{self, portable};
+        let P = spd(&a, 0.5);
+        let S = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let U = P * H.transpose();
+        let (mut x, mut y) = (MatN::zeros(), MatN::zeros());
+        kernels::joseph_update(&P, &K, &S, &U, &mut x);
+        portable::joseph_update(&P, &K, &S, &U, &mut y);
+        prop_assert!(rel(&x, &y) < 1e-13, "joseph {:e}", rel(&x, &y));
+        kernels::dense_sandwich(&f, &P, &P, &mut x);
+        portable::dense_sandwich(&f, &P, &P, &mut y);
+        prop_assert!(rel(&x, &y) < 1e-13, "sandwich {:e}", rel(&x, &y));
+        let l = S.cholesky().unwrap().l();
+        let (mut k1, mut k2) = (U, U);
+        kernels::right_solve_cholesky(&l, &mut k1);
+        portable::right_solve_cholesky(&l, &mut k2);
+        prop_assert!((k1 - k2).abs().max() <= 1e-13 * k2.abs().max());
+        let (mut u1, mut u2) = (SMatrix::<f64, N, M>::zeros(), SMatrix::<f64, N, M>::zeros());
+        kernels::p_times_ht(&P, &H, u1.as_mut_slice());
+        portable::p_times_ht(&P, &H, u2.as_mut_slice());
+        prop_assert!((u1 - u2).abs().max() <= 1e-13 * u2.abs().max().max(1.0));
+    }
+
     #[test]
     fn h_times_p_skipping_zeros_equals_dense(a in matrix::<N, N>(), H in sparse_h()) {
         let P = spd(&a, 0.5);
