@@ -45,6 +45,20 @@ pub enum ResetMode {
     Identity,
 }
 
+/// A user-supplied covariance, checked (finite, symmetric within the tolerance, positive
+/// definite) and stored exactly symmetric: the products assume `P = Pᵀ`.
+fn checked_symmetric<N: nalgebra::DimName>(
+    what: &'static str,
+    mut P: Cov<N>,
+) -> Result<Cov<N>, FilterError>
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    check_covariance(what, &P)?;
+    symmetrize(&mut P);
+    Ok(P)
+}
+
 /// An error-state Kalman filter on the manifold state `X` with noise strategy `A` and
 /// covariance back-end `B` (default: stack-allocated nalgebra, see [`crate::backend`]).
 ///
@@ -124,11 +138,7 @@ where
         if !x0.is_finite() {
             return Err(FilterError::NonFinite { what: "initial state x0" });
         }
-        check_covariance("initial covariance P0", &P0)?;
-        // Stored exactly symmetric (the check allows a relative 1e-9 asymmetry).
-        let mut P0 = P0;
-        symmetrize(&mut P0);
-        let P = B::from_static(&P0);
+        let P = B::from_static(&checked_symmetric("initial covariance P0", P0)?);
         Ok(Self {
             x: x0,
             bufs: [P.clone(), P.clone(), P],
@@ -228,10 +238,7 @@ where
 
     /// Replace the covariance (checked like `P0`).
     pub fn set_covariance(&mut self, P: Cov<X::Dim>) -> Result<(), FilterError> {
-        check_covariance("covariance P", &P)?;
-        let mut P = P;
-        symmetrize(&mut P);
-        self.bufs[self.cur] = B::from_static(&P);
+        self.bufs[self.cur] = B::from_static(&checked_symmetric("covariance P", P)?);
         Ok(())
     }
 
@@ -334,8 +341,8 @@ where
         check_finite("measurement Jacobian H", &H)?;
 
         // S = H P⁻ Hᵀ + R
-        let HP = self.backend.h_times_p(&H, &self.bufs[self.cur]);
-        let HPHt = &HP * H.transpose();
+        let PHt = self.backend.p_times_ht(&H, &self.bufs[self.cur]);
+        let HPHt = &H * &PHt;
         let mut S = &HPHt + R;
         symmetrize(&mut S);
         let chol_S = cholesky("innovation covariance S = H P Hᵀ + R", S.clone())?;
@@ -421,6 +428,7 @@ where
         let scaled = if prior_scale == 1.0 {
             false
         } else {
+            let HP = PHt.transpose();
             let subspace = match prior_scaling {
                 PriorScaling::MeasurementSubspace => HPHt.clone().cholesky().map(|c| c.solve(&HP)),
                 PriorScaling::Full => None,
@@ -431,15 +439,16 @@ where
             }
             true
         };
-        let HP_used = HP * prior_scale;
+        // P⁻* Hᵀ = λ_P P⁻ Hᵀ (both scalings)
+        let PHt_used = if prior_scale == 1.0 { PHt } else { PHt * prior_scale };
         // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
-        let mut K = HP_used.transpose();
+        let mut K = PHt_used.clone();
         kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
         let dx = &K * &r;
 
         let prior: &B::Cov = if scaled { aux } else { P };
         // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
-        backend.update(prior, &K, &H, &HP_used, &R_used, &S_used, form, next);
+        backend.update(prior, &K, &H, &PHt_used, &R_used, &S_used, form, next);
         let x_new = self.x.oplus(&dx);
         if self.reset == ResetMode::Exact {
             // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx

@@ -27,6 +27,53 @@ pub fn has_avx2_fma() -> bool {
     }
 }
 
+/// Defines a kernel from an `#[inline(always)]` body generic over a trailing
+/// `const FMA: bool`: the public function runs the body compiled inside an AVX2+FMA
+/// `#[target_feature]` wrapper when the CPU has those instructions (checked once and
+/// cached, see [`has_avx2_fma`]), and the body with `FMA = false` otherwise; a second
+/// public function runs the latter always (what CPUs without those instructions run), so
+/// tests can compare both paths on any machine.
+///
+/// ```ignore
+/// fma_kernel! {
+///     /// docs
+///     pub fn name<N: DimName>(a: &T, out: &mut U) = name_body / name_avx2 / name_portable
+///     where DefaultAllocator: DimAlloc<N>
+/// }
+/// ```
+#[macro_export]
+macro_rules! fma_kernel {
+    (
+        $(#[$meta:meta])*
+        $vis:vis fn $name:ident $(<$($g:ident : $b:path),*>)? ($($a:ident : $t:ty),* $(,)?)
+            $(-> $r:ty)? = $body:ident / $fast:ident / $portable:ident
+        $(where $($w:tt)*)?
+    ) => {
+        $(#[$meta])*
+        $vis fn $name $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)? $(where $($w)*)? {
+            #[cfg(target_arch = "x86_64")]
+            {
+                if $crate::kernels::has_avx2_fma() {
+                    // SAFETY: the CPU has AVX2 and FMA (checked just above).
+                    return unsafe { $fast $(::<$($g),*>)? ($($a),*) };
+                }
+            }
+            $body::<$($($g,)*)? false>($($a),*)
+        }
+
+        #[doc = concat!("[`", stringify!($name), "`] without the AVX2/FMA path.")]
+        $vis fn $portable $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)? $(where $($w)*)? {
+            $body::<$($($g,)*)? false>($($a),*)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn $fast $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)? $(where $($w)*)? {
+            $body::<$($($g,)*)? true>($($a),*)
+        }
+    };
+}
+
 /// `a·x + acc`, fused when `FMA`.
 #[inline(always)]
 pub fn madd<const FMA: bool>(x: f64, a: f64, acc: f64) -> f64 {
@@ -37,48 +84,25 @@ pub fn madd<const FMA: bool>(x: f64, a: f64, acc: f64) -> f64 {
     }
 }
 
-/// The Joseph update multiplied out: `out ← P + V Kᵀ + K Vᵀ` with `V = K S/2 − U`,
-/// for a symmetric `N × N` `P`, the gain `K` and `U = P Hᵀ` (`N × M`) and a symmetric
-/// `S` (`M × M`); the result is made exactly symmetric by mirroring the upper triangle.
-/// `N M² + N(N+1)M` multiply-adds.
-///
-/// With `S = H P Hᵀ + R` this is `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for any `K` (see
-/// [`crate::UpdateForm::Joseph`]).
-pub fn joseph_update<N: DimName, M: DimName>(
-    p: &Cov<N>,
-    k: &OMatrix<f64, N, M>,
-    s: &OMatrix<f64, M, M>,
-    u: &OMatrix<f64, N, M>,
-    out: &mut Cov<N>,
-) where
-    DefaultAllocator: FilterAlloc<N, M>,
-{
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above).
-            unsafe { joseph_update_avx2::<N, M>(p, k, s, u, out) };
-            return;
-        }
-    }
-    joseph_update_body::<N, M, false>(p, k, s, u, out)
+fma_kernel! {
+    /// The Joseph update multiplied out: `out ← P + V Kᵀ + K Vᵀ` with `V = K S/2 − U`,
+    /// for a symmetric `N × N` `P`, the gain `K` and `U = P Hᵀ` (`N × M`) and a symmetric
+    /// `S` (`M × M`); the result is made exactly symmetric by mirroring the lower triangle.
+    /// `N M² + N(N+1)M` multiply-adds.
+    ///
+    /// With `S = H P Hᵀ + R` this is `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for any `K` (see
+    /// [`crate::UpdateForm::Joseph`]).
+    pub fn joseph_update<N: DimName, M: DimName>(
+        p: &Cov<N>,
+        k: &OMatrix<f64, N, M>,
+        s: &OMatrix<f64, M, M>,
+        u: &OMatrix<f64, N, M>,
+        out: &mut Cov<N>,
+    ) = joseph_update_body / joseph_update_avx2 / joseph_update_portable
+    where DefaultAllocator: FilterAlloc<N, M>
 }
 
 type Cov<N> = OMatrix<f64, N, N>;
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn joseph_update_avx2<N: DimName, M: DimName>(
-    p: &Cov<N>,
-    k: &OMatrix<f64, N, M>,
-    s: &OMatrix<f64, M, M>,
-    u: &OMatrix<f64, N, M>,
-    out: &mut Cov<N>,
-) where
-    DefaultAllocator: FilterAlloc<N, M>,
-{
-    joseph_update_body::<N, M, true>(p, k, s, u, out)
-}
 
 #[inline(always)]
 fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
@@ -108,39 +132,21 @@ fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
         lincomb::<FMA>(ks, n, m, &vs[c..], n, c, Some(&ps[c * n + c..(c + 1) * n]), t);
         lincomb::<FMA>(vs, n, m, &ks[c..], n, c, Some(t), &mut o[c * n + c..(c + 1) * n]);
     }
-    for c in 0..n {
-        for r in (c + 1)..n {
-            o[r * n + c] = o[c * n + r];
-        }
-    }
+    mirror_lower(o, n);
 }
 
-/// `out ← Φ P Φᵀ + Q` for square `N × N` matrices with symmetric `P` and `Q`, exactly
-/// symmetric: `A = Φ P` by column axpys, then the lower triangle of `A Φᵀ + Q` and its
-/// mirror. `N³ + N²(N+1)/2` multiply-adds, vectorised along the columns. The default
-/// [`ProcessModel::propagate_covariance`](crate::ProcessModel::propagate_covariance).
-pub fn dense_sandwich<N: DimName>(phi: &Cov<N>, p: &Cov<N>, q: &Cov<N>, out: &mut Cov<N>)
-where
-    DefaultAllocator: DimAlloc<N>,
-{
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above).
-            unsafe { dense_sandwich_avx2::<N>(phi, p, q, out) };
-            return;
-        }
-    }
-    dense_sandwich_body::<N, false>(phi, p, q, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn dense_sandwich_avx2<N: DimName>(phi: &Cov<N>, p: &Cov<N>, q: &Cov<N>, out: &mut Cov<N>)
-where
-    DefaultAllocator: DimAlloc<N>,
-{
-    dense_sandwich_body::<N, true>(phi, p, q, out)
+fma_kernel! {
+    /// `out ← Φ P Φᵀ + Q` for square `N × N` matrices with symmetric `P` and `Q`, exactly
+    /// symmetric: `A = Φ P` by column axpys, then the lower triangle of `A Φᵀ + Q` and its
+    /// mirror. `N³ + N²(N+1)/2` multiply-adds, vectorised along the columns. The default
+    /// [`ProcessModel::propagate_covariance`](crate::ProcessModel::propagate_covariance).
+    pub fn dense_sandwich<N: DimName>(
+        phi: &Cov<N>,
+        p: &Cov<N>,
+        q: &Cov<N>,
+        out: &mut Cov<N>,
+    ) = dense_sandwich_body / dense_sandwich_avx2 / dense_sandwich_portable
+    where DefaultAllocator: DimAlloc<N>
 }
 
 #[inline(always)]
@@ -165,11 +171,7 @@ fn dense_sandwich_body<N: DimName, const FMA: bool>(
         let init = &qs[j * n + j..(j + 1) * n];
         lincomb::<FMA>(a, n, n, &f[j..], n, j, Some(init), &mut o[j * n + j..(j + 1) * n]);
     }
-    for c in 0..n {
-        for r in (c + 1)..n {
-            o[r * n + c] = o[c * n + r];
-        }
-    }
+    mirror_lower(o, n);
 }
 
 /// `out[r − lo] = init[r − lo] + Σ_k m[k n + r] · coef[k · stride]` for `r ∈ lo..n`,
@@ -189,74 +191,70 @@ fn lincomb<const FMA: bool>(
     init: Option<&[f64]>,
     out: &mut [f64],
 ) {
-    let start = |r: usize| init.map_or(0.0, |i| i[r - lo]);
+    let c = Combination { m, n, kcols, coef, stride, lo, init };
     let mut r0 = lo;
     while r0 + 8 <= n {
-        let mut acc = [0.0f64; 8];
-        for (t, x) in acc.iter_mut().enumerate() {
-            *x = start(r0 + t);
-        }
-        for k in 0..kcols {
-            let (c, col) = (coef[k * stride], &m[k * n + r0..k * n + r0 + 8]);
-            for t in 0..8 {
-                acc[t] = madd::<FMA>(col[t], c, acc[t]);
-            }
-        }
-        out[r0 - lo..r0 - lo + 8].copy_from_slice(&acc);
+        c.rows::<8, FMA>(r0, out);
         r0 += 8;
     }
     while r0 + 4 <= n {
-        let mut acc = [0.0f64; 4];
-        for (t, x) in acc.iter_mut().enumerate() {
-            *x = start(r0 + t);
-        }
-        for k in 0..kcols {
-            let (c, col) = (coef[k * stride], &m[k * n + r0..k * n + r0 + 4]);
-            for t in 0..4 {
-                acc[t] = madd::<FMA>(col[t], c, acc[t]);
-            }
-        }
-        out[r0 - lo..r0 - lo + 4].copy_from_slice(&acc);
+        c.rows::<4, FMA>(r0, out);
         r0 += 4;
     }
     for r in r0..n {
-        let mut x = start(r);
-        for k in 0..kcols {
-            x = madd::<FMA>(m[k * n + r], coef[k * stride], x);
-        }
-        out[r - lo] = x;
+        c.rows::<1, FMA>(r, out);
     }
 }
 
-/// `K ← K S⁻¹` in place for `S = L Lᵀ` (`L` the lower-triangular Cholesky factor; its
-/// upper triangle is not read): the gain `K = P Hᵀ S⁻¹` from `U = P Hᵀ` by a forward
-/// and a back substitution over whole columns, `N M²` multiply-adds.
-pub fn right_solve_cholesky<N: DimName, M: DimName>(
-    l: &OMatrix<f64, M, M>,
-    k: &mut OMatrix<f64, N, M>,
-) where
-    DefaultAllocator: FilterAlloc<N, M>,
-{
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above).
-            unsafe { right_solve_avx2::<N, M>(l, k) };
-            return;
-        }
-    }
-    right_solve_body::<N, M, false>(l, k)
+/// The arguments of one [`lincomb`].
+struct Combination<'a> {
+    m: &'a [f64],
+    n: usize,
+    kcols: usize,
+    coef: &'a [f64],
+    stride: usize,
+    lo: usize,
+    init: Option<&'a [f64]>,
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn right_solve_avx2<N: DimName, M: DimName>(
-    l: &OMatrix<f64, M, M>,
-    k: &mut OMatrix<f64, N, M>,
-) where
-    DefaultAllocator: FilterAlloc<N, M>,
-{
-    right_solve_body::<N, M, true>(l, k)
+impl Combination<'_> {
+    /// Rows `r0..r0 + W`, with the `W` sums held in registers.
+    #[inline(always)]
+    fn rows<const W: usize, const FMA: bool>(&self, r0: usize, out: &mut [f64]) {
+        let (n, i) = (self.n, r0 - self.lo);
+        let mut acc = [0.0f64; W];
+        if let Some(init) = self.init {
+            acc.copy_from_slice(&init[i..i + W]);
+        }
+        for k in 0..self.kcols {
+            let (c, col) = (self.coef[k * self.stride], &self.m[k * n + r0..k * n + r0 + W]);
+            for t in 0..W {
+                acc[t] = madd::<FMA>(col[t], c, acc[t]);
+            }
+        }
+        out[i..i + W].copy_from_slice(&acc);
+    }
+}
+
+/// Copy the lower triangle of the column-major `n × n` matrix `o` onto its upper one.
+#[inline(always)]
+fn mirror_lower(o: &mut [f64], n: usize) {
+    for c in 0..n {
+        for r in (c + 1)..n {
+            o[r * n + c] = o[c * n + r];
+        }
+    }
+}
+
+fma_kernel! {
+    /// `K ← K S⁻¹` in place for `S = L Lᵀ` (`L` the lower-triangular Cholesky factor; its
+    /// upper triangle is not read): the gain `K = P Hᵀ S⁻¹` from `U = P Hᵀ` by a forward
+    /// and a back substitution over whole columns, `N M²` multiply-adds.
+    pub fn right_solve_cholesky<N: DimName, M: DimName>(
+        l: &OMatrix<f64, M, M>,
+        k: &mut OMatrix<f64, N, M>,
+    ) = right_solve_body / right_solve_avx2 / right_solve_cholesky_portable
+    where DefaultAllocator: FilterAlloc<N, M>
 }
 
 #[inline(always)]
@@ -302,34 +300,16 @@ fn right_solve_body<N: DimName, M: DimName, const FMA: bool>(
     }
 }
 
-/// `P Hᵀ` (`N × M`, column-major into `out`) for a symmetric `P`, skipping the zero
-/// entries of `H`: column `i` of the result is `Σ_k H[i, k] P[:, k]` over the non-zero
-/// `H[i, k]` only (a GNSS or magnetometer `H` touches a few states).
-pub fn p_times_ht<N: DimName, M: DimName>(p: &Cov<N>, h: &OMatrix<f64, M, N>, out: &mut [f64])
-where
-    DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>,
-{
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above).
-            unsafe { p_times_ht_avx2::<N, M>(p, h, out) };
-            return;
-        }
-    }
-    p_times_ht_body::<N, M, false>(p, h, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn p_times_ht_avx2<N: DimName, M: DimName>(
-    p: &Cov<N>,
-    h: &OMatrix<f64, M, N>,
-    out: &mut [f64],
-) where
-    DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>,
-{
-    p_times_ht_body::<N, M, true>(p, h, out)
+fma_kernel! {
+    /// `P Hᵀ` (`N × M`, column-major into `out`) for a symmetric `P`, skipping the zero
+    /// entries of `H`: column `i` of the result is `Σ_k H[i, k] P[:, k]` over the non-zero
+    /// `H[i, k]` only (a GNSS or magnetometer `H` touches a few states).
+    pub fn p_times_ht<N: DimName, M: DimName>(
+        p: &Cov<N>,
+        h: &OMatrix<f64, M, N>,
+        out: &mut [f64],
+    ) = p_times_ht_body / p_times_ht_avx2 / p_times_ht_portable
+    where DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>
 }
 
 #[inline(always)]
@@ -502,49 +482,4 @@ where
         }
     }
     Sandwich::Done
-}
-
-/// The same kernels without the AVX2/FMA path — what CPUs without those instructions
-/// run — so tests can compare both paths on any machine.
-pub mod portable {
-    use super::*;
-
-    /// [`super::joseph_update`] without FMA.
-    pub fn joseph_update<N: DimName, M: DimName>(
-        p: &Cov<N>,
-        k: &OMatrix<f64, N, M>,
-        s: &OMatrix<f64, M, M>,
-        u: &OMatrix<f64, N, M>,
-        out: &mut Cov<N>,
-    ) where
-        DefaultAllocator: FilterAlloc<N, M>,
-    {
-        joseph_update_body::<N, M, false>(p, k, s, u, out)
-    }
-
-    /// [`super::dense_sandwich`] without FMA.
-    pub fn dense_sandwich<N: DimName>(phi: &Cov<N>, p: &Cov<N>, q: &Cov<N>, out: &mut Cov<N>)
-    where
-        DefaultAllocator: DimAlloc<N>,
-    {
-        dense_sandwich_body::<N, false>(phi, p, q, out)
-    }
-
-    /// [`super::right_solve_cholesky`] without FMA.
-    pub fn right_solve_cholesky<N: DimName, M: DimName>(
-        l: &OMatrix<f64, M, M>,
-        k: &mut OMatrix<f64, N, M>,
-    ) where
-        DefaultAllocator: FilterAlloc<N, M>,
-    {
-        right_solve_body::<N, M, false>(l, k)
-    }
-
-    /// [`super::p_times_ht`] without FMA.
-    pub fn p_times_ht<N: DimName, M: DimName>(p: &Cov<N>, h: &OMatrix<f64, M, N>, out: &mut [f64])
-    where
-        DefaultAllocator: DimAlloc<N> + nalgebra::allocator::Allocator<M, N>,
-    {
-        p_times_ht_body::<N, M, false>(p, h, out)
-    }
 }

@@ -17,16 +17,20 @@ pub fn check_finite<R: DimName, C: DimName>(
 where
     DefaultAllocator: Allocator<R, C>,
 {
-    // Branch-free: an entry is NaN or ±∞ exactly when its exponent bits are all ones; an
-    // integer OR-reduction of that flag over the contiguous storage vectorises (a float
-    // sum would not, and nalgebra's strided iterator does not either).
-    const EXP: u64 = 0x7ff0_0000_0000_0000;
-    let flags = m.as_slice().iter().fold(0u64, |acc, v| acc | u64::from(v.to_bits() & EXP == EXP));
-    if flags == 0 {
-        Ok(())
-    } else {
+    if has_non_finite(m.as_slice()) {
         Err(FilterError::NonFinite { what })
+    } else {
+        Ok(())
     }
+}
+
+/// True when any value is NaN or infinite. Branch-free: a value is NaN or ±∞ exactly
+/// when its exponent bits are all ones, and an integer OR-reduction of that flag over a
+/// contiguous slice vectorises (a float sum would not, nor would nalgebra's strided
+/// iterator).
+pub fn has_non_finite(values: &[f64]) -> bool {
+    const EXP: u64 = 0x7ff0_0000_0000_0000;
+    values.iter().fold(0u64, |acc, v| acc | u64::from(v.to_bits() & EXP == EXP)) != 0
 }
 
 /// Replace `A` by `(A + Aᵀ)/2` in place.

@@ -4,7 +4,7 @@
 //!   gain `K` (not only the optimal one), on all three back-ends, and is exactly symmetric;
 //! - the structured reset `G P Gᵀ` (identity rows skipped) equals the dense product, for
 //!   sparse, identity and dense `G`;
-//! - `H P` over the non-zero entries of `H` equals the dense product;
+//! - `P Hᵀ` over the non-zero entries of `H` equals the dense product;
 //! - the dense `Φ P Φᵀ + Q` kernel equals nalgebra's products.
 
 #![allow(non_snake_case)]
@@ -48,11 +48,11 @@ fn update_on<B: CovBackend<Const<N>>>(
 ) -> MatN {
     let mut backend = B::default();
     let Pb = B::from_static(P);
-    let HP = backend.h_times_p(H, &Pb);
-    let S = HP * H.transpose() + R;
+    let PHt = backend.p_times_ht(H, &Pb);
+    let S = H * PHt + R;
     let S = (S + S.transpose()) * 0.5;
     let mut out = B::from_static(&MatN::zeros());
-    backend.update(&Pb, K, H, &HP, R, &S, form, &mut out);
+    backend.update(&Pb, K, H, &PHt, R, &S, form, &mut out);
     B::as_static(&out).into_owned()
 }
 
@@ -149,36 +149,36 @@ proptest! {
         H in sparse_h(),
         r in matrix::<M, M>(),
     ) {
-        use estimator_core::kernels::{self, portable};
+        use estimator_core::kernels;
         let P = spd(&a, 0.5);
         let S = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
         let U = P * H.transpose();
         let (mut x, mut y) = (MatN::zeros(), MatN::zeros());
         kernels::joseph_update(&P, &K, &S, &U, &mut x);
-        portable::joseph_update(&P, &K, &S, &U, &mut y);
+        kernels::joseph_update_portable(&P, &K, &S, &U, &mut y);
         prop_assert!(rel(&x, &y) < 1e-13, "joseph {:e}", rel(&x, &y));
         kernels::dense_sandwich(&f, &P, &P, &mut x);
-        portable::dense_sandwich(&f, &P, &P, &mut y);
+        kernels::dense_sandwich_portable(&f, &P, &P, &mut y);
         prop_assert!(rel(&x, &y) < 1e-13, "sandwich {:e}", rel(&x, &y));
         let l = S.cholesky().unwrap().l();
         let (mut k1, mut k2) = (U, U);
         kernels::right_solve_cholesky(&l, &mut k1);
-        portable::right_solve_cholesky(&l, &mut k2);
+        kernels::right_solve_cholesky_portable(&l, &mut k2);
         prop_assert!((k1 - k2).abs().max() <= 1e-13 * k2.abs().max());
         let (mut u1, mut u2) = (SMatrix::<f64, N, M>::zeros(), SMatrix::<f64, N, M>::zeros());
         kernels::p_times_ht(&P, &H, u1.as_mut_slice());
-        portable::p_times_ht(&P, &H, u2.as_mut_slice());
+        kernels::p_times_ht_portable(&P, &H, u2.as_mut_slice());
         prop_assert!((u1 - u2).abs().max() <= 1e-13 * u2.abs().max().max(1.0));
     }
 
     #[test]
-    fn h_times_p_skipping_zeros_equals_dense(a in matrix::<N, N>(), H in sparse_h()) {
+    fn p_times_ht_skipping_zeros_equals_dense(a in matrix::<N, N>(), H in sparse_h()) {
         let P = spd(&a, 0.5);
-        let dense = H * P;
+        let dense = P * H.transpose();
         let scale = dense.abs().max().max(1.0);
-        let s = StaticCov.h_times_p(&H, &P);
-        let d = DynamicCov::default().h_times_p(&H, &<DynamicCov as CovBackend<Const<N>>>::from_static(&P));
-        let f = FaerCov::default().h_times_p(&H, &<FaerCov as CovBackend<Const<N>>>::from_static(&P));
+        let s = StaticCov.p_times_ht(&H, &P);
+        let d = DynamicCov::default().p_times_ht(&H, &<DynamicCov as CovBackend<Const<N>>>::from_static(&P));
+        let f = FaerCov::default().p_times_ht(&H, &<FaerCov as CovBackend<Const<N>>>::from_static(&P));
         for (name, x) in [("static", s), ("dynamic", d), ("faer", f)] {
             prop_assert!((x - dense).abs().max() <= 1e-14 * scale, "{name}");
         }

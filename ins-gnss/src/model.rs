@@ -21,7 +21,8 @@
 //! `(Φ D Φᵀ + D) dt/2` to second order in dt) with
 //! `D = G Q_c Gᵀ = blockdiag(diag(ARW²), R̂ diag(VRW²) R̂ᵀ, 0, diag(q_bg), diag(q_ba))`.
 
-use estimator_core::kernels::{has_avx2_fma, madd};
+use estimator_core::fma_kernel;
+use estimator_core::kernels::madd;
 use estimator_core::{Cov, ProcessJacobians, ProcessModel};
 use manifolds::{hat, So3};
 use nalgebra::{Const, Matrix3, SMatrix, Vector3};
@@ -328,47 +329,10 @@ fn times_padded<const FMA: bool>(phi: &Cols, m: &Cols) -> Cols16 {
     a
 }
 
-/// `Φ M` for the INS `Φ` (its zero blocks skipped), on nalgebra's column arrays.
-pub fn phi_times(phi: &M15, m: &M15) -> M15 {
-    dispatch(
-        || phi_times_kernel::<false>(phi, m),
-        || {
-            // SAFETY: only called after `is_x86_feature_detected!` confirmed AVX2 and FMA.
-            #[cfg(target_arch = "x86_64")]
-            unsafe {
-                phi_times_avx2(phi, m)
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            phi_times_kernel::<false>(phi, m)
-        },
-    )
-}
-
-/// Run `fast` when the CPU has AVX2 and FMA (x86-64), `portable` otherwise. The check is
-/// cached by the standard library; both paths compute the same products (FMA rounds once
-/// instead of twice, a difference of one unit in the last place).
-#[inline(always)]
-fn dispatch<T>(portable: impl FnOnce() -> T, fast: impl FnOnce() -> T) -> T {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            return fast();
-        }
-    }
-    let _ = &fast;
-    portable()
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn phi_times_avx2(phi: &M15, m: &M15) -> M15 {
-    phi_times_kernel::<true>(phi, m)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn phi_sandwich_avx2(phi: &M15, m: &M15, q: &M15, out: &mut M15) {
-    phi_sandwich_kernel::<true>(phi, m, q, out)
+fma_kernel! {
+    /// `Φ M` for the INS `Φ` (its zero blocks skipped), on nalgebra's column arrays.
+    pub fn phi_times(phi: &M15, m: &M15) -> M15 =
+        phi_times_kernel / phi_times_avx2 / phi_times_portable
 }
 
 #[inline(always)]
@@ -390,17 +354,10 @@ pub fn phi_sandwich(phi: &M15, m: &M15) -> M15 {
     out
 }
 
-/// `out ← Φ M Φᵀ + Q` (symmetrised), without temporaries of the result.
-pub fn phi_sandwich_into(phi: &M15, m: &M15, q: &M15, out: &mut M15) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above).
-            unsafe { phi_sandwich_avx2(phi, m, q, out) };
-            return;
-        }
-    }
-    phi_sandwich_kernel::<false>(phi, m, q, out)
+fma_kernel! {
+    /// `out ← Φ M Φᵀ + Q` (symmetrised), without temporaries of the result.
+    pub fn phi_sandwich_into(phi: &M15, m: &M15, q: &M15, out: &mut M15) =
+        phi_sandwich_kernel / phi_sandwich_avx2 / phi_sandwich_portable
 }
 
 #[inline(always)]

@@ -54,6 +54,13 @@ impl GeoPos {
     }
 }
 
+/// `diag(m_to,N / m_from,N, m_to,E / m_from,E, 1)`: how a NED-metre displacement at
+/// `from` scales when carried to `to` (the down axis is the same everywhere).
+fn metric_ratio(from: &GeoPos, to: &GeoPos) -> Matrix3<f64> {
+    let (mf, mt) = (from.metric(), to.metric());
+    Matrix3::from_diagonal(&Vector3::new(mt.x / mf.x, mt.y / mf.y, 1.0))
+}
+
 impl Manifold for GeoPos {
     type Dim = Const<3>;
 
@@ -84,21 +91,18 @@ impl Manifold for GeoPos {
     /// displacements under a kilometre) and is taken by central differences of 1 mm.
     fn oplus_jacobians(&self, d: &Vector3<f64>) -> OplusJacobians<Self> {
         let y = self.oplus(d);
-        let J_y_delta = self.oplus_jacobian_delta(d);
+        let J_y_delta = metric_ratio(self, &y);
         let J_y_x = manifolds::numdiff::jacobian(self, |xp| xp.oplus(d).ominus(&y), 1e-3);
         OplusJacobians { J_y_x, J_y_delta }
     }
 
     fn oplus_jacobian_delta(&self, d: &Vector3<f64>) -> Matrix3<f64> {
-        let (mx, my) = (self.metric(), self.oplus(d).metric());
-        Matrix3::from_diagonal(&Vector3::new(my.x / mx.x, my.y / mx.y, 1.0))
+        metric_ratio(self, &self.oplus(d))
     }
 
     /// `J_d_y = diag(m_x / m_y)` exactly; `J_d_x` by central differences of 1 mm.
     fn ominus_jacobians(&self, origin: &Self) -> OminusJacobians<Self> {
-        let my = self.metric();
-        let mx = origin.metric();
-        let J_d_y = Matrix3::from_diagonal(&Vector3::new(mx.x / my.x, mx.y / my.y, 1.0));
+        let J_d_y = metric_ratio(self, origin);
         let J_d_x = manifolds::numdiff::jacobian(origin, |xp| self.ominus(xp), 1e-3);
         OminusJacobians { J_d_y, J_d_x }
     }

@@ -254,5 +254,11 @@ fn structured_propagation_equals_dense() {
         model.propagate_covariance(&p0, &jac, &mut p);
         let dense = jac.Phi * p0 * jac.Phi.transpose() + jac.Q;
         assert!((p - dense).abs().max() <= 1e-12 * dense.abs().max());
+        // the kernel without AVX2/FMA (what other CPUs run) agrees too
+        let mut portable = M15::zeros();
+        ins_gnss::model::phi_sandwich_portable(&jac.Phi, &p0, &jac.Q, &mut portable);
+        assert!((portable - dense).abs().max() <= 1e-12 * dense.abs().max());
+        let product = ins_gnss::model::phi_times(&jac.Phi, &p0);
+        assert!((product - jac.Phi * p0).abs().max() <= 1e-12 * (jac.Phi * p0).abs().max());
     }
 }
