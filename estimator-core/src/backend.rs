@@ -18,12 +18,12 @@
 use std::borrow::Cow;
 
 use faer::{Accum, Mat, Par};
-use nalgebra::{DMatrix, DefaultAllocator, DimName, OMatrix};
+use nalgebra::{DMatrix, DMatrixView, DefaultAllocator, DimName, OMatrix};
 
 use manifolds::DimAlloc;
 
 use crate::error::FilterError;
-use crate::kernels::{self, Entries, Sandwich};
+use crate::kernels::{self, Entries};
 use crate::linalg::{check_finite, has_non_finite, symmetrize};
 use crate::traits::{Cov, FilterAlloc};
 
@@ -125,10 +125,11 @@ where
     ) where
         DefaultAllocator: FilterAlloc<N, M>;
 
-    /// `P ← G P Gᵀ` in place (the reset); nothing when `G = I`, `O(N·nnz)` when `G`
-    /// differs from the identity in a few rows (see
-    /// [`sparse_sandwich_in_place`](crate::kernels::sparse_sandwich_in_place)).
-    fn sandwich_in_place(&mut self, P: &mut Self::Cov, G: &Cov<N>);
+    /// `P ← G P Gᵀ` in place (the reset), `G` being the identity but for the square
+    /// `block` at rows and columns `offset..` (one of the state's
+    /// [`reset_blocks`](manifolds::Manifold::reset_blocks)); `O(d² N)` for a `d × d` block
+    /// (see [`block_reset_in_place`](crate::kernels::block_reset_in_place)).
+    fn reset_block(&mut self, P: &mut Self::Cov, offset: usize, block: DMatrixView<'_, f64>);
 
     /// `Err(NonFinite)` when any entry is NaN or infinite.
     fn check_finite(what: &'static str, P: &Self::Cov) -> Result<(), FilterError>;
@@ -227,10 +228,17 @@ where
         }
     }
 
-    fn sandwich_in_place(&mut self, P: &mut Cov<N>, G: &Cov<N>) {
-        if kernels::sparse_sandwich_in_place(P, G) == Sandwich::Dense {
-            *P = G * &*P * G.transpose();
-            symmetrize(P);
+    /// Blocks of up to 6 dimensions (rotations, positions, poses) need no scratch, up to
+    /// 16 a stack one; bigger blocks (custom manifolds only) allocate it.
+    fn reset_block(&mut self, P: &mut Cov<N>, offset: usize, block: DMatrixView<'_, f64>) {
+        let need = kernels::block_reset_scratch(block.nrows());
+        if block.nrows() <= 6 {
+            kernels::block_reset_in_place(P, N::DIM, offset, block, &mut []);
+        } else if need <= kernels::block_reset_scratch(16) {
+            let mut stack = [0.0; kernels::block_reset_scratch(16)];
+            kernels::block_reset_in_place(P, N::DIM, offset, block, &mut stack);
+        } else {
+            kernels::block_reset_in_place(P, N::DIM, offset, block, &mut vec![0.0; need]);
         }
     }
 
@@ -430,12 +438,14 @@ pub struct DenseCov<D: Dense> {
     wide: D,
     tall: D,
     h: D,
+    /// Scratch of the block reset.
+    scratch: Vec<f64>,
 }
 
 impl<D: Dense> Default for DenseCov<D> {
     fn default() -> Self {
         let z = || D::zeros(0, 0);
-        Self { phi: z(), tmp: z(), tmp2: z(), wide: z(), tall: z(), h: z() }
+        Self { phi: z(), tmp: z(), tmp2: z(), wide: z(), tall: z(), h: z(), scratch: Vec::new() }
     }
 }
 
@@ -598,16 +608,12 @@ where
         }
     }
 
-    fn sandwich_in_place(&mut self, P: &mut D, G: &Cov<N>) {
-        if kernels::sparse_sandwich_in_place(P, G) != Sandwich::Dense {
-            return;
+    fn reset_block(&mut self, P: &mut D, offset: usize, block: DMatrixView<'_, f64>) {
+        let need = kernels::block_reset_scratch(block.nrows());
+        if self.scratch.len() < need {
+            self.scratch.resize(need, 0.0);
         }
-        ensure(&mut self.tmp, N::DIM);
-        to_dense(G, &mut self.phi);
-        to_dense(&G.transpose(), &mut self.tmp2);
-        D::gemm(&mut self.tmp, 0.0, 1.0, &self.phi, false, P, false);
-        D::gemm(P, 0.0, 1.0, &self.tmp, false, &self.tmp2, false);
-        symmetrize_dense(P);
+        kernels::block_reset_in_place(P, N::DIM, offset, block, &mut self.scratch);
     }
 
     fn check_finite(what: &'static str, P: &D) -> Result<(), FilterError> {

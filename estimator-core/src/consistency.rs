@@ -10,7 +10,7 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 use crate::error::FilterError;
-use crate::linalg::cholesky;
+use crate::linalg::{cholesky, whitened_norm_sq};
 
 /// `eᵀ P⁻¹ e` through a Cholesky solve (NEES for a state error, NIS for an innovation).
 pub fn normalized_squared<D: DimName>(
@@ -21,7 +21,7 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
     let chol = cholesky("covariance of the NEES/NIS", P.clone_owned())?;
-    Ok(e.dot(&chol.solve(e)))
+    Ok(whitened_norm_sq(&chol, e))
 }
 
 /// The `p` quantile of χ²(`dof`).

@@ -31,7 +31,7 @@ pub use crate::backend::UpdateForm;
 use crate::backend::{CovBackend, StaticCov};
 use crate::error::FilterError;
 use crate::kernels;
-use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize};
+use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize, whitened_norm_sq};
 use crate::report::{NoObserver, Observer, UpdateReport};
 use crate::traits::{Cov, FilterAlloc, MeasurementModel, ProcessModel, StateDim};
 
@@ -334,20 +334,22 @@ where
         }
         check_covariance("measurement noise R", R)?;
 
-        let z_hat = model.predict(&self.x);
+        let (z_hat, jac) = model.linearize(&self.x);
         let r = model.residual(z, &z_hat);
-        let H = model.jacobian(&self.x).H;
+        let H = jac.H;
         check_finite("innovation r = z ⊖ h(x)", &r)?;
         check_finite("measurement Jacobian H", &H)?;
 
         // S = H P⁻ Hᵀ + R
         let PHt = self.backend.p_times_ht(&H, &self.bufs[self.cur]);
-        let HPHt = &H * &PHt;
+        let mut HPHt =
+            OMatrix::<f64, StateDim<MM::Measurement>, StateDim<MM::Measurement>>::zeros();
+        kernels::mat_mul(&H, &PHt, &mut HPHt);
         let mut S = &HPHt + R;
         symmetrize(&mut S);
         let chol_S = cholesky("innovation covariance S = H P Hᵀ + R", S.clone())?;
         // NIS = rᵀ S⁻¹ r
-        let nis = r.dot(&chol_S.solve(&r));
+        let nis = whitened_norm_sq(&chol_S, &r);
 
         let epoch = self.epoch + 1;
         let P_view = B::as_static(&self.bufs[self.cur]);
@@ -414,7 +416,7 @@ where
             let mut S_used = &HPHt * prior_scale + &R_used;
             symmetrize(&mut S_used);
             let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
-            report.nis_adapted = r.dot(&chol.solve(&r));
+            report.nis_adapted = whitened_norm_sq(&chol, &r);
             (S_used, chol)
         } else {
             report.nis_adapted = nis;
@@ -444,17 +446,17 @@ where
         // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
         let mut K = PHt_used.clone();
         kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
-        let dx = &K * &r;
+        let mut dx = OMatrix::<f64, X::Dim, nalgebra::U1>::zeros();
+        kernels::mat_mul(&K, &r, &mut dx);
 
         let prior: &B::Cov = if scaled { aux } else { P };
         // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
         backend.update(prior, &K, &H, &PHt_used, &R_used, &S_used, form, next);
         let x_new = self.x.oplus(&dx);
         if self.reset == ResetMode::Exact {
-            // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx
-            let G = self.x.oplus_jacobian_delta(&dx);
-            let (_, next, _) = self.buffers();
-            backend.sandwich_in_place(next, &G);
+            // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx, block by block
+            let next = &mut self.bufs[(self.cur + 1) % 3];
+            self.x.reset_blocks(&dx, &mut |o, b| backend.reset_block(next, o, b));
         }
         self.backend = backend;
         check_finite("state correction δx", &dx)?;

@@ -75,7 +75,8 @@ where
 }
 
 /// Check a process model's `Φ` against `∂(f(x ⊕ δ) ⊖ f(x))/∂δ` by central differences
-/// (step 1e-6 in every tangent direction).
+/// (step 1e-6 in every tangent direction), and its `step` against `propagate` and
+/// `jacobians` (to 1e-9 relative).
 pub fn check_process_model<PM: ProcessModel>(
     model: &PM,
     x: &PM::State,
@@ -102,13 +103,25 @@ pub fn check_process_model_with_step<PM: ProcessModel>(
 where
     DefaultAllocator: DimAlloc<StateDim<PM::State>>,
 {
-    let analytic = model.jacobians(x, u, dt).Phi;
+    let jac = model.jacobians(x, u, dt);
     let numeric = numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), step);
-    compare("process transition Φ", &analytic, &numeric, rel_tol)
+    compare("process transition Φ", &jac.Phi, &numeric, rel_tol)?;
+    // `step` (often an override sharing work) must agree with the two separate calls.
+    let x_next = model.propagate(x, u, dt);
+    let (x_step, jac_step) = model.step(x, u, dt);
+    let gap = x_step.ominus(&x_next);
+    compare("step: state vs propagate", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
+    compare("step: Φ vs jacobians", &jac_step.Phi, &jac.Phi, STEP_AGREEMENT)?;
+    compare("step: Q vs jacobians", &jac_step.Q, &jac.Q, STEP_AGREEMENT)
 }
 
+/// Relative agreement required between a model's combined call (`step`, `linearize`) and
+/// its separate ones: the same formulas, up to rounding.
+const STEP_AGREEMENT: f64 = 1e-9;
+
 /// Check a measurement model's `H` against `∂(h(x ⊕ δ) ⊖ h(x))/∂δ` by central
-/// differences (step 1e-6).
+/// differences (step 1e-6), and its `linearize` against `predict` and `jacobian` (to 1e-9
+/// relative).
 pub fn check_measurement_model<MM: MeasurementModel>(
     model: &MM,
     x: &MM::State,
@@ -132,7 +145,12 @@ where
 {
     let analytic = model.jacobian(x).H;
     let numeric = numdiff::jacobian_between(x, |xp| model.predict(xp), step);
-    compare("measurement Jacobian H", &analytic, &numeric, rel_tol)
+    compare("measurement Jacobian H", &analytic, &numeric, rel_tol)?;
+    // `linearize` (often an override sharing work) must agree with the two separate calls.
+    let (z_hat, jac) = model.linearize(x);
+    let gap = z_hat.ominus(&model.predict(x));
+    compare("linearize: h(x) vs predict", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
+    compare("linearize: H vs jacobian", &jac.H, &analytic, STEP_AGREEMENT)
 }
 
 /// Numerical Jacobian of any map between manifolds, `∂(f(x ⊕ ε) ⊖ f(x))/∂ε`, for

@@ -7,6 +7,7 @@
 //! it runs as plain multiply-then-add (`mul_add` without the instruction is a slow
 //! library call). The two paths differ by one rounding per multiply-add.
 
+use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
 use manifolds::DimAlloc;
@@ -85,6 +86,33 @@ pub fn madd<const FMA: bool>(x: f64, a: f64, acc: f64) -> f64 {
 }
 
 fma_kernel! {
+    /// `out ← A B` for small column-major matrices (`R × K` times `K × C`), each column a
+    /// register-accumulated combination of `A`'s columns (nalgebra's generic product is
+    /// several times slower at these sizes).
+    pub fn mat_mul<R: DimName, K: DimName, C: DimName>(
+        a: &OMatrix<f64, R, K>,
+        b: &OMatrix<f64, K, C>,
+        out: &mut OMatrix<f64, R, C>,
+    ) = mat_mul_body / mat_mul_avx2 / mat_mul_portable
+    where DefaultAllocator: Allocator<R, K> + Allocator<K, C> + Allocator<R, C>
+}
+
+#[inline(always)]
+fn mat_mul_body<R: DimName, K: DimName, C: DimName, const FMA: bool>(
+    a: &OMatrix<f64, R, K>,
+    b: &OMatrix<f64, K, C>,
+    out: &mut OMatrix<f64, R, C>,
+) where
+    DefaultAllocator: Allocator<R, K> + Allocator<K, C> + Allocator<R, C>,
+{
+    let (r, k) = (R::DIM, K::DIM);
+    let (a, b) = (a.as_slice(), b.as_slice());
+    for (j, col) in out.as_mut_slice().chunks_exact_mut(r).enumerate() {
+        lincomb::<1, FMA>([(a, &b[j * k..])], r, k, 1, 0, None, col);
+    }
+}
+
+fma_kernel! {
     /// The Joseph update multiplied out: `out ← P + V Kᵀ + K Vᵀ` with `V = K S/2 − U`,
     /// for a symmetric `N × N` `P`, the gain `K` and `U = P Hᵀ` (`N × M`) and a symmetric
     /// `S` (`M × M`); the result is made exactly symmetric by mirroring the lower triangle.
@@ -117,20 +145,19 @@ fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
     let (n, m) = (N::DIM, M::DIM);
     // V = K (S/2) − U, column by column
     let half_s = s * 0.5;
-    let minus_u = -u;
+    let minus_u = u * -1.0; // (nalgebra's `-u` flips sign bytes one at a time in memory)
     let mut v = OMatrix::<f64, N, M>::zeros();
     let (ks, hs, mu) = (k.as_slice(), half_s.as_slice(), minus_u.as_slice());
     for (j, vcol) in v.as_mut_slice().chunks_exact_mut(n).enumerate() {
-        lincomb::<FMA>(ks, n, m, &hs[j * m..], 1, 0, Some(&mu[j * n..(j + 1) * n]), vcol);
+        lincomb::<1, FMA>([(ks, &hs[j * m..])], n, m, 1, 0, Some(&mu[j * n..(j + 1) * n]), vcol);
     }
-    // Lower triangle of P + K Vᵀ + V Kᵀ, column c from row c: two combinations of M
-    // columns each, then mirrored.
+    // Lower triangle of P + K Vᵀ + V Kᵀ, column c from row c: one combination of the 2M
+    // columns of K and V, then mirrored.
     let (vs, ps, o) = (v.as_slice(), p.as_slice(), out.as_mut_slice());
-    let mut tmp = nalgebra::OVector::<f64, N>::zeros();
     for c in 0..n {
-        let t = &mut tmp.as_mut_slice()[c..];
-        lincomb::<FMA>(ks, n, m, &vs[c..], n, c, Some(&ps[c * n + c..(c + 1) * n]), t);
-        lincomb::<FMA>(vs, n, m, &ks[c..], n, c, Some(t), &mut o[c * n + c..(c + 1) * n]);
+        let init = Some(&ps[c * n..(c + 1) * n]);
+        let out_c = &mut o[c * n..(c + 1) * n];
+        lincomb::<2, FMA>([(ks, &vs[c..]), (vs, &ks[c..])], n, m, n, c, init, out_c);
     }
     mirror_lower(o, n);
 }
@@ -163,76 +190,109 @@ fn dense_sandwich_body<N: DimName, const FMA: bool>(
     let (f, ps) = (phi.as_slice(), p.as_slice());
     // A[:, j] = Σ_k Φ[:, k] P[k, j]
     for (j, acol) in a.as_mut_slice().chunks_exact_mut(n).enumerate() {
-        lincomb::<FMA>(f, n, n, &ps[j * n..], 1, 0, None, acol);
+        lincomb::<1, FMA>([(f, &ps[j * n..])], n, n, 1, 0, None, acol);
     }
     // out[j.., j] = Q[j.., j] + Σ_k A[j.., k] Φ[j, k]
     let (a, qs, o) = (a.as_slice(), q.as_slice(), out.as_mut_slice());
     for j in 0..n {
-        let init = &qs[j * n + j..(j + 1) * n];
-        lincomb::<FMA>(a, n, n, &f[j..], n, j, Some(init), &mut o[j * n + j..(j + 1) * n]);
+        let init = &qs[j * n..(j + 1) * n];
+        lincomb::<1, FMA>([(a, &f[j..])], n, n, n, j, Some(init), &mut o[j * n..(j + 1) * n]);
     }
     mirror_lower(o, n);
 }
 
-/// `out[r − lo] = init[r − lo] + Σ_k m[k n + r] · coef[k · stride]` for `r ∈ lo..n`,
-/// `k < kcols` (a combination of the columns of the column-major `n × kcols` matrix `m`,
-/// rows `lo..`),
-/// accumulated eight and four rows at a time in registers: accumulating in memory
-/// instead chains every multiply-add through a store and a reload.
+/// `out[r] = init[r] + Σ_(m, coef) Σ_k m[k n + r] · coef[k · stride]` for `r ∈ lo..n`,
+/// `k < kcols`: rows `lo..` of a combination of the columns of one or more column-major
+/// `n × kcols` matrices `m` (the `sources`, each with its coefficients); `init` and `out`
+/// are whole columns. The sums are accumulated eight and four rows at a time in
+/// registers (accumulating in memory instead chains every multiply-add through a store
+/// and a reload). A remainder of fewer than four rows is done as the last four rows of
+/// the column, so up to three rows above `lo` may be written too, with their own sums:
+/// callers overwrite or mirror those rows.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn lincomb<const FMA: bool>(
-    m: &[f64],
+fn lincomb<const T: usize, const FMA: bool>(
+    sources: [(&[f64], &[f64]); T],
     n: usize,
     kcols: usize,
-    coef: &[f64],
     stride: usize,
     lo: usize,
     init: Option<&[f64]>,
     out: &mut [f64],
 ) {
-    let c = Combination { m, n, kcols, coef, stride, lo, init };
-    let mut r0 = lo;
-    while r0 + 8 <= n {
-        c.rows::<8, FMA>(r0, out);
-        r0 += 8;
-    }
-    while r0 + 4 <= n {
-        c.rows::<4, FMA>(r0, out);
-        r0 += 4;
-    }
-    for r in r0..n {
-        c.rows::<1, FMA>(r, out);
-    }
+    Combination { sources, n, kcols, stride, init, cols: None }.run::<FMA>(lo, out);
 }
 
-/// The arguments of one [`lincomb`].
-struct Combination<'a> {
-    m: &'a [f64],
+/// `out[r] = Σ_t m[cols[t] n + r] · coefs[t]` for every row `r < n`: a combination of the
+/// columns `cols` of the column-major matrix `m` (a sparse row times a matrix).
+#[inline(always)]
+fn lincomb_cols<const FMA: bool>(
+    m: &[f64],
+    n: usize,
+    cols: &[usize],
+    coefs: &[f64],
+    out: &mut [f64],
+) {
+    let kcols = cols.len();
+    let c =
+        Combination { sources: [(m, coefs)], n, kcols, stride: 1, init: None, cols: Some(cols) };
+    c.run::<FMA>(0, out);
+}
+
+/// The arguments of one [`lincomb`] or [`lincomb_cols`].
+struct Combination<'a, const T: usize> {
+    sources: [(&'a [f64], &'a [f64]); T],
     n: usize,
     kcols: usize,
-    coef: &'a [f64],
     stride: usize,
-    lo: usize,
     init: Option<&'a [f64]>,
+    /// The columns of the sources to combine (`0..kcols` when `None`).
+    cols: Option<&'a [usize]>,
 }
 
-impl Combination<'_> {
+impl<const T: usize> Combination<'_, T> {
+    /// Rows `lo..n` (and possibly up to three above, see [`lincomb`]).
+    #[inline(always)]
+    fn run<const FMA: bool>(&self, lo: usize, out: &mut [f64]) {
+        let (c, n) = (self, self.n);
+        let mut r0 = lo;
+        while r0 + 8 <= n {
+            c.rows::<8, FMA>(r0, out);
+            r0 += 8;
+        }
+        while r0 + 4 <= n {
+            c.rows::<4, FMA>(r0, out);
+            r0 += 4;
+        }
+        if r0 < n && n >= 4 {
+            c.rows::<4, FMA>(n - 4, out);
+        } else {
+            for r in r0..n {
+                c.rows::<1, FMA>(r, out);
+            }
+        }
+    }
+
     /// Rows `r0..r0 + W`, with the `W` sums held in registers.
     #[inline(always)]
     fn rows<const W: usize, const FMA: bool>(&self, r0: usize, out: &mut [f64]) {
-        let (n, i) = (self.n, r0 - self.lo);
+        let n = self.n;
         let mut acc = [0.0f64; W];
         if let Some(init) = self.init {
-            acc.copy_from_slice(&init[i..i + W]);
+            acc.copy_from_slice(&init[r0..r0 + W]);
         }
-        for k in 0..self.kcols {
-            let (c, col) = (self.coef[k * self.stride], &self.m[k * n + r0..k * n + r0 + W]);
-            for t in 0..W {
-                acc[t] = madd::<FMA>(col[t], c, acc[t]);
+        for (m, coef) in self.sources {
+            for k in 0..self.kcols {
+                let kc = match self.cols {
+                    Some(cols) => cols[k],
+                    None => k,
+                };
+                let (c, col) = (coef[k * self.stride], &m[kc * n + r0..kc * n + r0 + W]);
+                for t in 0..W {
+                    acc[t] = madd::<FMA>(col[t], c, acc[t]);
+                }
             }
         }
-        out[i..i + W].copy_from_slice(&acc);
+        out[r0..r0 + W].copy_from_slice(&acc);
     }
 }
 
@@ -265,18 +325,17 @@ fn right_solve_body<N: DimName, M: DimName, const FMA: bool>(
     DefaultAllocator: FilterAlloc<N, M>,
 {
     let (n, m) = (N::DIM, M::DIM);
+    let minus_l = l * -1.0;
+    let ml = minus_l.as_slice();
     let ks = k.as_mut_slice();
+    let mut col = nalgebra::OVector::<f64, N>::zeros();
+    let col = col.as_mut_slice();
     // Y Lᵀ = U:  Y[:, j] = (U[:, j] − Σ_{i<j} Y[:, i] L[j, i]) / L[j, j]
     for j in 0..m {
         let (done, rest) = ks.split_at_mut(j * n);
         let kj = &mut rest[..n];
-        for i in 0..j {
-            let a = -l[(j, i)];
-            let yi = &done[i * n..(i + 1) * n];
-            for r in 0..n {
-                kj[r] = madd::<FMA>(yi[r], a, kj[r]);
-            }
-        }
+        col.copy_from_slice(kj);
+        lincomb::<1, FMA>([(done, &ml[j..])], n, j, m, 0, Some(col), kj);
         let d = 1.0 / l[(j, j)];
         for x in kj.iter_mut() {
             *x *= d;
@@ -286,13 +345,8 @@ fn right_solve_body<N: DimName, M: DimName, const FMA: bool>(
     for j in (0..m).rev() {
         let (head, done) = ks.split_at_mut((j + 1) * n);
         let kj = &mut head[j * n..];
-        for i in (j + 1)..m {
-            let a = -l[(i, j)];
-            let ki = &done[(i - j - 1) * n..(i - j) * n];
-            for r in 0..n {
-                kj[r] = madd::<FMA>(ki[r], a, kj[r]);
-            }
-        }
+        col.copy_from_slice(kj);
+        lincomb::<1, FMA>([(done, &ml[j * m + j + 1..])], n, m - j - 1, 1, 0, Some(col), kj);
         let d = 1.0 / l[(j, j)];
         for x in kj.iter_mut() {
             *x *= d;
@@ -322,23 +376,34 @@ fn p_times_ht_body<N: DimName, M: DimName, const FMA: bool>(
 {
     let (n, m) = (N::DIM, M::DIM);
     let (p, hs) = (p.as_slice(), h.as_slice());
+    // Column i of P Hᵀ combines the columns of P at the non-zero entries of row i of H
+    // (all of them for rows with more than 64 non-zeros).
+    let mut cols = [0usize; 64];
+    let mut coefs = [0.0f64; 64];
     for i in 0..m {
-        let col = &mut out[i * n..(i + 1) * n];
-        col.fill(0.0);
+        let out_i = &mut out[i * n..(i + 1) * n];
+        let mut nz = 0;
         for kk in 0..n {
             let a = hs[kk * m + i];
             if a != 0.0 {
-                let pk = &p[kk * n..(kk + 1) * n];
-                for r in 0..n {
-                    col[r] = madd::<FMA>(pk[r], a, col[r]);
+                if nz == cols.len() {
+                    nz = usize::MAX;
+                    break;
                 }
+                (cols[nz], coefs[nz]) = (kk, a);
+                nz += 1;
             }
+        }
+        if nz == usize::MAX {
+            lincomb::<1, FMA>([(p, &hs[i..])], n, n, m, 0, None, out_i);
+        } else {
+            lincomb_cols::<FMA>(p, n, &cols[..nz], &coefs[..nz], out_i);
         }
     }
 }
 
-/// Column access to a square column-major matrix, so the structured reset
-/// ([`sparse_sandwich_in_place`]) is written once for every back-end.
+/// Column access to a square column-major matrix, so the block reset
+/// ([`block_reset_in_place`]) is written once for every back-end.
 pub trait Entries {
     /// Entry `(r, c)`.
     fn at(&self, r: usize, c: usize) -> f64;
@@ -374,112 +439,149 @@ where
     }
 }
 
-/// Most non-identity entries of `G` the structured reset handles (a rotation block has 9).
-const MAX_TERMS: usize = 48;
-/// Most rows of `G` that differ from the identity for the structured reset.
-const MAX_ROWS: usize = 12;
-
-/// What [`sparse_sandwich_in_place`] did.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Sandwich {
-    /// `G` is the identity: nothing to do.
-    Identity,
-    /// `G` differs from the identity in a few rows: done in place.
-    Done,
-    /// `G` is too dense for the structured path: the caller must do the dense product.
-    Dense,
+/// `P ← G P Gᵀ` in place for a symmetric `n × n` `P`, where `G` is the identity except
+/// for the square block `b` at rows and columns `o..o + d` (one block of
+/// [`Manifold::reset_blocks`](manifolds::Manifold::reset_blocks)). `scratch` must hold at
+/// least [`block_reset_scratch(d)`](block_reset_scratch) values (none are used for
+/// `d ≤ 6`).
+///
+/// Only the rows and columns of the block change. With `T = P[:, o..o+d] bᵀ`, row `r`
+/// outside the block gets `T[r, :]` in columns `o..o + d`, and by symmetry so do those
+/// columns' rows; the `d × d` corner becomes `b T[o..o+d, :]`, averaged with its
+/// transpose so that `P` stays exactly symmetric. `T` is formed four rows at a time from
+/// contiguous column segments. About `2 d² n` multiply-adds, no allocation. Blocks of up
+/// to 6 dimensions (rotations, positions, poses) run a copy specialised to their size,
+/// whose accumulators stay in registers.
+pub fn block_reset_in_place<E: Entries>(
+    p: &mut E,
+    n: usize,
+    o: usize,
+    b: nalgebra::DMatrixView<'_, f64>,
+    scratch: &mut [f64],
+) {
+    match b.nrows() {
+        1 => block_reset_fixed::<1, E>(p, n, o, &b),
+        2 => block_reset_fixed::<2, E>(p, n, o, &b),
+        3 => block_reset_fixed::<3, E>(p, n, o, &b),
+        4 => block_reset_fixed::<4, E>(p, n, o, &b),
+        5 => block_reset_fixed::<5, E>(p, n, o, &b),
+        6 => block_reset_fixed::<6, E>(p, n, o, &b),
+        _ => block_reset_any(p, n, o, &b, scratch),
+    }
 }
 
-/// `P ← G P Gᵀ` in place for a symmetric `P` when `G` differs from the identity in at
-/// most 12 rows (the set `T`) with at most 48 non-zero entries among them (an
-/// error-state reset touches the rotation blocks only). With `t_i = Σ_k G[i, k] P[:, k]`
-/// for `i ∈ T` (column axpys), the result is `P` outside the rows and columns of `T`,
-/// `t_i` in row and column `i`, and `Σ_k G[i, k] t_j[k]` at `(i, j) ∈ T × T`; it is
-/// exactly symmetric. About `N · nnz` multiply-adds instead of `2N³`. Returns
-/// [`Sandwich::Dense`] (and leaves `P` unchanged) when `G` has more structure than that.
-pub fn sparse_sandwich_in_place<E: Entries, N: DimName>(p: &mut E, g: &Cov<N>) -> Sandwich
-where
-    DefaultAllocator: DimAlloc<N>,
-{
-    let n = N::DIM;
-    // The rows of G that are not e_i (found in one pass over the column-major storage),
-    // then their non-zero entries (column, value): row t's are terms[start[t]..start[t + 1]].
-    let gs = g.as_slice();
-    let mut rows = [0usize; MAX_ROWS];
-    let mut nr = 0;
-    for (c, col) in gs.chunks_exact(n).enumerate() {
-        // A branch-free test of the whole column first (it vectorises): most columns of
-        // a reset Jacobian are those of the identity.
-        // (v − δ_rc with its sign bit shifted out is 0 exactly when v = δ_rc.)
-        let off_identity = col
-            .iter()
-            .enumerate()
-            .fold(0u64, |a, (r, &v)| a | ((v - if r == c { 1.0 } else { 0.0 }).to_bits() << 1));
-        if off_identity == 0 {
-            continue;
+/// [`block_reset_in_place`] for a `D × D` block.
+fn block_reset_fixed<const D: usize, E: Entries>(
+    p: &mut E,
+    n: usize,
+    o: usize,
+    b: &nalgebra::DMatrixView<'_, f64>,
+) {
+    let b: [[f64; D]; D] = core::array::from_fn(|i| core::array::from_fn(|k| b[(i, k)]));
+    for rows in [0..o, o + D..n] {
+        let mut r = rows.start;
+        while r + 4 <= rows.end {
+            fixed_rows::<D, 4, E>(p, &b, o, r);
+            r += 4;
         }
-        for (r, &v) in col.iter().enumerate() {
-            if v != if r == c { 1.0 } else { 0.0 } && !rows[..nr].contains(&r) {
-                if nr == MAX_ROWS {
-                    return Sandwich::Dense;
-                }
-                rows[nr] = r;
-                nr += 1;
+        for r in r..rows.end {
+            fixed_rows::<D, 1, E>(p, &b, o, r);
+        }
+    }
+    // corner[i][j] = Σ_k b[i][k] t[j][k] with t[j][k] = Σ_l P[o + k, o + l] b[j][l]
+    let mut t = [[0.0; D]; D];
+    for l in 0..D {
+        let col = &p.col(o + l)[o..o + D];
+        for (tj, bj) in t.iter_mut().zip(&b) {
+            for (x, &v) in tj.iter_mut().zip(col) {
+                *x += bj[l] * v;
             }
         }
     }
-    if nr == 0 {
-        return Sandwich::Identity;
-    }
-    rows[..nr].sort_unstable();
-    let mut terms = [(0usize, 0.0f64); MAX_TERMS];
-    let mut start = [0usize; MAX_ROWS + 1];
-    let mut nt = 0;
-    for (t, &i) in rows[..nr].iter().enumerate() {
-        for c in 0..n {
-            let v = gs[c * n + i];
-            if v != 0.0 {
-                if nt == MAX_TERMS {
-                    return Sandwich::Dense;
-                }
-                terms[nt] = (c, v);
-                nt += 1;
-            }
+    let corner = |i: usize, j: usize| (0..D).map(|k| b[i][k] * t[j][k]).sum::<f64>();
+    for i in 0..D {
+        for j in i..D {
+            let v = 0.5 * (corner(i, j) + corner(j, i));
+            p.put(o + i, o + j, v);
+            p.put(o + j, o + i, v);
         }
-        start[t + 1] = nt;
     }
-    let rows = &rows[..nr];
-    let row_terms = |t: usize| &terms[start[t]..start[t + 1]];
-    // t_i = Σ_k G[i, k] P[:, k]  (row i of G P, as P is symmetric)
-    let mut tv: [nalgebra::OVector<f64, N>; MAX_ROWS] =
-        core::array::from_fn(|_| nalgebra::OVector::<f64, N>::zeros());
-    for (t, ti) in tv.iter_mut().enumerate().take(nr) {
-        let ti = ti.as_mut_slice();
-        for &(k, gk) in row_terms(t) {
-            for (x, &pk) in ti.iter_mut().zip(p.col(k)) {
-                *x += gk * pk;
+}
+
+/// Rows `r..r + W` (outside the block) of [`block_reset_fixed`]: `T` for those rows,
+/// written to columns `o..o + D` and, transposed, to rows `o..o + D`.
+#[inline(always)]
+fn fixed_rows<const D: usize, const W: usize, E: Entries>(
+    p: &mut E,
+    b: &[[f64; D]; D],
+    o: usize,
+    r: usize,
+) {
+    let mut t = [[0.0; W]; D];
+    for k in 0..D {
+        let mut seg = [0.0; W];
+        seg.copy_from_slice(&p.col(o + k)[r..r + W]);
+        for (ti, bi) in t.iter_mut().zip(b) {
+            for (x, &v) in ti.iter_mut().zip(&seg) {
+                *x += bi[k] * v;
             }
         }
     }
-    // (G P Gᵀ)[i, j] on T × T = Σ_k G[i, k] t_j[k]
-    let mut w = [[0.0f64; MAX_ROWS]; MAX_ROWS];
-    for (a, wa) in w.iter_mut().enumerate().take(nr) {
-        for (b, wab) in wa.iter_mut().enumerate().take(nr) {
-            *wab = row_terms(a).iter().map(|&(k, gk)| gk * tv[b][k]).sum();
+    for (i, ti) in t.iter().enumerate() {
+        p.col_mut(o + i)[r..r + W].copy_from_slice(ti);
+        for (w, &v) in ti.iter().enumerate() {
+            p.put(o + i, r + w, v);
         }
     }
-    for (t, &i) in rows.iter().enumerate() {
-        p.col_mut(i).copy_from_slice(tv[t].as_slice());
-        for (r, &v) in tv[t].iter().enumerate() {
-            p.put(i, r, v);
+}
+
+/// [`block_reset_in_place`] for a block of any size, with `scratch` for `T`'s rows and
+/// the corner.
+fn block_reset_any<E: Entries>(
+    p: &mut E,
+    n: usize,
+    o: usize,
+    b: &nalgebra::DMatrixView<'_, f64>,
+    scratch: &mut [f64],
+) {
+    let d = b.nrows();
+    let (corner, t) = scratch.split_at_mut(d * d);
+    let t = &mut t[..d];
+    for r in (0..o).chain(o + d..n) {
+        t.fill(0.0);
+        for k in 0..d {
+            let v = p.at(r, o + k);
+            for (i, x) in t.iter_mut().enumerate() {
+                *x += b[(i, k)] * v;
+            }
+        }
+        for (i, &v) in t.iter().enumerate() {
+            p.put(r, o + i, v);
+            p.put(o + i, r, v);
         }
     }
-    for (a, &i) in rows.iter().enumerate() {
-        for (b, &j) in rows.iter().enumerate().skip(a) {
-            // one value for both (i, j) and (j, i): exactly symmetric
-            p.put(i, j, w[a][b]);
-            p.put(j, i, w[a][b]);
+    for j in 0..d {
+        t.fill(0.0);
+        for l in 0..d {
+            let g = b[(j, l)];
+            for (x, &v) in t.iter_mut().zip(&p.col(o + l)[o..o + d]) {
+                *x += g * v;
+            }
+        }
+        for i in 0..d {
+            corner[i * d + j] = (0..d).map(|k| b[(i, k)] * t[k]).sum();
         }
     }
-    Sandwich::Done
+    for i in 0..d {
+        for j in i..d {
+            let v = 0.5 * (corner[i * d + j] + corner[j * d + i]);
+            p.put(o + i, o + j, v);
+            p.put(o + j, o + i, v);
+        }
+    }
+}
+
+/// Scratch length [`block_reset_in_place`] needs for a `d × d` block.
+pub const fn block_reset_scratch(d: usize) -> usize {
+    d * (d + 1)
 }

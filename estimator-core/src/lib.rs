@@ -42,8 +42,8 @@ pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
 pub use traits::{
-    Cov, FilterAlloc, MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessModel,
-    StateDim,
+    Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
+    ProcessModel, StateDim,
 };
 
 pub use manifolds::{self, DimAlloc, Manifold, Tangent, TangentMatrix};

@@ -2,7 +2,7 @@
 //! offending matrix, symmetrisation, Cholesky with a typed error.
 
 use nalgebra::allocator::Allocator;
-use nalgebra::{Cholesky, DMatrix, DefaultAllocator, DimName, OMatrix};
+use nalgebra::{Cholesky, DMatrix, DefaultAllocator, DimName, OMatrix, OVector};
 
 use crate::error::FilterError;
 
@@ -59,6 +59,21 @@ where
     Cholesky::new(a).ok_or(FilterError::NotPositiveDefinite { what })
 }
 
+/// `eᵀ A⁻¹ e` for `A = L Lᵀ` given by its Cholesky factor: `|L⁻¹ e|²`, one forward
+/// substitution (half the work of solving `A x = e`).
+pub fn whitened_norm_sq<D: DimName>(chol: &Cholesky<f64, D>, e: &OVector<f64, D>) -> f64
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D>,
+{
+    let l = chol.l_dirty();
+    let mut y = e.clone_owned();
+    for i in 0..D::DIM {
+        let v = (0..i).fold(y[i], |v, k| v - l[(i, k)] * y[k]);
+        y[i] = v / l[(i, i)];
+    }
+    y.norm_squared()
+}
+
 /// Validate a user-supplied covariance: finite, symmetric within
 /// [`SYMMETRY_TOLERANCE`] (relative), positive definite.
 pub fn check_covariance<D: DimName>(
@@ -78,6 +93,16 @@ where
     }
     if asym > SYMMETRY_TOLERANCE * scale {
         return Err(FilterError::NotSymmetric { what, asymmetry: asym });
+    }
+    // A diagonal matrix (the usual measurement noise) is positive definite exactly when
+    // its diagonal is positive: no factorisation needed.
+    let diagonal = (0..D::DIM).all(|c| (0..D::DIM).all(|r| r == c || a[(r, c)] == 0.0));
+    if diagonal {
+        return if (0..D::DIM).all(|i| a[(i, i)] > 0.0) {
+            Ok(())
+        } else {
+            Err(FilterError::NotPositiveDefinite { what })
+        };
     }
     cholesky(what, a.clone_owned()).map(|_| ())
 }
@@ -99,4 +124,25 @@ where
         });
     }
     Ok(OMatrix::<f64, R, C>::from_fn(|r, c| m[(r, c)]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix4, Vector4};
+
+    #[test]
+    fn whitened_norm_equals_quadratic_form_with_the_inverse() {
+        for seed in 0..20u32 {
+            let f = |i: usize, j: usize| {
+                (((i * 7 + j * 3 + seed as usize * 5) % 11) as f64 - 5.0) * 0.3
+            };
+            let a = Matrix4::from_fn(f);
+            let s = a * a.transpose() + Matrix4::identity() * 0.1;
+            let e = Vector4::from_fn(|i, _| f(i, 9) + 0.5);
+            let chol = cholesky("test", s).unwrap();
+            let direct = e.dot(&(s.try_inverse().unwrap() * e));
+            assert!((whitened_norm_sq(&chol, &e) - direct).abs() <= 1e-10 * direct.max(1.0));
+        }
+    }
 }

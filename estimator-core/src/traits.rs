@@ -126,6 +126,12 @@ where
     }
 }
 
+/// The [`MeasurementJacobians`] of a measurement model.
+pub type JacobiansOf<MM> = MeasurementJacobians<
+    StateDim<<MM as MeasurementModel>::Measurement>,
+    StateDim<<MM as MeasurementModel>::State>,
+>;
+
 /// A measurement model `z = h(x) ⊕ v`, `v ~ N(0, R)`, where `z` may live on a manifold.
 ///
 /// The residual is `r = z ⊖ h(x̂)` (so a bearing that crosses ±π gives a small residual,
@@ -148,6 +154,12 @@ where
         &self,
         x: &Self::State,
     ) -> MeasurementJacobians<StateDim<Self::Measurement>, StateDim<Self::State>>;
+
+    /// `h(x)` and `H` at once; override when they share work (rotation matrices, Earth
+    /// rates). The filter calls this one; the harness checks it against the two above.
+    fn linearize(&self, x: &Self::State) -> (Self::Measurement, JacobiansOf<Self>) {
+        (self.predict(x), self.jacobian(x))
+    }
 
     /// Residual `z ⊖ ẑ`.
     fn residual(

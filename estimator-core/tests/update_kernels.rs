@@ -2,16 +2,15 @@
 //!
 //! - the multiplied-out Joseph form equals `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for *any*
 //!   gain `K` (not only the optimal one), on all three back-ends, and is exactly symmetric;
-//! - the structured reset `G P Gᵀ` (identity rows skipped) equals the dense product, for
-//!   sparse, identity and dense `G`;
+//! - the block reset `G P Gᵀ` (only the rows and columns of `G`'s non-identity diagonal
+//!   blocks touched) equals the dense product, for small blocks and for one block
+//!   spanning the whole state;
 //! - `P Hᵀ` over the non-zero entries of `H` equals the dense product;
 //! - the dense `Φ P Φᵀ + Q` kernel equals nalgebra's products.
 
 #![allow(non_snake_case)]
 
-use estimator_core::kernels::{
-    dense_sandwich, right_solve_cholesky, sparse_sandwich_in_place, Sandwich,
-};
+use estimator_core::kernels::{dense_sandwich, right_solve_cholesky};
 use estimator_core::{CovBackend, DynamicCov, FaerCov, StaticCov, UpdateForm};
 use nalgebra::{Const, SMatrix};
 use proptest::prelude::*;
@@ -184,66 +183,68 @@ proptest! {
         }
     }
 
-    /// `G` = identity with a random 3×3 block at rows/columns `3b..3b+3` (a rotation
-    /// reset) and optionally a random extra row.
+    /// `G` = identity with one or two random blocks (1 to 8 dimensions, disjoint): the
+    /// blocks applied one after the other on each back-end equal `G P Gᵀ` (blocks of up
+    /// to 6 dimensions and larger ones take different code).
     #[test]
-    fn structured_reset_equals_dense_sandwich(
+    fn block_reset_equals_dense_sandwich(
         a in matrix::<N, N>(),
-        blk in matrix::<3, 3>(),
-        b in 0usize..5,
-        extra in proptest::option::of((0usize..N, matrix::<1, N>())),
+        first in (0usize..N, 1usize..9, matrix::<8, 8>()),
+        second in proptest::option::of((1usize..5, matrix::<4, 4>())),
     ) {
         let P = spd(&a, 0.5);
+        let mut blocks = Vec::new();
+        let (o, d, m) = first;
+        let d = d.min(N - o);
+        blocks.push((o, SMatrix::<f64, 8, 8>::identity().view((0, 0), (d, d)) + m.view((0, 0), (d, d)) * 0.1));
+        if let Some((d2, m2)) = second {
+            let o2 = o + d;
+            if o2 + d2 <= N {
+                blocks.push((o2, m2.view((0, 0), (d2, d2)).into_owned()));
+            }
+        }
         let mut G = MatN::identity();
-        G.fixed_view_mut::<3, 3>(3 * b, 3 * b).copy_from(&(SMatrix::<f64, 3, 3>::identity() + blk * 0.1));
-        if let Some((row, v)) = extra {
-            G.set_row(row, &v);
+        for (o, b) in &blocks {
+            G.view_mut((*o, *o), b.shape()).copy_from(b);
         }
         let dense = G * P * G.transpose();
-        for (name, out) in [
-            ("static", {
-                let mut p = P;
-                StaticCov.sandwich_in_place(&mut p, &G);
-                p
-            }),
-            ("dynamic", {
-                let mut p = <DynamicCov as CovBackend<Const<N>>>::from_static(&P);
-                <DynamicCov as CovBackend<Const<N>>>::sandwich_in_place(&mut DynamicCov::default(), &mut p, &G);
-                <DynamicCov as CovBackend<Const<N>>>::as_static(&p).into_owned()
-            }),
-            ("faer", {
-                let mut p = <FaerCov as CovBackend<Const<N>>>::from_static(&P);
-                <FaerCov as CovBackend<Const<N>>>::sandwich_in_place(&mut FaerCov::default(), &mut p, &G);
-                <FaerCov as CovBackend<Const<N>>>::as_static(&p).into_owned()
-            }),
-        ] {
-            prop_assert!(rel(&out, &dense) < 1e-13, "{name}: {:e}", rel(&out, &dense));
-            prop_assert_eq!((out - out.transpose()).abs().max(), 0.0, "{}", name);
-        }
+        prop_assert!(rel(&reset_on::<StaticCov>(&P, &blocks), &dense) < 1e-13, "static");
+        prop_assert!(rel(&reset_on::<DynamicCov>(&P, &blocks), &dense) < 1e-13, "dynamic");
+        prop_assert!(rel(&reset_on::<FaerCov>(&P, &blocks), &dense) < 1e-13, "faer");
     }
 }
 
+/// The reset on back-end `B`, block by block; asserts exact symmetry.
+fn reset_on<B: CovBackend<Const<N>>>(P: &MatN, blocks: &[(usize, nalgebra::DMatrix<f64>)]) -> MatN {
+    let mut backend = B::default();
+    let mut p = B::from_static(P);
+    for (o, b) in blocks {
+        backend.reset_block(&mut p, *o, b.as_view());
+    }
+    let out = B::as_static(&p).into_owned();
+    assert_eq!((out - out.transpose()).abs().max(), 0.0, "{} reset not exactly symmetric", B::NAME);
+    out
+}
+
+/// One block spanning the whole state (what a custom manifold without its own
+/// `reset_blocks` reports), at 40 dimensions: the static back-end's heap scratch path.
 #[test]
-fn reset_paths_are_chosen_by_structure() {
-    let P = spd(&MatN::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 - 2.0), 1.0);
-    // identity: untouched
+fn whole_state_block_reset_equals_dense_sandwich() {
+    const D: usize = 40;
+    let a = SMatrix::<f64, D, D>::from_fn(|i, j| (((i * 7 + j * 3) % 11) as f64 - 5.0) * 0.1);
+    let P = a * a.transpose() + SMatrix::<f64, D, D>::identity();
+    let G = SMatrix::<f64, D, D>::identity()
+        + SMatrix::<f64, D, D>::from_fn(|i, j| (((i * 5 + j) % 7) as f64 - 3.0) * 1e-2);
+    let dense = G * P * G.transpose();
     let mut p = P;
-    assert_eq!(sparse_sandwich_in_place(&mut p, &MatN::identity()), Sandwich::Identity);
-    assert_eq!(p, P);
-    // one rotation block: structured
-    let mut G = MatN::identity();
-    G[(0, 1)] = 0.01;
-    G[(1, 0)] = -0.01;
-    assert_eq!(sparse_sandwich_in_place(&mut p, &G), Sandwich::Done);
-    assert!(rel(&p, &(G * P * G.transpose())) < 1e-14);
-    // every row touched: left to the dense product, P unchanged
-    let dense_G = MatN::identity() + MatN::from_element(1e-3);
-    let mut q = P;
-    assert_eq!(sparse_sandwich_in_place(&mut q, &dense_G), Sandwich::Dense);
-    assert_eq!(q, P);
-    let mut q = P;
-    StaticCov.sandwich_in_place(&mut q, &dense_G);
-    assert!(rel(&q, &(dense_G * P * dense_G.transpose())) < 1e-14);
+    <StaticCov as CovBackend<Const<D>>>::reset_block(&mut StaticCov, &mut p, 0, G.as_view());
+    assert!((p - dense).abs().max() / dense.abs().max() < 1e-14);
+    assert_eq!((p - p.transpose()).abs().max(), 0.0);
+    let mut backend = FaerCov::default();
+    let mut q = <FaerCov as CovBackend<Const<D>>>::from_static(&P);
+    <FaerCov as CovBackend<Const<D>>>::reset_block(&mut backend, &mut q, 0, G.as_view());
+    let q = <FaerCov as CovBackend<Const<D>>>::as_static(&q).into_owned();
+    assert!((q - dense).abs().max() / dense.abs().max() < 1e-14);
 }
 
 /// A hard case for the multiplied-out form: measurements up to twelve orders of magnitude

@@ -11,7 +11,7 @@ use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};
 use manifolds::{hat, Manifold, R3};
 use nalgebra::{Const, Matrix3, SMatrix, Vector3};
 
-use crate::earth::{earth_rate_ned, transport_rate};
+use crate::earth::{earth_rate_ned_sc, radii_from_sin, transport_rate_with};
 
 use crate::position::GeoPos;
 use crate::state::InsState;
@@ -29,33 +29,57 @@ pub struct GnssEpoch {
     pub vel: Option<(Vector3<f64>, Vector3<f64>)>,
 }
 
-fn h_position(x: &InsState, lever: &Vector3<f64>) -> SMatrix<f64, 3, 15> {
-    let mut H = SMatrix::<f64, 3, 15>::zeros();
-    H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-x.att.matrix() * hat(lever)));
-    H.fixed_view_mut::<3, 3>(0, 6).copy_from(&Matrix3::identity());
-    H
+/// What the position and velocity predictions and Jacobians share at one state: the
+/// attitude matrix, the lever arm in NED, the body rate and the navigation-frame rate.
+struct Geometry {
+    c: Matrix3<f64>,
+    lever: Vector3<f64>,
+    lever_n: Vector3<f64>,
+    w: Vector3<f64>,
+    w_in: Vector3<f64>,
 }
 
-fn antenna_position(x: &InsState, lever: &Vector3<f64>) -> GeoPos {
-    x.pos.oplus(&x.att.rotate(lever))
-}
+impl Geometry {
+    fn new(x: &InsState, lever: &Vector3<f64>, w_ib: &Vector3<f64>) -> Self {
+        let c = x.att.matrix();
+        let (s, co) = x.pos.lat.sin_cos();
+        let (rm, rn) = radii_from_sin(s);
+        let w_in = earth_rate_ned_sc(s, co)
+            + transport_rate_with(rm + x.pos.h, rn + x.pos.h, s / co, &x.vel);
+        Self { c, lever: *lever, lever_n: c * lever, w: w_ib - x.bg, w_in }
+    }
 
-fn antenna_velocity(x: &InsState, lever: &Vector3<f64>, w_ib: &Vector3<f64>) -> Vector3<f64> {
-    let w = w_ib - x.bg;
-    let w_in = earth_rate_ned(x.pos.lat) + transport_rate(x.pos.lat, x.pos.h, &x.vel);
-    x.vel + x.att.rotate(&w.cross(lever)) - w_in.cross(&x.att.rotate(lever))
-}
+    /// Without a gyro rate (position only: `w` and `w_in` unused).
+    fn position_only(x: &InsState, lever: &Vector3<f64>) -> Self {
+        let c = x.att.matrix();
+        let z = Vector3::zeros();
+        Self { c, lever: *lever, lever_n: c * lever, w: z, w_in: z }
+    }
 
-fn h_velocity(x: &InsState, lever: &Vector3<f64>, w_ib: &Vector3<f64>) -> SMatrix<f64, 3, 15> {
-    let c = x.att.matrix();
-    let w = w_ib - x.bg;
-    let w_in = earth_rate_ned(x.pos.lat) + transport_rate(x.pos.lat, x.pos.h, &x.vel);
-    let mut H = SMatrix::<f64, 3, 15>::zeros();
-    let h_th = -c * hat(&w.cross(lever)) + hat(&w_in) * c * hat(lever);
-    H.fixed_view_mut::<3, 3>(0, 0).copy_from(&h_th);
-    H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
-    H.fixed_view_mut::<3, 3>(0, 9).copy_from(&(c * hat(lever)));
-    H
+    fn antenna_position(&self, x: &InsState) -> GeoPos {
+        x.pos.oplus(&self.lever_n)
+    }
+
+    fn antenna_velocity(&self, x: &InsState) -> Vector3<f64> {
+        x.vel + self.c * self.w.cross(&self.lever) - self.w_in.cross(&self.lever_n)
+    }
+
+    fn h_position(&self) -> SMatrix<f64, 3, 15> {
+        let mut H = SMatrix::<f64, 3, 15>::zeros();
+        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-self.c * hat(&self.lever)));
+        H.fixed_view_mut::<3, 3>(0, 6).copy_from(&Matrix3::identity());
+        H
+    }
+
+    fn h_velocity(&self) -> SMatrix<f64, 3, 15> {
+        let c_l = self.c * hat(&self.lever);
+        let mut H = SMatrix::<f64, 3, 15>::zeros();
+        let h_th = -self.c * hat(&self.w.cross(&self.lever)) + hat(&self.w_in) * c_l;
+        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&h_th);
+        H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+        H.fixed_view_mut::<3, 3>(0, 9).copy_from(&c_l);
+        H
+    }
 }
 
 /// GNSS antenna position.
@@ -70,11 +94,16 @@ impl MeasurementModel for GnssPosition {
     type Measurement = GeoPos;
 
     fn predict(&self, x: &InsState) -> GeoPos {
-        antenna_position(x, &self.lever_arm)
+        Geometry::position_only(x, &self.lever_arm).antenna_position(x)
     }
 
     fn jacobian(&self, x: &InsState) -> MeasurementJacobians<Const<3>, Const<15>> {
-        MeasurementJacobians { H: h_position(x, &self.lever_arm) }
+        MeasurementJacobians { H: Geometry::position_only(x, &self.lever_arm).h_position() }
+    }
+
+    fn linearize(&self, x: &InsState) -> (GeoPos, MeasurementJacobians<Const<3>, Const<15>>) {
+        let g = Geometry::position_only(x, &self.lever_arm);
+        (g.antenna_position(x), MeasurementJacobians { H: g.h_position() })
     }
 
     fn stream(&self) -> StreamId {
@@ -96,11 +125,16 @@ impl MeasurementModel for GnssVelocity {
     type Measurement = R3;
 
     fn predict(&self, x: &InsState) -> R3 {
-        antenna_velocity(x, &self.lever_arm, &self.gyro_rate)
+        Geometry::new(x, &self.lever_arm, &self.gyro_rate).antenna_velocity(x)
     }
 
     fn jacobian(&self, x: &InsState) -> MeasurementJacobians<Const<3>, Const<15>> {
-        MeasurementJacobians { H: h_velocity(x, &self.lever_arm, &self.gyro_rate) }
+        MeasurementJacobians { H: Geometry::new(x, &self.lever_arm, &self.gyro_rate).h_velocity() }
+    }
+
+    fn linearize(&self, x: &InsState) -> (R3, MeasurementJacobians<Const<3>, Const<15>>) {
+        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        (g.antenna_velocity(x), MeasurementJacobians { H: g.h_velocity() })
     }
 
     fn stream(&self) -> StreamId {
@@ -122,20 +156,27 @@ impl MeasurementModel for GnssPosVel {
     type Measurement = (GeoPos, R3);
 
     fn predict(&self, x: &InsState) -> (GeoPos, R3) {
-        (
-            antenna_position(x, &self.lever_arm),
-            antenna_velocity(x, &self.lever_arm, &self.gyro_rate),
-        )
+        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        (g.antenna_position(x), g.antenna_velocity(x))
     }
 
     fn jacobian(&self, x: &InsState) -> MeasurementJacobians<Const<6>, Const<15>> {
-        let mut H = SMatrix::<f64, 6, 15>::zeros();
-        H.fixed_view_mut::<3, 15>(0, 0).copy_from(&h_position(x, &self.lever_arm));
-        H.fixed_view_mut::<3, 15>(3, 0).copy_from(&h_velocity(x, &self.lever_arm, &self.gyro_rate));
-        MeasurementJacobians { H }
+        MeasurementJacobians { H: pos_vel_h(&Geometry::new(x, &self.lever_arm, &self.gyro_rate)) }
+    }
+
+    fn linearize(&self, x: &InsState) -> ((GeoPos, R3), MeasurementJacobians<Const<6>, Const<15>>) {
+        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        ((g.antenna_position(x), g.antenna_velocity(x)), MeasurementJacobians { H: pos_vel_h(&g) })
     }
 
     fn stream(&self) -> StreamId {
         StreamId::named("gnss-position-velocity")
     }
+}
+
+fn pos_vel_h(g: &Geometry) -> SMatrix<f64, 6, 15> {
+    let mut H = SMatrix::<f64, 6, 15>::zeros();
+    H.fixed_view_mut::<3, 15>(0, 0).copy_from(&g.h_position());
+    H.fixed_view_mut::<3, 15>(3, 0).copy_from(&g.h_velocity());
+    H
 }

@@ -14,7 +14,7 @@
 //! point. This keeps the 15-state error in metres (well scaled) while the nominal state
 //! keeps full geodetic precision.
 
-use nalgebra::{Const, Matrix3, Vector3};
+use nalgebra::{Const, DMatrixView, Matrix3, Vector3};
 
 use manifolds::{Manifold, OminusJacobians, OplusJacobians};
 
@@ -98,6 +98,16 @@ impl Manifold for GeoPos {
 
     fn oplus_jacobian_delta(&self, d: &Vector3<f64>) -> Matrix3<f64> {
         metric_ratio(self, &self.oplus(d))
+    }
+
+    /// One diagonal block, from the metric at this point and at `self ⊕ δ` (two
+    /// evaluations instead of the three of `oplus_jacobian_delta`).
+    fn reset_blocks(&self, d: &Vector3<f64>, visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>)) {
+        let m = self.metric();
+        let y = Self { lat: self.lat + d.x / m.x, lon: self.lon, h: self.h + d.z / m.z };
+        let my = y.metric();
+        let g = Matrix3::from_diagonal(&Vector3::new(my.x / m.x, my.y / m.y, 1.0));
+        visit(0, DMatrixView::from_slice(g.as_slice(), 3, 3));
     }
 
     /// `J_d_y = diag(m_x / m_y)` exactly; `J_d_x` by central differences of 1 mm.

@@ -1,6 +1,6 @@
 //! Euclidean blocks: `R^N` as `nalgebra::SVector<f64, N>`, with `⊕ = +` and `⊖ = −`.
 
-use nalgebra::{Const, SMatrix, SVector};
+use nalgebra::{Const, DMatrixView, SMatrix, SVector};
 
 use crate::traits::{Manifold, OminusJacobians, OplusJacobians};
 
@@ -39,6 +39,9 @@ impl<const N: usize> Manifold for SVector<f64, N> {
     fn oplus_jacobian_delta(&self, _delta: &Self) -> SMatrix<f64, N, N> {
         SMatrix::identity()
     }
+
+    /// `G = I`: no blocks.
+    fn reset_blocks(&self, _delta: &Self, _visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>)) {}
 
     fn ominus_jacobians(&self, _origin: &Self) -> OminusJacobians<Self> {
         OminusJacobians { J_d_y: SMatrix::identity(), J_d_x: -SMatrix::<f64, N, N>::identity() }

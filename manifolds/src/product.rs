@@ -188,6 +188,19 @@ macro_rules! impl_tuple_manifold {
                 J_y_delta
             }
 
+            fn reset_blocks(
+                &self,
+                delta: &Tangent<Self>,
+                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
+            ) {
+                let mut _off = 0usize;
+                $(
+                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    self.$idx.reset_blocks(&d, &mut |o, b| visit(_off + o, b));
+                    _off += $T::DIM;
+                )+
+            }
+
             fn ominus_jacobians(&self, origin: &Self) -> crate::OminusJacobians<Self> {
                 let mut J_d_y = TangentMatrix::<Self>::zeros();
                 let mut J_d_x = TangentMatrix::<Self>::zeros();
@@ -357,6 +370,19 @@ macro_rules! composite_state {
                     );
                 )+
                 J_y_delta
+            }
+
+            fn reset_blocks(
+                &self,
+                delta: &$crate::Tangent<Self>,
+                visit: &mut dyn FnMut(usize, $crate::nalgebra::DMatrixView<'_, f64>),
+            ) {
+                $(
+                    self.$field.reset_blocks(
+                        &Self::$BLOCK.of(delta),
+                        &mut |o, b| visit(Self::$BLOCK.start() + o, b),
+                    );
+                )+
             }
 
             fn ominus_jacobians(&self, origin: &Self) -> $crate::OminusJacobians<Self> {

@@ -125,6 +125,22 @@ where
     );
     jac("J of x ⊕ δ w.r.t. δ", &op.J_y_delta, &n_d)?;
     jac("oplus_jacobian_delta = J_y_delta", &x.oplus_jacobian_delta(delta), &op.J_y_delta)?;
+    // The reset blocks, written over the identity, are the same Jacobian; they must be in
+    // increasing order, square, in range and disjoint.
+    let mut g = OMatrix::<f64, M::Dim, M::Dim>::identity();
+    let mut next_free = 0usize;
+    let mut well_formed = true;
+    x.reset_blocks(delta, &mut |o, b| {
+        let d = b.nrows();
+        if o < next_free || b.ncols() != d || o + d > M::DIM {
+            well_formed = false;
+            return;
+        }
+        next_free = o + d;
+        g.view_mut((o, o), (d, d)).copy_from(&b);
+    });
+    check("reset blocks ordered, square, in range", if well_formed { 0.0 } else { 1.0 }, 0.0)?;
+    jac("reset_blocks assemble to J_y_delta", &g, &op.J_y_delta)?;
 
     // ⊖ Jacobians at a pair whose difference is δ (inside the chart by construction).
     let om = x_plus_d.ominus_jacobians(x);

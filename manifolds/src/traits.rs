@@ -3,7 +3,7 @@
 use core::fmt::Debug;
 
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector, U1};
+use nalgebra::{DMatrixView, DefaultAllocator, DimName, OMatrix, OVector, U1};
 
 use crate::numdiff;
 
@@ -129,6 +129,27 @@ where
     /// costly (the product manifolds and the geodetic position do).
     fn oplus_jacobian_delta(&self, delta: &Tangent<Self>) -> TangentMatrix<Self> {
         self.oplus_jacobians(delta).J_y_delta
+    }
+
+    /// The reset Jacobian `G = ∂(self ⊕ δ)/∂δ` by its diagonal blocks that differ from the
+    /// identity: `visit(offset, block)` is called once per block, in increasing `offset`,
+    /// with a square `block` whose first row and column are `offset`; `G` is the identity
+    /// outside those blocks. An error-state filter applies `P ← G P Gᵀ` to those rows and
+    /// columns only: nothing for a vector state, two 3×3 blocks for an INS state.
+    ///
+    /// Default: [`oplus_jacobian_delta`](Self::oplus_jacobian_delta) as one block, not
+    /// reported when it is exactly the identity. Products report their parts' blocks at the
+    /// parts' offsets; vector spaces report none. The law harness checks that the blocks
+    /// assemble to `oplus_jacobian_delta`.
+    fn reset_blocks(
+        &self,
+        delta: &Tangent<Self>,
+        visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>),
+    ) {
+        let g = self.oplus_jacobian_delta(delta);
+        if g != TangentMatrix::<Self>::identity() {
+            visit(0, DMatrixView::from_slice(g.as_slice(), Self::DIM, Self::DIM));
+        }
     }
 
     /// Jacobians of `self ⊖ origin`. Default: central differences through ⊕/⊖.
