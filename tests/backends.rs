@@ -118,3 +118,47 @@ fn backend_names() {
     assert_eq!(<DynamicCov as CovBackend<nalgebra::Const<3>>>::NAME, "nalgebra-dynamic");
     assert_eq!(<FaerCov as CovBackend<nalgebra::Const<3>>>::NAME, "faer");
 }
+
+/// Records the prior covariance a strategy sees, through its in-place view.
+#[derive(Default)]
+struct SeesPrior(Vec<f64>);
+
+impl NoiseStrategy for SeesPrior {
+    fn name(&self) -> &'static str {
+        "sees-prior"
+    }
+    fn adapt<Nd: nalgebra::DimName, Md: nalgebra::DimName>(
+        &mut self,
+        a: &mut estimator::core::Adaptation<'_, Nd, Md>,
+    ) where
+        nalgebra::DefaultAllocator: estimator::core::FilterAlloc<Nd, Md>,
+    {
+        let m = a.P_prior.to_matrix();
+        assert_eq!(a.P_prior.column(1)[2], a.P_prior.at(2, 1));
+        self.0 = m.as_slice().to_vec();
+    }
+}
+
+/// The strategy hook's view of `P⁻` is the filter's predicted covariance on every
+/// back-end (no copy is made for it).
+#[test]
+fn strategies_see_the_prior_covariance_on_every_backend() {
+    fn run<B: CovBackend<nalgebra::Const<N>>>(p: &Problem) {
+        let mut f = ErrorStateFilter::with_backend(
+            SVector::zeros(),
+            p.P0,
+            SeesPrior::default(),
+            B::default(),
+        )
+        .unwrap();
+        f.predict(&p.process, &(), 1.0).unwrap();
+        let prior = f.covariance_matrix().into_owned();
+        f.update(&p.sensor, &p.zs[0], &p.R).unwrap();
+        let seen = SMatrix::<f64, N, N>::from_column_slice(&f.strategy().0);
+        assert_eq!((seen - prior).abs().max(), 0.0, "{}", B::NAME);
+    }
+    let p = problem();
+    run::<StaticCov>(&p);
+    run::<DynamicCov>(&p);
+    run::<FaerCov>(&p);
+}

@@ -3,9 +3,58 @@
 //! predictions that follow, or reject the measurement. Strategies keep their windows per
 //! measurement [`StreamId`]. [`FixedNoise`], the zero-sized default, does none of it.
 
+use core::marker::PhantomData;
+
 use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
+use manifolds::DimAlloc;
+
+use crate::kernels::Entries;
 use crate::traits::{Cov, FilterAlloc};
+
+/// Read access to an `N × N` covariance where its back-end keeps it, without copying it:
+/// entries, contiguous columns, or a static copy on demand
+/// ([`to_matrix`](Self::to_matrix)). A dense back-end at 120 states would otherwise copy
+/// 115 KB for every update that a strategy might look at.
+#[derive(Clone, Copy)]
+pub struct CovView<'a, N> {
+    p: &'a dyn Entries,
+    _n: PhantomData<N>,
+}
+
+impl<'a, N: DimName> CovView<'a, N>
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    /// A view of `p`, which must be `N × N`.
+    pub fn new(p: &'a dyn Entries) -> Self {
+        Self { p, _n: PhantomData }
+    }
+
+    /// Entry `(r, c)`.
+    pub fn at(&self, r: usize, c: usize) -> f64 {
+        self.p.at(r, c)
+    }
+
+    /// Column `c`.
+    pub fn column(&self, c: usize) -> &'a [f64] {
+        self.p.col(c)
+    }
+
+    /// A copy as a static matrix.
+    pub fn to_matrix(&self) -> Cov<N> {
+        Cov::<N>::from_fn(|r, c| self.p.at(r, c))
+    }
+}
+
+impl<N: DimName> core::fmt::Debug for CovView<'_, N>
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "CovView({0}×{0})", N::DIM)
+    }
+}
 
 /// Identifies a measurement stream (GNSS position, GNSS velocity, magnetometer …).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -165,8 +214,8 @@ where
     pub innovation: &'a OVector<f64, M>,
     /// Measurement Jacobian.
     pub H: &'a OMatrix<f64, M, N>,
-    /// Predicted covariance `P⁻`.
-    pub P_prior: &'a Cov<N>,
+    /// Predicted covariance `P⁻`, read in place.
+    pub P_prior: CovView<'a, N>,
     /// `H P⁻ Hᵀ`.
     pub HPHt: &'a OMatrix<f64, M, M>,
     /// The measurement noise the caller gave.

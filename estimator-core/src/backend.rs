@@ -56,7 +56,7 @@ where
     DefaultAllocator: DimAlloc<N>,
 {
     /// The stored covariance.
-    type Cov: Clone + core::fmt::Debug;
+    type Cov: Clone + core::fmt::Debug + Entries;
 
     /// Name for benches and logs.
     const NAME: &'static str;
@@ -362,14 +362,7 @@ impl Dense for Mat<f64> {
 }
 
 fn symmetrize_dense<D: Dense>(m: &mut D) {
-    let n = m.rows();
-    for c in 0..n {
-        for r in (c + 1)..n {
-            let v = 0.5 * (m.at(r, c) + m.at(c, r));
-            m.put(r, c, v);
-            m.put(c, r, v);
-        }
-    }
+    mirror_tiles(m, |lower, upper| 0.5 * (lower + upper));
 }
 
 /// Copy a static matrix into a dense one (reshaped when the size differs).
@@ -402,10 +395,40 @@ fn copy_dense<D: Dense>(from: &D, to: &mut D) {
 
 /// Make `m` exactly symmetric by copying its lower triangle onto the upper one.
 fn mirror_lower<D: Dense>(m: &mut D) {
-    for c in 0..m.cols() {
-        for r in (c + 1)..m.rows() {
-            m.put(c, r, m.at(r, c));
+    mirror_tiles(m, |lower, _| lower);
+}
+
+/// For every pair `r < c` of a square matrix, `v = f(m[c, r], m[r, c])` (lower, upper)
+/// written to both. Eight columns at a time: the lower entries of rows `c0..c0 + 8` are one
+/// contiguous segment of each column `r`, and the upper ones are row `r` of the eight
+/// columns, so every access runs along a column (entry-wise access strides through
+/// memory and costs several times more at 120 states).
+fn mirror_tiles<D: Dense>(m: &mut D, f: impl Fn(f64, f64) -> f64) {
+    let n = m.rows();
+    let mut c0 = 0;
+    while c0 + 8 <= n {
+        mirror_tile::<8, D>(m, c0, &f);
+        c0 += 8;
+    }
+    for c in c0..n {
+        mirror_tile::<1, D>(m, c, &f);
+    }
+}
+
+/// Columns `c0..c0 + W` of [`mirror_tiles`].
+#[inline(always)]
+fn mirror_tile<const W: usize, D: Dense>(m: &mut D, c0: usize, f: &impl Fn(f64, f64) -> f64) {
+    for r in 0..c0 + W {
+        let mut seg = [0.0; W];
+        seg.copy_from_slice(&m.col(r)[c0..c0 + W]);
+        for (i, lower) in seg.iter_mut().enumerate() {
+            if c0 + i > r {
+                let upper = &mut m.col_mut(c0 + i)[r];
+                *lower = f(*lower, *upper);
+                *upper = *lower;
+            }
         }
+        m.col_mut(r)[c0..c0 + W].copy_from_slice(&seg);
     }
 }
 
@@ -557,7 +580,11 @@ where
                         self.tall.put(m + j, r, V[(r, j)]);
                     }
                 }
-                copy_dense(P, out);
+                // only the lower triangle of P is needed: the upper one is mirrored after
+                ensure(out, n);
+                for c in 0..n {
+                    out.col_mut(c)[c..].copy_from_slice(&P.col(c)[c..]);
+                }
                 D::gemm_lower(out, 1.0, 1.0, &self.wide, &self.tall);
                 mirror_lower(out);
             }

@@ -25,7 +25,7 @@ use nalgebra::{DefaultAllocator, OMatrix};
 use manifolds::{DimAlloc, Manifold};
 
 use crate::adapt::{
-    Adaptation, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, Verdict,
+    Adaptation, CovView, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, Verdict,
 };
 pub use crate::backend::UpdateForm;
 use crate::backend::{CovBackend, StaticCov};
@@ -352,14 +352,13 @@ where
         let nis = whitened_norm_sq(&chol_S, &r);
 
         let epoch = self.epoch + 1;
-        let P_view = B::as_static(&self.bufs[self.cur]);
         let mut a = Adaptation {
             stream: model.stream(),
             epoch,
             time: self.time,
             innovation: &r,
             H: &H,
-            P_prior: &P_view,
+            P_prior: CovView::new(&self.bufs[self.cur]),
             HPHt: &HPHt,
             R_nominal: R,
             S: &S,
@@ -384,7 +383,6 @@ where
             q,
             ..
         } = a;
-        drop(P_view);
 
         let mut report = UpdateReport {
             stream,

@@ -86,6 +86,30 @@ pub fn madd<const FMA: bool>(x: f64, a: f64, acc: f64) -> f64 {
 }
 
 fma_kernel! {
+    /// True when any value is NaN or infinite. `v − v` is `0` for a finite `v` and NaN
+    /// otherwise (IEEE arithmetic: the compiler may not fold it), so sixteen running sums
+    /// of it, which vectorise without any reordering, end NaN exactly when some value is
+    /// not finite. With AVX2 that is about eight values per cycle, which matters for the
+    /// dense back-ends' 14,400 entries at 120 states.
+    pub fn non_finite_in(values: &[f64]) -> bool =
+        non_finite_body / non_finite_avx2 / non_finite_in_portable
+}
+
+#[inline(always)]
+#[allow(clippy::eq_op)] // `v - v` is the point: NaN for NaN and ±∞
+fn non_finite_body<const FMA: bool>(values: &[f64]) -> bool {
+    let mut acc = [0.0f64; 16];
+    let chunks = values.chunks_exact(16);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (a, &v) in acc.iter_mut().zip(c) {
+            *a += v - v;
+        }
+    }
+    rest.iter().any(|v| !v.is_finite()) || acc.iter().any(|a| a.is_nan())
+}
+
+fma_kernel! {
     /// `out ← A B` for small column-major matrices (`R × K` times `K × C`), each column a
     /// register-accumulated combination of `A`'s columns (nalgebra's generic product is
     /// several times slower at these sizes).

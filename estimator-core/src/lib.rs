@@ -34,8 +34,8 @@ pub mod report;
 pub mod traits;
 
 pub use adapt::{
-    Adaptation, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, StreamId,
-    StreamMap, Verdict,
+    Adaptation, CovView, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust,
+    StreamId, StreamMap, Verdict,
 };
 pub use backend::{CovBackend, DenseCov, DynamicCov, FaerCov, StaticCov, UpdateForm};
 pub use error::FilterError;

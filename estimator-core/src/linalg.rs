@@ -24,13 +24,10 @@ where
     }
 }
 
-/// True when any value is NaN or infinite. Branch-free: a value is NaN or ±∞ exactly
-/// when its exponent bits are all ones, and an integer OR-reduction of that flag over a
-/// contiguous slice vectorises (a float sum would not, nor would nalgebra's strided
-/// iterator).
+/// True when any value is NaN or infinite
+/// ([`kernels::non_finite_in`](crate::kernels::non_finite_in)).
 pub fn has_non_finite(values: &[f64]) -> bool {
-    const EXP: u64 = 0x7ff0_0000_0000_0000;
-    values.iter().fold(0u64, |acc, v| acc | u64::from(v.to_bits() & EXP == EXP)) != 0
+    crate::kernels::non_finite_in(values)
 }
 
 /// Replace `A` by `(A + Aᵀ)/2` in place.
@@ -130,6 +127,23 @@ where
 mod tests {
     use super::*;
     use nalgebra::{Matrix4, Vector4};
+
+    #[test]
+    fn non_finite_values_are_found_anywhere() {
+        for len in [0usize, 1, 15, 16, 17, 40] {
+            let clean = vec![1e300; len];
+            assert!(!has_non_finite(&clean), "len {len}");
+            assert!(!crate::kernels::non_finite_in_portable(&clean), "len {len}");
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                for at in 0..len {
+                    let mut v = clean.clone();
+                    v[at] = bad;
+                    assert!(has_non_finite(&v), "len {len}, {bad} at {at}");
+                    assert!(crate::kernels::non_finite_in_portable(&v), "len {len}, {bad} at {at}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn whitened_norm_equals_quadratic_form_with_the_inverse() {
