@@ -5,9 +5,9 @@
 //!
 //! | back-end | `P` | products | best for |
 //! |---|---|---|---|
-//! | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | [`crate::kernels`] (AVX2/FMA when available), or the model's structured propagation | up to ~30 states; the update at any size |
+//! | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | [`crate::kernels`] (AVX2/FMA when available), or the model's structured propagation | predict up to ~30 states; the update up to ~120 |
 //! | [`DynamicCov`] | `DMatrix<f64>` | nalgebra dynamic (matrixmultiply) | sizes known only at run time |
-//! | [`FaerCov`] | `faer::Mat<f64>` | faer (single-threaded; lower triangles of symmetric products) | large states (predict from ~60) |
+//! | [`FaerCov`] | `faer::Mat<f64>` | faer (single-threaded; lower triangles of symmetric products) | large states (predict from ~30–60, update at ~240) |
 //!
 //! (`benches/README.md` has the measured table.)
 //!
