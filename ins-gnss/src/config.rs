@@ -140,7 +140,7 @@ pub struct NoiseSection {
     pub corr_time: f64,
     /// How the filter models the biases: `random-walk` (default; density `σ √(2/τ)`),
     /// `gauss-markov`, or `gauss-markov-held` (KF-GINS's behaviour). See
-    /// [`BiasModel`](crate::imu::BiasModel) for the measured difference.
+    /// [`BiasModel`] for the measured difference.
     #[serde(default)]
     pub bias_model: BiasModelName,
 }
