@@ -361,6 +361,25 @@ impl Dense for Mat<f64> {
     }
 }
 
+/// Columns `j0..j0 + M` of `wide` ← `a`, rows `j0..j0 + M` of `tall` ← `bᵀ` (`a`, `b`
+/// both `N × M`): the factors of a product `wide · tall = … + a bᵀ`.
+fn set_factors<D: Dense, N: DimName, M: DimName>(
+    wide: &mut D,
+    tall: &mut D,
+    j0: usize,
+    a: &OMatrix<f64, N, M>,
+    b: &OMatrix<f64, N, M>,
+) where
+    DefaultAllocator: nalgebra::allocator::Allocator<N, M>,
+{
+    for j in 0..M::DIM {
+        for r in 0..N::DIM {
+            wide.put(r, j0 + j, a[(r, j)]);
+            tall.put(j0 + j, r, b[(r, j)]);
+        }
+    }
+}
+
 fn symmetrize_dense<D: Dense>(m: &mut D) {
     mirror_tiles(m, |lower, upper| 0.5 * (lower + upper));
 }
@@ -433,14 +452,6 @@ fn mirror_tile<const W: usize, D: Dense>(m: &mut D, c0: usize, f: &impl Fn(f64, 
 }
 
 impl Entries for Mat<f64> {
-    #[inline(always)]
-    fn at(&self, r: usize, c: usize) -> f64 {
-        self[(r, c)]
-    }
-    #[inline(always)]
-    fn put(&mut self, r: usize, c: usize, v: f64) {
-        self[(r, c)] = v;
-    }
     #[inline(always)]
     fn col(&self, c: usize) -> &[f64] {
         self.col_as_slice(c)
@@ -572,14 +583,8 @@ where
                 let V = K * (S * 0.5) - PHt;
                 ensure_shape(&mut self.wide, n, 2 * m);
                 ensure_shape(&mut self.tall, 2 * m, n);
-                for j in 0..m {
-                    for r in 0..n {
-                        self.wide.put(r, j, V[(r, j)]);
-                        self.wide.put(r, m + j, K[(r, j)]);
-                        self.tall.put(j, r, K[(r, j)]);
-                        self.tall.put(m + j, r, V[(r, j)]);
-                    }
-                }
+                set_factors(&mut self.wide, &mut self.tall, 0, &V, K);
+                set_factors(&mut self.wide, &mut self.tall, m, K, &V);
                 // only the lower triangle of P is needed: the upper one is mirrored after
                 ensure(out, n);
                 for c in 0..n {
@@ -607,12 +612,7 @@ where
                 let KR = K * R;
                 ensure_shape(&mut self.wide, n, m);
                 ensure_shape(&mut self.tall, m, n);
-                for j in 0..m {
-                    for r in 0..n {
-                        self.wide.put(r, j, KR[(r, j)]);
-                        self.tall.put(j, r, K[(r, j)]);
-                    }
-                }
+                set_factors(&mut self.wide, &mut self.tall, 0, &KR, K);
                 ensure(out, n);
                 D::gemm(out, 0.0, 1.0, &self.wide, false, &self.tall, false);
                 D::gemm(out, 1.0, 1.0, &self.tmp, false, &self.tmp2, false);
@@ -622,12 +622,7 @@ where
                 // P = P⁻ − K (H P⁻)
                 ensure_shape(&mut self.wide, n, m);
                 ensure_shape(&mut self.tall, m, n);
-                for j in 0..m {
-                    for r in 0..n {
-                        self.wide.put(r, j, K[(r, j)]);
-                        self.tall.put(j, r, PHt[(r, j)]);
-                    }
-                }
+                set_factors(&mut self.wide, &mut self.tall, 0, K, PHt);
                 copy_dense(P, out);
                 D::gemm(out, 1.0, -1.0, &self.wide, false, &self.tall, false);
                 symmetrize_dense(out);

@@ -429,28 +429,26 @@ fn p_times_ht_body<N: DimName, M: DimName, const FMA: bool>(
 /// Column access to a square column-major matrix, so the block reset
 /// ([`block_reset_in_place`]) is written once for every back-end.
 pub trait Entries {
-    /// Entry `(r, c)`.
-    fn at(&self, r: usize, c: usize) -> f64;
-    /// Set entry `(r, c)`.
-    fn put(&mut self, r: usize, c: usize, v: f64);
     /// Column `c`, contiguous.
     fn col(&self, c: usize) -> &[f64];
     /// Column `c`, contiguous and mutable.
     fn col_mut(&mut self, c: usize) -> &mut [f64];
+    /// Entry `(r, c)`.
+    #[inline(always)]
+    fn at(&self, r: usize, c: usize) -> f64 {
+        self.col(c)[r]
+    }
+    /// Set entry `(r, c)`.
+    #[inline(always)]
+    fn put(&mut self, r: usize, c: usize, v: f64) {
+        self.col_mut(c)[r] = v;
+    }
 }
 
 impl<R: nalgebra::Dim, C: nalgebra::Dim, S> Entries for nalgebra::Matrix<f64, R, C, S>
 where
     S: nalgebra::RawStorageMut<f64, R, C> + nalgebra::IsContiguous,
 {
-    #[inline(always)]
-    fn at(&self, r: usize, c: usize) -> f64 {
-        self[(r, c)]
-    }
-    #[inline(always)]
-    fn put(&mut self, r: usize, c: usize, v: f64) {
-        self[(r, c)] = v;
-    }
     #[inline(always)]
     fn col(&self, c: usize) -> &[f64] {
         let n = self.nrows();

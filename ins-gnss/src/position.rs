@@ -57,8 +57,19 @@ impl GeoPos {
 /// `diag(m_to,N / m_from,N, m_to,E / m_from,E, 1)`: how a NED-metre displacement at
 /// `from` scales when carried to `to` (the down axis is the same everywhere).
 fn metric_ratio(from: &GeoPos, to: &GeoPos) -> Matrix3<f64> {
-    let (mf, mt) = (from.metric(), to.metric());
-    Matrix3::from_diagonal(&Vector3::new(mt.x / mf.x, mt.y / mf.y, 1.0))
+    ratio_of_metrics(&from.metric(), &to.metric())
+}
+
+/// [`metric_ratio`] from the two metrics.
+fn ratio_of_metrics(from: &Vector3<f64>, to: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::from_diagonal(&Vector3::new(to.x / from.x, to.y / from.y, 1.0))
+}
+
+impl GeoPos {
+    /// `self ⊕ d` with `m = self.metric()` already at hand.
+    fn oplus_with_metric(&self, d: &Vector3<f64>, m: &Vector3<f64>) -> Self {
+        Self { lat: self.lat + d.x / m.x, lon: self.lon + d.y / m.y, h: self.h + d.z / m.z }
+    }
 }
 
 impl Manifold for GeoPos {
@@ -69,8 +80,7 @@ impl Manifold for GeoPos {
     }
 
     fn oplus(&self, d: &Vector3<f64>) -> Self {
-        let m = self.metric();
-        Self { lat: self.lat + d.x / m.x, lon: self.lon + d.y / m.y, h: self.h + d.z / m.z }
+        self.oplus_with_metric(d, &self.metric())
     }
 
     fn ominus(&self, origin: &Self) -> Vector3<f64> {
@@ -104,9 +114,7 @@ impl Manifold for GeoPos {
     /// evaluations instead of the three of `oplus_jacobian_delta`).
     fn reset_blocks(&self, d: &Vector3<f64>, visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>)) {
         let m = self.metric();
-        let y = Self { lat: self.lat + d.x / m.x, lon: self.lon, h: self.h + d.z / m.z };
-        let my = y.metric();
-        let g = Matrix3::from_diagonal(&Vector3::new(my.x / m.x, my.y / m.y, 1.0));
+        let g = ratio_of_metrics(&m, &self.oplus_with_metric(d, &m).metric());
         visit(0, DMatrixView::from_slice(g.as_slice(), 3, 3));
     }
 

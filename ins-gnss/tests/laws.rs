@@ -17,43 +17,51 @@ fn arb_geopos() -> BoxedStrategy<GeoPos> {
         .boxed()
 }
 
-/// Local newtypes: the sampler trait is foreign, and so are the types.
-#[derive(Clone, Debug)]
-struct Pos(GeoPos);
+/// A local newtype over `$inner` whose ⊕/⊖ and Jacobians are `$inner`'s (the sampler
+/// trait is foreign, and so are the types).
+macro_rules! forwarding_manifold {
+    ($name:ident, $inner:ty) => {
+        #[derive(Clone, Debug)]
+        struct $name($inner);
 
-impl Manifold for Pos {
-    type Dim = <GeoPos as Manifold>::Dim;
-    fn origin() -> Self {
-        Pos(GeoPos::origin())
-    }
-    fn oplus(&self, d: &Tangent<Self>) -> Self {
-        Pos(self.0.oplus(d))
-    }
-    fn ominus(&self, o: &Self) -> Tangent<Self> {
-        self.0.ominus(&o.0)
-    }
-    fn is_finite(&self) -> bool {
-        self.0.is_finite()
-    }
-    fn oplus_jacobians(&self, d: &Tangent<Self>) -> manifolds::OplusJacobians<Self> {
-        let j = self.0.oplus_jacobians(d);
-        manifolds::OplusJacobians { J_y_x: j.J_y_x, J_y_delta: j.J_y_delta }
-    }
-    fn oplus_jacobian_delta(&self, d: &Tangent<Self>) -> manifolds::TangentMatrix<Self> {
-        self.0.oplus_jacobian_delta(d)
-    }
-    fn reset_blocks(
-        &self,
-        d: &Tangent<Self>,
-        visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
-    ) {
-        self.0.reset_blocks(d, visit)
-    }
-    fn ominus_jacobians(&self, o: &Self) -> manifolds::OminusJacobians<Self> {
-        let j = self.0.ominus_jacobians(&o.0);
-        manifolds::OminusJacobians { J_d_y: j.J_d_y, J_d_x: j.J_d_x }
-    }
+        impl Manifold for $name {
+            type Dim = <$inner as Manifold>::Dim;
+            fn origin() -> Self {
+                $name(<$inner>::origin())
+            }
+            fn oplus(&self, d: &Tangent<Self>) -> Self {
+                $name(self.0.oplus(d))
+            }
+            fn ominus(&self, o: &Self) -> Tangent<Self> {
+                self.0.ominus(&o.0)
+            }
+            fn is_finite(&self) -> bool {
+                self.0.is_finite()
+            }
+            fn oplus_jacobians(&self, d: &Tangent<Self>) -> manifolds::OplusJacobians<Self> {
+                let j = self.0.oplus_jacobians(d);
+                manifolds::OplusJacobians { J_y_x: j.J_y_x, J_y_delta: j.J_y_delta }
+            }
+            fn oplus_jacobian_delta(&self, d: &Tangent<Self>) -> manifolds::TangentMatrix<Self> {
+                self.0.oplus_jacobian_delta(d)
+            }
+            fn reset_blocks(
+                &self,
+                d: &Tangent<Self>,
+                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
+            ) {
+                self.0.reset_blocks(d, visit)
+            }
+            fn ominus_jacobians(&self, o: &Self) -> manifolds::OminusJacobians<Self> {
+                let j = self.0.ominus_jacobians(&o.0);
+                manifolds::OminusJacobians { J_d_y: j.J_d_y, J_d_x: j.J_d_x }
+            }
+        }
+    };
 }
+
+forwarding_manifold!(Pos, GeoPos);
+forwarding_manifold!(Ins, InsState);
 
 impl LawSampler for Pos {
     fn arb_point() -> BoxedStrategy<Self> {
@@ -61,43 +69,6 @@ impl LawSampler for Pos {
     }
     fn arb_tangent() -> BoxedStrategy<Tangent<Self>> {
         arb_rn::<3>(1e4)
-    }
-}
-
-#[derive(Clone, Debug)]
-struct Ins(InsState);
-
-impl Manifold for Ins {
-    type Dim = <InsState as Manifold>::Dim;
-    fn origin() -> Self {
-        Ins(InsState::origin())
-    }
-    fn oplus(&self, d: &Tangent<Self>) -> Self {
-        Ins(self.0.oplus(d))
-    }
-    fn ominus(&self, o: &Self) -> Tangent<Self> {
-        self.0.ominus(&o.0)
-    }
-    fn is_finite(&self) -> bool {
-        self.0.is_finite()
-    }
-    fn oplus_jacobians(&self, d: &Tangent<Self>) -> manifolds::OplusJacobians<Self> {
-        let j = self.0.oplus_jacobians(d);
-        manifolds::OplusJacobians { J_y_x: j.J_y_x, J_y_delta: j.J_y_delta }
-    }
-    fn oplus_jacobian_delta(&self, d: &Tangent<Self>) -> manifolds::TangentMatrix<Self> {
-        self.0.oplus_jacobian_delta(d)
-    }
-    fn reset_blocks(
-        &self,
-        d: &Tangent<Self>,
-        visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
-    ) {
-        self.0.reset_blocks(d, visit)
-    }
-    fn ominus_jacobians(&self, o: &Self) -> manifolds::OminusJacobians<Self> {
-        let j = self.0.ominus_jacobians(&o.0);
-        manifolds::OminusJacobians { J_d_y: j.J_d_y, J_d_x: j.J_d_x }
     }
 }
 
