@@ -189,8 +189,13 @@ where
 
     /// `(current, next, auxiliary)` buffers, disjointly borrowed.
     fn buffers(&mut self) -> (&B::Cov, &mut B::Cov, &mut B::Cov) {
-        let [a, b, c] = &mut self.bufs;
-        match self.cur {
+        Self::split(&mut self.bufs, self.cur)
+    }
+
+    /// The current, next and auxiliary buffers of `bufs` with current index `cur`.
+    fn split(bufs: &mut [B::Cov; 3], cur: usize) -> (&B::Cov, &mut B::Cov, &mut B::Cov) {
+        let [a, b, c] = bufs;
+        match cur {
             0 => (a, b, c),
             1 => (b, c, a),
             _ => (c, a, b),
@@ -259,36 +264,56 @@ where
         if !(dt.is_finite() && dt >= 0.0) {
             return Err(FilterError::InvalidTimeStep { dt });
         }
-        let (x_next, mut jac) = model.step(&self.x, u, dt);
-        match &self.q_adjust {
-            QAdjust::Keep | QAdjust::Model => {}
-            QAdjust::Scale(s) => jac.Q *= *s,
-            QAdjust::AddRate(q) => jac.Q += q * dt,
-        }
         let fading = self.strategy.prediction_fading();
         if !(fading.is_finite() && fading > 0.0) {
             return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
         }
         let mut backend = core::mem::take(&mut self.backend);
-        let (P, next, _) = self.buffers();
-        match (B::static_mut(next), B::as_static(P)) {
-            (Some(next), Cow::Borrowed(P)) => {
-                if fading == 1.0 {
-                    model.propagate_covariance(P, &jac, next);
+        let x = &self.x;
+        let (P, next, _) = Self::split(&mut self.bufs, self.cur);
+        let x_next = match (B::static_mut(next), B::as_static(P), &self.q_adjust) {
+            // The static back-end with `Q_d` as the model gives it: the model's fused step.
+            (Some(next), Cow::Borrowed(P), QAdjust::Keep | QAdjust::Model) => {
+                let x_next = if fading == 1.0 {
+                    model.step_covariance(x, u, dt, P, next)
                 } else {
                     // λ Φ P Φᵀ = Φ (λ P) Φᵀ
-                    let scaled = P * fading;
-                    model.propagate_covariance(&scaled, &jac, next);
-                }
+                    model.step_covariance(x, u, dt, &(P * fading), next)
+                };
                 if !PM::SYMMETRIC_PROPAGATION {
                     symmetrize(next);
                 }
+                x_next
             }
-            _ => {
-                let (P, next, _) = self.buffers();
-                backend.propagate(P, &jac.Phi, &jac.Q, fading, next);
+            (next_static, P_static, q_adjust) => {
+                let (x_next, mut jac) = model.step(x, u, dt);
+                match q_adjust {
+                    QAdjust::Keep | QAdjust::Model => {}
+                    QAdjust::Scale(s) => jac.Q *= *s,
+                    QAdjust::AddRate(q) => jac.Q += q * dt,
+                }
+                match (next_static, P_static) {
+                    (Some(next), Cow::Borrowed(P)) => {
+                        let scaled;
+                        let P = if fading == 1.0 {
+                            P
+                        } else {
+                            scaled = P * fading;
+                            &scaled
+                        };
+                        model.propagate_covariance(P, &jac, next);
+                        if !PM::SYMMETRIC_PROPAGATION {
+                            symmetrize(next);
+                        }
+                    }
+                    _ => {
+                        let (P, next, _) = Self::split(&mut self.bufs, self.cur);
+                        backend.propagate(P, &jac.Phi, &jac.Q, fading, next);
+                    }
+                }
+                x_next
             }
-        }
+        };
         self.backend = backend;
         if !x_next.is_finite() {
             return Err(FilterError::NonFinite { what: "propagated state" });

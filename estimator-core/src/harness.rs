@@ -75,8 +75,8 @@ where
 }
 
 /// Check a process model's `Φ` against `∂(f(x ⊕ δ) ⊖ f(x))/∂δ` by central differences
-/// (step 1e-6 in every tangent direction), and its `step` against `propagate` and
-/// `jacobians` (to 1e-9 relative).
+/// (step 1e-6 in every tangent direction), and its combined calls against the separate
+/// ones ([`check_combined_calls`]).
 pub fn check_process_model<PM: ProcessModel>(
     model: &PM,
     x: &PM::State,
@@ -106,13 +106,53 @@ where
     let jac = model.jacobians(x, u, dt);
     let numeric = numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), step);
     compare("process transition Φ", &jac.Phi, &numeric, rel_tol)?;
+    check_combined_calls(model, x, u, dt)
+}
+
+/// The part of [`check_process_model`] that holds for every model, also one whose `Φ` is
+/// only a first-order approximation of its `propagate` (the INS model): `step` agrees
+/// with `propagate` and `jacobians`, and `propagate_covariance` and `step_covariance`
+/// with the dense `Φ P Φᵀ + Q` (to 1e-9 relative, and exactly symmetric when the model
+/// says so).
+pub fn check_combined_calls<PM: ProcessModel>(
+    model: &PM,
+    x: &PM::State,
+    u: &PM::Input,
+    dt: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: DimAlloc<StateDim<PM::State>>,
+{
+    let jac = model.jacobians(x, u, dt);
     // `step` (often an override sharing work) must agree with the two separate calls.
     let x_next = model.propagate(x, u, dt);
     let (x_step, jac_step) = model.step(x, u, dt);
     let gap = x_step.ominus(&x_next);
     compare("step: state vs propagate", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
     compare("step: Φ vs jacobians", &jac_step.Phi, &jac.Phi, STEP_AGREEMENT)?;
-    compare("step: Q vs jacobians", &jac_step.Q, &jac.Q, STEP_AGREEMENT)
+    compare("step: Q vs jacobians", &jac_step.Q, &jac.Q, STEP_AGREEMENT)?;
+    // `propagate_covariance` and `step_covariance` (structured overrides) must give the
+    // dense Φ P Φᵀ + Q, for a P with every entry non-zero.
+    type Square<PM> =
+        OMatrix<f64, StateDim<<PM as ProcessModel>::State>, StateDim<<PM as ProcessModel>::State>>;
+    let a = Square::<PM>::from_fn(|r, c| ((r * 7 + c * 3) % 11) as f64 * 0.1 - 0.5);
+    let P = &a * a.transpose() + Square::<PM>::identity();
+    let dense = &jac.Phi * &P * jac.Phi.transpose() + &jac.Q;
+    let mut out = P.clone() * f64::NAN;
+    model.propagate_covariance(&P, &jac, &mut out);
+    let sym = |m: &Square<PM>| (m + m.transpose()) * 0.5;
+    compare("propagate_covariance vs Φ P Φᵀ + Q", &sym(&out), &dense, STEP_AGREEMENT)?;
+    let mut fused = P.clone() * f64::NAN;
+    let x_fused = model.step_covariance(x, u, dt, &P, &mut fused);
+    let gap = x_fused.ominus(&x_next);
+    compare("step_covariance: state vs propagate", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
+    compare("step_covariance vs Φ P Φᵀ + Q", &sym(&fused), &dense, STEP_AGREEMENT)?;
+    if PM::SYMMETRIC_PROPAGATION {
+        // the flag promises exact symmetry: the filter skips symmetrising
+        compare("propagate_covariance symmetric", &out, &out.transpose(), 0.0)?;
+        compare("step_covariance symmetric", &fused, &fused.transpose(), 0.0)?;
+    }
+    Ok(())
 }
 
 /// Relative agreement required between a model's combined call (`step`, `linearize`) and

@@ -124,6 +124,27 @@ where
         // P⁻ = Φ P Φᵀ + Q_d
         crate::kernels::dense_sandwich(&jac.Phi, P, &jac.Q, out);
     }
+
+    /// The whole prediction in one call: returns `x⁺` and writes `out ← Φ P Φᵀ + Q_d`.
+    /// The default is [`step`](Self::step) then
+    /// [`propagate_covariance`](Self::propagate_covariance); override it when `Φ` and
+    /// `Q_d` need not be formed as dense matrices (the INS model keeps only their non-zero
+    /// blocks). The static back-end's filter calls it unless the strategy has adjusted
+    /// `Q_d` ([`QAdjust`](crate::QAdjust)); the law harness checks it against the separate
+    /// calls. The symmetry contract is that of `propagate_covariance`.
+    #[allow(non_snake_case)]
+    fn step_covariance(
+        &self,
+        x: &Self::State,
+        u: &Self::Input,
+        dt: f64,
+        P: &Cov<StateDim<Self::State>>,
+        out: &mut Cov<StateDim<Self::State>>,
+    ) -> Self::State {
+        let (x_next, jac) = self.step(x, u, dt);
+        self.propagate_covariance(P, &jac, out);
+        x_next
+    }
 }
 
 /// The [`MeasurementJacobians`] of a measurement model.

@@ -1,7 +1,8 @@
 //! A tight loop of INS epochs (mechanization + covariance propagation) for profilers:
 //! `cargo build --profile profiling -p ins-gnss --example epoch_loop` then run it under
 //! `perf record` or `valgrind --tool=callgrind`. Prints the time per epoch. With the
-//! argument `update` it loops GNSS position+velocity updates instead.
+//! argument `update` it loops GNSS position+velocity updates instead, with `mechanization`
+//! the mechanization alone.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -30,6 +31,17 @@ fn main() {
         return;
     }
     let n = 2_000_000;
+    if std::env::args().nth(1).as_deref() == Some("mechanization") {
+        use estimator_core::ProcessModel;
+        let t = Instant::now();
+        for k in 0..n {
+            let i = 100 + k % 8000;
+            let u = ImuInput { prev: Some(data.imu[i - 1]), cur: data.imu[i] };
+            black_box(model.propagate(black_box(&data.truth[i].state), &u, 0.005));
+        }
+        println!("{:.3} µs per mechanization step", t.elapsed().as_secs_f64() / n as f64 * 1e6);
+        return;
+    }
     let mut f = ErrorStateFilter::new(data.truth[100].state.clone(), p, FixedNoise).unwrap();
     let t = Instant::now();
     for k in 0..n {

@@ -36,12 +36,26 @@ pub fn prime_vertical_radius(lat: f64) -> f64 {
 /// `dR_N/dφ = R_N e² sin φ cos φ / (1 − e² sin²φ)`, m/rad.
 pub fn prime_vertical_radius_derivative(lat: f64) -> f64 {
     let (s, c) = lat.sin_cos();
-    prime_vertical_radius_derivative_sc(s, c)
+    LocalEarth::new(s, c, 0.0).rn_prime()
 }
 
-/// [`prime_vertical_radius_derivative`] from `sin φ`, `cos φ`.
-pub fn prime_vertical_radius_derivative_sc(s: f64, c: f64) -> f64 {
-    radii_from_sin(s).1 * E2 * s * c / (1.0 - E2 * s * s)
+/// `(sin φ, cos φ)` from those of a nearby latitude `φ₀`: `sin(φ₀ + δ)` and
+/// `cos(φ₀ + δ)` by angle addition, with `sin δ` and `cos δ` from their series. For
+/// `|δ| ≤ 1e-3` rad (6 km of latitude) the first omitted terms, `δ⁵/120` and `δ⁶/720`,
+/// are below 1e-17, so the result is as accurate as the library's `sin_cos`; farther
+/// away this calls `sin_cos`. The mechanization evaluates four latitudes per epoch within
+/// a few metres of each other; this replaces three of their four library calls, which
+/// sat on the step's longest chain of dependent operations.
+#[inline]
+pub fn sin_cos_near(lat: f64, lat0: f64, s0: f64, c0: f64) -> (f64, f64) {
+    let d = lat - lat0;
+    if d.abs() > 1e-3 || !d.is_finite() {
+        return lat.sin_cos();
+    }
+    let d2 = d * d;
+    let sd = d * (1.0 - d2 * (1.0 / 6.0));
+    let cd = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0));
+    (s0 * cd + c0 * sd, c0 * cd - s0 * sd)
 }
 
 /// Both radii `(R_M, R_N)`.
@@ -63,33 +77,121 @@ pub fn normal_gravity(lat: f64, h: f64) -> f64 {
 
 /// [`normal_gravity`] from `sin φ`.
 pub fn normal_gravity_from_sin(s: f64, h: f64) -> f64 {
-    let s2 = s * s;
-    let k = B * GAMMA_P / (A * GAMMA_E) - 1.0;
-    let g0 = GAMMA_E * (1.0 + k * s2) / (1.0 - E2 * s2).sqrt();
-    let m = OMEGA_IE * OMEGA_IE * A * A * B / GM;
-    g0 * (1.0 - 2.0 / A * (1.0 + F + m - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h)
+    gravity_with(s * s, 1.0 / (1.0 - E2 * s * s).sqrt(), h)
+}
+
+/// `k = b γ_p / (a γ_e) − 1` of Somigliana's formula.
+const SOMIGLIANA_K: f64 = B * GAMMA_P / (A * GAMMA_E) - 1.0;
+/// `m = ω² a² b / GM`.
+const NORMAL_M: f64 = OMEGA_IE * OMEGA_IE * A * A * B / GM;
+
+/// Normal gravity from `sin²φ`, `1/√(1 − e² sin²φ)` and `h`: Somigliana's
+/// `γ₀ = γ_e (1 + k sin²φ) / √(1 − e² sin²φ)` times the height factor
+/// `1 − (2/a)(1 + f + m − 2f sin²φ) h + (3/a²) h²`.
+fn gravity_with(s2: f64, isw: f64, h: f64) -> f64 {
+    let g0 = GAMMA_E * (1.0 + SOMIGLIANA_K * s2) * isw;
+    g0 * (1.0 - 2.0 / A * (1.0 + F + NORMAL_M - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h)
 }
 
 /// Partial derivatives of [`normal_gravity`]: `(∂g/∂φ [m/s²/rad], ∂g/∂h [1/s²])`.
 pub fn normal_gravity_gradient(lat: f64, h: f64) -> (f64, f64) {
     let (s, c) = lat.sin_cos();
-    normal_gravity_gradient_sc(s, c, h)
+    LocalEarth::new(s, c, h).gravity_gradient()
 }
 
-/// [`normal_gravity_gradient`] from `sin φ`, `cos φ`.
-pub fn normal_gravity_gradient_sc(s: f64, c: f64, h: f64) -> (f64, f64) {
-    let s2 = s * s;
-    let k = B * GAMMA_P / (A * GAMMA_E) - 1.0;
-    let w = 1.0 - E2 * s2;
-    let g0 = GAMMA_E * (1.0 + k * s2) / w.sqrt();
-    // dg0/dφ = γe [2k s c / √w + (1 + k s²) e² s c / w^{3/2}]
-    let dg0 = GAMMA_E * (2.0 * k * s * c / w.sqrt() + (1.0 + k * s2) * E2 * s * c / (w * w.sqrt()));
-    let m = OMEGA_IE * OMEGA_IE * A * A * B / GM;
-    let hf = 1.0 - 2.0 / A * (1.0 + F + m - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h;
-    // d(hf)/dφ = (2/a)(4 f s c) h
-    let dhf_dlat = 2.0 / A * (4.0 * F * s * c) * h;
-    let dhf_dh = -2.0 / A * (1.0 + F + m - 2.0 * F * s2) + 6.0 * h / (A * A);
-    (dg0 * hf + g0 * dhf_dlat, g0 * dhf_dh)
+/// The latitude and height functions of one point that the mechanization and the error
+/// model use, from one sine and cosine with one square root and four divisions (each
+/// function on its own would take about fifteen divisions and three roots; they sit on
+/// the mechanization's chain of dependent operations).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalEarth {
+    /// `sin φ`.
+    pub sin: f64,
+    /// `cos φ`.
+    pub cos: f64,
+    /// `tan φ`.
+    pub tan: f64,
+    /// `1/cos φ`.
+    pub sec: f64,
+    /// `1/√(1 − e² sin²φ)`.
+    pub isw: f64,
+    /// Height, m.
+    pub h: f64,
+    /// Meridian radius `R_M`, m.
+    pub rm: f64,
+    /// Prime-vertical radius `R_N`, m.
+    pub rn: f64,
+    /// `1/(R_M + h)`, 1/m.
+    pub inv_rmh: f64,
+    /// `1/(R_N + h)`, 1/m.
+    pub inv_rnh: f64,
+}
+
+impl LocalEarth {
+    /// The functions at latitude `φ` (given by `sin φ`, `cos φ`) and height `h`.
+    pub fn new(sin: f64, cos: f64, h: f64) -> Self {
+        let isw = 1.0 / (1.0 - E2 * sin * sin).sqrt();
+        let rn = A * isw;
+        let rm = A * (1.0 - E2) * isw * isw * isw;
+        let sec = 1.0 / cos;
+        Self {
+            sin,
+            cos,
+            tan: sin * sec,
+            sec,
+            isw,
+            h,
+            rm,
+            rn,
+            inv_rmh: 1.0 / (rm + h),
+            inv_rnh: 1.0 / (rn + h),
+        }
+    }
+
+    /// `R_M + h`, m.
+    pub fn rmh(&self) -> f64 {
+        self.rm + self.h
+    }
+
+    /// `R_N + h`, m.
+    pub fn rnh(&self) -> f64 {
+        self.rn + self.h
+    }
+
+    /// Earth rate in NED, rad/s.
+    pub fn earth_rate(&self) -> Vector3<f64> {
+        earth_rate_ned_sc(self.sin, self.cos)
+    }
+
+    /// Transport rate in NED for velocity `v_n`, rad/s.
+    pub fn transport_rate(&self, v_n: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(v_n.y * self.inv_rnh, -v_n.x * self.inv_rmh, -v_n.y * self.tan * self.inv_rnh)
+    }
+
+    /// Normal gravity, m/s².
+    pub fn gravity(&self) -> f64 {
+        gravity_with(self.sin * self.sin, self.isw, self.h)
+    }
+
+    /// `(∂g/∂φ [m/s²/rad], ∂g/∂h [1/s²])` of normal gravity.
+    pub fn gravity_gradient(&self) -> (f64, f64) {
+        let (s, c, h, isw) = (self.sin, self.cos, self.h, self.isw);
+        let s2 = s * s;
+        let k = SOMIGLIANA_K;
+        let g0 = GAMMA_E * (1.0 + k * s2) * isw;
+        // dγ₀/dφ = γ_e [2k s c / √w + (1 + k s²) e² s c / w^{3/2}], w = 1 − e² s²
+        let dg0 = GAMMA_E * s * c * isw * (2.0 * k + (1.0 + k * s2) * E2 * isw * isw);
+        let hf = 1.0 - 2.0 / A * (1.0 + F + NORMAL_M - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h;
+        // d(hf)/dφ = (2/a)(4 f s c) h
+        let dhf_dlat = 2.0 / A * (4.0 * F * s * c) * h;
+        let dhf_dh = -2.0 / A * (1.0 + F + NORMAL_M - 2.0 * F * s2) + 6.0 * h / (A * A);
+        (dg0 * hf + g0 * dhf_dlat, g0 * dhf_dh)
+    }
+
+    /// `dR_N/dφ = R_N e² sin φ cos φ / (1 − e² sin²φ)`, m/rad.
+    pub fn rn_prime(&self) -> f64 {
+        self.rn * E2 * self.sin * self.cos * self.isw * self.isw
+    }
 }
 
 /// Gravity vector in NED (down positive), m/s².

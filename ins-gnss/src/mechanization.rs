@@ -22,10 +22,7 @@
 use manifolds::So3;
 use nalgebra::{Matrix3, Vector3};
 
-use crate::earth::{
-    earth_rate_ned_sc, gravity_ned, normal_gravity_from_sin, radii, radii_from_sin,
-    transport_rate_with,
-};
+use crate::earth::{gravity_ned, sin_cos_near, LocalEarth};
 use crate::position::GeoPos;
 
 /// Which mechanization (and matching error model) to use.
@@ -82,57 +79,62 @@ fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     manifolds::hat(v)
 }
 
-/// Geodetic position after moving with average NED velocity `v_avg` for `dt`, with radii
-/// at the midpoint height and latitude.
-fn integrate_position(p: &GeoPos, rm0: f64, v_avg: &Vector3<f64>, dt: f64) -> GeoPos {
-    let h1 = p.h - v_avg.z * dt;
-    let h_mid = 0.5 * (p.h + h1);
-    let lat_guess = p.lat + v_avg.x * dt / (rm0 + h_mid);
-    let lat_mid = 0.5 * (p.lat + lat_guess);
-    let (rm, rn) = radii(lat_mid);
-    let lat1 = p.lat + v_avg.x * dt / (rm + h_mid);
-    let lat_mid = 0.5 * (p.lat + lat1);
-    let lon1 = p.lon + v_avg.y * dt / ((rn + h_mid) * lat_mid.cos());
-    GeoPos { lat: lat1, lon: lon1, h: h1 }
-}
-
 /// One WGS-84 NED mechanization step.
 pub fn wgs84_step(nav: &Nav, inc: &Increments) -> Nav {
+    let (s, c) = nav.pos.lat.sin_cos();
+    wgs84_step_with(nav, inc, &nav.att.matrix(), &LocalEarth::new(s, c, nav.pos.h))
+}
+
+/// The navigation frame's rotation `(ω_ie + ω_en) dt` and the gravity and Coriolis
+/// velocity increment `(g − (2ω_ie + ω_en) × v) dt` at one point.
+fn rates(e: &LocalEarth, v: &Vector3<f64>, dt: f64) -> (Vector3<f64>, Vector3<f64>) {
+    let w_ie = e.earth_rate();
+    let w_en = e.transport_rate(v);
+    let g = Vector3::new(0.0, 0.0, e.gravity());
+    ((w_ie + w_en) * dt, (g - (w_ie * 2.0 + w_en).cross(v)) * dt)
+}
+
+/// [`wgs84_step`] with `R_nb` and the Earth functions at the start given (the INS model
+/// shares them with its Jacobians).
+///
+/// The predictor evaluates the Earth model at the start, predicts the velocity, and from
+/// it the midpoint latitude and height (with the start's meridian radius: the predictor
+/// only has to place the midpoint). The corrector evaluates the Earth model there, gives
+/// the velocity, and integrates the position with the midpoint radii. The latitude
+/// functions away from the start come from the start's through [`sin_cos_near`]. Each
+/// step is on one chain of dependent divisions, square roots and trigonometry, so the
+/// fewer of them the faster the step.
+pub fn wgs84_step_with(
+    nav: &Nav,
+    inc: &Increments,
+    r_nb: &Matrix3<f64>,
+    start: &LocalEarth,
+) -> Nav {
     let dt = inc.dt;
     let dv_b = sculling(inc);
     let phi_b = coning(inc);
-    let r_nb = nav.att.matrix();
     let f_n = r_nb * dv_b;
-
-    // Predictor with the start-of-interval navigation quantities. Each position's
-    // latitude functions come from one `sin_cos`.
-    let accel = |p: &GeoPos, v: &Vector3<f64>, s: f64, c: f64| {
-        let (rm, rn) = radii_from_sin(s);
-        let w_ie = earth_rate_ned_sc(s, c);
-        let w_en = transport_rate_with(rm + p.h, rn + p.h, s / c, v);
-        let zeta = (w_ie + w_en) * dt;
-        let g = Vector3::new(0.0, 0.0, normal_gravity_from_sin(s, p.h));
-        let dv_gc = (g - (w_ie * 2.0 + w_en).cross(v)) * dt;
-        (zeta, dv_gc)
-    };
-    let (s0, c0) = nav.pos.lat.sin_cos();
-    let rm0 = radii_from_sin(s0).0;
-    let (zeta0, dv_gc0) = accel(&nav.pos, &nav.vel, s0, c0);
-    let v_pred = nav.vel + f_n - skew(&zeta0) * f_n * 0.5 + dv_gc0;
-    let p_pred = integrate_position(&nav.pos, rm0, &((nav.vel + v_pred) * 0.5), dt);
+    let (p0, v0) = (&nav.pos, &nav.vel);
+    // Predictor with the start-of-interval navigation quantities.
+    let (zeta0, dv_gc0) = rates(start, v0, dt);
+    let v_pred = v0 + f_n - skew(&zeta0) * f_n * 0.5 + dv_gc0;
+    let v_mid = (v0 + v_pred) * 0.5;
+    let h_mid = p0.h - 0.5 * v_mid.z * dt;
+    let lat_mid = p0.lat + 0.5 * v_mid.x * dt / (start.rm + h_mid);
     // Corrector at the midpoint.
-    let p_mid = GeoPos {
-        lat: 0.5 * (nav.pos.lat + p_pred.lat),
-        lon: 0.5 * (nav.pos.lon + p_pred.lon),
-        h: 0.5 * (nav.pos.h + p_pred.h),
-    };
-    let v_mid = (nav.vel + v_pred) * 0.5;
-    let (sm, cm) = p_mid.lat.sin_cos();
-    let (zeta, dv_gc) = accel(&p_mid, &v_mid, sm, cm);
-    let vel = nav.vel + f_n - skew(&zeta) * f_n * 0.5 + dv_gc;
-    let pos = integrate_position(&nav.pos, rm0, &((nav.vel + vel) * 0.5), dt);
-    let att = So3::exp(&(-zeta)) * nav.att * So3::exp(&phi_b);
-    Nav { att, vel, pos }
+    let (sm, cm) = sin_cos_near(lat_mid, p0.lat, start.sin, start.cos);
+    let mid = LocalEarth::new(sm, cm, h_mid);
+    let (zeta, dv_gc) = rates(&mid, &v_mid, dt);
+    let vel = v0 + f_n - skew(&zeta) * f_n * 0.5 + dv_gc;
+    // Position with the average velocity and the midpoint radii.
+    let v_avg = (v0 + vel) * 0.5;
+    let h1 = p0.h - v_avg.z * dt;
+    let h_avg = 0.5 * (p0.h + h1);
+    let lat1 = p0.lat + v_avg.x * dt / (mid.rm + h_avg);
+    let cos_mid = sin_cos_near(0.5 * (p0.lat + lat1), p0.lat, start.sin, start.cos).1;
+    let lon1 = p0.lon + v_avg.y * dt / ((mid.rn + h_avg) * cos_mid);
+    let att = nav.att.between(&So3::exp(&(-zeta)), &So3::exp(&phi_b));
+    Nav { att, vel, pos: GeoPos { lat: lat1, lon: lon1, h: h1 } }
 }
 
 /// One flat-earth mechanization step around `reference`.

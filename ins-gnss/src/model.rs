@@ -17,9 +17,12 @@
 //! `δD = −δh`). The flat-earth model keeps only `−[ω̂×]`, `−R̂[f̂×]`, `I`, `−I`, `−R̂` and
 //! the bias terms (paper `fused-iae-afkf` eq. 8–12).
 //!
-//! Discretisation: `Φ = I + F dt`; `Q_d = (Φ D + D Φᵀ) dt/2` (the trapezoid
-//! `(Φ D Φᵀ + D) dt/2` to second order in dt) with
+//! Discretisation: `Φ = I + F dt` and the trapezoid `Q_d = (Φ D Φᵀ + D) dt/2`
+//! (ALGORITHMS.md §1) with
 //! `D = G Q_c Gᵀ = blockdiag(diag(ARW²), R̂ diag(VRW²) R̂ᵀ, 0, diag(q_bg), diag(q_ba))`.
+//! With the block-diagonal `E = D dt/2` the whole prediction is
+//! `P⁻ = Φ (P + E) Φᵀ + E`: one structured product and two block-diagonal additions, so
+//! [`InsModel`]'s fused `step_covariance` never forms `Q_d` (nor `Φ` as a dense matrix).
 
 use estimator_core::fma_kernel;
 use estimator_core::kernels::madd;
@@ -27,10 +30,7 @@ use estimator_core::{Cov, ProcessJacobians, ProcessModel};
 use manifolds::{hat, So3};
 use nalgebra::{Const, Matrix3, SMatrix, Vector3};
 
-use crate::earth::{
-    earth_rate_ned_sc, normal_gravity_gradient_sc, prime_vertical_radius_derivative_sc,
-    radii_from_sin, transport_rate_with,
-};
+use crate::earth::LocalEarth;
 use crate::imu::{BiasModel, ImuNoise, ImuSample};
 use crate::mechanization::{self, Increments, Mechanization, Nav};
 use crate::state::InsState;
@@ -89,10 +89,26 @@ impl InsModel {
         }
     }
 
-    /// The mechanization step from corrected increments.
-    fn propagate_with(&self, x: &InsState, inc: &Increments) -> InsState {
+    /// The Earth functions at the position of `x`.
+    fn earth_at(x: &InsState) -> LocalEarth {
+        let (s, c) = x.pos.lat.sin_cos();
+        LocalEarth::new(s, c, x.pos.h)
+    }
+
+    /// The mechanization step from corrected increments, with `R̂` and the sine and cosine
+    /// of the latitude of `x` given.
+    fn propagate_with(
+        &self,
+        x: &InsState,
+        inc: &Increments,
+        c: &Matrix3<f64>,
+        earth: &LocalEarth,
+    ) -> InsState {
         let nav = Nav { att: x.att, vel: x.vel, pos: x.pos };
-        let next = mechanization::step(&self.mechanization, &nav, inc);
+        let next = match &self.mechanization {
+            Mechanization::Wgs84 => mechanization::wgs84_step_with(&nav, inc, c, earth),
+            other => mechanization::step(other, &nav, inc),
+        };
         // A Gauss–Markov bias estimate decays towards zero, b⁺ = b·exp(−dt/τ); the other
         // models hold it (see `BiasModel`).
         let decay = match self.noise.bias_model {
@@ -102,139 +118,131 @@ impl InsModel {
         InsState { att: next.att, vel: next.vel, pos: next.pos, bg: x.bg * decay, ba: x.ba * decay }
     }
 
-    /// `Φ` and `Q_d` of the step from corrected increments and `c = R̂`.
-    fn jacobians_with(
+    /// `Φ` (into padded columns that are zero on entry) and `E = D dt/2` of the step from
+    /// corrected increments.
+    fn transition_with(
         &self,
         x: &InsState,
         inc: &Increments,
         c: &Matrix3<f64>,
-    ) -> ProcessJacobians<Const<15>> {
-        let inc = *inc;
+        earth: &LocalEarth,
+        phi: &mut Cols16,
+    ) -> HalfNoise {
         let dt = inc.dt;
         let (w, f) = if dt > 0.0 {
             (inc.dtheta / dt, inc.dvel / dt)
         } else {
             (Vector3::zeros(), Vector3::zeros())
         };
-        // Φ = I + F dt, in place
-        let mut Phi = self.error_dynamics_with(x, &w, &f, c);
-        Phi *= dt;
-        for i in 0..15 {
-            Phi[(i, i)] += 1.0;
-        }
-        // Q_d = (Φ D + D Φᵀ) dt/2: the trapezoid (Φ D Φᵀ + D) dt/2 to second order in dt
-        // (they differ by (Φ−I) D (Φ−I)ᵀ dt/2 = O(dt³)). D = G Q_c Gᵀ is block diagonal,
-        // so Φ D is Φ's columns scaled (θ, b_g, b_a) and one 3×3 product (v).
-        let q = self.noise_psd();
-        let d_vv = c * Matrix3::from_diagonal(&Vector3::new(q[3], q[4], q[5])) * c.transpose();
-        let f: &[[f64; 15]; 15] = &Phi.data.0;
-        let mut pd = [[0.0_f64; 15]; 15];
-        for k in 0..3 {
-            for r in 0..15 {
-                pd[k][r] = f[k][r] * q[k];
-                pd[9 + k][r] = f[9 + k][r] * q[6 + k];
-                pd[12 + k][r] = f[12 + k][r] * q[9 + k];
-                pd[3 + k][r] =
-                    f[3][r] * d_vv[(0, k)] + f[4][r] * d_vv[(1, k)] + f[5][r] * d_vv[(2, k)];
-            }
-        }
-        let mut Q = M15::zeros();
+        let b = self.error_blocks(x, &w, &f, c, earth);
+        b.scaled(dt, [1.0, 1.0 + b.bias * dt], phi);
+        self.half_noise(c, dt)
+    }
+
+    /// `E = D dt/2`, the half-interval noise of the trapezoid, with
+    /// `D = G Q_c Gᵀ = blockdiag(diag(ARW²), R̂ diag(VRW²) R̂ᵀ, 0, diag(q_bg), diag(q_ba))`.
+    fn half_noise(&self, c: &Matrix3<f64>, dt: f64) -> HalfNoise {
+        let n = &self.noise;
         let h = 0.5 * dt;
-        for (col, qcol) in Q.data.0.iter_mut().enumerate() {
-            for (row, v) in qcol.iter_mut().enumerate() {
-                *v = (pd[col][row] + pd[row][col]) * h;
+        let (qbg, qba) = n.bias_psd();
+        let qv = n.vrw.component_mul(&n.vrw) * h;
+        // R̂ diag(qv) R̂ᵀ, its lower triangle computed and mirrored so it is exactly symmetric
+        let mut v = Matrix3::zeros();
+        for i in 0..3 {
+            for j in 0..=i {
+                let e = c[(i, 0)] * c[(j, 0)] * qv.x
+                    + c[(i, 1)] * c[(j, 1)] * qv.y
+                    + c[(i, 2)] * c[(j, 2)] * qv.z;
+                v[(i, j)] = e;
+                v[(j, i)] = e;
             }
         }
-        ProcessJacobians { Phi, Q }
+        HalfNoise {
+            th: (n.arw.component_mul(&n.arw) * h).into(),
+            v,
+            bg: (qbg * h).into(),
+            ba: (qba * h).into(),
+        }
     }
 
     /// The continuous error-state matrix `F` at `x` with corrected rate `w` (rad/s) and
     /// specific force `f` (m/s²).
     pub fn error_dynamics(&self, x: &InsState, w: &Vector3<f64>, f: &Vector3<f64>) -> M15 {
-        self.error_dynamics_with(x, w, f, &x.att.matrix())
+        self.error_blocks(x, w, f, &x.att.matrix(), &Self::earth_at(x)).dense()
     }
 
-    /// [`error_dynamics`](Self::error_dynamics) with the attitude matrix `c = R̂` given.
-    fn error_dynamics_with(
+    /// The non-zero blocks of `F`, with `c = R̂` and the sine and cosine of the latitude.
+    fn error_blocks(
         &self,
         x: &InsState,
         w: &Vector3<f64>,
         f: &Vector3<f64>,
         c: &Matrix3<f64>,
-    ) -> M15 {
-        let mut F = M15::zeros();
+        earth: &LocalEarth,
+    ) -> ErrorBlocks {
         let c = *c;
-        let inv_tau = self.noise.inverse_tau();
-        put(&mut F, B_TH, B_TH, &(-hat(w)));
-        put(&mut F, B_TH, B_BG, &(-Matrix3::identity()));
-        put(&mut F, B_V, B_TH, &(-c * hat(f)));
-        put(&mut F, B_V, B_BA, &(-c));
-        put(&mut F, B_P, B_V, &Matrix3::identity());
-        put(&mut F, B_BG, B_BG, &(Matrix3::identity() * -inv_tau));
-        put(&mut F, B_BA, B_BA, &(Matrix3::identity() * -inv_tau));
+        let mut b = ErrorBlocks {
+            th_th: -hat(w),
+            th_v: Matrix3::zeros(),
+            th_p: Matrix3::zeros(),
+            v_th: -c * hat(f),
+            v_v: Matrix3::zeros(),
+            v_p: Matrix3::zeros(),
+            v_ba: -c,
+            p_p: Matrix3::zeros(),
+            bias: -self.noise.inverse_tau(),
+        };
         if let Mechanization::Wgs84 = self.mechanization {
-            // Every latitude function of this epoch from one `sin_cos`.
-            let (lat, h, v) = (x.pos.lat, x.pos.h, x.vel);
-            let (sl, cl) = lat.sin_cos();
-            let (rm, rn) = radii_from_sin(sl);
-            let (rmh, rnh) = (rm + h, rn + h);
-            let t = sl / cl;
-            let w_ie = earth_rate_ned_sc(sl, cl);
-            let w_en = transport_rate_with(rmh, rnh, t, &v);
+            let v = x.vel;
+            let e = earth;
+            let (sl, cl, t) = (e.sin, e.cos, e.tan);
+            let (irm, irn) = (e.inv_rmh, e.inv_rnh);
+            let w_ie = e.earth_rate();
+            let w_en = e.transport_rate(&v);
             // N_v = ∂ω_en/∂v
-            let nv = Matrix3::new(0.0, 1.0 / rnh, 0.0, -1.0 / rmh, 0.0, 0.0, 0.0, -t / rnh, 0.0);
+            let nv = Matrix3::new(0.0, irn, 0.0, -irm, 0.0, 0.0, 0.0, -t * irn, 0.0);
             // D_ie = ∂ω_ie/∂δp (through δφ = δN/(R_M+h))
             let om = crate::earth::OMEGA_IE;
-            let d_ie = Matrix3::new(
-                -om * sl / rmh,
-                0.0,
-                0.0, //
-                0.0,
-                0.0,
-                0.0, //
-                -om * cl / rmh,
-                0.0,
-                0.0,
-            );
+            let d_ie =
+                Matrix3::new(-om * sl * irm, 0.0, 0.0, 0.0, 0.0, 0.0, -om * cl * irm, 0.0, 0.0);
             // D_en = ∂ω_en/∂δp (δφ = δN/(R_M+h), δh = −δD)
             let d_en = Matrix3::new(
                 0.0,
                 0.0,
-                v.y / (rnh * rnh), //
+                v.y * irn * irn, //
                 0.0,
                 0.0,
-                -v.x / (rmh * rmh), //
-                -v.y / (rnh * rmh * (cl * cl)),
+                -v.x * irm * irm, //
+                -v.y * irn * irm * e.sec * e.sec,
                 0.0,
-                -v.y * t / (rnh * rnh),
+                -v.y * t * irn * irn,
             );
             let np = d_ie + d_en;
-            put(&mut F, B_TH, B_V, &(-c.transpose() * nv));
-            put(&mut F, B_TH, B_P, &(-c.transpose() * np));
+            b.th_v = -c.transpose() * nv;
+            b.th_p = -c.transpose() * np;
             let vx = hat(&v);
-            put(&mut F, B_V, B_V, &(-hat(&(w_ie * 2.0 + w_en)) + vx * nv));
+            b.v_v = -hat(&(w_ie * 2.0 + w_en)) + vx * nv;
             // δg_D = ∂g/∂φ · δN/(R_M+h) − ∂g/∂h · δD
-            let (dg_dlat, dg_dh) = normal_gravity_gradient_sc(sl, cl, h);
+            let (dg_dlat, dg_dh) = e.gravity_gradient();
             let mut gp = Matrix3::zeros();
-            gp[(2, 0)] = dg_dlat / rmh;
+            gp[(2, 0)] = dg_dlat * irm;
             gp[(2, 2)] = -dg_dh;
-            put(&mut F, B_V, B_P, &(vx * (d_ie * 2.0 + d_en) + gp));
+            b.v_p = vx * (d_ie * 2.0 + d_en) + gp;
             // The E row keeps dR_N/dφ (in the N row the dR_M/dφ terms cancel).
-            let rn_prime = prime_vertical_radius_derivative_sc(sl, cl);
-            let fpp = Matrix3::new(
-                -v.z / rmh,
+            let rn_prime = e.rn_prime();
+            b.p_p = Matrix3::new(
+                -v.z * irm,
                 0.0,
-                v.x / rmh, //
-                v.y * t / rmh - v.y * rn_prime / (rnh * rmh),
-                -(v.z / rnh + v.x * t / rmh) + v.x * rn_prime / (rnh * rmh),
-                v.y / rnh, //
+                v.x * irm, //
+                v.y * t * irm - v.y * rn_prime * irn * irm,
+                -(v.z * irn + v.x * t * irm) + v.x * rn_prime * irn * irm,
+                v.y * irn, //
                 0.0,
                 0.0,
                 0.0,
             );
-            put(&mut F, B_P, B_P, &fpp);
         }
-        F
+        b
     }
 
     /// Noise input matrix `G` (15×12) for `w = [n_g, n_a, w_bg, w_ba]`:
@@ -264,17 +272,117 @@ impl InsModel {
 
     /// `D = G Q_c Gᵀ` at attitude `att` (block diagonal: θ, v, b_g, b_a).
     pub fn noise_density(&self, att: &So3) -> M15 {
-        let q = self.noise_psd();
-        let mut D = M15::zeros();
-        let g =
-            |i: usize| Matrix3::from_diagonal(&Vector3::new(q[3 * i], q[3 * i + 1], q[3 * i + 2]));
-        put(&mut D, B_TH, B_TH, &g(0));
-        let c = att.matrix();
-        // −R̂ diag(VRW²) (−R̂)ᵀ
-        put(&mut D, B_V, B_V, &(c * g(1) * c.transpose()));
-        put(&mut D, B_BG, B_BG, &g(2));
-        put(&mut D, B_BA, B_BA, &g(3));
-        D
+        // E = D dt/2 with dt = 2
+        self.half_noise(&att.matrix(), 2.0).dense()
+    }
+}
+
+/// The non-zero 3×3 blocks of the continuous error dynamics `F` at one epoch, besides the
+/// constant `F_θ,bg = −I` and `F_p,v = I` (the flat-earth model leaves the WGS-84 terms
+/// zero).
+#[derive(Clone, Copy, Debug)]
+struct ErrorBlocks {
+    th_th: Matrix3<f64>,
+    th_v: Matrix3<f64>,
+    th_p: Matrix3<f64>,
+    v_th: Matrix3<f64>,
+    v_v: Matrix3<f64>,
+    v_p: Matrix3<f64>,
+    v_ba: Matrix3<f64>,
+    p_p: Matrix3<f64>,
+    /// `−1/τ` on both bias diagonals (0 for a random walk).
+    bias: f64,
+}
+
+/// Write `b · s` at block position (r, c) of padded columns.
+fn put_scaled(m: &mut Cols16, r: usize, c: usize, b: &Matrix3<f64>, s: f64) {
+    for j in 0..3 {
+        for i in 0..3 {
+            m[3 * c + j][3 * r + i] = b[(i, j)] * s;
+        }
+    }
+}
+
+impl ErrorBlocks {
+    /// The blocks with their dense positions: `(row block, column block, value)`.
+    fn placed(&self) -> [(usize, usize, &Matrix3<f64>); 8] {
+        [
+            (B_TH, B_TH, &self.th_th),
+            (B_TH, B_V, &self.th_v),
+            (B_TH, B_P, &self.th_p),
+            (B_V, B_TH, &self.v_th),
+            (B_V, B_V, &self.v_v),
+            (B_V, B_P, &self.v_p),
+            (B_V, B_BA, &self.v_ba),
+            (B_P, B_P, &self.p_p),
+        ]
+    }
+
+    /// `F dt` plus `diag` on the diagonal (the first value on 0..9, the second on the
+    /// biases) into padded columns that are zero on entry.
+    fn scaled(&self, dt: f64, diag: [f64; 2], m: &mut Cols16) {
+        for (r, c, b) in self.placed() {
+            put_scaled(m, r, c, b, dt);
+        }
+        for i in 0..3 {
+            m[9 + i][i] = -dt;
+            m[3 + i][6 + i] = dt;
+        }
+        for (i, col) in m.iter_mut().enumerate() {
+            col[i] += if i < 9 { diag[0] } else { diag[1] };
+        }
+    }
+
+    /// `F` as a dense matrix.
+    fn dense(&self) -> M15 {
+        let mut m = [[0.0; 16]; 15];
+        self.scaled(1.0, [0.0, self.bias], &mut m);
+        M15::from_fn(|r, c| m[c][r])
+    }
+}
+
+/// The half-interval noise `E = D dt/2` of the trapezoid, block diagonal: θ, b_g and b_a
+/// diagonal, v a full (exactly symmetric) 3×3 block.
+#[derive(Clone, Copy, Debug, Default)]
+struct HalfNoise {
+    th: [f64; 3],
+    v: Matrix3<f64>,
+    bg: [f64; 3],
+    ba: [f64; 3],
+}
+
+impl HalfNoise {
+    /// Add `E` to a symmetric matrix (keeps it exactly symmetric: `E` is).
+    #[inline(always)]
+    fn add_to(&self, o: &mut Cols) {
+        for i in 0..3 {
+            o[i][i] += self.th[i];
+            o[9 + i][9 + i] += self.bg[i];
+            o[12 + i][12 + i] += self.ba[i];
+            for j in 0..3 {
+                o[3 + j][3 + i] += self.v[(i, j)];
+            }
+        }
+    }
+
+    /// `P + E` as padded columns.
+    fn added_to(&self, P: &M15) -> Cols16 {
+        let mut m = padded(P);
+        for i in 0..3 {
+            m[i][i] += self.th[i];
+            m[9 + i][9 + i] += self.bg[i];
+            m[12 + i][12 + i] += self.ba[i];
+            for j in 0..3 {
+                m[3 + j][3 + i] += self.v[(i, j)];
+            }
+        }
+        m
+    }
+
+    fn dense(&self) -> M15 {
+        let mut m = M15::zeros();
+        self.add_to(&mut m.data.0);
+        m
     }
 }
 
@@ -283,50 +391,126 @@ type Cols = [[f64; 15]; 15];
 /// Columns padded to 16 rows: four 4-wide vectors each.
 type Cols16 = [[f64; 16]; 15];
 
-/// `acc += a·x` over 16 entries; fused in the AVX2+FMA path (without the instruction
-/// `mul_add` is a slow library call).
+/// `acc[r] += a·x[r]` for `r` in `max(lo, LO)..hi`; fused in the AVX2+FMA path (without
+/// the instruction `mul_add` is a slow library call). Every caller passes literal bounds
+/// that are multiples of 4, so after inlining the loop is whole vectors.
 #[inline(always)]
-fn axpy16<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 16], a: f64) {
-    for r in 0..16 {
+fn axpy<const FMA: bool, const LO: usize>(
+    acc: &mut [f64; 16],
+    x: &[f64; 16],
+    a: f64,
+    lo: usize,
+    hi: usize,
+) {
+    for r in lo.max(LO)..hi {
         acc[r] = madd::<FMA>(x[r], a, acc[r]);
     }
 }
 
-/// `acc[lo..hi] += a·x[lo..hi]`, fused in the AVX2+FMA path.
+/// `Σ_k Φ[:, k] m[k]` from row `LO` (a multiple of 4) down, over the non-zero rows of
+/// each column of `Φ` only: the θ columns have rows θ and v (0..6), the v and p columns
+/// rows θ v p (0..9), the b_g columns one θ row and their diagonal, the b_a columns the v
+/// rows and their diagonal. The sum stays in registers (plain loops, no closures: a
+/// closure does not inherit the caller's `target_feature`, and `mul_add` outside it is a
+/// library call).
 #[inline(always)]
-fn axpy_range<const FMA: bool>(acc: &mut [f64; 16], x: &[f64; 15], a: f64, lo: usize, hi: usize) {
-    for r in lo..hi {
-        acc[r] = madd::<FMA>(x[r], a, acc[r]);
+fn phi_combination<const FMA: bool, const LO: usize>(phi: &Cols16, m: &[f64; 16]) -> [f64; 16] {
+    let mut acc = [0.0_f64; 16];
+    for k in 0..3 {
+        axpy::<FMA, LO>(&mut acc, &phi[k], m[k], 0, 8);
+    }
+    for k in 3..9 {
+        axpy::<FMA, LO>(&mut acc, &phi[k], m[k], 0, 12);
+    }
+    for k in 9..12 {
+        axpy::<FMA, LO>(&mut acc, &phi[k], m[k], 0, 4);
+        axpy::<FMA, LO>(&mut acc, &phi[k], m[k], 8, 12);
+    }
+    for k in 12..15 {
+        axpy::<FMA, LO>(&mut acc, &phi[k], m[k], 0, 8);
+        axpy::<FMA, LO>(&mut acc, &phi[k], m[k], 12, 16);
+    }
+    acc
+}
+
+/// `Σ_k M[:, k] Φ[j, k]`, column `j` of `M Φᵀ`, over the non-zero entries of row `j` of
+/// `Φ` only (θ rows: θ v p and one b_g; v rows: θ v p b_a; p rows: v p; bias rows: the
+/// diagonal).
+#[inline(always)]
+fn times_row<const FMA: bool>(m: &Cols16, phi: &Cols16, j: usize) -> [f64; 16] {
+    let mut acc = [0.0_f64; 16];
+    let (first, second) = match j / 3 {
+        0 => ((0, 9), (j + 9, j + 10)),
+        1 => ((0, 9), (12, 15)),
+        2 => ((3, 9), (0, 0)),
+        _ => ((j, j + 1), (0, 0)),
+    };
+    for (lo, hi) in [first, second] {
+        for k in lo..hi {
+            axpy::<FMA, 0>(&mut acc, &m[k], phi[k][j], 0, 16);
+        }
+    }
+    acc
+}
+
+/// Fill the 15 columns of `buf` with `column(j)` without zeroing them first, and return
+/// them. (Zeroing the arrays and returning them by value cost 6 % of an INS epoch.)
+macro_rules! fill_columns {
+    ($buf:expr, |$j:ident| $column:expr) => {{
+        let cols = $buf.as_mut_ptr().cast::<[f64; 16]>();
+        for $j in 0..15 {
+            let column: [f64; 16] = $column;
+            // SAFETY: `$j < 15`, a column of the array.
+            unsafe { cols.add($j).write(column) };
+        }
+        // SAFETY: all 15 columns were written.
+        unsafe { $buf.assume_init_ref() }
+    }};
+}
+
+/// `out ← Φ M Φᵀ` for `M` (symmetric) in padded columns: `Aᵀ = M Φᵀ` over the non-zeros
+/// of `Φ`'s rows (90 of 225), then `R = Φ Aᵀ` over the non-zero rows of `Φ`'s columns,
+/// lower triangle only, mirrored, so the result is exactly symmetric. About 670
+/// four-wide multiply-adds.
+#[inline(always)]
+fn sandwich_body<const FMA: bool>(phi: &Cols16, m: &Cols16, out: &mut Cols) {
+    let mut buf = core::mem::MaybeUninit::<Cols16>::uninit();
+    let at = fill_columns!(buf, |j| times_row::<FMA>(m, phi, j));
+    let mut buf = core::mem::MaybeUninit::<Cols16>::uninit();
+    let r = fill_columns!(buf, |j| match j {
+        0..=3 => phi_combination::<FMA, 0>(phi, &at[j]),
+        4..=7 => phi_combination::<FMA, 4>(phi, &at[j]),
+        8..=11 => phi_combination::<FMA, 8>(phi, &at[j]),
+        _ => phi_combination::<FMA, 12>(phi, &at[j]),
+    });
+    for c in 0..15 {
+        for row in c..15 {
+            let v = r[c][row];
+            out[c][row] = v;
+            out[row][c] = v;
+        }
     }
 }
 
-/// `Φ M` for the INS `Φ` into padded columns, over the non-zero rows of each column of
-/// `Φ` only: θ, v and p columns have rows θ v p (0..9), the b_g columns rows θ and their
-/// own diagonal, the b_a columns rows v and their diagonal. Each output column is
-/// accumulated in a local array that stays in registers (writing partial ranges of a
-/// column in memory instead made every step wait on a failed store-to-load forward).
+fma_kernel! {
+    /// `out ← Φ M Φᵀ + E` for `Φ` and `M` in padded columns.
+    fn sandwich_padded(phi: &Cols16, m: &Cols16, e: &HalfNoise, out: &mut M15) =
+        sandwich_padded_kernel / sandwich_padded_avx2 / sandwich_padded_portable
+}
+
 #[inline(always)]
-fn times_padded<const FMA: bool>(phi: &Cols, m: &Cols) -> Cols16 {
-    // Plain loops, no closures: a closure is a separate function that does not inherit
-    // the caller's `target_feature`, and `mul_add` outside it is a library call.
-    let mut a: Cols16 = [[0.0; 16]; 15];
-    for (acol, mcol) in a.iter_mut().zip(m) {
-        let mut acc = [0.0_f64; 16];
-        for k in 0..9 {
-            // Rows 9..12 of these columns are zero: a 12-row update is three vectors.
-            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], 0, 12);
-        }
-        for k in 9..12 {
-            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], 0, 3);
-            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], k, k + 1);
-        }
-        for k in 12..15 {
-            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], 3, 6);
-            axpy_range::<FMA>(&mut acc, &phi[k], mcol[k], k, k + 1);
-        }
-        *acol = acc;
+fn sandwich_padded_kernel<const FMA: bool>(phi: &Cols16, m: &Cols16, e: &HalfNoise, out: &mut M15) {
+    sandwich_body::<FMA>(phi, m, &mut out.data.0);
+    e.add_to(&mut out.data.0);
+}
+
+/// A matrix as padded columns.
+fn padded(m: &M15) -> Cols16 {
+    let mut p: Cols16 = [[0.0; 16]; 15];
+    for (dst, src) in p.iter_mut().zip(&m.data.0) {
+        dst[..15].copy_from_slice(src);
     }
-    a
+    p
 }
 
 fma_kernel! {
@@ -337,17 +521,15 @@ fma_kernel! {
 
 #[inline(always)]
 fn phi_times_kernel<const FMA: bool>(phi: &M15, m: &M15) -> M15 {
-    let a = times_padded::<FMA>(&phi.data.0, &m.data.0);
-    let mut out = M15::zeros();
-    for (dst, src) in out.data.0.iter_mut().zip(&a) {
-        dst.copy_from_slice(&src[..15]);
-    }
-    out
+    let (phi, m) = (padded(phi), padded(m));
+    let mut buf = core::mem::MaybeUninit::<Cols16>::uninit();
+    let a = fill_columns!(buf, |c| phi_combination::<FMA, 0>(&phi, &m[c]));
+    M15::from_fn(|r, c| a[c][r])
 }
 
-/// `Φ M Φᵀ` for the INS `Φ` and a symmetric `M`, on the raw column arrays: both products
-/// are sums of column updates over the non-zero ranges of `Φ` only (≈3,100
-/// multiply-adds instead of 6,750), with compile-time lengths so the loops vectorise.
+/// `Φ M Φᵀ` for the INS `Φ` and a symmetric `M`: both products run over the non-zeros of
+/// `Φ` only (about 2,700 multiply-adds, many of them on padding, instead of 6,750), with
+/// compile-time lengths so the loops vectorise.
 pub fn phi_sandwich(phi: &M15, m: &M15) -> M15 {
     let mut out = M15::zeros();
     phi_sandwich_into(phi, m, &M15::zeros(), &mut out);
@@ -355,41 +537,16 @@ pub fn phi_sandwich(phi: &M15, m: &M15) -> M15 {
 }
 
 fma_kernel! {
-    /// `out ← Φ M Φᵀ + Q` (symmetrised), without temporaries of the result.
+    /// `out ← Φ M Φᵀ + Q`, the product's lower triangle mirrored (exactly symmetric when
+    /// `Q` is).
     pub fn phi_sandwich_into(phi: &M15, m: &M15, q: &M15, out: &mut M15) =
         phi_sandwich_kernel / phi_sandwich_avx2 / phi_sandwich_portable
 }
 
 #[inline(always)]
 fn phi_sandwich_kernel<const FMA: bool>(phi: &M15, m: &M15, q: &M15, out: &mut M15) {
-    let f: &Cols = &phi.data.0;
-    let a = times_padded::<FMA>(f, &m.data.0);
-    // R = A Φᵀ: column j of R is Σ_k A[:, k] Φ[j, k] over the non-zero k of row j of Φ
-    // (θ rows: θ v p b_g; v rows: θ v p b_a; p rows: v p; bias rows: the diagonal).
-    let mut r: Cols16 = [[0.0; 16]; 15];
-    for (j, rcol) in r.iter_mut().enumerate() {
-        let mut acc = [0.0_f64; 16];
-        let (lo1, hi1, lo2, hi2) = match j / 3 {
-            0 => (0, 12, 0, 0),
-            1 => (0, 9, 12, 15),
-            2 => (3, 9, 0, 0),
-            _ => (j, j + 1, 0, 0),
-        };
-        for k in lo1..hi1 {
-            axpy16::<FMA>(&mut acc, &a[k], f[k][j]);
-        }
-        for k in lo2..hi2 {
-            axpy16::<FMA>(&mut acc, &a[k], f[k][j]);
-        }
-        *rcol = acc;
-    }
-    // out = (R + Rᵀ)/2 + Q
-    let (o, qc): (&mut Cols, &Cols) = (&mut out.data.0, &q.data.0);
-    for c in 0..15 {
-        for row in 0..15 {
-            o[c][row] = 0.5 * (r[c][row] + r[row][c]) + qc[c][row];
-        }
-    }
+    sandwich_body::<FMA>(&padded(phi), &padded(m), &mut out.data.0);
+    *out += q;
 }
 
 /// Write a 3×3 block at block position (r, c).
@@ -401,30 +558,31 @@ impl ProcessModel for InsModel {
     type State = InsState;
     type Input = ImuInput;
 
-    /// The kernel writes `(R + Rᵀ)/2 + Q` with `Q` built symmetric.
+    /// The kernel mirrors one triangle, so its result is exactly symmetric.
     const SYMMETRIC_PROPAGATION: bool = true;
 
     fn propagate(&self, x: &InsState, u: &ImuInput, _dt: f64) -> InsState {
-        self.propagate_with(x, &Self::corrected(x, u))
+        self.propagate_with(x, &Self::corrected(x, u), &x.att.matrix(), &Self::earth_at(x))
     }
 
+    /// `Φ = I + F dt` and `Q_d = (Φ D Φᵀ + D) dt/2`, expanded to dense matrices.
     fn jacobians(&self, x: &InsState, u: &ImuInput, _dt: f64) -> ProcessJacobians<Const<15>> {
-        self.jacobians_with(x, &Self::corrected(x, u), &x.att.matrix())
-    }
-
-    /// Mechanization and Jacobians sharing the corrected increments and `R̂`.
-    fn step(
-        &self,
-        x: &InsState,
-        u: &ImuInput,
-        _dt: f64,
-    ) -> (InsState, ProcessJacobians<Const<15>>) {
+        let mut phi = [[0.0; 16]; 15];
         let inc = Self::corrected(x, u);
-        (self.propagate_with(x, &inc), self.jacobians_with(x, &inc, &x.att.matrix()))
+        let e = self.transition_with(x, &inc, &x.att.matrix(), &Self::earth_at(x), &mut phi);
+        let mut Q = M15::zeros();
+        sandwich_padded(&phi, &e.added_to(&M15::zeros()), &e, &mut Q);
+        ProcessJacobians { Phi: M15::from_fn(|r, c| phi[c][r]), Q }
     }
 
-    /// `out ← Φ P Φᵀ + Q_d` with the block structure of `Φ` (13 of 25 blocks non-zero,
-    /// four of them scalar), written straight into `out`.
+    /// Mechanization and Jacobians sharing the corrected increments, `R̂` and the
+    /// latitude's sine and cosine.
+    fn step(&self, x: &InsState, u: &ImuInput, dt: f64) -> (InsState, ProcessJacobians<Const<15>>) {
+        (self.propagate(x, u, dt), self.jacobians(x, u, dt))
+    }
+
+    /// `out ← Φ P Φᵀ + Q` with the block structure of `Φ` (13 of 25 blocks non-zero, four
+    /// of them scalar).
     fn propagate_covariance(
         &self,
         P: &Cov<Const<15>>,
@@ -432,5 +590,29 @@ impl ProcessModel for InsModel {
         out: &mut Cov<Const<15>>,
     ) {
         phi_sandwich_into(&jac.Phi, P, &jac.Q, out);
+    }
+
+    /// The whole epoch without forming `Φ` or `Q_d` as dense matrices: the non-zero
+    /// blocks of `F` go straight into `Φ`'s padded columns, and the trapezoid's noise is
+    /// folded in as `out ← Φ (P + E) Φᵀ + E` with the block-diagonal `E = D dt/2`.
+    fn step_covariance(
+        &self,
+        x: &InsState,
+        u: &ImuInput,
+        _dt: f64,
+        P: &Cov<Const<15>>,
+        out: &mut Cov<Const<15>>,
+    ) -> InsState {
+        let inc = Self::corrected(x, u);
+        let c = x.att.matrix();
+        let earth = Self::earth_at(x);
+        let mut phi = [[0.0; 16]; 15];
+        let e = self.transition_with(x, &inc, &c, &earth, &mut phi);
+        let m = e.added_to(P);
+        // The mechanization between writing Φ and P + E and reading them lets the stores
+        // drain before the kernel loads whole columns.
+        let next = self.propagate_with(x, &inc, &c, &earth);
+        sandwich_padded(&phi, &m, &e, out);
+        next
     }
 }

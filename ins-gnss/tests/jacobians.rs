@@ -3,7 +3,9 @@
 
 #![allow(non_snake_case)]
 
-use estimator_core::harness::{check_measurement_model_with_step, compare, numerical_jacobian};
+use estimator_core::harness::{
+    check_combined_calls, check_measurement_model_with_step, compare, numerical_jacobian,
+};
 use estimator_core::ProcessModel;
 use ins_gnss::earth::{earth_rate_ned, gravity_ned, radii, transport_rate};
 use ins_gnss::imu::ImuSample;
@@ -258,7 +260,134 @@ fn structured_propagation_equals_dense() {
         let mut portable = M15::zeros();
         ins_gnss::model::phi_sandwich_portable(&jac.Phi, &p0, &jac.Q, &mut portable);
         assert!((portable - dense).abs().max() <= 1e-12 * dense.abs().max());
+        // Q_d is the trapezoid (Φ D Φᵀ + D) dt/2 with D = G Q_c Gᵀ built densely here
+        let G = InsModel::noise_input(&x.att);
+        let D = G * SMatrix::<f64, 12, 12>::from_diagonal(&model.noise_psd()) * G.transpose();
+        let q_ref = (jac.Phi * D * jac.Phi.transpose() + D) * (0.5 * u.cur.dt);
+        assert!((jac.Q - q_ref).abs().max() <= 1e-12 * q_ref.abs().max(), "Q_d");
+        assert!((model.noise_density(&x.att) - D).abs().max() <= 1e-12 * D.abs().max());
+        // the fused epoch and `step` against the separate calls, on both mechanizations
+        check_combined_calls(&model, &x, &u, u.cur.dt).unwrap();
+        let flat = InsModel {
+            mechanization: Mechanization::FlatEarth { reference: x.pos },
+            ..model.clone()
+        };
+        check_combined_calls(&flat, &x, &u, u.cur.dt).unwrap();
         let product = ins_gnss::model::phi_times(&jac.Phi, &p0);
         assert!((product - jac.Phi * p0).abs().max() <= 1e-12 * (jac.Phi * p0).abs().max());
+    }
+}
+
+#[test]
+fn local_earth_matches_the_separate_earth_functions() {
+    use ins_gnss::earth::{
+        normal_gravity, normal_gravity_gradient, prime_vertical_radius, LocalEarth,
+    };
+    for lat_deg in [-89.0, -62.0, -10.0, 0.0, 0.3, 30.5, 45.0, 75.0, 89.5] {
+        for h in [-400.0, 0.0, 350.0, 9000.0] {
+            let lat = f64::to_radians(lat_deg);
+            let (s, c) = lat.sin_cos();
+            let e = LocalEarth::new(s, c, h);
+            let (rm, rn) = radii(lat);
+            let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
+            assert!(rel(e.rm, rm) < 1e-14 && rel(e.rn, rn) < 1e-14, "radii at {lat_deg}°");
+            assert!(rel(1.0 / e.inv_rmh, rm + h) < 1e-14 && rel(1.0 / e.inv_rnh, rn + h) < 1e-14);
+            assert!(rel(e.gravity(), normal_gravity(lat, h)) < 1e-14, "gravity at {lat_deg}°");
+            let v = Vector3::new(12.0, -30.0, 1.5);
+            assert!((e.transport_rate(&v) - transport_rate(lat, h, &v)).norm() < 1e-18);
+            assert!((e.earth_rate() - earth_rate_ned(lat)).norm() < 1e-20);
+            // derivatives against central differences (1e-6 rad, 1 m)
+            let (dg_dlat, dg_dh) = e.gravity_gradient();
+            assert_eq!((dg_dlat, dg_dh), normal_gravity_gradient(lat, h));
+            let d = 1e-6;
+            let num_lat = (normal_gravity(lat + d, h) - normal_gravity(lat - d, h)) / (2.0 * d);
+            let num_h = (normal_gravity(lat, h + 1.0) - normal_gravity(lat, h - 1.0)) / 2.0;
+            assert!(
+                (dg_dlat - num_lat).abs() < 1e-8,
+                "∂g/∂φ at {lat_deg}°: {dg_dlat} vs {num_lat}"
+            );
+            assert!((dg_dh - num_h).abs() < 1e-12, "∂g/∂h at {lat_deg}°: {dg_dh} vs {num_h}");
+            let num_rn =
+                (prime_vertical_radius(lat + d) - prime_vertical_radius(lat - d)) / (2.0 * d);
+            assert!((e.rn_prime() - num_rn).abs() < 1e-3, "dR_N/dφ at {lat_deg}°");
+        }
+    }
+}
+
+#[test]
+fn nearby_latitude_sine_and_cosine_match_the_library() {
+    use ins_gnss::earth::sin_cos_near;
+    for lat0_deg in [-89.9, -45.0, -1.0, 0.0, 0.5, 30.5, 60.0, 89.9] {
+        let lat0 = f64::to_radians(lat0_deg);
+        let (s0, c0) = lat0.sin_cos();
+        // within the series' range, at its edge, and beyond it (the library's values)
+        for d in [0.0, 1e-12, -3e-9, 2.3e-7, -5e-6, 1e-4, -9.9e-4, 1e-3, 2e-3, -0.4] {
+            let (s, c) = sin_cos_near(lat0 + d, lat0, s0, c0);
+            let (s_ref, c_ref) = (lat0 + d).sin_cos();
+            assert!((s - s_ref).abs() < 4e-16, "sin at {lat0_deg}° + {d}: {s} vs {s_ref}");
+            assert!((c - c_ref).abs() < 4e-16, "cos at {lat0_deg}° + {d}: {c} vs {c_ref}");
+        }
+    }
+    // NaN falls through to the library (NaN out)
+    let (s, c) = sin_cos_near(f64::NAN, 0.5, 0.5_f64.sin(), 0.5_f64.cos());
+    assert!(s.is_nan() && c.is_nan());
+}
+
+/// The filter on the static back-end takes the INS model's fused epoch (structured kernel,
+/// `Q_d` never formed); the dynamic and faer back-ends take `jacobians` and their own dense
+/// propagation. A drive with GNSS updates ends at the same state and covariance.
+#[test]
+fn fused_ins_epoch_agrees_with_the_dense_path_on_every_backend() {
+    use estimator_core::{CovBackend, DynamicCov, ErrorStateFilter, FaerCov, FixedNoise};
+    use ins_gnss::sim::{simulate, GnssSim, Trajectory};
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs[..3]).unwrap();
+    let gnss = GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::new(1.0, 1.0, 2.0),
+        vel_sigma: Some(Vector3::repeat(0.05)),
+        lever_arm: Vector3::zeros(),
+        windows: vec![],
+    };
+    let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &gnss, 3);
+    let model = InsModel::wgs84(scenarios::mems_imu().noise);
+    let P0 = M15::from_fn(|i, j| if i == j { [1e-4, 1e-2, 4.0, 1e-7, 1e-4][i / 3] } else { 0.0 });
+    let R = SMatrix::<f64, 6, 6>::from_diagonal(&SVector::<f64, 6>::new(
+        1.0, 1.0, 4.0, 2.5e-3, 2.5e-3, 2.5e-3,
+    ));
+    fn run<B: CovBackend<nalgebra::Const<15>>>(
+        backend: B,
+        data: &ins_gnss::sim::SimDataset,
+        model: &InsModel,
+        P0: &M15,
+        R: &SMatrix<f64, 6, 6>,
+    ) -> (InsState, M15) {
+        let x0 = data.truth[0].state.clone();
+        let mut f = ErrorStateFilter::with_backend(x0, *P0, FixedNoise, backend).unwrap();
+        let mut prev = None;
+        let mut fixes = data.gnss.iter().peekable();
+        let mut updates = 0;
+        for s in data.imu.iter().take(4000) {
+            f.predict(model, &ImuInput { prev, cur: *s }, s.dt).unwrap();
+            prev = Some(*s);
+            if let Some(fix) = fixes.next_if(|g| g.t <= s.t + 1e-9) {
+                let m = GnssPosVel { lever_arm: Vector3::zeros(), gyro_rate: s.rate() };
+                f.update(&m, &(fix.pos, fix.vel.unwrap().0), R).unwrap();
+                updates += 1;
+            }
+        }
+        assert!(updates >= 19, "{updates} GNSS updates in 20 s");
+        (f.state().clone(), f.covariance_matrix().into_owned())
+    }
+    let (xs, ps) = run(estimator_core::StaticCov, &data, &model, &P0, &R);
+    for (name, (x, p)) in [
+        ("dynamic", run(DynamicCov::default(), &data, &model, &P0, &R)),
+        ("faer", run(FaerCov::default(), &data, &model, &P0, &R)),
+    ] {
+        let scale = ps.abs().max();
+        let gap = (p - ps).abs().max();
+        assert!(gap <= 1e-12 * scale, "{name}: covariance differs by {gap:e} (scale {scale:e})");
+        let dx = x.ominus(&xs);
+        assert!(dx.norm() < 1e-9, "{name}: state differs by {dx}");
     }
 }

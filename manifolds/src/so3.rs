@@ -132,6 +132,13 @@ impl So3 {
         self.q.to_rotation_matrix().into_inner()
     }
 
+    /// `left · self · right` with one normalisation at the end (two products with `*`
+    /// normalise twice).
+    pub fn between(&self, left: &So3, right: &So3) -> So3 {
+        let q = left.q.as_ref() * self.q.as_ref() * right.q.as_ref();
+        Self { q: UnitQuaternion::new_normalize(q) }
+    }
+
     /// The inverse rotation.
     pub fn inverse(&self) -> Self {
         Self { q: self.q.inverse() }

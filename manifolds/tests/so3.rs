@@ -58,3 +58,22 @@ proptest! {
         prop_assert!((m.determinant() - 1.0).abs() < 1e-12);
     }
 }
+
+proptest! {
+    #[test]
+    fn between_is_the_product_of_three(
+        a in prop::array::uniform3(-3.0f64..3.0),
+        b in prop::array::uniform3(-3.0f64..3.0),
+        c in prop::array::uniform3(-3.0f64..3.0),
+    ) {
+        let (l, m, r) = (
+            So3::exp(&Vector3::from(a)),
+            So3::exp(&Vector3::from(b)),
+            So3::exp(&Vector3::from(c)),
+        );
+        let product = l * m * r;
+        let between = m.between(&l, &r);
+        prop_assert!((between.matrix() - product.matrix()).abs().max() < 1e-14);
+        prop_assert!((between.quaternion().norm() - 1.0).abs() < 1e-15);
+    }
+}
