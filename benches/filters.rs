@@ -204,13 +204,7 @@ fn m_predict(m: &GnssPosVel, x: &InsState) -> estimator::ins_gnss::GeoPos {
 fn whole_run(c: &mut Criterion) {
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs).unwrap();
-    let gnss = GnssSim {
-        rate_hz: 1.0,
-        pos_sigma: Vector3::new(1.0, 1.0, 2.0),
-        vel_sigma: Some(Vector3::repeat(0.05)),
-        lever_arm: Vector3::zeros(),
-        windows: vec![],
-    };
+    let gnss = scenarios::gnss_1hz(Vector3::zeros());
     let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &gnss, 2);
     let deg = core::f64::consts::PI / 180.0;
     let std = InitialStd {

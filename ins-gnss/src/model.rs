@@ -352,9 +352,10 @@ struct HalfNoise {
 }
 
 impl HalfNoise {
-    /// Add `E` to a symmetric matrix (keeps it exactly symmetric: `E` is).
+    /// Add `E` to a symmetric matrix in columns of `R ≥ 15` rows (keeps it exactly
+    /// symmetric: `E` is).
     #[inline(always)]
-    fn add_to(&self, o: &mut Cols) {
+    fn add_to<const R: usize>(&self, o: &mut [[f64; R]; 15]) {
         for i in 0..3 {
             o[i][i] += self.th[i];
             o[9 + i][9 + i] += self.bg[i];
@@ -368,14 +369,7 @@ impl HalfNoise {
     /// `P + E` as padded columns.
     fn added_to(&self, P: &M15) -> Cols16 {
         let mut m = padded(P);
-        for i in 0..3 {
-            m[i][i] += self.th[i];
-            m[9 + i][9 + i] += self.bg[i];
-            m[12 + i][12 + i] += self.ba[i];
-            for j in 0..3 {
-                m[3 + j][3 + i] += self.v[(i, j)];
-            }
-        }
+        self.add_to(&mut m);
         m
     }
 

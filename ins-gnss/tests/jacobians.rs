@@ -339,16 +339,10 @@ fn nearby_latitude_sine_and_cosine_match_the_library() {
 #[test]
 fn fused_ins_epoch_agrees_with_the_dense_path_on_every_backend() {
     use estimator_core::{CovBackend, DynamicCov, ErrorStateFilter, FaerCov, FixedNoise};
-    use ins_gnss::sim::{simulate, GnssSim, Trajectory};
+    use ins_gnss::sim::{simulate, Trajectory};
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs[..3]).unwrap();
-    let gnss = GnssSim {
-        rate_hz: 1.0,
-        pos_sigma: Vector3::new(1.0, 1.0, 2.0),
-        vel_sigma: Some(Vector3::repeat(0.05)),
-        lever_arm: Vector3::zeros(),
-        windows: vec![],
-    };
+    let gnss = scenarios::gnss_1hz(Vector3::zeros());
     let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &gnss, 3);
     let model = InsModel::wgs84(scenarios::mems_imu().noise);
     let P0 = M15::from_fn(|i, j| if i == j { [1e-4, 1e-2, 4.0, 1e-7, 1e-4][i / 3] } else { 0.0 });

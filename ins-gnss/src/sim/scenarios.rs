@@ -7,6 +7,7 @@ use crate::position::GeoPos;
 
 use super::sensors::ImuErrors;
 use super::trajectory::{Segment, Start};
+use super::GnssSim;
 
 /// A 600 s car drive: start from rest, accelerate, straights, left and right turns, a
 /// climb and descent, a stop, and a final leg; speeds up to ≈ 20 m/s.
@@ -64,5 +65,17 @@ pub fn mems_imu() -> ImuErrors {
         accel_turn_on: Vector3::new(500.0, -400.0, 300.0) * MGAL,
         gyro_scale: Vector3::zeros(),
         accel_scale: Vector3::zeros(),
+    }
+}
+
+/// A 1 Hz receiver with position (1σ 1, 1, 2 m in N, E, D) and velocity (1σ 0.05 m/s),
+/// the antenna at `lever_arm` in the body frame, no outages.
+pub fn gnss_1hz(lever_arm: Vector3<f64>) -> GnssSim {
+    GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::new(1.0, 1.0, 2.0),
+        vel_sigma: Some(Vector3::repeat(0.05)),
+        lever_arm,
+        windows: vec![],
     }
 }

@@ -32,13 +32,7 @@ pub fn drive_setup(imu_rate: f64, outage: Option<(f64, f64)>) -> Setup {
     let windows = outage
         .map(|(a, b)| vec![GnssWindow { start: a, end: b, kind: GnssWindowKind::Outage }])
         .unwrap_or_default();
-    let gnss = GnssSim {
-        rate_hz: 1.0,
-        pos_sigma: Vector3::new(1.0, 1.0, 2.0),
-        vel_sigma: Some(Vector3::repeat(0.05)),
-        lever_arm: Vector3::new(0.5, 0.2, -1.0),
-        windows,
-    };
+    let gnss = GnssSim { windows, ..scenarios::gnss_1hz(Vector3::new(0.5, 0.2, -1.0)) };
     Setup { traj, exact, gnss }
 }
 
