@@ -192,6 +192,23 @@ where
         Self::split(&mut self.bufs, self.cur)
     }
 
+    /// The model's step with `Q_d` adjusted as the strategy asked.
+    fn adjusted_step<PM: ProcessModel<State = X>>(
+        model: &PM,
+        q_adjust: &QAdjust<X::Dim>,
+        x: &X,
+        u: &PM::Input,
+        dt: f64,
+    ) -> (X, crate::ProcessJacobians<X::Dim>) {
+        let (x_next, mut jac) = model.step(x, u, dt);
+        match q_adjust {
+            QAdjust::Keep | QAdjust::Model => {}
+            QAdjust::Scale(s) => jac.Q *= *s,
+            QAdjust::AddRate(q) => jac.Q += q * dt,
+        }
+        (x_next, jac)
+    }
+
     /// The current, next and auxiliary buffers of `bufs` with current index `cur`.
     fn split(bufs: &mut [B::Cov; 3], cur: usize) -> (&B::Cov, &mut B::Cov, &mut B::Cov) {
         let [a, b, c] = bufs;
@@ -271,46 +288,35 @@ where
         let mut backend = core::mem::take(&mut self.backend);
         let x = &self.x;
         let (P, next, _) = Self::split(&mut self.bufs, self.cur);
-        let x_next = match (B::static_mut(next), B::as_static(P), &self.q_adjust) {
-            // The static back-end with `Q_d` as the model gives it: the model's fused step.
-            (Some(next), Cow::Borrowed(P), QAdjust::Keep | QAdjust::Model) => {
-                let x_next = if fading == 1.0 {
-                    model.step_covariance(x, u, dt, P, next)
+        let x_next = match (B::static_mut(next), B::as_static(P)) {
+            // The static back-end: the model's own products, fused unless the strategy
+            // adjusted `Q_d`.
+            (Some(next), Cow::Borrowed(P)) => {
+                let scaled;
+                let P = if fading == 1.0 {
+                    P
                 } else {
                     // λ Φ P Φᵀ = Φ (λ P) Φᵀ
-                    model.step_covariance(x, u, dt, &(P * fading), next)
+                    scaled = P * fading;
+                    &scaled
+                };
+                let x_next = match &self.q_adjust {
+                    QAdjust::Keep | QAdjust::Model => model.step_covariance(x, u, dt, P, next),
+                    q => {
+                        let (x_next, jac) = Self::adjusted_step(model, q, x, u, dt);
+                        model.propagate_covariance(P, &jac, next);
+                        x_next
+                    }
                 };
                 if !PM::SYMMETRIC_PROPAGATION {
                     symmetrize(next);
                 }
                 x_next
             }
-            (next_static, P_static, q_adjust) => {
-                let (x_next, mut jac) = model.step(x, u, dt);
-                match q_adjust {
-                    QAdjust::Keep | QAdjust::Model => {}
-                    QAdjust::Scale(s) => jac.Q *= *s,
-                    QAdjust::AddRate(q) => jac.Q += q * dt,
-                }
-                match (next_static, P_static) {
-                    (Some(next), Cow::Borrowed(P)) => {
-                        let scaled;
-                        let P = if fading == 1.0 {
-                            P
-                        } else {
-                            scaled = P * fading;
-                            &scaled
-                        };
-                        model.propagate_covariance(P, &jac, next);
-                        if !PM::SYMMETRIC_PROPAGATION {
-                            symmetrize(next);
-                        }
-                    }
-                    _ => {
-                        let (P, next, _) = Self::split(&mut self.bufs, self.cur);
-                        backend.propagate(P, &jac.Phi, &jac.Q, fading, next);
-                    }
-                }
+            _ => {
+                let (x_next, jac) = Self::adjusted_step(model, &self.q_adjust, x, u, dt);
+                let (P, next, _) = Self::split(&mut self.bufs, self.cur);
+                backend.propagate(P, &jac.Phi, &jac.Q, fading, next);
                 x_next
             }
         };

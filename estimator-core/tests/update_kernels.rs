@@ -24,6 +24,11 @@ fn spd(a: &MatN, diag: f64) -> MatN {
     a * a.transpose() * 0.1 + MatN::identity() * diag
 }
 
+/// A measurement noise (or innovation) covariance from any `r`: `r rᵀ + 0.1 I`.
+fn noise(r: &SMatrix<f64, M, M>) -> SMatrix<f64, M, M> {
+    r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1
+}
+
 fn rel(a: &MatN, b: &MatN) -> f64 {
     (a - b).abs().max() / b.abs().max()
 }
@@ -77,7 +82,7 @@ proptest! {
         r in matrix::<M, M>(),
     ) {
         let P = spd(&a, 0.5);
-        let R = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let R = noise(&r);
         let reference = dense_joseph(&P, &K, &H, &R);
         let outs = [
             update_on::<StaticCov>(&P, &K, &H, &R, UpdateForm::Joseph),
@@ -101,7 +106,7 @@ proptest! {
         r in matrix::<M, M>(),
     ) {
         let P = spd(&a, 0.5);
-        let R = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let R = noise(&r);
         let S = H * P * H.transpose() + R;
         let K = P * H.transpose() * S.try_inverse().unwrap();
         let joseph = update_on::<StaticCov>(&P, &K, &H, &R, UpdateForm::Joseph);
@@ -116,7 +121,7 @@ proptest! {
 
     #[test]
     fn gain_by_column_substitution_equals_cholesky_solve(u in matrix::<N, M>(), r in matrix::<M, M>()) {
-        let S = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let S = noise(&r);
         let chol = S.cholesky().unwrap();
         let reference = chol.solve(&u.transpose()).transpose();
         let mut K = u;
@@ -150,7 +155,7 @@ proptest! {
     ) {
         use estimator_core::kernels;
         let P = spd(&a, 0.5);
-        let S = r * r.transpose() + SMatrix::<f64, M, M>::identity() * 0.1;
+        let S = noise(&r);
         let U = P * H.transpose();
         let (mut x, mut y) = (MatN::zeros(), MatN::zeros());
         kernels::joseph_update(&P, &K, &S, &U, &mut x);

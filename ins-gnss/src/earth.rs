@@ -6,6 +6,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::position::GeoPos;
+
 /// Semi-major axis `a`, m.
 pub const A: f64 = 6_378_137.0;
 /// Flattening `f`.
@@ -66,8 +68,17 @@ pub fn radii(lat: f64) -> (f64, f64) {
 /// Both radii `(R_M, R_N)` from `sin φ` (for callers that already have it: the error
 /// model evaluates every latitude function of one epoch from one `sin_cos`).
 pub fn radii_from_sin(s: f64) -> (f64, f64) {
-    let w = 1.0 - E2 * s * s;
-    (A * (1.0 - E2) / (w * w.sqrt()), A / w.sqrt())
+    radii_from_isw(inverse_sqrt_w(s))
+}
+
+/// `1/√(1 − e² sin²φ)`.
+fn inverse_sqrt_w(s: f64) -> f64 {
+    1.0 / (1.0 - E2 * s * s).sqrt()
+}
+
+/// `(R_M, R_N) = (a (1 − e²) isw³, a isw)` from `isw = 1/√(1 − e² sin²φ)`.
+fn radii_from_isw(isw: f64) -> (f64, f64) {
+    (A * (1.0 - E2) * isw * isw * isw, A * isw)
 }
 
 /// Normal gravity magnitude at geodetic latitude `lat` (rad) and height `h` (m), m/s².
@@ -77,7 +88,7 @@ pub fn normal_gravity(lat: f64, h: f64) -> f64 {
 
 /// [`normal_gravity`] from `sin φ`.
 pub fn normal_gravity_from_sin(s: f64, h: f64) -> f64 {
-    gravity_with(s * s, 1.0 / (1.0 - E2 * s * s).sqrt(), h)
+    gravity_with(s * s, inverse_sqrt_w(s), h)
 }
 
 /// `k = b γ_p / (a γ_e) − 1` of Somigliana's formula.
@@ -85,12 +96,21 @@ const SOMIGLIANA_K: f64 = B * GAMMA_P / (A * GAMMA_E) - 1.0;
 /// `m = ω² a² b / GM`.
 const NORMAL_M: f64 = OMEGA_IE * OMEGA_IE * A * A * B / GM;
 
-/// Normal gravity from `sin²φ`, `1/√(1 − e² sin²φ)` and `h`: Somigliana's
-/// `γ₀ = γ_e (1 + k sin²φ) / √(1 − e² sin²φ)` times the height factor
+/// Somigliana's normal gravity on the ellipsoid, `γ₀ = γ_e (1 + k sin²φ) / √(1 − e² sin²φ)`,
+/// from `sin²φ` and `isw = 1/√(1 − e² sin²φ)`.
+fn somigliana(s2: f64, isw: f64) -> f64 {
+    GAMMA_E * (1.0 + SOMIGLIANA_K * s2) * isw
+}
+
+/// `2/a (1 + f + m − 2f sin²φ)`, the linear coefficient of the height factor.
+fn height_coefficient(s2: f64) -> f64 {
+    2.0 / A * (1.0 + F + NORMAL_M - 2.0 * F * s2)
+}
+
+/// Normal gravity: [`somigliana`] times the height factor
 /// `1 − (2/a)(1 + f + m − 2f sin²φ) h + (3/a²) h²`.
 fn gravity_with(s2: f64, isw: f64, h: f64) -> f64 {
-    let g0 = GAMMA_E * (1.0 + SOMIGLIANA_K * s2) * isw;
-    g0 * (1.0 - 2.0 / A * (1.0 + F + NORMAL_M - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h)
+    somigliana(s2, isw) * (1.0 - height_coefficient(s2) * h + 3.0 / (A * A) * h * h)
 }
 
 /// Partial derivatives of [`normal_gravity`]: `(∂g/∂φ [m/s²/rad], ∂g/∂h [1/s²])`.
@@ -128,11 +148,16 @@ pub struct LocalEarth {
 }
 
 impl LocalEarth {
+    /// The functions at a geodetic position (one `sin_cos`).
+    pub fn at(p: &GeoPos) -> Self {
+        let (s, c) = p.lat.sin_cos();
+        Self::new(s, c, p.h)
+    }
+
     /// The functions at latitude `φ` (given by `sin φ`, `cos φ`) and height `h`.
     pub fn new(sin: f64, cos: f64, h: f64) -> Self {
-        let isw = 1.0 / (1.0 - E2 * sin * sin).sqrt();
-        let rn = A * isw;
-        let rm = A * (1.0 - E2) * isw * isw * isw;
+        let isw = inverse_sqrt_w(sin);
+        let (rm, rn) = radii_from_isw(isw);
         let sec = 1.0 / cos;
         Self {
             sin,
@@ -146,16 +171,6 @@ impl LocalEarth {
             inv_rmh: 1.0 / (rm + h),
             inv_rnh: 1.0 / (rn + h),
         }
-    }
-
-    /// `R_M + h`, m.
-    pub fn rmh(&self) -> f64 {
-        self.rm + self.h
-    }
-
-    /// `R_N + h`, m.
-    pub fn rnh(&self) -> f64 {
-        self.rn + self.h
     }
 
     /// Earth rate in NED, rad/s.
@@ -177,14 +192,14 @@ impl LocalEarth {
     pub fn gravity_gradient(&self) -> (f64, f64) {
         let (s, c, h, isw) = (self.sin, self.cos, self.h, self.isw);
         let s2 = s * s;
-        let k = SOMIGLIANA_K;
-        let g0 = GAMMA_E * (1.0 + k * s2) * isw;
+        let g0 = somigliana(s2, isw);
         // dγ₀/dφ = γ_e [2k s c / √w + (1 + k s²) e² s c / w^{3/2}], w = 1 − e² s²
+        let k = SOMIGLIANA_K;
         let dg0 = GAMMA_E * s * c * isw * (2.0 * k + (1.0 + k * s2) * E2 * isw * isw);
-        let hf = 1.0 - 2.0 / A * (1.0 + F + NORMAL_M - 2.0 * F * s2) * h + 3.0 / (A * A) * h * h;
+        let hf = 1.0 - height_coefficient(s2) * h + 3.0 / (A * A) * h * h;
         // d(hf)/dφ = (2/a)(4 f s c) h
         let dhf_dlat = 2.0 / A * (4.0 * F * s * c) * h;
-        let dhf_dh = -2.0 / A * (1.0 + F + NORMAL_M - 2.0 * F * s2) + 6.0 * h / (A * A);
+        let dhf_dh = -height_coefficient(s2) + 6.0 * h / (A * A);
         (dg0 * hf + g0 * dhf_dlat, g0 * dhf_dh)
     }
 
@@ -212,13 +227,7 @@ pub fn earth_rate_ned_sc(s: f64, c: f64) -> Vector3<f64> {
 
 /// Transport rate `ω_en^n = [v_E/(R_N+h), −v_N/(R_M+h), −v_E tan φ/(R_N+h)]`, rad/s.
 pub fn transport_rate(lat: f64, h: f64, v_n: &Vector3<f64>) -> Vector3<f64> {
-    let (rm, rn) = radii(lat);
-    transport_rate_with(rm + h, rn + h, lat.tan(), v_n)
-}
-
-/// [`transport_rate`] from `R_M + h`, `R_N + h` and `tan φ`.
-pub fn transport_rate_with(rmh: f64, rnh: f64, tan_lat: f64, v_n: &Vector3<f64>) -> Vector3<f64> {
-    Vector3::new(v_n.y / rnh, -v_n.x / rmh, -v_n.y * tan_lat / rnh)
+    LocalEarth::at(&GeoPos { lat, lon: 0.0, h }).transport_rate(v_n)
 }
 
 /// Geodetic (lat, lon rad; h m) → ECEF, m.

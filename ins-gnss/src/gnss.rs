@@ -11,7 +11,7 @@ use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};
 use manifolds::{hat, Manifold, R3};
 use nalgebra::{Const, Matrix3, SMatrix, Vector3};
 
-use crate::earth::{earth_rate_ned_sc, radii_from_sin, transport_rate_with};
+use crate::earth::LocalEarth;
 
 use crate::position::GeoPos;
 use crate::state::InsState;
@@ -42,10 +42,8 @@ struct Geometry {
 impl Geometry {
     fn new(x: &InsState, lever: &Vector3<f64>, w_ib: &Vector3<f64>) -> Self {
         let c = x.att.matrix();
-        let (s, co) = x.pos.lat.sin_cos();
-        let (rm, rn) = radii_from_sin(s);
-        let w_in = earth_rate_ned_sc(s, co)
-            + transport_rate_with(rm + x.pos.h, rn + x.pos.h, s / co, &x.vel);
+        let e = LocalEarth::at(&x.pos);
+        let w_in = e.earth_rate() + e.transport_rate(&x.vel);
         Self { c, lever: *lever, lever_n: c * lever, w: w_ib - x.bg, w_in }
     }
 

@@ -81,8 +81,7 @@ fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 
 /// One WGS-84 NED mechanization step.
 pub fn wgs84_step(nav: &Nav, inc: &Increments) -> Nav {
-    let (s, c) = nav.pos.lat.sin_cos();
-    wgs84_step_with(nav, inc, &nav.att.matrix(), &LocalEarth::new(s, c, nav.pos.h))
+    wgs84_step_with(nav, inc, &nav.att.matrix(), &LocalEarth::at(&nav.pos))
 }
 
 /// The navigation frame's rotation `(ω_ie + ω_en) dt` and the gravity and Coriolis

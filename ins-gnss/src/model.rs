@@ -89,14 +89,15 @@ impl InsModel {
         }
     }
 
-    /// The Earth functions at the position of `x`.
-    fn earth_at(x: &InsState) -> LocalEarth {
-        let (s, c) = x.pos.lat.sin_cos();
-        LocalEarth::new(s, c, x.pos.h)
+    /// What the mechanization and the Jacobians of one epoch share: the corrected
+    /// increments, `R̂` and the Earth functions at `x`.
+    #[inline(always)]
+    fn shared(x: &InsState, u: &ImuInput) -> (Increments, Matrix3<f64>, LocalEarth) {
+        (Self::corrected(x, u), x.att.matrix(), LocalEarth::at(&x.pos))
     }
 
-    /// The mechanization step from corrected increments, with `R̂` and the sine and cosine
-    /// of the latitude of `x` given.
+    /// The mechanization step from corrected increments, with `R̂` and the Earth functions
+    /// at `x` given.
     fn propagate_with(
         &self,
         x: &InsState,
@@ -139,9 +140,26 @@ impl InsModel {
         self.half_noise(c, dt)
     }
 
+    /// `Φ` and `Q_d = Φ E Φᵀ + E` as dense matrices.
+    fn jacobians_with(
+        &self,
+        x: &InsState,
+        inc: &Increments,
+        c: &Matrix3<f64>,
+        earth: &LocalEarth,
+    ) -> ProcessJacobians<Const<15>> {
+        let mut phi = [[0.0; 16]; 15];
+        let e = self.transition_with(x, inc, c, earth, &mut phi);
+        let mut Q = M15::zeros();
+        sandwich_padded(&phi, &e.added_to(&M15::zeros()), &e, &mut Q);
+        ProcessJacobians { Phi: M15::from_fn(|r, c| phi[c][r]), Q }
+    }
+
     /// `E = D dt/2`, the half-interval noise of the trapezoid, with
     /// `D = G Q_c Gᵀ = blockdiag(diag(ARW²), R̂ diag(VRW²) R̂ᵀ, 0, diag(q_bg), diag(q_ba))`.
     fn half_noise(&self, c: &Matrix3<f64>, dt: f64) -> HalfNoise {
+        // The squares directly rather than through `noise_psd`'s 12-vector: that measured
+        // 0.04 µs slower per INS epoch (`epoch_loop`, 0.56 against 0.52 µs).
         let n = &self.noise;
         let h = 0.5 * dt;
         let (qbg, qba) = n.bias_psd();
@@ -168,10 +186,10 @@ impl InsModel {
     /// The continuous error-state matrix `F` at `x` with corrected rate `w` (rad/s) and
     /// specific force `f` (m/s²).
     pub fn error_dynamics(&self, x: &InsState, w: &Vector3<f64>, f: &Vector3<f64>) -> M15 {
-        self.error_blocks(x, w, f, &x.att.matrix(), &Self::earth_at(x)).dense()
+        self.error_blocks(x, w, f, &x.att.matrix(), &LocalEarth::at(&x.pos)).dense()
     }
 
-    /// The non-zero blocks of `F`, with `c = R̂` and the sine and cosine of the latitude.
+    /// The non-zero blocks of `F`, with `c = R̂` and the Earth functions at `x`.
     fn error_blocks(
         &self,
         x: &InsState,
@@ -543,11 +561,6 @@ fn phi_sandwich_kernel<const FMA: bool>(phi: &M15, m: &M15, q: &M15, out: &mut M
     *out += q;
 }
 
-/// Write a 3×3 block at block position (r, c).
-pub fn put(m: &mut M15, r: usize, c: usize, b: &Matrix3<f64>) {
-    m.fixed_view_mut::<3, 3>(3 * r, 3 * c).copy_from(b);
-}
-
 impl ProcessModel for InsModel {
     type State = InsState;
     type Input = ImuInput;
@@ -556,23 +569,26 @@ impl ProcessModel for InsModel {
     const SYMMETRIC_PROPAGATION: bool = true;
 
     fn propagate(&self, x: &InsState, u: &ImuInput, _dt: f64) -> InsState {
-        self.propagate_with(x, &Self::corrected(x, u), &x.att.matrix(), &Self::earth_at(x))
+        let (inc, c, earth) = Self::shared(x, u);
+        self.propagate_with(x, &inc, &c, &earth)
     }
 
     /// `Φ = I + F dt` and `Q_d = (Φ D Φᵀ + D) dt/2`, expanded to dense matrices.
     fn jacobians(&self, x: &InsState, u: &ImuInput, _dt: f64) -> ProcessJacobians<Const<15>> {
-        let mut phi = [[0.0; 16]; 15];
-        let inc = Self::corrected(x, u);
-        let e = self.transition_with(x, &inc, &x.att.matrix(), &Self::earth_at(x), &mut phi);
-        let mut Q = M15::zeros();
-        sandwich_padded(&phi, &e.added_to(&M15::zeros()), &e, &mut Q);
-        ProcessJacobians { Phi: M15::from_fn(|r, c| phi[c][r]), Q }
+        let (inc, c, earth) = Self::shared(x, u);
+        self.jacobians_with(x, &inc, &c, &earth)
     }
 
-    /// Mechanization and Jacobians sharing the corrected increments, `R̂` and the
-    /// latitude's sine and cosine.
-    fn step(&self, x: &InsState, u: &ImuInput, dt: f64) -> (InsState, ProcessJacobians<Const<15>>) {
-        (self.propagate(x, u, dt), self.jacobians(x, u, dt))
+    /// Mechanization and Jacobians sharing the corrected increments, `R̂` and the Earth
+    /// functions.
+    fn step(
+        &self,
+        x: &InsState,
+        u: &ImuInput,
+        _dt: f64,
+    ) -> (InsState, ProcessJacobians<Const<15>>) {
+        let (inc, c, earth) = Self::shared(x, u);
+        (self.propagate_with(x, &inc, &c, &earth), self.jacobians_with(x, &inc, &c, &earth))
     }
 
     /// `out ← Φ P Φᵀ + Q` with the block structure of `Φ` (13 of 25 blocks non-zero, four
@@ -597,9 +613,7 @@ impl ProcessModel for InsModel {
         P: &Cov<Const<15>>,
         out: &mut Cov<Const<15>>,
     ) -> InsState {
-        let inc = Self::corrected(x, u);
-        let c = x.att.matrix();
-        let earth = Self::earth_at(x);
+        let (inc, c, earth) = Self::shared(x, u);
         let mut phi = [[0.0; 16]; 15];
         let e = self.transition_with(x, &inc, &c, &earth, &mut phi);
         let m = e.added_to(P);

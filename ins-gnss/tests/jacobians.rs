@@ -385,3 +385,35 @@ fn fused_ins_epoch_agrees_with_the_dense_path_on_every_backend() {
         assert!(dx.norm() < 1e-9, "{name}: state differs by {dx}");
     }
 }
+
+/// NaN or infinity in an IMU sample (increments or interval) through the fused epoch: a
+/// typed error naming the non-finite quantity, the filter unchanged.
+#[test]
+fn bad_imu_input_is_a_typed_error_through_the_fused_epoch() {
+    use estimator_core::{ErrorStateFilter, FilterError, FixedNoise};
+    let model = InsModel::wgs84(scenarios::mems_imu().noise);
+    let (x, u) = states().remove(0);
+    let P0 = M15::identity() * 1e-2;
+    let mut bad = [u; 3];
+    bad[0].cur.dvel.y = f64::NAN;
+    bad[1].cur.dtheta.x = f64::INFINITY;
+    bad[2].cur.dt = f64::NAN;
+    for input in bad {
+        let x0 = x.clone();
+        let mut f = ErrorStateFilter::new(x0.clone(), P0, FixedNoise).unwrap();
+        let err = f.predict(&model, &input, 0.005).unwrap_err();
+        assert!(matches!(err, FilterError::NonFinite { .. }), "{err}");
+        // unchanged, component by component
+        let s = f.state();
+        let gaps = [
+            s.pos.lat - x0.pos.lat,
+            s.pos.lon - x0.pos.lon,
+            s.pos.h - x0.pos.h,
+            (s.vel - x0.vel).norm(),
+            (s.att.matrix() - x0.att.matrix()).norm(),
+            (s.bg - x0.bg).norm() + (s.ba - x0.ba).norm(),
+            (f.covariance() - P0).abs().max(),
+        ];
+        assert!(gaps.iter().all(|g| g.abs() < 1e-300), "{gaps:?}");
+    }
+}
