@@ -403,17 +403,14 @@ where
             q: QAdjust::Keep,
         };
         self.strategy.adapt(&mut a);
-        let Adaptation {
-            stream,
-            prior_scale,
-            prior_scaling,
-            R: R_used,
-            verdict,
-            reason,
-            factors,
-            q,
-            ..
-        } = a;
+        // The outputs are copied out field by field: moving the whole `Adaptation`, or its
+        // `q` by value, copies a whole covariance (the `AddRate` variant's room) each time,
+        // which cost more than the update's own products. `clone` of `q` copies only the
+        // variant present.
+        let (stream, prior_scale, prior_scaling) = (a.stream, a.prior_scale, a.prior_scaling);
+        let (verdict, reason, factors) = (a.verdict, a.reason, a.factors);
+        let q = a.q.clone();
+        let R_used = a.R;
 
         let mut report = UpdateReport {
             stream,
@@ -430,7 +427,7 @@ where
 
         if verdict == Verdict::Rejected {
             self.epoch = epoch;
-            self.apply_q(q);
+            self.apply_q(&q);
             observer.on_update(&report);
             return Ok(report);
         }
@@ -440,17 +437,21 @@ where
         // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻); when the strategy
         // changed nothing, S* = S and its factor is the one already computed.
         let adapted = prior_scale != 1.0 || R_used != *R;
-        let (S_used, chol) = if adapted {
+        let S_adapted;
+        let chol = if adapted {
             check_covariance("adapted measurement noise R*", &R_used)?;
             let mut S_used = &HPHt * prior_scale + &R_used;
             symmetrize(&mut S_used);
             let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
             report.nis_adapted = whitened_norm_sq(&chol, &r);
-            (S_used, chol)
+            S_adapted = Some(S_used);
+            chol
         } else {
             report.nis_adapted = nis;
-            (report.S.clone(), chol_S)
+            S_adapted = None;
+            chol_S
         };
+        let S_used = S_adapted.as_ref().unwrap_or(&report.S);
 
         // P⁻*: λ P⁻, or P⁻ + (λ − 1) (HP)ᵀ (HPHᵀ)⁻¹ (HP) along the measurement subspace.
         let mut backend = core::mem::take(&mut self.backend);
@@ -480,7 +481,7 @@ where
 
         let prior: &B::Cov = if scaled { aux } else { P };
         // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
-        backend.update(prior, &K, &H, &PHt_used, &R_used, &S_used, form, next);
+        backend.update(prior, &K, &H, &PHt_used, &R_used, S_used, form, next);
         let x_new = self.x.oplus(&dx);
         if self.reset == ResetMode::Exact {
             // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx, block by block
@@ -497,21 +498,22 @@ where
         self.x = x_new;
         self.commit();
         self.epoch = epoch;
-        self.apply_q(q);
+        self.apply_q(&q);
         let mut post =
             PostUpdate { stream, time: self.time, K: &K, innovation: &r, q: QAdjust::Keep };
         self.strategy.after_update(&mut post);
-        let q_post = post.q;
-        self.apply_q(q_post);
+        self.apply_q(&post.q);
         observer.on_update(&report);
         Ok(report)
     }
 
-    fn apply_q(&mut self, q: QAdjust<X::Dim>) {
+    /// Take up the strategy's process-noise request (by reference, for the reason given
+    /// in `update_observed`).
+    fn apply_q(&mut self, q: &QAdjust<X::Dim>) {
         match q {
             QAdjust::Keep => {}
             QAdjust::Model => self.q_adjust = QAdjust::Keep,
-            other => self.q_adjust = other,
+            other => self.q_adjust = other.clone(),
         }
     }
 }

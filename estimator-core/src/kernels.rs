@@ -181,7 +181,10 @@ fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
     for c in 0..n {
         let init = Some(&ps[c * n..(c + 1) * n]);
         let out_c = &mut o[c * n..(c + 1) * n];
-        lincomb::<2, FMA>([(ks, &vs[c..]), (vs, &ks[c..])], n, m, n, c, init, out_c);
+        // From the multiple of four at or above row c (the mirror overwrites the extra
+        // rows): whole-vector reads of K and V then line up with the writes that made them,
+        // which the processor can forward; reads straddling two writes wait for them.
+        lincomb::<2, FMA>([(ks, &vs[c..]), (vs, &ks[c..])], n, m, n, c & !3, init, out_c);
     }
     mirror_lower(o, n);
 }
@@ -354,13 +357,16 @@ fn right_solve_body<N: DimName, M: DimName, const FMA: bool>(
     let ks = k.as_mut_slice();
     let mut col = nalgebra::OVector::<f64, N>::zeros();
     let col = col.as_mut_slice();
+    // The reciprocals of the diagonal up front: each substitution step depends on the one
+    // before, and a division inside it would lengthen that chain every step.
+    let inv_diag = nalgebra::OVector::<f64, M>::from_fn(|j, _| 1.0 / l[(j, j)]);
     // Y Lᵀ = U:  Y[:, j] = (U[:, j] − Σ_{i<j} Y[:, i] L[j, i]) / L[j, j]
     for j in 0..m {
         let (done, rest) = ks.split_at_mut(j * n);
         let kj = &mut rest[..n];
         col.copy_from_slice(kj);
         lincomb::<1, FMA>([(done, &ml[j..])], n, j, m, 0, Some(col), kj);
-        let d = 1.0 / l[(j, j)];
+        let d = inv_diag[j];
         for x in kj.iter_mut() {
             *x *= d;
         }
@@ -371,7 +377,7 @@ fn right_solve_body<N: DimName, M: DimName, const FMA: bool>(
         let kj = &mut head[j * n..];
         col.copy_from_slice(kj);
         lincomb::<1, FMA>([(done, &ml[j * m + j + 1..])], n, m - j - 1, 1, 0, Some(col), kj);
-        let d = 1.0 / l[(j, j)];
+        let d = inv_diag[j];
         for x in kj.iter_mut() {
             *x *= d;
         }

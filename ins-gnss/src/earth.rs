@@ -154,6 +154,11 @@ impl LocalEarth {
         Self::new(s, c, p.h)
     }
 
+    /// [`GeoPos::metric`](crate::GeoPos::metric) here: `(R_M + h, (R_N + h) cos φ, −1)`.
+    pub fn metric(&self) -> Vector3<f64> {
+        crate::position::metric_from_radii(self.rm, self.rn, self.cos, self.h)
+    }
+
     /// The functions at latitude `φ` (given by `sin φ`, `cos φ`) and height `h`.
     pub fn new(sin: f64, cos: f64, h: f64) -> Self {
         let isw = inverse_sqrt_w(sin);

@@ -8,7 +8,7 @@
 //! velocity and position, below 1e-6 of the other terms, is left out).
 
 use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};
-use manifolds::{hat, Manifold, R3};
+use manifolds::{hat, R3};
 use nalgebra::{Const, Matrix3, SMatrix, Vector3};
 
 use crate::earth::LocalEarth;
@@ -33,6 +33,8 @@ pub struct GnssEpoch {
 /// attitude matrix, the lever arm in NED, the body rate and the navigation-frame rate.
 struct Geometry {
     c: Matrix3<f64>,
+    /// [`GeoPos::metric`] at the state's position.
+    metric: Vector3<f64>,
     lever: Vector3<f64>,
     lever_n: Vector3<f64>,
     w: Vector3<f64>,
@@ -44,18 +46,19 @@ impl Geometry {
         let c = x.att.matrix();
         let e = LocalEarth::at(&x.pos);
         let w_in = e.earth_rate() + e.transport_rate(&x.vel);
-        Self { c, lever: *lever, lever_n: c * lever, w: w_ib - x.bg, w_in }
+        let metric = e.metric();
+        Self { c, metric, lever: *lever, lever_n: c * lever, w: w_ib - x.bg, w_in }
     }
 
     /// Without a gyro rate (position only: `w` and `w_in` unused).
     fn position_only(x: &InsState, lever: &Vector3<f64>) -> Self {
         let c = x.att.matrix();
         let z = Vector3::zeros();
-        Self { c, lever: *lever, lever_n: c * lever, w: z, w_in: z }
+        Self { c, metric: x.pos.metric(), lever: *lever, lever_n: c * lever, w: z, w_in: z }
     }
 
     fn antenna_position(&self, x: &InsState) -> GeoPos {
-        x.pos.oplus(&self.lever_n)
+        x.pos.oplus_with_metric(&self.lever_n, &self.metric)
     }
 
     fn antenna_velocity(&self, x: &InsState) -> Vector3<f64> {

@@ -132,7 +132,7 @@ pub fn wgs84_step_with(
     let lat1 = p0.lat + v_avg.x * dt / (mid.rm + h_avg);
     let cos_mid = sin_cos_near(0.5 * (p0.lat + lat1), p0.lat, start.sin, start.cos).1;
     let lon1 = p0.lon + v_avg.y * dt / ((mid.rn + h_avg) * cos_mid);
-    let att = nav.att.between(&So3::exp(&(-zeta)), &So3::exp(&phi_b));
+    let att = nav.att.between_exp(&(-zeta), &phi_b);
     Nav { att, vel, pos: GeoPos { lat: lat1, lon: lon1, h: h1 } }
 }
 

@@ -18,7 +18,7 @@ use nalgebra::{Const, DMatrixView, Matrix3, Vector3};
 
 use manifolds::{Manifold, OminusJacobians, OplusJacobians};
 
-use crate::earth::radii;
+use crate::earth::{radii_from_sin, sin_cos_near};
 
 /// A geodetic position: latitude and longitude in radians, ellipsoidal height in metres.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,9 +49,20 @@ impl GeoPos {
 
     /// `diag(R_M + h, (R_N + h) cos φ, −1)`: metres per unit of (φ, λ, h) change.
     pub fn metric(&self) -> Vector3<f64> {
-        let (rm, rn) = radii(self.lat);
-        Vector3::new(rm + self.h, (rn + self.h) * self.lat.cos(), -1.0)
+        let (s, c) = self.lat.sin_cos();
+        metric_at(s, c, self.h)
     }
+}
+
+/// [`GeoPos::metric`] at the latitude with sine `s` and cosine `c`, height `h`.
+fn metric_at(s: f64, c: f64, h: f64) -> Vector3<f64> {
+    let (rm, rn) = radii_from_sin(s);
+    metric_from_radii(rm, rn, c, h)
+}
+
+/// [`GeoPos::metric`] from the radii `R_M`, `R_N`, `cos φ` and the height.
+pub(crate) fn metric_from_radii(rm: f64, rn: f64, c: f64, h: f64) -> Vector3<f64> {
+    Vector3::new(rm + h, (rn + h) * c, -1.0)
 }
 
 /// `diag(m_to,N / m_from,N, m_to,E / m_from,E, 1)`: how a NED-metre displacement at
@@ -67,7 +78,7 @@ fn ratio_of_metrics(from: &Vector3<f64>, to: &Vector3<f64>) -> Matrix3<f64> {
 
 impl GeoPos {
     /// `self ⊕ d` with `m = self.metric()` already at hand.
-    fn oplus_with_metric(&self, d: &Vector3<f64>, m: &Vector3<f64>) -> Self {
+    pub(crate) fn oplus_with_metric(&self, d: &Vector3<f64>, m: &Vector3<f64>) -> Self {
         Self { lat: self.lat + d.x / m.x, lon: self.lon + d.y / m.y, h: self.h + d.z / m.z }
     }
 }
@@ -110,11 +121,15 @@ impl Manifold for GeoPos {
         metric_ratio(self, &self.oplus(d))
     }
 
-    /// One diagonal block, from the metric at this point and at `self ⊕ δ` (two
-    /// evaluations instead of the three of `oplus_jacobian_delta`).
+    /// One diagonal block, from the metric at this point and at `self ⊕ δ` (one
+    /// `sin_cos`: the second latitude's functions come from the first's through
+    /// [`sin_cos_near`]).
     fn reset_blocks(&self, d: &Vector3<f64>, visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>)) {
-        let m = self.metric();
-        let g = ratio_of_metrics(&m, &self.oplus_with_metric(d, &m).metric());
+        let (s, c) = self.lat.sin_cos();
+        let m = metric_at(s, c, self.h);
+        let y = self.oplus_with_metric(d, &m);
+        let (sy, cy) = sin_cos_near(y.lat, self.lat, s, c);
+        let g = ratio_of_metrics(&m, &metric_at(sy, cy, y.h));
         visit(0, DMatrixView::from_slice(g.as_slice(), 3, 3));
     }
 

@@ -21,13 +21,30 @@ pub struct So3 {
 }
 
 /// Skew-symmetric matrix `[v×]` with `[v×] w = v × w`.
+#[inline]
 pub fn hat(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+/// The quaternion of `Exp(φ)`, `(cos(θ/2), sin(θ/2) φ/θ)`, before normalisation (unit
+/// to rounding): callers that multiply it into a product normalise once at the end.
+#[inline]
+fn exp_quaternion(phi: &Vector3<f64>) -> Quaternion<f64> {
+    let t2 = phi.norm_squared();
+    let t = t2.sqrt();
+    let (w, k) = if t < SMALL_ANGLE {
+        // sin(θ/2)/θ = ½ − θ²/48 + θ⁴/3840
+        (1.0 - t2 / 8.0 + t2 * t2 / 384.0, 0.5 - t2 / 48.0 + t2 * t2 / 3840.0)
+    } else {
+        ((0.5 * t).cos(), (0.5 * t).sin() / t)
+    };
+    Quaternion::new(w, k * phi.x, k * phi.y, k * phi.z)
 }
 
 /// Right Jacobian of SO(3), `Jr(φ)`: `Exp(φ + δ) ≈ Exp(φ) Exp(Jr(φ) δ)`.
 ///
 /// `Jr(φ) = I − (1 − cos θ)/θ² [φ×] + (θ − sin θ)/θ³ [φ×]²`, θ = |φ|.
+#[inline]
 pub fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     let t2 = phi.norm_squared();
     let t = t2.sqrt();
@@ -74,6 +91,7 @@ impl So3 {
     }
 
     /// From a unit quaternion (renormalised).
+    #[inline]
     pub fn from_quaternion(q: UnitQuaternion<f64>) -> Self {
         Self { q: UnitQuaternion::new_normalize(q.into_inner()) }
     }
@@ -94,17 +112,9 @@ impl So3 {
     }
 
     /// The exponential map `Exp(φ)`: rotation by |φ| about φ/|φ|.
+    #[inline]
     pub fn exp(phi: &Vector3<f64>) -> Self {
-        let t2 = phi.norm_squared();
-        let t = t2.sqrt();
-        let (w, k) = if t < SMALL_ANGLE {
-            // sin(θ/2)/θ = ½ − θ²/48 + θ⁴/3840
-            (1.0 - t2 / 8.0 + t2 * t2 / 384.0, 0.5 - t2 / 48.0 + t2 * t2 / 3840.0)
-        } else {
-            ((0.5 * t).cos(), (0.5 * t).sin() / t)
-        };
-        let q = Quaternion::new(w, k * phi.x, k * phi.y, k * phi.z);
-        Self { q: UnitQuaternion::new_normalize(q) }
+        Self { q: UnitQuaternion::new_normalize(exp_quaternion(phi)) }
     }
 
     /// The logarithm map `Log(R)`, the rotation vector with angle in [0, π].
@@ -128,23 +138,27 @@ impl So3 {
     }
 
     /// The rotation matrix.
+    #[inline]
     pub fn matrix(&self) -> Matrix3<f64> {
         self.q.to_rotation_matrix().into_inner()
     }
 
-    /// `left · self · right` with one normalisation at the end (two products with `*`
-    /// normalise twice).
-    pub fn between(&self, left: &So3, right: &So3) -> So3 {
-        let q = left.q.as_ref() * self.q.as_ref() * right.q.as_ref();
+    /// `Exp(left) · self · Exp(right)` with one normalisation at the end (through
+    /// [`exp`](Self::exp) and `*` it would be four).
+    #[inline]
+    pub fn between_exp(&self, left: &Vector3<f64>, right: &Vector3<f64>) -> So3 {
+        let q = exp_quaternion(left) * self.q.as_ref() * exp_quaternion(right);
         Self { q: UnitQuaternion::new_normalize(q) }
     }
 
     /// The inverse rotation.
+    #[inline]
     pub fn inverse(&self) -> Self {
         Self { q: self.q.inverse() }
     }
 
     /// Rotate a vector: `R v`.
+    #[inline]
     pub fn rotate(&self, v: &Vector3<f64>) -> Vector3<f64> {
         self.q.transform_vector(v)
     }
@@ -183,9 +197,10 @@ impl Manifold for So3 {
         Self::identity()
     }
 
-    /// `R ⊕ δθ = R · Exp(δθ)`.
+    /// `R ⊕ δθ = R · Exp(δθ)`, normalised once.
+    #[inline]
     fn oplus(&self, delta: &Vector3<f64>) -> Self {
-        Self::from_quaternion(self.q * Self::exp(delta).q)
+        Self { q: UnitQuaternion::new_normalize(self.q.as_ref() * exp_quaternion(delta)) }
     }
 
     /// `S ⊖ R = Log(R⁻¹ · S)`.
@@ -193,6 +208,7 @@ impl Manifold for So3 {
         Self { q: origin.q.inverse() * self.q }.log()
     }
 
+    #[inline]
     fn is_finite(&self) -> bool {
         self.q.coords.iter().all(|c| c.is_finite())
     }
@@ -205,6 +221,7 @@ impl Manifold for So3 {
         }
     }
 
+    #[inline]
     fn oplus_jacobian_delta(&self, delta: &Vector3<f64>) -> Matrix3<f64> {
         right_jacobian(delta)
     }

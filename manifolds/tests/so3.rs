@@ -3,7 +3,7 @@
 
 use approx::assert_relative_eq;
 use core::f64::consts::PI;
-use manifolds::{right_jacobian, right_jacobian_inverse, So3};
+use manifolds::{right_jacobian, right_jacobian_inverse, Manifold, So3};
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
 
@@ -61,19 +61,20 @@ proptest! {
 
 proptest! {
     #[test]
-    fn between_is_the_product_of_three(
+    fn between_exp_is_the_product_of_three(
         a in prop::array::uniform3(-3.0f64..3.0),
         b in prop::array::uniform3(-3.0f64..3.0),
         c in prop::array::uniform3(-3.0f64..3.0),
     ) {
-        let (l, m, r) = (
-            So3::exp(&Vector3::from(a)),
-            So3::exp(&Vector3::from(b)),
-            So3::exp(&Vector3::from(c)),
-        );
-        let product = l * m * r;
-        let between = m.between(&l, &r);
+        let (a, b, c) = (Vector3::from(a), Vector3::from(b), Vector3::from(c));
+        let m = So3::exp(&b);
+        let product = So3::exp(&a) * m * So3::exp(&c);
+        let between = m.between_exp(&a, &c);
         prop_assert!((between.matrix() - product.matrix()).abs().max() < 1e-14);
         prop_assert!((between.quaternion().norm() - 1.0).abs() < 1e-15);
+        // ⊕ normalises once too
+        let plus = m.oplus(&c);
+        prop_assert!((plus.matrix() - (m * So3::exp(&c)).matrix()).abs().max() < 1e-14);
+        prop_assert!((plus.quaternion().norm() - 1.0).abs() < 1e-15);
     }
 }
