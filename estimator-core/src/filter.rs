@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! predict   x̂⁻ = f(x̂, u, dt)                 P⁻ = λ Φ P Φᵀ + Q_d   (λ = 1 unless fading)
-//! innovate  r = z ⊖ h(x̂⁻)                    S = H P⁻ Hᵀ + R
+//! innovate  r = z ⊖ h(x̂⁻)                    S = H P⁻ Hᵀ + R   (MeasurementModel::innovation)
 //! adapt     (strategy) P⁻* = λ_P P⁻, R* , or reject
 //! gain      K = P⁻* Hᵀ S*⁻¹                   (Cholesky solve of S* Kᵀ = H P⁻*)
 //! update    δx = K r                          P = (I−KH) P⁻* (I−KH)ᵀ + K R* Kᵀ   (Joseph,
@@ -365,30 +365,30 @@ where
         }
         check_covariance("measurement noise R", R)?;
 
-        let (z_hat, jac) = model.linearize(&self.x);
-        let r = model.residual(z, &z_hat);
-        let H = jac.H;
-        check_finite("innovation r = z ⊖ h(x)", &r)?;
-        check_finite("measurement Jacobian H", &H)?;
+        // (borrowed from the returned pair: destructuring it would copy `H`)
+        let innovation = model.innovation(&self.x, z);
+        let (r, H) = (&innovation.0, &innovation.1.H);
+        check_finite("innovation r = z ⊖ h(x)", r)?;
+        check_finite("measurement Jacobian H", H)?;
 
         // S = H P⁻ Hᵀ + R
-        let PHt = self.backend.p_times_ht(&H, &self.bufs[self.cur]);
+        let PHt = self.backend.p_times_ht(H, &self.bufs[self.cur]);
         let mut HPHt =
             OMatrix::<f64, StateDim<MM::Measurement>, StateDim<MM::Measurement>>::zeros();
-        kernels::mat_mul(&H, &PHt, &mut HPHt);
+        kernels::mat_mul(H, &PHt, &mut HPHt);
         let mut S = &HPHt + R;
         symmetrize(&mut S);
         let chol_S = cholesky("innovation covariance S = H P Hᵀ + R", S.clone())?;
         // NIS = rᵀ S⁻¹ r
-        let nis = whitened_norm_sq(&chol_S, &r);
+        let nis = whitened_norm_sq(&chol_S, r);
 
         let epoch = self.epoch + 1;
         let mut a = Adaptation {
             stream: model.stream(),
             epoch,
             time: self.time,
-            innovation: &r,
-            H: &H,
+            innovation: r,
+            H,
             P_prior: CovView::new(&self.bufs[self.cur]),
             HPHt: &HPHt,
             R_nominal: R,
@@ -436,14 +436,15 @@ where
         }
         // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻); when the strategy
         // changed nothing, S* = S and its factor is the one already computed.
-        let adapted = prior_scale != 1.0 || R_used != *R;
+        // (compared as slices: nalgebra's `!=` walks a strided iterator, several times slower)
+        let adapted = prior_scale != 1.0 || R_used.as_slice() != R.as_slice();
         let S_adapted;
         let chol = if adapted {
             check_covariance("adapted measurement noise R*", &R_used)?;
             let mut S_used = &HPHt * prior_scale + &R_used;
             symmetrize(&mut S_used);
             let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
-            report.nis_adapted = whitened_norm_sq(&chol, &r);
+            report.nis_adapted = whitened_norm_sq(&chol, r);
             S_adapted = Some(S_used);
             chol
         } else {
@@ -477,17 +478,18 @@ where
         let mut K = PHt_used.clone();
         kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
         let mut dx = OMatrix::<f64, X::Dim, nalgebra::U1>::zeros();
-        kernels::mat_mul(&K, &r, &mut dx);
+        kernels::mat_mul(&K, r, &mut dx);
 
         let prior: &B::Cov = if scaled { aux } else { P };
         // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
-        backend.update(prior, &K, &H, &PHt_used, &R_used, S_used, form, next);
-        let x_new = self.x.oplus(&dx);
-        if self.reset == ResetMode::Exact {
+        backend.update(prior, &K, H, &PHt_used, &R_used, S_used, form, next);
+        let x_new = if self.reset == ResetMode::Exact {
             // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx, block by block
             let next = &mut self.bufs[(self.cur + 1) % 3];
-            self.x.reset_blocks(&dx, &mut |o, b| backend.reset_block(next, o, b));
-        }
+            self.x.oplus_reset(&dx, &mut |o, b| backend.reset_block(next, o, b))
+        } else {
+            self.x.oplus(&dx)
+        };
         self.backend = backend;
         check_finite("state correction δx", &dx)?;
         if !x_new.is_finite() {
@@ -500,7 +502,7 @@ where
         self.epoch = epoch;
         self.apply_q(&q);
         let mut post =
-            PostUpdate { stream, time: self.time, K: &K, innovation: &r, q: QAdjust::Keep };
+            PostUpdate { stream, time: self.time, K: &K, innovation: r, q: QAdjust::Keep };
         self.strategy.after_update(&mut post);
         self.apply_q(&post.q);
         observer.on_update(&report);

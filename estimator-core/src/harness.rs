@@ -6,7 +6,7 @@ use core::fmt;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
-use manifolds::{numdiff, DimAlloc, Manifold};
+use manifolds::{numdiff, DimAlloc, Manifold, Tangent};
 
 use crate::traits::{FilterAlloc, MeasurementModel, ProcessModel, StateDim};
 
@@ -190,7 +190,14 @@ where
     let (z_hat, jac) = model.linearize(x);
     let gap = z_hat.ominus(&model.predict(x));
     compare("linearize: h(x) vs predict", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
-    compare("linearize: H vs jacobian", &jac.H, &analytic, STEP_AGREEMENT)
+    compare("linearize: H vs jacobian", &jac.H, &analytic, STEP_AGREEMENT)?;
+    // `innovation` (the filter's call) must agree with `linearize` and `residual`, at a
+    // measurement a little away from the prediction.
+    let offset = Tangent::<MM::Measurement>::from_fn(|i, _| 1e-3 * (i as f64 + 1.0));
+    let z = z_hat.oplus(&offset);
+    let (r, jac) = model.innovation(x, &z);
+    compare("innovation: r vs residual", &r, &model.residual(&z, &z_hat), STEP_AGREEMENT)?;
+    compare("innovation: H vs jacobian", &jac.H, &analytic, STEP_AGREEMENT)
 }
 
 /// Numerical Jacobian of any map between manifolds, `∂(f(x ⊕ ε) ⊖ f(x))/∂ε`, for

@@ -175,18 +175,90 @@ fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(
     for (j, vcol) in v.as_mut_slice().chunks_exact_mut(n).enumerate() {
         lincomb::<1, FMA>([(ks, &hs[j * m..])], n, m, 1, 0, Some(&mu[j * n..(j + 1) * n]), vcol);
     }
-    // Lower triangle of P + K Vᵀ + V Kᵀ, column c from row c: one combination of the 2M
-    // columns of K and V, then mirrored.
+    // Lower triangle of P + K Vᵀ + V Kᵀ, four columns at a time from the multiple of four
+    // at or above their first (the mirror overwrites the extra rows above the diagonal).
     let (vs, ps, o) = (v.as_slice(), p.as_slice(), out.as_mut_slice());
-    for c in 0..n {
-        let init = Some(&ps[c * n..(c + 1) * n]);
-        let out_c = &mut o[c * n..(c + 1) * n];
-        // From the multiple of four at or above row c (the mirror overwrites the extra
-        // rows): whole-vector reads of K and V then line up with the writes that made them,
-        // which the processor can forward; reads straddling two writes wait for them.
-        lincomb::<2, FMA>([(ks, &vs[c..]), (vs, &ks[c..])], n, m, n, c & !3, init, out_c);
+    let t = JosephTerms { k: ks, v: vs, p: ps, n, m };
+    let mut c0 = 0;
+    while c0 + 4 <= n {
+        t.panel::<4, FMA>(c0, o);
+        c0 += 4;
+    }
+    match n - c0 {
+        1 => t.panel::<1, FMA>(c0, o),
+        2 => t.panel::<2, FMA>(c0, o),
+        3 => t.panel::<3, FMA>(c0, o),
+        _ => {}
     }
     mirror_lower(o, n);
+}
+
+/// The operands of the Joseph update's second stage, `P + K Vᵀ + V Kᵀ` (column-major
+/// slices, `K` and `V` `n × m`).
+struct JosephTerms<'a> {
+    k: &'a [f64],
+    v: &'a [f64],
+    p: &'a [f64],
+    n: usize,
+    m: usize,
+}
+
+impl JosephTerms<'_> {
+    /// Columns `c0..c0 + C`, rows from `c0` down (and up to three rows above it when `n`
+    /// is not a multiple of four, like [`lincomb`]).
+    #[inline(always)]
+    fn panel<const C: usize, const FMA: bool>(&self, c0: usize, out: &mut [f64]) {
+        let n = self.n;
+        let mut r0 = c0;
+        while r0 + 8 <= n {
+            self.tile::<C, 8, FMA>(c0, r0, out);
+            r0 += 8;
+        }
+        while r0 + 4 <= n {
+            self.tile::<C, 4, FMA>(c0, r0, out);
+            r0 += 4;
+        }
+        if r0 < n && n >= 4 {
+            self.tile::<C, 4, FMA>(c0, n - 4, out);
+        } else {
+            for r in r0..n {
+                self.tile::<C, 1, FMA>(c0, r, out);
+            }
+        }
+    }
+
+    /// The `W × C` tile at rows `r0..`, columns `c0..`, its sums in registers: each
+    /// segment of a column of `K` or `V` read once serves all `C` columns (one column at a
+    /// time reads it `C` times, and the loads, not the multiply-adds, bound this stage).
+    #[inline(always)]
+    fn tile<const C: usize, const W: usize, const FMA: bool>(
+        &self,
+        c0: usize,
+        r0: usize,
+        out: &mut [f64],
+    ) {
+        let n = self.n;
+        let mut acc = [[0.0f64; W]; C];
+        for (j, a) in acc.iter_mut().enumerate() {
+            a.copy_from_slice(&self.p[(c0 + j) * n + r0..][..W]);
+        }
+        for k in 0..self.m {
+            let (kcol, vcol) = (&self.k[k * n..(k + 1) * n], &self.v[k * n..(k + 1) * n]);
+            let (kseg, vseg) = (&kcol[r0..r0 + W], &vcol[r0..r0 + W]);
+            for (j, a) in acc.iter_mut().enumerate() {
+                let (vc, kc) = (vcol[c0 + j], kcol[c0 + j]);
+                for w in 0..W {
+                    a[w] = madd::<FMA>(kseg[w], vc, a[w]);
+                }
+                for w in 0..W {
+                    a[w] = madd::<FMA>(vseg[w], kc, a[w]);
+                }
+            }
+        }
+        for (j, a) in acc.iter().enumerate() {
+            out[(c0 + j) * n + r0..][..W].copy_from_slice(a);
+        }
+    }
 }
 
 fma_kernel! {
@@ -282,30 +354,43 @@ impl<const T: usize> Combination<'_, T> {
     fn run<const FMA: bool>(&self, lo: usize, out: &mut [f64]) {
         let (c, n) = (self, self.n);
         let mut r0 = lo;
+        if n - lo > 8 && n - lo <= 16 {
+            // Nine to sixteen rows: two overlapping blocks of eight in one pass, four
+            // independent sums per column read instead of two.
+            c.rows::<8, 2, FMA>([lo, n - 8], out);
+            return;
+        }
         while r0 + 8 <= n {
-            c.rows::<8, FMA>(r0, out);
+            c.rows::<8, 1, FMA>([r0], out);
             r0 += 8;
         }
         while r0 + 4 <= n {
-            c.rows::<4, FMA>(r0, out);
+            c.rows::<4, 1, FMA>([r0], out);
             r0 += 4;
         }
         if r0 < n && n >= 4 {
-            c.rows::<4, FMA>(n - 4, out);
+            c.rows::<4, 1, FMA>([n - 4], out);
         } else {
             for r in r0..n {
-                c.rows::<1, FMA>(r, out);
+                c.rows::<1, 1, FMA>([r], out);
             }
         }
     }
 
-    /// Rows `r0..r0 + W`, with the `W` sums held in registers.
+    /// Rows `r..r + W` for each start `r` in `starts` (the blocks may overlap: shared rows
+    /// get the same sums twice), all `B W` sums in registers.
     #[inline(always)]
-    fn rows<const W: usize, const FMA: bool>(&self, r0: usize, out: &mut [f64]) {
+    fn rows<const W: usize, const B: usize, const FMA: bool>(
+        &self,
+        starts: [usize; B],
+        out: &mut [f64],
+    ) {
         let n = self.n;
-        let mut acc = [0.0f64; W];
+        let mut acc = [[0.0f64; W]; B];
         if let Some(init) = self.init {
-            acc.copy_from_slice(&init[r0..r0 + W]);
+            for (a, &r) in acc.iter_mut().zip(&starts) {
+                a.copy_from_slice(&init[r..r + W]);
+            }
         }
         for (m, coef) in self.sources {
             for k in 0..self.kcols {
@@ -313,13 +398,18 @@ impl<const T: usize> Combination<'_, T> {
                     Some(cols) => cols[k],
                     None => k,
                 };
-                let (c, col) = (coef[k * self.stride], &m[kc * n + r0..kc * n + r0 + W]);
-                for t in 0..W {
-                    acc[t] = madd::<FMA>(col[t], c, acc[t]);
+                let (c, col) = (coef[k * self.stride], &m[kc * n..(kc + 1) * n]);
+                for (a, &r) in acc.iter_mut().zip(&starts) {
+                    let seg = &col[r..r + W];
+                    for t in 0..W {
+                        a[t] = madd::<FMA>(seg[t], c, a[t]);
+                    }
                 }
             }
         }
-        out[r0..r0 + W].copy_from_slice(&acc);
+        for (a, &r) in acc.iter().zip(&starts) {
+            out[r..r + W].copy_from_slice(a);
+        }
     }
 }
 

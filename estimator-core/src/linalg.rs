@@ -63,10 +63,13 @@ where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
     let l = chol.l_dirty();
+    // The reciprocals of the diagonal first: independent divisions, off the substitution's
+    // chain of dependent steps.
+    let inv_diag = OVector::<f64, D>::from_fn(|i, _| 1.0 / l[(i, i)]);
     let mut y = e.clone_owned();
     for i in 0..D::DIM {
         let v = (0..i).fold(y[i], |v, k| v - l[(i, k)] * y[k]);
-        y[i] = v / l[(i, i)];
+        y[i] = v * inv_diag[i];
     }
     y.norm_squared()
 }
@@ -81,21 +84,32 @@ where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
     check_finite(what, a)?;
-    let scale = a.iter().fold(0.0_f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
-    let mut asym = 0.0_f64;
-    for c in 0..D::DIM {
-        for r in (c + 1)..D::DIM {
-            asym = asym.max((a[(r, c)] - a[(c, r)]).abs());
+    // One pass over the strict lower triangle and its mirror (slices, not nalgebra's
+    // strided indexing: this runs on every update's `R`).
+    // (The values are finite here, so a plain comparison serves as the maximum: `f64::max`
+    // spends more instructions on NaN than this whole check on the numbers.)
+    let max = |m: f64, x: f64| if x > m { x } else { m };
+    let (n, s) = (D::DIM, a.as_slice());
+    let (mut diagonal, mut asym, mut off_diagonal) = (f64::MIN_POSITIVE, 0.0_f64, 0.0_f64);
+    let mut diagonal_positive = true;
+    for c in 0..n {
+        let d = s[c * n + c];
+        diagonal = max(diagonal, d.abs());
+        diagonal_positive &= d > 0.0;
+        for r in (c + 1)..n {
+            let (lo, up) = (s[c * n + r], s[r * n + c]);
+            off_diagonal = max(max(off_diagonal, lo.abs()), up.abs());
+            asym = max(asym, (lo - up).abs());
         }
     }
+    let scale = max(diagonal, off_diagonal);
     if asym > SYMMETRY_TOLERANCE * scale {
         return Err(FilterError::NotSymmetric { what, asymmetry: asym });
     }
     // A diagonal matrix (the usual measurement noise) is positive definite exactly when
     // its diagonal is positive: no factorisation needed.
-    let diagonal = (0..D::DIM).all(|c| (0..D::DIM).all(|r| r == c || a[(r, c)] == 0.0));
-    if diagonal {
-        return if (0..D::DIM).all(|i| a[(i, i)] > 0.0) {
+    if off_diagonal == 0.0 {
+        return if diagonal_positive {
             Ok(())
         } else {
             Err(FilterError::NotPositiveDefinite { what })

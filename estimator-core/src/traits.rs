@@ -191,6 +191,19 @@ where
         z.ominus(z_hat)
     }
 
+    /// The innovation `z ⊖ h(x)` and `H` at `x`: what the filter calls at every update.
+    /// Default: [`linearize`](Self::linearize) then [`residual`](Self::residual). Override
+    /// when the residual can reuse the prediction's work (the geodetic metric of a GNSS
+    /// position); the harness checks the override against those two.
+    fn innovation(
+        &self,
+        x: &Self::State,
+        z: &Self::Measurement,
+    ) -> (Tangent<Self::Measurement>, JacobiansOf<Self>) {
+        let (z_hat, jac) = self.linearize(x);
+        (self.residual(z, &z_hat), jac)
+    }
+
     /// The measurement stream this model feeds; adaptive strategies keep one window per
     /// stream. Default: one stream per model type. Override to split one type into
     /// several streams (two antennas, two cameras).

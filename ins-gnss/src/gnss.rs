@@ -9,11 +9,11 @@
 
 use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};
 use manifolds::{hat, R3};
-use nalgebra::{Const, Matrix3, SMatrix, Vector3};
+use nalgebra::{Const, Matrix3, SMatrix, SVector, Vector3};
 
 use crate::earth::LocalEarth;
 
-use crate::position::GeoPos;
+use crate::position::{metric_at, GeoPos};
 use crate::state::InsState;
 
 /// One GNSS epoch as read from a file.
@@ -35,6 +35,8 @@ struct Geometry {
     c: Matrix3<f64>,
     /// [`GeoPos::metric`] at the state's position.
     metric: Vector3<f64>,
+    /// `(sin φ, cos φ)` of the state's latitude.
+    sin_cos: (f64, f64),
     lever: Vector3<f64>,
     lever_n: Vector3<f64>,
     w: Vector3<f64>,
@@ -46,19 +48,28 @@ impl Geometry {
         let c = x.att.matrix();
         let e = LocalEarth::at(&x.pos);
         let w_in = e.earth_rate() + e.transport_rate(&x.vel);
-        let metric = e.metric();
-        Self { c, metric, lever: *lever, lever_n: c * lever, w: w_ib - x.bg, w_in }
+        let (metric, sin_cos) = (e.metric(), (e.sin, e.cos));
+        Self { c, metric, sin_cos, lever: *lever, lever_n: c * lever, w: w_ib - x.bg, w_in }
     }
 
     /// Without a gyro rate (position only: `w` and `w_in` unused).
     fn position_only(x: &InsState, lever: &Vector3<f64>) -> Self {
         let c = x.att.matrix();
         let z = Vector3::zeros();
-        Self { c, metric: x.pos.metric(), lever: *lever, lever_n: c * lever, w: z, w_in: z }
+        let (s, co) = x.pos.lat.sin_cos();
+        let metric = metric_at(s, co, x.pos.h);
+        let (lever, lever_n) = (*lever, c * lever);
+        Self { c, metric, sin_cos: (s, co), lever, lever_n, w: z, w_in: z }
     }
 
     fn antenna_position(&self, x: &InsState) -> GeoPos {
         x.pos.oplus_with_metric(&self.lever_n, &self.metric)
+    }
+
+    /// `z ⊖ p_a` for the predicted antenna position `p_a`, its metric from the state's
+    /// `sin_cos` (the antenna is metres from the state's position).
+    fn position_residual(&self, x: &InsState, z: &GeoPos, p_a: &GeoPos) -> Vector3<f64> {
+        z.ominus_with_metric(p_a, &p_a.metric_near(&x.pos, self.sin_cos))
     }
 
     fn antenna_velocity(&self, x: &InsState) -> Vector3<f64> {
@@ -105,6 +116,17 @@ impl MeasurementModel for GnssPosition {
     fn linearize(&self, x: &InsState) -> (GeoPos, MeasurementJacobians<Const<3>, Const<15>>) {
         let g = Geometry::position_only(x, &self.lever_arm);
         (g.antenna_position(x), MeasurementJacobians { H: g.h_position() })
+    }
+
+    /// The residual's metric from the state's latitude functions (one `sin_cos` fewer).
+    fn innovation(
+        &self,
+        x: &InsState,
+        z: &GeoPos,
+    ) -> (Vector3<f64>, MeasurementJacobians<Const<3>, Const<15>>) {
+        let g = Geometry::position_only(x, &self.lever_arm);
+        let r = g.position_residual(x, z, &g.antenna_position(x));
+        (r, MeasurementJacobians { H: g.h_position() })
     }
 
     fn stream(&self) -> StreamId {
@@ -168,6 +190,20 @@ impl MeasurementModel for GnssPosVel {
     fn linearize(&self, x: &InsState) -> ((GeoPos, R3), MeasurementJacobians<Const<6>, Const<15>>) {
         let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
         ((g.antenna_position(x), g.antenna_velocity(x)), MeasurementJacobians { H: pos_vel_h(&g) })
+    }
+
+    /// The position residual's metric from the state's latitude functions (one `sin_cos`
+    /// fewer).
+    fn innovation(
+        &self,
+        x: &InsState,
+        z: &(GeoPos, R3),
+    ) -> (SVector<f64, 6>, MeasurementJacobians<Const<6>, Const<15>>) {
+        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        let r_pos = g.position_residual(x, &z.0, &g.antenna_position(x));
+        let r_vel = z.1 - g.antenna_velocity(x);
+        let r = SVector::<f64, 6>::new(r_pos.x, r_pos.y, r_pos.z, r_vel.x, r_vel.y, r_vel.z);
+        (r, MeasurementJacobians { H: pos_vel_h(&g) })
     }
 
     fn stream(&self) -> StreamId {

@@ -55,7 +55,7 @@ impl GeoPos {
 }
 
 /// [`GeoPos::metric`] at the latitude with sine `s` and cosine `c`, height `h`.
-fn metric_at(s: f64, c: f64, h: f64) -> Vector3<f64> {
+pub(crate) fn metric_at(s: f64, c: f64, h: f64) -> Vector3<f64> {
     let (rm, rn) = radii_from_sin(s);
     metric_from_radii(rm, rn, c, h)
 }
@@ -81,6 +81,33 @@ impl GeoPos {
     pub(crate) fn oplus_with_metric(&self, d: &Vector3<f64>, m: &Vector3<f64>) -> Self {
         Self { lat: self.lat + d.x / m.x, lon: self.lon + d.y / m.y, h: self.h + d.z / m.z }
     }
+
+    /// `self ⊖ origin` with `m = origin.metric()` already at hand.
+    pub(crate) fn ominus_with_metric(&self, origin: &Self, m: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(
+            (self.lat - origin.lat) * m.x,
+            (self.lon - origin.lon) * m.y,
+            (self.h - origin.h) * m.z,
+        )
+    }
+
+    /// [`GeoPos::metric`] at a point near `near`, whose latitude's sine and cosine are
+    /// `(s, c)`: this latitude's functions come from those through [`sin_cos_near`].
+    pub(crate) fn metric_near(&self, near: &GeoPos, (s, c): (f64, f64)) -> Vector3<f64> {
+        let (s, c) = sin_cos_near(self.lat, near.lat, s, c);
+        metric_at(s, c, self.h)
+    }
+
+    /// `self ⊕ d` and the reset block `∂(self ⊕ d)/∂d`, from the metric here and at
+    /// `self ⊕ d` with one `sin_cos`: the second latitude's functions come from the first's
+    /// through [`sin_cos_near`].
+    fn oplus_and_reset_block(&self, d: &Vector3<f64>) -> (Self, Matrix3<f64>) {
+        let (s, c) = self.lat.sin_cos();
+        let m = metric_at(s, c, self.h);
+        let y = self.oplus_with_metric(d, &m);
+        let g = ratio_of_metrics(&m, &y.metric_near(self, (s, c)));
+        (y, g)
+    }
 }
 
 impl Manifold for GeoPos {
@@ -95,12 +122,7 @@ impl Manifold for GeoPos {
     }
 
     fn ominus(&self, origin: &Self) -> Vector3<f64> {
-        let m = origin.metric();
-        Vector3::new(
-            (self.lat - origin.lat) * m.x,
-            (self.lon - origin.lon) * m.y,
-            (self.h - origin.h) * m.z,
-        )
+        self.ominus_with_metric(origin, &origin.metric())
     }
 
     fn is_finite(&self) -> bool {
@@ -121,16 +143,22 @@ impl Manifold for GeoPos {
         metric_ratio(self, &self.oplus(d))
     }
 
-    /// One diagonal block, from the metric at this point and at `self ⊕ δ` (one
-    /// `sin_cos`: the second latitude's functions come from the first's through
-    /// [`sin_cos_near`]).
+    /// One diagonal block, `diag(m_y,N / m_x,N, m_y,E / m_x,E, 1)`, from the metric here
+    /// and at `self ⊕ δ` with one `sin_cos`.
     fn reset_blocks(&self, d: &Vector3<f64>, visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>)) {
-        let (s, c) = self.lat.sin_cos();
-        let m = metric_at(s, c, self.h);
-        let y = self.oplus_with_metric(d, &m);
-        let (sy, cy) = sin_cos_near(y.lat, self.lat, s, c);
-        let g = ratio_of_metrics(&m, &metric_at(sy, cy, y.h));
+        let (_, g) = self.oplus_and_reset_block(d);
         visit(0, DMatrixView::from_slice(g.as_slice(), 3, 3));
+    }
+
+    /// `reset_blocks` and `oplus` from one metric and one `sin_cos`.
+    fn oplus_reset(
+        &self,
+        d: &Vector3<f64>,
+        visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>),
+    ) -> Self {
+        let (y, g) = self.oplus_and_reset_block(d);
+        visit(0, DMatrixView::from_slice(g.as_slice(), 3, 3));
+        y
     }
 
     /// `J_d_y = diag(m_x / m_y)` exactly; `J_d_x` by central differences of 1 mm.

@@ -201,6 +201,20 @@ macro_rules! impl_tuple_manifold {
                 )+
             }
 
+            fn oplus_reset(
+                &self,
+                delta: &Tangent<Self>,
+                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
+            ) -> Self {
+                let mut _off = 0usize;
+                ($({
+                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    let off = _off;
+                    _off += $T::DIM;
+                    self.$idx.oplus_reset(&d, &mut |o, b| visit(off + o, b))
+                },)+)
+            }
+
             fn ominus_jacobians(&self, origin: &Self) -> crate::OminusJacobians<Self> {
                 let mut J_d_y = TangentMatrix::<Self>::zeros();
                 let mut J_d_x = TangentMatrix::<Self>::zeros();
@@ -383,6 +397,21 @@ macro_rules! composite_state {
                         &mut |o, b| visit(Self::$BLOCK.start() + o, b),
                     );
                 )+
+            }
+
+            fn oplus_reset(
+                &self,
+                delta: &$crate::Tangent<Self>,
+                visit: &mut dyn FnMut(usize, $crate::nalgebra::DMatrixView<'_, f64>),
+            ) -> Self {
+                Self {
+                    $(
+                        $field: self.$field.oplus_reset(
+                            &Self::$BLOCK.of(delta),
+                            &mut |o, b| visit(Self::$BLOCK.start() + o, b),
+                        ),
+                    )+
+                }
             }
 
             fn ominus_jacobians(&self, origin: &Self) -> $crate::OminusJacobians<Self> {

@@ -141,6 +141,16 @@ where
     });
     check("reset blocks ordered, square, in range", if well_formed { 0.0 } else { 1.0 }, 0.0)?;
     jac("reset_blocks assemble to J_y_delta", &g, &op.J_y_delta)?;
+    // oplus_reset gives the same point and the same blocks as oplus and reset_blocks.
+    let mut g_fused = OMatrix::<f64, M::Dim, M::Dim>::identity();
+    let y_fused = x.oplus_reset(delta, &mut |o, b| {
+        let d = b.nrows();
+        if o + d <= M::DIM && b.ncols() == d {
+            g_fused.view_mut((o, o), (d, d)).copy_from(&b);
+        }
+    });
+    check("oplus_reset's point = x ⊕ δ", y_fused.ominus(&x_plus_d).norm(), tol.law * scale)?;
+    jac("oplus_reset's blocks = reset_blocks'", &g_fused, &g)?;
 
     // ⊖ Jacobians at a pair whose difference is δ (inside the chart by construction).
     let om = x_plus_d.ominus_jacobians(x);

@@ -152,6 +152,20 @@ where
         }
     }
 
+    /// `self ⊕ δ` and its reset blocks ([`reset_blocks`](Self::reset_blocks)) in one
+    /// call, as an error-state filter needs them when it injects a correction: some
+    /// manifolds share work between the two (a geodetic position's metric). Default:
+    /// `reset_blocks` then `oplus`. The law harness checks that an override gives the
+    /// same point and the same blocks.
+    fn oplus_reset(
+        &self,
+        delta: &Tangent<Self>,
+        visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>),
+    ) -> Self {
+        self.reset_blocks(delta, visit);
+        self.oplus(delta)
+    }
+
     /// Jacobians of `self ⊖ origin`. Default: central differences through ⊕/⊖.
     fn ominus_jacobians(&self, origin: &Self) -> OminusJacobians<Self> {
         OminusJacobians {
