@@ -177,7 +177,8 @@ where
     ) -> MeasurementJacobians<StateDim<Self::Measurement>, StateDim<Self::State>>;
 
     /// `h(x)` and `H` at once; override when they share work (rotation matrices, Earth
-    /// rates). The filter calls this one; the harness checks it against the two above.
+    /// rates). [`innovation`](Self::innovation)'s default, which the filter calls, calls
+    /// this one; the harness checks it against the two above.
     fn linearize(&self, x: &Self::State) -> (Self::Measurement, JacobiansOf<Self>) {
         (self.predict(x), self.jacobian(x))
     }

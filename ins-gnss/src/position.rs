@@ -133,21 +133,14 @@ impl Manifold for GeoPos {
     /// `J_y_x` involves the derivative of the radii with latitude (below 1e-6 relative for
     /// displacements under a kilometre) and is taken by central differences of 1 mm.
     fn oplus_jacobians(&self, d: &Vector3<f64>) -> OplusJacobians<Self> {
-        let y = self.oplus(d);
-        let J_y_delta = metric_ratio(self, &y);
+        let (y, J_y_delta) = self.oplus_and_reset_block(d);
         let J_y_x = manifolds::numdiff::jacobian(self, |xp| xp.oplus(d).ominus(&y), 1e-3);
         OplusJacobians { J_y_x, J_y_delta }
     }
 
+    /// `diag(m_y,N / m_x,N, m_y,E / m_x,E, 1)` (also the one reset block).
     fn oplus_jacobian_delta(&self, d: &Vector3<f64>) -> Matrix3<f64> {
-        metric_ratio(self, &self.oplus(d))
-    }
-
-    /// One diagonal block, `diag(m_y,N / m_x,N, m_y,E / m_x,E, 1)`, from the metric here
-    /// and at `self ⊕ δ` with one `sin_cos`.
-    fn reset_blocks(&self, d: &Vector3<f64>, visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>)) {
-        let (_, g) = self.oplus_and_reset_block(d);
-        visit(0, DMatrixView::from_slice(g.as_slice(), 3, 3));
+        self.oplus_and_reset_block(d).1
     }
 
     /// `reset_blocks` and `oplus` from one metric and one `sin_cos`.

@@ -52,6 +52,13 @@ macro_rules! forwarding_manifold {
             ) {
                 self.0.reset_blocks(d, visit)
             }
+            fn oplus_reset(
+                &self,
+                d: &Tangent<Self>,
+                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
+            ) -> Self {
+                $name(self.0.oplus_reset(d, visit))
+            }
             fn ominus_jacobians(&self, o: &Self) -> manifolds::OminusJacobians<Self> {
                 let j = self.0.ominus_jacobians(&o.0);
                 manifolds::OminusJacobians { J_d_y: j.J_d_y, J_d_x: j.J_d_x }

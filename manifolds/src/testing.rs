@@ -17,7 +17,7 @@ use core::f64::consts::PI;
 use core::fmt;
 
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, DimName, OMatrix, SVector, Vector1, Vector3};
+use nalgebra::{DMatrixView, DefaultAllocator, DimName, OMatrix, SVector, Vector1, Vector3};
 use proptest::prelude::*;
 use proptest::strategy::BoxedStrategy;
 
@@ -75,6 +75,30 @@ where
     m.iter().fold(0.0_f64, |a, v| a.max(v.abs()))
 }
 
+/// Run `report` (a call that reports reset blocks, `Manifold::reset_blocks` or
+/// `oplus_reset`) and write its blocks over the identity: its result, `G`, and whether the
+/// blocks came in increasing order, square, in range and disjoint.
+fn assembled_blocks<M: Manifold, T>(
+    report: impl FnOnce(&mut dyn FnMut(usize, DMatrixView<'_, f64>)) -> T,
+) -> (T, OMatrix<f64, M::Dim, M::Dim>, bool)
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
+    let mut g = OMatrix::<f64, M::Dim, M::Dim>::identity();
+    let mut next_free = 0usize;
+    let mut well_formed = true;
+    let out = report(&mut |o, b| {
+        let d = b.nrows();
+        if o < next_free || b.ncols() != d || o + d > M::DIM {
+            well_formed = false;
+            return;
+        }
+        next_free = o + d;
+        g.view_mut((o, o), (d, d)).copy_from(&b);
+    });
+    (out, g, well_formed)
+}
+
 /// Check every ⊕/⊖ law and every Jacobian of `M` at `x`, another point `y` and a
 /// tangent `delta` inside the chart. Returns the first violation found.
 ///
@@ -127,28 +151,14 @@ where
     jac("oplus_jacobian_delta = J_y_delta", &x.oplus_jacobian_delta(delta), &op.J_y_delta)?;
     // The reset blocks, written over the identity, are the same Jacobian; they must be in
     // increasing order, square, in range and disjoint.
-    let mut g = OMatrix::<f64, M::Dim, M::Dim>::identity();
-    let mut next_free = 0usize;
-    let mut well_formed = true;
-    x.reset_blocks(delta, &mut |o, b| {
-        let d = b.nrows();
-        if o < next_free || b.ncols() != d || o + d > M::DIM {
-            well_formed = false;
-            return;
-        }
-        next_free = o + d;
-        g.view_mut((o, o), (d, d)).copy_from(&b);
-    });
+    let ((), g, well_formed) = assembled_blocks::<M, _>(|visit| x.reset_blocks(delta, visit));
     check("reset blocks ordered, square, in range", if well_formed { 0.0 } else { 1.0 }, 0.0)?;
     jac("reset_blocks assemble to J_y_delta", &g, &op.J_y_delta)?;
     // oplus_reset gives the same point and the same blocks as oplus and reset_blocks.
-    let mut g_fused = OMatrix::<f64, M::Dim, M::Dim>::identity();
-    let y_fused = x.oplus_reset(delta, &mut |o, b| {
-        let d = b.nrows();
-        if o + d <= M::DIM && b.ncols() == d {
-            g_fused.view_mut((o, o), (d, d)).copy_from(&b);
-        }
-    });
+    let (y_fused, g_fused, well_formed) =
+        assembled_blocks::<M, _>(|visit| x.oplus_reset(delta, visit));
+    let what = "oplus_reset's blocks ordered, square, in range";
+    check(what, if well_formed { 0.0 } else { 1.0 }, 0.0)?;
     check("oplus_reset's point = x ⊕ δ", y_fused.ominus(&x_plus_d).norm(), tol.law * scale)?;
     jac("oplus_reset's blocks = reset_blocks'", &g_fused, &g)?;
 
