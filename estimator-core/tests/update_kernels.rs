@@ -143,8 +143,9 @@ proptest! {
         prop_assert_eq!((out - out.transpose()).abs().max(), 0.0);
     }
 
-    /// The dispatched kernels (AVX2/FMA on this machine when the CPU has them) and the
-    /// portable ones agree to rounding.
+    /// The dispatched kernels (AVX2/FMA on this machine when the CPU has them, the
+    /// Joseph update with AVX-512VL when it has that too) and the portable ones agree to
+    /// rounding; the Joseph update's two fused paths run the same multiply-adds.
     #[test]
     fn fma_and_portable_paths_agree(
         a in matrix::<N, N>(),
@@ -161,6 +162,8 @@ proptest! {
         kernels::joseph_update(&P, &K, &S, &U, &mut x);
         kernels::joseph_update_portable(&P, &K, &S, &U, &mut y);
         prop_assert!(rel(&x, &y) < 1e-13, "joseph {:e}", rel(&x, &y));
+        kernels::joseph_update_avx2(&P, &K, &S, &U, &mut y);
+        prop_assert!(rel(&x, &y) <= 1e-15, "joseph avx2 path {:e}", rel(&x, &y));
         kernels::dense_sandwich(&f, &P, &P, &mut x);
         kernels::dense_sandwich_portable(&f, &P, &P, &mut y);
         prop_assert!(rel(&x, &y) < 1e-13, "sandwich {:e}", rel(&x, &y));
@@ -216,6 +219,15 @@ proptest! {
         prop_assert!(rel(&reset_on::<StaticCov>(&P, &blocks), &dense) < 1e-13, "static");
         prop_assert!(rel(&reset_on::<DynamicCov>(&P, &blocks), &dense) < 1e-13, "dynamic");
         prop_assert!(rel(&reset_on::<FaerCov>(&P, &blocks), &dense) < 1e-13, "faer");
+        // the kernel's path without AVX2/FMA (the back-ends above take the fused one on
+        // CPUs that have it)
+        let mut p = P;
+        let mut scratch = vec![0.0; estimator_core::kernels::block_reset_scratch(8)];
+        for (o, b) in &blocks {
+            estimator_core::kernels::block_reset_portable(&mut p, N, *o, b.as_view(), &mut scratch);
+        }
+        prop_assert!(rel(&p, &dense) < 1e-13, "portable");
+        prop_assert_eq!((p - p.transpose()).abs().max(), 0.0);
     }
 }
 
