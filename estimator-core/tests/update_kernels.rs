@@ -176,6 +176,10 @@ proptest! {
         kernels::p_times_ht(&P, &H, u1.as_mut_slice());
         kernels::p_times_ht_portable(&P, &H, u2.as_mut_slice());
         prop_assert!((u1 - u2).abs().max() <= 1e-13 * u2.abs().max().max(1.0));
+        let (mut s1, mut s2) = (SMatrix::<f64, M, M>::zeros(), SMatrix::<f64, M, M>::zeros());
+        kernels::mat_mul(&H, &u1, &mut s1);
+        kernels::mat_mul_portable(&H, &u1, &mut s2);
+        prop_assert!((s1 - s2).abs().max() <= 1e-13 * s2.abs().max().max(1.0));
     }
 
     #[test]

@@ -275,6 +275,8 @@ fn structured_propagation_equals_dense() {
         check_combined_calls(&flat, &x, &u, u.cur.dt).unwrap();
         let product = ins_gnss::model::phi_times(&jac.Phi, &p0);
         assert!((product - jac.Phi * p0).abs().max() <= 1e-12 * (jac.Phi * p0).abs().max());
+        let portable = ins_gnss::model::phi_times_portable(&jac.Phi, &p0);
+        assert!((portable - jac.Phi * p0).abs().max() <= 1e-12 * (jac.Phi * p0).abs().max());
     }
 }
 
