@@ -393,17 +393,16 @@ struct HalfNoise {
 }
 
 impl HalfNoise {
-    /// Add `E` to a symmetric matrix in columns of `R ≥ 15` rows (keeps it exactly
-    /// symmetric: `E` is).
+    /// `E[row, c]`, or `None` where `E` is zero by its structure (so that, with constant
+    /// indices, the zeros cost nothing). Exactly symmetric: the v block is.
     #[inline(always)]
-    fn add_to<const R: usize>(&self, o: &mut [[f64; R]; 15]) {
-        for i in 0..3 {
-            o[i][i] += self.th[i];
-            o[9 + i][9 + i] += self.bg[i];
-            o[12 + i][12 + i] += self.ba[i];
-            for j in 0..3 {
-                o[3 + j][3 + i] += self.v[(i, j)];
-            }
+    fn entry(&self, row: usize, c: usize) -> Option<f64> {
+        match (row / 3, c / 3) {
+            (B_TH, B_TH) if row == c => Some(self.th[c]),
+            (B_V, B_V) => Some(self.v[(row - 3, c - 3)]),
+            (B_BG, B_BG) if row == c => Some(self.bg[c - 9]),
+            (B_BA, B_BA) if row == c => Some(self.ba[c - 12]),
+            _ => None,
         }
     }
 
@@ -419,24 +418,16 @@ impl HalfNoise {
     fn added_column<const J: usize>(&self, p: &Cols) -> [f64; 16] {
         let mut col = [0.0; 16];
         col[..15].copy_from_slice(&p[J]);
-        match J / 3 {
-            B_TH => col[J] += self.th[J],
-            B_V => {
-                for i in 0..3 {
-                    col[3 + i] += self.v[(i, J - 3)];
-                }
+        for (row, x) in col.iter_mut().enumerate().take(15) {
+            if let Some(e) = self.entry(row, J) {
+                *x += e;
             }
-            B_P => {}
-            B_BG => col[J] += self.bg[J - 9],
-            _ => col[J] += self.ba[J - 12],
         }
         col
     }
 
     fn dense(&self) -> M15 {
-        let mut m = M15::zeros();
-        self.add_to(&mut m.data.0);
-        m
+        M15::from_fn(|r, c| self.entry(r, c).unwrap_or(0.0))
     }
 }
 
@@ -549,16 +540,10 @@ trait Addend {
 impl Addend for HalfNoise {
     #[inline(always)]
     fn segment(&self, r0: usize, c: usize) -> [f64; 4] {
+        // (a plain loop: a closure does not inherit the kernel's `target_feature`)
         let mut seg = [0.0; 4];
         for (i, x) in seg.iter_mut().enumerate() {
-            let row = r0 + i;
-            *x = match (row / 3, c / 3) {
-                (B_TH, B_TH) if row == c => self.th[c],
-                (B_V, B_V) => self.v[(row - 3, c - 3)],
-                (B_BG, B_BG) if row == c => self.bg[c - 9],
-                (B_BA, B_BA) if row == c => self.ba[c - 12],
-                _ => 0.0,
-            };
+            *x = self.entry(r0 + i, c).unwrap_or(0.0);
         }
         seg
     }
