@@ -75,20 +75,13 @@ macro_rules! fma_kernel {
     (
         $(#[$meta:meta])*
         $vis:vis fn $name:ident $(<$($g:ident : $b:path),*>)? ($($a:ident : $t:ty),* $(,)?)
-            $(-> $r:ty)? = $body:ident / $fast:ident / $portable:ident + avx512 ($wide:expr)
-        $(where $($w:tt)*)?
-    ) => {
-        $crate::fma_kernel! { @paths ($wide), $(#[$meta])* $vis fn $name $(<$($g : $b),*>)?
-            ($($a : $t),*) $(-> $r)? = $body / $fast / $portable $(where $($w)*)? }
-    };
-    (
-        $(#[$meta:meta])*
-        $vis:vis fn $name:ident $(<$($g:ident : $b:path),*>)? ($($a:ident : $t:ty),* $(,)?)
             $(-> $r:ty)? = $body:ident / $fast:ident / $portable:ident
+            $(+ avx512 ($wide:expr))?
         $(where $($w:tt)*)?
     ) => {
-        $crate::fma_kernel! { @paths (false), $(#[$meta])* $vis fn $name $(<$($g : $b),*>)?
-            ($($a : $t),*) $(-> $r)? = $body / $fast / $portable $(where $($w)*)? }
+        $crate::fma_kernel! { @paths (false $(|| $wide)?), $(#[$meta])* $vis fn $name
+            $(<$($g : $b),*>)? ($($a : $t),*) $(-> $r)? = $body / $fast / $portable
+            $(where $($w)*)? }
     };
     (
         @paths ($wide:expr),
