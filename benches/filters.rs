@@ -15,16 +15,16 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BatchSize, BenchmarkId, Criterion, Throughput};
-use estimator::core::linear::{LinearMeasurement, LinearProcess};
-use estimator::core::{
+use estimator::estimator_core::linear::{LinearMeasurement, LinearProcess};
+use estimator::estimator_core::{
     CovBackend, DynamicCov, ErrorStateFilter, FaerCov, FixedNoise, NoObserver, ProcessJacobians,
     ProcessModel, StaticCov, UpdateForm,
 };
 use estimator::ins_gnss::model::ImuInput;
-use estimator::ins_gnss::sim::{scenarios, simulate, GnssSim, Trajectory};
 use estimator::ins_gnss::{
     GnssConfig, GnssPosVel, InitialState, InitialStd, InsModel, InsState, Navigator,
 };
+use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
 use nalgebra::{Const, SMatrix, SVector, Vector3};
 
 fn linear_problem<const N: usize>(
@@ -201,7 +201,7 @@ fn ins(c: &mut Criterion) {
 }
 
 fn m_predict(m: &GnssPosVel, x: &InsState) -> estimator::ins_gnss::GeoPos {
-    use estimator::core::MeasurementModel;
+    use estimator::estimator_core::MeasurementModel;
     m.predict(x).0
 }
 

@@ -86,7 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let svg = csv.with_file_name("cs_maekf_seed0.svg");
-    estimator::ins_gnss::plot::comparison(
+    ins_gnss::plot::comparison(
         &svg,
         &[("absolute roll error (seed 0)", "deg"), ("pitch", "deg"), ("yaw", "deg")],
         &shown.map(|v| v.name()),

@@ -7,7 +7,7 @@
 //!
 //! Run: `cargo run --release --example range_bearing`
 
-use estimator::core::{
+use estimator::estimator_core::{
     ErrorStateFilter, FixedNoise, Manifold, MeasurementModel, ProcessModel, UpdateLog,
 };
 use estimator::manifolds::{So2, R2};

@@ -15,12 +15,12 @@
 use std::io::Write;
 
 use estimator::adaptive::AnyStrategy;
-use estimator::core::NoObserver;
+use estimator::estimator_core::NoObserver;
 use estimator::ins_gnss::imu::{BiasModel, DEG_PER_H};
-use estimator::ins_gnss::scenario::Scenario;
-use estimator::ins_gnss::sim::{simulate_from, ExactImu, GnssSim, ImuErrors, Trajectory};
 use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, InsState, Navigator};
 use estimator::manifolds::{Manifold, Tangent};
+use ins_gnss::scenario::Scenario;
+use ins_gnss_sim::{simulate_from, ExactImu, GnssSim, ImuErrors, Trajectory};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 

@@ -15,12 +15,12 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use estimator::ins_gnss::config::Config;
-use estimator::ins_gnss::eval::{evaluate_records, read_reference, Evaluation};
 use estimator::ins_gnss::io::NavRecord;
-use estimator::ins_gnss::run::{load_inputs, nav_record, run_slices};
 use estimator::ins_gnss::{GnssEpoch, ImuSample};
 use estimator::manifolds::Manifold;
+use ins_gnss::config::Config;
+use ins_gnss::eval::{evaluate_records, read_reference, Evaluation};
+use ins_gnss::run::{load_inputs, nav_record, run_slices};
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
 use rand::SeedableRng;
@@ -157,7 +157,7 @@ fn plot_navego(dir: &Path, path: &Path) -> Result<(), String> {
                 j += 1;
             }
             if j < truth.len() && (truth[j].t - r.t).abs() < 1e-6 {
-                let (dp, _, da) = estimator::ins_gnss::eval::errors(r, &truth[j]);
+                let (dp, _, da) = ins_gnss::eval::errors(r, &truth[j]);
                 h.push((r.t - results[0].t, (dp.x * dp.x + dp.y * dp.y).sqrt()));
                 y.push((r.t - results[0].t, da.z.abs()));
             }
@@ -165,7 +165,7 @@ fn plot_navego(dir: &Path, path: &Path) -> Result<(), String> {
         horizontal.push(h);
         heading.push(y);
     }
-    estimator::ins_gnss::plot::comparison(
+    ins_gnss::plot::comparison(
         path,
         &[
             ("navego + interference 200–260 s (seed 0): horizontal error", "m"),

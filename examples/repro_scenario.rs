@@ -12,8 +12,8 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use estimator::ins_gnss::plot;
-use estimator::ins_gnss::scenario::{MonteCarlo, Scenario, SeedRun};
+use ins_gnss::plot;
+use ins_gnss::scenario::{MonteCarlo, Scenario, SeedRun};
 use rayon::prelude::*;
 
 /// Per-run figures reported, with their column names.
@@ -84,7 +84,7 @@ fn plot_first_seed(
     for name in strategies {
         let (mut h, mut p) = (Vec::new(), Vec::new());
         mc.run(0, name.parse().map_err(|e| format!("{e}"))?, skip, &[], |t, r, truth| {
-            let (dp, _, da) = estimator::ins_gnss::eval::errors(r, truth);
+            let (dp, _, da) = ins_gnss::eval::errors(r, truth);
             h.push((t, da.z.abs()));
             p.push((t, (dp.x * dp.x + dp.y * dp.y).sqrt()));
         })?;

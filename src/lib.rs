@@ -1,17 +1,22 @@
-//! `estimator`: the umbrella crate. Re-exports the member crates so that one dependency
-//! brings the whole framework:
+//! `estimator`: the umbrella crate. Re-exports the member libraries so that one
+//! dependency brings the whole framework (the `ins-gnss` program and the `ins-gnss-sim`
+//! simulator are separate crates, so depending on this one compiles neither):
 //!
 //! | module | crate | what |
 //! |---|---|---|
-//! | [`manifolds`] | `manifolds` | ⊕/⊖ states, SO(3), products, law harness |
-//! | [`core`] | `estimator-core` | model traits, the error-state filter, reports, harnesses |
+//! | [`manifolds`] | `manifolds` | ⊕/⊖ states, SO(3), products, law harness (feature `testing`) |
+//! | [`estimator_core`] | `estimator-core` | model traits, the error-state filter, back-ends, reports, Jacobian harness (feature `testing`) |
 //! | [`adaptive`] | `adaptive` | noise-adaptation strategies |
 //! | [`models`] | `models` | reusable motion models and the AHRS |
-//! | [`ins_gnss`] | `ins-gnss` | the 15-state INS/GNSS filter and its file formats |
+//! | [`ins_gnss`] | `ins-gnss-core` | the INS/GNSS library: Earth model, mechanization, 15-state filter, file formats |
+//!
+//! Features: `faer` (default) forwards to `estimator-core/faer` (the `FaerCov` back-end);
+//! `testing` forwards to `manifolds/testing` and `estimator-core/testing` (the law and
+//! Jacobian harnesses).
 #![deny(missing_docs)]
 
 pub use adaptive;
-pub use estimator_core as core;
-pub use ins_gnss;
+pub use estimator_core;
+pub use ins_gnss_core as ins_gnss;
 pub use manifolds;
 pub use models;

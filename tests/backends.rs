@@ -6,8 +6,8 @@
 #![allow(non_snake_case)]
 
 use estimator::adaptive::{Afkf, AnyStrategy, FusedDualWindow, Iakf};
-use estimator::core::linear::{LinearMeasurement, LinearProcess};
-use estimator::core::{
+use estimator::estimator_core::linear::{LinearMeasurement, LinearProcess};
+use estimator::estimator_core::{
     CovBackend, DynamicCov, ErrorStateFilter, FaerCov, NoiseStrategy, StaticCov, UpdateForm,
 };
 use nalgebra::{SMatrix, SVector};
@@ -73,7 +73,7 @@ fn run<A: NoiseStrategy + Clone, B: CovBackend<nalgebra::Const<N>>>(
         f.predict(&p.process, &(), 1.0).unwrap();
         f.update(&p.sensor, z, &p.R).unwrap();
     }
-    (*f.state(), f.covariance_matrix().into_owned())
+    (*f.state(), f.covariance().into_owned())
 }
 
 fn close(a: &SMatrix<f64, N, N>, b: &SMatrix<f64, N, N>) -> bool {
@@ -120,7 +120,7 @@ fn backend_names() {
 }
 
 /// Records the prior covariance a strategy sees, through its in-place view.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct SeesPrior(Vec<f64>);
 
 impl NoiseStrategy for SeesPrior {
@@ -129,9 +129,9 @@ impl NoiseStrategy for SeesPrior {
     }
     fn adapt<Nd: nalgebra::DimName, Md: nalgebra::DimName>(
         &mut self,
-        a: &mut estimator::core::Adaptation<'_, Nd, Md>,
+        a: &mut estimator::estimator_core::Adaptation<'_, Nd, Md>,
     ) where
-        nalgebra::DefaultAllocator: estimator::core::FilterAlloc<Nd, Md>,
+        nalgebra::DefaultAllocator: estimator::estimator_core::FilterAlloc<Nd, Md>,
     {
         let m = a.P_prior.to_matrix();
         assert_eq!(a.P_prior.column(1)[2], a.P_prior.at(2, 1));
@@ -152,7 +152,7 @@ fn strategies_see_the_prior_covariance_on_every_backend() {
         )
         .unwrap();
         f.predict(&p.process, &(), 1.0).unwrap();
-        let prior = f.covariance_matrix().into_owned();
+        let prior = f.covariance().into_owned();
         f.update(&p.sensor, &p.zs[0], &p.R).unwrap();
         let seen = SMatrix::<f64, N, N>::from_column_slice(&f.strategy().0);
         assert_eq!((seen - prior).abs().max(), 0.0, "{}", B::NAME);

@@ -1,16 +1,17 @@
 //! A user defines a manifold of their own — the unit sphere S² with a tangent-plane
 //! retraction — and runs the public law harness on it, exactly as the project does on
-//! its built-in types.
+//! its built-in types: a sampler is passed in (no trait to implement, no newtype), and a
+//! composite state built with `composite_state!` gets its laws in one line.
 
-use manifolds::testing::LawSampler;
-use manifolds::{Manifold, Tangent};
+use manifolds::testing::Sampler;
+use manifolds::{composite_state, Manifold, Tangent, R3};
 use nalgebra::{Const, Matrix3x2, Vector2, Vector3};
 use proptest::prelude::*;
 use proptest::strategy::BoxedStrategy;
 
 /// A unit direction. Tangent basis at `d`: two unit vectors orthogonal to `d`, chosen
 /// deterministically. `d ⊕ δ = Exp` along the great circle of `B δ`; `e ⊖ d` is its inverse.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 struct Direction(Vector3<f64>);
 
 impl Direction {
@@ -56,29 +57,38 @@ impl Manifold for Direction {
     // Jacobians: the trait's numerical defaults; the harness still checks the laws.
 }
 
-impl LawSampler for Direction {
-    fn arb_point() -> BoxedStrategy<Self> {
-        prop::array::uniform3(-1.0f64..1.0)
-            .prop_filter("not tiny", |a| a.iter().map(|v| v * v).sum::<f64>() > 1e-2)
-            .prop_map(|a| Direction(Vector3::new(a[0], a[1], a[2]).normalize()))
-            .boxed()
-    }
-    fn arb_tangent() -> BoxedStrategy<Tangent<Self>> {
-        prop::array::uniform2(-2.0f64..2.0)
-            .prop_filter("inside the chart", |a| (a[0] * a[0] + a[1] * a[1]).sqrt() < 3.0)
-            .prop_map(|a| Vector2::new(a[0], a[1]))
-            .boxed()
-    }
-    fn boundary_tangents() -> Vec<Tangent<Self>> {
-        vec![
-            Vector2::new(core::f64::consts::PI - 1e-3, 0.0),
-            Vector2::new(0.0, -(core::f64::consts::PI - 1e-3)),
-        ]
+fn direction_sampler() -> Sampler<Direction> {
+    let points = prop::array::uniform3(-1.0f64..1.0)
+        .prop_filter("not tiny", |a| a.iter().map(|v| v * v).sum::<f64>() > 1e-2)
+        .prop_map(|a| Direction(Vector3::new(a[0], a[1], a[2]).normalize()))
+        .boxed();
+    let tangents: BoxedStrategy<Tangent<Direction>> = prop::array::uniform2(-2.0f64..2.0)
+        .prop_filter("inside the chart", |a| (a[0] * a[0] + a[1] * a[1]).sqrt() < 3.0)
+        .prop_map(|a| Vector2::new(a[0], a[1]))
+        .boxed();
+    Sampler::new(points, tangents).with_boundary(vec![
+        Vector2::new(core::f64::consts::PI - 1e-3, 0.0),
+        Vector2::new(0.0, -(core::f64::consts::PI - 1e-3)),
+    ])
+}
+
+const TOL: manifolds::testing::LawTolerance =
+    manifolds::testing::LawTolerance { law: 1e-9, jacobian: 1e-5, step: 1e-6 };
+
+manifolds::manifold_law_tests!(direction_laws, Direction, sampler = direction_sampler(), tol = TOL);
+
+composite_state! {
+    /// A pointing state: a direction and an angular rate.
+    struct Pointing {
+        dir: Direction => DIR,
+        rate: R3 => RATE,
     }
 }
 
+// The composite's laws: one line, the built-in part sampled by `Sampler::of()`.
 manifolds::manifold_law_tests!(
-    direction_laws,
-    Direction,
-    manifolds::testing::LawTolerance { law: 1e-9, jacobian: 1e-5, step: 1e-6 }
+    pointing_laws,
+    Pointing,
+    sampler = Pointing::law_sampler(direction_sampler(), Sampler::of()),
+    tol = TOL
 );

@@ -5,10 +5,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use estimator::core::FixedNoise;
-use estimator::core::NoObserver;
-use estimator::ins_gnss::sim::{scenarios, simulate, GnssSim, Trajectory};
+use estimator::estimator_core::FixedNoise;
+use estimator::estimator_core::NoObserver;
 use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, Navigator};
+use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
 use nalgebra::Vector3;
 
 struct Counting;

@@ -8,7 +8,7 @@
 #[path = "../examples/repro_scenario.rs"]
 mod repro;
 
-use estimator::ins_gnss::scenario::{MonteCarlo, Scenario};
+use ins_gnss::scenario::{MonteCarlo, Scenario};
 
 #[test]
 fn fused_paper_conclusion_as_measured() {

@@ -8,7 +8,7 @@
 #[path = "../examples/repro_iakf.rs"]
 mod repro;
 
-use estimator::ins_gnss::sim::ExactImu;
+use ins_gnss_sim::ExactImu;
 
 #[test]
 fn iakf_paper_conclusion_as_measured() {

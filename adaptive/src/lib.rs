@@ -11,6 +11,7 @@
 //! | [`Iakf`] | `iakf`, `iakf-epoch` | `R` inflated when a χ² test fails | paper `iakf-chi-square` |
 //! | [`SageHusa`] | `sage-husa` | recursive `R` with forgetting | Sage & Husa 1969 |
 //! | [`AnyStrategy`] | any of the above | run-time choice by name | — |
+//! | [`Route`], [`PerStream`] | one strategy per measurement stream (by type, by name) | — | — |
 //!
 //! Every strategy keeps its windows per measurement stream
 //! ([`estimator_core::StreamId`]), works for any measurement dimension and any state
@@ -38,6 +39,7 @@ mod any;
 mod fused;
 mod iae;
 mod iakf;
+mod per_stream;
 mod sage_husa;
 pub mod window;
 
@@ -47,5 +49,6 @@ pub use estimator_core::FixedNoise;
 pub use fused::FusedDualWindow;
 pub use iae::Iae;
 pub use iakf::{Iakf, Inflation};
+pub use per_stream::{PerStream, Route};
 pub use sage_husa::SageHusa;
 pub use window::NoiseBounds;

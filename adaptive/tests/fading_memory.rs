@@ -38,7 +38,7 @@ fn fixed_lambda_equals_fading_memory_filter() {
         f.predict(&process, &(), dt).unwrap();
         f.update(&sensor, &z, &R).unwrap();
         assert!((f.state() - x).abs().max() <= 1e-12 * x.abs().max().max(1.0), "x at {k}");
-        assert!((f.covariance() - P).abs().max() <= 1e-12 * P.abs().max().max(1.0), "P at {k}");
+        assert!((*f.covariance() - P).abs().max() <= 1e-12 * P.abs().max().max(1.0), "P at {k}");
     }
     // A fading filter keeps more uncertainty than the plain one: the test compares
     // against a different quantity than FixedNoise would give.

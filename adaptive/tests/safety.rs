@@ -59,7 +59,7 @@ fn check(strategy: AnyStrategy, pattern: &Pattern, scale: f64) -> Result<(), Tes
             .map_err(|e| TestCaseError::fail(format!("{name} {pattern:?} predict {k}: {e}")))?;
         f.update(&sensor, z, &R)
             .map_err(|e| TestCaseError::fail(format!("{name} {pattern:?} update {k}: {e}")))?;
-        prop_assert!(is_spd(f.covariance()), "{name} {pattern:?}: P not SPD at {k}");
+        prop_assert!(is_spd(&f.covariance()), "{name} {pattern:?}: P not SPD at {k}");
         match f.process_noise_adjustment() {
             QAdjust::AddRate(q) => {
                 // Q̂ = K Ĉ Kᵀ is PSD by construction: symmetric, finite, no negative

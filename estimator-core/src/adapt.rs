@@ -9,8 +9,9 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
 use manifolds::DimAlloc;
 
-use crate::kernels::Entries;
-use crate::traits::{Cov, FilterAlloc};
+use crate::dims::{Cov, FilterAlloc};
+use crate::entries::Entries;
+pub use crate::stream::{StreamId, StreamMap};
 
 /// Read access to an `N × N` covariance where its back-end keeps it, without copying it:
 /// entries, contiguous columns, or a static copy on demand
@@ -53,74 +54,6 @@ where
 {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(f, "CovView({0}×{0})", N::DIM)
-    }
-}
-
-/// Identifies a measurement stream (GNSS position, GNSS velocity, magnetometer …).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct StreamId(pub u64);
-
-const fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut i = 0;
-    while i < bytes.len() {
-        h ^= bytes[i] as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-        i += 1;
-    }
-    h
-}
-
-impl StreamId {
-    /// A stream named by a string (FNV-1a hash, usable in `const`).
-    pub const fn named(name: &str) -> Self {
-        Self(fnv1a(name.as_bytes()))
-    }
-
-    /// The default stream of a model type (hash of its type name).
-    pub fn of<T: ?Sized>() -> Self {
-        Self(fnv1a(core::any::type_name::<T>().as_bytes()))
-    }
-}
-
-/// Per-stream state of a strategy: a small vector searched linearly (a filter has a
-/// handful of streams). Allocates only when a new stream first appears.
-#[derive(Clone, Debug, Default)]
-pub struct StreamMap<T> {
-    entries: Vec<(StreamId, T)>,
-}
-
-impl<T> StreamMap<T> {
-    /// An empty map.
-    pub fn new() -> Self {
-        Self { entries: Vec::new() }
-    }
-
-    /// The entry of `id`, created with `make` on first use.
-    pub fn get_or_insert_with(&mut self, id: StreamId, make: impl FnOnce() -> T) -> &mut T {
-        let i = match self.entries.iter().position(|(k, _)| *k == id) {
-            Some(i) => i,
-            None => {
-                self.entries.push((id, make()));
-                self.entries.len() - 1
-            }
-        };
-        &mut self.entries[i].1
-    }
-
-    /// The entry of `id`, if any.
-    pub fn get(&self, id: StreamId) -> Option<&T> {
-        self.entries.iter().find(|(k, _)| *k == id).map(|(_, v)| v)
-    }
-
-    /// Number of streams seen.
-    pub fn len(&self) -> usize {
-        self.entries.len()
-    }
-
-    /// True before any stream was seen.
-    pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
     }
 }
 
@@ -258,16 +191,61 @@ where
     pub q: QAdjust<N>,
 }
 
-/// A noise-adaptation strategy. One method is required; the post-update hook defaults
-/// to doing nothing.
+/// A noise-adaptation strategy. One method is required, [`adapt`](Self::adapt); the
+/// name, the prediction fading and the post-update hook have defaults.
 ///
 /// Contract: whatever the innovations, the `R` a strategy leaves in
 /// [`Adaptation::R`] is symmetric positive definite and finite and `prior_scale` is
 /// finite and positive; the filter verifies both and fails the update with a typed error
-/// (leaving itself unchanged) if not.
-pub trait NoiseStrategy {
-    /// Short name (`"fixed"`, `"iae"` …) for logs and the command line.
-    fn name(&self) -> &'static str;
+/// if not. After any `Err` the filter restores the strategy as it was before the update
+/// (it keeps a clone, hence the `Clone` bound; a zero-sized strategy clones for free).
+/// State kept between updates belongs in a [`StreamMap`], one entry per measurement
+/// stream.
+///
+/// # Example
+///
+/// A strategy that inflates `R` by a fixed factor whenever the NIS exceeds a gate, with
+/// its own count per stream:
+///
+/// ```
+/// use estimator_core::linear::LinearMeasurement;
+/// use estimator_core::{
+///     Adaptation, ErrorStateFilter, FilterAlloc, NoiseStrategy, StreamMap, Verdict,
+/// };
+/// use nalgebra::{DefaultAllocator, DimName, Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
+///
+/// #[derive(Clone, Default)]
+/// struct Inflate { gate: f64, inflated: StreamMap<u32> }
+///
+/// impl NoiseStrategy for Inflate {
+///     fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+///     where
+///         DefaultAllocator: FilterAlloc<N, M>,
+///     {
+///         if a.nis > self.gate {
+///             a.R = a.R_nominal * 10.0;          // R* = 10 R
+///             a.verdict = Verdict::Inflated;
+///             a.reason = "NIS above the gate";
+///             *self.inflated.get_or_insert_with(a.stream, || 0) += 1;
+///         }
+///     }
+/// }
+///
+/// let s = Inflate { gate: 9.0, ..Default::default() };
+/// assert_eq!(s.name(), "Inflate");                // the default name: the type's
+/// let mut f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), s).unwrap();
+/// let gps = LinearMeasurement::<1, 2>::new(Matrix1x2::new(1.0, 0.0)).on_stream("gps");
+/// let report = f.update(&gps, &Vector1::new(50.0), &Matrix1::new(1.0)).unwrap();
+/// assert_eq!(report.verdict, Verdict::Inflated);
+/// assert_eq!(report.stream.name(), "gps");
+/// assert_eq!(f.strategy().inflated.get(gps.stream), Some(&1));
+/// ```
+pub trait NoiseStrategy: Clone {
+    /// Short name (`"fixed"`, `"iae"` …) for logs and the command line. Default: the
+    /// type's name without its module path.
+    fn name(&self) -> &'static str {
+        crate::stream::short_type_name::<Self>()
+    }
 
     /// Decide on one measurement.
     fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)

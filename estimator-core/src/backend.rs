@@ -5,11 +5,41 @@
 //!
 //! | back-end | `P` | products | best for |
 //! |---|---|---|---|
-//! | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | [`crate::kernels`] (AVX2/FMA when available), or the model's structured propagation | predict up to ~30 states; the update up to ~120 |
-//! | [`DynamicCov`] | `DMatrix<f64>` | nalgebra dynamic (matrixmultiply) | sizes known only at run time |
-//! | [`FaerCov`] | `faer::Mat<f64>` | faer (single-threaded; lower triangles of symmetric products) | large states (predict from ~30–60, update at ~240) |
+//! | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | the crate's column kernels (AVX2/FMA when available), or the model's structured propagation | small and medium states |
+//! | [`DynamicCov`] | `DMatrix<f64>` on the heap | nalgebra dynamic (matrixmultiply) | large states without the faer dependency; keeps `P` off the stack |
+//! | `FaerCov` (feature `faer`) | `faer::Mat<f64>` on the heap | faer (single-threaded; lower triangles of symmetric products) | large states |
 //!
-//! (`benches/README.md` has the measured table.)
+//! The dimension is always a compile-time type (the filter's state decides it); the heap
+//! back-ends differ in where `P` lives and who multiplies, not in what sizes they accept.
+//! Where each one wins is measured in `benches/README.md`.
+//!
+//! Each back-end owns its whole prediction ([`CovBackend::predict`]): the static one hands
+//! `P` to the model's structured [`ProcessModel::step_covariance`], the heap ones ask the
+//! model for `Φ` and `Q_d` and multiply densely. The filter never asks which one it has.
+//!
+//! # Example
+//!
+//! The same filter on two back-ends, one token apart:
+//!
+//! ```
+//! use estimator_core::linear::{LinearMeasurement, LinearProcess};
+//! use estimator_core::{CovBackend, DynamicCov, ErrorStateFilter, FixedNoise, StaticCov};
+//! use nalgebra::{Matrix2, Vector1, Vector2};
+//!
+//! let process = LinearProcess { F: Matrix2::new(1.0, 0.1, 0.0, 1.0), Q: Matrix2::identity() * 1e-3 };
+//! let sensor = LinearMeasurement::<1, 2>::new(nalgebra::Matrix1x2::new(1.0, 0.0));
+//! let mut a = ErrorStateFilter::with_backend(Vector2::zeros(), Matrix2::identity(), FixedNoise, StaticCov).unwrap();
+//! let mut b = ErrorStateFilter::with_backend(Vector2::zeros(), Matrix2::identity(), FixedNoise, DynamicCov::default()).unwrap();
+//! for k in 0..10 {
+//!     let z = Vector1::new(0.3 * k as f64);
+//!     a.predict(&process, &(), 0.1).unwrap();
+//!     b.predict(&process, &(), 0.1).unwrap();
+//!     a.update(&sensor, &z, &nalgebra::Matrix1::new(0.01)).unwrap();
+//!     b.update(&sensor, &z, &nalgebra::Matrix1::new(0.01)).unwrap();
+//! }
+//! assert!((a.covariance().into_owned() - b.covariance().into_owned()).norm() < 1e-12);
+//! assert_eq!(<DynamicCov as CovBackend<nalgebra::U2>>::NAME, "nalgebra-dynamic");
+//! ```
 //!
 //! Every operation writes into a caller-provided output so the filter stays unchanged
 //! when a step fails. The dynamic back-ends allocate their scratch buffers once, on first
@@ -17,15 +47,19 @@
 
 use std::borrow::Cow;
 
+#[cfg(feature = "faer")]
 use faer::{Accum, Mat, Par};
 use nalgebra::{DMatrix, DMatrixView, DefaultAllocator, DimName, OMatrix};
 
-use manifolds::DimAlloc;
+use manifolds::{DimAlloc, Manifold};
 
+use crate::adapt::QAdjust;
+use crate::dims::{Cov, FilterAlloc};
+pub use crate::entries::Entries;
 use crate::error::FilterError;
-use crate::kernels::{self, Entries};
-use crate::linalg::{check_finite, has_non_finite, symmetrize};
-use crate::traits::{Cov, FilterAlloc};
+use crate::kernels;
+use crate::linalg::{check_finite, check_process_noise, has_non_finite, symmetrize};
+use crate::traits::{ProcessJacobians, ProcessModel};
 
 /// Covariance update formula.
 ///
@@ -75,6 +109,34 @@ where
 
     /// `P[i, i]`.
     fn diag(P: &Self::Cov, i: usize) -> f64;
+
+    /// The whole prediction of the filter: returns `x⁺ = f(x, u, dt)` and writes
+    /// `out ← λ Φ P Φᵀ + Q_d`, `Q_d` adjusted as the strategy asked (`q`), exactly
+    /// symmetric. `Q_d` is checked ([`check_process_noise`]) wherever it is formed; on
+    /// `Err` nothing but `out` may have changed.
+    ///
+    /// Default: the model's `Φ` and `Q_d` ([`adjusted_step`]) and
+    /// [`propagate`](Self::propagate). The static back-end overrides it with the model's
+    /// structured [`ProcessModel::step_covariance`].
+    #[allow(clippy::too_many_arguments)]
+    fn predict<PM: ProcessModel>(
+        &mut self,
+        model: &PM,
+        x: &PM::State,
+        u: &PM::Input,
+        dt: f64,
+        P: &Self::Cov,
+        lambda: f64,
+        q: &QAdjust<N>,
+        out: &mut Self::Cov,
+    ) -> Result<PM::State, FilterError>
+    where
+        PM::State: Manifold<Dim = N>,
+    {
+        let (x_next, jac) = adjusted_step(model, q, x, u, dt)?;
+        self.propagate(P, &jac.Phi, &jac.Q, lambda, out);
+        Ok(x_next)
+    }
 
     /// `out ← λ Φ P Φᵀ + Q` (exactly symmetric).
     fn propagate(
@@ -135,6 +197,30 @@ where
     fn check_finite(what: &'static str, P: &Self::Cov) -> Result<(), FilterError>;
 }
 
+/// The model's `x⁺`, `Φ` and `Q_d` for one step, `Q_d` adjusted as the strategy asked
+/// (`Scale(s)`: `s Q_d`; `AddRate(q)`: `Q_d + q dt`) and checked by
+/// [`check_process_noise`], which names the model.
+pub fn adjusted_step<PM: ProcessModel, N: DimName>(
+    model: &PM,
+    q: &QAdjust<N>,
+    x: &PM::State,
+    u: &PM::Input,
+    dt: f64,
+) -> Result<(PM::State, ProcessJacobians<N>), FilterError>
+where
+    PM::State: Manifold<Dim = N>,
+    DefaultAllocator: DimAlloc<N>,
+{
+    let (x_next, mut jac) = model.step(x, u, dt);
+    match q {
+        QAdjust::Keep | QAdjust::Model => {}
+        QAdjust::Scale(s) => jac.Q *= *s,
+        QAdjust::AddRate(q) => jac.Q += q * dt,
+    }
+    check_process_noise(crate::stream::short_type_name::<PM>(), &jac.Q)?;
+    Ok((x_next, jac))
+}
+
 /// The default: a stack-allocated nalgebra matrix.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StaticCov;
@@ -160,6 +246,49 @@ where
 
     fn diag(P: &Cov<N>, i: usize) -> f64 {
         P[(i, i)]
+    }
+
+    /// A model with a fused [`ProcessModel::step_covariance`]
+    /// ([`ProcessModel::FUSED_STEP_COVARIANCE`]) propagates through it (no `Φ` or `Q_d`
+    /// formed) unless the strategy adjusted `Q_d`; otherwise `Φ` and the (adjusted) `Q_d`,
+    /// checked, go through [`ProcessModel::propagate_covariance`]. A fading factor scales
+    /// `P` first.
+    fn predict<PM: ProcessModel>(
+        &mut self,
+        model: &PM,
+        x: &PM::State,
+        u: &PM::Input,
+        dt: f64,
+        P: &Cov<N>,
+        lambda: f64,
+        q: &QAdjust<N>,
+        out: &mut Cov<N>,
+    ) -> Result<PM::State, FilterError>
+    where
+        PM::State: Manifold<Dim = N>,
+    {
+        let scaled;
+        let P = if lambda == 1.0 {
+            P
+        } else {
+            // λ Φ P Φᵀ = Φ (λ P) Φᵀ
+            scaled = P * lambda;
+            &scaled
+        };
+        let x_next = match q {
+            QAdjust::Keep | QAdjust::Model if PM::FUSED_STEP_COVARIANCE => {
+                model.step_covariance(x, u, dt, P, out)
+            }
+            q => {
+                let (x_next, jac) = adjusted_step(model, q, x, u, dt)?;
+                model.propagate_covariance(P, &jac, out);
+                x_next
+            }
+        };
+        if !PM::SYMMETRIC_PROPAGATION {
+            symmetrize(out);
+        }
+        Ok(x_next)
     }
 
     fn propagate(&mut self, P: &Cov<N>, Phi: &Cov<N>, Q: &Cov<N>, lambda: f64, out: &mut Cov<N>) {
@@ -297,6 +426,7 @@ impl Dense for DMatrix<f64> {
 
 /// faer accumulates or replaces: `out ← β out` first when `β ∉ {0, 1}`, and the
 /// accumulation mode for `out ← β out + α a b`.
+#[cfg(feature = "faer")]
 fn faer_accum(out: &mut Mat<f64>, beta: f64) -> Accum {
     if beta == 0.0 {
         return Accum::Replace;
@@ -311,6 +441,7 @@ fn faer_accum(out: &mut Mat<f64>, beta: f64) -> Accum {
     Accum::Add
 }
 
+#[cfg(feature = "faer")]
 impl Dense for Mat<f64> {
     const NAME: &'static str = "faer";
     fn zeros(r: usize, c: usize) -> Self {
@@ -451,6 +582,7 @@ fn mirror_tile<const W: usize, D: Dense>(m: &mut D, c0: usize, f: &impl Fn(f64, 
     }
 }
 
+#[cfg(feature = "faer")]
 impl Entries for Mat<f64> {
     #[inline(always)]
     fn col(&self, c: usize) -> &[f64] {
@@ -483,10 +615,12 @@ impl<D: Dense> Default for DenseCov<D> {
     }
 }
 
-/// nalgebra `DMatrix` storage with its (matrixmultiply) products.
+/// nalgebra `DMatrix` storage with its (matrixmultiply) products: `P` on the heap, for
+/// any compile-time state dimension.
 pub type DynamicCov = DenseCov<DMatrix<f64>>;
 
-/// `faer::Mat` storage with faer's single-threaded products.
+/// `faer::Mat` storage with faer's single-threaded products (feature `faer`).
+#[cfg(feature = "faer")]
 pub type FaerCov = DenseCov<Mat<f64>>;
 
 impl<N: DimName, D: Dense> CovBackend<N> for DenseCov<D>

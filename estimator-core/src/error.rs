@@ -33,6 +33,16 @@ pub enum FilterError {
         /// `(rows, cols)` given.
         found: (usize, usize),
     },
+    /// A process model's discrete noise `Q_d` is not a covariance.
+    InvalidProcessNoise {
+        /// The model's type name.
+        model: &'static str,
+        /// What is wrong: `"not finite"`, `"not symmetric"`, `"not positive semi-definite"`.
+        problem: &'static str,
+        /// The offending number: the asymmetry, or the most negative pivot of `Q_d`'s
+        /// LDLᵀ factorisation (NaN for a non-finite entry).
+        value: f64,
+    },
     /// A time step that is negative or not finite.
     InvalidTimeStep {
         /// The offending step in seconds.
@@ -60,6 +70,11 @@ impl fmt::Display for FilterError {
                 f,
                 "{what} is {}×{}, expected {}×{}",
                 found.0, found.1, expected.0, expected.1
+            ),
+            FilterError::InvalidProcessNoise { model, problem, value } => write!(
+                f,
+                "process noise Q_d of model `{model}` is {problem} ({value:.3e}); check the \
+                 model's noise settings — the filter was left unchanged"
             ),
             FilterError::InvalidTimeStep { dt } => {
                 write!(f, "time step {dt} s is negative or not finite (time went backwards?)")

@@ -29,11 +29,12 @@ use crate::adapt::{
 };
 pub use crate::backend::UpdateForm;
 use crate::backend::{CovBackend, StaticCov};
+use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::error::FilterError;
 use crate::kernels;
 use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize, whitened_norm_sq};
 use crate::report::{NoObserver, Observer, UpdateReport};
-use crate::traits::{Cov, FilterAlloc, MeasurementModel, ProcessModel, StateDim};
+use crate::traits::{MeasurementModel, ProcessModel};
 
 /// How the covariance is reset after injecting the correction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -116,11 +117,6 @@ where
     pub fn new(x0: X, P0: Cov<X::Dim>, strategy: A) -> Result<Self, FilterError> {
         Self::with_backend(x0, P0, strategy, StaticCov)
     }
-
-    /// The error covariance.
-    pub fn covariance(&self) -> &Cov<X::Dim> {
-        &self.bufs[self.cur]
-    }
 }
 
 #[allow(non_snake_case)]
@@ -176,13 +172,15 @@ where
         &self.x
     }
 
-    /// The error covariance as a static matrix (borrowed on the static back-end, copied
-    /// on the others).
-    pub fn covariance_matrix(&self) -> Cow<'_, Cov<X::Dim>> {
+    /// The error covariance as a static matrix, on every back-end: borrowed on the static
+    /// one, copied out of the heap storage on the others (use
+    /// [`covariance_raw`](Self::covariance_raw) to read it in place there).
+    pub fn covariance(&self) -> Cow<'_, Cov<X::Dim>> {
         B::as_static(&self.bufs[self.cur])
     }
 
-    /// The covariance in the back-end's own storage.
+    /// The covariance in the back-end's own storage (`Cov<N>` on the static back-end, a
+    /// heap matrix on the others).
     pub fn covariance_raw(&self) -> &B::Cov {
         &self.bufs[self.cur]
     }
@@ -190,23 +188,6 @@ where
     /// `(current, next, auxiliary)` buffers, disjointly borrowed.
     fn buffers(&mut self) -> (&B::Cov, &mut B::Cov, &mut B::Cov) {
         Self::split(&mut self.bufs, self.cur)
-    }
-
-    /// The model's step with `Q_d` adjusted as the strategy asked.
-    fn adjusted_step<PM: ProcessModel<State = X>>(
-        model: &PM,
-        q_adjust: &QAdjust<X::Dim>,
-        x: &X,
-        u: &PM::Input,
-        dt: f64,
-    ) -> (X, crate::ProcessJacobians<X::Dim>) {
-        let (x_next, mut jac) = model.step(x, u, dt);
-        match q_adjust {
-            QAdjust::Keep | QAdjust::Model => {}
-            QAdjust::Scale(s) => jac.Q *= *s,
-            QAdjust::AddRate(q) => jac.Q += q * dt,
-        }
-        (x_next, jac)
     }
 
     /// The current, next and auxiliary buffers of `bufs` with current index `cur`.
@@ -272,8 +253,9 @@ where
     }
 
     /// Propagate over `dt ≥ 0` seconds with `model` and input `u`:
-    /// `x̂⁻ = f(x̂, u, dt)`, `P⁻ = λ Φ P Φᵀ + Q_d` (λ = 1 unless the strategy fades; on the
-    /// static back-end the model's structured propagation is used).
+    /// `x̂⁻ = f(x̂, u, dt)`, `P⁻ = λ Φ P Φᵀ + Q_d` (λ = 1 unless the strategy fades), by the
+    /// back-end's [`CovBackend::predict`]. `Q_d` is checked (finite, symmetric, positive
+    /// semi-definite) whenever it is formed; on `Err` the filter is unchanged.
     pub fn predict<PM>(&mut self, model: &PM, u: &PM::Input, dt: f64) -> Result<(), FilterError>
     where
         PM: ProcessModel<State = X>,
@@ -285,42 +267,11 @@ where
         if !(fading.is_finite() && fading > 0.0) {
             return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
         }
-        let mut backend = core::mem::take(&mut self.backend);
-        let x = &self.x;
         let (P, next, _) = Self::split(&mut self.bufs, self.cur);
-        let x_next = match (B::static_mut(next), B::as_static(P)) {
-            // The static back-end: the model's own products, fused unless the strategy
-            // adjusted `Q_d`.
-            (Some(next), Cow::Borrowed(P)) => {
-                let scaled;
-                let P = if fading == 1.0 {
-                    P
-                } else {
-                    // λ Φ P Φᵀ = Φ (λ P) Φᵀ
-                    scaled = P * fading;
-                    &scaled
-                };
-                let x_next = match &self.q_adjust {
-                    QAdjust::Keep | QAdjust::Model => model.step_covariance(x, u, dt, P, next),
-                    q => {
-                        let (x_next, jac) = Self::adjusted_step(model, q, x, u, dt);
-                        model.propagate_covariance(P, &jac, next);
-                        x_next
-                    }
-                };
-                if !PM::SYMMETRIC_PROPAGATION {
-                    symmetrize(next);
-                }
-                x_next
-            }
-            _ => {
-                let (x_next, jac) = Self::adjusted_step(model, &self.q_adjust, x, u, dt);
-                let (P, next, _) = Self::split(&mut self.bufs, self.cur);
-                backend.propagate(P, &jac.Phi, &jac.Q, fading, next);
-                x_next
-            }
-        };
-        self.backend = backend;
+        // the back-end owns the path: the model's structured products on the static one,
+        // dense products on the heap ones
+        let x_next =
+            self.backend.predict(model, &self.x, u, dt, P, fading, &self.q_adjust, next)?;
         if !x_next.is_finite() {
             return Err(FilterError::NonFinite { what: "propagated state" });
         }
@@ -402,6 +353,9 @@ where
             factors: Default::default(),
             q: QAdjust::Keep,
         };
+        // The strategy's windows change in `adapt`; a failure after it restores them, so that
+        // `Err` leaves the strategy unchanged too (a clone of a zero-sized strategy is free).
+        let saved = self.strategy.clone();
         self.strategy.adapt(&mut a);
         // The outputs are copied out field by field: moving the whole `Adaptation`, or its
         // `q` by value, copies a whole covariance (the `AddRate` variant's room) each time,
@@ -423,6 +377,7 @@ where
             verdict,
             reason,
             factors,
+            prior_scaling_fallback: false,
         };
 
         if verdict == Verdict::Rejected {
@@ -431,72 +386,91 @@ where
             observer.on_update(&report);
             return Ok(report);
         }
-        if !(prior_scale.is_finite() && prior_scale > 0.0) {
-            return Err(FilterError::NonFinite { what: "strategy prior scale λ_P" });
-        }
-        // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻); when the strategy
-        // changed nothing, S* = S and its factor is the one already computed.
-        // (compared as slices: nalgebra's `!=` walks a strided iterator, several times slower)
-        let adapted = prior_scale != 1.0 || R_used.as_slice() != R.as_slice();
-        let S_adapted;
-        let chol = if adapted {
-            check_covariance("adapted measurement noise R*", &R_used)?;
-            let mut S_used = &HPHt * prior_scale + &R_used;
-            symmetrize(&mut S_used);
-            let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
-            report.nis_adapted = whitened_norm_sq(&chol, r);
-            S_adapted = Some(S_used);
-            chol
-        } else {
-            report.nis_adapted = nis;
-            S_adapted = None;
-            chol_S
-        };
-        let S_used = S_adapted.as_ref().unwrap_or(&report.S);
-
-        // P⁻*: λ P⁻, or P⁻ + (λ − 1) (HP)ᵀ (HPHᵀ)⁻¹ (HP) along the measurement subspace.
-        let mut backend = core::mem::take(&mut self.backend);
-        let form = self.form;
-        let (P, next, aux) = self.buffers();
-        let scaled = if prior_scale == 1.0 {
-            false
-        } else {
-            let HP = PHt.transpose();
-            let subspace = match prior_scaling {
-                PriorScaling::MeasurementSubspace => HPHt.clone().cholesky().map(|c| c.solve(&HP)),
-                PriorScaling::Full => None,
-            };
-            match subspace {
-                Some(A) => backend.scale_add(P, 1.0, prior_scale - 1.0, &HP, &A, aux),
-                None => backend.scale_add(P, prior_scale, 0.0, &HP, &HP, aux),
+        let mut fallback = false;
+        let applied = (|| {
+            if !(prior_scale.is_finite() && prior_scale > 0.0) {
+                return Err(FilterError::NonFinite { what: "strategy prior scale λ_P" });
             }
-            true
-        };
-        // P⁻* Hᵀ = λ_P P⁻ Hᵀ (both scalings)
-        let PHt_used = if prior_scale == 1.0 { PHt } else { PHt * prior_scale };
-        // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
-        let mut K = PHt_used.clone();
-        kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
-        let mut dx = OMatrix::<f64, X::Dim, nalgebra::U1>::zeros();
-        kernels::mat_mul(&K, r, &mut dx);
+            // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻); when the strategy
+            // changed nothing, S* = S and its factor is the one already computed.
+            // (compared as slices: nalgebra's `!=` walks a strided iterator, several times slower)
+            let adapted = prior_scale != 1.0 || R_used.as_slice() != R.as_slice();
+            let S_adapted;
+            let chol = if adapted {
+                check_covariance("adapted measurement noise R*", &R_used)?;
+                let mut S_used = &HPHt * prior_scale + &R_used;
+                symmetrize(&mut S_used);
+                let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
+                report.nis_adapted = whitened_norm_sq(&chol, r);
+                S_adapted = Some(S_used);
+                chol
+            } else {
+                report.nis_adapted = nis;
+                S_adapted = None;
+                chol_S
+            };
+            let S_used = S_adapted.as_ref().unwrap_or(&report.S);
 
-        let prior: &B::Cov = if scaled { aux } else { P };
-        // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
-        backend.update(prior, &K, H, &PHt_used, &R_used, S_used, form, next);
-        let x_new = if self.reset == ResetMode::Exact {
-            // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx, block by block
-            let next = &mut self.bufs[(self.cur + 1) % 3];
-            self.x.oplus_reset(&dx, &mut |o, b| backend.reset_block(next, o, b))
-        } else {
-            self.x.oplus(&dx)
-        };
-        self.backend = backend;
-        check_finite("state correction δx", &dx)?;
-        if !x_new.is_finite() {
-            return Err(FilterError::NonFinite { what: "updated state" });
-        }
-        B::check_finite("updated covariance P", &self.bufs[(self.cur + 1) % 3])?;
+            // P⁻*: λ P⁻, or P⁻ + (λ − 1) (HP)ᵀ (HPHᵀ)⁻¹ (HP) along the measurement subspace.
+            let mut backend = core::mem::take(&mut self.backend);
+            let form = self.form;
+            let (P, next, aux) = self.buffers();
+            let scaled = if prior_scale == 1.0 {
+                false
+            } else {
+                let HP = PHt.transpose();
+                let subspace = match prior_scaling {
+                    PriorScaling::MeasurementSubspace => {
+                        HPHt.clone().cholesky().map(|c| c.solve(&HP))
+                    }
+                    PriorScaling::Full => None,
+                };
+                match subspace {
+                    Some(A) => backend.scale_add(P, 1.0, prior_scale - 1.0, &HP, &A, aux),
+                    None => {
+                        // H P⁻ Hᵀ has no Cholesky factor (a measurement direction the prior
+                        // does not constrain): the whole prior is scaled, and the report
+                        // says so.
+                        fallback = prior_scaling == PriorScaling::MeasurementSubspace;
+                        backend.scale_add(P, prior_scale, 0.0, &HP, &HP, aux)
+                    }
+                }
+                true
+            };
+            // P⁻* Hᵀ = λ_P P⁻ Hᵀ (both scalings)
+            let PHt_used = if prior_scale == 1.0 { PHt } else { PHt * prior_scale };
+            // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
+            let mut K = PHt_used.clone();
+            kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
+            let mut dx = OMatrix::<f64, X::Dim, nalgebra::U1>::zeros();
+            kernels::mat_mul(&K, r, &mut dx);
 
+            let prior: &B::Cov = if scaled { aux } else { P };
+            // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
+            backend.update(prior, &K, H, &PHt_used, &R_used, S_used, form, next);
+            let x_new = if self.reset == ResetMode::Exact {
+                // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx, block by block
+                let next = &mut self.bufs[(self.cur + 1) % 3];
+                self.x.oplus_reset(&dx, &mut |o, b| backend.reset_block(next, o, b))
+            } else {
+                self.x.oplus(&dx)
+            };
+            self.backend = backend;
+            check_finite("state correction δx", &dx)?;
+            if !x_new.is_finite() {
+                return Err(FilterError::NonFinite { what: "updated state" });
+            }
+            B::check_finite("updated covariance P", &self.bufs[(self.cur + 1) % 3])?;
+            Ok((x_new, K))
+        })();
+        let (x_new, K) = match applied {
+            Ok(v) => v,
+            Err(e) => {
+                self.strategy = saved;
+                return Err(e);
+            }
+        };
+        report.prior_scaling_fallback = fallback;
         self.x = x_new;
         self.commit();
         self.epoch = epoch;

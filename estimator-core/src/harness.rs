@@ -1,5 +1,18 @@
 //! Checks of any model's analytic Jacobians against central differences through ⊕/⊖
-//! ([`manifolds::numdiff`]).
+//! ([`manifolds::numdiff`]), feature `testing`. A mismatch is checked again with ten times
+//! the step, so that a numerical reference spoilt by cancellation in the model is reported
+//! as such ([`JacobianMismatch::step_spread`]) rather than blamed on the analytic Jacobian.
+//!
+//! ```
+//! use estimator_core::harness::{check_measurement_model, check_process_model};
+//! use estimator_core::linear::{LinearMeasurement, LinearProcess};
+//! use nalgebra::{Matrix1x2, Matrix2, Vector2};
+//!
+//! let process = LinearProcess { F: Matrix2::new(1.0, 0.1, 0.0, 1.0), Q: Matrix2::identity() };
+//! check_process_model(&process, &Vector2::new(1.0, 2.0), &(), 0.1, 1e-7).unwrap();
+//! let sensor = LinearMeasurement::<1, 2>::new(Matrix1x2::new(1.0, 0.0));
+//! check_measurement_model(&sensor, &Vector2::new(1.0, 2.0), 1e-7).unwrap();
+//! ```
 
 use core::fmt;
 
@@ -8,7 +21,8 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
 use manifolds::{numdiff, DimAlloc, Manifold, Tangent};
 
-use crate::traits::{FilterAlloc, MeasurementModel, ProcessModel, StateDim};
+use crate::dims::{FilterAlloc, StateDim};
+use crate::traits::{MeasurementModel, ProcessModel};
 
 /// An analytic Jacobian that disagrees with its numerical reference.
 #[derive(Clone, Debug)]
@@ -23,6 +37,11 @@ pub struct JacobianMismatch {
     pub at: (usize, usize),
     /// Analytic and numerical values there.
     pub values: (f64, f64),
+    /// When set, the numerical reference itself is unreliable: differences with the step
+    /// `h` and with `10 h` disagree by this much (more than the tolerance), so the
+    /// mismatch is a loss of precision in the model's evaluation (cancellation, a kink),
+    /// not necessarily a wrong analytic Jacobian.
+    pub step_spread: Option<f64>,
 }
 
 impl fmt::Display for JacobianMismatch {
@@ -31,7 +50,15 @@ impl fmt::Display for JacobianMismatch {
             f,
             "{}: entry {:?} analytic {:.9e} vs numerical {:.9e} (|Δ| {:.3e} > tol {:.3e})",
             self.what, self.at, self.values.0, self.values.1, self.max_error, self.tolerance
-        )
+        )?;
+        if let Some(s) = self.step_spread {
+            write!(
+                f,
+                "; the numerical reference is unreliable here: steps h and 10h disagree by \
+                 {s:.3e} (cancellation or a kink in the model; try another step or point)"
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -70,8 +97,33 @@ where
             tolerance,
             at,
             values: (analytic[at], numeric[at]),
+            step_spread: None,
         })
     }
+}
+
+/// [`compare`] against a numerical Jacobian at step `h`; on a mismatch, the same at `10 h`
+/// tells a wrong analytic Jacobian (both steps agree with each other) from an unreliable
+/// numerical one (they do not: [`JacobianMismatch::step_spread`]).
+fn compare_two_steps<R: DimName, C: DimName>(
+    what: &'static str,
+    analytic: &OMatrix<f64, R, C>,
+    numeric: impl Fn(f64) -> OMatrix<f64, R, C>,
+    h: f64,
+    rel_tol: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    let fine = numeric(h);
+    let Err(mut e) = compare(what, analytic, &fine, rel_tol) else {
+        return Ok(());
+    };
+    let coarse = numeric(10.0 * h);
+    if let Err(spread) = compare(what, &coarse, &fine, rel_tol) {
+        e.step_spread = Some(spread.max_error);
+    }
+    Err(e)
 }
 
 /// Check a process model's `Φ` against `∂(f(x ⊕ δ) ⊖ f(x))/∂δ` by central differences
@@ -104,8 +156,8 @@ where
     DefaultAllocator: DimAlloc<StateDim<PM::State>>,
 {
     let jac = model.jacobians(x, u, dt);
-    let numeric = numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), step);
-    compare("process transition Φ", &jac.Phi, &numeric, rel_tol)?;
+    let numeric = |h| numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), h);
+    compare_two_steps("process transition Φ", &jac.Phi, numeric, step, rel_tol)?;
     check_combined_calls(model, x, u, dt)
 }
 
@@ -124,6 +176,22 @@ where
     DefaultAllocator: DimAlloc<StateDim<PM::State>>,
 {
     let jac = model.jacobians(x, u, dt);
+    // the Q_d a fused step folds in unseen by the filter must be a covariance
+    if let Err(e) = crate::linalg::check_process_noise("the model", &jac.Q) {
+        let (at, value) = ((0, 0), (f64::NAN, f64::NAN));
+        let max_error = match e {
+            crate::FilterError::InvalidProcessNoise { value, .. } => value,
+            _ => f64::NAN,
+        };
+        return Err(JacobianMismatch {
+            what: "process noise Q_d is not a covariance (finite, symmetric, PSD)",
+            max_error,
+            tolerance: 0.0,
+            at,
+            values: value,
+            step_spread: None,
+        });
+    }
     // `step` (often an override sharing work) must agree with the two separate calls.
     let x_next = model.propagate(x, u, dt);
     let (x_step, jac_step) = model.step(x, u, dt);
@@ -184,8 +252,8 @@ where
     DefaultAllocator: FilterAlloc<StateDim<MM::State>, StateDim<MM::Measurement>>,
 {
     let analytic = model.jacobian(x).H;
-    let numeric = numdiff::jacobian_between(x, |xp| model.predict(xp), step);
-    compare("measurement Jacobian H", &analytic, &numeric, rel_tol)?;
+    let numeric = |h| numdiff::jacobian_between(x, |xp| model.predict(xp), h);
+    compare_two_steps("measurement Jacobian H", &analytic, numeric, step, rel_tol)?;
     // `linearize` (often an override sharing work) must agree with the two separate calls.
     let (z_hat, jac) = model.linearize(x);
     let gap = z_hat.ominus(&model.predict(x));

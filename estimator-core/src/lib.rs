@@ -7,14 +7,22 @@
 //! | [`ProcessModel`], [`MeasurementModel`] | what users implement; Jacobians in named structs |
 //! | [`ErrorStateFilter`] | predict / update (Cholesky, Joseph) / inject and reset on any [`Manifold`] state |
 //! | [`NoiseStrategy`], [`FixedNoise`], [`Adaptation`] | the adaptation hook and its zero-sized default |
+//! | [`StreamId`], [`StreamMap`] | named measurement streams and per-stream strategy state |
 //! | [`UpdateReport`], [`Observer`], [`UpdateLog`] | per-update telemetry |
-//! | [`FilterError`] | typed failures; the filter is unchanged after any of them |
-//! | [`backend`] | covariance back-ends: nalgebra static (default), nalgebra dynamic, faer |
+//! | [`FilterError`] | typed failures; the filter (state, covariance, strategy) is unchanged after any of them |
+//! | [`backend`] | covariance back-ends: nalgebra static (default), nalgebra dynamic, faer (feature `faer`) |
 //! | [`consistency`] | NEES / NIS and χ² bands |
-//! | [`harness`] | analytic vs numerical Jacobians through ⊕/⊖ for any model |
-//! | [`kernels`] | small column-major kernels (AVX2/FMA when the CPU has them) for the static back-end and structured models |
+//! | `harness` (feature `testing`) | analytic vs numerical Jacobians through ⊕/⊖ for any model |
+//! | [`simd`], [`fma_kernel!`] | for model authors: one kernel body compiled for AVX2/FMA with a portable twin |
 //! | [`linalg`] | checks and Cholesky helpers with typed errors |
 //! | [`linear`] | linear-Gaussian models (the plain Kalman filter as a special case) |
+//!
+//! # Features
+//!
+//! - `faer` (on by default): the [`FaerCov`] back-end on faer's products. Without it the
+//!   crate depends on nalgebra and statrs only.
+//! - `testing`: the Jacobian harness (`harness`) and the manifold law harness of
+//!   `manifolds` (`manifolds/testing`), with proptest.
 //!
 //! Convention: right (body-frame) perturbation, `true = nominal ⊕ δx`
 //! (see [`manifolds::Manifold`]).
@@ -24,23 +32,32 @@
 pub mod adapt;
 pub mod backend;
 pub mod consistency;
+mod dims;
+mod entries;
 pub mod error;
 pub mod filter;
+#[cfg(feature = "testing")]
 pub mod harness;
-pub mod kernels;
+mod kernels;
 pub mod linalg;
 pub mod linear;
 pub mod report;
+pub mod simd;
+mod stream;
 pub mod traits;
 
 pub use adapt::{
     Adaptation, CovView, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust,
-    StreamId, StreamMap, Verdict,
+    Verdict,
 };
-pub use backend::{CovBackend, DenseCov, DynamicCov, FaerCov, StaticCov, UpdateForm};
+#[cfg(feature = "faer")]
+pub use backend::FaerCov;
+pub use backend::{CovBackend, DenseCov, DynamicCov, StaticCov, UpdateForm};
+pub use entries::Entries;
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
+pub use stream::{short_type_name, StreamId, StreamMap};
 pub use traits::{
     Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
     ProcessModel, StateDim,

@@ -118,6 +118,67 @@ where
     cholesky(what, a.clone_owned()).map(|_| ())
 }
 
+/// Validate a process model's discrete noise `Q_d`: finite, symmetric within
+/// [`SYMMETRY_TOLERANCE`] (relative), and positive semi-definite within the tolerance
+/// `1e-12 · max|Q_ij|` on the pivots of an LDLᵀ factorisation (zero rows, such as a
+/// position block without noise of its own, are allowed). `O(N³/6)`.
+pub fn check_process_noise<D: DimName>(
+    model: &'static str,
+    q: &OMatrix<f64, D, D>,
+) -> Result<(), FilterError>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D>,
+{
+    let err = |problem, value| FilterError::InvalidProcessNoise { model, problem, value };
+    if has_non_finite(q.as_slice()) {
+        return Err(err("not finite", f64::NAN));
+    }
+    let n = D::DIM;
+    let scale = q.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let mut asym = 0.0_f64;
+    for c in 0..n {
+        for r in (c + 1)..n {
+            asym = asym.max((q[(r, c)] - q[(c, r)]).abs());
+        }
+    }
+    if asym > SYMMETRY_TOLERANCE * scale {
+        return Err(err("not symmetric", asym));
+    }
+    if scale == 0.0 {
+        return Ok(());
+    }
+    // LDLᵀ of the lower triangle (Q = L D Lᵀ, unit L): a negative pivot beyond the
+    // tolerance means an indefinite Q; a pivot within it is a zero direction, whose column
+    // must then vanish too.
+    let tol = 1e-12 * scale;
+    let mut a = q.clone_owned();
+    let mut col = OVector::<f64, D>::zeros();
+    for j in 0..n {
+        let d = a[(j, j)];
+        if d < -tol {
+            return Err(err("not positive semi-definite", d));
+        }
+        if d <= tol {
+            // a (numerically) zero variance: for a semi-definite Q its whole row is zero
+            // (|Q_ij|² ≤ Q_ii Q_jj)
+            if let Some(i) = ((j + 1)..n).find(|&i| a[(i, j)].abs() > 1e-6 * scale) {
+                return Err(err("not positive semi-definite", -a[(i, j)].abs()));
+            }
+            continue;
+        }
+        for (i, c) in col.iter_mut().enumerate().skip(j + 1) {
+            *c = a[(i, j)];
+        }
+        // Schur complement of the pivot, lower triangle
+        for i in (j + 1)..n {
+            for k in (j + 1)..=i {
+                a[(i, k)] -= col[i] * col[k] / d;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Convert a runtime-sized matrix (from a file or a config) to a fixed-size one,
 /// `Err(DimensionMismatch)` when the shape is wrong.
 pub fn fixed_from_dynamic<R: DimName, C: DimName>(

@@ -3,7 +3,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::adapt::StreamId;
+use crate::stream::StreamId;
 use crate::traits::{MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessModel};
 
 /// `x_{k+1} = F x_k + w_k`, `w_k ~ N(0, Q)`; `F` and `Q` are per step (the `dt`
@@ -53,7 +53,7 @@ impl<const M: usize, const N: usize> LinearMeasurement<M, N> {
     }
 
     /// The same sensor on a named stream.
-    pub fn on_stream(mut self, name: &str) -> Self {
+    pub fn on_stream(mut self, name: &'static str) -> Self {
         self.stream = StreamId::named(name);
         self
     }

@@ -5,7 +5,8 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
 use manifolds::DimAlloc;
 
-use crate::adapt::{Factors, StreamId, Verdict};
+use crate::adapt::{Factors, Verdict};
+use crate::stream::StreamId;
 
 /// Everything about one measurement update.
 #[allow(non_snake_case)]
@@ -35,6 +36,12 @@ where
     pub reason: &'static str,
     /// The strategy's factors.
     pub factors: Factors,
+    /// True when the strategy asked for
+    /// [`MeasurementSubspace`](crate::PriorScaling::MeasurementSubspace) scaling but
+    /// `H P⁻ Hᵀ` had no Cholesky factor, so the filter scaled
+    /// the whole prior (`P⁻* = λ_P P⁻`) instead: the gain is the same, but directions the
+    /// measurement cannot see were inflated too.
+    pub prior_scaling_fallback: bool,
 }
 
 impl<M: DimName> UpdateReport<M>
@@ -53,6 +60,7 @@ where
             verdict: self.verdict,
             reason: self.reason,
             factors: self.factors,
+            prior_scaling_fallback: self.prior_scaling_fallback,
         }
     }
 }
@@ -78,9 +86,49 @@ pub struct UpdateSummary {
     pub reason: &'static str,
     /// The strategy's factors.
     pub factors: Factors,
+    /// See [`UpdateReport::prior_scaling_fallback`].
+    pub prior_scaling_fallback: bool,
 }
 
-/// Receives telemetry from the filter.
+/// Receives telemetry from the filter:
+/// [`update_observed`](crate::ErrorStateFilter::update_observed) calls [`on_update`](Self::on_update) once per
+/// update that produced a verdict, rejected ones included.
+///
+/// # Example
+///
+/// Count the refused updates and keep the largest NIS, per stream name:
+///
+/// ```
+/// use std::collections::BTreeMap;
+///
+/// use estimator_core::linear::LinearMeasurement;
+/// use estimator_core::{ErrorStateFilter, FixedNoise, Observer, UpdateReport, Verdict};
+/// use nalgebra::{DefaultAllocator, DimName, Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
+/// use manifolds::DimAlloc;
+///
+/// #[derive(Default)]
+/// struct Worst(BTreeMap<&'static str, (f64, usize)>);
+///
+/// impl Observer for Worst {
+///     fn on_update<M: DimName>(&mut self, r: &UpdateReport<M>)
+///     where
+///         DefaultAllocator: DimAlloc<M>,
+///     {
+///         let e = self.0.entry(r.stream.name()).or_insert((0.0, 0));
+///         e.0 = e.0.max(r.nis);
+///         e.1 += usize::from(r.verdict == Verdict::Rejected);
+///     }
+/// }
+///
+/// let mut f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
+/// let gps = LinearMeasurement::<1, 2>::new(Matrix1x2::new(1.0, 0.0)).on_stream("gps");
+/// let mut worst = Worst::default();
+/// for z in [0.5, -0.2, 3.0] {
+///     f.update_observed(&gps, &Vector1::new(z), &Matrix1::new(1.0), &mut worst).unwrap();
+/// }
+/// assert_eq!(worst.0["gps"].1, 0);
+/// assert!(worst.0["gps"].0 > 1.0);
+/// ```
 pub trait Observer {
     /// After every update attempt that produced a verdict (accepted, inflated, rejected).
     fn on_update<M: DimName>(&mut self, _report: &UpdateReport<M>)

@@ -5,26 +5,8 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
 use manifolds::{DimAlloc, Manifold, Tangent};
 
-use crate::adapt::StreamId;
-
-/// Every allocator bound that generic code over a state dimension `N` and a measurement
-/// dimension `M` needs, in one trait (design decision 2). Concrete `Const` dimensions
-/// satisfy it automatically.
-pub trait FilterAlloc<N: DimName, M: DimName>:
-    DimAlloc<N> + DimAlloc<M> + Allocator<N, M> + Allocator<M, N>
-{
-}
-
-impl<N: DimName, M: DimName, T> FilterAlloc<N, M> for T where
-    T: DimAlloc<N> + DimAlloc<M> + Allocator<N, M> + Allocator<M, N>
-{
-}
-
-/// Tangent dimension of a state type.
-pub type StateDim<X> = <X as Manifold>::Dim;
-
-/// A square matrix over a tangent space of dimension `N` (covariances, Φ, Q).
-pub type Cov<N> = OMatrix<f64, N, N>;
+pub use crate::dims::{Cov, FilterAlloc, StateDim};
+use crate::stream::StreamId;
 
 /// Jacobians of one prediction step, defined at zero error in the tangent spaces.
 #[allow(non_snake_case)]
@@ -110,6 +92,14 @@ where
     /// True when [`propagate_covariance`](Self::propagate_covariance) returns an exactly
     /// symmetric matrix, so the filter can skip symmetrising it. Default false.
     const SYMMETRIC_PROPAGATION: bool = false;
+
+    /// True when [`step_covariance`](Self::step_covariance) is overridden to propagate
+    /// without forming `Φ` and `Q_d` (the INS model). The static back-end then calls it and
+    /// cannot check `Q_d`: the model is responsible for its noise, and
+    /// [`check_combined_calls`](crate::harness::check_combined_calls) (feature `testing`)
+    /// checks its `Q_d` and compares the fused step with the dense one. Default false: the
+    /// back-ends form `Q_d` and check it ([`check_process_noise`](crate::linalg::check_process_noise)) at every prediction.
+    const FUSED_STEP_COVARIANCE: bool = false;
 
     /// `out ← Φ P Φᵀ + Q`. The dense default ([`crate::kernels::dense_sandwich`]) costs
     /// about `1.5 N³` multiply-adds; override it to exploit the sparsity of Φ (the INS

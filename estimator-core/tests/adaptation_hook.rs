@@ -15,7 +15,7 @@ use nalgebra::{DefaultAllocator, DimName, Matrix1, Matrix1x2, Matrix2, Vector1, 
 
 /// Rejects when NIS > gate; on the 2nd, 4th … update of *each stream* doubles R and
 /// scales P⁻ by 1.5; counts updates per stream.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct TestStrategy {
     gate: f64,
     counts: StreamMap<u32>,
@@ -80,14 +80,14 @@ fn inflation_equals_an_update_with_scaled_prior_and_noise() {
     let mut reference = ErrorStateFilter::new(x_first, after_first * 1.5, FixedNoise).unwrap();
     reference.update(&pos(), &Vector1::new(1.2), &(r * 2.0)).unwrap();
     assert!(close(f.state(), reference.state(), 1e-12));
-    assert!(close(f.covariance(), reference.covariance(), 1e-12));
+    assert!(close(&f.covariance(), &reference.covariance(), 1e-12));
 
     // The requested Q scaling applies to the following predictions.
     let q = Matrix2::identity() * 0.1;
     let process = LinearProcess { F: Matrix2::identity(), Q: q };
     let before = *f.covariance();
     f.predict(&process, &(), 1.0).unwrap();
-    assert!(close(f.covariance(), &(before + q * 3.0), 1e-12));
+    assert!(close(&f.covariance(), &(before + q * 3.0), 1e-12));
 }
 
 #[test]
@@ -104,7 +104,7 @@ fn rejection_leaves_state_and_covariance_and_is_reported() {
     assert_eq!(rep.verdict, Verdict::Rejected);
     assert!((rep.nis - 100.0 * 100.0 / 2.0).abs() < 1e-9);
     assert!(f.state().norm() < 1e-15);
-    assert!(close(f.covariance(), &Matrix2::identity(), 1e-15));
+    assert!(close(&f.covariance(), &Matrix2::identity(), 1e-15));
     assert_eq!(log.counts(), (0, 0, 1));
     assert_eq!(log.entries[0].reason, "nis above gate");
     assert_eq!(f.epoch(), 1);
@@ -135,6 +135,7 @@ fn strategy_state_is_kept_per_stream() {
 }
 
 /// A strategy that breaks the contract (NaN R) makes the update fail cleanly.
+#[derive(Clone)]
 struct Broken;
 impl NoiseStrategy for Broken {
     fn name(&self) -> &'static str {
@@ -155,7 +156,7 @@ fn contract_breaking_strategy_gives_typed_error_and_unchanged_filter() {
     let e = f.update(&pos(), &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap_err();
     assert_eq!(e, estimator_core::FilterError::NonFinite { what: "adapted measurement noise R*" });
     assert!((f.state() - Vector2::new(1.0, 2.0)).norm() < 1e-15);
-    assert!(close(f.covariance(), &Matrix2::identity(), 1e-15));
+    assert!(close(&f.covariance(), &Matrix2::identity(), 1e-15));
 }
 
 #[test]
@@ -184,4 +185,51 @@ fn subspace_scaling_gives_the_full_scaling_correction_without_inflating_unseen_d
     assert!((p_sub[(0, 0)] - p_full[(0, 0)]).abs() < 1e-12);
     assert!(p_sub[(2, 2)] <= before[(2, 2)] + 1e-12);
     assert!(p_full[(2, 2)] > before[(2, 2)] * 1.4);
+}
+
+#[test]
+fn a_failed_update_restores_the_strategy() {
+    // Broken counts per stream before breaking R: the count must not survive the failure.
+    #[derive(Clone, Default)]
+    struct CountsThenBreaks(StreamMap<u32>);
+    impl NoiseStrategy for CountsThenBreaks {
+        fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+        where
+            DefaultAllocator: FilterAlloc<N, M>,
+        {
+            *self.0.get_or_insert_with(a.stream, || 0) += 1;
+            if a.nis > 4.0 {
+                a.R[(0, 0)] = -1.0;
+            }
+        }
+    }
+    let mut f =
+        ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), CountsThenBreaks::default())
+            .unwrap();
+    f.update(&pos(), &Vector1::new(0.1), &Matrix1::new(1.0)).unwrap();
+    assert_eq!(f.strategy().0.get(pos().stream), Some(&1));
+    let e = f.update(&pos(), &Vector1::new(100.0), &Matrix1::new(1.0)).unwrap_err();
+    assert!(matches!(e, estimator_core::FilterError::NotPositiveDefinite { .. }), "{e}");
+    assert_eq!(f.strategy().0.get(pos().stream), Some(&1), "the failed update's count stayed");
+    assert_eq!(f.strategy().name(), "CountsThenBreaks", "default name: the type's");
+}
+
+#[test]
+fn fallback_from_subspace_to_full_scaling_is_reported() {
+    // A sensor that sees nothing of the state: H P⁻ Hᵀ = 0 has no Cholesky factor, so the
+    // subspace form cannot be built and the whole prior is scaled.
+    let blind = LinearMeasurement::new(Matrix1x2::new(0.0, 0.0)).on_stream("blind");
+    let strategy = TestStrategy { gate: 1e9, ..Default::default() };
+    let mut f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), strategy).unwrap();
+    let first = f.update(&blind, &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
+    assert!(!first.prior_scaling_fallback, "first update: λ = 1, nothing scaled");
+    let second = f.update(&blind, &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
+    assert_eq!(second.verdict, Verdict::Inflated);
+    assert!(second.prior_scaling_fallback, "the subspace scaling fell back to full scaling");
+    assert!(second.summary().prior_scaling_fallback);
+    assert!((f.covariance()[(1, 1)] - 1.5).abs() < 1e-12, "P scaled whole by λ_P = 1.5");
+    // with a sensor that sees the state, no fallback
+    let third = f.update(&pos(), &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
+    let fourth = f.update(&pos(), &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
+    assert!(!third.prior_scaling_fallback && !fourth.prior_scaling_fallback);
 }

@@ -19,7 +19,7 @@ fn sensor() -> LinearMeasurement<2, 3> {
 fn assert_unchanged(f: &ErrorStateFilter<Vector3<f64>>) {
     let g = filter();
     assert!((f.state() - g.state()).norm() < 1e-15);
-    assert!((f.covariance() - g.covariance()).norm() < 1e-15);
+    assert!((*f.covariance() - &*g.covariance()).norm() < 1e-15);
 }
 
 #[test]
@@ -92,10 +92,11 @@ fn nan_in_process_noise_leaves_filter_unchanged() {
     let mut q = Matrix3::identity();
     q[(1, 1)] = f64::NAN;
     let m = LinearProcess { F: Matrix3::identity(), Q: q };
-    assert_eq!(
+    // caught at Q itself, before it reaches P, with the model named
+    assert!(matches!(
         f.predict(&m, &(), 0.1).unwrap_err(),
-        FilterError::NonFinite { what: "propagated covariance P" }
-    );
+        FilterError::InvalidProcessNoise { problem: "not finite", .. }
+    ));
     assert_unchanged(&f);
     assert!(f.time().abs() < 1e-15);
 }
@@ -116,4 +117,49 @@ fn wrong_sized_runtime_matrix_is_a_typed_error() {
     assert!(e.to_string().contains("3×2, expected 2×2"));
     let ok = fixed_from_dynamic::<nalgebra::U3, nalgebra::U2>("H", &d).unwrap();
     assert!((ok[(1, 1)] - 1.0).abs() < 1e-15);
+}
+
+#[test]
+fn indefinite_process_noise_is_refused_naming_q_and_the_model() {
+    let model = LinearProcess { F: Matrix3::identity(), Q: Matrix3::identity() * -0.5 };
+    let check = |e: FilterError| match &e {
+        FilterError::InvalidProcessNoise { model, problem, value } => {
+            assert!(model.contains("LinearProcess"), "{model}");
+            assert_eq!(*problem, "not positive semi-definite");
+            assert!(*value < 0.0);
+            assert!(e.to_string().contains("process noise Q_d of model `LinearProcess"), "{e}");
+        }
+        other => panic!("{other}"),
+    };
+    let mut f = filter();
+    check(f.predict(&model, &(), 0.1).unwrap_err());
+    assert_unchanged(&f);
+    let mut d = ErrorStateFilter::with_backend(
+        Vector3::new(1.0, 2.0, 3.0),
+        Matrix3::identity() * 2.0,
+        FixedNoise,
+        estimator_core::DynamicCov::default(),
+    )
+    .unwrap();
+    check(d.predict(&model, &(), 0.1).unwrap_err());
+    assert_eq!(d.state(), &Vector3::new(1.0, 2.0, 3.0));
+    // asymmetric and non-finite Q
+    let mut q = Matrix3::identity();
+    q[(0, 1)] = 0.5;
+    let e = f.predict(&LinearProcess { F: Matrix3::identity(), Q: q }, &(), 0.1).unwrap_err();
+    assert!(matches!(e, FilterError::InvalidProcessNoise { problem: "not symmetric", .. }), "{e}");
+    let e = f
+        .predict(
+            &LinearProcess { F: Matrix3::identity(), Q: Matrix3::identity() * f64::NAN },
+            &(),
+            0.1,
+        )
+        .unwrap_err();
+    assert!(matches!(e, FilterError::InvalidProcessNoise { problem: "not finite", .. }), "{e}");
+    // a semi-definite Q (a direction without noise) is a covariance
+    let psd = LinearProcess {
+        F: Matrix3::identity(),
+        Q: Matrix3::from_diagonal(&Vector3::new(1.0, 0.0, 2.0)),
+    };
+    f.predict(&psd, &(), 0.1).unwrap();
 }

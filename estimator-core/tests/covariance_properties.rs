@@ -56,7 +56,7 @@ proptest! {
                     f.update(&LinearMeasurement::new(h), &z, &r).unwrap();
                 }
             }
-            assert_spd(f.covariance())?;
+            assert_spd(&f.covariance())?;
         }
     }
 }

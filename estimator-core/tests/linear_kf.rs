@@ -65,7 +65,7 @@ fn eskf_on_euclidean_state_reproduces_linear_kf_over_200_steps() {
         let report = eskf.update(&sensor, &z, &rk).unwrap();
         let nis = kf.update(&h, &z, &rk);
         assert!(close(eskf.state(), &kf.x, 1e-12), "x differs at step {k}");
-        assert!(close(eskf.covariance(), &kf.p, 1e-12), "P differs at step {k}");
+        assert!(close(&eskf.covariance(), &kf.p, 1e-12), "P differs at step {k}");
         assert!((report.nis - nis).abs() <= 1e-12 * nis.max(1.0), "NIS differs at step {k}");
     }
 }
@@ -85,7 +85,7 @@ fn joseph_and_short_form_agree_under_optimal_gain() {
             ErrorStateFilter::new(x0, p0, FixedNoise).unwrap().with_update_form(UpdateForm::Short);
         joseph.update(&sensor, &z, &rk).unwrap();
         short.update(&sensor, &z, &rk).unwrap();
-        assert!(close(joseph.covariance(), short.covariance(), 1e-10), "trial {trial}");
+        assert!(close(&joseph.covariance(), &short.covariance(), 1e-10), "trial {trial}");
         assert!(close(joseph.state(), short.state(), 1e-12), "trial {trial}");
     }
 }
@@ -107,5 +107,5 @@ fn sequential_and_joint_updates_agree() {
     seq.update(&row(0), &nalgebra::Vector1::new(z[0]), &nalgebra::Matrix1::new(r1)).unwrap();
     seq.update(&row(1), &nalgebra::Vector1::new(z[1]), &nalgebra::Matrix1::new(r2)).unwrap();
     assert!(close(joint.state(), seq.state(), 1e-12));
-    assert!(close(joint.covariance(), seq.covariance(), 1e-12));
+    assert!(close(&joint.covariance(), &seq.covariance(), 1e-12));
 }

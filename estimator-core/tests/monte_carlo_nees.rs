@@ -50,7 +50,7 @@ fn mean_nees_inside_95_percent_band() {
             let z = H * truth + v[k].fixed_rows::<2>(0);
             f.update(&sensor, &z, &R).unwrap();
             let e = truth - f.state();
-            mean_nees[k] += normalized_squared(&e, f.covariance()).unwrap() / RUNS as f64;
+            mean_nees[k] += normalized_squared(&e, &f.covariance()).unwrap() / RUNS as f64;
         }
     }
     let (lo, hi) = averaged_chi2_band(4, RUNS, 0.95);

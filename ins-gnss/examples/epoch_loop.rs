@@ -8,9 +8,9 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use estimator_core::{ErrorStateFilter, FixedNoise};
-use ins_gnss::model::ImuInput;
-use ins_gnss::sim::{scenarios, simulate, GnssSim, Trajectory};
-use ins_gnss::{GnssPosVel, InsModel};
+use ins_gnss_core::model::ImuInput;
+use ins_gnss_core::{GnssPosVel, InsModel};
+use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
 use nalgebra::{SMatrix, SVector, Vector3};
 
 fn main() {
@@ -57,7 +57,11 @@ fn main() {
 }
 
 /// GNSS position+velocity updates from the same prior.
-fn update_loop(x: &ins_gnss::InsState, imu: &ins_gnss::ImuSample, p: SMatrix<f64, 15, 15>) {
+fn update_loop(
+    x: &ins_gnss_core::InsState,
+    imu: &ins_gnss_core::ImuSample,
+    p: SMatrix<f64, 15, 15>,
+) {
     use estimator_core::MeasurementModel;
     let m = GnssPosVel { lever_arm: Vector3::new(0.3, 0.0, -1.0), gyro_rate: imu.rate() };
     let z = (m.predict(x).0, x.vel);

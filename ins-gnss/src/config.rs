@@ -10,12 +10,12 @@ use manifolds::So3;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use crate::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
-use crate::io::{BadLinePolicy, ImuFormat};
-use crate::mechanization::Mechanization;
-use crate::navigator::{GnssConfig, InitialState, InitialStd};
-use crate::position::GeoPos;
-use crate::state::InsState;
+use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
+use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
+use ins_gnss_core::mechanization::Mechanization;
+use ins_gnss_core::navigator::{GnssConfig, InitialState, InitialStd};
+use ins_gnss_core::position::GeoPos;
+use ins_gnss_core::state::InsState;
 
 /// A configuration that cannot be used, with the file and the key.
 #[derive(Clone, Debug, PartialEq)]

@@ -12,8 +12,8 @@ use std::path::Path;
 use nalgebra::Vector3;
 use serde::Serialize;
 
-use crate::earth::geodetic_to_local_ned;
-use crate::io::{LineError, NavReader, NavRecord};
+use ins_gnss_core::earth::geodetic_to_local_ned;
+use ins_gnss_core::io::{LineError, NavReader, NavRecord};
 use manifolds::wrap_angle;
 
 /// Running statistics of one error component.
@@ -131,14 +131,17 @@ pub const MAX_REFERENCE_GAP: f64 = 1.0;
 /// Reads a reference: the 11-column navigation format, or `t lat lon h` (4 columns, e.g.
 /// RTK-fixed positions), whose velocity and attitude are NaN (not evaluated).
 struct RefReader {
-    lines: crate::io::NumericLines<std::io::BufReader<std::fs::File>>,
+    lines: ins_gnss_core::io::NumericLines<std::io::BufReader<std::fs::File>>,
     prev_t: Option<f64>,
 }
 
 impl RefReader {
     fn open(path: &Path) -> Result<Self, LineError> {
         Ok(Self {
-            lines: crate::io::NumericLines::new(crate::io::formats::open(path)?, path),
+            lines: ins_gnss_core::io::NumericLines::new(
+                ins_gnss_core::io::formats::open(path)?,
+                path,
+            ),
             prev_t: None,
         })
     }
@@ -150,28 +153,30 @@ impl RefReader {
             11 => NavRecord {
                 week: r[0],
                 t: r[1],
-                pos: crate::position::GeoPos::from_degrees(r[2], r[3], r[4]),
+                pos: ins_gnss_core::position::GeoPos::from_degrees(r[2], r[3], r[4]),
                 vel: Vector3::new(r[5], r[6], r[7]),
                 att: Vector3::new(r[8] * d, r[9] * d, r[10] * d),
             },
             4 => NavRecord {
                 week: 0.0,
                 t: r[0],
-                pos: crate::position::GeoPos::from_degrees(r[1], r[2], r[3]),
+                pos: ins_gnss_core::position::GeoPos::from_degrees(r[1], r[2], r[3]),
                 vel: Vector3::repeat(f64::NAN),
                 att: Vector3::repeat(f64::NAN),
             },
             found => {
-                return Err(self
-                    .lines
-                    .error(crate::io::LineErrorKind::ColumnCount { expected: vec![11, 4], found }))
+                return Err(self.lines.error(ins_gnss_core::io::LineErrorKind::ColumnCount {
+                    expected: vec![11, 4],
+                    found,
+                }))
             }
         };
         if let Some(p) = self.prev_t {
             if rec.t <= p {
-                return Err(self
-                    .lines
-                    .error(crate::io::LineErrorKind::TimeBackwards { t: rec.t, previous: p }));
+                return Err(self.lines.error(ins_gnss_core::io::LineErrorKind::TimeBackwards {
+                    t: rec.t,
+                    previous: p,
+                }));
             }
         }
         self.prev_t = Some(rec.t);
@@ -190,7 +195,7 @@ fn interpolate(a: &NavRecord, b: &NavRecord, t: f64) -> NavRecord {
     NavRecord {
         week: a.week,
         t,
-        pos: crate::position::GeoPos {
+        pos: ins_gnss_core::position::GeoPos {
             lat: lerp(a.pos.lat, b.pos.lat),
             lon: lerp(a.pos.lon, b.pos.lon),
             h: lerp(a.pos.h, b.pos.h),
@@ -234,7 +239,8 @@ pub fn evaluate(
 }
 
 fn reference_columns(path: &Path) -> Result<usize, LineError> {
-    let mut lines = crate::io::NumericLines::new(crate::io::formats::open(path)?, path);
+    let mut lines =
+        ins_gnss_core::io::NumericLines::new(ins_gnss_core::io::formats::open(path)?, path);
     Ok(lines.next_record()?.map(|r| r.len()).unwrap_or(0))
 }
 

@@ -1,44 +1,21 @@
-//! The 15-state INS/GNSS filter and its program.
+//! The `ins-gnss` program as a library: what its subcommands do, callable from code
+//! (the binary only parses arguments). The navigation itself is `ins-gnss-core`; the
+//! simulator is `ins-gnss-sim`.
 //!
-//! | item | what |
+//! | module | what |
 //! |---|---|
-//! | [`earth`] | WGS-84: gravity, radii, Earth and transport rates, geodetic ↔ ECEF ↔ NED |
-//! | [`GeoPos`] | geodetic position as a manifold with NED-metre tangent |
-//! | [`InsState`] | attitude, velocity, position, biases; 15-dimensional error state |
-//! | [`mechanization`] | WGS-84 NED (coning, sculling) and flat-earth mechanizations |
-//! | [`InsModel`] | the process model: mechanization, `F`, `G Q_c Gᵀ`, `Φ`, `Q_d`, block-sparse `Φ P Φᵀ` |
-//! | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] | GNSS measurement models with lever arm |
-//! | [`Navigator`] | the filter driven by IMU samples, GNSS epochs applied at their exact time |
-//! | [`init`] | initial state, static coarse alignment, heading from the GNSS track |
-//! | [`sim`] | trajectory, IMU and GNSS simulator |
-//!
-//! Error state `[δθ, δv, δp, δb_g, δb_a]`: right (body-frame) attitude error, NED velocity
-//! error, NED-metre position error, additive biases.
+//! | [`cli`] | the subcommands: `run`, `eval`, `simulate`, `compare`, the demo |
+//! | [`config`] | run configurations: our TOML and KF-GINS YAML, validated, datasheet units |
+//! | [`run`] | one streaming run over files (bounded memory), or over data in memory |
+//! | [`eval`] | errors of a result against a truth file: RMS, maxima, windows |
+//! | [`plot`] | SVG plots of errors with ±3σ envelopes and adaptation factors |
+//! | [`scenario`] | scenario files for `simulate`, and Monte Carlo over seeds |
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
 pub mod cli;
 pub mod config;
-pub mod earth;
 pub mod eval;
-pub mod gnss;
-pub mod imu;
-pub mod init;
-pub mod io;
-pub mod mechanization;
-pub mod model;
-pub mod navigator;
 pub mod plot;
-pub mod position;
 pub mod run;
 pub mod scenario;
-pub mod sim;
-pub mod state;
-
-pub use gnss::{GnssEpoch, GnssPosVel, GnssPosition, GnssVelocity};
-pub use imu::{BiasModel, ImuNoise, ImuSample};
-pub use mechanization::Mechanization;
-pub use model::{ImuInput, InsModel};
-pub use navigator::{GnssConfig, InitialState, InitialStd, NavError, Navigator};
-pub use position::GeoPos;
-pub use state::InsState;

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 use crate::eval::errors;
-use crate::io::formats::open;
-use crate::io::{NavReader, NumericLines};
+use ins_gnss_core::io::formats::open;
+use ins_gnss_core::io::{NavReader, NumericLines};
 
 type Series = Vec<(f64, f64)>;
 

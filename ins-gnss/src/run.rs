@@ -22,13 +22,13 @@ use estimator_core::{NoObserver, NoiseStrategy, UpdateSummary, Verdict};
 use nalgebra::Vector3;
 
 use crate::config::Config;
-use crate::gnss::GnssEpoch;
-use crate::imu::ImuSample;
-use crate::imu::{DEG_PER_H, MGAL};
-use crate::io::formats::{create, write_nav};
-use crate::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
-use crate::model::InsModel;
-use crate::navigator::{NavError, Navigator};
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::imu::ImuSample;
+use ins_gnss_core::imu::{DEG_PER_H, MGAL};
+use ins_gnss_core::io::formats::{create, write_nav};
+use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
+use ins_gnss_core::model::InsModel;
+use ins_gnss_core::navigator::{NavError, Navigator};
 
 /// Why a run stopped.
 #[derive(Debug)]
@@ -161,7 +161,7 @@ impl Outputs {
 }
 
 /// The navigation record of a state.
-pub fn nav_record(t: f64, x: &crate::state::InsState) -> NavRecord {
+pub fn nav_record(t: f64, x: &ins_gnss_core::state::InsState) -> NavRecord {
     let (r, p, y) = x.euler();
     NavRecord { week: 0.0, t, pos: x.pos, vel: x.vel, att: Vector3::new(r, p, y) }
 }
@@ -286,7 +286,7 @@ pub fn run(
             std::sync::mpsc::sync_channel::<Result<Vec<ImuSample>, LineError>>(4);
         // States, not records: the writer thread does the Euler conversion.
         let (nav_tx, nav_rx) =
-            std::sync::mpsc::sync_channel::<Vec<(f64, crate::state::InsState)>>(4);
+            std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::state::InsState)>>(4);
         let reader = scope.spawn(move || {
             let mut batch = Vec::with_capacity(BATCH);
             batch.push(first);
@@ -436,7 +436,7 @@ pub fn run_slices(
     strategy: AnyStrategy,
     imu: &[ImuSample],
     gnss: &[GnssEpoch],
-    mut each: impl FnMut(usize, f64, &crate::state::InsState),
+    mut each: impl FnMut(usize, f64, &ins_gnss_core::state::InsState),
 ) -> Result<RunSummary, RunError> {
     let wall = Instant::now();
     let first = imu.first().ok_or_else(|| RunError::NoData("no IMU samples".into()))?;

@@ -10,11 +10,11 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, DataSection, FilterSection, GnssSection, InitSection, NoiseSection};
-use crate::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
-use crate::io::formats::{create, write_gnss, write_imu, write_nav};
-use crate::position::GeoPos;
 use crate::run::nav_record;
-use crate::sim::{
+use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
+use ins_gnss_core::io::formats::{create, write_gnss, write_imu, write_nav};
+use ins_gnss_core::position::GeoPos;
+use ins_gnss_sim::{
     self, GnssSim, GnssWindow, GnssWindowKind, ImuErrors, Segment, Start, Trajectory,
 };
 
@@ -189,7 +189,7 @@ impl Scenario {
     /// and velocity at 1 Hz with interference (×8 noise) at 200–260 s and an outage at
     /// 400–460 s.
     pub fn demo() -> Self {
-        let (start, segs) = sim::scenarios::drive_600s();
+        let (start, segs) = ins_gnss_sim::scenarios::drive_600s();
         let d = 180.0 / core::f64::consts::PI;
         let segments = segs
             .iter()
@@ -362,7 +362,8 @@ impl Scenario {
         if !(self.imu.rate.is_finite() && self.imu.rate > 0.0) {
             return Err(format!("imu.rate must be positive, got {}", self.imu.rate));
         }
-        let data = sim::simulate(&traj, self.imu.rate, &self.imu_errors(), &gnss, self.seed);
+        let data =
+            ins_gnss_sim::simulate(&traj, self.imu.rate, &self.imu_errors(), &gnss, self.seed);
         std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
         let paths: Vec<PathBuf> = ["IMU.txt", "GNSS.txt", "truth.nav", "config.toml"]
             .iter()
@@ -392,11 +393,11 @@ impl Scenario {
     }
 
     /// The configuration matching this scenario (paths relative to the dataset).
-    pub fn config(&self, truth0: &crate::state::InsState, t0: f64) -> Config {
+    pub fn config(&self, truth0: &ins_gnss_core::state::InsState, t0: f64) -> Config {
         use manifolds::Manifold;
         let d = 180.0 / core::f64::consts::PI;
         let ie = &self.init;
-        let mut delta = manifolds::Tangent::<crate::state::InsState>::zeros();
+        let mut delta = manifolds::Tangent::<ins_gnss_core::state::InsState>::zeros();
         for k in 0..3 {
             delta[k] = ie.attitude_error[k] / d;
             delta[3 + k] = ie.velocity_error[k];
@@ -468,7 +469,7 @@ pub struct SeedRun {
 pub struct MonteCarlo {
     scenario: Scenario,
     traj: Trajectory,
-    exact: sim::ExactImu,
+    exact: ins_gnss_sim::ExactImu,
     gnss: GnssSim,
     errors: ImuErrors,
 }
@@ -481,7 +482,7 @@ impl MonteCarlo {
         }
         let traj = scenario.trajectory()?;
         let gnss = scenario.gnss_sim()?;
-        let exact = sim::ExactImu::new(&traj, scenario.imu.rate);
+        let exact = ins_gnss_sim::ExactImu::new(&traj, scenario.imu.rate);
         let errors = scenario.imu_errors();
         Ok(Self { scenario, traj, exact, gnss, errors })
     }
@@ -500,9 +501,10 @@ impl MonteCarlo {
         strategy: adaptive::AnyStrategy,
         skip: f64,
         windows: &[(f64, f64)],
-        mut each: impl FnMut(f64, &crate::io::NavRecord, &crate::io::NavRecord),
+        mut each: impl FnMut(f64, &ins_gnss_core::io::NavRecord, &ins_gnss_core::io::NavRecord),
     ) -> Result<SeedRun, String> {
-        let data = sim::simulate_from(&self.exact, &self.traj, &self.errors, &self.gnss, seed);
+        let data =
+            ins_gnss_sim::simulate_from(&self.exact, &self.traj, &self.errors, &self.gnss, seed);
         let t0 = data.truth[0].t;
         let cfg = self.scenario.config(&data.truth[0].state, t0);
         let mut ev = crate::eval::Evaluator::new(skip, windows);

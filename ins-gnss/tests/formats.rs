@@ -5,13 +5,13 @@ use std::io::Cursor;
 use std::path::Path;
 
 use ins_gnss::config::Config;
-use ins_gnss::gnss::GnssEpoch;
-use ins_gnss::imu::ImuSample;
-use ins_gnss::io::formats::{write_gnss, write_imu, write_nav};
-use ins_gnss::io::{
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::imu::ImuSample;
+use ins_gnss_core::io::formats::{write_gnss, write_imu, write_nav};
+use ins_gnss_core::io::{
     BadLinePolicy, GnssReader, ImuFormat, ImuReader, LineErrorKind, NavReader, NavRecord,
 };
-use ins_gnss::GeoPos;
+use ins_gnss_core::GeoPos;
 use nalgebra::Vector3;
 use proptest::prelude::*;
 
@@ -29,7 +29,7 @@ fn imu_reader(text: &str, policy: BadLinePolicy) -> ImuReader<Cursor<Vec<u8>>> {
 fn read_all_imu(
     text: &str,
     policy: BadLinePolicy,
-) -> Result<Vec<ImuSample>, ins_gnss::io::LineError> {
+) -> Result<Vec<ImuSample>, ins_gnss_core::io::LineError> {
     let mut r = imu_reader(text, policy);
     let mut v = Vec::new();
     while let Some(s) = r.next_sample()? {

@@ -7,11 +7,11 @@ use estimator_core::harness::{
     check_combined_calls, check_measurement_model_with_step, compare, numerical_jacobian,
 };
 use estimator_core::ProcessModel;
-use ins_gnss::earth::{earth_rate_ned, gravity_ned, radii, transport_rate};
-use ins_gnss::imu::ImuSample;
-use ins_gnss::model::{ImuInput, InsModel, M15};
-use ins_gnss::sim::scenarios;
-use ins_gnss::{GeoPos, GnssPosVel, GnssPosition, GnssVelocity, InsState, Mechanization};
+use ins_gnss_core::earth::{earth_rate_ned, gravity_ned, radii, transport_rate};
+use ins_gnss_core::imu::ImuSample;
+use ins_gnss_core::model::{ImuInput, InsModel, M15};
+use ins_gnss_core::{GeoPos, GnssPosVel, GnssPosition, GnssVelocity, InsState, Mechanization};
+use ins_gnss_sim::scenarios;
 use manifolds::{hat, right_jacobian_inverse, Manifold, So3};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
@@ -258,7 +258,7 @@ fn structured_propagation_equals_dense() {
         assert!((p - dense).abs().max() <= 1e-12 * dense.abs().max());
         // the kernel without AVX2/FMA (what other CPUs run) agrees too
         let mut portable = M15::zeros();
-        ins_gnss::model::phi_sandwich_portable(&jac.Phi, &p0, &jac.Q, &mut portable);
+        ins_gnss_core::model::phi_sandwich_portable(&jac.Phi, &p0, &jac.Q, &mut portable);
         assert!((portable - dense).abs().max() <= 1e-12 * dense.abs().max());
         // Q_d is the trapezoid (Φ D Φᵀ + D) dt/2 with D = G Q_c Gᵀ built densely here
         let G = InsModel::noise_input(&x.att);
@@ -273,16 +273,16 @@ fn structured_propagation_equals_dense() {
             ..model.clone()
         };
         check_combined_calls(&flat, &x, &u, u.cur.dt).unwrap();
-        let product = ins_gnss::model::phi_times(&jac.Phi, &p0);
+        let product = ins_gnss_core::model::phi_times(&jac.Phi, &p0);
         assert!((product - jac.Phi * p0).abs().max() <= 1e-12 * (jac.Phi * p0).abs().max());
-        let portable = ins_gnss::model::phi_times_portable(&jac.Phi, &p0);
+        let portable = ins_gnss_core::model::phi_times_portable(&jac.Phi, &p0);
         assert!((portable - jac.Phi * p0).abs().max() <= 1e-12 * (jac.Phi * p0).abs().max());
     }
 }
 
 #[test]
 fn local_earth_matches_the_separate_earth_functions() {
-    use ins_gnss::earth::{
+    use ins_gnss_core::earth::{
         normal_gravity, normal_gravity_gradient, prime_vertical_radius, LocalEarth,
     };
     for lat_deg in [-89.0, -62.0, -10.0, 0.0, 0.3, 30.5, 45.0, 75.0, 89.5] {
@@ -318,7 +318,7 @@ fn local_earth_matches_the_separate_earth_functions() {
 
 #[test]
 fn nearby_latitude_sine_and_cosine_match_the_library() {
-    use ins_gnss::earth::sin_cos_near;
+    use ins_gnss_core::earth::sin_cos_near;
     for lat0_deg in [-89.9, -45.0, -1.0, 0.0, 0.5, 30.5, 60.0, 89.9] {
         let lat0 = f64::to_radians(lat0_deg);
         let (s0, c0) = lat0.sin_cos();
@@ -341,7 +341,7 @@ fn nearby_latitude_sine_and_cosine_match_the_library() {
 #[test]
 fn fused_ins_epoch_agrees_with_the_dense_path_on_every_backend() {
     use estimator_core::{CovBackend, DynamicCov, ErrorStateFilter, FaerCov, FixedNoise};
-    use ins_gnss::sim::{simulate, Trajectory};
+    use ins_gnss_sim::{simulate, Trajectory};
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs[..3]).unwrap();
     let gnss = scenarios::gnss_1hz(Vector3::zeros());
@@ -353,7 +353,7 @@ fn fused_ins_epoch_agrees_with_the_dense_path_on_every_backend() {
     ));
     fn run<B: CovBackend<nalgebra::Const<15>>>(
         backend: B,
-        data: &ins_gnss::sim::SimDataset,
+        data: &ins_gnss_sim::SimDataset,
         model: &InsModel,
         P0: &M15,
         R: &SMatrix<f64, 6, 6>,
@@ -373,7 +373,7 @@ fn fused_ins_epoch_agrees_with_the_dense_path_on_every_backend() {
             }
         }
         assert!(updates >= 19, "{updates} GNSS updates in 20 s");
-        (f.state().clone(), f.covariance_matrix().into_owned())
+        (f.state().clone(), f.covariance().into_owned())
     }
     let (xs, ps) = run(estimator_core::StaticCov, &data, &model, &P0, &R);
     for (name, (x, p)) in [
@@ -414,7 +414,7 @@ fn bad_imu_input_is_a_typed_error_through_the_fused_epoch() {
             (s.vel - x0.vel).norm(),
             (s.att.matrix() - x0.att.matrix()).norm(),
             (s.bg - x0.bg).norm() + (s.ba - x0.ba).norm(),
-            (f.covariance() - P0).abs().max(),
+            (*f.covariance() - P0).abs().max(),
         ];
         assert!(gaps.iter().all(|g| g.abs() < 1e-300), "{gaps:?}");
     }

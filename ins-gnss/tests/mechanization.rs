@@ -3,10 +3,10 @@
 
 #![allow(non_snake_case)]
 
-use ins_gnss::earth::geodetic_to_local_ned;
-use ins_gnss::imu::ImuSample;
-use ins_gnss::mechanization::{step, Increments, Mechanization, Nav};
-use ins_gnss::sim::{scenarios, simulate, GnssSim, ImuErrors, Trajectory};
+use ins_gnss_core::earth::geodetic_to_local_ned;
+use ins_gnss_core::imu::ImuSample;
+use ins_gnss_core::mechanization::{step, Increments, Mechanization, Nav};
+use ins_gnss_sim::{scenarios, simulate, GnssSim, ImuErrors, Trajectory};
 use manifolds::Manifold;
 use nalgebra::Vector3;
 

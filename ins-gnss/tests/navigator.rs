@@ -7,11 +7,11 @@ mod common;
 
 use adaptive::{FixedNoise, Iakf};
 use estimator_core::UpdateLog;
-use ins_gnss::init::{coarse_align, heading_from_velocity};
-use ins_gnss::sim::{
+use ins_gnss_core::init::{coarse_align, heading_from_velocity};
+use ins_gnss_core::{GeoPos, GnssConfig, InitialState, InitialStd, InsModel, Navigator};
+use ins_gnss_sim::{
     scenarios, simulate_from, ExactImu, GnssSim, ImuErrors, Segment, Start, Trajectory,
 };
-use ins_gnss::{GeoPos, GnssConfig, InitialState, InitialStd, InsModel, Navigator};
 use nalgebra::Vector3;
 
 /// Max NIS over a run on error-free IMU data with noise-free GNSS (σ reported 1 cm) whose
@@ -85,7 +85,7 @@ fn static_coarse_alignment_recovers_roll_pitch_and_gyro_bias() {
     let traj = Trajectory::new(start, &[Segment::stop(60.0)]).unwrap();
     let mut errors = scenarios::mems_imu();
     errors.accel_turn_on = Vector3::zeros(); // roll/pitch absorb accelerometer biases
-    let data = ins_gnss::sim::simulate(
+    let data = ins_gnss_sim::simulate(
         &traj,
         100.0,
         &errors,

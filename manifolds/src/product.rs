@@ -278,6 +278,47 @@ impl_tuple_manifold!(
     A.0, B.1, C.2, D.3, E.4, F.5
 );
 
+/// With the `testing` feature: `law_sampler`, one [`Sampler`](crate::testing::Sampler) per
+/// field in, the composite's sampler out (points from the parts' points, tangents
+/// concatenated, every part's boundary tangents embedded at its block).
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __composite_law_sampler {
+    ($Name:ident; $($field:ident : $T:ty => $BLOCK:ident),+) => {
+        impl $Name {
+            /// The law harness's sampler of this state from one sampler per field, in
+            /// declaration order (`manifolds::testing`, feature `testing`).
+            pub fn law_sampler(
+                $($field: $crate::testing::Sampler<$T>),+
+            ) -> $crate::testing::Sampler<Self> {
+                use $crate::testing::proptest::strategy::Strategy as _;
+                let mut boundary = Vec::new();
+                $( boundary.extend($field.boundary_in::<Self>(Self::$BLOCK.start())); )+
+                let points = ($($field.points,)+)
+                    .prop_map(|($($field,)+)| Self { $($field),+ })
+                    .boxed();
+                let tangents = ($($field.tangents,)+)
+                    .prop_map(|($($field,)+)| {
+                        let mut t = $crate::Tangent::<Self>::zeros();
+                        $( $crate::product::set_block(&mut t, Self::$BLOCK.start(), &$field); )+
+                        t
+                    })
+                    .boxed();
+                $crate::testing::Sampler { points, tangents, boundary }
+            }
+        }
+    };
+}
+
+/// Without the `testing` feature composite states have no sampler.
+#[cfg(not(feature = "testing"))]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __composite_law_sampler {
+    ($($t:tt)*) => {};
+}
+
 /// Define a named composite state whose tangent dimension is the sum of its fields',
 /// known at compile time, with a typed [`Block`] constant per field.
 ///
@@ -323,6 +364,7 @@ macro_rules! composite_state {
         }
 
         $crate::composite_state!(@blocks $Name, 0usize, $($field : $T => $BLOCK),+);
+        $crate::__composite_law_sampler!($Name; $($field : $T => $BLOCK),+);
 
         impl $crate::Manifold for $Name {
             type Dim = $crate::nalgebra::Const<{ 0usize $(+ <$T as $crate::Manifold>::DIM)+ }>;

@@ -130,7 +130,7 @@ proptest! {
         for (dt, z) in dts.iter().zip(&zs) {
             f.predict(&m, &(), *dt).unwrap();
             f.update(&pos, &Vector1::new(*z), &SMatrix::<f64, 1, 1>::new(1.0)).unwrap();
-            prop_assert!(is_spd(f.covariance()));
+            prop_assert!(is_spd(&f.covariance()));
         }
     }
 
@@ -146,7 +146,7 @@ proptest! {
             f.predict(&model, &u, 0.01).unwrap();
             let z = SVector::<f64, 6>::new(acc[0], acc[1], acc[2] - 9.8, 0.5, 0.0, 0.866);
             f.update(&meas, &z, &(SMatrix::<f64, 6, 6>::identity() * 0.02)).unwrap();
-            prop_assert!(is_spd(f.covariance()));
+            prop_assert!(is_spd(&f.covariance()));
         }
     }
 }

@@ -131,7 +131,7 @@ pub fn run<A: NoiseStrategy>(strategy: A, sc: &Scenario, data: &Data, skip: usiz
         f.predict(&process, &(), sc.dt).unwrap();
         f.update_observed(&sensor, &data.z[k], &R, &mut log).unwrap();
         let e = data.truth[k] - f.state();
-        nees.push(normalized_squared(&e, f.covariance()).unwrap());
+        nees.push(normalized_squared(&e, &f.covariance()).unwrap());
         if k >= skip {
             se += e.fixed_rows::<3>(0).norm_squared();
             n += 1;

@@ -5,11 +5,11 @@
 
 use estimator_core::consistency::normalized_squared;
 use estimator_core::{NoiseStrategy, UpdateLog};
-use ins_gnss::imu::{DEG_PER_H, MGAL};
-use ins_gnss::sim::{
+use ins_gnss_core::imu::{DEG_PER_H, MGAL};
+use ins_gnss_core::{GnssConfig, InitialState, InitialStd, InsModel, InsState, Navigator};
+use ins_gnss_sim::{
     scenarios, simulate_from, ExactImu, GnssSim, GnssWindow, GnssWindowKind, SimDataset, Trajectory,
 };
-use ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, InsState, Navigator};
 use manifolds::{Manifold, Tangent};
 use nalgebra::{SVector, Vector3};
 use rand::rngs::StdRng;
@@ -39,7 +39,7 @@ pub fn drive_setup(imu_rate: f64, outage: Option<(f64, f64)>) -> Setup {
 /// The simulated IMU follows exactly the filter's model: the whole bias is a
 /// Gauss–Markov process (σ 50°/h and 500 mGal, τ = 1 h) started from its steady state,
 /// no separate turn-on bias, no scale factor.
-pub fn imu_errors() -> ins_gnss::sim::ImuErrors {
+pub fn imu_errors() -> ins_gnss_sim::ImuErrors {
     let mut e = scenarios::mems_imu();
     e.noise.gyro_bias = Vector3::repeat(TURN_ON_GYRO);
     e.noise.accel_bias = Vector3::repeat(TURN_ON_ACCEL);
@@ -108,7 +108,7 @@ pub fn run<A: NoiseStrategy>(
         if (s.t - s.t.round()).abs() < 1e-9 {
             let truth = &data.truth[k + 1].state;
             let error = truth.ominus(nav.state());
-            let nees = normalized_squared(&error, nav.covariance()).unwrap();
+            let nees = normalized_squared(&error, &nav.covariance()).unwrap();
             records.push(Record { t: s.t, error, sigma: nav.sigma(), nees });
         }
     }

@@ -20,8 +20,8 @@ use core::fmt;
 use manifolds::So3;
 use nalgebra::Vector3;
 
-use crate::earth::{earth_rate_ned, gravity_ned, radii, transport_rate};
-use crate::position::GeoPos;
+use ins_gnss_core::earth::{earth_rate_ned, gravity_ned, radii, transport_rate};
+use ins_gnss_core::position::GeoPos;
 
 /// One piece of motion; rates are constant within it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -18,7 +18,7 @@ use nalgebra::{Const, DMatrixView, Matrix3, Vector3};
 
 use manifolds::{Manifold, OminusJacobians, OplusJacobians};
 
-use crate::earth::{radii_from_sin, sin_cos_near};
+use crate::wgs84::{radii_from_sin, sin_cos_near};
 
 /// A geodetic position: latitude and longitude in radians, ellipsoidal height in metres.
 #[derive(Clone, Copy, Debug, PartialEq)]

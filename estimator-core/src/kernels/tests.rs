@@ -1,4 +1,4 @@
-//! Laws of the structured update kernels, against the textbook dense products:
+//! Laws of the structured update kernels (unit tests: the kernels are crate-private), against the textbook dense products:
 //!
 //! - the multiplied-out Joseph form equals `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for *any*
 //!   gain `K` (not only the optimal one), on all three back-ends, and is exactly symmetric;
@@ -8,10 +8,8 @@
 //! - `P Hᵀ` over the non-zero entries of `H` equals the dense product;
 //! - the dense `Φ P Φᵀ + Q` kernel equals nalgebra's products.
 
-#![allow(non_snake_case)]
-
-use estimator_core::kernels::{dense_sandwich, right_solve_cholesky};
-use estimator_core::{CovBackend, DynamicCov, FaerCov, StaticCov, UpdateForm};
+use crate::kernels::{dense_sandwich, right_solve_cholesky};
+use crate::{CovBackend, DynamicCov, FaerCov, StaticCov, UpdateForm};
 use nalgebra::{Const, SMatrix};
 use proptest::prelude::*;
 
@@ -154,7 +152,7 @@ proptest! {
         H in sparse_h(),
         r in matrix::<M, M>(),
     ) {
-        use estimator_core::kernels;
+        use crate::kernels;
         let P = spd(&a, 0.5);
         let S = noise(&r);
         let U = P * H.transpose();
@@ -226,9 +224,9 @@ proptest! {
         // the kernel's path without AVX2/FMA (the back-ends above take the fused one on
         // CPUs that have it)
         let mut p = P;
-        let mut scratch = vec![0.0; estimator_core::kernels::block_reset_scratch(8)];
+        let mut scratch = vec![0.0; crate::kernels::block_reset_scratch(8)];
         for (o, b) in &blocks {
-            estimator_core::kernels::block_reset_portable(&mut p, N, *o, b.as_view(), &mut scratch);
+            crate::kernels::block_reset_portable(&mut p, N, *o, b.as_view(), &mut scratch);
         }
         prop_assert!(rel(&p, &dense) < 1e-13, "portable");
         prop_assert_eq!((p - p.transpose()).abs().max(), 0.0);
@@ -278,8 +276,8 @@ fn whole_state_block_reset_equals_dense_sandwich() {
 /// compared (they differ by 5e-6 relative at `R = 1e-2` and 7e-2 at `R = 1e-8`).
 #[test]
 fn joseph_variants_stay_positive_definite_with_very_precise_measurements() {
-    use estimator_core::linear::{LinearMeasurement, LinearProcess};
-    use estimator_core::{ErrorStateFilter, FixedNoise};
+    use crate::linear::{LinearMeasurement, LinearProcess};
+    use crate::{ErrorStateFilter, FixedNoise};
     use nalgebra::{SVector, Vector2};
 
     const S: usize = 6;

@@ -157,7 +157,7 @@ impl<A: NoiseStrategy> Navigator<A> {
 
     /// The error covariance.
     pub fn covariance(&self) -> &M15 {
-        self.filter.covariance()
+        self.filter.covariance_raw()
     }
 
     /// The underlying filter.

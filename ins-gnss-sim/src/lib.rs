@@ -1,6 +1,10 @@
-//! The simulator: exact trajectories ([`trajectory`]), sensor errors ([`sensors`]), and
+//! The simulator of the INS/GNSS library (`ins-gnss-core`): exact trajectories
+//! ([`trajectory`]), sensor errors ([`sensors`]), built-in drives ([`scenarios`]), and
 //! [`simulate`], which turns them into a dataset (IMU increments, GNSS epochs, truth) at
-//! any IMU rate, seeded and deterministic.
+//! any IMU rate, seeded and deterministic. The `ins-gnss` program's `simulate` command,
+//! the examples and the tests build on it.
+#![deny(missing_docs)]
+#![allow(non_snake_case)]
 
 pub mod scenarios;
 pub mod sensors;
@@ -10,10 +14,10 @@ use nalgebra::Vector3;
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
-use crate::earth::{earth_rate_ned, transport_rate};
-use crate::gnss::GnssEpoch;
-use crate::imu::ImuSample;
-use crate::state::InsState;
+use ins_gnss_core::earth::{earth_rate_ned, transport_rate};
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::imu::ImuSample;
+use ins_gnss_core::state::InsState;
 
 pub use sensors::{GnssSim, GnssWindow, GnssWindowKind, ImuCorruptor, ImuErrors};
 pub use trajectory::{Kinematics, Segment, Start, Trajectory, TrajectoryError};
@@ -43,7 +47,7 @@ pub struct SimDataset {
 impl SimDataset {
     /// Every IMU sample with the GNSS epochs that fall in its interval, `t ≤ sample.t`
     /// and after the previous sample, in order: the input of
-    /// [`Navigator::process`](crate::Navigator::process). Does not allocate.
+    /// [`Navigator::process`](ins_gnss_core::Navigator::process). Does not allocate.
     pub fn replay(&self) -> impl Iterator<Item = (&ImuSample, &[GnssEpoch])> + '_ {
         let mut g = 0;
         self.imu.iter().map(move |s| {

@@ -1,157 +1,17 @@
-//! Small dense kernels on column-major storage for the static back-end and for models
-//! with structured products, plus the CPU-feature dispatch they share.
-//!
-//! Each kernel is written once as an `#[inline(always)]` body generic over a `FMA` flag:
-//! on x86-64 CPUs with AVX2 and FMA it is compiled inside a `#[target_feature]` wrapper,
-//! where `f64::mul_add` is one instruction and the loops use 256-bit vectors; elsewhere
-//! it runs as plain multiply-then-add (`mul_add` without the instruction is a slow
-//! library call). The two paths differ by one rounding per multiply-add. A kernel whose
-//! register sums outgrow AVX2's 16 vector registers (the Joseph update's) has a third
-//! path for CPUs with AVX-512VL, the same body with 32 registers.
+//! Small dense kernels on column-major storage for the static back-end (crate-private;
+//! each written once as an `#[inline(always)]` body and compiled by
+//! [`fma_kernel!`](crate::fma_kernel) for AVX2/FMA and, where measured to pay, AVX-512VL,
+//! with a portable twin). `benches/README.md` has their measured speed.
 
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
 use manifolds::DimAlloc;
 
-use crate::traits::FilterAlloc;
-
-/// Whether this CPU has AVX2 and FMA (cached by the standard library); always false off
-/// x86-64.
-#[inline(always)]
-pub fn has_avx2_fma() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// Whether this CPU also has AVX-512F and AVX-512VL, which give the 256-bit code of the
-/// AVX2 path 32 vector registers instead of 16 and broadcasts folded into the
-/// multiply-adds; always false off x86-64.
-#[inline(always)]
-pub fn has_avx512vl() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        has_avx2_fma()
-            && std::is_x86_feature_detected!("avx512f")
-            && std::is_x86_feature_detected!("avx512vl")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// Defines a kernel from an `#[inline(always)]` body generic over a trailing
-/// `const FMA: bool`, as three public functions:
-/// - the kernel itself, which runs the fastest path this CPU has;
-/// - the AVX2 path (`$fast`): the body with `FMA = true` compiled inside an AVX2+FMA
-///   `#[target_feature]` wrapper when the CPU has those instructions (checked once and
-///   cached, see [`has_avx2_fma`]), the portable path otherwise;
-/// - the portable path (`$portable`): the body with `FMA = false`, what CPUs without those
-///   instructions run.
-///
-/// With `+ avx512 (condition)`, CPUs with AVX-512F and AVX-512VL ([`has_avx512vl`]) run
-/// the same body compiled with those features too when the condition (an expression of
-/// the kernel's type parameters, such as `N::DIM <= 24`) holds: for kernels whose sums
-/// outgrow 16 registers at the sizes where that was measured to pay. The multiply-adds
-/// are the same, one by one and in the same order, so the two fused paths agree to
-/// rounding. Tests compare each path with the portable one.
-///
-/// ```ignore
-/// fma_kernel! {
-///     /// docs
-///     pub fn name<N: DimName>(a: &T, out: &mut U) = name_body / name_avx2 / name_portable
-///     where DefaultAllocator: DimAlloc<N>
-/// }
-/// ```
-#[macro_export]
-macro_rules! fma_kernel {
-    (
-        $(#[$meta:meta])*
-        $vis:vis fn $name:ident $(<$($g:ident : $b:path),*>)? ($($a:ident : $t:ty),* $(,)?)
-            $(-> $r:ty)? = $body:ident / $fast:ident / $portable:ident
-            $(+ avx512 ($wide:expr))?
-        $(where $($w:tt)*)?
-    ) => {
-        $crate::fma_kernel! { @paths (false $(|| $wide)?), $(#[$meta])* $vis fn $name
-            $(<$($g : $b),*>)? ($($a : $t),*) $(-> $r)? = $body / $fast / $portable
-            $(where $($w)*)? }
-    };
-    (
-        @paths ($wide:expr),
-        $(#[$meta:meta])*
-        $vis:vis fn $name:ident $(<$($g:ident : $b:path),*>)? ($($a:ident : $t:ty),* $(,)?)
-            $(-> $r:ty)? = $body:ident / $fast:ident / $portable:ident
-        $(where $($w:tt)*)?
-    ) => {
-        $(#[$meta])*
-        $vis fn $name $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)? $(where $($w)*)? {
-            #[cfg(target_arch = "x86_64")]
-            {
-                #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
-                unsafe fn wide $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)?
-                $(where $($w)*)? {
-                    $body::<$($($g,)*)? true>($($a),*)
-                }
-                if $wide && $crate::kernels::has_avx512vl() {
-                    // SAFETY: the CPU has AVX2, FMA, AVX-512F and AVX-512VL (checked just
-                    // above).
-                    return unsafe { wide $(::<$($g),*>)? ($($a),*) };
-                }
-            }
-            $fast $(::<$($g),*>)? ($($a),*)
-        }
-
-        #[doc = concat!("[`", stringify!($name), "`] on its AVX2/FMA path (the portable one ")]
-        #[doc = "on CPUs without those instructions)."]
-        $vis fn $fast $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)? $(where $($w)*)? {
-            #[cfg(target_arch = "x86_64")]
-            {
-                #[target_feature(enable = "avx2,fma")]
-                unsafe fn fused $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)?
-                $(where $($w)*)? {
-                    $body::<$($($g,)*)? true>($($a),*)
-                }
-                if $crate::kernels::has_avx2_fma() {
-                    // SAFETY: the CPU has AVX2 and FMA (checked just above).
-                    return unsafe { fused $(::<$($g),*>)? ($($a),*) };
-                }
-            }
-            $body::<$($($g,)*)? false>($($a),*)
-        }
-
-        #[doc = concat!("[`", stringify!($name), "`] without the AVX2/FMA path.")]
-        $vis fn $portable $(<$($g: $b),*>)? ($($a: $t),*) $(-> $r)? $(where $($w)*)? {
-            $body::<$($($g,)*)? false>($($a),*)
-        }
-    };
-}
-
-/// `a·x + acc`, fused when `FMA`.
-#[inline(always)]
-pub fn madd<const FMA: bool>(x: f64, a: f64, acc: f64) -> f64 {
-    if FMA {
-        x.mul_add(a, acc)
-    } else {
-        acc + x * a
-    }
-}
-
-/// `acc − a·x`, fused when `FMA` (one instruction: the negation folds into it).
-#[inline(always)]
-pub fn nmadd<const FMA: bool>(x: f64, a: f64, acc: f64) -> f64 {
-    if FMA {
-        (-x).mul_add(a, acc)
-    } else {
-        acc - x * a
-    }
-}
+use crate::dims::FilterAlloc;
+use crate::entries::Entries;
+use crate::fma_kernel;
+use crate::simd::{madd, nmadd};
 
 fma_kernel! {
     /// True when any value is NaN or infinite. `v − v` is `0` for a finite `v` and NaN
@@ -594,41 +454,6 @@ fn p_times_ht_body<N: DimName, M: DimName, const FMA: bool>(
     }
 }
 
-/// Column access to a square column-major matrix, so the block reset
-/// ([`block_reset_in_place`]) is written once for every back-end.
-pub trait Entries {
-    /// Column `c`, contiguous.
-    fn col(&self, c: usize) -> &[f64];
-    /// Column `c`, contiguous and mutable.
-    fn col_mut(&mut self, c: usize) -> &mut [f64];
-    /// Entry `(r, c)`.
-    #[inline(always)]
-    fn at(&self, r: usize, c: usize) -> f64 {
-        self.col(c)[r]
-    }
-    /// Set entry `(r, c)`.
-    #[inline(always)]
-    fn put(&mut self, r: usize, c: usize, v: f64) {
-        self.col_mut(c)[r] = v;
-    }
-}
-
-impl<R: nalgebra::Dim, C: nalgebra::Dim, S> Entries for nalgebra::Matrix<f64, R, C, S>
-where
-    S: nalgebra::RawStorageMut<f64, R, C> + nalgebra::IsContiguous,
-{
-    #[inline(always)]
-    fn col(&self, c: usize) -> &[f64] {
-        let n = self.nrows();
-        &self.as_slice()[c * n..(c + 1) * n]
-    }
-    #[inline(always)]
-    fn col_mut(&mut self, c: usize) -> &mut [f64] {
-        let n = self.nrows();
-        &mut self.as_mut_slice()[c * n..(c + 1) * n]
-    }
-}
-
 fma_kernel! {
     /// `P ← G P Gᵀ` in place for a symmetric `n × n` `P`, where `G` is the identity except
     /// for the square block `b` at rows and columns `o..o + d` (one block of
@@ -797,3 +622,6 @@ fn block_reset_any<E: Entries, const FMA: bool>(
 pub const fn block_reset_scratch(d: usize) -> usize {
     d * (d + 1)
 }
+
+#[cfg(all(test, feature = "faer"))]
+mod tests;

@@ -13,7 +13,7 @@ use rand::rngs::StdRng;
 use rand::Rng;
 use rand_distr::StandardNormal;
 
-use crate::imu::{BiasModel, ImuNoise};
+use ins_gnss_core::imu::{BiasModel, ImuNoise};
 
 /// IMU error specification for simulation, SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -181,11 +181,11 @@ impl GnssSim {
     /// Noisy antenna position for a true antenna position.
     pub fn corrupt_position(
         &self,
-        truth: &crate::position::GeoPos,
+        truth: &ins_gnss_core::position::GeoPos,
         factor: f64,
         outliers: Option<(f64, f64)>,
         rng: &mut StdRng,
-    ) -> crate::position::GeoPos {
+    ) -> ins_gnss_core::position::GeoPos {
         let mut e = normal3(rng).component_mul(&self.pos_sigma) * factor;
         if let Some((p, k)) = outliers {
             if rng.random::<f64>() < p {

@@ -2,8 +2,8 @@
 
 use nalgebra::Vector3;
 
-use crate::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
-use crate::position::GeoPos;
+use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
+use ins_gnss_core::position::GeoPos;
 
 use super::sensors::ImuErrors;
 use super::trajectory::{Segment, Start};

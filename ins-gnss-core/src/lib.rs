@@ -1,0 +1,43 @@
+//! The INS/GNSS library: the 15-state error-state filter on a WGS-84 navigation state,
+//! driven by IMU samples and GNSS epochs, and the plain-text formats of the open INS/GNSS
+//! tools. No command-line, plotting or configuration-file dependencies: the `ins-gnss`
+//! program and the `ins-gnss-sim` simulator are crates of their own built on this one.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`wgs84`] | the ellipsoid: constants, radii of curvature, trigonometry near a cached latitude |
+//! | [`earth`] | WGS-84 gravity, Earth and transport rates, geodetic ↔ ECEF ↔ NED, [`earth::LocalEarth`] |
+//! | [`position`] | [`GeoPos`], the geodetic position as a manifold with NED-metre tangent |
+//! | [`state`] | [`InsState`]: attitude, velocity, position, biases; 15-dimensional error state |
+//! | [`imu`] | [`ImuSample`] (increments), [`ImuNoise`] and [`BiasModel`] |
+//! | [`mechanization`] | WGS-84 NED (coning, sculling) and flat-earth mechanizations |
+//! | [`model`] | [`InsModel`]: mechanization, `F`, `G Q_c Gᵀ`, `Φ`, `Q_d`, block-sparse `Φ P Φᵀ` |
+//! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
+//! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
+//! | [`init`] | static coarse alignment, heading from the GNSS track |
+//! | [`io`] | streaming readers and writers of the KF-GINS formats, errors with file and line |
+//!
+//! Error state `[δθ, δv, δp, δb_g, δb_a]`: right (body-frame) attitude error, NED velocity
+//! error, NED-metre position error, additive biases.
+#![deny(missing_docs)]
+#![allow(non_snake_case)]
+
+pub mod earth;
+pub mod gnss;
+pub mod imu;
+pub mod init;
+pub mod io;
+pub mod mechanization;
+pub mod model;
+pub mod navigator;
+pub mod position;
+pub mod state;
+pub mod wgs84;
+
+pub use gnss::{GnssEpoch, GnssPosVel, GnssPosition, GnssVelocity};
+pub use imu::{BiasModel, ImuNoise, ImuSample};
+pub use mechanization::Mechanization;
+pub use model::{ImuInput, InsModel};
+pub use navigator::{GnssConfig, InitialState, InitialStd, NavError, Navigator};
+pub use position::GeoPos;
+pub use state::InsState;
