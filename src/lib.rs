@@ -20,3 +20,8 @@ pub use estimator_core;
 pub use ins_gnss_core as ins_gnss;
 pub use manifolds;
 pub use models;
+
+/// Every Rust block of the README, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod readme {}

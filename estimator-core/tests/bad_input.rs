@@ -19,7 +19,7 @@ fn sensor() -> LinearMeasurement<2, 3> {
 fn assert_unchanged(f: &ErrorStateFilter<Vector3<f64>>) {
     let g = filter();
     assert!((f.state() - g.state()).norm() < 1e-15);
-    assert!((*f.covariance() - &*g.covariance()).norm() < 1e-15);
+    assert!((*f.covariance() - *g.covariance()).norm() < 1e-15);
 }
 
 #[test]

@@ -16,6 +16,15 @@ use crate::earth::LocalEarth;
 use crate::position::{metric_at, GeoPos};
 use crate::state::InsState;
 
+/// The stream of [`GnssPosition`] updates.
+pub const GNSS_POSITION: StreamId = StreamId::named("gnss-position");
+/// The stream of [`GnssVelocity`] updates.
+pub const GNSS_VELOCITY: StreamId = StreamId::named("gnss-velocity");
+/// The stream of [`GnssPosVel`] updates.
+pub const GNSS_POSITION_VELOCITY: StreamId = StreamId::named("gnss-position-velocity");
+/// Every GNSS stream, for configurations that name them.
+pub const GNSS_STREAMS: [StreamId; 3] = [GNSS_POSITION, GNSS_VELOCITY, GNSS_POSITION_VELOCITY];
+
 /// One GNSS epoch as read from a file.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GnssEpoch {
@@ -130,7 +139,7 @@ impl MeasurementModel for GnssPosition {
     }
 
     fn stream(&self) -> StreamId {
-        StreamId::named("gnss-position")
+        GNSS_POSITION
     }
 }
 
@@ -161,7 +170,7 @@ impl MeasurementModel for GnssVelocity {
     }
 
     fn stream(&self) -> StreamId {
-        StreamId::named("gnss-velocity")
+        GNSS_VELOCITY
     }
 }
 
@@ -207,7 +216,7 @@ impl MeasurementModel for GnssPosVel {
     }
 
     fn stream(&self) -> StreamId {
-        StreamId::named("gnss-position-velocity")
+        GNSS_POSITION_VELOCITY
     }
 }
 

@@ -10,6 +10,7 @@ use manifolds::So3;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use ins_gnss_core::gnss::GNSS_STREAMS;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
 use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
 use ins_gnss_core::mechanization::Mechanization;
@@ -197,6 +198,11 @@ pub struct FilterSection {
     /// `wgs84` (default) or `flat-earth`.
     #[serde(default)]
     pub mechanization: MechanizationName,
+    /// A strategy of its own for some measurement streams, by stream name
+    /// (`gnss-position`, `gnss-position-velocity`): e.g. `{ gnss-position = "fused" }`.
+    /// Streams not named use `strategy`.
+    #[serde(default)]
+    pub streams: std::collections::BTreeMap<String, String>,
 }
 
 fn fixed() -> String {
@@ -205,7 +211,11 @@ fn fixed() -> String {
 
 impl Default for FilterSection {
     fn default() -> Self {
-        Self { strategy: fixed(), mechanization: MechanizationName::default() }
+        Self {
+            strategy: fixed(),
+            mechanization: MechanizationName::default(),
+            streams: Default::default(),
+        }
     }
 }
 
@@ -329,7 +339,35 @@ impl Config {
             .strategy
             .parse::<adaptive::AnyStrategy>()
             .map_err(|e| format!("`filter.strategy`: {e}"))?;
+        for (stream, name) in &self.filter.streams {
+            if !GNSS_STREAMS.iter().any(|s| s.name() == stream) {
+                let names: Vec<_> = GNSS_STREAMS.iter().map(|s| s.name()).collect();
+                return Err(format!(
+                    "`filter.streams`: unknown stream `{stream}`; the streams are {}",
+                    names.join(", ")
+                ));
+            }
+            name.parse::<adaptive::AnyStrategy>()
+                .map_err(|e| format!("`filter.streams.{stream}`: {e}"))?;
+        }
         Ok(())
+    }
+
+    /// `default` on every stream, and the strategies of `filter.streams` on theirs.
+    pub fn stream_strategies(
+        &self,
+        default: adaptive::AnyStrategy,
+    ) -> Result<adaptive::PerStream<adaptive::AnyStrategy>, ConfigError> {
+        let err = |message: String| ConfigError { path: PathBuf::from("filter.streams"), message };
+        let mut s = adaptive::PerStream::new(default);
+        for (stream, name) in &self.filter.streams {
+            let id = *GNSS_STREAMS
+                .iter()
+                .find(|s| s.name() == stream)
+                .ok_or_else(|| err(format!("unknown stream `{stream}`")))?;
+            s = s.with(id, name.parse().map_err(|e| err(format!("{e}")))?);
+        }
+        Ok(s)
     }
 
     /// The IMU noise in SI units.

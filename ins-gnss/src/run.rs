@@ -9,15 +9,16 @@
 //!   epoch and at the end;
 //! - `imu_errors.txt`: `t`, gyro bias x y z (deg/h), accelerometer bias x y z (mGal), at
 //!   the same epochs;
-//! - `updates.csv`: one row per GNSS epoch: time, stream, dimension, NIS, adapted NIS,
-//!   decision, reason, DOM, λ_P, λ_R.
+//! - `updates.csv`: one row per GNSS epoch: time, stream name (`gnss-position`,
+//!   `gnss-position-velocity`), dimension, NIS, adapted NIS, decision, reason, DOM, λ_P,
+//!   λ_R, and 1 where a strategy's subspace prior scaling fell back to full scaling.
 
 use core::fmt;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use adaptive::AnyStrategy;
+use adaptive::{AnyStrategy, PerStream};
 use estimator_core::{NoObserver, NoiseStrategy, UpdateSummary, Verdict};
 use nalgebra::Vector3;
 
@@ -149,7 +150,7 @@ impl Outputs {
         };
         writeln!(
             o.updates,
-            "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r"
+            "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r,scaling_fallback"
         )
         .map_err(|e| out(dir.join("updates.csv"), e))?;
         Ok((o, nav))
@@ -200,14 +201,11 @@ fn write_std<A: NoiseStrategy>(o: &mut Outputs, t: f64, nav: &Navigator<A>) -> s
 }
 
 fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
-    let stream = match u.dim {
-        6 => "gnss-pos-vel",
-        _ => "gnss-pos",
-    };
     writeln!(
         o.updates,
-        "{:.6},{stream},{},{:.6},{:.6},{},\"{}\",{:.6},{:.6},{:.6}",
+        "{:.6},{},{},{:.6},{:.6},{},\"{}\",{:.6},{:.6},{:.6},{}",
         u.time,
+        u.stream.name(),
         u.dim,
         u.nis,
         u.nis_adapted,
@@ -215,7 +213,8 @@ fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
         u.reason,
         u.factors.dom,
         u.factors.lambda_p,
-        u.factors.lambda_r
+        u.factors.lambda_r,
+        u8::from(u.prior_scaling_fallback)
     )
 }
 
@@ -241,10 +240,11 @@ fn start_navigator(
     config: &Config,
     strategy: AnyStrategy,
     first_t: f64,
-) -> Result<(Navigator<AnyStrategy>, RunSummary, f64), RunError> {
+) -> Result<(Navigator<PerStream<AnyStrategy>>, RunSummary, f64), RunError> {
     let start = config.data.start_time.unwrap_or(first_t);
     let end = config.data.end_time.unwrap_or(f64::INFINITY);
     let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+    let strategy = config.stream_strategies(strategy).map_err(RunError::Config)?;
     let nav = Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
     let summary = RunSummary {
         strategy: nav.filter().strategy().name().to_string(),

@@ -173,7 +173,7 @@ where
         }
         let coarse = numeric(10.0 * tol.step);
         let spread = max_abs(&(&coarse - &fine));
-        if !(spread <= tolerance) {
+        if spread.is_nan() || spread > tolerance {
             return Err(LawViolation {
                 law: "numerical Jacobian unreliable: steps h and 10h disagree (cancellation \
                       or a discontinuity in ⊕/⊖ here; change the step or the point)",

@@ -72,9 +72,8 @@ fma_kernel! {
     ///
     /// With `S = H P Hᵀ + R` this is `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for any `K` (see
     /// [`crate::UpdateForm::Joseph`]). Its register sums outgrow AVX2's 16 registers, so
-    /// CPUs with AVX-512VL run it with 32 up to 24 states: about 0.04 µs less per
-    /// 15-state GNSS update (criterion: 9 and 21 states gain too), but 30–40 % more at 30
-    /// states and 10–20 % more at 60 and 240, where its loops are not unrolled.
+    /// CPUs with AVX-512VL run it with 32 up to 24 states, the sizes where that was measured
+    /// to pay (`benches/README.md`).
     pub fn joseph_update<N: DimName, M: DimName>(
         p: &Cov<N>,
         k: &OMatrix<f64, N, M>,

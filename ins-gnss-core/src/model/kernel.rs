@@ -141,8 +141,8 @@ impl Addend for M15 {
 /// `4⌊c/4⌋` of column `c` down) and a symmetric addend `A`, written in 4×4 blocks of
 /// whole vectors: blocks below the diagonal copied, blocks above it transposed from
 /// their mirror images, diagonal blocks blended from both, the addend added on the way.
-/// (Mirroring value by value, 240 single stores, then adding `E` in memory took 0.017 µs
-/// more per INS epoch: `epoch_loop`, best of 11.)
+/// (Mirroring value by value, 240 single stores, then adding `E` in memory was measured
+/// slower: `benches/README.md`.)
 #[inline(always)]
 fn mirror_blocks<A: Addend>(r: &Cols16, add: &A, out: &mut Cols) {
     let flat = out.as_flattened_mut();

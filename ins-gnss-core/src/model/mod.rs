@@ -33,10 +33,9 @@ use crate::imu::{BiasModel, ImuNoise, ImuSample};
 use crate::mechanization::{self, Increments, Mechanization, Nav};
 use crate::state::InsState;
 
-/// `[recv.method::<0>(args), …]` for the 15 columns (see `error_blocks`).
+/// `[recv.method::<0>(args), …, recv.method::<14>(args)]`: the 15 padded columns, each
 /// built by a function whose column index is a constant, so that which blocks it holds is
-/// settled at compile time (with the index at run time the INS epoch took 0.66 instead
-/// of 0.53 µs).
+/// settled at compile time (measured faster than a run-time index: `benches/README.md`).
 macro_rules! each_column {
     ($recv:ident . $method:ident $args:tt) => {
         each_column!(@ $recv $method $args; 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14)
@@ -177,8 +176,8 @@ impl InsModel {
     /// `E = D dt/2`, the half-interval noise of the trapezoid, with
     /// `D = G Q_c Gᵀ = blockdiag(diag(ARW²), R̂ diag(VRW²) R̂ᵀ, 0, diag(q_bg), diag(q_ba))`.
     fn half_noise(&self, c: &Matrix3<f64>, dt: f64) -> HalfNoise {
-        // The squares directly rather than through `noise_psd`'s 12-vector: that measured
-        // 0.04 µs slower per INS epoch (`epoch_loop`, 0.56 against 0.52 µs).
+        // The squares directly rather than through `noise_psd`'s 12-vector (measured
+        // slower: `benches/README.md`).
         let n = &self.noise;
         let h = 0.5 * dt;
         let (qbg, qba) = n.bias_psd();

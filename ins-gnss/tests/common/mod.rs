@@ -108,7 +108,7 @@ pub fn run<A: NoiseStrategy>(
         if (s.t - s.t.round()).abs() < 1e-9 {
             let truth = &data.truth[k + 1].state;
             let error = truth.ominus(nav.state());
-            let nees = normalized_squared(&error, &nav.covariance()).unwrap();
+            let nees = normalized_squared(&error, nav.covariance()).unwrap();
             records.push(Record { t: s.t, error, sigma: nav.sigma(), nees });
         }
     }
