@@ -1,6 +1,6 @@
 //! The strategies on the sample data, as measured in `docs/results.md` (full runs:
-//! `cargo run --release --example repro_sample_data`), on a reduced seed count. Needs
-//! `ESTIMATOR_DATA_DIR`; says it is skipped without it.
+//! `cargo run --release --example repro_sample_data`), on a reduced seed count, on the
+//! repository's copy of the sample data.
 //!
 //! Measured conclusions asserted here: with interference injected into navego's GNSS
 //! (+4σ unreported, 60 s), Sage–Husa lowers the window's horizontal RMS against the
@@ -12,18 +12,13 @@
 #[path = "../examples/repro_sample_data.rs"]
 mod repro;
 
-fn data() -> Option<std::path::PathBuf> {
-    let dir = std::env::var_os("ESTIMATOR_DATA_DIR").map(std::path::PathBuf::from);
-    if dir.as_ref().is_none_or(|d| !d.join("navego").is_dir()) {
-        eprintln!("skipped: set ESTIMATOR_DATA_DIR to the sample data directory");
-        return None;
-    }
-    dir
+fn data() -> std::path::PathBuf {
+    repro::data_dir().expect("the repository's data/ directory")
 }
 
 #[test]
 fn navego_with_injected_interference() {
-    let Some(dir) = data() else { return };
+    let dir = data();
     let rows = repro::navego(&dir, 3).unwrap();
     let mean = |name: &str, i: usize| {
         let v: Vec<f64> = rows.iter().filter(|r| r.1 == name).map(|r| r.2[i]).collect();
@@ -37,7 +32,7 @@ fn navego_with_injected_interference() {
 
 #[test]
 fn drive_0708_outage_scores() {
-    let Some(dir) = data() else { return };
+    let dir = data();
     if !dir.join("drive-0708").is_dir() {
         eprintln!("skipped: no drive-0708 in {}", dir.display());
         return;

@@ -12,6 +12,7 @@
 //! | [`SageHusa`] | `sage-husa` | recursive `R` with forgetting | Sage & Husa 1969 |
 //! | [`AnyStrategy`] | any of the above | run-time choice by name | — |
 //! | [`Route`], [`PerStream`] | one strategy per measurement stream (by type, by name) | — | — |
+//! | [`GrossErrorGate`] | any strategy behind a χ² gate that refuses gross errors and re-admits down-weighted | — | — |
 //!
 //! Every strategy keeps its windows per measurement stream
 //! ([`estimator_core::StreamId`]), works for any measurement dimension and any state
@@ -37,6 +38,7 @@
 mod afkf;
 mod any;
 mod fused;
+mod gate;
 mod iae;
 mod iakf;
 mod per_stream;
@@ -47,6 +49,7 @@ pub use afkf::{Afkf, FadingAt, MismatchEstimate};
 pub use any::{AnyStrategy, UnknownStrategy, STRATEGY_NAMES};
 pub use estimator_core::FixedNoise;
 pub use fused::FusedDualWindow;
+pub use gate::GrossErrorGate;
 pub use iae::Iae;
 pub use iakf::{Iakf, Inflation};
 pub use per_stream::{PerStream, Route};

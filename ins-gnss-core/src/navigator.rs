@@ -80,7 +80,15 @@ impl Default for GnssConfig {
 /// A failure of the navigator, with the time it happened.
 #[derive(Clone, Debug, PartialEq)]
 pub enum NavError {
-    /// The filter refused an input or produced a non-finite result.
+    /// The filter refused a GNSS epoch or its update produced a non-finite result.
+    Measurement {
+        /// Time of the epoch, s.
+        t: f64,
+        /// What the filter said.
+        source: FilterError,
+    },
+    /// The filter's prediction over an IMU interval failed (a non-finite result, noise
+    /// that is not a covariance).
     Filter {
         /// Time, s.
         t: f64,
@@ -107,6 +115,9 @@ impl fmt::Display for NavError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             NavError::Filter { t, source } => write!(f, "at t = {t:.6} s: {source}"),
+            NavError::Measurement { t, source } => {
+                write!(f, "at the GNSS epoch t = {t:.6} s: {source}")
+            }
             NavError::TimeWentBackwards { t, now } => {
                 write!(f, "time went backwards: {t:.6} s after {now:.6} s")
             }
@@ -254,7 +265,7 @@ impl<A: NoiseStrategy> Navigator<A> {
         g: &GnssEpoch,
         observer: &mut O,
     ) -> Result<UpdateSummary, NavError> {
-        let err = |source| NavError::Filter { t: g.t, source };
+        let err = |source| NavError::Measurement { t: g.t, source };
         let pos_std = self.gnss.pos_std.unwrap_or(g.pos_std);
         let lever = self.gnss.lever_arm;
         match (self.gnss.use_velocity, g.vel) {

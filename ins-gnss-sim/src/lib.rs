@@ -110,7 +110,6 @@ pub fn simulate_from(
     seed: u64,
 ) -> SimDataset {
     let mut rng_imu = StdRng::seed_from_u64(seed);
-    let mut rng_gnss = StdRng::seed_from_u64(seed.wrapping_add(1));
     let mut corruptor = ImuCorruptor::new(*imu, &mut rng_imu);
     let n = exact.samples.len();
     let mut out = SimDataset {
@@ -129,6 +128,23 @@ pub fn simulate_from(
         out.imu.push(ImuSample { dtheta, dvel, ..*s });
         out.truth.push(record(k, corruptor.biases()));
     }
+    gnss_epochs(traj, gnss, seed, |g| {
+        out.gnss.push(g);
+        Ok::<(), core::convert::Infallible>(())
+    })
+    .unwrap_or_else(|e| match e {});
+    out
+}
+
+/// The GNSS epochs of `traj` as [`simulate`] draws them (seed `seed + 1`), in time order,
+/// each handed to `each`.
+fn gnss_epochs<E>(
+    traj: &Trajectory,
+    gnss: &GnssSim,
+    seed: u64,
+    mut each: impl FnMut(GnssEpoch) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut rng_gnss = StdRng::seed_from_u64(seed.wrapping_add(1));
     let t0 = traj.start_time();
     // GNSS epochs on their own clock, from t0 on.
     if gnss.rate_hz > 0.0 {
@@ -147,8 +163,42 @@ pub fn simulate_from(
                     k.vel + k.att.rotate(&k.w_ib_b.cross(&gnss.lever_arm)) - w_in.cross(&lever_n);
                 (gnss.corrupt_velocity(&v_ant, &s, factor, &mut rng_gnss), s)
             });
-            out.gnss.push(GnssEpoch { t, pos, pos_std: gnss.pos_sigma, vel });
+            each(GnssEpoch { t, pos, pos_std: gnss.pos_sigma, vel })?;
         }
     }
-    out
+    Ok(())
+}
+
+/// [`simulate`] without holding the dataset: the truth at the start, then every IMU
+/// sample with the truth at its end, then every GNSS epoch, each handed to a callback as
+/// it is generated (the same numbers as [`simulate`] with the same seed). Memory does not
+/// grow with the duration or the rate, so a 24 h, 100 Hz drive streams to files.
+pub fn simulate_each<E>(
+    traj: &Trajectory,
+    imu_rate_hz: f64,
+    imu: &ImuErrors,
+    gnss: &GnssSim,
+    seed: u64,
+    mut each_imu: impl FnMut(Option<&ImuSample>, &TruthRecord) -> Result<(), E>,
+    each_gnss: impl FnMut(GnssEpoch) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut rng_imu = StdRng::seed_from_u64(seed);
+    let mut corruptor = ImuCorruptor::new(*imu, &mut rng_imu);
+    let record = |k: &Kinematics, biases: (Vector3<f64>, Vector3<f64>)| TruthRecord {
+        t: k.t,
+        state: InsState { att: k.att, vel: k.vel, pos: k.pos, bg: biases.0, ba: biases.1 },
+        rates: (k.w_ib_b, k.f_b),
+    };
+    let dt = 1.0 / imu_rate_hz;
+    let t0 = traj.start_time();
+    let n = ((traj.end_time() - t0) / dt + 1e-9).floor() as usize;
+    each_imu(None, &record(&traj.at(t0), corruptor.biases()))?;
+    for i in 1..=n {
+        let (ta, tb) = (t0 + (i - 1) as f64 * dt, t0 + i as f64 * dt);
+        let (dtheta, dvel) = traj.increments(ta, tb);
+        let (dtheta, dvel) = corruptor.corrupt(&dtheta, &dvel, dt, &mut rng_imu);
+        let sample = ImuSample { t: tb, dt, dtheta, dvel };
+        each_imu(Some(&sample), &record(&traj.at(tb), corruptor.biases()))?;
+    }
+    gnss_epochs(traj, gnss, seed, each_gnss)
 }

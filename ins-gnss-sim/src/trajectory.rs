@@ -91,6 +91,11 @@ pub enum TrajectoryError {
         /// Index of the segment.
         segment: usize,
     },
+    /// No segment at all.
+    NoSegments,
+    /// The start is not finite, or not on the Earth (|latitude| ≥ 89.9°, height outside
+    /// −1 km…+100 km, speed negative or above 2 km/s).
+    BadStart,
 }
 
 impl fmt::Display for TrajectoryError {
@@ -99,6 +104,12 @@ impl fmt::Display for TrajectoryError {
             TrajectoryError::NegativeSpeed { segment } => {
                 write!(f, "segment {segment}: the speed would become negative (decelerate less or for shorter)")
             }
+            TrajectoryError::NoSegments => write!(f, "the trajectory has no segment"),
+            TrajectoryError::BadStart => write!(
+                f,
+                "the start is not finite or not physical (|latitude| < 89.9°, height within \
+                 −1 km…+100 km, speed within 0…2 km/s)"
+            ),
             TrajectoryError::BadSegment { segment } => {
                 write!(f, "segment {segment}: duration must be positive and every rate finite")
             }
@@ -150,6 +161,27 @@ pub struct Trajectory {
 impl Trajectory {
     /// Build from a start and segments (durations rounded to the 1 ms grid).
     pub fn new(start: Start, segments: &[Segment]) -> Result<Self, TrajectoryError> {
+        if segments.is_empty() {
+            return Err(TrajectoryError::NoSegments);
+        }
+        let finite = [
+            start.t,
+            start.pos.lat,
+            start.pos.lon,
+            start.pos.h,
+            start.speed,
+            start.yaw,
+            start.pitch,
+        ]
+        .iter()
+        .all(|v| v.is_finite());
+        if !finite
+            || start.pos.lat.abs() >= 89.9_f64.to_radians()
+            || !(-1_000.0..=100_000.0).contains(&start.pos.h)
+            || !(0.0..=2_000.0).contains(&start.speed)
+        {
+            return Err(TrajectoryError::BadStart);
+        }
         let mut segs = Vec::with_capacity(segments.len());
         let (mut t, mut s, mut yaw, mut pitch) = (start.t, start.speed, start.yaw, start.pitch);
         let mut steps_total = 0usize;

@@ -27,10 +27,41 @@ pub fn parse_window(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s.split_once(',').ok_or_else(|| format!("window `{s}` must be T0,T1"))?;
     let a: f64 = a.trim().parse().map_err(|_| format!("window start `{a}` is not a number"))?;
     let b: f64 = b.trim().parse().map_err(|_| format!("window end `{b}` is not a number"))?;
+    if !(a.is_finite() && b.is_finite()) {
+        return Err(format!("window `{s}`: times must be finite"));
+    }
     if b <= a {
         return Err(format!("window `{s}`: end must be after start"));
     }
     Ok((a, b))
+}
+
+/// Parse `--skip`: finite seconds, at least 0.
+pub fn parse_skip(s: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| format!("--skip `{s}` is not a number"))?;
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(format!("--skip `{s}` must be finite seconds, at least 0"));
+    }
+    Ok(v)
+}
+
+/// An evaluation that compared no epoch (the result and the truth do not overlap after
+/// `skip`) is refused instead of printing a table of zeros.
+fn require_overlap(
+    ev: &Evaluation,
+    result: &Path,
+    truth: &Path,
+    skip: f64,
+) -> Result<(), CliError> {
+    if ev.overall.epochs == 0 {
+        return Err(format!(
+            "no epoch of {} falls inside the time span of {} after skipping {skip} s",
+            result.display(),
+            truth.display()
+        )
+        .into());
+    }
+    Ok(())
 }
 
 fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
@@ -57,6 +88,9 @@ pub fn print_summary(s: &RunSummary) {
         s.imu_epochs as f64 / s.wall_time.max(1e-9),
         s.out_dir.display()
     );
+    if let Some(c) = s.consistency() {
+        out!("{}", c.verdict());
+    }
 }
 
 /// Options of `ins-gnss run`.
@@ -76,6 +110,8 @@ pub struct RunOptions<'a> {
     pub progress: bool,
     /// Write SVG plots.
     pub plots: bool,
+    /// Open the gross-error gate (KF-GINS's behaviour: every fix used).
+    pub no_gate: bool,
 }
 
 /// `ins-gnss run`.
@@ -87,6 +123,9 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         cfg.imu_noise.bias_model = toml::Value::String(b.to_string()).try_into().map_err(|_| {
             format!("unknown bias model `{b}`: random-walk, gauss-markov, gauss-markov-held")
         })?;
+    }
+    if o.no_gate {
+        cfg.filter.gate.enabled = false;
     }
     let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
@@ -104,6 +143,7 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     let truth = truth.map(Path::to_path_buf).or_else(|| cfg.data.truth.clone());
     if let Some(truth) = truth {
         let ev = evaluate(&out_dir.join("nav.txt"), &truth, skip, &[])?;
+        require_overlap(&ev, &out_dir.join("nav.txt"), &truth, skip)?;
         print_table(&[(&name, &ev.overall)]);
         if plots {
             let files = crate::plot::write_all(&out_dir, &truth)?;
@@ -233,11 +273,7 @@ pub fn eval(
     json: bool,
 ) -> Result<(), CliError> {
     let ev = evaluate(result, truth, skip, windows)?;
-    if ev.overall.epochs == 0 {
-        return Err(
-            format!("no epoch of {} falls inside the truth's time span", result.display()).into()
-        );
-    }
+    require_overlap(&ev, result, truth, skip)?;
     if json {
         out!("{}", serde_json::to_string_pretty(&ev)?);
     } else {
@@ -275,7 +311,9 @@ pub fn compare(
         let dir = base.join(name);
         let s = run_config(&cfg, strategy(name)?, &dir, None)?;
         print_summary(&s);
-        evals.push((name.clone(), evaluate(&dir.join("nav.txt"), &truth, skip, &[])?));
+        let ev = evaluate(&dir.join("nav.txt"), &truth, skip, &[])?;
+        require_overlap(&ev, &dir.join("nav.txt"), &truth, skip)?;
+        evals.push((name.clone(), ev));
     }
     let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (n.as_str(), &e.overall)).collect();
     print_table(&rows);

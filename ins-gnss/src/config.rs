@@ -60,9 +60,14 @@ pub struct DataSection {
     /// `error` (default) or `skip`: what to do with malformed lines.
     #[serde(default)]
     pub bad_lines: PolicyName,
-    /// Largest IMU gap, in IMU intervals. Default 5.
+    /// Largest IMU gap, in IMU intervals. Default 5. A longer gap is an error, or with
+    /// `bad_lines = "skip"` bridged in one step up to `max_bridge`.
     #[serde(default = "default_max_gap")]
     pub max_gap: f64,
+    /// Largest gap that `bad_lines = "skip"` bridges, in IMU intervals. Default 20; a
+    /// longer gap is an error naming the lines on both sides.
+    #[serde(default = "default_max_bridge")]
+    pub max_bridge: f64,
     /// A truth file for evaluation (11 columns), optional.
     #[serde(default)]
     pub truth: Option<PathBuf>,
@@ -73,6 +78,9 @@ fn default_output() -> PathBuf {
 }
 fn default_max_gap() -> f64 {
     5.0
+}
+fn default_max_bridge() -> f64 {
+    20.0
 }
 
 /// IMU format names in configs.
@@ -203,6 +211,43 @@ pub struct FilterSection {
     /// Streams not named use `strategy`.
     #[serde(default)]
     pub streams: std::collections::BTreeMap<String, String>,
+    /// The gross-error gate in front of every strategy.
+    #[serde(default)]
+    pub gate: GateSection,
+}
+
+/// The gross-error gate ([`adaptive::GrossErrorGate`]): refuses an innovation whose NIS
+/// exceeds the χ² quantile at `1 − probability`, whatever the strategy.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GateSection {
+    /// On by default; `false` gives KF-GINS's behaviour (every fix used).
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Probability that a consistent innovation is refused. Default 1e-6.
+    #[serde(default = "default_gate_probability")]
+    pub probability: f64,
+    /// Refusals in a row after which the next gated measurement is admitted with the
+    /// prior inflated (the filter is doubted, not the measurement). Default 20.
+    #[serde(default = "default_readmit")]
+    pub readmit_after: u32,
+}
+
+fn default_gate_probability() -> f64 {
+    1e-6
+}
+fn default_readmit() -> u32 {
+    20
+}
+
+impl Default for GateSection {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            probability: default_gate_probability(),
+            readmit_after: default_readmit(),
+        }
+    }
 }
 
 fn fixed() -> String {
@@ -215,6 +260,7 @@ impl Default for FilterSection {
             strategy: fixed(),
             mechanization: MechanizationName::default(),
             streams: Default::default(),
+            gate: GateSection::default(),
         }
     }
 }
@@ -258,10 +304,12 @@ impl Config {
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
         let err = |message: String| ConfigError { path: path.to_path_buf(), message };
         let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+        // a UTF-8 byte-order mark (Windows editors write one) is not part of the text
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let mut cfg = match ext.as_str() {
-            "yaml" | "yml" => kf_gins::from_yaml(&text).map_err(err)?,
-            _ => toml::from_str::<Config>(&text).map_err(|e| err(e.to_string()))?,
+            "yaml" | "yml" => kf_gins::from_yaml(text).map_err(err)?,
+            _ => toml::from_str::<Config>(text).map_err(|e| err(e.to_string()))?,
         };
         let base = path.parent().unwrap_or_else(|| Path::new("."));
         for p in [&mut cfg.data.imu, &mut cfg.data.gnss, &mut cfg.data.output] {
@@ -278,40 +326,86 @@ impl Config {
         Ok(cfg)
     }
 
-    /// Check ranges and signs; the message names the key.
+    /// Check that every value is finite and physically possible; the message names the
+    /// key and the limit. Heights must lie within −1 km…+100 km, lever arms within 100 m,
+    /// noise densities and standard deviations must be positive, the start before the
+    /// end.
     pub fn validate(&self) -> Result<(), String> {
+        let finite = |name: &str, a: &[f64]| match a.iter().find(|v| !v.is_finite()) {
+            Some(v) => Err(format!("`{name}` must be finite, got {v}")),
+            None => Ok(()),
+        };
         let pos = |name: &str, a: &[f64; 3]| {
-            if a.iter().all(|v| v.is_finite() && *v > 0.0) {
+            finite(name, a)?;
+            if a.iter().all(|v| *v > 0.0) {
                 Ok(())
             } else {
                 Err(format!("`{name}` must be three positive numbers, got {a:?}"))
             }
         };
         let nonneg = |name: &str, a: &[f64; 3]| {
-            if a.iter().all(|v| v.is_finite() && *v >= 0.0) {
+            finite(name, a)?;
+            if a.iter().all(|v| *v >= 0.0) {
                 Ok(())
             } else {
                 Err(format!("`{name}` must be three non-negative numbers, got {a:?}"))
             }
         };
-        if !(self.data.imu_rate.is_finite() && self.data.imu_rate > 0.0) {
+        let d = &self.data;
+        finite("data.imu_rate", &[d.imu_rate])?;
+        if !(d.imu_rate > 0.0 && d.imu_rate <= 100_000.0) {
             return Err(format!(
-                "`data.imu_rate` must be positive (Hz), got {}",
-                self.data.imu_rate
+                "`data.imu_rate` must be positive and at most 100 kHz (Hz), got {}",
+                d.imu_rate
             ));
         }
-        if !(self.data.max_gap.is_finite() && self.data.max_gap >= 1.0) {
+        finite("data.max_gap", &[d.max_gap])?;
+        if d.max_gap < 1.0 {
             return Err(format!(
                 "`data.max_gap` must be at least 1 (IMU intervals), got {}",
-                self.data.max_gap
+                d.max_gap
             ));
         }
+        finite("data.max_bridge", &[d.max_bridge])?;
+        if d.max_bridge < d.max_gap {
+            return Err(format!(
+                "`data.max_bridge` ({}) must be at least `data.max_gap` ({}) (IMU intervals)",
+                d.max_bridge, d.max_gap
+            ));
+        }
+        if let Some(t) = d.start_time {
+            finite("data.start_time", &[t])?;
+        }
+        if let Some(t) = d.end_time {
+            finite("data.end_time", &[t])?;
+        }
+        if let (Some(s), Some(e)) = (d.start_time, d.end_time) {
+            if s >= e {
+                return Err(format!(
+                    "`data.start_time` ({s} s) must be before `data.end_time` ({e} s)"
+                ));
+            }
+        }
         let i = &self.init;
+        finite("init.position", &i.position)?;
+        finite("init.velocity", &i.velocity)?;
+        finite("init.attitude", &i.attitude)?;
+        finite("init.gyro_bias", &i.gyro_bias)?;
+        finite("init.accel_bias", &i.accel_bias)?;
         if i.position[0].abs() > 90.0 || i.position[1].abs() > 360.0 {
             return Err(format!(
                 "`init.position` latitude/longitude out of range (degrees): {:?}",
                 i.position
             ));
+        }
+        if !(-1_000.0..=100_000.0).contains(&i.position[2]) {
+            return Err(format!(
+                "`init.position` height {} m is outside −1 km…+100 km",
+                i.position[2]
+            ));
+        }
+        if i.velocity.iter().any(|v| v.abs() > 2_000.0) {
+            return Err(format!("`init.velocity` {:?} m/s: a component beyond 2 km/s", i.velocity));
         }
         pos("init.position_std", &i.position_std)?;
         pos("init.velocity_std", &i.velocity_std)?;
@@ -319,14 +413,22 @@ impl Config {
         pos("init.gyro_bias_std", &i.gyro_bias_std)?;
         pos("init.accel_bias_std", &i.accel_bias_std)?;
         let n = &self.imu_noise;
-        nonneg("imu_noise.arw", &n.arw)?;
-        nonneg("imu_noise.vrw", &n.vrw)?;
-        nonneg("imu_noise.gyro_bias_std", &n.gyro_bias_std)?;
-        nonneg("imu_noise.accel_bias_std", &n.accel_bias_std)?;
-        if !(n.corr_time.is_finite() && n.corr_time > 0.0) {
+        pos("imu_noise.arw", &n.arw)?;
+        pos("imu_noise.vrw", &n.vrw)?;
+        pos("imu_noise.gyro_bias_std", &n.gyro_bias_std)?;
+        pos("imu_noise.accel_bias_std", &n.accel_bias_std)?;
+        finite("imu_noise.corr_time", &[n.corr_time])?;
+        if n.corr_time <= 0.0 {
             return Err(format!(
                 "`imu_noise.corr_time` must be positive (hours), got {}",
                 n.corr_time
+            ));
+        }
+        nonneg("gnss.lever_arm (absolute values)", &self.gnss.lever_arm.map(f64::abs))?;
+        if self.gnss.lever_arm.iter().any(|v| v.abs() > 100.0) {
+            return Err(format!(
+                "`gnss.lever_arm` {:?} m: a component beyond the 100 m limit",
+                self.gnss.lever_arm
             ));
         }
         if let Some(s) = &self.gnss.position_std {
@@ -334,6 +436,18 @@ impl Config {
         }
         if let Some(s) = &self.gnss.velocity_std {
             pos("gnss.velocity_std", s)?;
+        }
+        let g = &self.filter.gate;
+        finite("filter.gate.probability", &[g.probability])?;
+        if !(g.probability > 0.0 && g.probability < 0.5) {
+            return Err(format!(
+                "`filter.gate.probability` must lie in (0, 0.5): the chance that a consistent \
+                 innovation is refused, e.g. 1e-6; got {}",
+                g.probability
+            ));
+        }
+        if g.readmit_after == 0 {
+            return Err("`filter.gate.readmit_after` must be at least 1".into());
         }
         self.filter
             .strategy
@@ -351,6 +465,23 @@ impl Config {
                 .map_err(|e| format!("`filter.streams.{stream}`: {e}"))?;
         }
         Ok(())
+    }
+
+    /// The run's strategy: `default` on every stream and the strategies of
+    /// `filter.streams` on theirs, behind the gross-error gate of `filter.gate` (open when
+    /// `filter.gate.enabled = false`).
+    pub fn strategy(
+        &self,
+        default: adaptive::AnyStrategy,
+    ) -> Result<adaptive::GrossErrorGate<adaptive::PerStream<adaptive::AnyStrategy>>, ConfigError>
+    {
+        let inner = self.stream_strategies(default)?;
+        let g = &self.filter.gate;
+        Ok(if g.enabled {
+            adaptive::GrossErrorGate::new(inner, g.probability, g.readmit_after)
+        } else {
+            adaptive::GrossErrorGate::disabled(inner)
+        })
     }
 
     /// `default` on every stream, and the strategies of `filter.streams` on theirs.
@@ -505,13 +636,66 @@ mod kf_gins {
             .ok_or_else(|| format!("key `{key}` must be a string"))
     }
 
+    /// The keys of a KF-GINS configuration (top level, and under `imunoise`).
+    const KEYS: [&str; 22] = [
+        "imupath",
+        "gnsspath",
+        "outputpath",
+        "imudatalen",
+        "imudatarate",
+        "starttime",
+        "endtime",
+        "initpos",
+        "initvel",
+        "initatt",
+        "initgyrbias",
+        "initaccbias",
+        "initgyrscale",
+        "initaccscale",
+        "initposstd",
+        "initvelstd",
+        "initattstd",
+        "initbgstd",
+        "initbastd",
+        "initsgstd",
+        "initsastd",
+        "antlever",
+    ];
+    const NOISE_KEYS: [&str; 7] = ["arw", "vrw", "gbstd", "abstd", "gsstd", "asstd", "corrtime"];
+
+    /// Refuse a key that is not KF-GINS's (a misspelt key would otherwise be silently
+    /// ignored), suggesting the closest one.
+    fn check_keys(node: &Yaml, known: &[&str], prefix: &str) -> Result<(), String> {
+        let Some(map) = node.as_hash() else { return Ok(()) };
+        for key in map.keys() {
+            let name = key.as_str().unwrap_or("");
+            if name == "imunoise" && prefix.is_empty() {
+                continue;
+            }
+            if !known.contains(&name) {
+                let best = known
+                    .iter()
+                    .map(|k| (strsim::levenshtein(name, k), *k))
+                    .min()
+                    .filter(|(d, _)| *d <= 3)
+                    .map(|(_, k)| format!(" (did you mean `{prefix}{k}`?)"))
+                    .unwrap_or_default();
+                return Err(format!("unknown key `{prefix}{name}`{best}"));
+            }
+        }
+        Ok(())
+    }
+
     /// Build our configuration from a KF-GINS YAML text. The scale-factor keys
     /// (`initgyrscale`, `initaccscale`, `initsgstd`, `initsastd`, `imunoise.gsstd`,
-    /// `imunoise.asstd`) are accepted and ignored: this filter has 15 states.
+    /// `imunoise.asstd`) are accepted and ignored: this filter has 15 states. Any other
+    /// key is refused with the closest known one suggested.
     pub fn from_yaml(text_in: &str) -> Result<Config, String> {
         let docs =
             YamlLoader::load_from_str(text_in).map_err(|e| format!("not valid YAML: {e}"))?;
         let doc = docs.first().ok_or("empty YAML document")?;
+        check_keys(doc, &KEYS, "")?;
+        check_keys(&doc["imunoise"], &NOISE_KEYS, "imunoise.")?;
         let imudatalen = num(get(doc, "imudatalen").unwrap_or(&Yaml::Integer(7))).unwrap_or(7.0);
         if imudatalen != 7.0 && imudatalen != 8.0 {
             return Err(format!("key `imudatalen` must be 7 or 8, got {imudatalen}"));
@@ -529,6 +713,7 @@ mod kf_gins {
                 end_time: (end > 0.0).then_some(end),
                 bad_lines: PolicyName::Error,
                 max_gap: default_max_gap(),
+                max_bridge: default_max_bridge(),
                 truth: None,
             },
             init: InitSection {

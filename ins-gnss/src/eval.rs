@@ -131,7 +131,7 @@ pub const MAX_REFERENCE_GAP: f64 = 1.0;
 /// Reads a reference: the 11-column navigation format, or `t lat lon h` (4 columns, e.g.
 /// RTK-fixed positions), whose velocity and attitude are NaN (not evaluated).
 struct RefReader {
-    lines: ins_gnss_core::io::NumericLines<std::io::BufReader<std::fs::File>>,
+    lines: ins_gnss_core::io::NumericLines<ins_gnss_core::io::formats::Input>,
     prev_t: Option<f64>,
 }
 

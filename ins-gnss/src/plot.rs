@@ -133,7 +133,8 @@ pub fn comparison(
     series: &[Vec<Series>],
 ) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
-    let root = SVGBackend::new(path, (1000, 320 * panels.len() as u32)).into_drawing_area();
+    let tmp = partial(path);
+    let root = SVGBackend::new(&tmp, (1000, 320 * panels.len() as u32)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
     let areas = root.split_evenly((panels.len(), 1));
     for (k, (title, unit)) in panels.iter().enumerate() {
@@ -156,7 +157,19 @@ pub fn comparison(
         draw_lines(&areas[k], title, unit, &lines, false)?;
     }
     root.present().map_err(e)?;
-    Ok(())
+    drop(root);
+    publish(path)
+}
+
+/// Where a plot is drawn before it replaces `path` (an earlier plot is never left half
+/// overwritten).
+fn partial(path: &Path) -> PathBuf {
+    ins_gnss_core::io::formats::partial_path(path)
+}
+
+/// Move a finished plot into place.
+fn publish(path: &Path) -> Result<(), String> {
+    std::fs::rename(partial(path), path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Write the plots of the run in `out_dir` against `truth`; returns the files written.
@@ -169,7 +182,8 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
 
     let p = out_dir.join("errors_position.svg");
     {
-        let root = SVGBackend::new(&p, (1000, 900)).into_drawing_area();
+        let tmp = partial(&p);
+        let root = SVGBackend::new(&tmp, (1000, 900)).into_drawing_area();
         root.fill(&WHITE).map_err(e)?;
         let areas = root.split_evenly((3, 1));
         for (k, name) in ["north", "east", "down"].iter().enumerate() {
@@ -177,11 +191,13 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
         }
         root.present().map_err(e)?;
     }
+    publish(&p)?;
     written.push(p);
 
     let p = out_dir.join("errors_attitude.svg");
     {
-        let root = SVGBackend::new(&p, (1000, 900)).into_drawing_area();
+        let tmp = partial(&p);
+        let root = SVGBackend::new(&tmp, (1000, 900)).into_drawing_area();
         root.fill(&WHITE).map_err(e)?;
         let areas = root.split_evenly((3, 1));
         for (k, name) in ["roll", "pitch", "yaw"].iter().enumerate() {
@@ -189,12 +205,14 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
         }
         root.present().map_err(e)?;
     }
+    publish(&p)?;
     written.push(p);
 
     let ups = read_updates(&out_dir.join("updates.csv"))?;
     let p = out_dir.join("adaptation.svg");
     {
-        let root = SVGBackend::new(&p, (1000, 600)).into_drawing_area();
+        let tmp = partial(&p);
+        let root = SVGBackend::new(&tmp, (1000, 600)).into_drawing_area();
         root.fill(&WHITE).map_err(e)?;
         let (t0, t1) = (
             ups.first().map(|u| u.0).unwrap_or(0.0),
@@ -235,6 +253,7 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
         chart.configure_series_labels().border_style(BLACK).draw().map_err(e)?;
         root.present().map_err(e)?;
     }
+    publish(&p)?;
     written.push(p);
     Ok(written)
 }

@@ -18,7 +18,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use adaptive::{AnyStrategy, PerStream};
+use adaptive::{AnyStrategy, GrossErrorGate, PerStream};
 use estimator_core::{NoObserver, NoiseStrategy, UpdateSummary, Verdict};
 use nalgebra::Vector3;
 
@@ -26,7 +26,7 @@ use crate::config::Config;
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
 use ins_gnss_core::imu::{DEG_PER_H, MGAL};
-use ins_gnss_core::io::formats::{create, write_nav};
+use ins_gnss_core::io::formats::{create_partial, partial_path, publish, write_nav};
 use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use ins_gnss_core::model::InsModel;
 use ins_gnss_core::navigator::{NavError, Navigator};
@@ -40,6 +40,16 @@ pub enum RunError {
     Input(LineError),
     /// The filter failed (with time).
     Navigation(NavError),
+    /// The filter failed on the record of `path` at `line`: a GNSS epoch whose update
+    /// failed, or the IMU sample whose prediction did.
+    Located {
+        /// The input file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What failed.
+        error: NavError,
+    },
     /// Writing an output failed.
     Output {
         /// The file.
@@ -49,6 +59,14 @@ pub enum RunError {
     },
     /// The IMU file ends before the start time or has no sample after it.
     NoData(String),
+    /// The run failed after it had started writing: its outputs stay as `*.partial` in
+    /// `dir`, earlier results there are untouched.
+    Incomplete {
+        /// Why.
+        error: Box<RunError>,
+        /// The output directory.
+        dir: PathBuf,
+    },
 }
 
 impl fmt::Display for RunError {
@@ -57,10 +75,19 @@ impl fmt::Display for RunError {
             RunError::Config(e) => write!(f, "{e}"),
             RunError::Input(e) => write!(f, "{e}"),
             RunError::Navigation(e) => write!(f, "navigation failed {e}"),
+            RunError::Located { path, line, error } => {
+                write!(f, "{}:{line}: navigation failed {error}", path.display())
+            }
             RunError::Output { path, message } => {
                 write!(f, "{}: cannot write: {message}", path.display())
             }
             RunError::NoData(m) => write!(f, "{m}"),
+            RunError::Incomplete { error, dir } => write!(
+                f,
+                "{error}\n(no earlier result in {} was touched; this run's partial output is \
+                 there as *.partial)",
+                dir.display()
+            ),
         }
     }
 }
@@ -104,15 +131,81 @@ pub struct RunSummary {
     pub wall_time: f64,
     /// Output directory.
     pub out_dir: PathBuf,
+    /// Sum of the NIS of the plainly accepted updates, and of their dimensions (the
+    /// degrees of freedom): `nis_sum / nis_dof` is the mean NIS per degree of freedom,
+    /// 1 for a filter whose uncertainty is consistent with its innovations.
+    pub nis_sum: f64,
+    /// See [`nis_sum`](Self::nis_sum).
+    pub nis_dof: usize,
+    /// Time of the first and last GNSS epoch read, s (NaN when none was).
+    pub gnss_span: (f64, f64),
+}
+
+/// Whether a run's innovations were consistent with its reported uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Consistency {
+    /// Mean NIS per degree of freedom of the plainly accepted updates.
+    pub mean_nis: f64,
+    /// The two-sided 99 % band of that mean for a consistent filter (χ² with the summed
+    /// degrees of freedom).
+    pub band: (f64, f64),
+    /// Updates counted.
+    pub updates: usize,
+}
+
+impl Consistency {
+    /// Inside the band.
+    pub fn consistent(&self) -> bool {
+        self.mean_nis >= self.band.0 && self.mean_nis <= self.band.1
+    }
+
+    /// One line for the run summary: the verdict, and a warning when not consistent.
+    pub fn verdict(&self) -> String {
+        let head = format!(
+            "consistency: mean NIS per degree of freedom {:.3} over {} accepted updates, 99 % band [{:.3}, {:.3}]",
+            self.mean_nis, self.updates, self.band.0, self.band.1
+        );
+        if self.consistent() {
+            format!("{head}: consistent")
+        } else if self.mean_nis > self.band.1 {
+            format!(
+                "{head}: NOT consistent — the innovations are larger than the filter believes, \
+                 so its reported σ (std.txt) is too small; check the GNSS and IMU noise settings"
+            )
+        } else {
+            format!(
+                "{head}: NOT consistent — the innovations are smaller than the filter believes, \
+                 so its reported σ is too large (noise settings pessimistic)"
+            )
+        }
+    }
 }
 
 impl RunSummary {
+    /// The consistency of the plainly accepted updates' NIS (`None` without any).
+    pub fn consistency(&self) -> Option<Consistency> {
+        if self.nis_dof == 0 {
+            return None;
+        }
+        let k = self.nis_dof as f64;
+        let q = |p| estimator_core::consistency::chi2_quantile(p, k) / k;
+        Some(Consistency {
+            mean_nis: self.nis_sum / k,
+            band: (q(0.005), q(0.995)),
+            updates: self.accepted,
+        })
+    }
+
     /// Count the verdicts of one epoch's updates.
     fn tally(&mut self, updates: &[UpdateSummary]) {
         for u in updates {
             self.gnss_epochs += 1;
             match u.verdict {
-                Verdict::Accepted => self.accepted += 1,
+                Verdict::Accepted => {
+                    self.accepted += 1;
+                    self.nis_sum += u.nis;
+                    self.nis_dof += u.dim;
+                }
                 Verdict::Inflated => self.inflated += 1,
                 Verdict::Rejected => self.rejected += 1,
             }
@@ -137,9 +230,11 @@ impl Outputs {
         let out =
             |path: PathBuf, e: std::io::Error| RunError::Output { path, message: e.to_string() };
         std::fs::create_dir_all(dir).map_err(|e| out(dir.to_path_buf(), e))?;
+        // Every output is written as `NAME.partial` and renamed into place when the run
+        // completes ([`Outputs::publish`]): a failed run never touches earlier results.
         let open = |name: &str| {
             let p = dir.join(name);
-            create(&p).map_err(|e| out(p, e))
+            create_partial(&p).map_err(|e| out(partial_path(&p), e))
         };
         let nav = open("nav.txt")?;
         let mut o = Outputs {
@@ -157,7 +252,19 @@ impl Outputs {
     }
 
     fn err(&self, name: &str, e: std::io::Error) -> RunError {
-        RunError::Output { path: self.dir.join(name), message: e.to_string() }
+        RunError::Output { path: partial_path(&self.dir.join(name)), message: e.to_string() }
+    }
+
+    /// The names of the outputs.
+    const NAMES: [&'static str; 4] = ["nav.txt", "std.txt", "imu_errors.txt", "updates.csv"];
+
+    /// Rename every finished `NAME.partial` over `NAME`.
+    fn publish(dir: &Path) -> Result<(), RunError> {
+        for name in Self::NAMES {
+            let p = dir.join(name);
+            publish(&p).map_err(|e| RunError::Output { path: p, message: e.to_string() })?;
+        }
+        Ok(())
     }
 }
 
@@ -218,7 +325,7 @@ fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
     )
 }
 
-type FileReader = std::io::BufReader<std::fs::File>;
+type FileReader = ins_gnss_core::io::formats::Input;
 
 /// The configured IMU and GNSS readers (format, rate, gap limit, skip policy).
 fn open_inputs(
@@ -230,7 +337,8 @@ fn open_inputs(
         config.data.imu_rate,
         config.data.max_gap,
         config.bad_lines(),
-    )?;
+    )?
+    .with_max_bridge(config.data.max_bridge);
     Ok((imu, GnssReader::open(&config.data.gnss, config.bad_lines())?))
 }
 
@@ -240,11 +348,11 @@ fn start_navigator(
     config: &Config,
     strategy: AnyStrategy,
     first_t: f64,
-) -> Result<(Navigator<PerStream<AnyStrategy>>, RunSummary, f64), RunError> {
+) -> Result<(Navigator<RunStrategy>, RunSummary, f64), RunError> {
     let start = config.data.start_time.unwrap_or(first_t);
     let end = config.data.end_time.unwrap_or(f64::INFINITY);
     let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
-    let strategy = config.stream_strategies(strategy).map_err(RunError::Config)?;
+    let strategy = config.strategy(strategy).map_err(RunError::Config)?;
     let nav = Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
     let summary = RunSummary {
         strategy: nav.filter().strategy().name().to_string(),
@@ -253,6 +361,10 @@ fn start_navigator(
     };
     Ok((nav, summary, end))
 }
+
+/// The strategy of a run: the configured strategies per stream behind the gross-error
+/// gate ([`Config::strategy`]).
+pub type RunStrategy = GrossErrorGate<PerStream<AnyStrategy>>;
 
 /// Samples or records per message between the pipeline's threads.
 const BATCH: usize = 1024;
@@ -268,22 +380,57 @@ pub fn run(
     config: &Config,
     strategy: AnyStrategy,
     out_dir: &Path,
+    progress: Option<Progress<'_>>,
+) -> Result<RunSummary, RunError> {
+    let (imu, gnss) = open_inputs(config)?;
+    let (out, nav_file) = Outputs::create(out_dir)?;
+    match run_into(config, strategy, out_dir, progress, (imu, gnss), (out, nav_file)) {
+        Ok(summary) => {
+            Outputs::publish(out_dir)?;
+            Ok(summary)
+        }
+        Err(error) => {
+            Err(RunError::Incomplete { error: Box::new(error), dir: out_dir.to_path_buf() })
+        }
+    }
+}
+
+/// [`run`] with its inputs open and its partial outputs created.
+fn run_into(
+    config: &Config,
+    strategy: AnyStrategy,
+    out_dir: &Path,
     mut progress: Option<Progress<'_>>,
+    (mut imu, mut gnss): (ImuReader<FileReader>, GnssReader<FileReader>),
+    (mut out, nav_file): (Outputs, std::io::BufWriter<std::fs::File>),
 ) -> Result<RunSummary, RunError> {
     let wall = Instant::now();
-    let (mut imu, mut gnss) = open_inputs(config)?;
-    let (mut out, nav_file) = Outputs::create(out_dir)?;
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
     let first =
         imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
-    let (mut nav, mut summary, end) = start_navigator(config, strategy, first.t)?;
+    let first = (first, imu.line());
+    let (mut nav, mut summary, end) = start_navigator(config, strategy, first.0.t)?;
     let start = summary.span.0;
     summary.out_dir = out_dir.to_path_buf();
+    let (imu_path, gnss_path) = (config.data.imu.clone(), config.data.gnss.clone());
+    // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
+    // sample whose prediction did.
+    let locate = |e: NavError, imu_line: usize, epochs: &[(GnssEpoch, usize)]| match &e {
+        NavError::Measurement { t, .. } => {
+            match epochs.iter().find(|(g, _)| (g.t - t).abs() < 1e-6) {
+                Some((_, line)) => {
+                    RunError::Located { path: gnss_path.clone(), line: *line, error: e }
+                }
+                None => RunError::Navigation(e),
+            }
+        }
+        _ => RunError::Located { path: imu_path.clone(), line: imu_line, error: e },
+    };
 
     std::thread::scope(|scope| -> Result<(), RunError> {
         let (imu_tx, imu_rx) =
-            std::sync::mpsc::sync_channel::<Result<Vec<ImuSample>, LineError>>(4);
+            std::sync::mpsc::sync_channel::<Result<Vec<(ImuSample, usize)>, LineError>>(4);
         // States, not records: the writer thread does the Euler conversion.
         let (nav_tx, nav_rx) =
             std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::state::InsState)>>(4);
@@ -293,7 +440,7 @@ pub fn run(
             loop {
                 match imu.next_sample() {
                     Ok(Some(s)) => {
-                        batch.push(s);
+                        batch.push((s, imu.line()));
                         if batch.len() == BATCH
                             && imu_tx
                                 .send(Ok(std::mem::replace(&mut batch, Vec::with_capacity(BATCH))))
@@ -315,7 +462,7 @@ pub fn run(
             }
             imu.skipped
         });
-        let nav_path = out_dir.join("nav.txt");
+        let nav_path = partial_path(&out_dir.join("nav.txt"));
         let writer = scope.spawn(move || -> Result<(), RunError> {
             let mut w = nav_file;
             for batch in nav_rx {
@@ -331,12 +478,24 @@ pub fn run(
         });
 
         let result = (|| -> Result<(), RunError> {
-            let mut next_gnss: Option<GnssEpoch> = gnss.next_epoch()?;
+            let read_gnss = |gnss: &mut GnssReader<FileReader>, span: &mut (f64, f64)| {
+                let g = gnss.next_epoch()?;
+                if let Some(g) = &g {
+                    if span.0.is_nan() {
+                        span.0 = g.t;
+                    }
+                    span.1 = g.t;
+                }
+                Ok::<_, RunError>(g.map(|g| (g, gnss.line())))
+            };
+            summary.gnss_span = (f64::NAN, f64::NAN);
+            let mut next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
             let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
+            let mut batch_lines: Vec<(GnssEpoch, usize)> = Vec::with_capacity(4);
             let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
             let mut records = Vec::with_capacity(BATCH);
             'outer: for message in &imu_rx {
-                for sample in message? {
+                for (sample, imu_line) in message? {
                     if sample.t <= start + 1e-9 {
                         continue;
                     }
@@ -344,17 +503,20 @@ pub fn run(
                         break 'outer;
                     }
                     batch.clear();
-                    while let Some(g) = next_gnss {
+                    batch_lines.clear();
+                    while let Some((g, line)) = next_gnss {
                         if g.t > sample.t + 1e-9 {
                             break;
                         }
                         if g.t > start + 1e-9 {
                             batch.push(g);
+                            batch_lines.push((g, line));
                         }
-                        next_gnss = gnss.next_epoch()?;
+                        next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
                     }
                     updates.clear();
-                    nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)?;
+                    nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)
+                        .map_err(|e| locate(e, imu_line, &batch_lines))?;
                     summary.imu_epochs += 1;
                     records.push((sample.t, nav.state().clone()));
                     if records.len() == BATCH
@@ -398,18 +560,37 @@ pub fn run(
             config.data.imu.display()
         )));
     }
+    check_gnss_overlap(&summary, &config.data.gnss)?;
     write_std(&mut out, summary.span.1, &nav).map_err(|e| out.err("std.txt", e))?;
     for (w, name) in [
         (&mut out.std, "std.txt"),
         (&mut out.imu_err, "imu_errors.txt"),
         (&mut out.updates, "updates.csv"),
     ] {
-        w.flush()
-            .map_err(|e| RunError::Output { path: out_dir.join(name), message: e.to_string() })?;
+        w.flush().map_err(|e| RunError::Output {
+            path: partial_path(&out_dir.join(name)),
+            message: e.to_string(),
+        })?;
     }
     summary.gnss_skipped = gnss.skipped;
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
+}
+
+/// A run that used no GNSS epoch although the file has some: the file does not overlap
+/// the IMU span (a pure-INS result nobody asked for), refused.
+fn check_gnss_overlap(summary: &RunSummary, gnss: &Path) -> Result<(), RunError> {
+    let (g0, g1) = summary.gnss_span;
+    if summary.gnss_epochs == 0 && !g0.is_nan() {
+        return Err(RunError::NoData(format!(
+            "{}: no GNSS epoch falls inside the IMU span {:.3}–{:.3} s (the file's epochs \
+             read span {g0:.3}–{g1:.3} s); check the files' times and `data.start_time`",
+            gnss.display(),
+            summary.span.0,
+            summary.span.1
+        )));
+    }
+    Ok(())
 }
 
 /// Read the configured IMU and GNSS files whole, with the same checks and skip policy as
@@ -466,6 +647,11 @@ pub fn run_slices(
     if summary.imu_epochs == 0 {
         return Err(RunError::NoData(format!("no IMU sample after the start time {start} s")));
     }
+    summary.gnss_span = match (gnss.first(), gnss.last()) {
+        (Some(a), Some(b)) => (a.t, b.t),
+        _ => (f64::NAN, f64::NAN),
+    };
+    check_gnss_overlap(&summary, Path::new("(GNSS data)"))?;
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }

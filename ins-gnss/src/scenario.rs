@@ -12,7 +12,9 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Config, DataSection, FilterSection, GnssSection, InitSection, NoiseSection};
 use crate::run::nav_record;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
-use ins_gnss_core::io::formats::{create, write_gnss, write_imu, write_nav};
+use ins_gnss_core::io::formats::{
+    create_partial, partial_path, publish, write_gnss, write_imu, write_nav,
+};
 use ins_gnss_core::position::GeoPos;
 use ins_gnss_sim::{
     self, GnssSim, GnssWindow, GnssWindowKind, ImuErrors, Segment, Start, Trajectory,
@@ -180,9 +182,114 @@ impl Scenario {
         Self::parse(&text, &path.display().to_string())
     }
 
-    /// Parse the text of a scenario file; errors name `source` and the key.
+    /// Parse the text of a scenario file and [`validate`](Self::validate) it; errors name
+    /// `source` and the key.
     pub fn parse(text: &str, source: &str) -> Result<Self, String> {
-        toml::from_str(text).map_err(|e| format!("{source}: {e}"))
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let s: Self = toml::from_str(text).map_err(|e| format!("{source}: {e}"))?;
+        s.validate().map_err(|e| format!("{source}: {e}"))?;
+        Ok(s)
+    }
+
+    /// Every value finite and physical; the message names the key and the limit.
+    pub fn validate(&self) -> Result<(), String> {
+        fn finite(key: &str, v: &[f64]) -> Result<(), String> {
+            match v.iter().find(|x| !x.is_finite()) {
+                Some(x) => Err(format!("`{key}` must be finite, got {x}")),
+                None => Ok(()),
+            }
+        }
+        fn positive(key: &str, v: &[f64]) -> Result<(), String> {
+            finite(key, v)?;
+            match v.iter().find(|x| **x <= 0.0) {
+                Some(x) => Err(format!("`{key}` must be positive, got {x}")),
+                None => Ok(()),
+            }
+        }
+        fn nonneg(key: &str, v: &[f64]) -> Result<(), String> {
+            finite(key, v)?;
+            match v.iter().find(|x| **x < 0.0) {
+                Some(x) => Err(format!("`{key}` must not be negative, got {x}")),
+                None => Ok(()),
+            }
+        }
+        let st = &self.start;
+        finite("start.time", &[st.time])?;
+        finite("start.position", &st.position)?;
+        if st.position[0].abs() >= 89.9 || st.position[1].abs() > 360.0 {
+            return Err(format!(
+                "`start.position` latitude {}° / longitude {}°: |latitude| must be below 89.9°",
+                st.position[0], st.position[1]
+            ));
+        }
+        if !(-1_000.0..=100_000.0).contains(&st.position[2]) {
+            return Err(format!(
+                "`start.position` height {} m outside −1 km…+100 km",
+                st.position[2]
+            ));
+        }
+        finite("start.speed", &[st.speed])?;
+        if !(0.0..=2_000.0).contains(&st.speed) {
+            return Err(format!("`start.speed` {} m/s outside 0…2000 m/s", st.speed));
+        }
+        finite("start.yaw", &[st.yaw])?;
+        finite("start.pitch", &[st.pitch])?;
+        if self.segments.is_empty() {
+            return Err("`segment`: at least one segment is needed".into());
+        }
+        for (i, seg) in self.segments.iter().enumerate() {
+            positive(&format!("segment[{i}].duration"), &[seg.duration])?;
+            finite(&format!("segment[{i}].rate"), &[seg.rate])?;
+            nonneg(&format!("segment[{i}].accel"), &[seg.accel])?;
+        }
+        let i = &self.imu;
+        positive("imu.rate", &[i.rate])?;
+        if i.rate > 10_000.0 {
+            return Err(format!("`imu.rate` {} Hz above the 10 kHz limit", i.rate));
+        }
+        nonneg("imu.arw", &[i.arw])?;
+        nonneg("imu.vrw", &[i.vrw])?;
+        nonneg("imu.gyro_bias_std", &[i.gyro_bias_std])?;
+        nonneg("imu.accel_bias_std", &[i.accel_bias_std])?;
+        positive("imu.corr_time", &[i.corr_time])?;
+        finite("imu.gyro_turn_on", &i.gyro_turn_on)?;
+        finite("imu.accel_turn_on", &i.accel_turn_on)?;
+        finite("imu.gyro_scale_ppm", &i.gyro_scale_ppm)?;
+        finite("imu.accel_scale_ppm", &i.accel_scale_ppm)?;
+        let g = &self.gnss;
+        positive("gnss.rate", &[g.rate])?;
+        if g.rate > i.rate {
+            return Err(format!("`gnss.rate` {} Hz above `imu.rate` {} Hz", g.rate, i.rate));
+        }
+        positive("gnss.position_std", &g.position_std)?;
+        if let Some(v) = &g.velocity_std {
+            positive("gnss.velocity_std", v)?;
+        }
+        finite("gnss.lever_arm", &g.lever_arm)?;
+        if g.lever_arm.iter().any(|v| v.abs() > 100.0) {
+            return Err(format!("`gnss.lever_arm` {:?} m beyond the 100 m limit", g.lever_arm));
+        }
+        for (k, w) in g.windows.iter().enumerate() {
+            finite(&format!("gnss.window[{k}].start"), &[w.start])?;
+            finite(&format!("gnss.window[{k}].end"), &[w.end])?;
+            if w.end <= w.start {
+                return Err(format!("`gnss.window[{k}]`: end must be after start"));
+            }
+            nonneg(&format!("gnss.window[{k}].factor"), &[w.factor])?;
+            nonneg(&format!("gnss.window[{k}].sigmas"), &[w.sigmas])?;
+            finite(&format!("gnss.window[{k}].probability"), &[w.probability])?;
+            if !(0.0..=1.0).contains(&w.probability) {
+                return Err(format!("`gnss.window[{k}].probability` must lie in 0…1"));
+            }
+        }
+        let n = &self.init;
+        positive("init.attitude_std", &n.attitude_std)?;
+        positive("init.velocity_std", &n.velocity_std)?;
+        positive("init.position_std", &n.position_std)?;
+        finite("init.attitude_error", &n.attitude_error)?;
+        finite("init.velocity_error", &n.velocity_error)?;
+        finite("init.position_error", &n.position_error)?;
+        Ok(())
     }
 
     /// The built-in demo: the 600 s drive, a consumer MEMS IMU at 100 Hz, GNSS position
@@ -355,40 +462,54 @@ impl Scenario {
         })
     }
 
-    /// Simulate and write `IMU.txt`, `GNSS.txt`, `truth.nav` and `config.toml` into `dir`.
+    /// Simulate and write `IMU.txt`, `GNSS.txt`, `truth.nav` and `config.toml` into `dir`,
+    /// streaming: each record is written as it is generated (memory does not grow with
+    /// the duration), into `NAME.partial` files renamed into place at the end, so a failed
+    /// simulation never destroys an earlier dataset.
     pub fn write_dataset(&self, dir: &Path) -> Result<Vec<PathBuf>, String> {
+        self.validate()?;
         let traj = self.trajectory()?;
         let gnss = self.gnss_sim()?;
-        if !(self.imu.rate.is_finite() && self.imu.rate > 0.0) {
-            return Err(format!("imu.rate must be positive, got {}", self.imu.rate));
-        }
-        let data =
-            ins_gnss_sim::simulate(&traj, self.imu.rate, &self.imu_errors(), &gnss, self.seed);
         std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
         let paths: Vec<PathBuf> = ["IMU.txt", "GNSS.txt", "truth.nav", "config.toml"]
             .iter()
             .map(|n| dir.join(n))
             .collect();
-        let mut w = create(&paths[0]).map_err(|e| io_err(&paths[0], e))?;
-        for s in &data.imu {
-            write_imu(&mut w, s).map_err(|e| io_err(&paths[0], e))?;
+        let open = |p: &Path| create_partial(p).map_err(|e| io_err(&partial_path(p), e));
+        let (mut imu_w, mut gnss_w, mut truth_w) =
+            (open(&paths[0])?, open(&paths[1])?, open(&paths[2])?);
+        let mut truth0 = None;
+        ins_gnss_sim::simulate_each(
+            &traj,
+            self.imu.rate,
+            &self.imu_errors(),
+            &gnss,
+            self.seed,
+            |sample, truth| {
+                if let Some(s) = sample {
+                    write_imu(&mut imu_w, s).map_err(|e| io_err(&partial_path(&paths[0]), e))?;
+                } else {
+                    truth0 = Some((truth.state.clone(), truth.t));
+                }
+                write_nav(&mut truth_w, &nav_record(truth.t, &truth.state))
+                    .map_err(|e| io_err(&partial_path(&paths[2]), e))
+            },
+            |g| write_gnss(&mut gnss_w, &g).map_err(|e| io_err(&partial_path(&paths[1]), e)),
+        )?;
+        for (w, p) in [(&mut imu_w, &paths[0]), (&mut gnss_w, &paths[1]), (&mut truth_w, &paths[2])]
+        {
+            w.flush().map_err(|e| io_err(&partial_path(p), e))?;
         }
-        w.flush().map_err(|e| io_err(&paths[0], e))?;
-        let mut w = create(&paths[1]).map_err(|e| io_err(&paths[1], e))?;
-        for g in &data.gnss {
-            write_gnss(&mut w, g).map_err(|e| io_err(&paths[1], e))?;
-        }
-        w.flush().map_err(|e| io_err(&paths[1], e))?;
-        let mut w = create(&paths[2]).map_err(|e| io_err(&paths[2], e))?;
-        for r in &data.truth {
-            write_nav(&mut w, &nav_record(r.t, &r.state)).map_err(|e| io_err(&paths[2], e))?;
-        }
-        w.flush().map_err(|e| io_err(&paths[2], e))?;
-        let cfg = self.config(&data.truth[0].state, data.truth[0].t);
+        let (state0, t0) = truth0.ok_or("the simulation produced no truth")?;
+        let cfg = self.config(&state0, t0);
         let text = toml::to_string_pretty(&cfg).map_err(|e| e.to_string())?;
         let header = "# Generated by `ins-gnss simulate`: the initial state is the truth plus the scenario's\n\
                       # init errors; noise settings match the simulated IMU.\n";
-        std::fs::write(&paths[3], format!("{header}{text}")).map_err(|e| io_err(&paths[3], e))?;
+        std::fs::write(partial_path(&paths[3]), format!("{header}{text}"))
+            .map_err(|e| io_err(&partial_path(&paths[3]), e))?;
+        for p in &paths {
+            publish(p).map_err(|e| io_err(p, e))?;
+        }
         Ok(paths)
     }
 
@@ -422,6 +543,7 @@ impl Scenario {
                 end_time: None,
                 bad_lines: Default::default(),
                 max_gap: 5.0,
+                max_bridge: 20.0,
                 truth: Some("truth.nav".into()),
             },
             init: InitSection {
@@ -477,9 +599,7 @@ pub struct MonteCarlo {
 impl MonteCarlo {
     /// Prepare `scenario`.
     pub fn new(scenario: Scenario) -> Result<Self, String> {
-        if !(scenario.imu.rate.is_finite() && scenario.imu.rate > 0.0) {
-            return Err(format!("imu.rate must be positive, got {}", scenario.imu.rate));
-        }
+        scenario.validate()?;
         let traj = scenario.trajectory()?;
         let gnss = scenario.gnss_sim()?;
         let exact = ins_gnss_sim::ExactImu::new(&traj, scenario.imu.rate);
@@ -506,7 +626,10 @@ impl MonteCarlo {
         let data =
             ins_gnss_sim::simulate_from(&self.exact, &self.traj, &self.errors, &self.gnss, seed);
         let t0 = data.truth[0].t;
-        let cfg = self.scenario.config(&data.truth[0].state, t0);
+        // The papers' filters have no gross-error gate: reproductions run with it open
+        // (`ins-gnss run --no-gate`), the strategy alone deciding.
+        let mut cfg = self.scenario.config(&data.truth[0].state, t0);
+        cfg.filter.gate.enabled = false;
         let mut ev = crate::eval::Evaluator::new(skip, windows);
         let summary =
             crate::run::run_slices(&cfg, strategy, &data.imu, &data.gnss, |k, t, state| {

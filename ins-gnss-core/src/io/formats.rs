@@ -16,10 +16,16 @@
 //! and counted in [`SkipCounts`]; an IMU gap longer than allowed is *bridged* (the sample
 //! is used with the real interval) and counted. File-level problems (missing, empty,
 //! values in the wrong units) are always errors.
+//!
+//! # Compressed files and byte-order marks
+//!
+//! Every reader opens `.gz`, `.zst` and `.xz` files transparently ([`open`]), and a UTF-8
+//! byte-order mark at the start of a file is ignored.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::io::{BufRead, BufReader, BufWriter, Read, Write};
 use std::path::Path;
+use std::sync::{Arc, Mutex};
 
 use manifolds::So3;
 use nalgebra::Vector3;
@@ -59,13 +65,71 @@ impl SkipCounts {
     }
 }
 
-/// Open a file for buffered reading, with a located error.
-pub fn open(path: &Path) -> Result<BufReader<File>, LineError> {
-    File::open(path).map(|f| BufReader::with_capacity(1 << 16, f)).map_err(|e| LineError {
-        path: path.to_path_buf(),
-        line: 0,
-        kind: LineErrorKind::Io(e.to_string()),
-    })
+/// A buffered input file, decompressed on the fly when its name ends in `.gz`, `.zst` or
+/// `.xz`.
+pub type Input = BufReader<Box<dyn Read + Send>>;
+
+/// Open a file for buffered reading, with a located error; `.gz`, `.zst` (`.zstd`) and
+/// `.xz` files are decompressed as they are read (users' logs are often compressed).
+pub fn open(path: &Path) -> Result<Input, LineError> {
+    let err =
+        |e: String| LineError { path: path.to_path_buf(), line: 0, kind: LineErrorKind::Io(e) };
+    let file = File::open(path).map_err(|e| err(e.to_string()))?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let raw = BufReader::with_capacity(1 << 16, file);
+    let inner: Box<dyn Read + Send> = match ext.as_str() {
+        "gz" | "gzip" => Box::new(flate2::bufread::MultiGzDecoder::new(raw)),
+        "zst" | "zstd" => Box::new(
+            ruzstd::decoding::StreamingDecoder::new(raw)
+                .map_err(|e| err(format!("not a zstd file: {e}")))?,
+        ),
+        "xz" => Box::new(xz_reader(raw)),
+        _ => Box::new(raw),
+    };
+    Ok(BufReader::with_capacity(1 << 16, inner))
+}
+
+/// An xz stream decoded by `lzma-rs` on a thread of its own into a pipe (the decoder
+/// writes, it does not offer a `Read`). A decoding error is stored before the pipe
+/// closes, so the reader reports it instead of a short file.
+fn xz_reader(mut raw: BufReader<File>) -> XzInput {
+    let (reader, mut writer) = match std::io::pipe() {
+        Ok(p) => p,
+        Err(e) => {
+            return XzInput { pipe: None, failure: Arc::new(Mutex::new(Some(e.to_string()))) }
+        }
+    };
+    let failure = Arc::new(Mutex::new(None));
+    let slot = Arc::clone(&failure);
+    std::thread::spawn(move || {
+        if let Err(e) = lzma_rs::xz_decompress(&mut raw, &mut writer) {
+            if let Ok(mut s) = slot.lock() {
+                *s = Some(format!("xz decoding failed: {e}"));
+            }
+        }
+        drop(writer);
+    });
+    XzInput { pipe: Some(reader), failure }
+}
+
+struct XzInput {
+    pipe: Option<std::io::PipeReader>,
+    failure: Arc<Mutex<Option<String>>>,
+}
+
+impl Read for XzInput {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = match &mut self.pipe {
+            Some(p) => p.read(buf)?,
+            None => 0,
+        };
+        if n == 0 {
+            if let Some(e) = self.failure.lock().ok().and_then(|mut s| s.take()) {
+                return Err(std::io::Error::other(e));
+            }
+        }
+        Ok(n)
+    }
 }
 
 /// IMU file format.
@@ -130,8 +194,10 @@ pub struct ImuReader<R: BufRead> {
     format: ImuFormat,
     nominal_dt: f64,
     max_gap: f64,
+    max_bridge: f64,
     policy: BadLinePolicy,
     prev_t: Option<f64>,
+    prev_line: usize,
     prev_rates: Option<(Vector3<f64>, Vector3<f64>)>,
     header_done: bool,
     /// What was skipped so far.
@@ -139,9 +205,10 @@ pub struct ImuReader<R: BufRead> {
     records: usize,
 }
 
-impl ImuReader<BufReader<File>> {
-    /// Open an IMU file at `rate_hz` (the first sample's interval is `1/rate_hz`; a gap
-    /// longer than `max_gap_factor / rate_hz` is an error or a counted bridge).
+impl ImuReader<Input> {
+    /// Open an IMU file at `rate_hz` (the first sample's interval is `1/rate_hz`). A gap
+    /// longer than `max_gap_factor / rate_hz` is an error, or under
+    /// [`BadLinePolicy::Skip`] a counted bridge; see [`with_max_bridge`](Self::with_max_bridge).
     pub fn open(
         path: &Path,
         format: ImuFormat,
@@ -169,8 +236,10 @@ impl<R: BufRead> ImuReader<R> {
             format,
             nominal_dt,
             max_gap: nominal_dt * max_gap_factor,
+            max_bridge: nominal_dt * max_gap_factor.max(20.0),
             policy,
             prev_t: None,
+            prev_line: 0,
             prev_rates: None,
             header_done: format == ImuFormat::Increments,
             skipped: SkipCounts::default(),
@@ -178,17 +247,28 @@ impl<R: BufRead> ImuReader<R> {
         }
     }
 
+    /// The largest gap [`BadLinePolicy::Skip`] bridges in one step, in IMU intervals
+    /// (default 20, and never less than the gap limit); a longer one is an error naming
+    /// the lines on both sides (a one-hour hole is not one IMU step).
+    pub fn with_max_bridge(mut self, intervals: f64) -> Self {
+        self.max_bridge = self.nominal_dt * intervals.max(self.max_gap / self.nominal_dt);
+        self
+    }
+
     /// The next sample, `Ok(None)` at the end.
     pub fn next_sample(&mut self) -> Result<Option<ImuSample>, LineError> {
         if !self.header_done {
-            // Rates: the first data line is a header naming the columns.
+            // Rates: the first data line is a header naming the seven columns (a line of
+            // numbers, `1e-3` included, is data, not a header).
             match self.lines.next_text()? {
                 Some(h)
-                    if h.split(|c: char| c == ',' || c.is_whitespace())
-                        .filter(|s| !s.is_empty())
-                        .count()
-                        == 7
-                        && h.chars().any(|c| c.is_alphabetic()) => {}
+                    if {
+                        let fields: Vec<&str> = h
+                            .split(|c: char| c == ',' || c.is_whitespace())
+                            .filter(|s| !s.is_empty())
+                            .collect();
+                        fields.len() == 7 && fields.iter().any(|s| s.parse::<f64>().is_err())
+                    } => {}
                 Some(_) => return Err(self.lines.error(LineErrorKind::WrongUnits(
                     "a rate-type IMU file needs a header line `t,gx,gy,gz,ax,ay,az` (rad/s, m/s²)"
                         .into(),
@@ -232,13 +312,38 @@ impl<R: BufRead> ImuReader<R> {
                 None => self.nominal_dt,
             };
             if dt > self.max_gap {
-                let kind = LineErrorKind::Gap { gap: dt, allowed: self.max_gap };
-                if self.policy == BadLinePolicy::Error {
+                let bridged = self.policy == BadLinePolicy::Skip && dt <= self.max_bridge;
+                let allowed =
+                    if self.policy == BadLinePolicy::Skip { self.max_bridge } else { self.max_gap };
+                let kind = LineErrorKind::Gap { gap: dt, allowed, previous_line: self.prev_line };
+                if !bridged {
                     return Err(self.lines.error(kind));
                 }
                 count(&mut self.skipped, &kind);
             }
             let sample = match self.format {
+                ImuFormat::Rates if self.records == 0 && b.norm() < 1.0 => {
+                    // Gravity alone is 9.8 m/s²: a first specific force below 1 m/s² is an
+                    // increment over one interval, not a rate.
+                    return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                        "|f| = {:.4} m/s² is far below gravity: these look like increments, \
+                         not rates; set the IMU format to increments",
+                        b.norm()
+                    ))));
+                }
+                ImuFormat::Rates if b.norm() > 1000.0 || a.norm() > 50.0 => {
+                    let kind = LineErrorKind::WrongUnits(format!(
+                        "|ω| = {:.3} rad/s, |f| = {:.3} m/s²: beyond any IMU (50 rad/s, 100 g); \
+                         a spike, or not rad/s and m/s²",
+                        a.norm(),
+                        b.norm()
+                    ));
+                    if self.policy == BadLinePolicy::Skip && self.records > 0 {
+                        count(&mut self.skipped, &kind);
+                        continue;
+                    }
+                    return Err(self.lines.error(kind));
+                }
                 ImuFormat::Increments => {
                     // Increments that are really rates: a stationary accelerometer gives
                     // |Δv| ≈ 9.8 m/s in one interval, i.e. > 100 g.
@@ -259,6 +364,7 @@ impl<R: BufRead> ImuReader<R> {
                 }
             };
             self.prev_t = Some(t);
+            self.prev_line = self.lines.line();
             self.records += 1;
             return Ok(Some(sample));
         }
@@ -281,7 +387,7 @@ pub struct GnssReader<R: BufRead> {
     records: usize,
 }
 
-impl GnssReader<BufReader<File>> {
+impl GnssReader<Input> {
     /// Open a GNSS file.
     pub fn open(path: &Path, policy: BadLinePolicy) -> Result<Self, LineError> {
         Ok(Self::new(open(path)?, path, policy))
@@ -299,6 +405,11 @@ impl<R: BufRead> GnssReader<R> {
             skipped: SkipCounts::default(),
             records: 0,
         }
+    }
+
+    /// Line number of the last epoch.
+    pub fn line(&self) -> usize {
+        self.lines.line()
     }
 
     /// 7 (position) or 13 (position + velocity), once the first line is read.
@@ -329,6 +440,14 @@ impl<R: BufRead> GnssReader<R> {
                 || (n == 13 && rec[10..13].iter().any(|s| *s <= 0.0))
             {
                 Err(LineErrorKind::WrongUnits("standard deviations must be positive".into()))
+            } else if rec[4..7].iter().any(|s| *s > 1e5)
+                || (n == 13 && rec[10..13].iter().any(|s| *s > 1e3))
+            {
+                Err(LineErrorKind::WrongUnits(
+                    "a standard deviation beyond 100 km (position) or 1 km/s (velocity)".into(),
+                ))
+            } else if !(-1_000.0..=100_000.0).contains(&rec[3]) {
+                Err(LineErrorKind::WrongUnits(format!("height {} m outside −1 km…+100 km", rec[3])))
             } else {
                 check_time(self.prev_t, rec[0]).map(|_| GnssEpoch {
                     t: rec[0],
@@ -390,7 +509,7 @@ pub struct NavReader<R: BufRead> {
     prev_t: Option<f64>,
 }
 
-impl NavReader<BufReader<File>> {
+impl NavReader<Input> {
     /// Open a navigation or truth file.
     pub fn open(path: &Path) -> Result<Self, LineError> {
         Ok(Self { lines: NumericLines::new(open(path)?, path), prev_t: None })
@@ -479,7 +598,27 @@ pub fn write_imu<W: Write>(w: &mut W, s: &ImuSample) -> std::io::Result<()> {
     )
 }
 
-/// Create a file for buffered writing.
+/// `path` with `.partial` appended: where an output is written until it is complete and
+/// renamed into place ([`create_partial`], [`publish`]).
+pub fn partial_path(path: &Path) -> std::path::PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(".partial");
+    std::path::PathBuf::from(s)
+}
+
+/// Create `path.partial` for writing: the output `path` itself is untouched until
+/// [`publish`] renames the finished file over it, so a failed or interrupted run never
+/// destroys an earlier result.
+pub fn create_partial(path: &Path) -> std::io::Result<BufWriter<File>> {
+    create(&partial_path(path))
+}
+
+/// Rename the finished `path.partial` over `path` (atomic on one file system).
+pub fn publish(path: &Path) -> std::io::Result<()> {
+    std::fs::rename(partial_path(path), path)
+}
+
+/// Create a file for buffered writing (truncating it).
 pub fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
     Ok(BufWriter::with_capacity(1 << 16, File::create(path)?))
 }

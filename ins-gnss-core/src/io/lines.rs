@@ -53,6 +53,8 @@ pub enum LineErrorKind {
         gap: f64,
         /// The largest gap allowed, s.
         allowed: f64,
+        /// The line before the gap.
+        previous_line: usize,
     },
     /// Values that cannot be what the format says (e.g. rates where increments are
     /// expected).
@@ -91,9 +93,11 @@ impl fmt::Display for LineError {
                 write!(f, "{p}:{l}: time goes backwards ({t} after {previous})")
             }
             LineErrorKind::DuplicateTime { t } => write!(f, "{p}:{l}: duplicate time {t}"),
-            LineErrorKind::Gap { gap, allowed } => {
-                write!(f, "{p}:{l}: gap of {gap:.6} s before this line (allowed {allowed:.6} s)")
-            }
+            LineErrorKind::Gap { gap, allowed, previous_line } => write!(
+                f,
+                "{p}:{l}: gap of {gap:.6} s between line {previous_line} and this line \
+                 (allowed {allowed:.6} s)"
+            ),
             LineErrorKind::WrongUnits(m) => write!(f, "{p}:{l}: {m}"),
         }
     }
@@ -156,6 +160,10 @@ impl<R: BufRead> NumericLines<R> {
                 return Ok(false);
             }
             self.line += 1;
+            if self.line == 1 && self.buf.starts_with(b"\xEF\xBB\xBF") {
+                // a UTF-8 byte-order mark (editors on Windows write one): not data
+                self.buf.drain(..3);
+            }
             match self.buf.iter().find(|b| !b.is_ascii_whitespace()) {
                 None | Some(b'#') | Some(b'%') => continue,
                 Some(_) => return Ok(true),

@@ -35,8 +35,11 @@ enum Command {
         #[arg(long)]
         truth: Option<PathBuf>,
         /// Seconds skipped at the start of the evaluation.
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, value_parser = cli::parse_skip)]
         skip: f64,
+        /// Open the gross-error gate (every fix used, as KF-GINS does).
+        #[arg(long)]
+        no_gate: bool,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -54,7 +57,7 @@ enum Command {
         /// Truth or reference (11 columns).
         truth: PathBuf,
         /// Seconds skipped at the start.
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, value_parser = cli::parse_skip)]
         skip: f64,
         /// Extra statistics inside `T0,T1` (absolute seconds); repeatable.
         #[arg(long = "window", value_parser = cli::parse_window)]
@@ -82,7 +85,7 @@ enum Command {
         #[arg(long)]
         truth: Option<PathBuf>,
         /// Seconds skipped at the start of the evaluation.
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, value_parser = cli::parse_skip)]
         skip: f64,
         /// Output directory (one sub-directory per strategy).
         #[arg(long)]
@@ -94,7 +97,17 @@ fn main() -> ExitCode {
     let args = Args::parse();
     let result = match args.command {
         None => cli::demo(),
-        Some(Command::Run { config, strategy, out, truth, skip, quiet, plots, bias_model }) => {
+        Some(Command::Run {
+            config,
+            strategy,
+            out,
+            truth,
+            skip,
+            no_gate,
+            quiet,
+            plots,
+            bias_model,
+        }) => {
             let o = cli::RunOptions {
                 strategy: strategy.as_deref(),
                 bias_model: bias_model.as_deref(),
@@ -103,6 +116,7 @@ fn main() -> ExitCode {
                 skip,
                 progress: !quiet,
                 plots,
+                no_gate,
             };
             cli::run(&config, &o)
         }
