@@ -149,13 +149,51 @@ struct SegState {
 /// Grid step of the position integration, s.
 pub const GRID: f64 = 1e-3;
 
+/// Grid nodes per stored checkpoint: the positions between checkpoints are integrated
+/// again on demand (the same RK4 steps, so bit for bit the same), which keeps a 24 h
+/// trajectory at 2 MB instead of 2 GB.
+const CHUNK: usize = 1024;
+
 /// A trajectory with exact kinematics at any time in `[start, end]`.
 #[derive(Clone, Debug)]
 pub struct Trajectory {
     segs: Vec<SegState>,
-    /// Position at every grid node (`t = t_start + i·GRID`).
-    nodes: Vec<GeoPos>,
+    /// Position at every `CHUNK`-th grid node (`t = t_start + k·CHUNK·GRID`).
+    checkpoints: Vec<GeoPos>,
+    /// Number of grid nodes.
+    n_nodes: usize,
     t_start: f64,
+    /// Identifies the nodes in the per-thread cache (clones share it: same nodes).
+    id: u64,
+}
+
+/// Identities of trajectories for the node cache.
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+thread_local! {
+    /// The nodes of the chunk last used on this thread: (trajectory id, chunk, nodes
+    /// `chunk·CHUNK ..= chunk·CHUNK + CHUNK`). Queries run forward in time, so one chunk
+    /// serves a thousand queries.
+    static NODES: core::cell::RefCell<(u64, usize, Vec<GeoPos>)> =
+        const { core::cell::RefCell::new((u64::MAX, 0, Vec::new())) };
+}
+
+/// One RK4 step on the grid from node `i` at `p` (the velocity of cell `i` comes from the
+/// segment containing it).
+fn rk4_step(segs: &[SegState], t_start: f64, i: usize, p: &GeoPos) -> GeoPos {
+    let ta = t_start + i as f64 * GRID;
+    let seg = segment_at(segs, ta + 0.5 * GRID);
+    let f = |t: f64, p: &GeoPos| -> Vector3<f64> { geodetic_rate(p, &seg_velocity(seg, t)) };
+    let add = |p: &GeoPos, k: &Vector3<f64>, c: f64| GeoPos {
+        lat: p.lat + k.x * c,
+        lon: p.lon + k.y * c,
+        h: p.h + k.z * c,
+    };
+    let k1 = f(ta, p);
+    let k2 = f(ta + GRID / 2.0, &add(p, &k1, GRID / 2.0));
+    let k3 = f(ta + GRID / 2.0, &add(p, &k2, GRID / 2.0));
+    let k4 = f(ta + GRID, &add(p, &k3, GRID));
+    add(p, &(k1 + k2 * 2.0 + k3 * 2.0 + k4), GRID / 6.0)
 }
 
 impl Trajectory {
@@ -217,28 +255,44 @@ impl Trajectory {
             pitch += seg.pitch_rate * d;
         }
         let _ = t;
-        let mut nodes = Vec::with_capacity(steps_total + 1);
-        // RK4 on the grid; the velocity of cell i comes from the segment containing it.
+        // RK4 on the grid, keeping every CHUNK-th node.
+        let mut checkpoints = Vec::with_capacity(steps_total / CHUNK + 2);
         let mut p = start.pos;
-        nodes.push(p);
         for i in 0..steps_total {
-            let ta = start.t + i as f64 * GRID;
-            let seg = segment_at(&segs, ta + 0.5 * GRID);
-            let f =
-                |t: f64, p: &GeoPos| -> Vector3<f64> { geodetic_rate(p, &seg_velocity(seg, t)) };
-            let add = |p: &GeoPos, k: &Vector3<f64>, c: f64| GeoPos {
-                lat: p.lat + k.x * c,
-                lon: p.lon + k.y * c,
-                h: p.h + k.z * c,
-            };
-            let k1 = f(ta, &p);
-            let k2 = f(ta + GRID / 2.0, &add(&p, &k1, GRID / 2.0));
-            let k3 = f(ta + GRID / 2.0, &add(&p, &k2, GRID / 2.0));
-            let k4 = f(ta + GRID, &add(&p, &k3, GRID));
-            p = add(&p, &(k1 + k2 * 2.0 + k3 * 2.0 + k4), GRID / 6.0);
-            nodes.push(p);
+            if i.is_multiple_of(CHUNK) {
+                checkpoints.push(p);
+            }
+            p = rk4_step(&segs, start.t, i, &p);
         }
-        Ok(Self { segs, nodes, t_start: start.t })
+        if steps_total.is_multiple_of(CHUNK) {
+            checkpoints.push(p);
+        }
+        let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Ok(Self { segs, checkpoints, n_nodes: steps_total + 1, t_start: start.t, id })
+    }
+
+    /// Grid nodes `i` and `i + 1`, from this thread's cache of the chunk holding them.
+    fn node_pair(&self, i: usize) -> (GeoPos, GeoPos) {
+        let chunk = i / CHUNK;
+        NODES.with(|cache| {
+            let mut cache = cache.borrow_mut();
+            if cache.0 != self.id || cache.1 != chunk || cache.2.is_empty() {
+                let first = chunk * CHUNK;
+                let last = (first + CHUNK).min(self.n_nodes - 1);
+                let nodes = &mut cache.2;
+                nodes.clear();
+                let mut p = self.checkpoints[chunk];
+                nodes.push(p);
+                for k in first..last {
+                    p = rk4_step(&self.segs, self.t_start, k, &p);
+                    nodes.push(p);
+                }
+                cache.0 = self.id;
+                cache.1 = chunk;
+            }
+            let j = i - chunk * CHUNK;
+            (cache.2[j], cache.2[(j + 1).min(cache.2.len() - 1)])
+        })
     }
 
     /// Start time, s.
@@ -248,7 +302,7 @@ impl Trajectory {
 
     /// End time, s.
     pub fn end_time(&self) -> f64 {
-        self.t_start + (self.nodes.len() - 1) as f64 * GRID
+        self.t_start + (self.n_nodes - 1) as f64 * GRID
     }
 
     fn segment_at(&self, t: f64) -> &SegState {
@@ -257,10 +311,10 @@ impl Trajectory {
 
     /// Position at `t` (cubic Hermite between grid nodes with exact end velocities).
     pub fn position(&self, t: f64) -> GeoPos {
-        let x = ((t - self.t_start) / GRID).clamp(0.0, (self.nodes.len() - 1) as f64);
-        let i = (x.floor() as usize).min(self.nodes.len().saturating_sub(2));
+        let x = ((t - self.t_start) / GRID).clamp(0.0, (self.n_nodes - 1) as f64);
+        let i = (x.floor() as usize).min(self.n_nodes.saturating_sub(2));
         let u = x - i as f64;
-        let (p0, p1) = (self.nodes[i], self.nodes[i + 1]);
+        let (p0, p1) = self.node_pair(i);
         let (ta, tb) = (self.t_start + i as f64 * GRID, self.t_start + (i + 1) as f64 * GRID);
         let seg = self.segment_at(ta + 0.5 * GRID);
         let d0 = geodetic_rate(&p0, &seg_velocity(seg, ta)) * GRID;

@@ -600,9 +600,9 @@ fn odd_but_valid_input_is_read() {
     std::fs::create_dir_all(&d).unwrap();
     // a byte-order mark on every file, the IMU file gzip-compressed
     let imu = base.imu.join("\n") + "\n";
-    let mut gz = flate2_compress(imu.as_bytes());
+    let gz = flate2_compress(imu.as_bytes());
     let imu_path = d.join("IMU.txt.gz");
-    std::fs::write(&imu_path, gz.drain(..).collect::<Vec<u8>>()).unwrap();
+    std::fs::write(&imu_path, gz).unwrap();
     let gnss_path = d.join("GNSS.txt");
     std::fs::write(&gnss_path, format!("\u{feff}{}\n", base.gnss.join("\n"))).unwrap();
     let config = base

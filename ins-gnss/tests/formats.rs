@@ -259,3 +259,59 @@ fn missing_file_and_config_errors_name_what() {
     assert!(msg.contains("initpos"), "{msg}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Compressed inputs read as the plain file does (gzip, zstd, xz), and a corrupt
+/// compressed file is an error naming it, not a short read.
+#[test]
+fn compressed_files_read_like_plain_ones() {
+    use std::io::{Read, Write};
+    let dir = std::env::temp_dir().join(format!("estimator-compressed-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text: String = (0..2000)
+        .map(|i| format!("{:.3} 1e-5 -2e-5 3e-5 0.001 -0.002 -0.196\n", 100.0 + i as f64 * 0.01))
+        .collect();
+    let plain = dir.join("IMU.txt");
+    std::fs::write(&plain, &text).unwrap();
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    gz.write_all(text.as_bytes()).unwrap();
+    std::fs::write(dir.join("IMU.txt.gz"), gz.finish().unwrap()).unwrap();
+    let mut xz = Vec::new();
+    lzma_rs::xz_compress(&mut text.as_bytes(), &mut xz).unwrap();
+    std::fs::write(dir.join("IMU.txt.xz"), &xz).unwrap();
+    let zst = ruzstd::encoding::compress_to_vec(
+        text.as_bytes(),
+        ruzstd::encoding::CompressionLevel::Fastest,
+    );
+    std::fs::write(dir.join("IMU.txt.zst"), zst).unwrap();
+    for name in ["IMU.txt", "IMU.txt.gz", "IMU.txt.xz", "IMU.txt.zst"] {
+        let mut s = String::new();
+        ins_gnss_core::io::formats::open(&dir.join(name)).unwrap().read_to_string(&mut s).unwrap();
+        assert_eq!(s, text, "{name}");
+    }
+    // a truncated xz stream and garbage named .zst/.gz fail with the file's name
+    std::fs::write(dir.join("bad.txt.xz"), &xz[..xz.len() / 2]).unwrap();
+    std::fs::write(dir.join("bad.txt.zst"), b"not zstd at all").unwrap();
+    std::fs::write(dir.join("bad.txt.gz"), b"not gzip at all").unwrap();
+    for name in ["bad.txt.xz", "bad.txt.zst", "bad.txt.gz"] {
+        let p = dir.join(name);
+        let mut reader =
+            ImuReader::open(&p, ImuFormat::Increments, 100.0, 5.0, BadLinePolicy::Error)
+                .map(Some)
+                .unwrap_or_else(|e| {
+                    assert!(e.to_string().contains(name), "{e}");
+                    None
+                });
+        if let Some(r) = reader.as_mut() {
+            let mut result = Ok(None);
+            for _ in 0..5000 {
+                result = r.next_sample();
+                if !matches!(result, Ok(Some(_))) {
+                    break;
+                }
+            }
+            let e = result.expect_err(name);
+            assert!(e.to_string().contains(name), "{e}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -76,3 +76,91 @@ fn kf_gins_bias_behaviour_reproduces_its_figures() {
     );
     assert!((ev.overall.yaw.rms - 0.568).abs() < 0.02, "yaw RMS {}", ev.overall.yaw.rms);
 }
+
+/// navego with corrupted GNSS files: the default gross-error gate keeps the filter on the
+/// good fixes and its reported σ honest (the README's "Trustworthy runs" figures).
+mod gate {
+    use super::*;
+    use ins_gnss_core::io::formats::{create, write_gnss};
+    use ins_gnss_core::io::GnssReader;
+    use ins_gnss_core::{GeoPos, GnssEpoch};
+    use manifolds::Manifold;
+    use nalgebra::Vector3;
+    use rand::rngs::StdRng;
+    use rand::{Rng, SeedableRng};
+    use std::io::Write;
+
+    /// Horizontal RMS after 60 s and the mean reported horizontal σ after 60 s, with the
+    /// GNSS epochs changed by `corrupt`.
+    fn run_corrupted(name: &str, gate: bool, corrupt: impl Fn(&mut [GnssEpoch])) -> (f64, f64) {
+        let dir = data_dir();
+        let mut cfg = Config::load(&dir.join("kf-gins-ADIS16488.yaml")).unwrap();
+        cfg.filter.gate.enabled = gate;
+        let mut reader = GnssReader::open(&cfg.data.gnss, Default::default()).unwrap();
+        let mut epochs = Vec::new();
+        while let Some(g) = reader.next_epoch().unwrap() {
+            epochs.push(g);
+        }
+        corrupt(&mut epochs);
+        let tmp =
+            std::env::temp_dir().join(format!("estimator-gate-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&tmp).unwrap();
+        let file = tmp.join("GNSS.txt");
+        let mut w = create(&file).unwrap();
+        for g in &epochs {
+            write_gnss(&mut w, g).unwrap();
+        }
+        w.flush().unwrap();
+        cfg.data.gnss = file;
+        let out = tmp.join("out");
+        run(&cfg, AnyStrategy::default(), &out, None).unwrap();
+        let truth = sample_data::file(&dir, "truth.nav");
+        let ev = evaluate(&out.join("nav.txt"), &truth, 60.0, &[]).unwrap();
+        let std = std::fs::read_to_string(out.join("std.txt")).unwrap();
+        let t0 = epochs[0].t + 60.0;
+        let sig: Vec<f64> = std
+            .lines()
+            .map(|l| l.split_whitespace().map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>())
+            .filter(|r| r[0] > t0)
+            .map(|r| r[1].hypot(r[2]))
+            .collect();
+        let _ = std::fs::remove_dir_all(&tmp);
+        let mean_sigma = sig.iter().sum::<f64>() / sig.len() as f64;
+        eprintln!(
+            "gate {gate}, {name}: horizontal RMS {:.3} m, mean reported horizontal σ {mean_sigma:.3} m",
+            ev.overall.horizontal.rms
+        );
+        (ev.overall.horizontal.rms, mean_sigma)
+    }
+
+    fn offset(p: &GeoPos, north: f64, east: f64) -> GeoPos {
+        p.oplus(&Vector3::new(north, east, 0.0))
+    }
+
+    #[test]
+    fn one_far_fix_changes_nothing_and_half_the_fixes_1_km_off_are_refused() {
+        let (clean, _) = run_corrupted("clean", true, |_| {});
+        for km in [1000.0, 6000.0] {
+            let (h, _) = run_corrupted(&format!("{km}km"), true, |g| {
+                let i = g.len() / 2;
+                g[i].pos = offset(&g[i].pos, 600.0 * km, 800.0 * km);
+            });
+            assert!((h - clean).abs() < 0.05 * clean, "one fix {km} km off: {h} vs {clean}");
+        }
+        let half = |g: &mut [GnssEpoch]| {
+            let mut rng = StdRng::seed_from_u64(1);
+            for e in g.iter_mut() {
+                if rng.random::<f64>() < 0.5 {
+                    let a: f64 = rng.random::<f64>() * std::f64::consts::TAU;
+                    e.pos = offset(&e.pos, 1000.0 * a.cos(), 1000.0 * a.sin());
+                }
+            }
+        };
+        let (h, sigma) = run_corrupted("half-1km", true, half);
+        assert!(h <= 5.0, "half the fixes 1 km off: horizontal RMS {h} m");
+        assert!(sigma > h / 3.0 && sigma < 3.0 * h, "reported σ {sigma} m vs actual {h} m");
+        // the same data with the gate open: the filter follows the outliers
+        let (open, _) = run_corrupted("half-1km-open", false, half);
+        assert!(open > 20.0 * h, "without the gate: {open} m");
+    }
+}
