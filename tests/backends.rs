@@ -162,3 +162,45 @@ fn strategies_see_the_prior_covariance_on_every_backend() {
     run::<DynamicCov>(&p);
     run::<FaerCov>(&p);
 }
+
+/// A 240-state filter on the heap back-ends predicts and updates on a thread with the
+/// standard 8 MiB main-thread stack (the static back-end's 240 × 240 matrices live on the
+/// stack and need far more: the benches give it 256 MiB). Not on a 2 MiB thread: the
+/// model still returns `Φ` and `Q_d` by value (920 KB), and `P0` is passed by value.
+#[test]
+fn a_240_state_filter_on_the_heap_back_ends_runs_on_an_8_mib_stack() {
+    fn on<B: CovBackend<nalgebra::Const<240>>>(backend: B) -> f64 {
+        let model = Box::new(LinearProcess::<240> {
+            F: SMatrix::<f64, 240, 240>::identity() * 0.999,
+            Q: SMatrix::<f64, 240, 240>::identity() * 1e-3,
+        });
+        let sensor =
+            Box::new(LinearMeasurement::<3, 240>::new(SMatrix::<f64, 3, 240>::from_fn(|r, c| {
+                if c == r * 7 {
+                    1.0
+                } else {
+                    0.0
+                }
+            })));
+        let mut f = ErrorStateFilter::with_backend(
+            SVector::<f64, 240>::zeros(),
+            SMatrix::<f64, 240, 240>::identity(),
+            estimator::estimator_core::FixedNoise,
+            backend,
+        )
+        .unwrap();
+        for k in 0..5 {
+            f.predict(&*model, &(), 0.1).unwrap();
+            let z = SVector::<f64, 3>::repeat(0.1 * k as f64);
+            f.update(&*sensor, &z, &SMatrix::<f64, 3, 3>::identity()).unwrap();
+        }
+        f.state()[0]
+    }
+    let x = std::thread::Builder::new()
+        .stack_size(8 << 20)
+        .spawn(|| (on(DynamicCov::default()), on(FaerCov::default())))
+        .unwrap()
+        .join()
+        .unwrap();
+    assert!((x.0 - x.1).abs() < 1e-12 && x.0 > 0.0, "{x:?}");
+}

@@ -74,22 +74,23 @@ where
     y.norm_squared()
 }
 
-/// Validate a user-supplied covariance: finite, symmetric within
-/// [`SYMMETRY_TOLERANCE`] (relative), positive definite.
-pub fn check_covariance<D: DimName>(
-    what: &'static str,
-    a: &OMatrix<f64, D, D>,
-) -> Result<(), FilterError>
-where
-    DefaultAllocator: Allocator<D, D> + Allocator<D>,
-{
-    check_finite(what, a)?;
-    // One pass over the strict lower triangle and its mirror (slices, not nalgebra's
-    // strided indexing: this runs on every update's `R`).
-    // (The values are finite here, so a plain comparison serves as the maximum: `f64::max`
-    // spends more instructions on NaN than this whole check on the numbers.)
+/// What one pass over a finite square matrix finds: its largest magnitude (`scale`, at
+/// least the smallest positive number), its largest off-diagonal one, its largest
+/// `|A − Aᵀ|` entry and whether its diagonal is positive.
+struct Symmetry {
+    scale: f64,
+    off_diagonal: f64,
+    asymmetry: f64,
+    diagonal_positive: bool,
+}
+
+/// [`Symmetry`] of the column-major `n × n` matrix `s`, in one pass over the strict lower
+/// triangle and its mirror (slices, not nalgebra's strided indexing: this runs on every
+/// update's `R`). The values are finite here, so a plain comparison serves as the
+/// maximum: `f64::max` spends more instructions on NaN than this whole check on the
+/// numbers.
+fn symmetry_of(s: &[f64], n: usize) -> Symmetry {
     let max = |m: f64, x: f64| if x > m { x } else { m };
-    let (n, s) = (D::DIM, a.as_slice());
     let (mut diagonal, mut asym, mut off_diagonal) = (f64::MIN_POSITIVE, 0.0_f64, 0.0_f64);
     let mut diagonal_positive = true;
     for c in 0..n {
@@ -102,10 +103,29 @@ where
             asym = max(asym, (lo - up).abs());
         }
     }
-    let scale = max(diagonal, off_diagonal);
-    if asym > SYMMETRY_TOLERANCE * scale {
-        return Err(FilterError::NotSymmetric { what, asymmetry: asym });
+    Symmetry {
+        scale: max(diagonal, off_diagonal),
+        off_diagonal,
+        asymmetry: asym,
+        diagonal_positive,
     }
+}
+
+/// Validate a user-supplied covariance: finite, symmetric within
+/// [`SYMMETRY_TOLERANCE`] (relative), positive definite.
+pub fn check_covariance<D: DimName>(
+    what: &'static str,
+    a: &OMatrix<f64, D, D>,
+) -> Result<(), FilterError>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D>,
+{
+    check_finite(what, a)?;
+    let s = symmetry_of(a.as_slice(), D::DIM);
+    if s.asymmetry > SYMMETRY_TOLERANCE * s.scale {
+        return Err(FilterError::NotSymmetric { what, asymmetry: s.asymmetry });
+    }
+    let (off_diagonal, diagonal_positive) = (s.off_diagonal, s.diagonal_positive);
     // A diagonal matrix (the usual measurement noise) is positive definite exactly when
     // its diagonal is positive: no factorisation needed.
     if off_diagonal == 0.0 {
@@ -134,17 +154,12 @@ where
         return Err(err("not finite", f64::NAN));
     }
     let n = D::DIM;
-    let scale = q.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let mut asym = 0.0_f64;
-    for c in 0..n {
-        for r in (c + 1)..n {
-            asym = asym.max((q[(r, c)] - q[(c, r)]).abs());
-        }
+    let sym = symmetry_of(q.as_slice(), n);
+    if sym.asymmetry > SYMMETRY_TOLERANCE * sym.scale {
+        return Err(err("not symmetric", sym.asymmetry));
     }
-    if asym > SYMMETRY_TOLERANCE * scale {
-        return Err(err("not symmetric", asym));
-    }
-    if scale == 0.0 {
+    let scale = sym.scale;
+    if scale <= f64::MIN_POSITIVE {
         return Ok(());
     }
     // LDLᵀ of the lower triangle (Q = L D Lᵀ, unit L): a negative pivot beyond the

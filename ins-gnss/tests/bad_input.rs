@@ -139,32 +139,31 @@ impl Suite<'_> {
         self.cases.push(Case { name: name.into(), args, expect, keep });
     }
 
-    /// A mutated IMU file (named `IMU.txt` in the case's directory), the rest as in the
-    /// base configuration.
-    fn imu(&mut self, name: &str, mutate: impl Fn(&mut Vec<String>), expect: &[&str]) {
-        let mut lines = self.base.imu.clone();
+    /// A mutated copy of the base dataset's `file` (`IMU.txt` or `GNSS.txt`) in the case's
+    /// directory, the rest of the configuration as in the base.
+    fn data_file(
+        &mut self,
+        name: &str,
+        file: &str,
+        mutate: impl Fn(&mut Vec<String>),
+        expect: &[&str],
+    ) {
+        let mut lines =
+            if file == "IMU.txt" { self.base.imu.clone() } else { self.base.gnss.clone() };
         mutate(&mut lines);
-        let d = self.case_dir(name);
-        let file = d.join("IMU.txt");
-        std::fs::write(&file, lines.join("\n") + "\n").unwrap();
-        let config = self
-            .base
-            .config
-            .replace(&format!("{:?}", self.base.dir.join("data/IMU.txt")), &format!("{file:?}"));
+        let path = self.case_dir(name).join(file);
+        std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+        let original = format!("{:?}", self.base.dir.join("data").join(file));
+        let config = self.base.config.replace(&original, &format!("{path:?}"));
         self.run_config(name, config, expect);
     }
 
+    fn imu(&mut self, name: &str, mutate: impl Fn(&mut Vec<String>), expect: &[&str]) {
+        self.data_file(name, "IMU.txt", mutate, expect)
+    }
+
     fn gnss(&mut self, name: &str, mutate: impl Fn(&mut Vec<String>), expect: &[&str]) {
-        let mut lines = self.base.gnss.clone();
-        mutate(&mut lines);
-        let d = self.case_dir(name);
-        let file = d.join("GNSS.txt");
-        std::fs::write(&file, lines.join("\n") + "\n").unwrap();
-        let config = self
-            .base
-            .config
-            .replace(&format!("{:?}", self.base.dir.join("data/GNSS.txt")), &format!("{file:?}"));
-        self.run_config(name, config, expect);
+        self.data_file(name, "GNSS.txt", mutate, expect)
     }
 
     /// The base configuration with `from` replaced by `to` (which must occur).
