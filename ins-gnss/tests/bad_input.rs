@@ -262,6 +262,17 @@ fn cases(base: &Base) -> Vec<Case> {
     s.imu("imu-binary", |l| l[4] = "\u{fffd}\u{1}\u{2}".into(), &["IMU.txt:5"]);
     s.imu("imu-text-header", |l| l.insert(0, "t gx gy gz ax ay az".into()), &["IMU.txt:1"]);
     s.imu("imu-negative-time-step", |l| set_field(l, 60, 0, "0.0"), &["IMU.txt:60", "backwards"]);
+    // skip mode bridges short gaps only: a 6 s hole is an error naming both lines
+    let mut lines = base.imu.clone();
+    lines.drain(100..400);
+    let skip_dir = s.case_dir("imu-skip-mode-long-gap");
+    let file = skip_dir.join("IMU.txt");
+    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    let config = base
+        .config
+        .replace(&format!("{:?}", base.dir.join("data/IMU.txt")), &format!("{file:?}"))
+        .replace("bad_lines = \"error\"", "bad_lines = \"skip\"");
+    s.run_config("imu-skip-mode-long-gap", config, &["IMU.txt:101", "gap", "line 100"]);
     s.imu(
         "imu-long-gap-skip",
         |l| {
@@ -503,6 +514,16 @@ fn cases(base: &Base) -> Vec<Case> {
         let expect: Vec<&str> = expect.to_vec();
         s.push(name, args, &expect, base.out.clone());
     }
+    // an output directory that cannot be created (below a file): the path is named
+    let blocked = base.dir.join("cases/a-file");
+    std::fs::write(&blocked, "not a directory").unwrap();
+    let below = blocked.join("out").display().to_string();
+    s.push(
+        "cli-unwritable-out",
+        vec!["run".into(), good.clone(), "--out".into(), below, "--quiet".into()],
+        &["a-file/out"],
+        base.out.clone(),
+    );
     // eval against a truth that does not overlap the result
     let shifted = base.dir.join("cases/truth-shifted.nav");
     let text: Vec<String> = std::fs::read_to_string(&truth)
