@@ -6,7 +6,7 @@ use core::str::FromStr;
 use estimator_core::{Adaptation, FilterAlloc, FixedNoise, NoiseStrategy, PostUpdate};
 use nalgebra::{DefaultAllocator, DimName};
 
-use crate::{Afkf, FusedDualWindow, Iae, Iakf, Inflation, SageHusa};
+use crate::{Afkf, FusedDualWindow, GrossTest, Iae, Iakf, Inflation, RReading, SageHusa};
 
 /// Any of the crate's strategies, chosen at run time. Static dispatch by `match`; a filter
 /// typed `ErrorStateFilter<X, AnyStrategy>` can run every strategy.
@@ -27,8 +27,20 @@ pub enum AnyStrategy {
 }
 
 /// The names [`AnyStrategy::from_str`] accepts.
-pub const STRATEGY_NAMES: [&str; 7] =
-    ["fixed", "iae", "afkf", "fused", "iakf", "iakf-epoch", "sage-husa"];
+pub const STRATEGY_NAMES: [&str; 12] = [
+    "fixed",
+    "iae",
+    "iae-qr",
+    "afkf",
+    "fused",
+    "fused-nominal",
+    "fused-window-test",
+    "fused-uncensored",
+    "fused-nominal-uncensored",
+    "iakf",
+    "iakf-epoch",
+    "sage-husa",
+];
 
 /// An unknown strategy name.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -45,14 +57,32 @@ impl std::error::Error for UnknownStrategy {}
 impl FromStr for AnyStrategy {
     type Err = UnknownStrategy;
 
-    /// `fixed`, `iae`, `afkf`, `fused`, `iakf` (Raw inflation), `iakf-epoch`
-    /// (EpochScaled), `sage-husa`; each with its paper defaults.
+    /// `fixed`, `iae` (R only; also `iae-r`), `iae-qr` (Q and R: the paper's IAE
+    /// baseline), `afkf`, `fused` (the cumulative reading; also `fused-cumulative`) and its
+    /// other readings (`fused-nominal`, `fused-window-test`, `fused-uncensored`,
+    /// `fused-nominal-uncensored`; see [`FusedDualWindow`]), `iakf` (Raw inflation), `iakf-epoch` (EpochScaled),
+    /// `sage-husa`; each with its paper defaults.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Ok(match s.trim().to_ascii_lowercase().as_str() {
             "fixed" | "kf" => AnyStrategy::Fixed(FixedNoise),
-            "iae" => AnyStrategy::Iae(Iae::default()),
+            "iae" | "iae-r" => AnyStrategy::Iae(Iae::default()),
+            "iae-qr" => AnyStrategy::Iae(Iae::default().with_q_adaptation()),
             "afkf" => AnyStrategy::Afkf(Afkf::default()),
-            "fused" => AnyStrategy::Fused(FusedDualWindow::default()),
+            "fused" | "fused-cumulative" => AnyStrategy::Fused(FusedDualWindow::default()),
+            "fused-nominal" => {
+                AnyStrategy::Fused(FusedDualWindow::default().with_r_reading(RReading::Nominal))
+            }
+            "fused-window-test" => {
+                AnyStrategy::Fused(FusedDualWindow::default().with_gross_test(GrossTest::Window))
+            }
+            "fused-uncensored" => {
+                AnyStrategy::Fused(FusedDualWindow::default().with_refused_in_windows(true))
+            }
+            "fused-nominal-uncensored" => AnyStrategy::Fused(
+                FusedDualWindow::default()
+                    .with_r_reading(RReading::Nominal)
+                    .with_refused_in_windows(true),
+            ),
             "iakf" => AnyStrategy::Iakf(Iakf::default()),
             "iakf-epoch" => AnyStrategy::Iakf(Iakf::new(0.05, Inflation::EpochScaled)),
             "sage-husa" | "sagehusa" | "akf" => AnyStrategy::SageHusa(SageHusa::default()),

@@ -48,7 +48,7 @@ pub mod window;
 pub use afkf::{Afkf, FadingAt, MismatchEstimate};
 pub use any::{AnyStrategy, UnknownStrategy, STRATEGY_NAMES};
 pub use estimator_core::FixedNoise;
-pub use fused::FusedDualWindow;
+pub use fused::{FusedDualWindow, GrossTest, RReading};
 pub use gate::GrossErrorGate;
 pub use iae::Iae;
 pub use iakf::{Iakf, Inflation};

@@ -25,7 +25,8 @@ enum Command {
     Run {
         /// Configuration file (.toml, or KF-GINS .yaml).
         config: PathBuf,
-        /// Noise strategy: fixed, iae, afkf, fused, iakf, iakf-epoch, sage-husa.
+        /// Noise strategy: fixed, iae, iae-qr, afkf, fused (fused-nominal, fused-window-test,
+        /// fused-uncensored, fused-nominal-uncensored), iakf, iakf-epoch, sage-husa.
         #[arg(long)]
         strategy: Option<String>,
         /// Output directory (default: the configuration's output path).
