@@ -52,9 +52,9 @@ fn a_well_tuned_fixed_q_beats_the_adaptive_filter_from_a_fair_start() {
     let mut mean = [[0.0; 3]; 4];
     for seed in 0..seeds {
         let r = run_seed_with_control(&flight, &errors, seed, Start::KnownAcceleration).unwrap();
-        for (v, e) in r.iter().enumerate() {
-            for k in 0..3 {
-                mean[v][k] += e.max[k] / seeds as f64;
+        for (m, e) in mean.iter_mut().zip(&r) {
+            for (mk, ek) in m.iter_mut().zip(&e.max) {
+                *mk += ek / seeds as f64;
             }
         }
     }
