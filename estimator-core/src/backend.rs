@@ -101,12 +101,6 @@ where
     /// The covariance as a static matrix (borrowed for the static back-end).
     fn as_static(P: &Self::Cov) -> Cow<'_, Cov<N>>;
 
-    /// The static matrix inside, for the static back-end only (lets models propagate
-    /// with their own structured products).
-    fn static_mut(_P: &mut Self::Cov) -> Option<&mut Cov<N>> {
-        None
-    }
-
     /// `P[i, i]`.
     fn diag(P: &Self::Cov, i: usize) -> f64;
 
@@ -238,10 +232,6 @@ where
 
     fn as_static(P: &Cov<N>) -> Cow<'_, Cov<N>> {
         Cow::Borrowed(P)
-    }
-
-    fn static_mut(P: &mut Cov<N>) -> Option<&mut Cov<N>> {
-        Some(P)
     }
 
     fn diag(P: &Cov<N>, i: usize) -> f64 {

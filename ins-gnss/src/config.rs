@@ -10,6 +10,7 @@ use manifolds::So3;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use crate::checks::{finite, positive};
 use ins_gnss_core::gnss::GNSS_STREAMS;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
 use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
@@ -80,7 +81,7 @@ fn default_max_gap() -> f64 {
     5.0
 }
 fn default_max_bridge() -> f64 {
-    20.0
+    ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE
 }
 
 /// IMU format names in configs.
@@ -331,26 +332,6 @@ impl Config {
     /// noise densities and standard deviations must be positive, the start before the
     /// end.
     pub fn validate(&self) -> Result<(), String> {
-        let finite = |name: &str, a: &[f64]| match a.iter().find(|v| !v.is_finite()) {
-            Some(v) => Err(format!("`{name}` must be finite, got {v}")),
-            None => Ok(()),
-        };
-        let pos = |name: &str, a: &[f64; 3]| {
-            finite(name, a)?;
-            if a.iter().all(|v| *v > 0.0) {
-                Ok(())
-            } else {
-                Err(format!("`{name}` must be three positive numbers, got {a:?}"))
-            }
-        };
-        let nonneg = |name: &str, a: &[f64; 3]| {
-            finite(name, a)?;
-            if a.iter().all(|v| *v >= 0.0) {
-                Ok(())
-            } else {
-                Err(format!("`{name}` must be three non-negative numbers, got {a:?}"))
-            }
-        };
         let d = &self.data;
         finite("data.imu_rate", &[d.imu_rate])?;
         if !(d.imu_rate > 0.0 && d.imu_rate <= 100_000.0) {
@@ -407,16 +388,16 @@ impl Config {
         if i.velocity.iter().any(|v| v.abs() > 2_000.0) {
             return Err(format!("`init.velocity` {:?} m/s: a component beyond 2 km/s", i.velocity));
         }
-        pos("init.position_std", &i.position_std)?;
-        pos("init.velocity_std", &i.velocity_std)?;
-        pos("init.attitude_std", &i.attitude_std)?;
-        pos("init.gyro_bias_std", &i.gyro_bias_std)?;
-        pos("init.accel_bias_std", &i.accel_bias_std)?;
+        positive("init.position_std", &i.position_std)?;
+        positive("init.velocity_std", &i.velocity_std)?;
+        positive("init.attitude_std", &i.attitude_std)?;
+        positive("init.gyro_bias_std", &i.gyro_bias_std)?;
+        positive("init.accel_bias_std", &i.accel_bias_std)?;
         let n = &self.imu_noise;
-        pos("imu_noise.arw", &n.arw)?;
-        pos("imu_noise.vrw", &n.vrw)?;
-        pos("imu_noise.gyro_bias_std", &n.gyro_bias_std)?;
-        pos("imu_noise.accel_bias_std", &n.accel_bias_std)?;
+        positive("imu_noise.arw", &n.arw)?;
+        positive("imu_noise.vrw", &n.vrw)?;
+        positive("imu_noise.gyro_bias_std", &n.gyro_bias_std)?;
+        positive("imu_noise.accel_bias_std", &n.accel_bias_std)?;
         finite("imu_noise.corr_time", &[n.corr_time])?;
         if n.corr_time <= 0.0 {
             return Err(format!(
@@ -424,7 +405,7 @@ impl Config {
                 n.corr_time
             ));
         }
-        nonneg("gnss.lever_arm (absolute values)", &self.gnss.lever_arm.map(f64::abs))?;
+        finite("gnss.lever_arm", &self.gnss.lever_arm)?;
         if self.gnss.lever_arm.iter().any(|v| v.abs() > 100.0) {
             return Err(format!(
                 "`gnss.lever_arm` {:?} m: a component beyond the 100 m limit",
@@ -432,10 +413,10 @@ impl Config {
             ));
         }
         if let Some(s) = &self.gnss.position_std {
-            pos("gnss.position_std", s)?;
+            positive("gnss.position_std", s)?;
         }
         if let Some(s) = &self.gnss.velocity_std {
-            pos("gnss.velocity_std", s)?;
+            positive("gnss.velocity_std", s)?;
         }
         let g = &self.filter.gate;
         finite("filter.gate.probability", &[g.probability])?;

@@ -13,6 +13,7 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+mod checks;
 pub mod cli;
 pub mod config;
 pub mod eval;

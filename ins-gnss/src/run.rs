@@ -416,9 +416,10 @@ fn run_into(
     let (imu_path, gnss_path) = (config.data.imu.clone(), config.data.gnss.clone());
     // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
     // sample whose prediction did.
-    let locate = |e: NavError, imu_line: usize, epochs: &[(GnssEpoch, usize)]| match &e {
+    // `epochs` and `lines`: the batch's GNSS epochs and their lines, in step
+    let locate = |e: NavError, imu_line: usize, epochs: &[GnssEpoch], lines: &[usize]| match &e {
         NavError::Measurement { t, .. } => {
-            match epochs.iter().find(|(g, _)| (g.t - t).abs() < 1e-6) {
+            match epochs.iter().zip(lines).find(|(g, _)| (g.t - t).abs() < 1e-6) {
                 Some((_, line)) => {
                     RunError::Located { path: gnss_path.clone(), line: *line, error: e }
                 }
@@ -491,7 +492,7 @@ fn run_into(
             summary.gnss_span = (f64::NAN, f64::NAN);
             let mut next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
             let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
-            let mut batch_lines: Vec<(GnssEpoch, usize)> = Vec::with_capacity(4);
+            let mut batch_lines: Vec<usize> = Vec::with_capacity(4);
             let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
             let mut records = Vec::with_capacity(BATCH);
             'outer: for message in &imu_rx {
@@ -510,13 +511,13 @@ fn run_into(
                         }
                         if g.t > start + 1e-9 {
                             batch.push(g);
-                            batch_lines.push((g, line));
+                            batch_lines.push(line);
                         }
                         next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
                     }
                     updates.clear();
                     nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)
-                        .map_err(|e| locate(e, imu_line, &batch_lines))?;
+                        .map_err(|e| locate(e, imu_line, &batch, &batch_lines))?;
                     summary.imu_epochs += 1;
                     records.push((sample.t, nav.state().clone()));
                     if records.len() == BATCH

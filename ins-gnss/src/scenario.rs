@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use crate::checks::{finite, nonneg, positive};
 use crate::config::{Config, DataSection, FilterSection, GnssSection, InitSection, NoiseSection};
 use crate::run::nav_record;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
@@ -193,26 +194,6 @@ impl Scenario {
 
     /// Every value finite and physical; the message names the key and the limit.
     pub fn validate(&self) -> Result<(), String> {
-        fn finite(key: &str, v: &[f64]) -> Result<(), String> {
-            match v.iter().find(|x| !x.is_finite()) {
-                Some(x) => Err(format!("`{key}` must be finite, got {x}")),
-                None => Ok(()),
-            }
-        }
-        fn positive(key: &str, v: &[f64]) -> Result<(), String> {
-            finite(key, v)?;
-            match v.iter().find(|x| **x <= 0.0) {
-                Some(x) => Err(format!("`{key}` must be positive, got {x}")),
-                None => Ok(()),
-            }
-        }
-        fn nonneg(key: &str, v: &[f64]) -> Result<(), String> {
-            finite(key, v)?;
-            match v.iter().find(|x| **x < 0.0) {
-                Some(x) => Err(format!("`{key}` must not be negative, got {x}")),
-                None => Ok(()),
-            }
-        }
         let st = &self.start;
         finite("start.time", &[st.time])?;
         finite("start.position", &st.position)?;
@@ -543,7 +524,7 @@ impl Scenario {
                 end_time: None,
                 bad_lines: Default::default(),
                 max_gap: 5.0,
-                max_bridge: 20.0,
+                max_bridge: ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE,
                 truth: Some("truth.nav".into()),
             },
             init: InitSection {

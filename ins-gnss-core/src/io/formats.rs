@@ -132,6 +132,10 @@ impl Read for XzInput {
     }
 }
 
+/// The largest IMU gap [`BadLinePolicy::Skip`] bridges by default, in IMU intervals
+/// ([`ImuReader::with_max_bridge`]).
+pub const DEFAULT_MAX_BRIDGE: f64 = 20.0;
+
 /// IMU file format.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ImuFormat {
@@ -236,7 +240,7 @@ impl<R: BufRead> ImuReader<R> {
             format,
             nominal_dt,
             max_gap: nominal_dt * max_gap_factor,
-            max_bridge: nominal_dt * max_gap_factor.max(20.0),
+            max_bridge: nominal_dt * max_gap_factor.max(DEFAULT_MAX_BRIDGE),
             policy,
             prev_t: None,
             prev_line: 0,
@@ -248,7 +252,7 @@ impl<R: BufRead> ImuReader<R> {
     }
 
     /// The largest gap [`BadLinePolicy::Skip`] bridges in one step, in IMU intervals
-    /// (default 20, and never less than the gap limit); a longer one is an error naming
+    /// (default [`DEFAULT_MAX_BRIDGE`], and never less than the gap limit); a longer one is an error naming
     /// the lines on both sides (a one-hour hole is not one IMU step).
     pub fn with_max_bridge(mut self, intervals: f64) -> Self {
         self.max_bridge = self.nominal_dt * intervals.max(self.max_gap / self.nominal_dt);
