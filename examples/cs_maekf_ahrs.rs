@@ -10,13 +10,19 @@
 //! paper's (inside the bank with the acceleration state at 0) and a fair one (the true
 //! initial acceleration).
 //!
-//! Run: `cargo run --release --example cs_maekf_ahrs [SEEDS] [CSV]` (defaults 50,
-//! `repro-out/cs_maekf_seeds.csv`).
+//! A fifth row runs CS-MAEKF with another σ_a² floor (the floor is ours, the paper gives
+//! none; default 1 (m/s²)², the fifth row's default 3).
+//!
+//! Run: `cargo run --release --example cs_maekf_ahrs [SEEDS] [CSV] [FLOOR]` (defaults 50,
+//! `repro-out/cs_maekf_seeds.csv`, 3).
 
 use std::io::Write;
 
-use estimator::models::ahrs::experiment::{run_seed_with_control, run_traced, Start, Variant};
+use estimator::models::ahrs::experiment::{
+    run_from, run_seed_with_control, run_traced, Start, Variant,
+};
 use estimator::models::ahrs::sim::{LoiteringFlight, SensorErrors};
+use estimator::models::ahrs::AccelModel;
 use rayon::prelude::*;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -25,8 +31,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let csv = std::path::PathBuf::from(
         args.next().unwrap_or_else(|| "repro-out/cs_maekf_seeds.csv".into()),
     );
+    let floor: f64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(3.0);
     let flight = LoiteringFlight::default();
     let errors = SensorErrors::default();
+    let mut cs_floor = Variant::CsMaekf.model(&errors, flight.rate);
+    if let AccelModel::CurrentStatistical { variance, .. } = &mut cs_floor.accel {
+        variance.floor = floor;
+    }
+    let floor_name = format!("cs-maekf, floor {floor}");
+    let names: Vec<&str> =
+        Variant::WITH_CONTROL.iter().map(|v| v.name()).chain([floor_name.as_str()]).collect();
     if let Some(dir) = csv.parent() {
         std::fs::create_dir_all(dir)?;
     }
@@ -40,12 +54,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (Start::Paper, "the paper's start: inside the 20° bank, acceleration state 0"),
         (Start::KnownAcceleration, "a fair start: the true initial body acceleration"),
     ] {
-        let runs: Vec<(u64, [[f64; 6]; 4])> = (0..seeds)
+        let runs: Vec<(u64, [[f64; 6]; 5])> = (0..seeds)
             .into_par_iter()
             .map(|seed| {
-                let r = run_seed_with_control(&flight, &errors, seed, start)
+                let four = run_seed_with_control(&flight, &errors, seed, start)
                     .map_err(|e| e.to_string())?;
-                let mut row = [[0.0; 6]; 4];
+                let samples = flight.simulate(&errors, seed);
+                let fifth = run_from(&cs_floor, &flight, &samples, start, |_, _| {})
+                    .map_err(|e| e.to_string())?;
+                let r: Vec<_> = four.iter().chain([&fifth]).collect();
+                let mut row = [[0.0; 6]; 5];
                 for (v, e) in r.iter().enumerate() {
                     for k in 0..3 {
                         row[v][k] = e.max[k];
@@ -56,16 +74,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect::<Result<_, String>>()?;
         for (seed, row) in &runs {
-            for (v, r) in Variant::WITH_CONTROL.iter().zip(row) {
+            for (name, r) in names.iter().zip(row) {
                 let cells: Vec<String> = r.iter().map(|x| format!("{x:.4}")).collect();
-                writeln!(f, "{start:?},{seed},{},{}", v.name(), cells.join(","))?;
+                writeln!(f, "{start:?},{seed},{name},{}", cells.join(","))?;
             }
         }
         println!("\n{title}:\n");
         println!("| filter | max roll | max pitch | max yaw | RMS roll | RMS pitch | RMS yaw |");
         println!("|---|---|---|---|---|---|---|");
         let n = runs.len() as f64;
-        for (v, variant) in Variant::WITH_CONTROL.iter().enumerate() {
+        for (v, name) in names.iter().enumerate() {
             let cells: Vec<String> = (0..6)
                 .map(|i| {
                     let m = runs.iter().map(|r| r.1[v][i]).sum::<f64>() / n;
@@ -74,7 +92,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     format!("{m:.2} ± {:.2}", var.sqrt())
                 })
                 .collect();
-            println!("| {} | {} |", variant.name(), cells.join(" | "));
+            println!("| {name} | {} |", cells.join(" | "));
         }
     }
     f.flush()?;

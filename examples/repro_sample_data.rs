@@ -27,9 +27,8 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-/// The strategies compared.
-pub const STRATEGIES: [&str; 7] =
-    ["fixed", "iae", "afkf", "fused", "iakf", "iakf-epoch", "sage-husa"];
+/// The strategies compared: every name the program accepts.
+pub const STRATEGIES: [&str; 13] = estimator::adaptive::STRATEGY_NAMES;
 
 /// The injected interference: window (seconds after the first GNSS epoch) and the extra
 /// noise in multiples of each epoch's reported σ.

@@ -56,6 +56,10 @@ pub enum FadingAt {
 /// AFKF amplifies outliers (it reads them as model mismatch and trusts the next
 /// measurement more).
 ///
+/// With [`xia`](Self::xia) (`afkf-xia`) the factor follows Xia's definition instead: it
+/// scales `Φ P Φᵀ` only, and the process noise added since the previous update is taken
+/// out of the mismatch before λ is formed (ALGORITHMS.md §2.3).
+///
 /// Decisions: `Inflated` when `λ > 1`, otherwise `Accepted`. Never rejects, never
 /// changes `R`.
 ///
@@ -74,6 +78,12 @@ pub struct Afkf {
     pub fixed_lambda: Option<f64>,
     /// Where the adaptive λ is applied. Default [`FadingAt::Update`].
     pub apply_at: FadingAt,
+    /// Xia's form: λ scales the propagated part `Φ_Σ P Φ_Σᵀ = P⁻ − Q_Σ` only, and its
+    /// numerator subtracts the process noise added since the previous update,
+    /// `λ = tr(Ĉ − H Q_Σ Hᵀ − R) / tr(H Φ_Σ P Φ_Σᵀ Hᵀ)` (the filter accumulates `Q_Σ` for
+    /// it, one more covariance propagation per prediction). Default `false`: λ scales all
+    /// of `P⁻`, `λ = tr(Ĉ − R) / tr(H P⁻ Hᵀ)`. Applied at the update epoch in either case.
+    pub xia: bool,
     /// How λ scales `P⁻` at the update. Default [`PriorScaling::MeasurementSubspace`]
     /// (same gain as full scaling; full scaling made the INS covariance overflow in our
     /// demo within 440 s, because GNSS cannot see every direction it inflates).
@@ -95,6 +105,7 @@ impl Default for Afkf {
             lambda_max: 100.0,
             fixed_lambda: None,
             apply_at: FadingAt::Update,
+            xia: false,
             scaling: PriorScaling::default(),
             streams: StreamMap::new(),
             last_lambda: 1.0,
@@ -119,6 +130,14 @@ impl Afkf {
         self
     }
 
+    /// Xia's form (see [`xia`](Self::xia)): the fading factor leaves the process noise
+    /// since the previous update unscaled.
+    pub fn xia(mut self) -> Self {
+        self.xia = true;
+        self.apply_at = FadingAt::Update;
+        self
+    }
+
     /// Scale `P⁻` along the measurement subspace (default) or in full.
     pub fn with_scaling(mut self, scaling: PriorScaling) -> Self {
         self.scaling = scaling;
@@ -133,7 +152,15 @@ impl Afkf {
 
 impl NoiseStrategy for Afkf {
     fn name(&self) -> &'static str {
-        "afkf"
+        if self.xia {
+            "afkf-xia"
+        } else {
+            "afkf"
+        }
+    }
+
+    fn tracks_process_noise(&self) -> bool {
+        self.xia && self.fixed_lambda.is_none()
     }
 
     fn prediction_fading(&self) -> f64 {
@@ -186,15 +213,21 @@ impl NoiseStrategy for Afkf {
             }
         };
         a.factors.dom = trace_ratio(&c, a.S);
-        // λ = tr(Ĉ − R) / tr(H P⁻ Hᵀ)
-        let denom = a.HPHt.trace();
-        let raw = if denom > 0.0 { (c.trace() - a.R_nominal.trace()) / denom } else { 1.0 };
+        // λ = tr(Ĉ − R) / tr(H P⁻ Hᵀ), or with Xia's process-noise term
+        // λ = tr(Ĉ − H Q_Σ Hᵀ − R) / tr(H (P⁻ − Q_Σ) Hᵀ)
+        let hqh = match (self.xia, a.HQHt) {
+            (true, Some(m)) => m.trace(),
+            _ => 0.0,
+        };
+        let denom = a.HPHt.trace() - hqh;
+        let raw = if denom > 0.0 { (c.trace() - hqh - a.R_nominal.trace()) / denom } else { 1.0 };
         let lambda = if raw.is_finite() { raw.clamp(1.0, self.lambda_max.max(1.0)) } else { 1.0 };
         a.factors.lambda_p = lambda;
         match self.apply_at {
             FadingAt::Update => {
                 a.prior_scale = lambda;
                 a.prior_scaling = self.scaling;
+                a.scale_propagated_only = self.xia;
             }
             FadingAt::Prediction => self.last_lambda = lambda,
         }

@@ -27,18 +27,19 @@ pub enum AnyStrategy {
 }
 
 /// The names [`AnyStrategy::from_str`] accepts.
-pub const STRATEGY_NAMES: [&str; 12] = [
+pub const STRATEGY_NAMES: [&str; 13] = [
     "fixed",
     "iae",
     "iae-qr",
     "afkf",
+    "afkf-xia",
     "fused",
     "fused-nominal",
     "fused-window-test",
     "fused-uncensored",
     "fused-nominal-uncensored",
     "iakf",
-    "iakf-epoch",
+    "iakf-raw",
     "sage-husa",
 ];
 
@@ -58,9 +59,9 @@ impl FromStr for AnyStrategy {
     type Err = UnknownStrategy;
 
     /// `fixed`, `iae` (R only; also `iae-r`), `iae-qr` (Q and R: the paper's IAE
-    /// baseline), `afkf`, `fused` (the cumulative reading; also `fused-cumulative`) and its
+    /// baseline), `afkf` (λ on all of `P⁻`), `afkf-xia` (Xia's: λ on `Φ P Φᵀ` only), `fused` (the cumulative reading; also `fused-cumulative`) and its
     /// other readings (`fused-nominal`, `fused-window-test`, `fused-uncensored`,
-    /// `fused-nominal-uncensored`; see [`FusedDualWindow`]), `iakf` (Raw inflation), `iakf-epoch` (EpochScaled),
+    /// `fused-nominal-uncensored`; see [`FusedDualWindow`]), `iakf` (EpochScaled inflation, `1/k`; also `iakf-epoch`), `iakf-raw` (Raw),
     /// `sage-husa`; each with its paper defaults.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Ok(match s.trim().to_ascii_lowercase().as_str() {
@@ -68,6 +69,7 @@ impl FromStr for AnyStrategy {
             "iae" | "iae-r" => AnyStrategy::Iae(Iae::default()),
             "iae-qr" => AnyStrategy::Iae(Iae::default().with_q_adaptation()),
             "afkf" => AnyStrategy::Afkf(Afkf::default()),
+            "afkf-xia" => AnyStrategy::Afkf(Afkf::default().xia()),
             "fused" | "fused-cumulative" => AnyStrategy::Fused(FusedDualWindow::default()),
             "fused-nominal" => {
                 AnyStrategy::Fused(FusedDualWindow::default().with_r_reading(RReading::Nominal))
@@ -83,8 +85,8 @@ impl FromStr for AnyStrategy {
                     .with_r_reading(RReading::Nominal)
                     .with_refused_in_windows(true),
             ),
-            "iakf" => AnyStrategy::Iakf(Iakf::default()),
-            "iakf-epoch" => AnyStrategy::Iakf(Iakf::new(0.05, Inflation::EpochScaled)),
+            "iakf" | "iakf-epoch" => AnyStrategy::Iakf(Iakf::default()),
+            "iakf-raw" => AnyStrategy::Iakf(Iakf::new(0.05, Inflation::Raw)),
             "sage-husa" | "sagehusa" | "akf" => AnyStrategy::SageHusa(SageHusa::default()),
             _ => return Err(UnknownStrategy(s.to_string())),
         })
@@ -124,6 +126,10 @@ impl NoiseStrategy for AnyStrategy {
 
     fn prediction_fading(&self) -> f64 {
         dispatch!(self, s => s.prediction_fading())
+    }
+
+    fn tracks_process_noise(&self) -> bool {
+        dispatch!(self, s => s.tracks_process_noise())
     }
 
     fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)

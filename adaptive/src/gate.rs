@@ -135,6 +135,10 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
         self.inner.prediction_fading()
     }
 
+    fn tracks_process_noise(&self) -> bool {
+        self.inner.tracks_process_noise()
+    }
+
     fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)
     where
         DefaultAllocator: FilterAlloc<N, M>,

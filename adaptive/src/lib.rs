@@ -8,7 +8,7 @@
 //! | [`Iae`] | `iae` | `R` (and optionally `Q`) from a window of innovations | Mohamed & Schwarz 1999 |
 //! | [`Afkf`] | `afkf` | a fading factor on `P⁻` | Xia et al. 1994 |
 //! | [`FusedDualWindow`] | `fused` | `λ_P` on `P⁻` and `λ_R` on `R` from two windows; gross errors skipped | paper `fused-iae-afkf` |
-//! | [`Iakf`] | `iakf`, `iakf-epoch` | `R` inflated when a χ² test fails | paper `iakf-chi-square` |
+//! | [`Iakf`] | `iakf` (`1/k`), `iakf-raw` | `R` inflated when a χ² test fails | paper `iakf-chi-square` |
 //! | [`SageHusa`] | `sage-husa` | recursive `R` with forgetting | Sage & Husa 1969 |
 //! | [`AnyStrategy`] | any of the above | run-time choice by name | — |
 //! | [`Route`], [`PerStream`] | one strategy per measurement stream (by type, by name) | — | — |

@@ -52,6 +52,10 @@ impl<A: NoiseStrategy, B: NoiseStrategy> NoiseStrategy for Route<A, B> {
         self.on.prediction_fading().max(self.otherwise.prediction_fading())
     }
 
+    fn tracks_process_noise(&self) -> bool {
+        self.on.tracks_process_noise() || self.otherwise.tracks_process_noise()
+    }
+
     fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)
     where
         DefaultAllocator: FilterAlloc<N, M>,
@@ -141,6 +145,11 @@ impl<A: NoiseStrategy> NoiseStrategy for PerStream<A> {
             .iter()
             .map(|(_, a)| a.prediction_fading())
             .fold(self.default.prediction_fading(), f64::max)
+    }
+
+    fn tracks_process_noise(&self) -> bool {
+        self.default.tracks_process_noise()
+            || self.streams.iter().any(|(_, a)| a.tracks_process_noise())
     }
 
     fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)

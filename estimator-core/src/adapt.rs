@@ -151,6 +151,11 @@ where
     pub P_prior: CovView<'a, N>,
     /// `H P⁻ Hᵀ`.
     pub HPHt: &'a OMatrix<f64, M, M>,
+    /// `H Q_Σ Hᵀ`, `Q_Σ` the process noise accumulated since the previous update
+    /// (`Q_Σ ← Φ Q_Σ Φᵀ + Q_d` over the predictions in between, so that
+    /// `P⁻ = Φ_Σ P Φ_Σᵀ + Q_Σ`); `Some` only when the strategy asked for it
+    /// ([`NoiseStrategy::tracks_process_noise`]).
+    pub HQHt: Option<&'a OMatrix<f64, M, M>>,
     /// The measurement noise the caller gave.
     pub R_nominal: &'a OMatrix<f64, M, M>,
     /// Nominal innovation covariance `S = H P⁻ Hᵀ + R_nominal`.
@@ -161,6 +166,10 @@ where
     pub prior_scale: f64,
     /// Output: how `prior_scale` is applied.
     pub prior_scaling: PriorScaling,
+    /// Output: `prior_scale` scales the propagated part `P⁻ − Q_Σ = Φ_Σ P Φ_Σᵀ` only, not
+    /// the process noise added since the previous update (Xia's fading factor). Honoured
+    /// only when [`HQHt`](Self::HQHt) is `Some`. Default `false`.
+    pub scale_propagated_only: bool,
     /// Output: the `R` to use (symmetric positive definite; the filter checks).
     pub R: OMatrix<f64, M, M>,
     /// Output: the verdict.
@@ -257,6 +266,14 @@ pub trait NoiseStrategy: Clone {
     #[inline]
     fn prediction_fading(&self) -> f64 {
         1.0
+    }
+
+    /// Whether the filter should accumulate the process noise added since the previous
+    /// update, `Q_Σ`, and pass `H Q_Σ Hᵀ` in [`Adaptation::HQHt`] (it costs a second
+    /// covariance propagation per prediction). Default `false`.
+    #[inline]
+    fn tracks_process_noise(&self) -> bool {
+        false
     }
 
     /// Called after an accepted or inflated update with the gain used.

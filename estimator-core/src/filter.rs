@@ -20,7 +20,7 @@
 
 use std::borrow::Cow;
 
-use nalgebra::{DefaultAllocator, OMatrix};
+use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
 use manifolds::{DimAlloc, Manifold};
 
@@ -30,6 +30,7 @@ use crate::adapt::{
 pub use crate::backend::UpdateForm;
 use crate::backend::{CovBackend, StaticCov};
 use crate::dims::{Cov, FilterAlloc, StateDim};
+use crate::entries::Entries;
 use crate::error::FilterError;
 use crate::kernels;
 use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize, whitened_norm_sq};
@@ -105,6 +106,9 @@ pub struct ErrorStateFilter<
     time: f64,
     epoch: u64,
     q_adjust: QAdjust<X::Dim>,
+    /// `Q_Σ`, the process noise accumulated since the previous update, kept only for a
+    /// strategy that [tracks](NoiseStrategy::tracks_process_noise) it.
+    q_sum: Option<B::Cov>,
 }
 
 #[allow(non_snake_case)]
@@ -146,6 +150,7 @@ where
             time: 0.0,
             epoch: 0,
             q_adjust: QAdjust::Keep,
+            q_sum: None,
         })
     }
 
@@ -183,11 +188,6 @@ where
     /// heap matrix on the others).
     pub fn covariance_raw(&self) -> &B::Cov {
         &self.bufs[self.cur]
-    }
-
-    /// `(current, next, auxiliary)` buffers, disjointly borrowed.
-    fn buffers(&mut self) -> (&B::Cov, &mut B::Cov, &mut B::Cov) {
-        Self::split(&mut self.bufs, self.cur)
     }
 
     /// The current, next and auxiliary buffers of `bufs` with current index `cur`.
@@ -267,13 +267,19 @@ where
         if !(fading.is_finite() && fading > 0.0) {
             return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
         }
-        let (P, next, _) = Self::split(&mut self.bufs, self.cur);
+        let (P, next, aux) = Self::split(&mut self.bufs, self.cur);
         // the back-end owns the path: the model's structured products on the static one,
         // dense products on the heap ones
         let x_next =
             self.backend.predict(model, &self.x, u, dt, P, fading, &self.q_adjust, next)?;
         if !x_next.is_finite() {
             return Err(FilterError::NonFinite { what: "propagated state" });
+        }
+        if self.strategy.tracks_process_noise() {
+            // Q_Σ ← Φ Q_Σ Φᵀ + Q_d, by the same path (into the auxiliary buffer, then swapped)
+            let q_sum = self.q_sum.get_or_insert_with(|| B::from_static(&Cov::<X::Dim>::zeros()));
+            self.backend.predict(model, &self.x, u, dt, q_sum, 1.0, &self.q_adjust, aux)?;
+            core::mem::swap(q_sum, aux);
         }
         B::check_finite("propagated covariance P", &self.bufs[(self.cur + 1) % 3])?;
         self.x = x_next;
@@ -329,6 +335,18 @@ where
         kernels::mat_mul(H, &PHt, &mut HPHt);
         let mut S = &HPHt + R;
         symmetrize(&mut S);
+        // H Q_Σ Hᵀ for a strategy that tracks the process noise since the last update
+        let QHt = match (&self.q_sum, self.strategy.tracks_process_noise()) {
+            (Some(q_sum), true) => Some(self.backend.p_times_ht(H, q_sum)),
+            _ => None,
+        };
+        let HQHt = QHt.as_ref().map(|QHt| {
+            let mut m =
+                OMatrix::<f64, StateDim<MM::Measurement>, StateDim<MM::Measurement>>::zeros();
+            kernels::mat_mul(H, QHt, &mut m);
+            symmetrize(&mut m);
+            m
+        });
         let chol_S = cholesky("innovation covariance S = H P Hᵀ + R", S.clone())?;
         // NIS = rᵀ S⁻¹ r
         let nis = whitened_norm_sq(&chol_S, r);
@@ -342,11 +360,13 @@ where
             H,
             P_prior: CovView::new(&self.bufs[self.cur]),
             HPHt: &HPHt,
+            HQHt: HQHt.as_ref(),
             R_nominal: R,
             S: &S,
             nis,
             prior_scale: 1.0,
             prior_scaling: PriorScaling::default(),
+            scale_propagated_only: false,
             R: R.clone(),
             verdict: Verdict::Accepted,
             reason: "",
@@ -362,6 +382,7 @@ where
         // which cost more than the update's own products. `clone` of `q` copies only the
         // variant present.
         let (stream, prior_scale, prior_scaling) = (a.stream, a.prior_scale, a.prior_scaling);
+        let propagated_only = a.scale_propagated_only && QHt.is_some();
         let (verdict, reason, factors) = (a.verdict, a.reason, a.factors);
         let q = a.q.clone();
         let R_used = a.R;
@@ -395,10 +416,21 @@ where
             // changed nothing, S* = S and its factor is the one already computed.
             // (compared as slices: nalgebra's `!=` walks a strided iterator, several times slower)
             let adapted = prior_scale != 1.0 || R_used.as_slice() != R.as_slice();
+            // The scaled part B of P⁻: P⁻ itself, or Φ_Σ P Φ_Σᵀ = P⁻ − Q_Σ (Xia), and
+            // P⁻* = P⁻ + (λ − 1) B (or its restriction to the measurement subspace), so
+            // S* = H P⁻ Hᵀ + (λ − 1) H B Hᵀ + R*, P⁻* Hᵀ = P⁻ Hᵀ + (λ − 1) B Hᵀ.
+            let differences = match (&QHt, &HQHt) {
+                (Some(QHt), Some(HQHt)) if propagated_only => Some((&PHt - QHt, &HPHt - HQHt)),
+                _ => None,
+            };
+            let (BHt, HBHt) = match &differences {
+                Some((BHt, HBHt)) => (BHt, HBHt),
+                None => (&PHt, &HPHt),
+            };
             let S_adapted;
             let chol = if adapted {
                 check_covariance("adapted measurement noise R*", &R_used)?;
-                let mut S_used = &HPHt * prior_scale + &R_used;
+                let mut S_used = &HPHt + HBHt * (prior_scale - 1.0) + &R_used;
                 symmetrize(&mut S_used);
                 let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
                 report.nis_adapted = whitened_norm_sq(&chol, r);
@@ -411,34 +443,40 @@ where
             };
             let S_used = S_adapted.as_ref().unwrap_or(&report.S);
 
-            // P⁻*: λ P⁻, or P⁻ + (λ − 1) (HP)ᵀ (HPHᵀ)⁻¹ (HP) along the measurement subspace.
+            // P⁻*: P⁻ + (λ − 1) B, or P⁻ + (λ − 1) (HB)ᵀ (HBHᵀ)⁻¹ (HB) along the measurement
+            // subspace (B = P⁻ unless the strategy scales the propagated part only).
             let mut backend = core::mem::take(&mut self.backend);
             let form = self.form;
-            let (P, next, aux) = self.buffers();
+            let (P, next, aux) = Self::split(&mut self.bufs, self.cur);
             let scaled = if prior_scale == 1.0 {
                 false
             } else {
-                let HP = PHt.transpose();
+                let HB = BHt.transpose();
                 let subspace = match prior_scaling {
                     PriorScaling::MeasurementSubspace => {
-                        HPHt.clone().cholesky().map(|c| c.solve(&HP))
+                        HBHt.clone().cholesky().map(|c| c.solve(&HB))
                     }
                     PriorScaling::Full => None,
                 };
                 match subspace {
-                    Some(A) => backend.scale_add(P, 1.0, prior_scale - 1.0, &HP, &A, aux),
+                    Some(A) => backend.scale_add(P, 1.0, prior_scale - 1.0, &HB, &A, aux),
                     None => {
-                        // H P⁻ Hᵀ has no Cholesky factor (a measurement direction the prior
-                        // does not constrain): the whole prior is scaled, and the report
+                        // H B Hᵀ has no Cholesky factor (a measurement direction the prior
+                        // does not constrain): the whole of B is scaled, and the report
                         // says so.
                         fallback = prior_scaling == PriorScaling::MeasurementSubspace;
-                        backend.scale_add(P, prior_scale, 0.0, &HP, &HP, aux)
+                        backend.scale_add(P, prior_scale, 0.0, &HB, &HB, aux);
+                        if let (true, Some(q_sum)) = (propagated_only, &self.q_sum) {
+                            // λ P⁻ − (λ − 1) Q_Σ = P⁻ + (λ − 1)(P⁻ − Q_Σ)
+                            sub_scaled(aux, prior_scale - 1.0, q_sum, X::Dim::DIM);
+                        }
                     }
                 }
                 true
             };
-            // P⁻* Hᵀ = λ_P P⁻ Hᵀ (both scalings)
-            let PHt_used = if prior_scale == 1.0 { PHt } else { PHt * prior_scale };
+            // P⁻* Hᵀ = P⁻ Hᵀ + (λ − 1) B Hᵀ (both scalings)
+            let scaled_PHt = (prior_scale != 1.0).then(|| &PHt + BHt * (prior_scale - 1.0));
+            let PHt_used = scaled_PHt.unwrap_or(PHt);
             // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
             let mut K = PHt_used.clone();
             kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
@@ -473,6 +511,12 @@ where
         report.prior_scaling_fallback = fallback;
         self.x = x_new;
         self.commit();
+        if let Some(q_sum) = &mut self.q_sum {
+            // the next update's propagated part starts from this posterior
+            for c in 0..X::Dim::DIM {
+                q_sum.col_mut(c).fill(0.0);
+            }
+        }
         self.epoch = epoch;
         self.apply_q(&q);
         let mut post =
@@ -490,6 +534,15 @@ where
             QAdjust::Keep => {}
             QAdjust::Model => self.q_adjust = QAdjust::Keep,
             other => self.q_adjust = other.clone(),
+        }
+    }
+}
+
+/// `out ← out − a Q` for two `n × n` column-major covariances.
+fn sub_scaled<C: Entries>(out: &mut C, a: f64, q: &C, n: usize) {
+    for c in 0..n {
+        for (o, v) in out.col_mut(c).iter_mut().zip(q.col(c)) {
+            *o -= a * v;
         }
     }
 }

@@ -200,7 +200,7 @@ impl Default for GnssSection {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterSection {
-    /// Noise strategy name (`fixed`, `iae`, `afkf`, `fused`, `iakf`, `iakf-epoch`,
+    /// Noise strategy name (`fixed`, `iae`, `afkf`, `fused`, `iakf`, `iakf-raw`,
     /// `sage-husa`). Default `fixed`; `--strategy` overrides it.
     #[serde(default = "fixed")]
     pub strategy: String,
