@@ -42,7 +42,7 @@ fn no_gate() -> ins_gnss::config::GateSection {
 }
 
 #[path = "../tests/sample_data/mod.rs"]
-mod sample_data;
+pub mod sample_data;
 
 /// The sample-data directory: the repository's `data/` (or `ESTIMATOR_DATA_DIR`).
 pub fn data_dir() -> Option<PathBuf> {

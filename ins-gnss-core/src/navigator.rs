@@ -16,6 +16,7 @@ use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
 use crate::imu::ImuSample;
 use crate::model::{ImuInput, InsModel, M15};
 use crate::state::InsState;
+use crate::vehicle::{mounting_matrix, Nhc, StationaryDetector, VehicleAiding, Zaru, Zupt};
 
 /// 1σ of the initial state, SI units (rad, m/s, m, rad/s, m/s²).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -140,6 +141,18 @@ pub struct Navigator<A: NoiseStrategy = FixedNoise> {
     prev: Option<ImuSample>,
     rate: Vector3<f64>,
     time: f64,
+    vehicle: VehicleState,
+}
+
+/// The vehicle aiding's settings and bookkeeping.
+#[derive(Clone, Debug, Default)]
+struct VehicleState {
+    aiding: VehicleAiding,
+    c_vb: Matrix3<f64>,
+    detector: Option<StationaryDetector>,
+    last_nhc: f64,
+    last_zupt: f64,
+    last_zaru: f64,
 }
 
 impl<A: NoiseStrategy> Navigator<A> {
@@ -153,7 +166,38 @@ impl<A: NoiseStrategy> Navigator<A> {
         let filter = ErrorStateFilter::new(init.state.clone(), init.std.covariance(), strategy)
             .map_err(|source| NavError::Filter { t: init.time, source })?
             .with_time(init.time);
-        Ok(Self { filter, model, gnss, prev: None, rate: Vector3::zeros(), time: init.time })
+        Ok(Self {
+            filter,
+            model,
+            gnss,
+            prev: None,
+            rate: Vector3::zeros(),
+            time: init.time,
+            vehicle: VehicleState::default(),
+        })
+    }
+
+    /// Turn on land-vehicle aiding (NHC, ZUPT/ZARU on detected stops), applied at the end
+    /// of each IMU sample.
+    pub fn with_vehicle_aiding(mut self, aiding: VehicleAiding) -> Self {
+        let never = f64::NEG_INFINITY;
+        self.vehicle = VehicleState {
+            aiding,
+            c_vb: aiding
+                .nhc
+                .map(|n| mounting_matrix(&n.mounting))
+                .unwrap_or_else(Matrix3::identity),
+            detector: aiding.zupt.map(|z| StationaryDetector::new(z.detector)),
+            last_nhc: never,
+            last_zupt: never,
+            last_zaru: never,
+        };
+        self
+    }
+
+    /// The stationary detector, when ZUPT is on (its decisions and stationary time).
+    pub fn stationary_detector(&self) -> Option<&StationaryDetector> {
+        self.vehicle.detector.as_ref()
     }
 
     /// Current time, s.
@@ -242,6 +286,62 @@ impl<A: NoiseStrategy> Navigator<A> {
             self.propagate(&rest)?;
         }
         self.time = imu.t;
+        if self.vehicle.aiding.any() {
+            self.aid(imu, observer, out)?;
+        }
+        Ok(())
+    }
+
+    /// The vehicle aiding at the end of an IMU sample: ZUPT (and ZARU) while the detector
+    /// says the vehicle stands, otherwise NHC.
+    fn aid<O: Observer>(
+        &mut self,
+        imu: &ImuSample,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+    ) -> Result<(), NavError> {
+        let t = imu.t;
+        let err = |source| NavError::Measurement { t, source };
+        let v = &mut self.vehicle;
+        let bg = self.filter.state().bg;
+        let stationary = match &mut v.detector {
+            Some(d) => d.push(t, imu.dt, &imu.rate(), &imu.specific_force(), &bg),
+            None => false,
+        };
+        let speed = self.filter.state().vel.norm();
+        let zupt = v.aiding.zupt.filter(|z| stationary && speed < z.max_speed);
+        if let (Some(z), Some(d)) = (zupt, &v.detector) {
+            if t - v.last_zupt >= z.interval - TIME_EPSILON {
+                v.last_zupt = t;
+                let r = Matrix3::identity() * z.velocity_std.powi(2);
+                let report = self.filter.update_observed(&Zupt, &Vector3::zeros(), &r, observer);
+                out.push(report.map(|r| r.summary()).map_err(err)?);
+            }
+            if let Some(rate_std) = z.rate_std {
+                if t - v.last_zaru >= d.config().window - TIME_EPSILON {
+                    v.last_zaru = t;
+                    // the window mean's own white noise, ARW²/window, plus the configured σ
+                    let window = d.config().window.max(1e-3);
+                    let arw = self.model.noise.arw;
+                    let r =
+                        Matrix3::from_diagonal(&arw.map(|a| a * a / window + rate_std * rate_std));
+                    let mean = d.mean_rate();
+                    let report = self.filter.update_observed(&Zaru, &mean, &r, observer);
+                    out.push(report.map(|r| r.summary()).map_err(err)?);
+                }
+            }
+            return Ok(());
+        }
+        if let Some(n) = v.aiding.nhc {
+            if t - v.last_nhc >= n.interval - TIME_EPSILON && speed >= n.min_speed {
+                v.last_nhc = t;
+                let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
+                let r = nalgebra::Matrix2::from_diagonal(&n.std.component_mul(&n.std));
+                let report =
+                    self.filter.update_observed(&model, &nalgebra::Vector2::zeros(), &r, observer);
+                out.push(report.map(|r| r.summary()).map_err(err)?);
+            }
+        }
         Ok(())
     }
 

@@ -124,7 +124,8 @@ pub fn simulate_from(
     };
     out.truth.push(record(&exact.kinematics[0], corruptor.biases()));
     for (s, k) in exact.samples.iter().zip(&exact.kinematics[1..]) {
-        let (dtheta, dvel) = corruptor.corrupt(&s.dtheta, &s.dvel, s.dt, &mut rng_imu);
+        let speed = k.vel.norm();
+        let (dtheta, dvel) = corruptor.corrupt(&s.dtheta, &s.dvel, s.dt, speed, &mut rng_imu);
         out.imu.push(ImuSample { dtheta, dvel, ..*s });
         out.truth.push(record(k, corruptor.biases()));
     }
@@ -196,9 +197,10 @@ pub fn simulate_each<E>(
     for i in 1..=n {
         let (ta, tb) = (t0 + (i - 1) as f64 * dt, t0 + i as f64 * dt);
         let (dtheta, dvel) = traj.increments(ta, tb);
-        let (dtheta, dvel) = corruptor.corrupt(&dtheta, &dvel, dt, &mut rng_imu);
+        let end = traj.at(tb);
+        let (dtheta, dvel) = corruptor.corrupt(&dtheta, &dvel, dt, end.vel.norm(), &mut rng_imu);
         let sample = ImuSample { t: tb, dt, dtheta, dvel };
-        each_imu(Some(&sample), &record(&traj.at(tb), corruptor.biases()))?;
+        each_imu(Some(&sample), &record(&end, corruptor.biases()))?;
     }
     gnss_epochs(traj, gnss, seed, each_gnss)
 }

@@ -65,6 +65,7 @@ pub fn mems_imu() -> ImuErrors {
         accel_turn_on: Vector3::new(500.0, -400.0, 300.0) * MGAL,
         gyro_scale: Vector3::zeros(),
         accel_scale: Vector3::zeros(),
+        vibration: (0.0, 0.0),
     }
 }
 

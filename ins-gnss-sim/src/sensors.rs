@@ -28,6 +28,10 @@ pub struct ImuErrors {
     pub gyro_scale: Vector3<f64>,
     /// Accelerometer scale-factor error (fraction).
     pub accel_scale: Vector3<f64>,
+    /// White vibration while the vehicle moves (a road shakes a car's IMU; a standing
+    /// car's does not): 1σ per sample of the angular rate (rad/s) and specific force
+    /// (m/s²) on each axis. Zero: none (no random numbers drawn).
+    pub vibration: (f64, f64),
 }
 
 impl ImuErrors {
@@ -45,9 +49,13 @@ impl ImuErrors {
             accel_turn_on: Vector3::zeros(),
             gyro_scale: Vector3::zeros(),
             accel_scale: Vector3::zeros(),
+            vibration: (0.0, 0.0),
         }
     }
 }
+
+/// Above this speed (m/s) the simulated vehicle vibrates.
+pub const VIBRATION_SPEED: f64 = 0.05;
 
 /// The running state of a simulated IMU.
 #[derive(Clone, Debug)]
@@ -79,22 +87,32 @@ impl ImuCorruptor {
         (self.errors.gyro_turn_on + self.bg, self.errors.accel_turn_on + self.ba)
     }
 
-    /// Corrupt exact increments over an interval of `dt`; advances the bias processes.
+    /// Corrupt exact increments over an interval of `dt` of a vehicle moving at `speed`
+    /// (m/s, for the vibration); advances the bias processes.
     pub fn corrupt(
         &mut self,
         dtheta: &Vector3<f64>,
         dvel: &Vector3<f64>,
         dt: f64,
+        speed: f64,
         rng: &mut StdRng,
     ) -> (Vector3<f64>, Vector3<f64>) {
         let e = &self.errors;
         let (bg, ba) = self.biases();
         let sq = dt.sqrt();
-        let th = dtheta
+        let (vib_g, vib_a) = e.vibration;
+        let (shake_g, shake_a) = if speed > VIBRATION_SPEED && (vib_g > 0.0 || vib_a > 0.0) {
+            (normal3(rng) * (vib_g * dt), normal3(rng) * (vib_a * dt))
+        } else {
+            (Vector3::zeros(), Vector3::zeros())
+        };
+        let th = shake_g
+            + dtheta
             + e.gyro_scale.component_mul(dtheta)
             + bg * dt
             + normal3(rng).component_mul(&e.noise.arw) * sq;
-        let dv = dvel
+        let dv = shake_a
+            + dvel
             + e.accel_scale.component_mul(dvel)
             + ba * dt
             + normal3(rng).component_mul(&e.noise.vrw) * sq;

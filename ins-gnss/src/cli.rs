@@ -88,6 +88,13 @@ pub fn print_summary(s: &RunSummary) {
         s.imu_epochs as f64 / s.wall_time.max(1e-9),
         s.out_dir.display()
     );
+    if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
+        let [n, z, r] = s.aiding;
+        out!(
+            "vehicle aiding: NHC {} used, {} refused; ZUPT {} used, {} refused; ZARU {} used, {} refused; stationary {:.1} s",
+            n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, s.stationary_time
+        );
+    }
     if let Some(c) = s.consistency() {
         out!("{}", c.verdict());
     }
@@ -112,6 +119,12 @@ pub struct RunOptions<'a> {
     pub plots: bool,
     /// Open the gross-error gate (KF-GINS's behaviour: every fix used).
     pub no_gate: bool,
+    /// Turn on NHC (configured settings or defaults).
+    pub nhc: bool,
+    /// Turn on ZUPT/ZARU (configured settings or defaults).
+    pub zupt: bool,
+    /// Turn off all vehicle aiding.
+    pub no_vehicle: bool,
 }
 
 /// `ins-gnss run`.
@@ -126,6 +139,15 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     }
     if o.no_gate {
         cfg.filter.gate.enabled = false;
+    }
+    if o.nhc && cfg.vehicle.nhc.is_none() {
+        cfg.vehicle.nhc = Some(Default::default());
+    }
+    if o.zupt && cfg.vehicle.zupt.is_none() {
+        cfg.vehicle.zupt = Some(Default::default());
+    }
+    if o.no_vehicle {
+        cfg.vehicle = Default::default();
     }
     let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());

@@ -10,7 +10,7 @@ use manifolds::So3;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use crate::checks::{finite, positive};
+use crate::checks::{finite, nonneg, positive};
 use ins_gnss_core::gnss::GNSS_STREAMS;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
 use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
@@ -18,6 +18,19 @@ use ins_gnss_core::mechanization::Mechanization;
 use ins_gnss_core::navigator::{GnssConfig, InitialState, InitialStd};
 use ins_gnss_core::position::GeoPos;
 use ins_gnss_core::state::InsState;
+use ins_gnss_core::vehicle::{
+    DetectorConfig, NhcConfig, VehicleAiding, ZuptConfig, VEHICLE_STREAMS,
+};
+
+/// Every measurement stream a configuration may name in `filter.streams`.
+pub const STREAMS: [estimator_core::StreamId; 6] = [
+    GNSS_STREAMS[0],
+    GNSS_STREAMS[1],
+    GNSS_STREAMS[2],
+    VEHICLE_STREAMS[0],
+    VEHICLE_STREAMS[1],
+    VEHICLE_STREAMS[2],
+];
 
 /// A configuration that cannot be used, with the file and the key.
 #[derive(Clone, Debug, PartialEq)]
@@ -293,6 +306,125 @@ pub struct Config {
     /// Filter choices.
     #[serde(default)]
     pub filter: FilterSection,
+    /// Land-vehicle aiding (off unless a subsection is present).
+    #[serde(default)]
+    pub vehicle: VehicleSection,
+}
+
+/// Land-vehicle aiding: `[vehicle.nhc]` and `[vehicle.zupt]`, each on when present.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleSection {
+    /// The non-holonomic constraint.
+    #[serde(default)]
+    pub nhc: Option<NhcSection>,
+    /// ZUPT and ZARU on detected stops.
+    #[serde(default)]
+    pub zupt: Option<ZuptSection>,
+}
+
+/// `[vehicle.nhc]`: lateral and vertical velocity zero at a point of the vehicle.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NhcSection {
+    /// Roll, pitch, yaw of the IMU relative to the vehicle frame, degrees. Default 0.
+    #[serde(default)]
+    pub mounting: [f64; 3],
+    /// The constraint point (middle of the rear axle) from the IMU, body frame FRD, m.
+    /// Default 0.
+    #[serde(default)]
+    pub lever_arm: [f64; 3],
+    /// 1σ of the lateral and vertical velocity, m/s. Default [0.1, 0.1].
+    #[serde(default = "default_nhc_std")]
+    pub std: [f64; 2],
+    /// Time between updates, s. Default 0.1.
+    #[serde(default = "default_aiding_interval")]
+    pub interval: f64,
+    /// Applied only above this speed, m/s. Default 0.
+    #[serde(default)]
+    pub min_speed: f64,
+}
+
+fn default_nhc_std() -> [f64; 2] {
+    [0.1, 0.1]
+}
+fn default_aiding_interval() -> f64 {
+    0.1
+}
+
+impl Default for NhcSection {
+    fn default() -> Self {
+        Self {
+            mounting: [0.0; 3],
+            lever_arm: [0.0; 3],
+            std: default_nhc_std(),
+            interval: default_aiding_interval(),
+            min_speed: 0.0,
+        }
+    }
+}
+
+/// `[vehicle.zupt]`: the stationary detector's thresholds and the ZUPT/ZARU noise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ZuptSection {
+    /// Detector window, s. Default 1.
+    #[serde(default = "default_window")]
+    pub window: f64,
+    /// Largest bias-corrected rate in the window, deg/s. Default 0.5.
+    #[serde(default = "default_gyro_max")]
+    pub gyro_max: f64,
+    /// Largest standard deviation of the specific-force magnitude in the window, m/s².
+    /// Default 0.05.
+    #[serde(default = "default_accel_std_max")]
+    pub accel_std_max: f64,
+    /// 1σ of the zero velocity, m/s. Default 0.02.
+    #[serde(default = "default_zupt_std")]
+    pub velocity_std: f64,
+    /// 1σ of the zero angular rate beyond the window mean's white noise (added from
+    /// `imu_noise.arw`), deg/s; 0 turns ZARU off. Default 0.01.
+    #[serde(default = "default_zaru_std")]
+    pub rate_std: f64,
+    /// Time between ZUPTs while stationary, s. Default 0.1 (ZARU: once per window).
+    #[serde(default = "default_aiding_interval")]
+    pub interval: f64,
+    /// ZUPT/ZARU only while the filter's speed is below this, m/s. Default 0.3.
+    #[serde(default = "default_zupt_max_speed")]
+    pub max_speed: f64,
+}
+
+fn default_zupt_max_speed() -> f64 {
+    0.3
+}
+
+fn default_window() -> f64 {
+    1.0
+}
+fn default_gyro_max() -> f64 {
+    0.5
+}
+fn default_accel_std_max() -> f64 {
+    0.05
+}
+fn default_zupt_std() -> f64 {
+    0.02
+}
+fn default_zaru_std() -> f64 {
+    0.01
+}
+
+impl Default for ZuptSection {
+    fn default() -> Self {
+        Self {
+            window: default_window(),
+            gyro_max: default_gyro_max(),
+            accel_std_max: default_accel_std_max(),
+            velocity_std: default_zupt_std(),
+            rate_std: default_zaru_std(),
+            interval: default_aiding_interval(),
+            max_speed: default_zupt_max_speed(),
+        }
+    }
 }
 
 fn v3(a: [f64; 3]) -> Vector3<f64> {
@@ -430,13 +562,41 @@ impl Config {
         if g.readmit_after == 0 {
             return Err("`filter.gate.readmit_after` must be at least 1".into());
         }
+        if let Some(n) = &self.vehicle.nhc {
+            finite("vehicle.nhc.mounting", &n.mounting)?;
+            if n.mounting.iter().any(|a| a.abs() > 180.0) {
+                return Err(format!(
+                    "`vehicle.nhc.mounting` {:?}: angles in degrees within ±180",
+                    n.mounting
+                ));
+            }
+            finite("vehicle.nhc.lever_arm", &n.lever_arm)?;
+            if n.lever_arm.iter().any(|v| v.abs() > 100.0) {
+                return Err(format!(
+                    "`vehicle.nhc.lever_arm` {:?} m: a component beyond the 100 m limit",
+                    n.lever_arm
+                ));
+            }
+            positive("vehicle.nhc.std", &n.std)?;
+            nonneg("vehicle.nhc.interval", &[n.interval])?;
+            nonneg("vehicle.nhc.min_speed", &[n.min_speed])?;
+        }
+        if let Some(z) = &self.vehicle.zupt {
+            positive("vehicle.zupt.window", &[z.window])?;
+            positive("vehicle.zupt.gyro_max", &[z.gyro_max])?;
+            positive("vehicle.zupt.accel_std_max", &[z.accel_std_max])?;
+            positive("vehicle.zupt.velocity_std", &[z.velocity_std])?;
+            nonneg("vehicle.zupt.rate_std", &[z.rate_std])?;
+            nonneg("vehicle.zupt.interval", &[z.interval])?;
+            positive("vehicle.zupt.max_speed", &[z.max_speed])?;
+        }
         self.filter
             .strategy
             .parse::<adaptive::AnyStrategy>()
             .map_err(|e| format!("`filter.strategy`: {e}"))?;
         for (stream, name) in &self.filter.streams {
-            if !GNSS_STREAMS.iter().any(|s| s.name() == stream) {
-                let names: Vec<_> = GNSS_STREAMS.iter().map(|s| s.name()).collect();
+            if !STREAMS.iter().any(|s| s.name() == stream) {
+                let names: Vec<_> = STREAMS.iter().map(|s| s.name()).collect();
                 return Err(format!(
                     "`filter.streams`: unknown stream `{stream}`; the streams are {}",
                     names.join(", ")
@@ -472,8 +632,13 @@ impl Config {
     ) -> Result<adaptive::PerStream<adaptive::AnyStrategy>, ConfigError> {
         let err = |message: String| ConfigError { path: PathBuf::from("filter.streams"), message };
         let mut s = adaptive::PerStream::new(default);
+        // the vehicle's pseudo-measurements keep their configured noise unless named:
+        // an R-estimating strategy would learn the tuning of a constraint, not a sensor
+        for id in VEHICLE_STREAMS {
+            s = s.with(id, adaptive::AnyStrategy::default());
+        }
         for (stream, name) in &self.filter.streams {
-            let id = *GNSS_STREAMS
+            let id = *STREAMS
                 .iter()
                 .find(|s| s.name() == stream)
                 .ok_or_else(|| err(format!("unknown stream `{stream}`")))?;
@@ -534,6 +699,31 @@ impl Config {
             use_velocity: self.gnss.use_velocity,
             pos_std: self.gnss.position_std.map(v3),
             vel_std: self.gnss.velocity_std.map(v3),
+        }
+    }
+
+    /// The vehicle aiding in SI units.
+    pub fn vehicle_aiding(&self) -> VehicleAiding {
+        let d = core::f64::consts::PI / 180.0;
+        VehicleAiding {
+            nhc: self.vehicle.nhc.as_ref().map(|n| NhcConfig {
+                mounting: v3(n.mounting) * d,
+                lever_arm: v3(n.lever_arm),
+                std: nalgebra::Vector2::new(n.std[0], n.std[1]),
+                interval: n.interval,
+                min_speed: n.min_speed,
+            }),
+            zupt: self.vehicle.zupt.as_ref().map(|z| ZuptConfig {
+                detector: DetectorConfig {
+                    window: z.window,
+                    gyro_max: z.gyro_max * d,
+                    accel_std_max: z.accel_std_max,
+                },
+                velocity_std: z.velocity_std,
+                rate_std: (z.rate_std > 0.0).then_some(z.rate_std * d),
+                interval: z.interval,
+                max_speed: z.max_speed,
+            }),
         }
     }
 
@@ -722,6 +912,7 @@ mod kf_gins {
                 ..GnssSection::default()
             },
             filter: FilterSection::default(),
+            vehicle: VehicleSection::default(),
         })
     }
 }

@@ -30,6 +30,7 @@ use ins_gnss_core::io::formats::{create_partial, partial_path, publish, write_na
 use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use ins_gnss_core::model::InsModel;
 use ins_gnss_core::navigator::{NavError, Navigator};
+use ins_gnss_core::vehicle::VEHICLE_STREAMS;
 
 /// Why a run stopped.
 #[derive(Debug)]
@@ -139,6 +140,20 @@ pub struct RunSummary {
     pub nis_dof: usize,
     /// Time of the first and last GNSS epoch read, s (NaN when none was).
     pub gnss_span: (f64, f64),
+    /// Vehicle-aiding updates per stream (NHC, ZUPT, ZARU): used (accepted or inflated)
+    /// and refused.
+    pub aiding: [AidingCount; 3],
+    /// Time the stationary detector judged the vehicle standing, s (0 without ZUPT).
+    pub stationary_time: f64,
+}
+
+/// Updates of one vehicle-aiding stream.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AidingCount {
+    /// Accepted or inflated.
+    pub used: usize,
+    /// Rejected (by the gate or the strategy).
+    pub rejected: usize,
 }
 
 /// Whether a run's innovations were consistent with its reported uncertainty.
@@ -196,9 +211,17 @@ impl RunSummary {
         })
     }
 
-    /// Count the verdicts of one epoch's updates.
+    /// Count the verdicts of one epoch's updates (GNSS and vehicle aiding apart; only
+    /// GNSS updates enter the consistency check).
     fn tally(&mut self, updates: &[UpdateSummary]) {
         for u in updates {
+            if let Some(k) = VEHICLE_STREAMS.iter().position(|s| *s == u.stream) {
+                match u.verdict {
+                    Verdict::Rejected => self.aiding[k].rejected += 1,
+                    _ => self.aiding[k].used += 1,
+                }
+                continue;
+            }
             self.gnss_epochs += 1;
             match u.verdict {
                 Verdict::Accepted => {
@@ -352,13 +375,13 @@ fn start_navigator(
     let start = config.data.start_time.unwrap_or(first_t);
     let end = config.data.end_time.unwrap_or(f64::INFINITY);
     let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+    // the name of the strategy the user chose (the vehicle streams' fixed noise aside)
+    let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
     let strategy = config.strategy(strategy).map_err(RunError::Config)?;
-    let nav = Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?;
-    let summary = RunSummary {
-        strategy: nav.filter().strategy().name().to_string(),
-        span: (start, start),
-        ..Default::default()
-    };
+    let nav = Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?
+        .with_vehicle_aiding(config.vehicle_aiding());
+    let summary =
+        RunSummary { strategy: name.to_string(), span: (start, start), ..Default::default() };
     Ok((nav, summary, end))
 }
 
@@ -574,6 +597,7 @@ fn run_into(
         })?;
     }
     summary.gnss_skipped = gnss.skipped;
+    summary.stationary_time = nav.stationary_detector().map_or(0.0, |d| d.stationary_time());
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }
@@ -653,6 +677,7 @@ pub fn run_slices(
         _ => (f64::NAN, f64::NAN),
     };
     check_gnss_overlap(&summary, Path::new("(GNSS data)"))?;
+    summary.stationary_time = nav.stationary_detector().map_or(0.0, |d| d.stationary_time());
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }

@@ -85,6 +85,10 @@ pub struct ImuSpec {
     /// Accelerometer scale-factor error, ppm.
     #[serde(default)]
     pub accel_scale_ppm: [f64; 3],
+    /// Vibration while moving: 1σ per sample of the angular rate (deg/s) and the specific
+    /// force (m/s²), each axis. Default none.
+    #[serde(default)]
+    pub vibration: [f64; 2],
 }
 
 /// A GNSS window.
@@ -237,6 +241,7 @@ impl Scenario {
         finite("imu.accel_turn_on", &i.accel_turn_on)?;
         finite("imu.gyro_scale_ppm", &i.gyro_scale_ppm)?;
         finite("imu.accel_scale_ppm", &i.accel_scale_ppm)?;
+        nonneg("imu.vibration", &i.vibration)?;
         let g = &self.gnss;
         positive("gnss.rate", &[g.rate])?;
         if g.rate > i.rate {
@@ -317,6 +322,7 @@ impl Scenario {
                 accel_turn_on: [500.0, -400.0, 300.0],
                 gyro_scale_ppm: [0.0; 3],
                 accel_scale_ppm: [0.0; 3],
+                vibration: [0.0; 2],
             },
             gnss: GnssSpec {
                 rate: 1.0,
@@ -398,6 +404,7 @@ impl Scenario {
             accel_turn_on: v3(i.accel_turn_on) * MGAL,
             gyro_scale: v3(i.gyro_scale_ppm) * 1e-6,
             accel_scale: v3(i.accel_scale_ppm) * 1e-6,
+            vibration: (i.vibration[0].to_radians(), i.vibration[1]),
         }
     }
 
@@ -549,6 +556,7 @@ impl Scenario {
             },
             gnss: GnssSection { lever_arm: self.gnss.lever_arm, ..GnssSection::default() },
             filter: FilterSection::default(),
+            vehicle: Default::default(),
         }
     }
 }

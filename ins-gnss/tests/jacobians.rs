@@ -246,6 +246,21 @@ fn gnss_h_matches_numerical_jacobians() {
 }
 
 #[test]
+fn vehicle_aiding_h_matches_numerical_jacobians() {
+    use ins_gnss_core::vehicle::{mounting_matrix, Nhc, Zaru, Zupt};
+    let deg = core::f64::consts::PI / 180.0;
+    let lever = Vector3::new(-1.4, 0.2, 0.9);
+    for (x, u) in states() {
+        let rate = u.cur.rate();
+        let c_vb = mounting_matrix(&Vector3::new(0.5 * deg, -1.5 * deg, 2.0 * deg));
+        let nhc = Nhc { c_vb, lever_arm: lever, gyro_rate: rate };
+        check_measurement_model_with_step(&nhc, &x, 1e-6, 1e-4).unwrap();
+        check_measurement_model_with_step(&Zupt, &x, 1e-6, 1e-4).unwrap();
+        check_measurement_model_with_step(&Zaru, &x, 1e-5, 1e-3).unwrap();
+    }
+}
+
+#[test]
 fn structured_propagation_equals_dense() {
     let model = InsModel::wgs84(scenarios::mems_imu().noise);
     for (x, u) in states() {

@@ -50,6 +50,17 @@ enum Command {
         /// Override the bias model: random-walk, gauss-markov, gauss-markov-held.
         #[arg(long)]
         bias_model: Option<String>,
+        /// Land vehicle: apply the non-holonomic constraint (lateral and vertical velocity
+        /// zero), with the configuration's `[vehicle.nhc]` settings or the defaults.
+        #[arg(long)]
+        nhc: bool,
+        /// Land vehicle: ZUPT and ZARU on stops found by the stationary detector, with the
+        /// configuration's `[vehicle.zupt]` settings or the defaults.
+        #[arg(long)]
+        zupt: bool,
+        /// Turn off every vehicle aiding the configuration enables.
+        #[arg(long, conflicts_with_all = ["nhc", "zupt"])]
+        no_vehicle: bool,
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
@@ -108,6 +119,9 @@ fn main() -> ExitCode {
             quiet,
             plots,
             bias_model,
+            nhc,
+            zupt,
+            no_vehicle,
         }) => {
             let o = cli::RunOptions {
                 strategy: strategy.as_deref(),
@@ -118,6 +132,9 @@ fn main() -> ExitCode {
                 progress: !quiet,
                 plots,
                 no_gate,
+                nhc,
+                zupt,
+                no_vehicle,
             };
             cli::run(&config, &o)
         }

@@ -1,0 +1,342 @@
+//! Land-vehicle aiding: the non-holonomic constraint (NHC), zero-velocity and
+//! zero-angular-rate updates (ZUPT, ZARU), and the stationary detector that decides when
+//! the vehicle stands still.
+//!
+//! Frames: the IMU body frame `b` (FRD) and the vehicle frame `v` (FRD: forward along the
+//! car's axis, right, down). The mounting angles are the roll, pitch and yaw of the IMU
+//! body frame relative to the vehicle frame, `C_vb = (R(roll, pitch, yaw))ᵀ` takes body
+//! vectors to the vehicle frame; all zero when the IMU is mounted square.
+//!
+//! **NHC** (Shin 2005; Groves 2013 §16.4.3; Niu et al.): a car on a road does not slide
+//! sideways or leave the ground, so at a point on the rear axle the vehicle-frame
+//! velocity's lateral and vertical components are zero. With the point at lever arm `l`
+//! from the IMU (body frame) and the body rate `ω = ω̃ − b_g`,
+//!
+//! ```text
+//! v_v = C_vb (R_nbᵀ v_n + ω × l)          z = [v_v,y, v_v,z] = 0
+//! H   = E C_vb [ [R_nbᵀ v_n ×],  R_nbᵀ,  0,  [l×],  0 ]      E = rows 2 and 3
+//! ```
+//!
+//! (right attitude error `R_true = R̂ Exp(δθ)`: `Exp(δθ)ᵀ R̂ᵀ v ≈ R̂ᵀ v + [R̂ᵀ v ×] δθ`). The
+//! Earth and transport rates are left out of `ω` (below 1e-4 m/s for a lever arm of 1 m).
+//!
+//! **ZUPT**: the velocity is zero, `z = 0 = v_n`, `H = [0, I, 0, 0, 0]`. **ZARU**: the
+//! body turns with the Earth only, so the mean measured rate over the stationary window
+//! is `ω̄ = b_g + R_nbᵀ ω_ie^n`, `H = [[R_nbᵀ ω_ie^n ×], 0, 0, I, 0]`: the vertical gyro
+//! bias, which GNSS sees only through slow heading drift, is observed while the car
+//! stands.
+
+use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};
+use manifolds::{hat, So3, R3};
+use nalgebra::{Const, Matrix3, SMatrix, Vector2, Vector3};
+
+use crate::earth::earth_rate_ned;
+use crate::state::InsState;
+
+/// The stream of [`Nhc`] updates.
+pub const NHC: StreamId = StreamId::named("nhc");
+/// The stream of [`Zupt`] updates.
+pub const ZUPT: StreamId = StreamId::named("zupt");
+/// The stream of [`Zaru`] updates.
+pub const ZARU: StreamId = StreamId::named("zaru");
+/// Every vehicle-aiding stream.
+pub const VEHICLE_STREAMS: [StreamId; 3] = [NHC, ZUPT, ZARU];
+
+/// `C_vb` from the IMU's mounting angles (roll, pitch, yaw of the body frame relative to
+/// the vehicle frame), rad.
+pub fn mounting_matrix(angles: &Vector3<f64>) -> Matrix3<f64> {
+    So3::from_euler(angles.x, angles.y, angles.z).matrix().transpose()
+}
+
+/// The non-holonomic constraint: lateral and vertical vehicle-frame velocity are zero at
+/// the constraint point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Nhc {
+    /// `C_vb`, body → vehicle frame ([`mounting_matrix`]).
+    pub c_vb: Matrix3<f64>,
+    /// The constraint point (e.g. the middle of the rear axle) from the IMU, body frame
+    /// (FRD), m.
+    pub lever_arm: Vector3<f64>,
+    /// Measured angular rate at the epoch, rad/s (bias removed inside).
+    pub gyro_rate: Vector3<f64>,
+}
+
+impl Nhc {
+    /// The constraint point's velocity in the vehicle frame.
+    pub fn vehicle_velocity(&self, x: &InsState) -> Vector3<f64> {
+        let r = x.att.matrix();
+        self.c_vb * (r.transpose() * x.vel + (self.gyro_rate - x.bg).cross(&self.lever_arm))
+    }
+
+    fn h(&self, x: &InsState) -> SMatrix<f64, 2, 15> {
+        let rt = x.att.matrix().transpose();
+        let mut full = SMatrix::<f64, 3, 15>::zeros();
+        full.fixed_view_mut::<3, 3>(0, 0).copy_from(&(self.c_vb * hat(&(rt * x.vel))));
+        full.fixed_view_mut::<3, 3>(0, 3).copy_from(&(self.c_vb * rt));
+        full.fixed_view_mut::<3, 3>(0, 9).copy_from(&(self.c_vb * hat(&self.lever_arm)));
+        full.fixed_rows::<2>(1).into_owned()
+    }
+}
+
+impl MeasurementModel for Nhc {
+    type State = InsState;
+    type Measurement = Vector2<f64>;
+
+    fn predict(&self, x: &InsState) -> Vector2<f64> {
+        let v = self.vehicle_velocity(x);
+        Vector2::new(v.y, v.z)
+    }
+
+    fn jacobian(&self, x: &InsState) -> MeasurementJacobians<Const<2>, Const<15>> {
+        MeasurementJacobians { H: self.h(x) }
+    }
+
+    fn stream(&self) -> StreamId {
+        NHC
+    }
+}
+
+/// Zero velocity: `z = v_n = 0`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Zupt;
+
+impl MeasurementModel for Zupt {
+    type State = InsState;
+    type Measurement = R3;
+
+    fn predict(&self, x: &InsState) -> R3 {
+        x.vel
+    }
+
+    fn jacobian(&self, _x: &InsState) -> MeasurementJacobians<Const<3>, Const<15>> {
+        let mut H = SMatrix::<f64, 3, 15>::zeros();
+        H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+        MeasurementJacobians { H }
+    }
+
+    fn stream(&self) -> StreamId {
+        ZUPT
+    }
+}
+
+/// Zero angular rate: the mean measured rate while standing is the gyro bias plus the
+/// Earth rate in the body frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Zaru;
+
+impl Zaru {
+    fn earth_rate_body(x: &InsState) -> Vector3<f64> {
+        x.att.matrix().transpose() * earth_rate_ned(x.pos.lat)
+    }
+}
+
+impl MeasurementModel for Zaru {
+    type State = InsState;
+    type Measurement = R3;
+
+    fn predict(&self, x: &InsState) -> R3 {
+        x.bg + Self::earth_rate_body(x)
+    }
+
+    fn jacobian(&self, x: &InsState) -> MeasurementJacobians<Const<3>, Const<15>> {
+        let mut H = SMatrix::<f64, 3, 15>::zeros();
+        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&hat(&Self::earth_rate_body(x)));
+        H.fixed_view_mut::<3, 3>(0, 9).copy_from(&Matrix3::identity());
+        MeasurementJacobians { H }
+    }
+
+    fn stream(&self) -> StreamId {
+        ZARU
+    }
+}
+
+/// Thresholds of the [`StationaryDetector`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DetectorConfig {
+    /// Window length, s. Default 1.
+    pub window: f64,
+    /// Largest bias-corrected angular rate magnitude inside the window, rad/s.
+    /// Default 0.5°/s.
+    pub gyro_max: f64,
+    /// Largest standard deviation of the specific-force magnitude inside the window,
+    /// m/s². Default 0.05.
+    pub accel_std_max: f64,
+}
+
+impl Default for DetectorConfig {
+    fn default() -> Self {
+        Self { window: 1.0, gyro_max: 0.5f64.to_radians(), accel_std_max: 0.05 }
+    }
+}
+
+/// A windowed stationary detector on IMU statistics: the vehicle stands when, over the
+/// last `window` seconds, every bias-corrected angular rate is below `gyro_max` and the
+/// specific-force magnitude's standard deviation is below `accel_std_max` (an engine's
+/// vibration passes; a car rolling at walking pace does not — its wheels shake the
+/// accelerometers). A ring buffer sized at the first sample: no allocation afterwards.
+#[derive(Clone, Debug)]
+pub struct StationaryDetector {
+    config: DetectorConfig,
+    /// `(t, |ω − b_g|, |f|, ω)` of the samples in the window.
+    buf: Vec<(f64, f64, f64, Vector3<f64>)>,
+    head: usize,
+    len: usize,
+    stationary: bool,
+    stationary_time: f64,
+    last_t: Option<f64>,
+}
+
+impl StationaryDetector {
+    /// A detector with the given thresholds.
+    pub fn new(config: DetectorConfig) -> Self {
+        Self {
+            config,
+            buf: Vec::new(),
+            head: 0,
+            len: 0,
+            stationary: false,
+            stationary_time: 0.0,
+            last_t: None,
+        }
+    }
+
+    /// The thresholds.
+    pub fn config(&self) -> &DetectorConfig {
+        &self.config
+    }
+
+    /// Add one sample's mean rate (raw, rad/s), specific force (m/s²) and the current gyro
+    /// bias estimate; returns whether the vehicle stands now.
+    pub fn push(
+        &mut self,
+        t: f64,
+        dt: f64,
+        rate: &Vector3<f64>,
+        force: &Vector3<f64>,
+        bg: &Vector3<f64>,
+    ) -> bool {
+        if self.buf.is_empty() {
+            let n = ((self.config.window / dt.max(1e-6)).ceil() as usize).clamp(2, 100_000);
+            self.buf = vec![(0.0, 0.0, 0.0, Vector3::zeros()); n];
+        }
+        let cap = self.buf.len();
+        let idx = (self.head + self.len) % cap;
+        self.buf[idx] = (t, (rate - bg).norm(), force.norm(), *rate);
+        if self.len < cap {
+            self.len += 1;
+        } else {
+            self.head = (self.head + 1) % cap;
+        }
+        let was = self.stationary;
+        self.stationary = self.len == cap && self.decide();
+        if let (true, true, Some(last)) = (was, self.stationary, self.last_t) {
+            self.stationary_time += t - last;
+        }
+        self.last_t = Some(t);
+        self.stationary
+    }
+
+    fn samples(&self) -> impl Iterator<Item = &(f64, f64, f64, Vector3<f64>)> {
+        let cap = self.buf.len();
+        (0..self.len).map(move |k| &self.buf[(self.head + k) % cap])
+    }
+
+    fn decide(&self) -> bool {
+        if self.samples().any(|s| s.1 > self.config.gyro_max) {
+            return false;
+        }
+        let n = self.len as f64;
+        let mean = self.samples().map(|s| s.2).sum::<f64>() / n;
+        let var = self.samples().map(|s| (s.2 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        var.sqrt() <= self.config.accel_std_max
+    }
+
+    /// Whether the last sample was judged stationary.
+    pub fn is_stationary(&self) -> bool {
+        self.stationary
+    }
+
+    /// Total time judged stationary so far, s.
+    pub fn stationary_time(&self) -> f64 {
+        self.stationary_time
+    }
+
+    /// Mean raw angular rate over the window (the ZARU measurement), rad/s.
+    pub fn mean_rate(&self) -> Vector3<f64> {
+        let n = self.len.max(1) as f64;
+        self.samples().fold(Vector3::zeros(), |a, s| a + s.3) / n
+    }
+}
+
+/// Vehicle-aiding settings for the [`Navigator`](crate::Navigator).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VehicleAiding {
+    /// The non-holonomic constraint, when on.
+    pub nhc: Option<NhcConfig>,
+    /// ZUPT and ZARU on detected stops, when on.
+    pub zupt: Option<ZuptConfig>,
+}
+
+impl VehicleAiding {
+    /// True when any aiding is on.
+    pub fn any(&self) -> bool {
+        self.nhc.is_some() || self.zupt.is_some()
+    }
+}
+
+/// NHC settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NhcConfig {
+    /// Mounting angles (roll, pitch, yaw) of the IMU relative to the vehicle, rad.
+    pub mounting: Vector3<f64>,
+    /// Constraint point from the IMU (body frame FRD), m.
+    pub lever_arm: Vector3<f64>,
+    /// 1σ of the lateral and vertical velocity, m/s.
+    pub std: Vector2<f64>,
+    /// Time between updates, s (0: every IMU sample).
+    pub interval: f64,
+    /// Applied only above this speed, m/s.
+    pub min_speed: f64,
+}
+
+impl Default for NhcConfig {
+    fn default() -> Self {
+        Self {
+            mounting: Vector3::zeros(),
+            lever_arm: Vector3::zeros(),
+            std: Vector2::new(0.1, 0.1),
+            interval: 0.1,
+            min_speed: 0.0,
+        }
+    }
+}
+
+/// ZUPT/ZARU settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZuptConfig {
+    /// The stationary detector's thresholds.
+    pub detector: DetectorConfig,
+    /// 1σ of the zero velocity, m/s.
+    pub velocity_std: f64,
+    /// 1σ of the zero angular rate beyond the window mean's white noise (which the
+    /// navigator adds from the model's ARW: `ARW²/window` per axis), rad/s; `None`: no
+    /// ZARU.
+    pub rate_std: Option<f64>,
+    /// Time between updates while stationary, s.
+    pub interval: f64,
+    /// Applied only while the filter's own speed is below this, m/s: a second opinion
+    /// for sensors whose rest and smooth cruising look alike to the detector. Default 0.3.
+    pub max_speed: f64,
+}
+
+impl Default for ZuptConfig {
+    fn default() -> Self {
+        Self {
+            detector: DetectorConfig::default(),
+            velocity_std: 0.02,
+            rate_std: Some(0.01f64.to_radians()),
+            interval: 0.1,
+            max_speed: 0.3,
+        }
+    }
+}
