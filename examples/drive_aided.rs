@@ -49,15 +49,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|");
     let generic = Config::load(&dir.join("kf-gins-outage15.yaml"))?;
     let generic = Config { filter: base.filter.clone(), ..generic };
-    let (h, v) = score(&generic, "fixed")?;
-    println!("| 15 states, kf-gins-outage15.yaml (generic MEMS noise) | {h:.3} | {v:.3} |");
-    for (name, nhc, zupt) in [
-        ("15 states, no aiding", false, false),
-        ("+ NHC", true, false),
-        ("+ ZUPT/ZARU", false, true),
-        ("+ NHC + ZUPT/ZARU", true, true),
+    for states in [15, 21] {
+        let mut g = generic.clone();
+        g.filter.states = states;
+        let (h, v) = score(&g, "fixed")?;
+        println!("| {states} states, kf-gins-outage15.yaml as it is (generic MEMS noise) | {h:.3} | {v:.3} |");
+    }
+    let mut g = generic.clone();
+    (g.filter.states, g.init.gyro_scale_std, g.init.accel_scale_std) =
+        (21, [1000.0; 3], [1000.0; 3]);
+    let (h, v) = score(&g, "fixed")?;
+    println!("| 21 states, kf-gins-outage15.yaml with initial scale-factor σ 1000 ppm | {h:.3} | {v:.3} |");
+    for (name, states, nhc, zupt) in [
+        ("15 states, aided.toml's measured noise, no aiding", 15, false, false),
+        ("21 states, no aiding", 21, false, false),
+        ("21 states + NHC", 21, true, false),
+        ("21 states + ZUPT/ZARU", 21, false, true),
+        ("21 states + NHC + ZUPT/ZARU (aided.toml)", 21, true, true),
+        ("15 states + NHC + ZUPT/ZARU", 15, true, true),
     ] {
-        let (h, v) = score(&with(nhc, zupt), "fixed")?;
+        let mut c = with(nhc, zupt);
+        c.filter.states = states;
+        let (h, v) = score(&c, "fixed")?;
         println!("| {name} | {h:.3} | {v:.3} |");
     }
     println!("| KF-GINS (21 states) | 12.4 | 1.08 |");

@@ -14,6 +14,7 @@
 //! | [`model`] | [`InsModel`]: mechanization, `F`, `G Q_c Gᵀ`, `Φ`, `Q_d`, block-sparse `Φ P Φᵀ` |
 //! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
+//! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`], [`scale::On21`] |
 //! | [`vehicle`] | land-vehicle aiding: [`vehicle::Nhc`], [`vehicle::Zupt`], [`vehicle::Zaru`], the stationary detector |
 //! | [`init`] | static coarse alignment, heading from the GNSS track |
 //! | [`io`] | streaming readers and writers of the KF-GINS formats, errors with file and line |
@@ -32,6 +33,7 @@ pub mod mechanization;
 pub mod model;
 pub mod navigator;
 pub mod position;
+pub mod scale;
 pub mod state;
 pub mod vehicle;
 pub mod wgs84;

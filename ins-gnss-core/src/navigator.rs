@@ -8,13 +8,16 @@
 use core::fmt;
 
 use estimator_core::{
-    ErrorStateFilter, FilterError, FixedNoise, NoiseStrategy, Observer, UpdateSummary,
+    Cov, DimAlloc, ErrorStateFilter, FilterAlloc, FilterError, FixedNoise, Manifold,
+    MeasurementModel, NoiseStrategy, Observer, StateDim, UpdateSummary,
 };
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Const, DefaultAllocator, Matrix3, OVector, SMatrix, Vector3};
 
 use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
+use crate::imu::ImuNoise;
 use crate::imu::ImuSample;
 use crate::model::{ImuInput, InsModel, M15};
+use crate::scale::{InsModel21, InsState21, On21, M21};
 use crate::state::InsState;
 use crate::vehicle::{mounting_matrix, Nhc, StationaryDetector, VehicleAiding, Zaru, Zupt};
 
@@ -57,6 +60,111 @@ pub struct InitialState {
     pub state: InsState,
     /// Its 1σ.
     pub std: InitialStd,
+}
+
+/// The initial scale factors of a 21-state run and their 1σ (fractions).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScaleInit {
+    /// Gyro scale factors.
+    pub sg: Vector3<f64>,
+    /// Accelerometer scale factors.
+    pub sa: Vector3<f64>,
+    /// 1σ of the gyro scale factors.
+    pub sg_std: Vector3<f64>,
+    /// 1σ of the accelerometer scale factors.
+    pub sa_std: Vector3<f64>,
+}
+
+/// A navigation state the [`Navigator`] runs: the 15-state [`InsState`] or the 21-state
+/// [`InsState21`]. Measurement models are written once, for [`InsState`]; each state
+/// applies them its own way.
+pub trait NavState: Manifold + Clone + core::fmt::Debug
+where
+    DefaultAllocator: DimAlloc<Self::Dim>,
+{
+    /// The process model.
+    type Model: estimator_core::ProcessModel<State = Self, Input = ImuInput>
+        + Clone
+        + core::fmt::Debug;
+
+    /// The attitude, velocity, position and biases.
+    fn nav(&self) -> &InsState;
+
+    /// The IMU noise of a model.
+    fn imu_noise(model: &Self::Model) -> &ImuNoise;
+
+    /// Update `filter` with a measurement model of the 15-state navigation state.
+    fn update<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsState>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>;
+}
+
+impl NavState for InsState {
+    type Model = InsModel;
+
+    fn nav(&self) -> &InsState {
+        self
+    }
+
+    fn imu_noise(model: &InsModel) -> &ImuNoise {
+        &model.noise
+    }
+
+    fn update<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsState>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
+    {
+        filter.update_observed(model, z, r, observer).map(|r| r.summary())
+    }
+}
+
+impl NavState for InsState21 {
+    type Model = InsModel21;
+
+    fn nav(&self) -> &InsState {
+        &self.nav
+    }
+
+    fn imu_noise(model: &InsModel21) -> &ImuNoise {
+        &model.base.noise
+    }
+
+    fn update<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsState>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
+    {
+        filter.update_observed(&On21(model), z, r, observer).map(|r| r.summary())
+    }
 }
 
 /// How GNSS epochs are used.
@@ -132,11 +240,15 @@ impl std::error::Error for NavError {}
 /// Two times closer than this are the same epoch, s.
 pub const TIME_EPSILON: f64 = 1e-6;
 
-/// The INS/GNSS navigator over any noise strategy.
+/// The INS/GNSS navigator over any noise strategy, on the 15-state [`InsState`]
+/// (default) or the 21-state [`InsState21`].
 #[derive(Clone, Debug)]
-pub struct Navigator<A: NoiseStrategy = FixedNoise> {
-    filter: ErrorStateFilter<InsState, A>,
-    model: InsModel,
+pub struct Navigator<A: NoiseStrategy = FixedNoise, S: NavState = InsState>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    filter: ErrorStateFilter<S, A>,
+    model: S::Model,
     gnss: GnssConfig,
     prev: Option<ImuSample>,
     rate: Vector3<f64>,
@@ -155,24 +267,70 @@ struct VehicleState {
     last_zaru: f64,
 }
 
-impl<A: NoiseStrategy> Navigator<A> {
-    /// A navigator at `init`, with process model `model`, strategy and GNSS settings.
+impl<A: NoiseStrategy> Navigator<A, InsState> {
+    /// A 15-state navigator at `init`, with process model `model`, strategy and GNSS
+    /// settings.
     pub fn new(
         init: &InitialState,
         model: InsModel,
         strategy: A,
         gnss: GnssConfig,
     ) -> Result<Self, NavError> {
-        let filter = ErrorStateFilter::new(init.state.clone(), init.std.covariance(), strategy)
-            .map_err(|source| NavError::Filter { t: init.time, source })?
-            .with_time(init.time);
+        Self::from_parts(
+            init.state.clone(),
+            init.std.covariance(),
+            init.time,
+            model,
+            strategy,
+            gnss,
+        )
+    }
+}
+
+impl<A: NoiseStrategy> Navigator<A, InsState21> {
+    /// A 21-state navigator at `init` with the scale factors of `scale`.
+    pub fn new21(
+        init: &InitialState,
+        scale: &ScaleInit,
+        model: InsModel21,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let x = InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa };
+        let mut p = M21::zeros();
+        let p15: M15 = init.std.covariance();
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p15);
+        for k in 0..3 {
+            p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
+            p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
+        }
+        Self::from_parts(x, p, init.time, model, strategy, gnss)
+    }
+}
+
+impl<A: NoiseStrategy, S: NavState> Navigator<A, S>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    /// A navigator at state `x0` with covariance `p0` at time `time`.
+    pub fn from_parts(
+        x0: S,
+        p0: Cov<S::Dim>,
+        time: f64,
+        model: S::Model,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let filter = ErrorStateFilter::new(x0, p0, strategy)
+            .map_err(|source| NavError::Filter { t: time, source })?
+            .with_time(time);
         Ok(Self {
             filter,
             model,
             gnss,
             prev: None,
             rate: Vector3::zeros(),
-            time: init.time,
+            time,
             vehicle: VehicleState::default(),
         })
     }
@@ -206,27 +364,32 @@ impl<A: NoiseStrategy> Navigator<A> {
     }
 
     /// The nominal state.
-    pub fn state(&self) -> &InsState {
+    pub fn state(&self) -> &S {
         self.filter.state()
     }
 
+    /// Attitude, velocity, position and biases (the whole state of a 15-state run).
+    pub fn nav_state(&self) -> &InsState {
+        self.filter.state().nav()
+    }
+
     /// The error covariance.
-    pub fn covariance(&self) -> &M15 {
+    pub fn covariance(&self) -> &Cov<S::Dim> {
         self.filter.covariance_raw()
     }
 
     /// The underlying filter.
-    pub fn filter(&self) -> &ErrorStateFilter<InsState, A> {
+    pub fn filter(&self) -> &ErrorStateFilter<S, A> {
         &self.filter
     }
 
     /// The process model.
-    pub fn model(&self) -> &InsModel {
+    pub fn model(&self) -> &S::Model {
         &self.model
     }
 
-    /// 1σ of the 15 error states.
-    pub fn sigma(&self) -> nalgebra::SVector<f64, 15> {
+    /// 1σ of the error states.
+    pub fn sigma(&self) -> OVector<f64, S::Dim> {
         self.filter.sigma()
     }
 
@@ -303,31 +466,37 @@ impl<A: NoiseStrategy> Navigator<A> {
         let t = imu.t;
         let err = |source| NavError::Measurement { t, source };
         let v = &mut self.vehicle;
-        let bg = self.filter.state().bg;
+        let bg = self.filter.state().nav().bg;
         let stationary = match &mut v.detector {
             Some(d) => d.push(t, imu.dt, &imu.rate(), &imu.specific_force(), &bg),
             None => false,
         };
-        let speed = self.filter.state().vel.norm();
+        let speed = self.filter.state().nav().vel.norm();
         let zupt = v.aiding.zupt.filter(|z| stationary && speed < z.max_speed);
         if let (Some(z), Some(d)) = (zupt, &v.detector) {
             if t - v.last_zupt >= z.interval - TIME_EPSILON {
                 v.last_zupt = t;
                 let r = Matrix3::identity() * z.velocity_std.powi(2);
-                let report = self.filter.update_observed(&Zupt, &Vector3::zeros(), &r, observer);
-                out.push(report.map(|r| r.summary()).map_err(err)?);
+                let report = S::update::<A, Zupt, O>(
+                    &mut self.filter,
+                    &Zupt,
+                    &Vector3::zeros(),
+                    &r,
+                    observer,
+                );
+                out.push(report.map_err(err)?);
             }
             if let Some(rate_std) = z.rate_std {
                 if t - v.last_zaru >= d.config().window - TIME_EPSILON {
                     v.last_zaru = t;
                     // the window mean's own white noise, ARW²/window, plus the configured σ
                     let window = d.config().window.max(1e-3);
-                    let arw = self.model.noise.arw;
-                    let r =
-                        Matrix3::from_diagonal(&arw.map(|a| a * a / window + rate_std * rate_std));
+                    let arw = S::imu_noise(&self.model).arw;
+                    let r = diag3(&arw.map(|a| a * a / window + rate_std * rate_std));
                     let mean = d.mean_rate();
-                    let report = self.filter.update_observed(&Zaru, &mean, &r, observer);
-                    out.push(report.map(|r| r.summary()).map_err(err)?);
+                    let report =
+                        S::update::<A, Zaru, O>(&mut self.filter, &Zaru, &mean, &r, observer);
+                    out.push(report.map_err(err)?);
                 }
             }
             return Ok(());
@@ -336,10 +505,10 @@ impl<A: NoiseStrategy> Navigator<A> {
             if t - v.last_nhc >= n.interval - TIME_EPSILON && speed >= n.min_speed {
                 v.last_nhc = t;
                 let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
-                let r = nalgebra::Matrix2::from_diagonal(&n.std.component_mul(&n.std));
-                let report =
-                    self.filter.update_observed(&model, &nalgebra::Vector2::zeros(), &r, observer);
-                out.push(report.map(|r| r.summary()).map_err(err)?);
+                let r = diag2(&n.std.component_mul(&n.std));
+                let z = nalgebra::Vector2::zeros();
+                let report = S::update::<A, Nhc, O>(&mut self.filter, &model, &z, &r, observer);
+                out.push(report.map_err(err)?);
             }
         }
         Ok(())
@@ -377,20 +546,30 @@ impl<A: NoiseStrategy> Navigator<A> {
                     d[3 + i] = v_std[i].powi(2);
                 }
                 let model = GnssPosVel { lever_arm: lever, gyro_rate: self.rate };
-                let r = SMatrix::<f64, 6, 6>::from_diagonal(&d);
-                self.filter
-                    .update_observed(&model, &(g.pos, v), &r, observer)
-                    .map(|r| r.summary())
+                let r = diag6(&d);
+                S::update::<A, GnssPosVel, O>(&mut self.filter, &model, &(g.pos, v), &r, observer)
                     .map_err(err)
             }
             _ => {
                 let model = GnssPosition { lever_arm: lever };
-                let r = Matrix3::from_diagonal(&pos_std.component_mul(&pos_std));
-                self.filter
-                    .update_observed(&model, &g.pos, &r, observer)
-                    .map(|r| r.summary())
+                let r = diag3(&pos_std.component_mul(&pos_std));
+                S::update::<A, GnssPosition, O>(&mut self.filter, &model, &g.pos, &r, observer)
                     .map_err(err)
             }
         }
     }
+}
+
+// Outside the navigator's generic impl: there, the where-clause on the state's dimension
+// hides nalgebra's allocator impls from these constructors.
+fn diag2(d: &nalgebra::Vector2<f64>) -> nalgebra::Matrix2<f64> {
+    nalgebra::Matrix2::from_diagonal(d)
+}
+
+fn diag3(d: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::from_diagonal(d)
+}
+
+fn diag6(d: &nalgebra::SVector<f64, 6>) -> SMatrix<f64, 6, 6> {
+    SMatrix::<f64, 6, 6>::from_diagonal(d)
 }

@@ -125,6 +125,8 @@ pub struct RunOptions<'a> {
     pub zupt: bool,
     /// Turn off all vehicle aiding.
     pub no_vehicle: bool,
+    /// Override `filter.states` (15 or 21).
+    pub states: Option<u32>,
 }
 
 /// `ins-gnss run`.
@@ -148,6 +150,9 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     }
     if o.no_vehicle {
         cfg.vehicle = Default::default();
+    }
+    if let Some(n) = o.states {
+        cfg.filter.states = n;
     }
     let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());

@@ -15,8 +15,9 @@ use ins_gnss_core::gnss::GNSS_STREAMS;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
 use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
 use ins_gnss_core::mechanization::Mechanization;
-use ins_gnss_core::navigator::{GnssConfig, InitialState, InitialStd};
+use ins_gnss_core::navigator::{GnssConfig, InitialState, InitialStd, ScaleInit};
 use ins_gnss_core::position::GeoPos;
+use ins_gnss_core::scale::ScaleFactorNoise;
 use ins_gnss_core::state::InsState;
 use ins_gnss_core::vehicle::{
     DetectorConfig, NhcConfig, VehicleAiding, ZuptConfig, VEHICLE_STREAMS,
@@ -145,6 +146,22 @@ pub struct InitSection {
     pub gyro_bias_std: [f64; 3],
     /// Accelerometer bias 1σ, mGal.
     pub accel_bias_std: [f64; 3],
+    /// Gyro scale factors, ppm (21 states). Default 0.
+    #[serde(default)]
+    pub gyro_scale: [f64; 3],
+    /// Accelerometer scale factors, ppm (21 states). Default 0.
+    #[serde(default)]
+    pub accel_scale: [f64; 3],
+    /// Gyro scale-factor 1σ, ppm (21 states). Default 1000.
+    #[serde(default = "default_scale_std")]
+    pub gyro_scale_std: [f64; 3],
+    /// Accelerometer scale-factor 1σ, ppm (21 states). Default 1000.
+    #[serde(default = "default_scale_std")]
+    pub accel_scale_std: [f64; 3],
+}
+
+fn default_scale_std() -> [f64; 3] {
+    [1000.0; 3]
 }
 
 /// IMU noise, datasheet units.
@@ -161,6 +178,13 @@ pub struct NoiseSection {
     pub accel_bias_std: [f64; 3],
     /// Gauss–Markov correlation time, hours.
     pub corr_time: f64,
+    /// Gyro scale-factor instability (Gauss–Markov σ with `corr_time`), ppm (21 states).
+    /// Default 1000.
+    #[serde(default = "default_scale_std")]
+    pub gyro_scale_std: [f64; 3],
+    /// Accelerometer scale-factor instability, ppm (21 states). Default 1000.
+    #[serde(default = "default_scale_std")]
+    pub accel_scale_std: [f64; 3],
     /// How the filter models the biases: `random-walk` (default; density `σ √(2/τ)`),
     /// `gauss-markov`, or `gauss-markov-held` (KF-GINS's behaviour). See
     /// [`BiasModel`] for the measured difference.
@@ -228,6 +252,14 @@ pub struct FilterSection {
     /// The gross-error gate in front of every strategy.
     #[serde(default)]
     pub gate: GateSection,
+    /// Error states: 15 (attitude, velocity, position, biases; default) or 21 (and the
+    /// gyro and accelerometer scale factors, as KF-GINS).
+    #[serde(default = "default_states")]
+    pub states: u32,
+}
+
+fn default_states() -> u32 {
+    15
 }
 
 /// The gross-error gate ([`adaptive::GrossErrorGate`]): refuses an innovation whose NIS
@@ -275,6 +307,7 @@ impl Default for FilterSection {
             mechanization: MechanizationName::default(),
             streams: Default::default(),
             gate: GateSection::default(),
+            states: default_states(),
         }
     }
 }
@@ -525,12 +558,28 @@ impl Config {
         positive("init.attitude_std", &i.attitude_std)?;
         positive("init.gyro_bias_std", &i.gyro_bias_std)?;
         positive("init.accel_bias_std", &i.accel_bias_std)?;
+        finite("init.gyro_scale", &i.gyro_scale)?;
+        finite("init.accel_scale", &i.accel_scale)?;
+        if i.gyro_scale.iter().chain(&i.accel_scale).any(|v| v.abs() >= 1e5) {
+            return Err(format!(
+                "`init.gyro_scale`/`init.accel_scale` {:?} / {:?} ppm: a scale factor of 10 % or \
+                 more is not a calibration error",
+                i.gyro_scale, i.accel_scale
+            ));
+        }
+        positive("init.gyro_scale_std", &i.gyro_scale_std)?;
+        positive("init.accel_scale_std", &i.accel_scale_std)?;
         let n = &self.imu_noise;
         positive("imu_noise.arw", &n.arw)?;
         positive("imu_noise.vrw", &n.vrw)?;
         positive("imu_noise.gyro_bias_std", &n.gyro_bias_std)?;
         positive("imu_noise.accel_bias_std", &n.accel_bias_std)?;
         finite("imu_noise.corr_time", &[n.corr_time])?;
+        positive("imu_noise.gyro_scale_std", &n.gyro_scale_std)?;
+        positive("imu_noise.accel_scale_std", &n.accel_scale_std)?;
+        if self.filter.states != 15 && self.filter.states != 21 {
+            return Err(format!("`filter.states` must be 15 or 21, got {}", self.filter.states));
+        }
         if n.corr_time <= 0.0 {
             return Err(format!(
                 "`imu_noise.corr_time` must be positive (hours), got {}",
@@ -702,6 +751,30 @@ impl Config {
         }
     }
 
+    /// The scale factors' process noise in SI units (fractions), in the convention of the
+    /// bias model.
+    pub fn scale_factor_noise(&self) -> ScaleFactorNoise {
+        let n = &self.imu_noise;
+        let model = self.imu_noise().bias_model;
+        ScaleFactorNoise::from_ppm(
+            v3(n.gyro_scale_std),
+            v3(n.accel_scale_std),
+            model,
+            n.corr_time * 3600.0,
+        )
+    }
+
+    /// The initial scale factors and their 1σ (fractions).
+    pub fn scale_init(&self) -> ScaleInit {
+        let i = &self.init;
+        ScaleInit {
+            sg: v3(i.gyro_scale) * 1e-6,
+            sa: v3(i.accel_scale) * 1e-6,
+            sg_std: v3(i.gyro_scale_std) * 1e-6,
+            sa_std: v3(i.accel_scale_std) * 1e-6,
+        }
+    }
+
     /// The vehicle aiding in SI units.
     pub fn vehicle_aiding(&self) -> VehicleAiding {
         let d = core::f64::consts::PI / 180.0;
@@ -859,7 +932,8 @@ mod kf_gins {
 
     /// Build our configuration from a KF-GINS YAML text. The scale-factor keys
     /// (`initgyrscale`, `initaccscale`, `initsgstd`, `initsastd`, `imunoise.gsstd`,
-    /// `imunoise.asstd`) are accepted and ignored: this filter has 15 states. Any other
+    /// `imunoise.asstd`, all ppm) set the 21-state filter's scale factors; the filter runs
+    /// 15 states unless `--states 21` (or `filter.states` in TOML) asks for 21. Any other
     /// key is refused with the closest known one suggested.
     pub fn from_yaml(text_in: &str) -> Result<Config, String> {
         let docs =
@@ -898,6 +972,10 @@ mod kf_gins {
                 attitude_std: triple(doc, "initattstd")?,
                 gyro_bias_std: triple(doc, "initbgstd")?,
                 accel_bias_std: triple(doc, "initbastd")?,
+                gyro_scale: triple(doc, "initgyrscale").unwrap_or([0.0; 3]),
+                accel_scale: triple(doc, "initaccscale").unwrap_or([0.0; 3]),
+                gyro_scale_std: triple(doc, "initsgstd").unwrap_or_else(|_| default_scale_std()),
+                accel_scale_std: triple(doc, "initsastd").unwrap_or_else(|_| default_scale_std()),
             },
             imu_noise: NoiseSection {
                 arw: triple(doc, "imunoise.arw")?,
@@ -905,6 +983,10 @@ mod kf_gins {
                 gyro_bias_std: triple(doc, "imunoise.gbstd")?,
                 accel_bias_std: triple(doc, "imunoise.abstd")?,
                 corr_time: scalar(doc, "imunoise.corrtime")?,
+                gyro_scale_std: triple(doc, "imunoise.gsstd")
+                    .unwrap_or_else(|_| default_scale_std()),
+                accel_scale_std: triple(doc, "imunoise.asstd")
+                    .unwrap_or_else(|_| default_scale_std()),
                 bias_model: BiasModelName::default(),
             },
             gnss: GnssSection {

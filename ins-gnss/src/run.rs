@@ -23,14 +23,18 @@ use estimator_core::{NoObserver, NoiseStrategy, UpdateSummary, Verdict};
 use nalgebra::Vector3;
 
 use crate::config::Config;
+use estimator_core::DimAlloc;
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
 use ins_gnss_core::imu::{DEG_PER_H, MGAL};
 use ins_gnss_core::io::formats::{create_partial, partial_path, publish, write_nav};
 use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use ins_gnss_core::model::InsModel;
-use ins_gnss_core::navigator::{NavError, Navigator};
+use ins_gnss_core::navigator::{NavError, NavState, Navigator};
+use ins_gnss_core::scale::{InsModel21, InsState21};
+use ins_gnss_core::state::InsState;
 use ins_gnss_core::vehicle::VEHICLE_STREAMS;
+use nalgebra::DefaultAllocator;
 
 /// Why a run stopped.
 #[derive(Debug)]
@@ -297,10 +301,17 @@ pub fn nav_record(t: f64, x: &ins_gnss_core::state::InsState) -> NavRecord {
     NavRecord { week: 0.0, t, pos: x.pos, vel: x.vel, att: Vector3::new(r, p, y) }
 }
 
-fn write_std<A: NoiseStrategy>(o: &mut Outputs, t: f64, nav: &Navigator<A>) -> std::io::Result<()> {
+fn write_std<A: NoiseStrategy, S: RunState>(
+    o: &mut Outputs,
+    t: f64,
+    nav: &Navigator<A, S>,
+) -> std::io::Result<()>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
     let s = nav.sigma();
     let d = 180.0 / core::f64::consts::PI;
-    let x = nav.state();
+    let x = nav.nav_state();
     write!(o.std, "{t:.6}")?;
     for i in 6..9 {
         write!(o.std, " {:.6}", s[i])?;
@@ -317,8 +328,12 @@ fn write_std<A: NoiseStrategy>(o: &mut Outputs, t: f64, nav: &Navigator<A>) -> s
     for i in 12..15 {
         write!(o.std, " {:.6}", s[i] / MGAL)?;
     }
+    // 21 states: the scale factors' σ, ppm (KF-GINS's columns)
+    for i in 15..s.len() {
+        write!(o.std, " {:.3}", s[i] * 1e6)?;
+    }
     writeln!(o.std)?;
-    writeln!(
+    write!(
         o.imu_err,
         "{t:.6} {:.6} {:.6} {:.6} {:.6} {:.6} {:.6}",
         x.bg.x / DEG_PER_H,
@@ -327,7 +342,13 @@ fn write_std<A: NoiseStrategy>(o: &mut Outputs, t: f64, nav: &Navigator<A>) -> s
         x.ba.x / MGAL,
         x.ba.y / MGAL,
         x.ba.z / MGAL
-    )
+    )?;
+    if let Some((sg, sa)) = nav.state().scale_factors() {
+        for v in sg.iter().chain(sa.iter()) {
+            write!(o.imu_err, " {:.3}", v * 1e6)?;
+        }
+    }
+    writeln!(o.imu_err)
 }
 
 fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
@@ -365,21 +386,71 @@ fn open_inputs(
     Ok((imu, GnssReader::open(&config.data.gnss, config.bad_lines())?))
 }
 
+/// The states a run can use (`filter.states = 15 | 21`): how each starts and what it
+/// writes beyond the 15-state columns.
+pub trait RunState: NavState + Send + 'static
+where
+    DefaultAllocator: DimAlloc<Self::Dim>,
+{
+    /// The navigator at `start`.
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError>;
+
+    /// The scale factors (gyro, accelerometer), when the state has them.
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)>;
+}
+
+impl RunState for InsState {
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())
+    }
+
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        None
+    }
+}
+
+impl RunState for InsState21 {
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let model = InsModel21 { base, scale: config.scale_factor_noise() };
+        let init = config.initial_state(start);
+        Navigator::new21(&init, &config.scale_init(), model, strategy, config.gnss_config())
+    }
+
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        Some((self.sg, self.sa))
+    }
+}
+
 /// The navigator at the start time (the configured one, or the first IMU sample's
 /// `first_t`), the run's summary with its span started there, and the end time.
-fn start_navigator(
+fn start_navigator<S: RunState>(
     config: &Config,
     strategy: AnyStrategy,
     first_t: f64,
-) -> Result<(Navigator<RunStrategy>, RunSummary, f64), RunError> {
+) -> Result<(Navigator<RunStrategy, S>, RunSummary, f64), RunError>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
     let start = config.data.start_time.unwrap_or(first_t);
     let end = config.data.end_time.unwrap_or(f64::INFINITY);
-    let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
     // the name of the strategy the user chose (the vehicle streams' fixed noise aside)
     let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
     let strategy = config.strategy(strategy).map_err(RunError::Config)?;
-    let nav = Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())?
-        .with_vehicle_aiding(config.vehicle_aiding());
+    let nav = S::navigator(config, strategy, start)?.with_vehicle_aiding(config.vehicle_aiding());
     let summary =
         RunSummary { strategy: name.to_string(), span: (start, start), ..Default::default() };
     Ok((nav, summary, end))
@@ -407,7 +478,12 @@ pub fn run(
 ) -> Result<RunSummary, RunError> {
     let (imu, gnss) = open_inputs(config)?;
     let (out, nav_file) = Outputs::create(out_dir)?;
-    match run_into(config, strategy, out_dir, progress, (imu, gnss), (out, nav_file)) {
+    let inputs = ((imu, gnss), (out, nav_file));
+    let result = match config.filter.states {
+        21 => run_into::<InsState21>(config, strategy, out_dir, progress, inputs.0, inputs.1),
+        _ => run_into::<InsState>(config, strategy, out_dir, progress, inputs.0, inputs.1),
+    };
+    match result {
         Ok(summary) => {
             Outputs::publish(out_dir)?;
             Ok(summary)
@@ -419,21 +495,24 @@ pub fn run(
 }
 
 /// [`run`] with its inputs open and its partial outputs created.
-fn run_into(
+fn run_into<S: RunState>(
     config: &Config,
     strategy: AnyStrategy,
     out_dir: &Path,
     mut progress: Option<Progress<'_>>,
     (mut imu, mut gnss): (ImuReader<FileReader>, GnssReader<FileReader>),
     (mut out, nav_file): (Outputs, std::io::BufWriter<std::fs::File>),
-) -> Result<RunSummary, RunError> {
+) -> Result<RunSummary, RunError>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
     let wall = Instant::now();
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
     let first =
         imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
     let first = (first, imu.line());
-    let (mut nav, mut summary, end) = start_navigator(config, strategy, first.0.t)?;
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.0.t)?;
     let start = summary.span.0;
     summary.out_dir = out_dir.to_path_buf();
     let (imu_path, gnss_path) = (config.data.imu.clone(), config.data.gnss.clone());
@@ -542,7 +621,7 @@ fn run_into(
                     nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)
                         .map_err(|e| locate(e, imu_line, &batch, &batch_lines))?;
                     summary.imu_epochs += 1;
-                    records.push((sample.t, nav.state().clone()));
+                    records.push((sample.t, nav.nav_state().clone()));
                     if records.len() == BATCH
                         && nav_tx
                             .send(std::mem::replace(&mut records, Vec::with_capacity(BATCH)))
@@ -642,11 +721,27 @@ pub fn run_slices(
     strategy: AnyStrategy,
     imu: &[ImuSample],
     gnss: &[GnssEpoch],
-    mut each: impl FnMut(usize, f64, &ins_gnss_core::state::InsState),
+    each: impl FnMut(usize, f64, &InsState),
 ) -> Result<RunSummary, RunError> {
+    match config.filter.states {
+        21 => run_slices_on::<InsState21>(config, strategy, imu, gnss, each),
+        _ => run_slices_on::<InsState>(config, strategy, imu, gnss, each),
+    }
+}
+
+fn run_slices_on<S: RunState>(
+    config: &Config,
+    strategy: AnyStrategy,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    mut each: impl FnMut(usize, f64, &InsState),
+) -> Result<RunSummary, RunError>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
     let wall = Instant::now();
     let first = imu.first().ok_or_else(|| RunError::NoData("no IMU samples".into()))?;
-    let (mut nav, mut summary, end) = start_navigator(config, strategy, first.t)?;
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.t)?;
     let start = summary.span.0;
     let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
     // GNSS epochs at or before the start are not used.
@@ -667,7 +762,7 @@ pub fn run_slices(
         summary.imu_epochs += 1;
         summary.tally(&updates);
         summary.span.1 = sample.t;
-        each(k, sample.t, nav.state());
+        each(k, sample.t, nav.nav_state());
     }
     if summary.imu_epochs == 0 {
         return Err(RunError::NoData(format!("no IMU sample after the start time {start} s")));

@@ -545,6 +545,11 @@ impl Scenario {
                 attitude_std: ie.attitude_std,
                 gyro_bias_std: total(i.gyro_bias_std, i.gyro_turn_on),
                 accel_bias_std: total(i.accel_bias_std, i.accel_turn_on),
+                gyro_scale: [0.0; 3],
+                accel_scale: [0.0; 3],
+                // a 21-state run starts with a 1σ as large as the simulated error
+                gyro_scale_std: i.gyro_scale_ppm.map(|v| v.abs().max(100.0)),
+                accel_scale_std: i.accel_scale_ppm.map(|v| v.abs().max(100.0)),
             },
             imu_noise: NoiseSection {
                 arw: [i.arw.max(1e-6); 3],
@@ -552,6 +557,8 @@ impl Scenario {
                 gyro_bias_std: [i.gyro_bias_std; 3],
                 accel_bias_std: [i.accel_bias_std; 3],
                 corr_time: i.corr_time,
+                gyro_scale_std: [100.0; 3],
+                accel_scale_std: [100.0; 3],
                 bias_model: crate::config::BiasModelName::default(),
             },
             gnss: GnssSection { lever_arm: self.gnss.lever_arm, ..GnssSection::default() },

@@ -176,6 +176,36 @@ fn discrete_phi_matches_one_mechanization_step_to_first_order() {
 }
 
 #[test]
+fn scale_factor_columns_match_one_step_of_the_21_state_model() {
+    // The 21-state Φ against the Jacobian of one real step: first order, like the
+    // 15-state one; its scale-factor columns are the ones added here.
+    use ins_gnss_core::scale::{InsModel21, InsState21, ScaleFactorNoise};
+    let base = InsModel::wgs84(scenarios::mems_imu().noise);
+    let scale = ScaleFactorNoise { gyro: Vector3::repeat(1e-4), accel: Vector3::repeat(1e-4) };
+    let model = InsModel21 { base, scale };
+    for (x, u) in states() {
+        let x = InsState21 {
+            nav: x,
+            sg: Vector3::new(2e-3, -1e-3, 3e-3),
+            sa: Vector3::new(-2e-3, 1e-3, 1.5e-3),
+        };
+        let dt = u.cur.dt;
+        let numeric = numerical_jacobian(&x, |xp| model.propagate(xp, &u, dt), 1e-4);
+        let phi = model.jacobians(&x, &u, dt).Phi;
+        let cols = |m: &SMatrix<f64, 21, 21>| m.columns(15, 6).into_owned();
+        let err = (cols(&phi) - cols(&numeric)).abs().max();
+        let size = cols(&numeric).rows(0, 15).abs().max().max(1e-12);
+        assert!(
+            err <= 0.05 * size + 1e-9,
+            "scale-factor columns: |Φ − Φ_num| {err:.3e} vs {size:.3e}\n{}\n{}",
+            cols(&phi),
+            cols(&numeric)
+        );
+        check_combined_calls(&model, &x, &u, dt).unwrap();
+    }
+}
+
+#[test]
 fn noise_input_g_matches_perturbed_increments() {
     // Gyro and accelerometer white noise enter through the increments: a rate error n
     // held over dt moves the *nominal* solution by −G n dt relative to the truth.

@@ -1,4 +1,4 @@
-//! The manifold law harness on the geodetic position and on the 15-state INS state: the
+//! The manifold law harness on the geodetic position and on the 15- and 21-state INS states: the
 //! ⊕/⊖ identities, every analytic Jacobian (including the reset Jacobian and its blocks)
 //! against central differences.
 //!
@@ -39,3 +39,19 @@ const MM: manifolds::testing::LawTolerance =
 
 manifolds::manifold_law_tests!(geopos_laws, GeoPos, sampler = geopos_sampler(), tol = MM);
 manifolds::manifold_law_tests!(ins_state_laws, InsState, sampler = ins_sampler(), tol = MM);
+
+/// The 21-state INS state: the 15-state one and two scale-factor vectors.
+fn ins21_sampler() -> Sampler<ins_gnss_core::scale::InsState21> {
+    ins_gnss_core::scale::InsState21::law_sampler(
+        ins_sampler(),
+        Sampler::new(arb_rn::<3>(1e-2), arb_rn::<3>(1e-3)),
+        Sampler::new(arb_rn::<3>(1e-2), arb_rn::<3>(1e-3)),
+    )
+}
+
+manifolds::manifold_law_tests!(
+    ins_state21_laws,
+    ins_gnss_core::scale::InsState21,
+    sampler = ins21_sampler(),
+    tol = MM
+);

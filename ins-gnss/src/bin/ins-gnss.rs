@@ -58,6 +58,10 @@ enum Command {
         /// configuration's `[vehicle.zupt]` settings or the defaults.
         #[arg(long)]
         zupt: bool,
+        /// Error states: 15, or 21 with gyro and accelerometer scale factors (overrides
+        /// `filter.states`; KF-GINS YAML scale-factor keys set their values).
+        #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["15", "21"]))]
+        states: Option<String>,
         /// Turn off every vehicle aiding the configuration enables.
         #[arg(long, conflicts_with_all = ["nhc", "zupt"])]
         no_vehicle: bool,
@@ -121,6 +125,7 @@ fn main() -> ExitCode {
             bias_model,
             nhc,
             zupt,
+            states,
             no_vehicle,
         }) => {
             let o = cli::RunOptions {
@@ -135,6 +140,7 @@ fn main() -> ExitCode {
                 nhc,
                 zupt,
                 no_vehicle,
+                states: states.as_deref().and_then(|s| s.parse().ok()),
             };
             cli::run(&config, &o)
         }
