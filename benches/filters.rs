@@ -161,6 +161,29 @@ fn ins(c: &mut Criterion) {
     g.bench_function("structured", |b| drive_epochs(b, &d, &d.model));
     let dense = DenseIns(d.model.clone());
     g.bench_function("dense", |b| drive_epochs(b, &d, &dense));
+    g.bench_function("states_21", |b| {
+        use estimator::ins_gnss::scale::{InsModel21, InsState21, ScaleFactorNoise};
+        let scale = ScaleFactorNoise { gyro: Vector3::repeat(1e-6), accel: Vector3::repeat(1e-6) };
+        let model = InsModel21 { base: d.model.clone(), scale };
+        let x0 = |k: usize| InsState21 {
+            nav: d.states[k].clone(),
+            sg: Vector3::zeros(),
+            sa: Vector3::zeros(),
+        };
+        let mut p0 = SMatrix::<f64, 21, 21>::from_fn(|i, j| if i == j { 1e-6 } else { 0.0 });
+        p0.fixed_view_mut::<15, 15>(0, 0).copy_from(&d.P);
+        let mut f = ErrorStateFilter::new(x0(0), p0, FixedNoise).unwrap();
+        let mut k = 0;
+        b.iter(|| {
+            if k == d.inputs.len() {
+                f.set_state(x0(0)).unwrap();
+                f.set_covariance(p0).unwrap();
+                k = 0;
+            }
+            f.predict(&model, black_box(&d.inputs[k]), 0.005).unwrap();
+            k += 1;
+        })
+    });
     g.bench_function("mechanization_only", |b| {
         let mut k = 0;
         b.iter(|| {

@@ -265,6 +265,8 @@ struct VehicleState {
     last_nhc: f64,
     last_zupt: f64,
     last_zaru: f64,
+    /// Time judged standing (detector and speed), s.
+    stationary_time: f64,
 }
 
 impl<A: NoiseStrategy> Navigator<A, InsState> {
@@ -349,13 +351,20 @@ where
             last_nhc: never,
             last_zupt: never,
             last_zaru: never,
+            stationary_time: 0.0,
         };
         self
     }
 
-    /// The stationary detector, when ZUPT is on (its decisions and stationary time).
+    /// The stationary detector, when ZUPT is on.
     pub fn stationary_detector(&self) -> Option<&StationaryDetector> {
         self.vehicle.detector.as_ref()
+    }
+
+    /// Time the vehicle was judged standing — the detector said so and the filter's speed
+    /// was below `max_speed` — so far, s (0 without ZUPT).
+    pub fn stationary_time(&self) -> f64 {
+        self.vehicle.stationary_time
     }
 
     /// Current time, s.
@@ -474,6 +483,7 @@ where
         let speed = self.filter.state().nav().vel.norm();
         let zupt = v.aiding.zupt.filter(|z| stationary && speed < z.max_speed);
         if let (Some(z), Some(d)) = (zupt, &v.detector) {
+            v.stationary_time += imu.dt;
             if t - v.last_zupt >= z.interval - TIME_EPSILON {
                 v.last_zupt = t;
                 let r = Matrix3::identity() * z.velocity_std.powi(2);

@@ -1,5 +1,5 @@
-//! SVG plots of a run: position and attitude errors with ±3σ envelopes, and the
-//! adaptation factors. Reads the run's output files and the truth; writes
+//! SVG plots of a run: position and attitude errors with ±3σ envelopes (stationary
+//! periods shaded when ZUPT ran), and the adaptation factors. Reads the run's output files and the truth; writes
 //! `errors_position.svg`, `errors_attitude.svg` and `adaptation.svg`.
 
 use std::path::{Path, PathBuf};
@@ -31,6 +31,23 @@ fn read_updates(path: &Path) -> Result<Vec<(f64, f64, f64, f64)>, String> {
         }
         let num = |s: &str| s.trim().parse::<f64>().unwrap_or(f64::NAN);
         out.push((num(f[0]), num(f[7]), num(f[8]), num(f[9])));
+    }
+    Ok(out)
+}
+
+/// The stationary periods of a run: the spans of its ZUPT updates (rows of stream
+/// `zupt` in `updates.csv` less than a second apart form one period).
+fn stationary_periods(path: &Path) -> Result<Vec<(f64, f64)>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for line in text.lines().skip(1) {
+        let mut f = line.split(',');
+        let (Some(t), Some("zupt")) = (f.next(), f.next()) else { continue };
+        let Ok(t) = t.trim().parse::<f64>() else { continue };
+        match out.last_mut() {
+            Some(last) if t - last.1 < 1.0 => last.1 = t,
+            _ => out.push((t, t)),
+        }
     }
     Ok(out)
 }
@@ -70,13 +87,14 @@ fn error_series(result: &Path, truth: &Path) -> Result<[Series; 6], String> {
 type Line<'a> = (&'a str, &'a [(f64, f64)], RGBColor, bool);
 
 /// Draw `lines` in one panel; the y range is symmetric about 0 when `symmetric`, else
-/// from 0 up.
+/// from 0 up; the time spans of `shade` (stationary periods) shaded grey behind.
 fn draw_lines(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     title: &str,
     unit: &str,
     lines: &[Line<'_>],
     symmetric: bool,
+    shade: &[(f64, f64)],
 ) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
     let points = || lines.iter().flat_map(|l| l.1.iter());
@@ -93,6 +111,16 @@ fn draw_lines(
         .build_cartesian_2d(t0..t1, y0..m * 1.05)
         .map_err(e)?;
     chart.configure_mesh().x_desc("t [s]").y_desc(unit).draw().map_err(e)?;
+    let grey = RGBColor(200, 200, 200).mix(0.5).filled();
+    for (k, (a, b)) in shade.iter().enumerate() {
+        let rect = Rectangle::new([(*a, y0), (*b, m * 1.05)], grey);
+        let drawn = chart.draw_series(std::iter::once(rect)).map_err(e)?;
+        if k == 0 {
+            drawn.label("stationary").legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 16, y + 5)], RGBColor(200, 200, 200).filled())
+            });
+        }
+    }
     for (label, pts, colour, mirror) in lines {
         let c = *colour;
         chart
@@ -117,10 +145,11 @@ fn panel(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     title: &str,
     unit: &str,
-    err: &Series,
-    sigma3: &Series,
+    (err, sigma3): (&Series, &Series),
+    shade: &[(f64, f64)],
 ) -> Result<(), String> {
-    draw_lines(area, title, unit, &[("error", err, BLUE, false), ("±3σ", sigma3, RED, true)], true)
+    let lines = [("error", err.as_slice(), BLUE, false), ("±3σ", sigma3.as_slice(), RED, true)];
+    draw_lines(area, title, unit, &lines, true, shade)
 }
 
 /// Several runs side by side: one panel per entry of `panels` (title, unit), each with
@@ -154,7 +183,7 @@ pub fn comparison(
             .map(|(i, (l, name))| (*name, l.as_slice(), Palette99::pick(i).to_rgba().rgb(), false))
             .map(|(n, l, (r, g, b), m)| (n, l, RGBColor(r, g, b), m))
             .collect();
-        draw_lines(&areas[k], title, unit, &lines, false)?;
+        draw_lines(&areas[k], title, unit, &lines, false, &[])?;
     }
     root.present().map_err(e)?;
     drop(root);
@@ -177,6 +206,7 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
     let errs = error_series(&out_dir.join("nav.txt"), truth)?;
     let std = read_columns(&out_dir.join("std.txt"))?;
     let s3 = |col: usize| -> Series { std.iter().map(|r| (r[0], 3.0 * r[col])).collect() };
+    let still = stationary_periods(&out_dir.join("updates.csv"))?;
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
     let mut written = Vec::new();
 
@@ -187,7 +217,8 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
         root.fill(&WHITE).map_err(e)?;
         let areas = root.split_evenly((3, 1));
         for (k, name) in ["north", "east", "down"].iter().enumerate() {
-            panel(&areas[k], &format!("position error, {name}"), "m", &errs[k], &s3(1 + k))?;
+            let title = format!("position error, {name}");
+            panel(&areas[k], &title, "m", (&errs[k], &s3(1 + k)), &still)?;
         }
         root.present().map_err(e)?;
     }
@@ -201,7 +232,8 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
         root.fill(&WHITE).map_err(e)?;
         let areas = root.split_evenly((3, 1));
         for (k, name) in ["roll", "pitch", "yaw"].iter().enumerate() {
-            panel(&areas[k], &format!("attitude error, {name}"), "deg", &errs[3 + k], &s3(7 + k))?;
+            let title = format!("attitude error, {name}");
+            panel(&areas[k], &title, "deg", (&errs[3 + k], &s3(7 + k)), &still)?;
         }
         root.present().map_err(e)?;
     }

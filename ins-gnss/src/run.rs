@@ -147,7 +147,8 @@ pub struct RunSummary {
     /// Vehicle-aiding updates per stream (NHC, ZUPT, ZARU): used (accepted or inflated)
     /// and refused.
     pub aiding: [AidingCount; 3],
-    /// Time the stationary detector judged the vehicle standing, s (0 without ZUPT).
+    /// Time the vehicle was judged standing (detector and filter speed), s (0 without
+    /// ZUPT).
     pub stationary_time: f64,
 }
 
@@ -676,7 +677,7 @@ where
         })?;
     }
     summary.gnss_skipped = gnss.skipped;
-    summary.stationary_time = nav.stationary_detector().map_or(0.0, |d| d.stationary_time());
+    summary.stationary_time = nav.stationary_time();
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }
@@ -772,7 +773,7 @@ where
         _ => (f64::NAN, f64::NAN),
     };
     check_gnss_overlap(&summary, Path::new("(GNSS data)"))?;
-    summary.stationary_time = nav.stationary_detector().map_or(0.0, |d| d.stationary_time());
+    summary.stationary_time = nav.stationary_time();
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }

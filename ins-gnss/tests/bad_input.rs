@@ -357,6 +357,10 @@ fn cases(base: &Base) -> Vec<Case> {
         ("filter.gate.probability", "[filter.gate]", "probability", None, "0.7"),
         ("filter.gate.probability", "[filter.gate]", "probability", None, "nan"),
         ("filter.gate.readmit_after", "[filter.gate]", "readmit_after", None, "0"),
+        ("filter.states", "[filter]", "states", None, "17"),
+        ("init.gyro_scale_std", "[init]", "gyro_scale_std", Some(0), "0.0"),
+        ("init.accel_scale", "[init]", "accel_scale", Some(1), "2e5"),
+        ("imu_noise.accel_scale_std", "[imu_noise]", "accel_scale_std", Some(2), "nan"),
         ("imu_rate", "[data]", "imu_rate", None, "\"fast\""),
         ("bias_model", "[imu_noise]", "bias_model", None, "\"brownian\""),
         ("mechanization", "[filter]", "mechanization", None, "\"round-earth\""),
@@ -368,6 +372,19 @@ fn cases(base: &Base) -> Vec<Case> {
         s.run_config(&case, config, &[key]);
     }
     s.toml("toml-unknown-key", "imu_rate = 50.0", "imu_rat = 50.0", &["imu_rat"]);
+    for (key, section) in [
+        ("vehicle.nhc.std", "[vehicle.nhc]\nstd = [0.0, 0.1]"),
+        ("vehicle.nhc.mounting", "[vehicle.nhc]\nmounting = [200.0, 0.0, 0.0]"),
+        ("vehicle.nhc.lever_arm", "[vehicle.nhc]\nlever_arm = [0.0, nan, 0.0]"),
+        ("vehicle.nhc.interval", "[vehicle.nhc]\ninterval = -0.1"),
+        ("vehicle.zupt.window", "[vehicle.zupt]\nwindow = 0.0"),
+        ("vehicle.zupt.max_speed", "[vehicle.zupt]\nmax_speed = -1.0"),
+        ("vehicle.zupt.rate_std", "[vehicle.zupt]\nrate_std = inf"),
+        ("nhc_std", "[vehicle.nhc]\nnhc_std = 0.1"),
+    ] {
+        let name = format!("toml-{}", key.replace('.', "-"));
+        s.toml(&name, "[vehicle]\n", &format!("[vehicle]\n{section}\n"), &[key]);
+    }
     s.toml(
         "toml-unknown-stream",
         "[filter.streams]\n",

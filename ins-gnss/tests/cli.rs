@@ -167,3 +167,40 @@ fn drive_0708_outage_score_with_a_position_only_reference() {
     assert!(v["overall"]["yaw"]["rms"].as_f64().unwrap().abs() < 1e-12);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn car_aiding_and_21_states_from_the_command_line() {
+    let dir = temp("car");
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/drive.toml");
+    let out = bin().args(["simulate"]).arg(&scenario).arg("--out").arg(&dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = bin()
+        .arg("run")
+        .arg(dir.join("config.toml"))
+        .args(["--quiet", "--plots", "--nhc", "--zupt", "--states", "21", "--out"])
+        .arg(dir.join("aided"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // the summary line counts each aiding stream and the time standing
+    let line = stdout.lines().find(|l| l.starts_with("vehicle aiding:")).expect(&stdout);
+    let count = |what: &str| -> usize {
+        let at = line.find(what).unwrap_or_else(|| panic!("{what} in {line}")) + what.len();
+        line[at..].split_whitespace().next().unwrap().parse().unwrap()
+    };
+    assert!(count("NHC ") > 500 && count("ZUPT ") > 100 && count("ZARU ") > 10, "{line}");
+    let updates = std::fs::read_to_string(dir.join("aided/updates.csv")).unwrap();
+    for stream in [",nhc,", ",zupt,", ",zaru,", ",gnss-position"] {
+        assert!(updates.contains(stream), "no {stream} rows in updates.csv");
+    }
+    // 21 states: std.txt and imu_errors.txt carry the six scale factors
+    let last = |f: &str| {
+        let text = std::fs::read_to_string(dir.join("aided").join(f)).unwrap();
+        text.lines().last().unwrap().split_whitespace().count()
+    };
+    assert_eq!((last("std.txt"), last("imu_errors.txt")), (22, 13));
+    // the stops are shaded in the error plots
+    let svg = std::fs::read_to_string(dir.join("aided/errors_position.svg")).unwrap();
+    assert!(svg.contains("stationary"), "no stationary shading in the legend");
+}
