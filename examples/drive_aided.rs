@@ -38,6 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         vehicle: VehicleSection {
             nhc: if nhc { aided.vehicle.nhc.clone() } else { None },
             zupt: if zupt { aided.vehicle.zupt.clone() } else { None },
+            odometer: None,
         },
         ..base.clone()
     };

@@ -17,12 +17,15 @@ pub struct ImuSample {
     pub dtheta: Vector3<f64>,
     /// Velocity increment `∫ f^b dt`, m/s.
     pub dvel: Vector3<f64>,
+    /// The vehicle's odometer (wheel) speed at `t`, m/s, when the log has one (KF-GINS's
+    /// optional 8th IMU column).
+    pub odometer: Option<f64>,
 }
 
 impl ImuSample {
     /// From increments.
     pub fn from_increments(t: f64, dt: f64, dtheta: Vector3<f64>, dvel: Vector3<f64>) -> Self {
-        Self { t, dt, dtheta, dvel }
+        Self { t, dt, dtheta, dvel, odometer: None }
     }
 
     /// From rates (rad/s, m/s²) held over the interval (trapezoid of the previous and
@@ -38,7 +41,7 @@ impl ImuSample {
             Some((w0, f0)) => ((gyro + w0) * 0.5, (accel + f0) * 0.5),
             None => (gyro, accel),
         };
-        Self { t, dt, dtheta: w * dt, dvel: f * dt }
+        Self { t, dt, dtheta: w * dt, dvel: f * dt, odometer: None }
     }
 
     /// Mean angular rate over the interval, rad/s.
@@ -56,13 +59,19 @@ impl ImuSample {
     pub fn split(&self, t_split: f64) -> (ImuSample, ImuSample) {
         let t0 = self.t - self.dt;
         let a = ((t_split - t0) / self.dt).clamp(0.0, 1.0);
-        let first =
-            ImuSample { t: t_split, dt: self.dt * a, dtheta: self.dtheta * a, dvel: self.dvel * a };
+        let first = ImuSample {
+            t: t_split,
+            dt: self.dt * a,
+            dtheta: self.dtheta * a,
+            dvel: self.dvel * a,
+            odometer: None,
+        };
         let second = ImuSample {
             t: self.t,
             dt: self.dt * (1.0 - a),
             dtheta: self.dtheta * (1.0 - a),
             dvel: self.dvel * (1.0 - a),
+            odometer: self.odometer,
         };
         (first, second)
     }

@@ -19,7 +19,9 @@ use crate::imu::ImuSample;
 use crate::model::{ImuInput, InsModel, M15};
 use crate::scale::{InsModel21, InsState21, On21, M21};
 use crate::state::InsState;
-use crate::vehicle::{mounting_matrix, Nhc, StationaryDetector, VehicleAiding, Zaru, Zupt};
+use crate::vehicle::{
+    mounting_matrix, Nhc, Odometer, OdometerScale, StationaryDetector, VehicleAiding, Zaru, Zupt,
+};
 
 /// 1σ of the initial state, SI units (rad, m/s, m, rad/s, m/s²).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -267,6 +269,10 @@ struct VehicleState {
     last_zaru: f64,
     /// Time judged standing (detector and speed), s.
     stationary_time: f64,
+    last_odometer: f64,
+    odometer_scale: OdometerScale,
+    /// Time of the last GNSS update (the odometer's scale is calibrated only near one).
+    last_gnss: f64,
 }
 
 impl<A: NoiseStrategy> Navigator<A, InsState> {
@@ -352,6 +358,9 @@ where
             last_zupt: never,
             last_zaru: never,
             stationary_time: 0.0,
+            last_odometer: never,
+            odometer_scale: OdometerScale::default(),
+            last_gnss: never,
         };
         self
     }
@@ -359,6 +368,12 @@ where
     /// The stationary detector, when ZUPT is on.
     pub fn stationary_detector(&self) -> Option<&StationaryDetector> {
         self.vehicle.detector.as_ref()
+    }
+
+    /// The odometer's calibrated scale (reading / true speed), once calibrated.
+    pub fn odometer_scale(&self) -> Option<f64> {
+        let min = self.vehicle.aiding.odometer.map_or(f64::INFINITY, |o| o.calibration_samples);
+        self.vehicle.odometer_scale.scale(min)
     }
 
     /// Time the vehicle was judged standing — the detector said so and the filter's speed
@@ -481,7 +496,32 @@ where
             None => false,
         };
         let speed = self.filter.state().nav().vel.norm();
-        let zupt = v.aiding.zupt.filter(|z| stationary && speed < z.max_speed);
+        if let (Some(o), Some(reading)) = (v.aiding.odometer, imu.odometer) {
+            let model = Odometer { c_vb: v.c_vb, lever_arm: o.lever_arm, gyro_rate: imu.rate() };
+            let forward = model.predict(self.filter.state().nav())[0];
+            // calibrate the scale while GNSS keeps the forward speed right
+            if t - v.last_gnss <= 1.5 && forward > 1.0 {
+                v.odometer_scale.add(reading, forward, imu.dt, o.calibration_time);
+            }
+            let scale = v.odometer_scale.scale(o.calibration_samples);
+            if let (Some(k), true) = (scale, t - v.last_odometer >= o.interval - TIME_EPSILON) {
+                v.last_odometer = t;
+                let z = nalgebra::Vector1::new(reading / k);
+                let r = nalgebra::Matrix1::new(o.std * o.std);
+                let report =
+                    S::update::<A, Odometer, O>(&mut self.filter, &model, &z, &r, observer);
+                out.push(report.map_err(err)?);
+            }
+        }
+        // the filter's speed must be consistent with rest: below `max_speed` plus three of
+        // its σ (tight while GNSS holds the velocity, wide in an outage, when a stop is
+        // most worth taking)
+        let sigma = self.filter.sigma();
+        let speed_sigma = (sigma[3].powi(2) + sigma[4].powi(2) + sigma[5].powi(2)).sqrt();
+        let zupt = v
+            .aiding
+            .zupt
+            .filter(|z| stationary && speed < z.max_speed + z.speed_sigmas * speed_sigma);
         if let (Some(z), Some(d)) = (zupt, &v.detector) {
             v.stationary_time += imu.dt;
             if t - v.last_zupt >= z.interval - TIME_EPSILON {
@@ -545,6 +585,7 @@ where
         observer: &mut O,
     ) -> Result<UpdateSummary, NavError> {
         let err = |source| NavError::Measurement { t: g.t, source };
+        self.vehicle.last_gnss = g.t;
         let pos_std = self.gnss.pos_std.unwrap_or(g.pos_std);
         let lever = self.gnss.lever_arm;
         match (self.gnss.use_velocity, g.vel) {

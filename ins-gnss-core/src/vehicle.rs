@@ -39,8 +39,34 @@ pub const NHC: StreamId = StreamId::named("nhc");
 pub const ZUPT: StreamId = StreamId::named("zupt");
 /// The stream of [`Zaru`] updates.
 pub const ZARU: StreamId = StreamId::named("zaru");
+/// The stream of [`Odometer`] updates.
+pub const ODOMETER: StreamId = StreamId::named("odometer");
 /// Every vehicle-aiding stream.
-pub const VEHICLE_STREAMS: [StreamId; 3] = [NHC, ZUPT, ZARU];
+pub const VEHICLE_STREAMS: [StreamId; 4] = [NHC, ZUPT, ZARU, ODOMETER];
+
+/// `C_vb (R_nbᵀ v_n + (ω̃ − b_g) × l)`: the vehicle-frame velocity of the point at `l`.
+fn point_velocity(
+    c_vb: &Matrix3<f64>,
+    lever: &Vector3<f64>,
+    gyro: &Vector3<f64>,
+    x: &InsState,
+) -> Vector3<f64> {
+    c_vb * (x.att.matrix().transpose() * x.vel + (gyro - x.bg).cross(lever))
+}
+
+/// The Jacobian of [`point_velocity`] in the error state.
+fn point_velocity_h(
+    c_vb: &Matrix3<f64>,
+    lever: &Vector3<f64>,
+    x: &InsState,
+) -> SMatrix<f64, 3, 15> {
+    let rt = x.att.matrix().transpose();
+    let mut full = SMatrix::<f64, 3, 15>::zeros();
+    full.fixed_view_mut::<3, 3>(0, 0).copy_from(&(c_vb * hat(&(rt * x.vel))));
+    full.fixed_view_mut::<3, 3>(0, 3).copy_from(&(c_vb * rt));
+    full.fixed_view_mut::<3, 3>(0, 9).copy_from(&(c_vb * hat(lever)));
+    full
+}
 
 /// `C_vb` from the IMU's mounting angles (roll, pitch, yaw of the body frame relative to
 /// the vehicle frame), rad.
@@ -64,17 +90,11 @@ pub struct Nhc {
 impl Nhc {
     /// The constraint point's velocity in the vehicle frame.
     pub fn vehicle_velocity(&self, x: &InsState) -> Vector3<f64> {
-        let r = x.att.matrix();
-        self.c_vb * (r.transpose() * x.vel + (self.gyro_rate - x.bg).cross(&self.lever_arm))
+        point_velocity(&self.c_vb, &self.lever_arm, &self.gyro_rate, x)
     }
 
     fn h(&self, x: &InsState) -> SMatrix<f64, 2, 15> {
-        let rt = x.att.matrix().transpose();
-        let mut full = SMatrix::<f64, 3, 15>::zeros();
-        full.fixed_view_mut::<3, 3>(0, 0).copy_from(&(self.c_vb * hat(&(rt * x.vel))));
-        full.fixed_view_mut::<3, 3>(0, 3).copy_from(&(self.c_vb * rt));
-        full.fixed_view_mut::<3, 3>(0, 9).copy_from(&(self.c_vb * hat(&self.lever_arm)));
-        full.fixed_rows::<2>(1).into_owned()
+        point_velocity_h(&self.c_vb, &self.lever_arm, x).fixed_rows::<2>(1).into_owned()
     }
 }
 
@@ -93,6 +113,101 @@ impl MeasurementModel for Nhc {
 
     fn stream(&self) -> StreamId {
         NHC
+    }
+}
+
+/// The odometer: the forward speed of the wheel point in the vehicle frame,
+/// `z = [C_vb (R_nbᵀ v + ω × l)]_x`, its `H` the first row of the NHC's. The odometer's own
+/// scale factor is calibrated outside the filter ([`OdometerScale`]) and divided out of
+/// `z` before the update.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Odometer {
+    /// `C_vb`, body → vehicle frame.
+    pub c_vb: Matrix3<f64>,
+    /// The wheel point from the IMU, body frame, m.
+    pub lever_arm: Vector3<f64>,
+    /// Measured angular rate, rad/s.
+    pub gyro_rate: Vector3<f64>,
+}
+
+impl MeasurementModel for Odometer {
+    type State = InsState;
+    type Measurement = nalgebra::Vector1<f64>;
+
+    fn predict(&self, x: &InsState) -> nalgebra::Vector1<f64> {
+        nalgebra::Vector1::new(point_velocity(&self.c_vb, &self.lever_arm, &self.gyro_rate, x).x)
+    }
+
+    fn jacobian(&self, x: &InsState) -> MeasurementJacobians<Const<1>, Const<15>> {
+        MeasurementJacobians {
+            H: point_velocity_h(&self.c_vb, &self.lever_arm, x).fixed_rows::<1>(0).into_owned(),
+        }
+    }
+
+    fn stream(&self) -> StreamId {
+        ODOMETER
+    }
+}
+
+/// The odometer's scale `r` (reading = r × true speed), calibrated against the filter's
+/// forward speed while GNSS keeps that speed right: an exponentially weighted least
+/// squares `r = Σ w v_odo v̂ / Σ w v̂²` over samples above `min_speed`, with time constant
+/// `tau`. Outside the filter (a cascade): the filter does not carry the scale's
+/// uncertainty, which the odometer's σ must cover.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OdometerScale {
+    sxy: f64,
+    sxx: f64,
+    weight: f64,
+}
+
+impl Default for OdometerScale {
+    fn default() -> Self {
+        Self { sxy: 0.0, sxx: 0.0, weight: 0.0 }
+    }
+}
+
+impl OdometerScale {
+    /// Add a pair (odometer reading, filter forward speed) after `dt` seconds, forgetting
+    /// with time constant `tau`.
+    pub fn add(&mut self, reading: f64, forward: f64, dt: f64, tau: f64) {
+        let w = (-dt / tau.max(1e-3)).exp();
+        self.sxy = w * self.sxy + reading * forward;
+        self.sxx = w * self.sxx + forward * forward;
+        self.weight = w * self.weight + 1.0;
+    }
+
+    /// The calibrated scale once at least `min_weight` samples count, else `None`.
+    pub fn scale(&self, min_weight: f64) -> Option<f64> {
+        (self.weight >= min_weight && self.sxx > 0.0).then(|| self.sxy / self.sxx)
+    }
+}
+
+/// Odometer settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OdometerConfig {
+    /// The wheel point from the IMU, body frame, m.
+    pub lever_arm: Vector3<f64>,
+    /// 1σ of the scale-corrected forward speed, m/s.
+    pub std: f64,
+    /// Time between updates, s.
+    pub interval: f64,
+    /// Time constant of the scale calibration, s.
+    pub calibration_time: f64,
+    /// Samples (above 1 m/s, with GNSS) before the calibrated scale is used; until then
+    /// the odometer is not used.
+    pub calibration_samples: f64,
+}
+
+impl Default for OdometerConfig {
+    fn default() -> Self {
+        Self {
+            lever_arm: Vector3::zeros(),
+            std: 0.1,
+            interval: 0.1,
+            calibration_time: 120.0,
+            calibration_samples: 500.0,
+        }
     }
 }
 
@@ -275,12 +390,14 @@ pub struct VehicleAiding {
     pub nhc: Option<NhcConfig>,
     /// ZUPT and ZARU on detected stops, when on.
     pub zupt: Option<ZuptConfig>,
+    /// The odometer (the IMU samples' `odometer` speeds), when on.
+    pub odometer: Option<OdometerConfig>,
 }
 
 impl VehicleAiding {
     /// True when any aiding is on.
     pub fn any(&self) -> bool {
-        self.nhc.is_some() || self.zupt.is_some()
+        self.nhc.is_some() || self.zupt.is_some() || self.odometer.is_some()
     }
 }
 
@@ -324,9 +441,14 @@ pub struct ZuptConfig {
     pub rate_std: Option<f64>,
     /// Time between updates while stationary, s.
     pub interval: f64,
-    /// Applied only while the filter's own speed is below this, m/s: a second opinion
-    /// for sensors whose rest and smooth cruising look alike to the detector. Default 0.3.
+    /// Applied only while the filter's own speed is below this plus `speed_sigmas` times
+    /// its σ, m/s: a second opinion for sensors whose rest and smooth cruising look alike
+    /// to the detector. Default 0.3.
     pub max_speed: f64,
+    /// How many of the speed's σ widen `max_speed` (so that a stop in a GNSS outage, when
+    /// the speed estimate has drifted, is still taken). Default 3; 0 for a detector that
+    /// fires while the vehicle creeps.
+    pub speed_sigmas: f64,
 }
 
 impl Default for ZuptConfig {
@@ -337,6 +459,7 @@ impl Default for ZuptConfig {
             rate_std: Some(0.01f64.to_radians()),
             interval: 0.1,
             max_speed: 0.3,
+            speed_sigmas: 3.0,
         }
     }
 }

@@ -82,7 +82,7 @@ impl ExactImu {
         for i in 1..=n {
             let (ta, tb) = (t0 + (i - 1) as f64 * dt, t0 + i as f64 * dt);
             let (dtheta, dvel) = traj.increments(ta, tb);
-            samples.push(ImuSample { t: tb, dt, dtheta, dvel });
+            samples.push(ImuSample { t: tb, dt, dtheta, dvel, odometer: None });
             kinematics.push(traj.at(tb));
         }
         Self { samples, kinematics }
@@ -126,7 +126,8 @@ pub fn simulate_from(
     for (s, k) in exact.samples.iter().zip(&exact.kinematics[1..]) {
         let speed = k.vel.norm();
         let (dtheta, dvel) = corruptor.corrupt(&s.dtheta, &s.dvel, s.dt, speed, &mut rng_imu);
-        out.imu.push(ImuSample { dtheta, dvel, ..*s });
+        let odometer = imu.odometer_reading(k.att.matrix().tr_mul(&k.vel).x, &mut rng_imu);
+        out.imu.push(ImuSample { dtheta, dvel, odometer, ..*s });
         out.truth.push(record(k, corruptor.biases()));
     }
     gnss_epochs(traj, gnss, seed, |g| {
@@ -199,7 +200,8 @@ pub fn simulate_each<E>(
         let (dtheta, dvel) = traj.increments(ta, tb);
         let end = traj.at(tb);
         let (dtheta, dvel) = corruptor.corrupt(&dtheta, &dvel, dt, end.vel.norm(), &mut rng_imu);
-        let sample = ImuSample { t: tb, dt, dtheta, dvel };
+        let odometer = imu.odometer_reading(end.att.matrix().tr_mul(&end.vel).x, &mut rng_imu);
+        let sample = ImuSample { t: tb, dt, dtheta, dvel, odometer };
         each_imu(Some(&sample), &record(&end, corruptor.biases()))?;
     }
     gnss_epochs(traj, gnss, seed, each_gnss)

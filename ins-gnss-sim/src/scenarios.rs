@@ -66,6 +66,7 @@ pub fn mems_imu() -> ImuErrors {
         gyro_scale: Vector3::zeros(),
         accel_scale: Vector3::zeros(),
         vibration: (0.0, 0.0),
+        odometer: None,
     }
 }
 

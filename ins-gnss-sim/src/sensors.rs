@@ -32,6 +32,9 @@ pub struct ImuErrors {
     /// car's does not): 1σ per sample of the angular rate (rad/s) and specific force
     /// (m/s²) on each axis. Zero: none (no random numbers drawn).
     pub vibration: (f64, f64),
+    /// A wheel odometer: its scale-factor error (fraction) and white noise (m/s, 1σ) on the
+    /// forward speed; `None`: no odometer column.
+    pub odometer: Option<(f64, f64)>,
 }
 
 impl ImuErrors {
@@ -50,7 +53,16 @@ impl ImuErrors {
             gyro_scale: Vector3::zeros(),
             accel_scale: Vector3::zeros(),
             vibration: (0.0, 0.0),
+            odometer: None,
         }
+    }
+
+    /// The odometer reading for a true forward speed (draws a random number only when
+    /// the IMU has an odometer).
+    pub fn odometer_reading(&self, forward: f64, rng: &mut StdRng) -> Option<f64> {
+        self.odometer.map(|(scale, sigma)| {
+            forward * (1.0 + scale) + sigma * rng.sample::<f64, _>(StandardNormal)
+        })
     }
 }
 

@@ -89,10 +89,10 @@ pub fn print_summary(s: &RunSummary) {
         s.out_dir.display()
     );
     if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
-        let [n, z, r] = s.aiding;
+        let [n, z, r, o] = s.aiding;
         out!(
-            "vehicle aiding: NHC {} used, {} refused; ZUPT {} used, {} refused; ZARU {} used, {} refused; stationary {:.1} s",
-            n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, s.stationary_time
+            "vehicle aiding: NHC {} used, {} refused; ZUPT {} used, {} refused; ZARU {} used, {} refused; odometer {} used, {} refused; stationary {:.1} s",
+            n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
         );
     }
     if let Some(c) = s.consistency() {
@@ -123,6 +123,8 @@ pub struct RunOptions<'a> {
     pub nhc: bool,
     /// Turn on ZUPT/ZARU (configured settings or defaults).
     pub zupt: bool,
+    /// Turn on the odometer (configured settings or defaults).
+    pub odometer: bool,
     /// Turn off all vehicle aiding.
     pub no_vehicle: bool,
     /// Override `filter.states` (15 or 21).
@@ -147,6 +149,9 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     }
     if o.zupt && cfg.vehicle.zupt.is_none() {
         cfg.vehicle.zupt = Some(Default::default());
+    }
+    if o.odometer && cfg.vehicle.odometer.is_none() {
+        cfg.vehicle.odometer = Some(Default::default());
     }
     if o.no_vehicle {
         cfg.vehicle = Default::default();

@@ -20,17 +20,18 @@ use ins_gnss_core::position::GeoPos;
 use ins_gnss_core::scale::ScaleFactorNoise;
 use ins_gnss_core::state::InsState;
 use ins_gnss_core::vehicle::{
-    DetectorConfig, NhcConfig, VehicleAiding, ZuptConfig, VEHICLE_STREAMS,
+    DetectorConfig, NhcConfig, OdometerConfig, VehicleAiding, ZuptConfig, VEHICLE_STREAMS,
 };
 
 /// Every measurement stream a configuration may name in `filter.streams`.
-pub const STREAMS: [estimator_core::StreamId; 6] = [
+pub const STREAMS: [estimator_core::StreamId; 7] = [
     GNSS_STREAMS[0],
     GNSS_STREAMS[1],
     GNSS_STREAMS[2],
     VEHICLE_STREAMS[0],
     VEHICLE_STREAMS[1],
     VEHICLE_STREAMS[2],
+    VEHICLE_STREAMS[3],
 ];
 
 /// A configuration that cannot be used, with the file and the key.
@@ -354,6 +355,53 @@ pub struct VehicleSection {
     /// ZUPT and ZARU on detected stops.
     #[serde(default)]
     pub zupt: Option<ZuptSection>,
+    /// The odometer: the IMU file's 8th column (forward wheel speed, m/s).
+    #[serde(default)]
+    pub odometer: Option<OdometerSection>,
+}
+
+/// `[vehicle.odometer]`: the forward speed of the IMU file's 8th column, its scale
+/// calibrated against the filter while GNSS is available.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OdometerSection {
+    /// The wheel point (middle of the rear axle) from the IMU, body frame FRD, m. Default 0.
+    #[serde(default)]
+    pub lever_arm: [f64; 3],
+    /// 1σ of the scale-corrected forward speed, m/s. Default 0.1.
+    #[serde(default = "default_odometer_std")]
+    pub std: f64,
+    /// Time between updates, s. Default 0.1.
+    #[serde(default = "default_aiding_interval")]
+    pub interval: f64,
+    /// Time constant of the scale calibration, s. Default 120.
+    #[serde(default = "default_calibration_time")]
+    pub calibration_time: f64,
+    /// Samples above 1 m/s with GNSS before the odometer is used. Default 500.
+    #[serde(default = "default_calibration_samples")]
+    pub calibration_samples: f64,
+}
+
+fn default_odometer_std() -> f64 {
+    0.1
+}
+fn default_calibration_time() -> f64 {
+    120.0
+}
+fn default_calibration_samples() -> f64 {
+    500.0
+}
+
+impl Default for OdometerSection {
+    fn default() -> Self {
+        Self {
+            lever_arm: [0.0; 3],
+            std: default_odometer_std(),
+            interval: default_aiding_interval(),
+            calibration_time: default_calibration_time(),
+            calibration_samples: default_calibration_samples(),
+        }
+    }
 }
 
 /// `[vehicle.nhc]`: lateral and vertical velocity zero at a point of the vehicle.
@@ -421,9 +469,18 @@ pub struct ZuptSection {
     /// Time between ZUPTs while stationary, s. Default 0.1 (ZARU: once per window).
     #[serde(default = "default_aiding_interval")]
     pub interval: f64,
-    /// ZUPT/ZARU only while the filter's speed is below this, m/s. Default 0.3.
+    /// ZUPT/ZARU only while the filter's speed is below this plus `speed_sigmas` σ of it,
+    /// m/s. Default 0.3.
     #[serde(default = "default_zupt_max_speed")]
     pub max_speed: f64,
+    /// σ of the filter's speed added to `max_speed` (a stop in an outage is still taken).
+    /// Default 3; 0 for a detector that fires while the vehicle creeps.
+    #[serde(default = "default_speed_sigmas")]
+    pub speed_sigmas: f64,
+}
+
+fn default_speed_sigmas() -> f64 {
+    3.0
 }
 
 fn default_zupt_max_speed() -> f64 {
@@ -456,6 +513,7 @@ impl Default for ZuptSection {
             rate_std: default_zaru_std(),
             interval: default_aiding_interval(),
             max_speed: default_zupt_max_speed(),
+            speed_sigmas: default_speed_sigmas(),
         }
     }
 }
@@ -630,6 +688,19 @@ impl Config {
             nonneg("vehicle.nhc.interval", &[n.interval])?;
             nonneg("vehicle.nhc.min_speed", &[n.min_speed])?;
         }
+        if let Some(o) = &self.vehicle.odometer {
+            finite("vehicle.odometer.lever_arm", &o.lever_arm)?;
+            if o.lever_arm.iter().any(|v| v.abs() > 100.0) {
+                return Err(format!(
+                    "`vehicle.odometer.lever_arm` {:?} m: a component beyond the 100 m limit",
+                    o.lever_arm
+                ));
+            }
+            positive("vehicle.odometer.std", &[o.std])?;
+            nonneg("vehicle.odometer.interval", &[o.interval])?;
+            positive("vehicle.odometer.calibration_time", &[o.calibration_time])?;
+            positive("vehicle.odometer.calibration_samples", &[o.calibration_samples])?;
+        }
         if let Some(z) = &self.vehicle.zupt {
             positive("vehicle.zupt.window", &[z.window])?;
             positive("vehicle.zupt.gyro_max", &[z.gyro_max])?;
@@ -638,6 +709,7 @@ impl Config {
             nonneg("vehicle.zupt.rate_std", &[z.rate_std])?;
             nonneg("vehicle.zupt.interval", &[z.interval])?;
             positive("vehicle.zupt.max_speed", &[z.max_speed])?;
+            nonneg("vehicle.zupt.speed_sigmas", &[z.speed_sigmas])?;
         }
         self.filter
             .strategy
@@ -796,6 +868,14 @@ impl Config {
                 rate_std: (z.rate_std > 0.0).then_some(z.rate_std * d),
                 interval: z.interval,
                 max_speed: z.max_speed,
+                speed_sigmas: z.speed_sigmas,
+            }),
+            odometer: self.vehicle.odometer.as_ref().map(|o| OdometerConfig {
+                lever_arm: v3(o.lever_arm),
+                std: o.std,
+                interval: o.interval,
+                calibration_time: o.calibration_time,
+                calibration_samples: o.calibration_samples,
             }),
         }
     }

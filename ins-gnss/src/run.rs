@@ -144,9 +144,9 @@ pub struct RunSummary {
     pub nis_dof: usize,
     /// Time of the first and last GNSS epoch read, s (NaN when none was).
     pub gnss_span: (f64, f64),
-    /// Vehicle-aiding updates per stream (NHC, ZUPT, ZARU): used (accepted or inflated)
+    /// Vehicle-aiding updates per stream (NHC, ZUPT, ZARU, odometer): used (accepted or inflated)
     /// and refused.
-    pub aiding: [AidingCount; 3],
+    pub aiding: [AidingCount; 4],
     /// Time the vehicle was judged standing (detector and filter speed), s (0 without
     /// ZUPT).
     pub stationary_time: f64,

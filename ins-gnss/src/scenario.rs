@@ -405,6 +405,7 @@ impl Scenario {
             gyro_scale: v3(i.gyro_scale_ppm) * 1e-6,
             accel_scale: v3(i.accel_scale_ppm) * 1e-6,
             vibration: (i.vibration[0].to_radians(), i.vibration[1]),
+            odometer: None,
         }
     }
 

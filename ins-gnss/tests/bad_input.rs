@@ -241,6 +241,11 @@ fn cases(base: &Base) -> Vec<Case> {
     s.imu("imu-nan", |l| set_field(l, 11, 3, "nan"), &["IMU.txt:11", "NaN"]);
     s.imu("imu-inf", |l| set_field(l, 12, 4, "inf"), &["IMU.txt:12"]);
     s.imu(
+        "imu-odometer-speed",
+        |l| l[12] = format!("{} 5000.0", l[12]),
+        &["IMU.txt:13", "odometer"],
+    );
+    s.imu(
         "imu-6-columns",
         |l| l[13] = l[13].rsplit_once(' ').unwrap().0.into(),
         &["IMU.txt:14", "columns"],
@@ -380,6 +385,9 @@ fn cases(base: &Base) -> Vec<Case> {
         ("vehicle.zupt.window", "[vehicle.zupt]\nwindow = 0.0"),
         ("vehicle.zupt.max_speed", "[vehicle.zupt]\nmax_speed = -1.0"),
         ("vehicle.zupt.rate_std", "[vehicle.zupt]\nrate_std = inf"),
+        ("vehicle.zupt.speed_sigmas", "[vehicle.zupt]\nspeed_sigmas = -1.0"),
+        ("vehicle.odometer.std", "[vehicle.odometer]\nstd = 0.0"),
+        ("vehicle.odometer.calibration_time", "[vehicle.odometer]\ncalibration_time = nan"),
         ("nhc_std", "[vehicle.nhc]\nnhc_std = 0.1"),
     ] {
         let name = format!("toml-{}", key.replace('.', "-"));

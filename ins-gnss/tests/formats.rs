@@ -54,6 +54,8 @@ proptest! {
             dt: 0.005,
             dtheta: Vector3::new(v[0], v[1], v[2]) * 1e-2,
             dvel: Vector3::new(v[3], v[4], v[5]),
+            // every other sample with an odometer speed: the 8th column round-trips too
+            odometer: (i % 2 == 0).then_some(v[0] * 100.0),
         }).collect();
         let mut buf = Vec::new();
         for s in &samples { write_imu(&mut buf, s).unwrap(); }
@@ -65,6 +67,8 @@ proptest! {
             prop_assert!((a.t - b.t).abs() <= 5e-7 + 4.0 * f64::EPSILON * a.t.abs());
             prop_assert!((a.dtheta - b.dtheta).abs().max() <= 1e-12 * a.dtheta.abs().max().max(1e-300) + 1e-300);
             prop_assert!((a.dvel - b.dvel).abs().max() <= 1e-12 * a.dvel.abs().max().max(1e-300) + 1e-300);
+            prop_assert_eq!(a.odometer.is_some(), b.odometer.is_some());
+            prop_assert!((a.odometer.unwrap_or(0.0) - b.odometer.unwrap_or(0.0)).abs() <= 5e-7 + 1e-15 * a.odometer.unwrap_or(0.0).abs());
         }
     }
 

@@ -26,8 +26,14 @@ fn states() -> Vec<(InsState, ImuInput)> {
             ba: Vector3::new(0.02, -0.01, 0.03),
         };
         let dt = 0.005;
-        let cur = ImuSample { t: 1.0, dt, dtheta: w * dt, dvel: f * dt };
-        let prev = ImuSample { t: 1.0 - dt, dt, dtheta: w * dt * 0.98, dvel: f * dt * 1.01 };
+        let cur = ImuSample { t: 1.0, dt, dtheta: w * dt, dvel: f * dt, odometer: None };
+        let prev = ImuSample {
+            t: 1.0 - dt,
+            dt,
+            dtheta: w * dt * 0.98,
+            dvel: f * dt * 1.01,
+            odometer: None,
+        };
         (x, ImuInput { prev: Some(prev), cur })
     };
     vec![

@@ -3,7 +3,7 @@
 //!
 //! | file | columns |
 //! |---|---|
-//! | IMU increments | `t dθx dθy dθz [rad] dvx dvy dvz [m/s]` (FRD, over the previous interval), optional 8th column (odometer, ignored) |
+//! | IMU increments | `t dθx dθy dθz [rad] dvx dvy dvz [m/s]` (FRD, over the previous interval), optional 8th column (odometer speed, m/s) |
 //! | IMU rates (CSV with a header) | `t gx gy gz [rad/s] ax ay az [m/s²]` |
 //! | GNSS | `t lat lon [deg] h [m] σN σE σD [m]` (7) or `… vN vE vD σvN σvE σvD` (13) |
 //! | navigation / truth | `week t lat lon h vN vE vD roll pitch yaw [deg]` (11) |
@@ -359,7 +359,14 @@ impl<R: BufRead> ImuReader<R> {
                             b.norm()
                         ))));
                     }
-                    ImuSample { t, dt, dtheta: a, dvel: b }
+                    let odometer = (rec.len() == 8).then(|| rec[7]);
+                    if odometer.is_some_and(|v| !(v.is_finite() && v.abs() < 1000.0)) {
+                        return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                            "odometer speed {} m/s (8th column): not finite or beyond 1000 m/s",
+                            rec[7]
+                        ))));
+                    }
+                    ImuSample { t, dt, dtheta: a, dvel: b, odometer }
                 }
                 ImuFormat::Rates => {
                     let s = ImuSample::from_rates(t, dt, a, b, self.prev_rates);
@@ -595,11 +602,15 @@ pub fn write_gnss<W: Write>(w: &mut W, e: &GnssEpoch) -> std::io::Result<()> {
 
 /// Writes one IMU sample in the 7-column increment format.
 pub fn write_imu<W: Write>(w: &mut W, s: &ImuSample) -> std::io::Result<()> {
-    writeln!(
+    write!(
         w,
         "{:.6} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e}",
         s.t, s.dtheta.x, s.dtheta.y, s.dtheta.z, s.dvel.x, s.dvel.y, s.dvel.z
-    )
+    )?;
+    match s.odometer {
+        Some(v) => writeln!(w, " {v:.6}"),
+        None => writeln!(w),
+    }
 }
 
 /// `path` with `.partial` appended: where an output is written until it is complete and

@@ -62,8 +62,12 @@ enum Command {
         /// `filter.states`; KF-GINS YAML scale-factor keys set their values).
         #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["15", "21"]))]
         states: Option<String>,
+        /// Land vehicle: the odometer speed of the IMU file's 8th column, with the
+        /// configuration's `[vehicle.odometer]` settings or the defaults.
+        #[arg(long)]
+        odometer: bool,
         /// Turn off every vehicle aiding the configuration enables.
-        #[arg(long, conflicts_with_all = ["nhc", "zupt"])]
+        #[arg(long, conflicts_with_all = ["nhc", "zupt", "odometer"])]
         no_vehicle: bool,
     },
     /// Evaluate a navigation result against a truth file.
@@ -125,6 +129,7 @@ fn main() -> ExitCode {
             bias_model,
             nhc,
             zupt,
+            odometer,
             states,
             no_vehicle,
         }) => {
@@ -139,6 +144,7 @@ fn main() -> ExitCode {
                 no_gate,
                 nhc,
                 zupt,
+                odometer,
                 no_vehicle,
                 states: states.as_deref().and_then(|s| s.parse().ok()),
             };
