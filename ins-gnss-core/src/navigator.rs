@@ -491,10 +491,14 @@ where
         let err = |source| NavError::Measurement { t, source };
         let v = &mut self.vehicle;
         let bg = self.filter.state().nav().bg;
-        let stationary = match &mut v.detector {
+        let imu_says = match &mut v.detector {
             Some(d) => d.push(t, imu.dt, &imu.rate(), &imu.specific_force(), &bg),
             None => false,
         };
+        // a wheel odometer reads exactly zero when the wheels stand
+        let wheels_say =
+            v.aiding.odometer.is_some() && imu.odometer.is_some_and(|r| r.abs() < 1e-3);
+        let stationary = imu_says || wheels_say;
         let speed = self.filter.state().nav().vel.norm();
         if let (Some(o), Some(reading)) = (v.aiding.odometer, imu.odometer) {
             let model = Odometer { c_vb: v.c_vb, lever_arm: o.lever_arm, gyro_rate: imu.rate() };

@@ -428,7 +428,8 @@ impl Default for NhcConfig {
     }
 }
 
-/// ZUPT/ZARU settings.
+/// ZUPT/ZARU settings. The vehicle stands when the [`StationaryDetector`] says so, or,
+/// with the odometer on, when the odometer reads zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ZuptConfig {
     /// The stationary detector's thresholds.

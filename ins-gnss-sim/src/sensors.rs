@@ -58,10 +58,15 @@ impl ImuErrors {
     }
 
     /// The odometer reading for a true forward speed (draws a random number only when
-    /// the IMU has an odometer).
+    /// the IMU has an odometer); exactly 0 while the wheels stand.
     pub fn odometer_reading(&self, forward: f64, rng: &mut StdRng) -> Option<f64> {
         self.odometer.map(|(scale, sigma)| {
-            forward * (1.0 + scale) + sigma * rng.sample::<f64, _>(StandardNormal)
+            let noise = sigma * rng.sample::<f64, _>(StandardNormal);
+            if forward == 0.0 {
+                0.0
+            } else {
+                forward * (1.0 + scale) + noise
+            }
         })
     }
 }

@@ -53,7 +53,7 @@ fn detector_finds_the_stops_without_false_alarms() {
                 moving += 1;
                 false_alarms += usize::from(says);
             } else if still {
-                if still_since == f64::INFINITY || still_since == f64::NEG_INFINITY {
+                if still_since.is_infinite() {
                     still_since = s.t;
                 }
                 // the detector needs one full window of stillness to decide
@@ -196,4 +196,12 @@ fn odometer_cuts_the_along_track_drift_and_finds_its_scale() {
     );
     assert!(a < 0.6 * p, "odometer {a} vs NHC {p}");
     assert!(worst < 0.002, "scale off by {worst}");
+
+    // stops found by the wheels alone (an IMU detector that never fires)
+    let deaf = DetectorConfig { gyro_max: 1e-12, ..DetectorConfig::default() };
+    let zupt = ZuptConfig { detector: deaf, ..ZuptConfig::default() };
+    let without = run(&setup, 0, VehicleAiding { zupt: Some(zupt), ..nhc }, outage);
+    let with = run(&setup, 0, VehicleAiding { zupt: Some(zupt), ..odo }, outage);
+    assert_eq!(without.updates[1], 0, "the deaf detector fired");
+    assert!(with.updates[1] > 500, "ZUPTs from the odometer: {:?}", with.updates);
 }
