@@ -6,7 +6,9 @@ use core::str::FromStr;
 use estimator_core::{Adaptation, FilterAlloc, FixedNoise, NoiseStrategy, PostUpdate};
 use nalgebra::{DefaultAllocator, DimName};
 
-use crate::{Afkf, FusedDualWindow, GrossTest, Iae, Iakf, Inflation, RReading, SageHusa};
+use crate::{
+    Afkf, ChiSquareGate, FusedDualWindow, GrossTest, Iae, Iakf, Inflation, RReading, SageHusa,
+};
 
 /// Any of the crate's strategies, chosen at run time. Static dispatch by `match`; a filter
 /// typed `ErrorStateFilter<X, AnyStrategy>` can run every strategy.
@@ -24,10 +26,12 @@ pub enum AnyStrategy {
     Iakf(Iakf),
     /// [`SageHusa`].
     SageHusa(SageHusa),
+    /// [`ChiSquareGate`].
+    ChiSquareGate(ChiSquareGate),
 }
 
 /// The names [`AnyStrategy::from_str`] accepts.
-pub const STRATEGY_NAMES: [&str; 13] = [
+pub const STRATEGY_NAMES: [&str; 14] = [
     "fixed",
     "iae",
     "iae-qr",
@@ -41,6 +45,7 @@ pub const STRATEGY_NAMES: [&str; 13] = [
     "iakf",
     "iakf-raw",
     "sage-husa",
+    "chi2-gate",
 ];
 
 /// An unknown strategy name.
@@ -62,7 +67,7 @@ impl FromStr for AnyStrategy {
     /// baseline), `afkf` (λ on all of `P⁻`), `afkf-xia` (Xia's: λ on `Φ P Φᵀ` only), `fused` (the cumulative reading; also `fused-cumulative`) and its
     /// other readings (`fused-nominal`, `fused-window-test`, `fused-uncensored`,
     /// `fused-nominal-uncensored`; see [`FusedDualWindow`]), `iakf` (EpochScaled inflation, `1/k`; also `iakf-epoch`), `iakf-raw` (Raw),
-    /// `sage-husa`; each with its paper defaults.
+    /// `sage-husa`, `chi2-gate` (plain χ² gate at α = 0.01); each with its paper defaults.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Ok(match s.trim().to_ascii_lowercase().as_str() {
             "fixed" | "kf" => AnyStrategy::Fixed(FixedNoise),
@@ -88,6 +93,7 @@ impl FromStr for AnyStrategy {
             "iakf" | "iakf-epoch" => AnyStrategy::Iakf(Iakf::default()),
             "iakf-raw" => AnyStrategy::Iakf(Iakf::new(0.05, Inflation::Raw)),
             "sage-husa" | "sagehusa" | "akf" => AnyStrategy::SageHusa(SageHusa::default()),
+            "chi2-gate" => AnyStrategy::ChiSquareGate(ChiSquareGate::default()),
             _ => return Err(UnknownStrategy(s.to_string())),
         })
     }
@@ -108,6 +114,7 @@ macro_rules! dispatch {
             AnyStrategy::Fused($s) => $e,
             AnyStrategy::Iakf($s) => $e,
             AnyStrategy::SageHusa($s) => $e,
+            AnyStrategy::ChiSquareGate($s) => $e,
         }
     };
 }

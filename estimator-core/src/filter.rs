@@ -317,6 +317,30 @@ where
         O: Observer,
         DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
     {
+        self.update_with_gain(model, z, R, observer).map(|(report, _)| report)
+    }
+
+    /// [`update_observed`](Self::update_observed) that also returns the gain actually
+    /// used, `K = P⁻* Hᵀ S*⁻¹` (`N × M`; `None` when the measurement was rejected).
+    #[allow(clippy::type_complexity)]
+    pub fn update_with_gain<MM, O>(
+        &mut self,
+        model: &MM,
+        z: &MM::Measurement,
+        R: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<
+        (
+            UpdateReport<StateDim<MM::Measurement>>,
+            Option<OMatrix<f64, X::Dim, StateDim<MM::Measurement>>>,
+        ),
+        FilterError,
+    >
+    where
+        MM: MeasurementModel<State = X>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+    {
         if !z.is_finite() {
             return Err(FilterError::NonFinite { what: "measurement z" });
         }
@@ -399,13 +423,14 @@ where
             reason,
             factors,
             prior_scaling_fallback: false,
+            log_likelihood: log_likelihood(&chol_S, nis),
         };
 
         if verdict == Verdict::Rejected {
             self.epoch = epoch;
             self.apply_q(&q);
             observer.on_update(&report);
-            return Ok(report);
+            return Ok((report, None));
         }
         let mut fallback = false;
         let applied = (|| {
@@ -434,6 +459,7 @@ where
                 symmetrize(&mut S_used);
                 let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
                 report.nis_adapted = whitened_norm_sq(&chol, r);
+                report.log_likelihood = log_likelihood(&chol, report.nis_adapted);
                 S_adapted = Some(S_used);
                 chol
             } else {
@@ -524,7 +550,7 @@ where
         self.strategy.after_update(&mut post);
         self.apply_q(&post.q);
         observer.on_update(&report);
-        Ok(report)
+        Ok((report, Some(K)))
     }
 
     /// Take up the strategy's process-noise request (by reference, for the reason given
@@ -545,4 +571,15 @@ fn sub_scaled<C: Entries>(out: &mut C, a: f64, q: &C, n: usize) {
             *o -= a * v;
         }
     }
+}
+
+/// `ln N(r; 0, S) = −½ (m ln 2π + ln det S + rᵀ S⁻¹ r)` from the Cholesky factor of `S` and
+/// the NIS.
+fn log_likelihood<M: nalgebra::DimName>(chol: &nalgebra::Cholesky<f64, M>, nis: f64) -> f64
+where
+    DefaultAllocator: nalgebra::allocator::Allocator<M, M>,
+{
+    let l = chol.l_dirty();
+    let log_det = (0..M::DIM).map(|i| l[(i, i)].ln()).sum::<f64>() * 2.0;
+    -0.5 * (M::DIM as f64 * (2.0 * core::f64::consts::PI).ln() + log_det + nis)
 }

@@ -6,6 +6,7 @@
 //! |---|---|
 //! | [`ProcessModel`], [`MeasurementModel`] | what users implement; Jacobians in named structs |
 //! | [`ErrorStateFilter`] | predict / update (Cholesky, Joseph) / inject and reset on any [`Manifold`] state |
+//! | [`RtsSmoother`] | the fixed-interval (RTS) smoother on manifolds: records the forward pass, runs the backward one |
 //! | [`NoiseStrategy`], [`FixedNoise`], [`Adaptation`] | the adaptation hook and its zero-sized default |
 //! | [`StreamId`], [`StreamMap`] | named measurement streams and per-stream strategy state |
 //! | [`UpdateReport`], [`Observer`], [`UpdateLog`] | per-update telemetry |
@@ -43,6 +44,7 @@ pub mod linalg;
 pub mod linear;
 pub mod report;
 pub mod simd;
+pub mod smoother;
 mod stream;
 pub mod traits;
 
@@ -57,6 +59,7 @@ pub use entries::Entries;
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
+pub use smoother::{RtsSmoother, RtsStep, Smoothed};
 pub use stream::{short_type_name, StreamId, StreamMap};
 pub use traits::{
     Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,

@@ -42,6 +42,11 @@ where
     /// the whole prior (`P⁻* = λ_P P⁻`) instead: the gain is the same, but directions the
     /// measurement cannot see were inflated too.
     pub prior_scaling_fallback: bool,
+    /// Gaussian log-likelihood of the innovation, `ln N(r; 0, S) = −½ (m ln 2π + ln det S
+    /// + rᵀ S⁻¹ r)`, with the innovation covariance actually used (`S*` when the strategy
+    /// adapted it; the nominal `S` for a plain accept and for a rejected measurement,
+    /// whose likelihood under the prior is reported). FilterPy's `log_likelihood`.
+    pub log_likelihood: f64,
 }
 
 impl<M: DimName> UpdateReport<M>
