@@ -35,8 +35,8 @@ fn run(seed: u64) -> Outcome {
     let mut truth = x0.oplus(&(l * Vector3::new(n(), n(), n())));
     let mut f = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
     let mut s = RtsSmoother::new();
-    let mut truths = vec![truth.clone()];
-    let mut filtered = vec![(f.state().clone(), f.covariance().into_owned())];
+    let mut truths = vec![truth];
+    let mut filtered = vec![(*f.state(), f.covariance().into_owned())];
     let mut crossings = 0;
     for k in 0..300 {
         let noisy = (u.0 + model.sigma_v * n(), u.1 + model.sigma_w * n());
@@ -49,8 +49,8 @@ fn run(seed: u64) -> Outcome {
             let z = sensor.predict(&truth).oplus(&Vector2::new(0.5 * n(), 0.02 * n()));
             f.update(&sensor, &z, &r).unwrap();
         }
-        truths.push(truth.clone());
-        filtered.push((f.state().clone(), f.covariance().into_owned()));
+        truths.push(truth);
+        filtered.push((*f.state(), f.covariance().into_owned()));
     }
     let smoothed = s.smooth(&f).unwrap();
     assert_eq!(smoothed.len(), truths.len());
