@@ -180,11 +180,7 @@ impl NoiseStrategy for FusedDualWindow {
         // the gross-error statistic: this epoch alone, or the R window with it
         let gross = match self.gross_test {
             GrossTest::SingleEpoch => dom1,
-            GrossTest::Window => {
-                let mut w = s.w_r.clone();
-                w.push(a.innovation.as_slice());
-                w.trace() / tr_s
-            }
+            GrossTest::Window => s.w_r.trace_with(a.innovation.as_slice()) / tr_s,
         };
         if gross > self.gross_error_dom && s.rejections < self.max_consecutive_rejections {
             s.rejections += 1;

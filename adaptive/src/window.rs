@@ -86,6 +86,23 @@ impl InnovationWindow {
         }
         self.buf[..self.len * self.dim].iter().map(|v| v * v).sum::<f64>() / self.len as f64
     }
+
+    /// `tr Ĉ` as it would be after [`push`](Self::push)ing `r`, without changing the
+    /// window (the oldest innovation drops out of a full one).
+    pub fn trace_with(&self, r: &[f64]) -> f64 {
+        if r.len() != self.dim {
+            return self.trace();
+        }
+        let held = self.buf[..self.len * self.dim].iter().map(|v| v * v).sum::<f64>();
+        let new = r.iter().map(|v| v * v).sum::<f64>();
+        if self.len < self.capacity {
+            (held + new) / (self.len + 1) as f64
+        } else {
+            let start = self.next * self.dim;
+            let oldest = self.buf[start..start + self.dim].iter().map(|v| v * v).sum::<f64>();
+            (held - oldest + new) / self.capacity as f64
+        }
+    }
 }
 
 /// Running mean of every innovation of a stream so far, `r̄_k = (1/k) Σ_{i≤k} r_i`.
@@ -191,5 +208,27 @@ where
         a.trace() / tb
     } else {
         1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::InnovationWindow;
+
+    #[test]
+    fn trace_with_equals_pushing_a_copy() {
+        let mut w = InnovationWindow::new(5, 3);
+        for k in 0..23 {
+            let r = [(k as f64 * 0.7).sin(), k as f64 * 0.1, -(k as f64).sqrt()];
+            let mut copy = w.clone();
+            copy.push(&r);
+            let expected = copy.trace();
+            let got = w.trace_with(&r);
+            assert!(
+                (got - expected).abs() <= 1e-12 * expected.max(1.0),
+                "at {k}: {got} vs {expected}"
+            );
+            w.push(&r);
+        }
     }
 }
