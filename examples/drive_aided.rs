@@ -74,6 +74,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (h, v) = score(&c, "fixed")?;
         println!("| {name} | {h:.3} | {v:.3} |");
     }
+    // Mounting angles from a first pass (aided.toml without vehicle aiding, no reference):
+    // the body-frame velocity's direction above 5 m/s, median over the drive.
+    let (pitch, yaw) = first_pass_mounting(&with(false, false), &imu, &gnss)?;
+    let mut c = with(true, true);
+    if let Some(n) = c.vehicle.nhc.as_mut() {
+        n.mounting = [0.0, pitch, yaw];
+    }
+    let (h, v) = score(&c, "fixed")?;
+    println!(
+        "| 21 states + NHC + ZUPT/ZARU, mounting from a first pass (pitch {pitch:.2}°, yaw {yaw:.2}°) | {h:.3} | {v:.3} |"
+    );
     println!("| KF-GINS (21 states) | 12.4 | 1.08 |");
 
     let nhc = aided.vehicle.nhc.clone().ok_or("aided.toml has no [vehicle.nhc]")?;
@@ -108,4 +119,36 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("| {n} | {h:.3} | {v:.3} |");
     }
     Ok(())
+}
+
+/// The IMU's pitch and yaw on the car (degrees) from a run's own estimates: wherever the
+/// speed exceeds 5 m/s, the direction of the body-frame velocity (a car moves along its
+/// axis), median over the drive.
+fn first_pass_mounting(
+    cfg: &Config,
+    imu: &[estimator::ins_gnss::ImuSample],
+    gnss: &[estimator::ins_gnss::GnssEpoch],
+) -> Result<(f64, f64), String> {
+    let (mut pitch, mut yaw) = (Vec::new(), Vec::new());
+    ins_gnss::run::run_slices(
+        cfg,
+        "fixed".parse().map_err(|e| format!("{e}"))?,
+        imu,
+        gnss,
+        |k, _, x| {
+            if k % 10 == 0 && x.vel.norm() > 5.0 {
+                let v = x.att.matrix().tr_mul(&x.vel);
+                yaw.push(v.y.atan2(v.x).to_degrees());
+                pitch.push((-v.z).atan2(v.x).to_degrees());
+            }
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // the IMU's pitch relative to the car is minus the velocity's elevation in the body
+    // frame; its yaw minus the velocity's azimuth
+    Ok((-median(&mut pitch), -median(&mut yaw)))
 }

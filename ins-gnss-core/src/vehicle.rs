@@ -4,8 +4,9 @@
 //!
 //! Frames: the IMU body frame `b` (FRD) and the vehicle frame `v` (FRD: forward along the
 //! car's axis, right, down). The mounting angles are the roll, pitch and yaw of the IMU
-//! body frame relative to the vehicle frame, `C_vb = (R(roll, pitch, yaw))ᵀ` takes body
-//! vectors to the vehicle frame; all zero when the IMU is mounted square.
+//! body frame relative to the vehicle frame (as `R_nb` holds the body's relative to NED):
+//! `C_vb = R(roll, pitch, yaw)` takes body vectors to the vehicle frame, `v_v = C_vb v_b`;
+//! all zero when the IMU is mounted square.
 //!
 //! **NHC** (Shin 2005; Groves 2013 §16.4.3; Niu et al.): a car on a road does not slide
 //! sideways or leave the ground, so at a point on the rear axle the vehicle-frame
@@ -69,9 +70,9 @@ fn point_velocity_h(
 }
 
 /// `C_vb` from the IMU's mounting angles (roll, pitch, yaw of the body frame relative to
-/// the vehicle frame), rad.
+/// the vehicle frame, as `R_nb` holds the body's relative to NED), rad: `v_v = C_vb v_b`.
 pub fn mounting_matrix(angles: &Vector3<f64>) -> Matrix3<f64> {
-    So3::from_euler(angles.x, angles.y, angles.z).matrix().transpose()
+    So3::from_euler(angles.x, angles.y, angles.z).matrix()
 }
 
 /// The non-holonomic constraint: lateral and vertical vehicle-frame velocity are zero at

@@ -122,15 +122,22 @@ pub fn simulate_from(
         state: InsState { att: k.att, vel: k.vel, pos: k.pos, bg: biases.0, ba: biases.1 },
         rates: (k.w_ib_b, k.f_b),
     };
-    out.truth.push(record(&exact.kinematics[0], corruptor.biases()));
+    let mount = imu.mounting_rotation();
+    let body = |k: &Kinematics| mount.as_ref().map_or(*k, |r| k.mounted(r));
+    out.truth.push(record(&body(&exact.kinematics[0]), corruptor.biases()));
     for (s, k) in exact.samples.iter().zip(&exact.kinematics[1..]) {
         let speed = k.vel.norm();
-        let (dtheta, dvel) = corruptor.corrupt(&s.dtheta, &s.dvel, s.dt, speed, &mut rng_imu);
+        let (dtheta, dvel) = match &mount {
+            Some(r) => (r.inverse().rotate(&s.dtheta), r.inverse().rotate(&s.dvel)),
+            None => (s.dtheta, s.dvel),
+        };
+        let (dtheta, dvel) = corruptor.corrupt(&dtheta, &dvel, s.dt, speed, &mut rng_imu);
+        // the wheels measure the vehicle's forward speed
         let odometer = imu.odometer_reading(k.att.matrix().tr_mul(&k.vel).x, &mut rng_imu);
         out.imu.push(ImuSample { dtheta, dvel, odometer, ..*s });
-        out.truth.push(record(k, corruptor.biases()));
+        out.truth.push(record(&body(k), corruptor.biases()));
     }
-    gnss_epochs(traj, gnss, seed, |g| {
+    gnss_epochs(traj, gnss, seed, mount, |g| {
         out.gnss.push(g);
         Ok::<(), core::convert::Infallible>(())
     })
@@ -144,6 +151,7 @@ fn gnss_epochs<E>(
     traj: &Trajectory,
     gnss: &GnssSim,
     seed: u64,
+    mount: Option<manifolds::So3>,
     mut each: impl FnMut(GnssEpoch) -> Result<(), E>,
 ) -> Result<(), E> {
     let mut rng_gnss = StdRng::seed_from_u64(seed.wrapping_add(1));
@@ -156,6 +164,8 @@ fn gnss_epochs<E>(
             let t = t0 + j as f64 * step;
             let Some((factor, outliers)) = gnss.conditions(t) else { continue };
             let k = traj.at(t);
+            // the antenna's lever arm is in the IMU's frame
+            let k = mount.as_ref().map_or(k, |r| k.mounted(r));
             let lever_n = k.att.rotate(&gnss.lever_arm);
             let ant = manifolds::Manifold::oplus(&k.pos, &lever_n);
             let pos = gnss.corrupt_position(&ant, factor, outliers, &mut rng_gnss);
@@ -194,15 +204,21 @@ pub fn simulate_each<E>(
     let dt = 1.0 / imu_rate_hz;
     let t0 = traj.start_time();
     let n = ((traj.end_time() - t0) / dt + 1e-9).floor() as usize;
-    each_imu(None, &record(&traj.at(t0), corruptor.biases()))?;
+    let mount = imu.mounting_rotation();
+    let body = |k: &Kinematics| mount.as_ref().map_or(*k, |r| k.mounted(r));
+    each_imu(None, &record(&body(&traj.at(t0)), corruptor.biases()))?;
     for i in 1..=n {
         let (ta, tb) = (t0 + (i - 1) as f64 * dt, t0 + i as f64 * dt);
         let (dtheta, dvel) = traj.increments(ta, tb);
+        let (dtheta, dvel) = match &mount {
+            Some(r) => (r.inverse().rotate(&dtheta), r.inverse().rotate(&dvel)),
+            None => (dtheta, dvel),
+        };
         let end = traj.at(tb);
         let (dtheta, dvel) = corruptor.corrupt(&dtheta, &dvel, dt, end.vel.norm(), &mut rng_imu);
         let odometer = imu.odometer_reading(end.att.matrix().tr_mul(&end.vel).x, &mut rng_imu);
         let sample = ImuSample { t: tb, dt, dtheta, dvel, odometer };
-        each_imu(Some(&sample), &record(&end, corruptor.biases()))?;
+        each_imu(Some(&sample), &record(&body(&end), corruptor.biases()))?;
     }
-    gnss_epochs(traj, gnss, seed, each_gnss)
+    gnss_epochs(traj, gnss, seed, mount, each_gnss)
 }

@@ -67,6 +67,7 @@ pub fn mems_imu() -> ImuErrors {
         accel_scale: Vector3::zeros(),
         vibration: (0.0, 0.0),
         odometer: None,
+        mounting: Vector3::zeros(),
     }
 }
 

@@ -35,6 +35,9 @@ pub struct ImuErrors {
     /// A wheel odometer: its scale-factor error (fraction) and white noise (m/s, 1σ) on the
     /// forward speed; `None`: no odometer column.
     pub odometer: Option<(f64, f64)>,
+    /// The IMU's mounting: roll, pitch, yaw of its axes relative to the vehicle's (rad),
+    /// at the vehicle's reference point. The truth attitude is the IMU's.
+    pub mounting: Vector3<f64>,
 }
 
 impl ImuErrors {
@@ -54,7 +57,14 @@ impl ImuErrors {
             accel_scale: Vector3::zeros(),
             vibration: (0.0, 0.0),
             odometer: None,
+            mounting: Vector3::zeros(),
         }
+    }
+
+    /// `R_vb` of the mounting (`None` when square, so square mounting costs nothing).
+    pub fn mounting_rotation(&self) -> Option<manifolds::So3> {
+        (self.mounting != Vector3::zeros())
+            .then(|| manifolds::So3::from_euler(self.mounting.x, self.mounting.y, self.mounting.z))
     }
 
     /// The odometer reading for a true forward speed (draws a random number only when

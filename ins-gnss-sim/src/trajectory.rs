@@ -136,6 +136,20 @@ pub struct Kinematics {
     pub f_b: Vector3<f64>,
 }
 
+impl Kinematics {
+    /// The kinematics of an IMU mounted at the same point with attitude `r_vb` relative to
+    /// this (vehicle) frame: `R_nb = R_nv R_vb`, `ω_ib^b = R_vbᵀ ω`, `f^b = R_vbᵀ f`.
+    pub fn mounted(&self, r_vb: &So3) -> Kinematics {
+        let back = r_vb.inverse();
+        Kinematics {
+            att: &self.att * r_vb,
+            w_ib_b: back.rotate(&self.w_ib_b),
+            f_b: back.rotate(&self.f_b),
+            ..*self
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct SegState {
     t0: f64,

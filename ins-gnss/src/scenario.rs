@@ -406,6 +406,7 @@ impl Scenario {
             accel_scale: v3(i.accel_scale_ppm) * 1e-6,
             vibration: (i.vibration[0].to_radians(), i.vibration[1]),
             odometer: None,
+            mounting: Vector3::zeros(),
         }
     }
 

@@ -34,6 +34,10 @@ fn dataset(setup: &common::Setup, seed: u64) -> SimDataset {
     simulate_from(&setup.exact, &setup.traj, &vibrating_imu(), &setup.gnss, seed)
 }
 
+fn dataset_with(setup: &common::Setup, imu: &ins_gnss_sim::ImuErrors, seed: u64) -> SimDataset {
+    simulate_from(&setup.exact, &setup.traj, imu, &setup.gnss, seed)
+}
+
 #[test]
 fn detector_finds_the_stops_without_false_alarms() {
     let setup = common::drive_setup(100.0, None);
@@ -85,7 +89,17 @@ struct Aided {
 /// One run with `aiding` and a GNSS outage; the maximum horizontal error inside the
 /// outage and the mean NEES at whole seconds.
 fn run(setup: &common::Setup, seed: u64, aiding: VehicleAiding, outage: (f64, f64)) -> Aided {
-    let data = dataset(setup, seed);
+    run_with(setup, &vibrating_imu(), seed, aiding, outage)
+}
+
+fn run_with(
+    setup: &common::Setup,
+    imu: &ins_gnss_sim::ImuErrors,
+    seed: u64,
+    aiding: VehicleAiding,
+    outage: (f64, f64),
+) -> Aided {
+    let data = dataset_with(setup, imu, seed);
     let truth0 = &data.truth[0].state;
     let std = common::initial_std();
     let start = InsState { bg: Vector3::zeros(), ba: Vector3::zeros(), ..truth0.clone() };
@@ -204,4 +218,32 @@ fn odometer_cuts_the_along_track_drift_and_finds_its_scale() {
     let with = run(&setup, 0, VehicleAiding { zupt: Some(zupt), ..odo }, outage);
     assert_eq!(without.updates[1], 0, "the deaf detector fired");
     assert!(with.updates[1] > 500, "ZUPTs from the odometer: {:?}", with.updates);
+}
+
+#[test]
+fn nhc_needs_the_mounting_angles_of_a_misaligned_imu() {
+    // the IMU pitched 1.5° and yawed 3° against the car
+    let deg = core::f64::consts::PI / 180.0;
+    let mounting = Vector3::new(0.0, 1.5 * deg, 3.0 * deg);
+    let imu = ins_gnss_sim::ImuErrors { mounting, ..vibrating_imu() };
+    let outage = (360.0, 420.0);
+    let setup = common::drive_setup(100.0, Some(outage));
+    let aiding = |m: Vector3<f64>| VehicleAiding {
+        nhc: Some(NhcConfig { mounting: m, ..NhcConfig::default() }),
+        ..Default::default()
+    };
+    let (mut right, mut wrong, mut nees) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 0..3u64 {
+        let a = run_with(&setup, &imu, seed, aiding(mounting), outage);
+        right.push(a.max_outage_error);
+        nees.push(a.mean_nees);
+        wrong.push(run_with(&setup, &imu, seed, aiding(Vector3::zeros()), outage).max_outage_error);
+    }
+    let (r, w, q) = (mean(&right), mean(&wrong), mean(&nees));
+    eprintln!(
+        "IMU mounted 1.5° pitch, 3° yaw: 60 s outage max horizontal error with the right \
+         mounting {r:.2} m, assuming it square {w:.2} m; mean NEES (right) {q:.2}"
+    );
+    assert!(r < 0.7 * w, "right {r} vs wrong {w}");
+    assert!(q > 5.0 && q < 30.0, "mean NEES {q}");
 }
