@@ -10,6 +10,29 @@ use nalgebra::{DefaultAllocator, DimName};
 /// at every update).
 const CACHED_DIMS: usize = 16;
 
+/// `χ²_{1−p}(m)` for every measurement dimension, computed once per dimension (the
+/// quantile is an iterative inverse of the χ² distribution).
+#[derive(Clone, Debug)]
+struct Thresholds([f64; CACHED_DIMS + 1]);
+
+impl Thresholds {
+    fn new() -> Self {
+        Self([f64::NAN; CACHED_DIMS + 1])
+    }
+
+    fn get(&mut self, m: usize, probability: f64) -> f64 {
+        match self.0.get_mut(m) {
+            Some(t) => {
+                if t.is_nan() {
+                    *t = chi2_gate(m, probability);
+                }
+                *t
+            }
+            None => chi2_gate(m, probability),
+        }
+    }
+}
+
 /// Refuses an innovation far outside anything the filter believes, whatever the strategy
 /// behind it: when `NIS = rᵀ S⁻¹ r` (nominal `S`) exceeds the χ² quantile
 /// `χ²_{1−p}(m)`, the update is rejected and the inner strategy does not see it (its
@@ -50,7 +73,7 @@ pub struct GrossErrorGate<A> {
     /// down-weighted.
     pub readmit_after: u32,
     refusals: StreamMap<u32>,
-    thresholds: [f64; CACHED_DIMS + 1],
+    thresholds: Thresholds,
     /// The last update was decided by the gate, not by `inner`.
     bypassed: bool,
 }
@@ -64,7 +87,7 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
             probability,
             readmit_after: readmit_after.max(1),
             refusals: StreamMap::new(),
-            thresholds: [f64::NAN; CACHED_DIMS + 1],
+            thresholds: Thresholds::new(),
             bypassed: false,
         }
     }
@@ -82,14 +105,7 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
 
     /// The gate for an `m`-dimensional innovation.
     pub fn threshold(&mut self, m: usize) -> f64 {
-        if m <= CACHED_DIMS {
-            if self.thresholds[m].is_nan() {
-                self.thresholds[m] = chi2_gate(m, self.probability);
-            }
-            self.thresholds[m]
-        } else {
-            chi2_gate(m, self.probability)
-        }
+        self.thresholds.get(m, self.probability)
     }
 }
 
@@ -174,24 +190,18 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
 pub struct ChiSquareGate {
     /// Probability that a consistent innovation is refused (α).
     pub probability: f64,
-    thresholds: [f64; CACHED_DIMS + 1],
+    thresholds: Thresholds,
 }
 
 impl ChiSquareGate {
     /// A gate at the `1 − probability` quantile.
     pub fn new(probability: f64) -> Self {
-        Self { probability, thresholds: [f64::NAN; CACHED_DIMS + 1] }
+        Self { probability, thresholds: Thresholds::new() }
     }
 
     /// The gate for an `m`-dimensional innovation.
     pub fn threshold(&mut self, m: usize) -> f64 {
-        if m > CACHED_DIMS {
-            return chi2_gate(m, self.probability);
-        }
-        if self.thresholds[m].is_nan() {
-            self.thresholds[m] = chi2_gate(m, self.probability);
-        }
-        self.thresholds[m]
+        self.thresholds.get(m, self.probability)
     }
 }
 

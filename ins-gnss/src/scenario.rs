@@ -89,6 +89,14 @@ pub struct ImuSpec {
     /// force (m/s²), each axis. Default none.
     #[serde(default)]
     pub vibration: [f64; 2],
+    /// The IMU's roll, pitch, yaw relative to the car, degrees (set the same in a run's
+    /// `[vehicle.nhc] mounting`). Default 0.
+    #[serde(default)]
+    pub mounting: [f64; 3],
+    /// A wheel odometer in the IMU file's 8th column: `[scale error in ppm, noise σ in
+    /// m/s]`. Default none.
+    #[serde(default)]
+    pub odometer: Option<[f64; 2]>,
 }
 
 /// A GNSS window.
@@ -242,6 +250,14 @@ impl Scenario {
         finite("imu.gyro_scale_ppm", &i.gyro_scale_ppm)?;
         finite("imu.accel_scale_ppm", &i.accel_scale_ppm)?;
         nonneg("imu.vibration", &i.vibration)?;
+        finite("imu.mounting", &i.mounting)?;
+        if i.mounting.iter().any(|a| a.abs() > 180.0) {
+            return Err(format!("`imu.mounting` {:?}: angles in degrees within ±180", i.mounting));
+        }
+        if let Some([scale, sigma]) = i.odometer {
+            finite("imu.odometer", &[scale])?;
+            nonneg("imu.odometer", &[sigma])?;
+        }
         let g = &self.gnss;
         positive("gnss.rate", &[g.rate])?;
         if g.rate > i.rate {
@@ -323,6 +339,8 @@ impl Scenario {
                 gyro_scale_ppm: [0.0; 3],
                 accel_scale_ppm: [0.0; 3],
                 vibration: [0.0; 2],
+                mounting: [0.0; 3],
+                odometer: None,
             },
             gnss: GnssSpec {
                 rate: 1.0,
@@ -405,8 +423,8 @@ impl Scenario {
             gyro_scale: v3(i.gyro_scale_ppm) * 1e-6,
             accel_scale: v3(i.accel_scale_ppm) * 1e-6,
             vibration: (i.vibration[0].to_radians(), i.vibration[1]),
-            odometer: None,
-            mounting: Vector3::zeros(),
+            odometer: i.odometer.map(|[scale, sigma]| (scale * 1e-6, sigma)),
+            mounting: v3(i.mounting) * (core::f64::consts::PI / 180.0),
         }
     }
 

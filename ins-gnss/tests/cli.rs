@@ -204,3 +204,34 @@ fn car_aiding_and_21_states_from_the_command_line() {
     let svg = std::fs::read_to_string(dir.join("aided/errors_position.svg")).unwrap();
     assert!(svg.contains("stationary"), "no stationary shading in the legend");
 }
+
+#[test]
+fn simulated_car_with_odometer_and_mounting_runs_aided() {
+    let dir = temp("car-aided");
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/car-aided.toml");
+    let out = bin().args(["simulate"]).arg(&scenario).arg("--out").arg(&dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // the odometer is the IMU file's 8th column
+    let imu = std::fs::read_to_string(dir.join("IMU.txt")).unwrap();
+    assert!(imu.lines().all(|l| l.split_whitespace().count() == 8));
+    // tell NHC the mounting, as the scenario's comment says
+    let mut config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    config =
+        config.replace("[vehicle]\n", "[vehicle]\n\n[vehicle.nhc]\nmounting = [0.0, 0.0, 2.0]\n");
+    std::fs::write(dir.join("config.toml"), config).unwrap();
+    let out = bin()
+        .arg("run")
+        .arg(dir.join("config.toml"))
+        .args(["--quiet", "--zupt", "--odometer", "--out"])
+        .arg(dir.join("aided"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let line = stdout.lines().find(|l| l.starts_with("vehicle aiding:")).expect(&stdout);
+    let used = |what: &str| -> usize {
+        let at = line.find(what).unwrap_or_else(|| panic!("{what} in {line}")) + what.len();
+        line[at..].split_whitespace().next().unwrap().parse().unwrap()
+    };
+    assert!(used("NHC ") > 500 && used("odometer ") > 300 && used("ZUPT ") > 50, "{line}");
+}
