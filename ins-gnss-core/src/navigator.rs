@@ -520,12 +520,15 @@ where
         // the filter's speed must be consistent with rest: below `max_speed` plus three of
         // its σ (tight while GNSS holds the velocity, wide in an outage, when a stop is
         // most worth taking)
-        let sigma = self.filter.sigma();
-        let speed_sigma = (sigma[3].powi(2) + sigma[4].powi(2) + sigma[5].powi(2)).sqrt();
-        let zupt = v
-            .aiding
-            .zupt
-            .filter(|z| stationary && speed < z.max_speed + z.speed_sigmas * speed_sigma);
+        let filter = &self.filter;
+        let zupt = v.aiding.zupt.filter(|z| {
+            stationary && {
+                // (the σ only when standing: this runs at every IMU sample)
+                let sigma = filter.sigma();
+                let speed_sigma = (sigma[3].powi(2) + sigma[4].powi(2) + sigma[5].powi(2)).sqrt();
+                speed < z.max_speed + z.speed_sigmas * speed_sigma
+            }
+        });
         if let (Some(z), Some(d)) = (zupt, &v.detector) {
             v.stationary_time += imu.dt;
             if t - v.last_zupt >= z.interval - TIME_EPSILON {
