@@ -275,13 +275,15 @@ where
         if !x_next.is_finite() {
             return Err(FilterError::NonFinite { what: "propagated state" });
         }
+        B::check_finite("propagated covariance P", next)?;
         if self.strategy.tracks_process_noise() {
-            // Q_Σ ← Φ Q_Σ Φᵀ + Q_d, by the same path (into the auxiliary buffer, then swapped)
+            // Q_Σ ← Φ Q_Σ Φᵀ + Q_d, by the same path (into the auxiliary buffer, swapped in
+            // only when it succeeded, so that `Err` leaves Q_Σ as it was)
             let q_sum = self.q_sum.get_or_insert_with(|| B::from_static(&Cov::<X::Dim>::zeros()));
             self.backend.predict(model, &self.x, u, dt, q_sum, 1.0, &self.q_adjust, aux)?;
+            B::check_finite("accumulated process noise Q_Σ", aux)?;
             core::mem::swap(q_sum, aux);
         }
-        B::check_finite("propagated covariance P", &self.bufs[(self.cur + 1) % 3])?;
         self.x = x_next;
         self.commit();
         self.time += dt;
