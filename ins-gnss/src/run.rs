@@ -5,13 +5,15 @@
 //! Outputs (in the output directory):
 //! - `nav.txt`: the 11-column navigation result at every IMU epoch;
 //! - `std.txt`: `t`, 1σ of position N E D (m), velocity N E D (m/s), roll pitch yaw
-//!   (deg), gyro bias x y z (deg/h), accelerometer bias x y z (mGal), after every GNSS
-//!   epoch and at the end;
-//! - `imu_errors.txt`: `t`, gyro bias x y z (deg/h), accelerometer bias x y z (mGal), at
-//!   the same epochs;
-//! - `updates.csv`: one row per GNSS epoch: time, stream name (`gnss-position`,
-//!   `gnss-position-velocity`), dimension, NIS, adapted NIS, decision, reason, DOM, λ_P,
-//!   λ_R, and 1 where a strategy's subspace prior scaling fell back to full scaling.
+//!   (deg), gyro bias x y z (deg/h), accelerometer bias x y z (mGal), with 21 states the
+//!   gyro and accelerometer scale factors (ppm), after every IMU sample with an update
+//!   and at the end;
+//! - `imu_errors.txt`: `t`, gyro bias x y z (deg/h), accelerometer bias x y z (mGal), with
+//!   21 states the scale factors (ppm), at the same epochs;
+//! - `updates.csv`: one row per update: time, stream name (`gnss-position`,
+//!   `gnss-position-velocity`, `nhc`, `zupt`, `zaru`, `odometer`), dimension, NIS,
+//!   adapted NIS, decision, reason, DOM, λ_P, λ_R, and 1 where a strategy's subspace prior
+//!   scaling fell back to full scaling.
 
 use core::fmt;
 use std::io::Write;
