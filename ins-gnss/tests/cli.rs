@@ -168,28 +168,44 @@ fn drive_0708_outage_score_with_a_position_only_reference() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-#[test]
-fn car_aiding_and_21_states_from_the_command_line() {
-    let dir = temp("car");
-    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/drive.toml");
-    let out = bin().args(["simulate"]).arg(&scenario).arg("--out").arg(&dir).output().unwrap();
+/// `ins-gnss simulate scenarios/NAME --out dir`, asserting success.
+fn simulate(name: &str, dir: &Path) {
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name);
+    let out = bin().args(["simulate"]).arg(&scenario).arg("--out").arg(dir).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// `ins-gnss run dir/config.toml --quiet ARGS --out dir/aided`, asserting success; the
+/// summary's `vehicle aiding:` line.
+fn run_aided(dir: &Path, args: &[&str]) -> String {
     let out = bin()
         .arg("run")
         .arg(dir.join("config.toml"))
-        .args(["--quiet", "--plots", "--nhc", "--zupt", "--states", "21", "--out"])
+        .arg("--quiet")
+        .args(args)
+        .arg("--out")
         .arg(dir.join("aided"))
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    stdout.lines().find(|l| l.starts_with("vehicle aiding:")).expect(&stdout).to_string()
+}
+
+/// The number after `what` in the summary line (`NHC 906 used, …`).
+fn used(line: &str, what: &str) -> usize {
+    let at = line.find(what).unwrap_or_else(|| panic!("{what} in {line}")) + what.len();
+    line[at..].split_whitespace().next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn car_aiding_and_21_states_from_the_command_line() {
+    let dir = temp("car");
+    simulate("drive.toml", &dir);
     // the summary line counts each aiding stream and the time standing
-    let line = stdout.lines().find(|l| l.starts_with("vehicle aiding:")).expect(&stdout);
-    let count = |what: &str| -> usize {
-        let at = line.find(what).unwrap_or_else(|| panic!("{what} in {line}")) + what.len();
-        line[at..].split_whitespace().next().unwrap().parse().unwrap()
-    };
-    assert!(count("NHC ") > 500 && count("ZUPT ") > 100 && count("ZARU ") > 10, "{line}");
+    let line = run_aided(&dir, &["--plots", "--nhc", "--zupt", "--states", "21"]);
+    let n = |what| used(&line, what);
+    assert!(n("NHC ") > 500 && n("ZUPT ") > 100 && n("ZARU ") > 10, "{line}");
     let updates = std::fs::read_to_string(dir.join("aided/updates.csv")).unwrap();
     for stream in [",nhc,", ",zupt,", ",zaru,", ",gnss-position"] {
         assert!(updates.contains(stream), "no {stream} rows in updates.csv");
@@ -208,9 +224,7 @@ fn car_aiding_and_21_states_from_the_command_line() {
 #[test]
 fn simulated_car_with_odometer_and_mounting_runs_aided() {
     let dir = temp("car-aided");
-    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/car-aided.toml");
-    let out = bin().args(["simulate"]).arg(&scenario).arg("--out").arg(&dir).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    simulate("car-aided.toml", &dir);
     // the odometer is the IMU file's 8th column
     let imu = std::fs::read_to_string(dir.join("IMU.txt")).unwrap();
     assert!(imu.lines().all(|l| l.split_whitespace().count() == 8));
@@ -219,19 +233,7 @@ fn simulated_car_with_odometer_and_mounting_runs_aided() {
     config =
         config.replace("[vehicle]\n", "[vehicle]\n\n[vehicle.nhc]\nmounting = [0.0, 0.0, 2.0]\n");
     std::fs::write(dir.join("config.toml"), config).unwrap();
-    let out = bin()
-        .arg("run")
-        .arg(dir.join("config.toml"))
-        .args(["--quiet", "--zupt", "--odometer", "--out"])
-        .arg(dir.join("aided"))
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let line = stdout.lines().find(|l| l.starts_with("vehicle aiding:")).expect(&stdout);
-    let used = |what: &str| -> usize {
-        let at = line.find(what).unwrap_or_else(|| panic!("{what} in {line}")) + what.len();
-        line[at..].split_whitespace().next().unwrap().parse().unwrap()
-    };
-    assert!(used("NHC ") > 500 && used("odometer ") > 300 && used("ZUPT ") > 50, "{line}");
+    let line = run_aided(&dir, &["--zupt", "--odometer"]);
+    let n = |what| used(&line, what);
+    assert!(n("NHC ") > 500 && n("odometer ") > 300 && n("ZUPT ") > 50, "{line}");
 }
