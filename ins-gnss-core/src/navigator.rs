@@ -492,7 +492,7 @@ where
         let v = &mut self.vehicle;
         let bg = self.filter.state().nav().bg;
         let imu_says = match &mut v.detector {
-            Some(d) => d.push(t, imu.dt, &imu.rate(), &imu.specific_force(), &bg),
+            Some(d) => d.push(imu.dt, &imu.rate(), &imu.specific_force(), &bg),
             None => false,
         };
         // a wheel odometer reads exactly zero when the wheels stand

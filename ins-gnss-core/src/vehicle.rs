@@ -293,27 +293,17 @@ impl Default for DetectorConfig {
 #[derive(Clone, Debug)]
 pub struct StationaryDetector {
     config: DetectorConfig,
-    /// `(t, |ω − b_g|, |f|, ω)` of the samples in the window.
-    buf: Vec<(f64, f64, f64, Vector3<f64>)>,
+    /// `(|ω − b_g|, |f|, ω)` of the samples in the window.
+    buf: Vec<(f64, f64, Vector3<f64>)>,
     head: usize,
     len: usize,
     stationary: bool,
-    stationary_time: f64,
-    last_t: Option<f64>,
 }
 
 impl StationaryDetector {
     /// A detector with the given thresholds.
     pub fn new(config: DetectorConfig) -> Self {
-        Self {
-            config,
-            buf: Vec::new(),
-            head: 0,
-            len: 0,
-            stationary: false,
-            stationary_time: 0.0,
-            last_t: None,
-        }
+        Self { config, buf: Vec::new(), head: 0, len: 0, stationary: false }
     }
 
     /// The thresholds.
@@ -325,7 +315,6 @@ impl StationaryDetector {
     /// bias estimate; returns whether the vehicle stands now.
     pub fn push(
         &mut self,
-        t: f64,
         dt: f64,
         rate: &Vector3<f64>,
         force: &Vector3<f64>,
@@ -333,37 +322,32 @@ impl StationaryDetector {
     ) -> bool {
         if self.buf.is_empty() {
             let n = ((self.config.window / dt.max(1e-6)).ceil() as usize).clamp(2, 100_000);
-            self.buf = vec![(0.0, 0.0, 0.0, Vector3::zeros()); n];
+            self.buf = vec![(0.0, 0.0, Vector3::zeros()); n];
         }
         let cap = self.buf.len();
         let idx = (self.head + self.len) % cap;
-        self.buf[idx] = (t, (rate - bg).norm(), force.norm(), *rate);
+        self.buf[idx] = ((rate - bg).norm(), force.norm(), *rate);
         if self.len < cap {
             self.len += 1;
         } else {
             self.head = (self.head + 1) % cap;
         }
-        let was = self.stationary;
         self.stationary = self.len == cap && self.decide();
-        if let (true, true, Some(last)) = (was, self.stationary, self.last_t) {
-            self.stationary_time += t - last;
-        }
-        self.last_t = Some(t);
         self.stationary
     }
 
-    fn samples(&self) -> impl Iterator<Item = &(f64, f64, f64, Vector3<f64>)> {
+    fn samples(&self) -> impl Iterator<Item = &(f64, f64, Vector3<f64>)> {
         let cap = self.buf.len();
         (0..self.len).map(move |k| &self.buf[(self.head + k) % cap])
     }
 
     fn decide(&self) -> bool {
-        if self.samples().any(|s| s.1 > self.config.gyro_max) {
+        if self.samples().any(|s| s.0 > self.config.gyro_max) {
             return false;
         }
         let n = self.len as f64;
-        let mean = self.samples().map(|s| s.2).sum::<f64>() / n;
-        let var = self.samples().map(|s| (s.2 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        let mean = self.samples().map(|s| s.1).sum::<f64>() / n;
+        let var = self.samples().map(|s| (s.1 - mean).powi(2)).sum::<f64>() / (n - 1.0);
         var.sqrt() <= self.config.accel_std_max
     }
 
@@ -372,15 +356,10 @@ impl StationaryDetector {
         self.stationary
     }
 
-    /// Total time judged stationary so far, s.
-    pub fn stationary_time(&self) -> f64 {
-        self.stationary_time
-    }
-
     /// Mean raw angular rate over the window (the ZARU measurement), rad/s.
     pub fn mean_rate(&self) -> Vector3<f64> {
         let n = self.len.max(1) as f64;
-        self.samples().fold(Vector3::zeros(), |a, s| a + s.3) / n
+        self.samples().fold(Vector3::zeros(), |a, s| a + s.2) / n
     }
 }
 

@@ -49,7 +49,7 @@ fn detector_finds_the_stops_without_false_alarms() {
         let mut still_since = f64::NEG_INFINITY;
         for (k, s) in data.imu.iter().enumerate() {
             let truth = &data.truth[k + 1];
-            let says = d.push(s.t, s.dt, &s.rate(), &s.specific_force(), &Vector3::zeros());
+            let says = d.push(s.dt, &s.rate(), &s.specific_force(), &Vector3::zeros());
             let speed = truth.state.vel.norm();
             let still = speed < 1e-9;
             if speed > ins_gnss_sim::sensors::VIBRATION_SPEED {
