@@ -7,6 +7,7 @@
 //! | [`ProcessModel`], [`MeasurementModel`] | what users implement; Jacobians in named structs |
 //! | [`ErrorStateFilter`] | predict / update (Cholesky, Joseph) / inject and reset on any [`Manifold`] state |
 //! | [`RtsSmoother`] | the fixed-interval (RTS) smoother on manifolds: records the forward pass, runs the backward one |
+//! | [`SegmentSmoother`] | the same smoother for long high-rate runs: one record per update on disk, steps rebuilt by replay |
 //! | [`NoiseStrategy`], [`FixedNoise`], [`Adaptation`] | the adaptation hook and its zero-sized default |
 //! | [`StreamId`], [`StreamMap`] | named measurement streams and per-stream strategy state |
 //! | [`UpdateReport`], [`Observer`], [`UpdateLog`] | per-update telemetry |
@@ -43,6 +44,7 @@ mod kernels;
 pub mod linalg;
 pub mod linear;
 pub mod report;
+pub mod segments;
 pub mod simd;
 pub mod smoother;
 mod stream;
@@ -59,6 +61,7 @@ pub use entries::Entries;
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
+pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder};
 pub use smoother::{RtsSmoother, RtsStep, Smoothed};
 pub use stream::{short_type_name, StreamId, StreamMap};
 pub use traits::{

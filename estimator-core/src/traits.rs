@@ -79,6 +79,12 @@ where
         dt: f64,
     ) -> ProcessJacobians<StateDim<Self::State>>;
 
+    /// The transition `Φ` alone (what a smoother's backward pass needs). The default takes
+    /// it from [`jacobians`](Self::jacobians); override it when `Q_d` costs work of its own.
+    fn transition(&self, x: &Self::State, u: &Self::Input, dt: f64) -> Cov<StateDim<Self::State>> {
+        self.jacobians(x, u, dt).Phi
+    }
+
     /// Both at once; override when they share work (mechanization and its Jacobians).
     fn step(
         &self,

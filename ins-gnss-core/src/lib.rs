@@ -16,6 +16,7 @@
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`], [`scale::On21`] |
 //! | [`vehicle`] | land-vehicle aiding: [`vehicle::Nhc`], [`vehicle::Zupt`], [`vehicle::Zaru`], the stationary detector |
+//! | [`spill`] | the states and IMU inputs as exact rows of numbers for the smoother's storage |
 //! | [`init`] | static coarse alignment, heading from the GNSS track |
 //! | [`io`] | streaming readers and writers of the KF-GINS formats, errors with file and line |
 //!
@@ -34,6 +35,7 @@ pub mod model;
 pub mod navigator;
 pub mod position;
 pub mod scale;
+pub mod spill;
 pub mod state;
 pub mod vehicle;
 pub mod wgs84;

@@ -9,7 +9,7 @@ use core::fmt;
 
 use estimator_core::{
     Cov, DimAlloc, ErrorStateFilter, FilterAlloc, FilterError, FixedNoise, Manifold,
-    MeasurementModel, NoiseStrategy, Observer, StateDim, UpdateSummary,
+    MeasurementModel, NoiseStrategy, Observer, StateDim, StepRecorder, UpdateSummary,
 };
 use nalgebra::{Const, DefaultAllocator, Matrix3, OVector, SMatrix, Vector3};
 
@@ -439,6 +439,20 @@ where
         observer: &mut O,
         out: &mut Vec<UpdateSummary>,
     ) -> Result<(), NavError> {
+        self.process_recorded(imu, gnss, observer, out, &mut ())
+    }
+
+    /// [`process_into`](Self::process_into) telling `recorder` of every prediction
+    /// (e.g. a [`SegmentSmoother`](estimator_core::SegmentSmoother)); the prediction that
+    /// ends at the sample's time is marked.
+    pub fn process_recorded<O: Observer, R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        imu: &ImuSample,
+        gnss: &[GnssEpoch],
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
         if !(imu.t.is_finite() && imu.dt.is_finite() && imu.dt > 0.0) {
             return Err(NavError::BadSample {
                 t: imu.t,
@@ -461,16 +475,16 @@ where
             }
             if g.t < rest.t - TIME_EPSILON && g.t > self.time + TIME_EPSILON {
                 let (first, second) = rest.split(g.t);
-                self.propagate(&first)?;
+                self.propagate(&first, recorder, false)?;
                 rest = second;
             } else if g.t >= rest.t - TIME_EPSILON {
-                self.propagate(&rest)?;
+                self.propagate(&rest, recorder, true)?;
                 rest.dt = 0.0;
             }
             out.push(self.update(g, observer)?);
         }
         if rest.dt > 0.0 {
-            self.propagate(&rest)?;
+            self.propagate(&rest, recorder, true)?;
         }
         self.time = imu.t;
         if self.vehicle.aiding.any() {
@@ -571,11 +585,17 @@ where
         Ok(())
     }
 
-    fn propagate(&mut self, s: &ImuSample) -> Result<(), NavError> {
+    fn propagate<R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        s: &ImuSample,
+        recorder: &mut R,
+        mark: bool,
+    ) -> Result<(), NavError> {
         if s.dt <= 0.0 {
             return Ok(());
         }
         let input = ImuInput { prev: self.prev, cur: *s };
+        recorder.before_predict(&self.filter, &input, s.dt, mark);
         self.filter
             .predict(&self.model, &input, s.dt)
             .map_err(|source| NavError::Filter { t: s.t, source })?;

@@ -98,6 +98,13 @@ pub fn print_summary(s: &RunSummary) {
     if let Some(c) = s.consistency() {
         out!("{}", c.verdict());
     }
+    if let Some((rows, secs)) = s.smoothed {
+        out!(
+            "smoothed: {rows} epochs in {secs:.2} s (backward pass) -> {}, {}",
+            s.out_dir.join("nav_smoothed.txt").display(),
+            s.out_dir.join("std_smoothed.txt").display()
+        );
+    }
 }
 
 /// Options of `ins-gnss run`.
@@ -129,6 +136,8 @@ pub struct RunOptions<'a> {
     pub no_vehicle: bool,
     /// Override `filter.states` (15 or 21).
     pub states: Option<u32>,
+    /// Smooth the run (sets `filter.smooth`).
+    pub smooth: bool,
 }
 
 /// `ins-gnss run`.
@@ -159,6 +168,9 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     if let Some(n) = o.states {
         cfg.filter.states = n;
     }
+    if o.smooth {
+        cfg.filter.smooth = true;
+    }
     let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
     let bar = progress.then(|| progress_bar(&cfg));
@@ -176,7 +188,15 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     if let Some(truth) = truth {
         let ev = evaluate(&out_dir.join("nav.txt"), &truth, skip, &[])?;
         require_overlap(&ev, &out_dir.join("nav.txt"), &truth, skip)?;
-        print_table(&[(&name, &ev.overall)]);
+        if summary.smoothed.is_some() {
+            let smoothed = out_dir.join("nav_smoothed.txt");
+            let ev_s = evaluate(&smoothed, &truth, skip, &[])?;
+            require_overlap(&ev_s, &smoothed, &truth, skip)?;
+            let label = format!("{name}, smoothed");
+            print_table(&[(&name, &ev.overall), (&label, &ev_s.overall)]);
+        } else {
+            print_table(&[(&name, &ev.overall)]);
+        }
         if plots {
             let files = crate::plot::write_all(&out_dir, &truth)?;
             for f in files {

@@ -257,6 +257,10 @@ pub struct FilterSection {
     /// gyro and accelerometer scale factors, as KF-GINS).
     #[serde(default = "default_states")]
     pub states: u32,
+    /// Post-process: after the forward pass, run the fixed-interval smoother and write
+    /// `nav_smoothed.txt` and `std_smoothed.txt` (`--smooth` sets it).
+    #[serde(default)]
+    pub smooth: bool,
 }
 
 fn default_states() -> u32 {
@@ -309,6 +313,7 @@ impl Default for FilterSection {
             streams: Default::default(),
             gate: GateSection::default(),
             states: default_states(),
+            smooth: false,
         }
     }
 }

@@ -22,16 +22,17 @@ use std::time::Instant;
 
 use adaptive::{AnyStrategy, GrossErrorGate, PerStream};
 use estimator_core::{NoObserver, NoiseStrategy, UpdateSummary, Verdict};
-use nalgebra::Vector3;
+use nalgebra::{DimName, Vector3};
 
 use crate::config::Config;
 use estimator_core::DimAlloc;
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
 use ins_gnss_core::imu::{DEG_PER_H, MGAL};
+use ins_gnss_core::io::fixed::push_row;
 use ins_gnss_core::io::formats::{create_partial, partial_path, publish, write_nav};
 use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
-use ins_gnss_core::model::InsModel;
+use ins_gnss_core::model::{ImuInput, InsModel};
 use ins_gnss_core::navigator::{NavError, NavState, Navigator};
 use ins_gnss_core::scale::{InsModel21, InsState21};
 use ins_gnss_core::state::InsState;
@@ -152,6 +153,9 @@ pub struct RunSummary {
     /// Time the vehicle was judged standing (detector and filter speed), s (0 without
     /// ZUPT).
     pub stationary_time: f64,
+    /// Rows of `nav_smoothed.txt` when the run smoothed (`filter.smooth`), and the wall
+    /// time of the backward pass, s.
+    pub smoothed: Option<(usize, f64)>,
 }
 
 /// Updates of one vehicle-aiding stream.
@@ -288,11 +292,25 @@ impl Outputs {
     /// The names of the outputs.
     const NAMES: [&'static str; 4] = ["nav.txt", "std.txt", "imu_errors.txt", "updates.csv"];
 
-    /// Rename every finished `NAME.partial` over `NAME`.
-    fn publish(dir: &Path) -> Result<(), RunError> {
-        for name in Self::NAMES {
+    /// The outputs of the smoother.
+    const SMOOTHED: [&'static str; 2] = ["nav_smoothed.txt", "std_smoothed.txt"];
+
+    /// Rename every finished `NAME.partial` over `NAME`. A run that did not smooth removes
+    /// the smoothed files of an earlier run, which would not match its `nav.txt`.
+    fn publish(dir: &Path, smoothed: bool) -> Result<(), RunError> {
+        let names = Self::NAMES.iter().chain(Self::SMOOTHED.iter().filter(|_| smoothed));
+        for name in names {
             let p = dir.join(name);
             publish(&p).map_err(|e| RunError::Output { path: p, message: e.to_string() })?;
+        }
+        if !smoothed {
+            for name in Self::SMOOTHED {
+                let p = dir.join(name);
+                if p.exists() {
+                    std::fs::remove_file(&p)
+                        .map_err(|e| RunError::Output { path: p, message: e.to_string() })?;
+                }
+            }
         }
         Ok(())
     }
@@ -312,30 +330,8 @@ fn write_std<A: NoiseStrategy, S: RunState>(
 where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
-    let s = nav.sigma();
-    let d = 180.0 / core::f64::consts::PI;
     let x = nav.nav_state();
-    write!(o.std, "{t:.6}")?;
-    for i in 6..9 {
-        write!(o.std, " {:.6}", s[i])?;
-    }
-    for i in 3..6 {
-        write!(o.std, " {:.6}", s[i])?;
-    }
-    for i in 0..3 {
-        write!(o.std, " {:.8}", s[i] * d)?;
-    }
-    for i in 9..12 {
-        write!(o.std, " {:.6}", s[i] / DEG_PER_H)?;
-    }
-    for i in 12..15 {
-        write!(o.std, " {:.6}", s[i] / MGAL)?;
-    }
-    // 21 states: the scale factors' σ, ppm (KF-GINS's columns)
-    for i in 15..s.len() {
-        write!(o.std, " {:.3}", s[i] * 1e6)?;
-    }
-    writeln!(o.std)?;
+    write_sigma_row(&mut o.std, t, nav.sigma().as_slice())?;
     write!(
         o.imu_err,
         "{t:.6} {:.6} {:.6} {:.6} {:.6} {:.6} {:.6}",
@@ -352,6 +348,32 @@ where
         }
     }
     writeln!(o.imu_err)
+}
+
+/// One row of `std.txt`: `t`, then the 1σ of the error states `s` in the file's units
+/// (position, velocity, attitude in degrees, biases in deg/h and mGal, scale factors in
+/// ppm).
+fn write_sigma_row(w: &mut impl Write, t: f64, s: &[f64]) -> std::io::Result<()> {
+    let d = 180.0 / core::f64::consts::PI;
+    let mut row: [(f64, usize); 22] = [(0.0, 0); 22];
+    row[0] = (t, 6);
+    let order = [6, 7, 8, 3, 4, 5, 0, 1, 2, 9, 10, 11, 12, 13, 14];
+    for (k, &i) in order.iter().enumerate() {
+        row[1 + k] = match i {
+            0..=2 => (s[i] * d, 8),
+            9..=11 => (s[i] / DEG_PER_H, 6),
+            12..=14 => (s[i] / MGAL, 6),
+            _ => (s[i], 6),
+        };
+    }
+    // 21 states: the scale factors' σ, ppm (KF-GINS's columns)
+    let n = s.len().min(21);
+    for i in 15..n {
+        row[1 + i] = (s[i] * 1e6, 3);
+    }
+    let mut line = Vec::with_capacity(200);
+    push_row(&mut line, &row[..1 + n]);
+    w.write_all(&line)
 }
 
 fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
@@ -391,7 +413,7 @@ fn open_inputs(
 
 /// The states a run can use (`filter.states = 15 | 21`): how each starts and what it
 /// writes beyond the 15-state columns.
-pub trait RunState: NavState + Send + 'static
+pub trait RunState: NavState<Model: Sync> + estimator_core::Spill + Send + 'static
 where
     DefaultAllocator: DimAlloc<Self::Dim>,
 {
@@ -463,6 +485,124 @@ where
 /// gate ([`Config::strategy`]).
 pub type RunStrategy = GrossErrorGate<PerStream<AnyStrategy>>;
 
+/// The smoother's scratch files in the output directory (removed when the run ends).
+const SMOOTHER_STATES: &str = "smoother-segments.tmp";
+const SMOOTHER_ROWS: &str = "smoother-rows.tmp";
+
+/// Predictions per smoother segment at most (the backward pass holds one segment: three
+/// `N × N` matrices per prediction, 0.7 MB with 15 states).
+const SMOOTHER_SEGMENT: usize = 128;
+
+/// The recorder of a run that smooths: the segment smoother on a scratch file.
+type Recorder<S> = estimator_core::SegmentSmoother<S, ImuInput>;
+use estimator_core::SmoothedRow;
+
+/// The backward pass: `nav_smoothed.txt` and `std_smoothed.txt` (as `.partial`, in the
+/// formats of `nav.txt` and `std.txt`, at every IMU epoch). The smoother hands the
+/// segments last to first; their text goes to a scratch file, which is then copied out
+/// segment by segment in time order. Returns the number of rows.
+fn write_smoothed<S: RunState>(
+    recorder: Recorder<S>,
+    nav: &Navigator<RunStrategy, S>,
+    dir: &Path,
+) -> Result<usize, RunError>
+where
+    estimator_core::Cov<S::Dim>: Send,
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    use std::io::{Read, Seek, SeekFrom};
+    let scratch = dir.join(SMOOTHER_ROWS);
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |e: std::io::Error| RunError::Output { path: path.clone(), message: e.to_string() }
+    };
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(&scratch)
+        .map_err(io(&scratch))?;
+    // The rows are formatted and written by a second thread while the backward pass runs.
+    // (time, state, σ of the error states, as many as the state has)
+    type Row = (f64, InsState, [f64; 21]);
+    let n = S::Dim::DIM.min(21);
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
+    let writer = std::thread::spawn(move || -> std::io::Result<_> {
+        let mut rows_file = std::io::BufWriter::with_capacity(1 << 16, file);
+        // (offset, bytes of nav rows, bytes of std rows) of each segment's text
+        let mut chunks: Vec<(u64, usize, usize)> = Vec::new();
+        let (mut at, mut count) = (0u64, 0usize);
+        let (mut nav_text, mut std_text) = (Vec::new(), Vec::new());
+        for rows in rx {
+            nav_text.clear();
+            std_text.clear();
+            for (t, x, sigma) in &rows {
+                write_nav(&mut nav_text, &nav_record(*t, x))?;
+                write_sigma_row(&mut std_text, *t, &sigma[..n])?;
+            }
+            rows_file.write_all(&nav_text)?;
+            rows_file.write_all(&std_text)?;
+            chunks.push((at, nav_text.len(), std_text.len()));
+            at += (nav_text.len() + std_text.len()) as u64;
+            count += rows.len();
+        }
+        Ok((rows_file.into_inner().map_err(|e| e.into_error())?, chunks, count))
+    });
+    // segments arrive last to first: a batch of them is sent in time order, as one chunk
+    let mut pending: Vec<Vec<Row>> = Vec::new();
+    let mut pending_rows = 0;
+    let send = |pending: &mut Vec<Vec<Row>>| {
+        let rows: Vec<Row> = pending.drain(..).rev().flatten().collect();
+        tx.send(rows).map_err(|_| std::io::Error::other("the row writer stopped"))
+    };
+    let smoothed =
+        recorder.smooth_threaded(nav.filter(), nav.model(), |rows: &[SmoothedRow<S>]| {
+            pending.push(
+                rows.iter()
+                    .map(|r| {
+                        let mut sigma = [0.0; 21];
+                        for (s, v) in sigma.iter_mut().zip(r.var.iter()) {
+                            *s = v.max(0.0).sqrt();
+                        }
+                        (r.time, r.x.nav().clone(), sigma)
+                    })
+                    .collect(),
+            );
+            pending_rows += rows.len();
+            if pending_rows >= 4096 {
+                pending_rows = 0;
+                send(&mut pending)?;
+            }
+            Ok(())
+        });
+    let smoothed = smoothed.and_then(|()| send(&mut pending).map_err(Into::into));
+    drop(tx);
+    let written = writer
+        .join()
+        .map_err(|_| RunError::NoData("the smoother's writer thread panicked".into()))?;
+    smoothed.map_err(|e| RunError::Output {
+        path: dir.join(SMOOTHER_STATES),
+        message: e.to_string(),
+    })?;
+    let (mut file, chunks, count) = written.map_err(io(&scratch))?;
+    let nav_path = dir.join("nav_smoothed.txt");
+    let std_path = dir.join("std_smoothed.txt");
+    let mut nav_out = create_partial(&nav_path).map_err(io(&partial_path(&nav_path)))?;
+    let mut std_out = create_partial(&std_path).map_err(io(&partial_path(&std_path)))?;
+    let mut buf = Vec::new();
+    for &(offset, n, s) in chunks.iter().rev() {
+        buf.resize(n + s, 0);
+        file.seek(SeekFrom::Start(offset)).map_err(io(&scratch))?;
+        file.read_exact(&mut buf).map_err(io(&scratch))?;
+        nav_out.write_all(&buf[..n]).map_err(io(&partial_path(&nav_path)))?;
+        std_out.write_all(&buf[n..]).map_err(io(&partial_path(&std_path)))?;
+    }
+    nav_out.flush().map_err(io(&partial_path(&nav_path)))?;
+    std_out.flush().map_err(io(&partial_path(&std_path)))?;
+    Ok(count)
+}
+
 /// Samples or records per message between the pipeline's threads.
 const BATCH: usize = 1024;
 
@@ -486,9 +626,13 @@ pub fn run(
         21 => run_into::<InsState21>(config, strategy, out_dir, progress, inputs.0, inputs.1),
         _ => run_into::<InsState>(config, strategy, out_dir, progress, inputs.0, inputs.1),
     };
+    // the smoother's scratch files go whatever happened
+    for name in [SMOOTHER_STATES, SMOOTHER_ROWS] {
+        let _ = std::fs::remove_file(out_dir.join(name));
+    }
     match result {
         Ok(summary) => {
-            Outputs::publish(out_dir)?;
+            Outputs::publish(out_dir, summary.smoothed.is_some())?;
             Ok(summary)
         }
         Err(error) => {
@@ -508,6 +652,7 @@ fn run_into<S: RunState>(
 ) -> Result<RunSummary, RunError>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
+    estimator_core::Cov<S::Dim>: Send,
 {
     let wall = Instant::now();
 
@@ -518,6 +663,15 @@ where
     let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.0.t)?;
     let start = summary.span.0;
     summary.out_dir = out_dir.to_path_buf();
+    let mut recorder: Option<Recorder<S>> = if config.filter.smooth {
+        let path = out_dir.join(SMOOTHER_STATES);
+        Some(
+            Recorder::<S>::on_file(&path, SMOOTHER_SEGMENT)
+                .map_err(|e| RunError::Output { path, message: e.to_string() })?,
+        )
+    } else {
+        None
+    };
     let (imu_path, gnss_path) = (config.data.imu.clone(), config.data.gnss.clone());
     // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
     // sample whose prediction did.
@@ -621,8 +775,14 @@ where
                         next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
                     }
                     updates.clear();
-                    nav.process_into(&sample, &batch, &mut NoObserver, &mut updates)
-                        .map_err(|e| locate(e, imu_line, &batch, &batch_lines))?;
+                    nav.process_recorded(
+                        &sample,
+                        &batch,
+                        &mut NoObserver,
+                        &mut updates,
+                        &mut recorder,
+                    )
+                    .map_err(|e| locate(e, imu_line, &batch, &batch_lines))?;
                     summary.imu_epochs += 1;
                     records.push((sample.t, nav.nav_state().clone()));
                     if records.len() == BATCH
@@ -680,6 +840,11 @@ where
     }
     summary.gnss_skipped = gnss.skipped;
     summary.stationary_time = nav.stationary_time();
+    if let Some(recorder) = recorder {
+        let backward = Instant::now();
+        let rows = write_smoothed(recorder, &nav, out_dir)?;
+        summary.smoothed = Some((rows, backward.elapsed().as_secs_f64()));
+    }
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }

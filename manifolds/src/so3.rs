@@ -96,6 +96,13 @@ impl So3 {
         Self { q: UnitQuaternion::new_normalize(q.into_inner()) }
     }
 
+    /// From a quaternion that is already unit, taken as it is (no renormalisation: a
+    /// stored rotation read back bit for bit).
+    #[inline]
+    pub fn from_unit_quaternion_unchecked(q: UnitQuaternion<f64>) -> Self {
+        Self { q }
+    }
+
     /// From a rotation matrix (re-orthonormalised through the quaternion).
     pub fn from_matrix(r: &Matrix3<f64>) -> Self {
         Self { q: UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(r)) }

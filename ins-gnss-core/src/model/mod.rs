@@ -336,6 +336,13 @@ impl ProcessModel for InsModel {
         self.jacobians_with(x, &inc, &c, &earth)
     }
 
+    /// `Φ` without `Q_d`.
+    fn transition(&self, x: &InsState, u: &ImuInput, _dt: f64) -> M15 {
+        let (inc, c, earth) = Self::shared(x, u);
+        let phi = self.transition_blocks(x, &inc, &c, &earth).phi(inc.dt);
+        M15::from_fn(|r, c| phi[c][r])
+    }
+
     /// Mechanization and Jacobians sharing the corrected increments, `R̂` and the Earth
     /// functions.
     fn step(

@@ -69,6 +69,11 @@ enum Command {
         /// Turn off every vehicle aiding the configuration enables.
         #[arg(long, conflicts_with_all = ["nhc", "zupt", "odometer"])]
         no_vehicle: bool,
+        /// Post-process: smooth the whole run (fixed-interval RTS) and write
+        /// `nav_smoothed.txt` and `std_smoothed.txt` next to `nav.txt` (sets
+        /// `filter.smooth`).
+        #[arg(long)]
+        smooth: bool,
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
@@ -132,6 +137,7 @@ fn main() -> ExitCode {
             odometer,
             states,
             no_vehicle,
+            smooth,
         }) => {
             let o = cli::RunOptions {
                 strategy: strategy.as_deref(),
@@ -147,6 +153,7 @@ fn main() -> ExitCode {
                 odometer,
                 no_vehicle,
                 states: states.as_deref().and_then(|s| s.parse().ok()),
+                smooth,
             };
             cli::run(&config, &o)
         }

@@ -1,0 +1,197 @@
+//! The segment-wise smoother (storage + replay + adjoint recursion) against the
+//! step-by-step RTS smoother and the batch least-squares solution: same means and
+//! variances on a linear-Gaussian problem to 1e-9, whatever the segment length, with
+//! refused updates and an adapted process noise in the forward pass.
+
+#![allow(non_snake_case)]
+
+use std::io::Cursor;
+
+use estimator_core::linear::{LinearMeasurement, LinearProcess};
+use estimator_core::{
+    Adaptation, ErrorStateFilter, FixedNoise, NoiseStrategy, QAdjust, RtsSmoother, SegmentSmoother,
+    SmoothedRow, StepRecorder, Verdict,
+};
+use nalgebra::{Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
+
+/// Refuses every measurement whose NIS is above 4 and, after update 7, doubles `Q`.
+#[derive(Clone, Debug, Default)]
+struct Quirky;
+
+impl NoiseStrategy for Quirky {
+    fn adapt<N: nalgebra::DimName, M: nalgebra::DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    where
+        nalgebra::DefaultAllocator: estimator_core::FilterAlloc<N, M>,
+    {
+        if a.nis > 4.0 {
+            a.verdict = Verdict::Rejected;
+        }
+        if a.epoch == 7 {
+            a.q = QAdjust::Scale(2.0);
+        }
+    }
+}
+
+struct Case {
+    z: Vec<Option<f64>>,
+    dt: f64,
+    process: LinearProcess<2>,
+    H: Matrix1x2<f64>,
+    R: Matrix1<f64>,
+}
+
+fn case() -> Case {
+    let dt = 0.5;
+    let z = (0..80)
+        .map(|k| {
+            let t = (k + 1) as f64 * dt;
+            // gaps, and two outliers the strategy refuses
+            let v = 0.3 * t + (t * 0.7).sin() * 2.0 + if k == 20 || k == 50 { 30.0 } else { 0.0 };
+            (k % 7 != 3 && !(30..40).contains(&k)).then_some(v)
+        })
+        .collect();
+    Case {
+        z,
+        dt,
+        process: LinearProcess {
+            F: Matrix2::new(1.0, dt, 0.0, 1.0),
+            Q: Matrix2::new(dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt) * 0.05,
+        },
+        H: Matrix1x2::new(1.0, 0.0),
+        R: Matrix1::new(0.4),
+    }
+}
+
+/// The forward pass feeding both smoothers; the segment one's rows in time order.
+fn both<A: NoiseStrategy>(
+    c: &Case,
+    strategy: A,
+    max_steps: usize,
+) -> (Vec<estimator_core::Smoothed<Vector2<f64>>>, Vec<SmoothedRow<Vector2<f64>>>, usize) {
+    let sensor = LinearMeasurement::new(c.H);
+    let mut f =
+        ErrorStateFilter::new(Vector2::new(0.5, -0.2), Matrix2::new(4.0, 0.5, 0.5, 1.0), strategy)
+            .unwrap();
+    let mut rts = RtsSmoother::new();
+    let mut seg = SegmentSmoother::new(Cursor::new(Vec::new()), max_steps);
+    for z in &c.z {
+        seg.before_predict(&f, &(), c.dt, true);
+        rts.predict(&mut f, &c.process, &(), c.dt).unwrap();
+        if let Some(z) = z {
+            f.update(&sensor, &Vector1::new(*z), &c.R).unwrap();
+        }
+    }
+    let segments = {
+        seg.finish_recording().unwrap();
+        seg.segments()
+    };
+    let mut chunks = Vec::new();
+    seg.smooth(&f, &c.process, |rows| {
+        chunks.push(rows.to_vec());
+        Ok(())
+    })
+    .unwrap();
+    let rows: Vec<_> = chunks.into_iter().rev().flatten().collect();
+    (rts.smooth(&f).unwrap(), rows, segments)
+}
+
+#[test]
+fn segments_replayed_from_storage_give_the_step_by_step_smoother() {
+    let c = case();
+    for max_steps in [1, 3, 1000] {
+        let (rts, rows, segments) = both(&c, Quirky, max_steps);
+        assert!(segments > 10, "{segments} segments");
+        // rts has the start too; rows are the step ends
+        assert_eq!(rows.len(), rts.len() - 1);
+        for (r, s) in rows.iter().zip(&rts[1..]) {
+            assert!((r.time - s.time).abs() < 1e-12);
+            for i in 0..2 {
+                let scale = s.x.abs().max().max(1.0);
+                assert!((r.x[i] - s.x[i]).abs() < 1e-9 * scale, "{max_steps}: {} vs {}", r.x, s.x);
+                let v = s.p[(i, i)];
+                assert!(
+                    (r.var[i] - v).abs() < 1e-9 * v.max(1e-3),
+                    "{}: {} vs {v}",
+                    r.time,
+                    r.var[i]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_segments_see_the_adapted_noise_and_the_refusals() {
+    // the same data with fixed noise smooths differently: the strategy's Q and refusals
+    // reached the replay
+    let c = case();
+    let (_, quirky, _) = both(&c, Quirky, 1000);
+    let (_, fixed, _) = both(&c, FixedNoise, 1000);
+    let d = quirky.iter().zip(&fixed).map(|(a, b)| (a.x - b.x).norm()).fold(0.0, f64::max);
+    assert!(d > 0.5, "largest difference {d}");
+}
+
+/// Storage that takes `room` bytes, then refuses to write.
+struct Small {
+    inner: Cursor<Vec<u8>>,
+    room: usize,
+}
+
+impl std::io::Write for Small {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        if self.inner.get_ref().len() + b.len() > self.room {
+            return Err(std::io::Error::new(std::io::ErrorKind::StorageFull, "full"));
+        }
+        self.inner.write(b)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl std::io::Read for Small {
+    fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+        self.inner.read(b)
+    }
+}
+
+impl std::io::Seek for Small {
+    fn seek(&mut self, p: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.inner.seek(p)
+    }
+}
+
+#[test]
+fn a_storage_failure_is_reported_by_the_recording_and_the_smoothing() {
+    let c = case();
+    let sensor = LinearMeasurement::new(c.H);
+    let run = |room: usize| {
+        let mut f =
+            ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
+        let mut seg = SegmentSmoother::new(Small { inner: Cursor::new(Vec::new()), room }, 4);
+        for z in &c.z {
+            seg.before_predict(&f, &(), c.dt, true);
+            f.predict(&c.process, &(), c.dt).unwrap();
+            if let Some(z) = z {
+                f.update(&sensor, &Vector1::new(*z), &c.R).unwrap();
+            }
+        }
+        let mut rows = 0;
+        let result = seg.smooth(&f, &c.process, |r| {
+            rows += r.len();
+            Ok(())
+        });
+        (result, rows)
+    };
+    let (ok, rows) = run(usize::MAX);
+    assert!(ok.is_ok());
+    assert_eq!(rows, c.z.len());
+    let (full, rows) = run(2000);
+    match full {
+        Err(estimator_core::SmootherError::Io(e)) => {
+            assert_eq!(e.kind(), std::io::ErrorKind::StorageFull)
+        }
+        other => panic!("expected a storage error, got {other:?}"),
+    }
+    assert_eq!(rows, 0, "no row from a partial recording");
+}
