@@ -62,12 +62,12 @@ fn case() -> Case {
     }
 }
 
-/// The forward pass feeding both smoothers; the segment one's rows in time order.
-fn both<A: NoiseStrategy>(
-    c: &Case,
-    strategy: A,
-    max_steps: usize,
-) -> (Vec<estimator_core::Smoothed<Vector2<f64>>>, Vec<SmoothedRow<Vector2<f64>>>, usize) {
+/// The step-by-step smoother's estimates, the segment smoother's rows (in time order) and
+/// its number of segments.
+type Both = (Vec<estimator_core::Smoothed<Vector2<f64>>>, Vec<SmoothedRow<Vector2<f64>>>, usize);
+
+/// The forward pass feeding both smoothers.
+fn both<A: NoiseStrategy>(c: &Case, strategy: A, max_steps: usize) -> Both {
     let sensor = LinearMeasurement::new(c.H);
     let mut f =
         ErrorStateFilter::new(Vector2::new(0.5, -0.2), Matrix2::new(4.0, 0.5, 0.5, 1.0), strategy)

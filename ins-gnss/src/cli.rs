@@ -324,12 +324,45 @@ pub fn eval(
     windows: &[(f64, f64)],
     json: bool,
 ) -> Result<(), CliError> {
+    if result.is_dir() {
+        return eval_dir(result, truth, skip, windows, json);
+    }
     let ev = evaluate(result, truth, skip, windows)?;
     require_overlap(&ev, result, truth, skip)?;
     if json {
         out!("{}", serde_json::to_string_pretty(&ev)?);
     } else {
         print_eval(&ev);
+    }
+    Ok(())
+}
+
+/// `ins-gnss eval DIR TRUTH`: the run's `nav.txt` and, when the run smoothed,
+/// `nav_smoothed.txt`, one after the other (JSON: `{"forward": …, "smoothed": …}`).
+fn eval_dir(
+    dir: &Path,
+    truth: &Path,
+    skip: f64,
+    windows: &[(f64, f64)],
+    json: bool,
+) -> Result<(), CliError> {
+    let mut all = serde_json::Map::new();
+    for (name, file) in [("forward", "nav.txt"), ("smoothed", "nav_smoothed.txt")] {
+        let path = dir.join(file);
+        if file == "nav_smoothed.txt" && !path.is_file() {
+            continue;
+        }
+        let ev = evaluate(&path, truth, skip, windows)?;
+        require_overlap(&ev, &path, truth, skip)?;
+        if json {
+            all.insert(name.into(), serde_json::to_value(&ev)?);
+        } else {
+            out!("{name} ({})", path.display());
+            print_eval(&ev);
+        }
+    }
+    if json {
+        out!("{}", serde_json::to_string_pretty(&all)?);
     }
     Ok(())
 }

@@ -1,5 +1,6 @@
-//! SVG plots of a run: position and attitude errors with ±3σ envelopes (stationary
-//! periods shaded when ZUPT ran), and the adaptation factors. Reads the run's output files and the truth; writes
+//! SVG plots of a run: position and attitude errors with ±3σ envelopes, forward and,
+//! when the run smoothed, smoothed (stationary periods shaded when ZUPT ran), and the
+//! adaptation factors. Reads the run's output files and the truth; writes
 //! `errors_position.svg`, `errors_attitude.svg` and `adaptation.svg`.
 
 use std::path::{Path, PathBuf};
@@ -12,13 +13,48 @@ use ins_gnss_core::io::{NavReader, NumericLines};
 
 type Series = Vec<(f64, f64)>;
 
+/// Points kept per series: a plot has no use for more, and a day at the IMU rate would
+/// not fit in memory as points.
+const MAX_POINTS: usize = 4000;
+
+/// Every `stride`-th item pushed, the stride doubling (and every other kept item dropped)
+/// whenever more than `2 · limit` are kept: between `limit` and `2 · limit` items spread
+/// evenly over any number pushed, in bounded memory.
+struct Decimator<T> {
+    items: Vec<T>,
+    stride: usize,
+    seen: usize,
+    limit: usize,
+}
+
+impl<T> Decimator<T> {
+    fn new(limit: usize) -> Self {
+        Self { items: Vec::new(), stride: 1, seen: 0, limit }
+    }
+
+    fn push(&mut self, item: T) {
+        if self.seen.is_multiple_of(self.stride) {
+            self.items.push(item);
+            if self.items.len() > 2 * self.limit {
+                let mut k = 0;
+                self.items.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+                self.stride *= 2;
+            }
+        }
+        self.seen += 1;
+    }
+}
+
 fn read_columns(path: &Path) -> Result<Vec<Vec<f64>>, String> {
     let mut lines = NumericLines::new(open(path).map_err(|e| e.to_string())?, path);
-    let mut out = Vec::new();
+    let mut out = Decimator::new(MAX_POINTS);
     while let Some(r) = lines.next_record().map_err(|e| e.to_string())? {
         out.push(r.to_vec());
     }
-    Ok(out)
+    Ok(out.items)
 }
 
 fn read_updates(path: &Path) -> Result<Vec<(f64, f64, f64, f64)>, String> {
@@ -52,11 +88,11 @@ fn stationary_periods(path: &Path) -> Result<Vec<(f64, f64)>, String> {
     Ok(out)
 }
 
-/// Errors of the result against the truth, decimated to at most ~4,000 points.
+/// Errors of the result against the truth, decimated to 4,000–8,000 points.
 fn error_series(result: &Path, truth: &Path) -> Result<[Series; 6], String> {
     let mut res = NavReader::open(result).map_err(|e| e.to_string())?;
     let mut tru = NavReader::open(truth).map_err(|e| e.to_string())?;
-    let mut all: Vec<(f64, [f64; 6])> = Vec::new();
+    let mut all = Decimator::<(f64, [f64; 6])>::new(MAX_POINTS);
     let mut t_rec = tru.next_record().map_err(|e| e.to_string())?;
     while let Some(r) = res.next_record().map_err(|e| e.to_string())? {
         while let Some(t) = &t_rec {
@@ -72,9 +108,8 @@ fn error_series(result: &Path, truth: &Path) -> Result<[Series; 6], String> {
             }
         }
     }
-    let step = (all.len() / 4000).max(1);
     let mut out: [Series; 6] = Default::default();
-    for (t, e) in all.iter().step_by(step) {
+    for (t, e) in &all.items {
         for k in 0..6 {
             out[k].push((*t, e[k]));
         }
@@ -141,14 +176,26 @@ fn draw_lines(
     Ok(())
 }
 
+/// The error and ±3σ of one component, forward and (when the run smoothed) smoothed.
+struct Component<'a> {
+    err: &'a Series,
+    sigma3: Series,
+    smoothed: Option<(&'a Series, Series)>,
+}
+
 fn panel(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     title: &str,
     unit: &str,
-    (err, sigma3): (&Series, &Series),
+    c: &Component<'_>,
     shade: &[(f64, f64)],
 ) -> Result<(), String> {
-    let lines = [("error", err.as_slice(), BLUE, false), ("±3σ", sigma3.as_slice(), RED, true)];
+    let mut lines =
+        vec![("error", c.err.as_slice(), BLUE, false), ("±3σ", c.sigma3.as_slice(), RED, true)];
+    if let Some((err, sigma3)) = &c.smoothed {
+        lines.push(("smoothed error", err.as_slice(), RGBColor(0, 150, 0), false));
+        lines.push(("smoothed ±3σ", sigma3.as_slice(), RGBColor(230, 140, 0), true));
+    }
     draw_lines(area, title, unit, &lines, true, shade)
 }
 
@@ -205,7 +252,22 @@ fn publish(path: &Path) -> Result<(), String> {
 pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
     let errs = error_series(&out_dir.join("nav.txt"), truth)?;
     let std = read_columns(&out_dir.join("std.txt"))?;
-    let s3 = |col: usize| -> Series { std.iter().map(|r| (r[0], 3.0 * r[col])).collect() };
+    let s3 = |std: &[Vec<f64>], col: usize| -> Series {
+        std.iter().map(|r| (r[0], 3.0 * r[col])).collect()
+    };
+    // the smoother's, when the run smoothed
+    let smoothed = match out_dir.join("nav_smoothed.txt").is_file() {
+        true => Some((
+            error_series(&out_dir.join("nav_smoothed.txt"), truth)?,
+            read_columns(&out_dir.join("std_smoothed.txt"))?,
+        )),
+        false => None,
+    };
+    let component = |k: usize, col: usize| Component {
+        err: &errs[k],
+        sigma3: s3(&std, col),
+        smoothed: smoothed.as_ref().map(|(e, s)| (&e[k], s3(s, col))),
+    };
     let still = stationary_periods(&out_dir.join("updates.csv"))?;
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
     let mut written = Vec::new();
@@ -218,7 +280,7 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
         let areas = root.split_evenly((3, 1));
         for (k, name) in ["north", "east", "down"].iter().enumerate() {
             let title = format!("position error, {name}");
-            panel(&areas[k], &title, "m", (&errs[k], &s3(1 + k)), &still)?;
+            panel(&areas[k], &title, "m", &component(k, 1 + k), &still)?;
         }
         root.present().map_err(e)?;
     }
@@ -233,7 +295,7 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
         let areas = root.split_evenly((3, 1));
         for (k, name) in ["roll", "pitch", "yaw"].iter().enumerate() {
             let title = format!("attitude error, {name}");
-            panel(&areas[k], &title, "deg", (&errs[3 + k], &s3(7 + k)), &still)?;
+            panel(&areas[k], &title, "deg", &component(3 + k, 7 + k), &still)?;
         }
         root.present().map_err(e)?;
     }

@@ -114,21 +114,49 @@ fn errors_exit_non_zero_with_a_message() {
 fn kf_gins_yaml_as_it_is_on_navego() {
     let data = sample_data("navego");
     let dir = temp("navego");
-    run_quiet(&data.join("kf-gins-ADIS16488.yaml"), &dir, &[]);
+    run_quiet(&data.join("kf-gins-ADIS16488.yaml"), &dir, &["--smooth"]);
+    // `eval DIR` reports the forward and the smoothed result
     let out = bin()
         .arg("eval")
-        .arg(dir.join("nav.txt"))
+        .arg(&dir)
         .arg(sample_data::file(&data, "truth.nav"))
         .args(["--skip", "60", "--json"])
         .output()
         .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let horiz = v["overall"]["horizontal"]["rms"].as_f64().unwrap();
-    let yaw = v["overall"]["yaw"]["rms"].as_f64().unwrap();
+    let figures = |v: &serde_json::Value| {
+        (
+            v["overall"]["horizontal"]["rms"].as_f64().unwrap(),
+            v["overall"]["yaw"]["rms"].as_f64().unwrap(),
+        )
+    };
+    let (horiz, yaw) = figures(&v["forward"]);
+    let (horiz_s, yaw_s) = figures(&v["smoothed"]);
     eprintln!(
-        "ins-gnss run + eval on navego ADIS16488: horizontal RMS {horiz:.3} m, yaw RMS {yaw:.3}°"
+        "ins-gnss run --smooth + eval on navego ADIS16488: horizontal RMS {horiz:.3} m, yaw \
+         RMS {yaw:.3}°; smoothed {horiz_s:.3} m, {yaw_s:.3}°"
     );
     assert!(horiz <= 1.57 && yaw <= 0.57);
+    // the smoothing issue's targets (KF-GINS, forward only: 1.571 m, 0.568°)
+    assert!(horiz_s <= 0.9 && yaw_s <= 0.25, "smoothed {horiz_s} m, {yaw_s}°");
+    // one smoothed row per forward row, at the same times; no scratch file left
+    let times = |name: &str| -> Vec<String> {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        text.lines().map(|l| l.split_whitespace().nth(1).unwrap().to_string()).collect()
+    };
+    assert_eq!(times("nav.txt"), times("nav_smoothed.txt"));
+    let std_rows = std::fs::read_to_string(dir.join("std_smoothed.txt")).unwrap();
+    assert_eq!(std_rows.lines().count(), times("nav.txt").len());
+    assert!(std_rows.lines().all(|l| l.split_whitespace().count() == 16));
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.ends_with(".tmp") && !n.ends_with(".partial")), "{names:?}");
+    // a later run without smoothing removes the smoothed files, which would not match it
+    run_quiet(&data.join("kf-gins-ADIS16488.yaml"), &dir, &[]);
+    assert!(!dir.join("nav_smoothed.txt").exists() && !dir.join("std_smoothed.txt").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -140,21 +168,23 @@ fn drive_0708_outage_score_with_a_position_only_reference() {
     // filter's innovations, and the default gate refuses most fixes (see README).
     let d = sample_data("drive-0708");
     let dir = temp("d0708");
-    run_quiet(&d.join("kf-gins-outage15.yaml"), &dir, &["--no-gate"]);
+    run_quiet(&d.join("kf-gins-outage15.yaml"), &dir, &["--no-gate", "--smooth"]);
     let windows: Vec<(f64, f64)> =
         serde_json::from_str(&std::fs::read_to_string(d.join("outage_windows_15s.json")).unwrap())
             .unwrap();
     let mut cmd = bin();
-    cmd.arg("eval")
-        .arg(dir.join("nav.txt"))
-        .arg(sample_data::file(&d, "ref_rtkfix.txt"))
-        .arg("--json");
+    cmd.arg("eval").arg(&dir).arg(sample_data::file(&d, "ref_rtkfix.txt")).arg("--json");
     for (a, b) in &windows {
         cmd.arg("--window").arg(format!("{a},{b}"));
     }
     let out = cmd.output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let both: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let smoothed = both["smoothed"]["windows_rms_of_max_horizontal"].as_f64().unwrap();
+    eprintln!("drive-0708, smoothed: RMS of max horizontal error in the outages {smoothed:.2} m");
+    // the smoothing issue's target: ≤ 2 m (forward 13.46 m, KF-GINS 12.4 m)
+    assert!(smoothed <= 2.0, "smoothed {smoothed}");
+    let v = &both["forward"];
     let score = v["windows_rms_of_max_horizontal"].as_f64().unwrap();
     let vertical = v["windows_rms_of_max_vertical"].as_f64().unwrap();
     eprintln!("drive-0708, ten 15 s outages: RMS of max horizontal drift {score:.2} m, vertical {vertical:.2} m (KF-GINS 12.4 / 1.08)");
@@ -203,7 +233,7 @@ fn car_aiding_and_21_states_from_the_command_line() {
     let dir = temp("car");
     simulate("drive.toml", &dir);
     // the summary line counts each aiding stream and the time standing
-    let line = run_aided(&dir, &["--plots", "--nhc", "--zupt", "--states", "21"]);
+    let line = run_aided(&dir, &["--plots", "--nhc", "--zupt", "--states", "21", "--smooth"]);
     let n = |what| used(&line, what);
     assert!(n("NHC ") > 500 && n("ZUPT ") > 100 && n("ZARU ") > 10, "{line}");
     let updates = std::fs::read_to_string(dir.join("aided/updates.csv")).unwrap();
@@ -216,9 +246,15 @@ fn car_aiding_and_21_states_from_the_command_line() {
         text.lines().last().unwrap().split_whitespace().count()
     };
     assert_eq!((last("std.txt"), last("imu_errors.txt")), (22, 13));
-    // the stops are shaded in the error plots
+    // smoothed with the aiding and 21 states: the σ of all 21 states, every IMU epoch
+    assert_eq!(last("std_smoothed.txt"), 22);
+    let rows =
+        |f: &str| std::fs::read_to_string(dir.join("aided").join(f)).unwrap().lines().count();
+    assert_eq!(rows("nav_smoothed.txt"), rows("nav.txt"));
+    // the stops are shaded in the error plots, which show the smoothed result too
     let svg = std::fs::read_to_string(dir.join("aided/errors_position.svg")).unwrap();
     assert!(svg.contains("stationary"), "no stationary shading in the legend");
+    assert!(svg.contains("smoothed error"), "no smoothed error in the plot");
 }
 
 #[test]

@@ -77,7 +77,8 @@ enum Command {
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
-        /// Result (11 columns).
+        /// Result (11 columns), or a run's output directory: its `nav.txt` and, when the
+        /// run smoothed, `nav_smoothed.txt`.
         result: PathBuf,
         /// Truth or reference (11 columns).
         truth: PathBuf,
