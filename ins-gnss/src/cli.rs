@@ -7,7 +7,7 @@ use std::time::Instant;
 use adaptive::AnyStrategy;
 
 use crate::config::Config;
-use crate::eval::{evaluate, Evaluation, Stats};
+use crate::eval::{evaluate, evaluate_with, Evaluation, Stats};
 use crate::run::{run as run_config, RunSummary};
 
 /// `println!` that never panics: a closed standard output (`ins-gnss eval … | head`) ends
@@ -186,11 +186,12 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     print_summary(&summary);
     let truth = truth.map(Path::to_path_buf).or_else(|| cfg.data.truth.clone());
     if let Some(truth) = truth {
-        let ev = evaluate(&out_dir.join("nav.txt"), &truth, skip, &[])?;
+        let columns = cfg.data.truth_columns.as_ref();
+        let ev = evaluate_with(&out_dir.join("nav.txt"), &truth, columns, skip, &[])?;
         require_overlap(&ev, &out_dir.join("nav.txt"), &truth, skip)?;
         if summary.smoothed.is_some() {
             let smoothed = out_dir.join("nav_smoothed.txt");
-            let ev_s = evaluate(&smoothed, &truth, skip, &[])?;
+            let ev_s = evaluate_with(&smoothed, &truth, columns, skip, &[])?;
             require_overlap(&ev_s, &smoothed, &truth, skip)?;
             let label = format!("{name}, smoothed");
             print_table(&[(&name, &ev.overall), (&label, &ev_s.overall)]);
@@ -198,7 +199,7 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
             print_table(&[(&name, &ev.overall)]);
         }
         if plots {
-            let files = crate::plot::write_all(&out_dir, &truth)?;
+            let files = crate::plot::write_all(&out_dir, &truth, columns)?;
             for f in files {
                 out!("plot: {}", f.display());
             }
@@ -323,45 +324,39 @@ pub fn eval(
     skip: f64,
     windows: &[(f64, f64)],
     json: bool,
+    config: Option<&Path>,
 ) -> Result<(), CliError> {
-    if result.is_dir() {
-        return eval_dir(result, truth, skip, windows, json);
-    }
-    let ev = evaluate(result, truth, skip, windows)?;
-    require_overlap(&ev, result, truth, skip)?;
-    if json {
-        out!("{}", serde_json::to_string_pretty(&ev)?);
+    // a truth log with a header is read through the configuration's `data.truth_columns`
+    let cfg = config.map(Config::load).transpose()?;
+    let columns = cfg.as_ref().and_then(|c| c.data.truth_columns.as_ref());
+    let outputs: Vec<(&str, PathBuf)> = if result.is_dir() {
+        let mut v = vec![("forward", result.join("nav.txt"))];
+        if result.join("nav_smoothed.txt").is_file() {
+            v.push(("smoothed", result.join("nav_smoothed.txt")));
+        }
+        v
     } else {
-        print_eval(&ev);
-    }
-    Ok(())
-}
-
-/// `ins-gnss eval DIR TRUTH`: the run's `nav.txt` and, when the run smoothed,
-/// `nav_smoothed.txt`, one after the other (JSON: `{"forward": …, "smoothed": …}`).
-fn eval_dir(
-    dir: &Path,
-    truth: &Path,
-    skip: f64,
-    windows: &[(f64, f64)],
-    json: bool,
-) -> Result<(), CliError> {
+        vec![("", result.to_path_buf())]
+    };
     let mut all = serde_json::Map::new();
-    for (name, file) in [("forward", "nav.txt"), ("smoothed", "nav_smoothed.txt")] {
-        let path = dir.join(file);
-        if file == "nav_smoothed.txt" && !path.is_file() {
-            continue;
-        }
-        let ev = evaluate(&path, truth, skip, windows)?;
-        require_overlap(&ev, &path, truth, skip)?;
-        if json {
-            all.insert(name.into(), serde_json::to_value(&ev)?);
-        } else {
-            out!("{name} ({})", path.display());
-            print_eval(&ev);
+    for (name, path) in &outputs {
+        let ev = evaluate_with(path, truth, columns, skip, windows)?;
+        require_overlap(&ev, path, truth, skip)?;
+        match (json, name.is_empty()) {
+            (true, true) => out!("{}", serde_json::to_string_pretty(&ev)?),
+            (true, false) => {
+                all.insert(name.to_string(), serde_json::to_value(&ev)?);
+            }
+            (false, plain) => {
+                if !plain {
+                    out!("{name} ({})", path.display());
+                }
+                print_eval(&ev);
+            }
         }
     }
-    if json {
+    // `eval DIR`: `{"forward": …, "smoothed": …}`
+    if json && result.is_dir() {
         out!("{}", serde_json::to_string_pretty(&all)?);
     }
     Ok(())
@@ -437,7 +432,7 @@ pub fn demo() -> Result<(), CliError> {
     print_table(&rows);
     for name in names {
         let out = dir.join("out").join(name);
-        for f in crate::plot::write_all(&out, &truth)? {
+        for f in crate::plot::write_all(&out, &truth, None)? {
             out!("plot: {}", f.display());
         }
     }

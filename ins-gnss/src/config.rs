@@ -10,6 +10,8 @@ use manifolds::So3;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+pub use crate::columns::{GnssColumns, ImuColumns, TruthColumns};
+
 use crate::checks::{finite, nonneg, positive};
 use ins_gnss_core::gnss::GNSS_STREAMS;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
@@ -84,9 +86,20 @@ pub struct DataSection {
     /// longer gap is an error naming the lines on both sides.
     #[serde(default = "default_max_bridge")]
     pub max_bridge: f64,
-    /// A truth file for evaluation (11 columns), optional.
+    /// A truth file for evaluation (11 columns, 4-column positions, or a log with a
+    /// header read through `truth_columns`), optional.
     #[serde(default)]
     pub truth: Option<PathBuf>,
+    /// The IMU file is a log with a header: which column holds what
+    /// ([`ImuColumns`]; `[data.imu_columns]` alone is the default map).
+    #[serde(default)]
+    pub imu_columns: Option<ImuColumns>,
+    /// The GNSS file is a log with a header ([`GnssColumns`]).
+    #[serde(default)]
+    pub gnss_columns: Option<GnssColumns>,
+    /// The truth file is a log with a header ([`TruthColumns`]).
+    #[serde(default)]
+    pub truth_columns: Option<TruthColumns>,
 }
 
 fn default_output() -> PathBuf {
@@ -561,6 +574,32 @@ impl Config {
     /// end.
     pub fn validate(&self) -> Result<(), String> {
         let d = &self.data;
+        let rates = d.imu_format == ImuFormatName::Rates;
+        if let Some(c) = &d.imu_columns {
+            c.map(rates).map_err(|e| format!("`data.imu_columns`: {e}"))?;
+        }
+        if let Some(c) = &d.gnss_columns {
+            c.map().map_err(|e| format!("`data.gnss_columns`: {e}"))?;
+            if c.position_std.is_none() && self.gnss.position_std.is_none() {
+                return Err("`data.gnss_columns` names no `position_std` columns: set \
+                            `gnss.position_std` (m) for the fixes"
+                    .into());
+            }
+            if c.velocity.is_some()
+                && c.velocity_std.is_none()
+                && self.gnss.velocity_std.is_none()
+                && self.gnss.use_velocity
+            {
+                return Err(
+                    "`data.gnss_columns` has a `velocity` but no `velocity_std` \
+                            columns: set `gnss.velocity_std` (m/s), or `gnss.use_velocity = false`"
+                        .into(),
+                );
+            }
+        }
+        if let Some(c) = &d.truth_columns {
+            c.map().map_err(|e| format!("`data.truth_columns`: {e}"))?;
+        }
         finite("data.imu_rate", &[d.imu_rate])?;
         if !(d.imu_rate > 0.0 && d.imu_rate <= 100_000.0) {
             return Err(format!(
@@ -1045,6 +1084,9 @@ mod kf_gins {
                 max_gap: default_max_gap(),
                 max_bridge: default_max_bridge(),
                 truth: None,
+                imu_columns: None,
+                gnss_columns: None,
+                truth_columns: None,
             },
             init: InitSection {
                 position: triple(doc, "initpos")?,

@@ -13,7 +13,9 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use ins_gnss_core::earth::geodetic_to_local_ned;
-use ins_gnss_core::io::{LineError, NavReader, NavRecord};
+use ins_gnss_core::io::{ColumnMap, LineError, NavReader, NavRecord};
+
+use crate::columns::TruthColumns;
 use manifolds::wrap_angle;
 
 /// Running statistics of one error component.
@@ -130,24 +132,46 @@ pub const MAX_REFERENCE_GAP: f64 = 1.0;
 
 /// Reads a reference: the 11-column navigation format, or `t lat lon h` (4 columns, e.g.
 /// RTK-fixed positions), whose velocity and attitude are NaN (not evaluated).
-struct RefReader {
+pub struct RefReader {
     lines: ins_gnss_core::io::NumericLines<ins_gnss_core::io::formats::Input>,
     prev_t: Option<f64>,
+    /// A log with a header: its map, resolved, and the mapped record.
+    map: Option<(ins_gnss_core::io::columns::Resolved, Vec<f64>)>,
 }
 
 impl RefReader {
-    fn open(path: &Path) -> Result<Self, LineError> {
-        Ok(Self {
-            lines: ins_gnss_core::io::NumericLines::new(
-                ins_gnss_core::io::formats::open(path)?,
-                path,
-            ),
-            prev_t: None,
-        })
+    /// Open a reference file; with `columns`, a log with a header read through its map
+    /// (11 fields, NaN where the log has no velocity or attitude: see
+    /// [`TruthColumns`](crate::columns::TruthColumns)).
+    pub fn open(path: &Path, columns: Option<&ColumnMap>) -> Result<Self, LineError> {
+        let mut lines =
+            ins_gnss_core::io::NumericLines::new(ins_gnss_core::io::formats::open(path)?, path);
+        let map = match columns {
+            Some(c) => {
+                let header = lines.next_text()?.map(str::to_string);
+                let header =
+                    header.ok_or_else(|| lines.error(ins_gnss_core::io::LineErrorKind::Empty))?;
+                let resolved = c
+                    .resolve(&header)
+                    .map_err(|m| lines.error(ins_gnss_core::io::LineErrorKind::WrongUnits(m)))?;
+                lines.select(&resolved.columns);
+                Some((resolved, Vec::with_capacity(11)))
+            }
+            None => None,
+        };
+        Ok(Self { lines, prev_t: None, map })
     }
 
-    fn next_record(&mut self) -> Result<Option<NavRecord>, LineError> {
+    /// The next record, `Ok(None)` at the end.
+    pub fn next_record(&mut self) -> Result<Option<NavRecord>, LineError> {
         let Some(r) = self.lines.next_record()? else { return Ok(None) };
+        let r = match &mut self.map {
+            Some((resolved, out)) => {
+                resolved.apply(r, out);
+                &out[..]
+            }
+            None => r,
+        };
         let d = core::f64::consts::PI / 180.0;
         let rec = match r.len() {
             11 => NavRecord {
@@ -230,9 +254,33 @@ pub fn evaluate(
     skip: f64,
     windows: &[(f64, f64)],
 ) -> Result<Evaluation, LineError> {
+    evaluate_with(result, truth, None, skip, windows)
+}
+
+/// [`evaluate`] against a truth log with a header, read through its column map (a map
+/// without velocity is a position reference, compared at its own epochs).
+pub fn evaluate_with(
+    result: &Path,
+    truth: &Path,
+    columns: Option<&TruthColumns>,
+    skip: f64,
+    windows: &[(f64, f64)],
+) -> Result<Evaluation, LineError> {
     let mut res = NavReader::open(result)?;
-    let mut refs = RefReader::open(truth)?;
-    if reference_columns(truth)? == 4 {
+    let map = match columns {
+        Some(c) => Some(c.map().map_err(|m| LineError {
+            path: truth.to_path_buf(),
+            line: 0,
+            kind: ins_gnss_core::io::LineErrorKind::WrongUnits(m),
+        })?),
+        None => None,
+    };
+    let mut refs = RefReader::open(truth, map.as_ref())?;
+    let positions_only = match columns {
+        Some(c) => c.positions_only(),
+        None => reference_columns(truth)? == 4,
+    };
+    if positions_only {
         return evaluate_at_reference(|| res.next_record(), || refs.next_record(), skip, windows);
     }
     evaluate_at_result(|| res.next_record(), || refs.next_record(), skip, windows)
@@ -365,7 +413,7 @@ impl Evaluator {
 /// Read a whole reference file (11-column navigation or 4-column positions) into memory,
 /// for repeated in-memory evaluations ([`evaluate_records`]).
 pub fn read_reference(path: &Path) -> Result<Vec<NavRecord>, LineError> {
-    let mut r = RefReader::open(path)?;
+    let mut r = RefReader::open(path, None)?;
     let mut out = Vec::new();
     while let Some(rec) = r.next_record()? {
         out.push(rec);

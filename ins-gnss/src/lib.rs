@@ -6,6 +6,7 @@
 //! |---|---|
 //! | [`cli`] | the subcommands: `run`, `eval`, `simulate`, `compare`, the demo |
 //! | [`config`] | run configurations: our TOML and KF-GINS YAML, validated, datasheet units |
+//! | [`columns`] | column maps for logs with a header (CSV): names, units, axes, conventions |
 //! | [`run`] | one streaming run over files (bounded memory), or over data in memory |
 //! | [`eval`] | errors of a result against a truth file: RMS, maxima, windows |
 //! | [`plot`] | SVG plots of errors with ±3σ envelopes and adaptation factors |
@@ -15,6 +16,7 @@
 
 mod checks;
 pub mod cli;
+pub mod columns;
 pub mod config;
 pub mod eval;
 pub mod plot;

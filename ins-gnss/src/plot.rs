@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-use crate::eval::errors;
+use crate::columns::TruthColumns;
+use crate::eval::{errors, RefReader};
 use ins_gnss_core::io::formats::open;
 use ins_gnss_core::io::{NavReader, NumericLines};
 
@@ -89,9 +90,14 @@ fn stationary_periods(path: &Path) -> Result<Vec<(f64, f64)>, String> {
 }
 
 /// Errors of the result against the truth, decimated to 4,000–8,000 points.
-fn error_series(result: &Path, truth: &Path) -> Result<[Series; 6], String> {
+fn error_series(
+    result: &Path,
+    truth: &Path,
+    columns: Option<&TruthColumns>,
+) -> Result<[Series; 6], String> {
     let mut res = NavReader::open(result).map_err(|e| e.to_string())?;
-    let mut tru = NavReader::open(truth).map_err(|e| e.to_string())?;
+    let map = columns.map(TruthColumns::map).transpose()?;
+    let mut tru = RefReader::open(truth, map.as_ref()).map_err(|e| e.to_string())?;
     let mut all = Decimator::<(f64, [f64; 6])>::new(MAX_POINTS);
     let mut t_rec = tru.next_record().map_err(|e| e.to_string())?;
     while let Some(r) = res.next_record().map_err(|e| e.to_string())? {
@@ -249,8 +255,12 @@ fn publish(path: &Path) -> Result<(), String> {
 }
 
 /// Write the plots of the run in `out_dir` against `truth`; returns the files written.
-pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
-    let errs = error_series(&out_dir.join("nav.txt"), truth)?;
+pub fn write_all(
+    out_dir: &Path,
+    truth: &Path,
+    columns: Option<&TruthColumns>,
+) -> Result<Vec<PathBuf>, String> {
+    let errs = error_series(&out_dir.join("nav.txt"), truth, columns)?;
     let std = read_columns(&out_dir.join("std.txt"))?;
     let s3 = |std: &[Vec<f64>], col: usize| -> Series {
         std.iter().map(|r| (r[0], 3.0 * r[col])).collect()
@@ -258,7 +268,7 @@ pub fn write_all(out_dir: &Path, truth: &Path) -> Result<Vec<PathBuf>, String> {
     // the smoother's, when the run smoothed
     let smoothed = match out_dir.join("nav_smoothed.txt").is_file() {
         true => Some((
-            error_series(&out_dir.join("nav_smoothed.txt"), truth)?,
+            error_series(&out_dir.join("nav_smoothed.txt"), truth, columns)?,
             read_columns(&out_dir.join("std_smoothed.txt"))?,
         )),
         false => None,

@@ -400,7 +400,7 @@ type FileReader = ins_gnss_core::io::formats::Input;
 fn open_inputs(
     config: &Config,
 ) -> Result<(ImuReader<FileReader>, GnssReader<FileReader>), RunError> {
-    let imu = ImuReader::open(
+    let mut imu = ImuReader::open(
         &config.data.imu,
         config.imu_format(),
         config.data.imu_rate,
@@ -408,7 +408,19 @@ fn open_inputs(
         config.bad_lines(),
     )?
     .with_max_bridge(config.data.max_bridge);
-    Ok((imu, GnssReader::open(&config.data.gnss, config.bad_lines())?))
+    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
+    // (the maps were checked when the configuration was loaded)
+    let bad = |key: &str, e: String| {
+        RunError::Config(crate::config::ConfigError { path: PathBuf::from(key), message: e })
+    };
+    if let Some(c) = &config.data.imu_columns {
+        let rates = config.imu_format() == ins_gnss_core::io::ImuFormat::Rates;
+        imu = imu.with_columns(c.map(rates).map_err(|e| bad("data.imu_columns", e))?);
+    }
+    if let Some(c) = &config.data.gnss_columns {
+        gnss = gnss.with_columns(c.map().map_err(|e| bad("data.gnss_columns", e))?);
+    }
+    Ok((imu, gnss))
 }
 
 /// The states a run can use (`filter.states = 15 | 21`): how each starts and what it

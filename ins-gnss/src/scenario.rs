@@ -553,6 +553,9 @@ impl Scenario {
                 max_gap: 5.0,
                 max_bridge: ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE,
                 truth: Some("truth.nav".into()),
+                imu_columns: None,
+                gnss_columns: None,
+                truth_columns: None,
             },
             init: InitSection {
                 position: [x0.pos.lat * d, x0.pos.lon * d, x0.pos.h],

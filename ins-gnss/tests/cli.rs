@@ -273,3 +273,159 @@ fn simulated_car_with_odometer_and_mounting_runs_aided() {
     let n = |what| used(&line, what);
     assert!(n("NHC ") > 500 && n("odometer ") > 300 && n("ZUPT ") > 50, "{line}");
 }
+
+/// The simulated drive rewritten as a generic logger's CSV files: an index column, time
+/// in ms, FLU axes, increments in degrees, a status text column; GNSS with named columns,
+/// σ and an ENU velocity; truth with ENU velocity, attitude in radians and an ENU
+/// (east, counter-clockwise) heading. Returns the config text with the column maps.
+fn write_logger_csv(dir: &Path) -> String {
+    let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap();
+    let rows = |text: &str| -> Vec<Vec<f64>> {
+        text.lines()
+            .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+            .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    let deg = 180.0 / std::f64::consts::PI;
+    let mut imu =
+        String::from("k,t_ms,dtheta_x_deg,dtheta_y_deg,dtheta_z_deg,dv_x,dv_y,dv_z,status\n");
+    for (k, r) in rows(&read("IMU.txt")).iter().enumerate() {
+        imu += &format!(
+            "{k},{:.6},{:.15e},{:.15e},{:.15e},{:.15e},{:.15e},{:.15e},OK\n",
+            r[0] * 1e3,
+            r[1] * deg,
+            -r[2] * deg,
+            -r[3] * deg,
+            r[4],
+            -r[5],
+            -r[6]
+        );
+    }
+    std::fs::write(dir.join("imu_log.csv"), imu).unwrap();
+    let mut gnss = String::from("time_s,lat_deg,lon_deg,alt_m,sd_north_m,sd_east_m,sd_down_m,ve_mps,vn_mps,vu_mps,sd_vn,sd_ve,sd_vd\n");
+    for r in rows(&read("GNSS.txt")) {
+        let v = |k: usize| r.get(k).copied().unwrap_or(0.0);
+        gnss += &format!(
+            "{},{:.12},{:.12},{},{},{},{},{},{},{},{},{},{}\n",
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            r[4],
+            r[5],
+            r[6],
+            v(8),
+            v(7),
+            -v(9),
+            v(10).max(0.01),
+            v(11).max(0.01),
+            v(12).max(0.01)
+        );
+    }
+    std::fs::write(dir.join("gnss_log.csv"), gnss).unwrap();
+    let mut truth = String::from("t,lat,lon,h,ve,vn,vu,roll_rad,pitch_rad,heading_enu_rad\n");
+    for r in rows(&read("truth.nav")) {
+        truth += &format!(
+            "{},{:.12},{:.12},{},{},{},{},{:.12},{:.12},{:.12}\n",
+            r[1],
+            r[2],
+            r[3],
+            r[4],
+            r[6],
+            r[5],
+            -r[7],
+            r[8] / deg,
+            r[9] / deg,
+            (90.0 - r[10]) / deg
+        );
+    }
+    std::fs::write(dir.join("truth_log.csv"), truth).unwrap();
+    let config = read("config.toml");
+    let maps = r#"imu = "imu_log.csv"
+gnss = "gnss_log.csv"
+truth = "truth_log.csv"
+
+[data.imu_columns]
+time = "t_ms"
+time_unit = "ms"
+gyro = ["dtheta_x_deg", "dtheta_y_deg", "dtheta_z_deg"]
+gyro_unit = "deg"
+accel = ["dv_x", "dv_y", "dv_z"]
+axes = "flu"
+
+[data.gnss_columns]
+time = "time_s"
+latitude = "lat_deg"
+longitude = "lon_deg"
+height = "alt_m"
+position_std = ["sd_north_m", "sd_east_m", "sd_down_m"]
+velocity = ["ve_mps", "vn_mps", "vu_mps"]
+velocity_frame = "enu"
+velocity_std = ["sd_vn", "sd_ve", "sd_vd"]
+
+[data.truth_columns]
+velocity = ["ve", "vn", "vu"]
+velocity_frame = "enu"
+attitude = ["roll_rad", "pitch_rad", "heading_enu_rad"]
+attitude_unit = "rad"
+heading = "east-counterclockwise"
+"#;
+    config
+        .replace("imu = \"IMU.txt\"\n", "")
+        .replace("gnss = \"GNSS.txt\"\n", "")
+        .replace("truth = \"truth.nav\"\n", "")
+        .replace("[data]\n", &format!("[data]\n{}", &maps[..maps.find("\n\n").unwrap() + 1]))
+        + &maps[maps.find("\n\n").unwrap()..]
+}
+
+#[test]
+fn a_logger_csv_runs_through_column_maps_like_the_native_files() {
+    let dir = temp("csv");
+    simulate("drive.toml", &dir);
+    let config = write_logger_csv(&dir);
+    std::fs::write(dir.join("csv.toml"), config).unwrap();
+    run_quiet(&dir.join("config.toml"), &dir.join("native"), &[]);
+    run_quiet(&dir.join("csv.toml"), &dir.join("csv"), &[]);
+    // the same navigation to the written precision
+    let nav = |d: &str| std::fs::read_to_string(dir.join(d).join("nav.txt")).unwrap();
+    let (a, b) = (nav("native"), nav("csv"));
+    assert_eq!(a.lines().count(), b.lines().count());
+    for (x, y) in a.lines().zip(b.lines()) {
+        for (u, v) in x.split_whitespace().zip(y.split_whitespace()) {
+            let (u, v): (f64, f64) = (u.parse().unwrap(), v.parse().unwrap());
+            assert!((u - v).abs() <= 1e-6 * u.abs().max(1.0), "{x}\n{y}");
+        }
+    }
+    // eval reads the CSV truth through the same configuration's map
+    let eval = |truth: &str, config: Option<&str>| {
+        let mut cmd = bin();
+        cmd.arg("eval").arg(dir.join("csv/nav.txt")).arg(dir.join(truth)).arg("--json");
+        if let Some(c) = config {
+            cmd.arg("--config").arg(dir.join(c));
+        }
+        let out = cmd.output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let f = |k: &str| v["overall"][k]["rms"].as_f64().unwrap();
+        [f("horizontal"), f("velocity_3d"), f("roll"), f("yaw")]
+    };
+    let native = eval("truth.nav", None);
+    let csv = eval("truth_log.csv", Some("csv.toml"));
+    for (u, v) in native.iter().zip(&csv) {
+        assert!((u - v).abs() <= 1e-6 * u.max(1e-3), "{native:?} vs {csv:?}");
+    }
+    // a missing column is named, with the columns present
+    let broken =
+        std::fs::read_to_string(dir.join("csv.toml")).unwrap().replace("\"dv_y\"", "\"dv_yy\"");
+    std::fs::write(dir.join("broken.toml"), broken).unwrap();
+    let out = bin().arg("run").arg(dir.join("broken.toml")).arg("--quiet").output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("imu_log.csv:1")
+            && err.contains("`dv_yy`")
+            && err.contains("dv_x, dv_y, dv_z, status"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -30,6 +30,7 @@ use std::sync::{Arc, Mutex};
 use manifolds::So3;
 use nalgebra::Vector3;
 
+use super::columns::{ColumnMap, Resolved};
 use super::lines::{LineError, LineErrorKind, NumericLines};
 use crate::gnss::GnssEpoch;
 use crate::imu::ImuSample;
@@ -207,6 +208,44 @@ pub struct ImuReader<R: BufRead> {
     /// What was skipped so far.
     pub skipped: SkipCounts,
     records: usize,
+    columns: Mapping,
+}
+
+/// A reader's column map, before and after its header is read, and the mapped values.
+#[derive(Default)]
+enum Mapping {
+    #[default]
+    None,
+    Pending(ColumnMap),
+    Resolved(Resolved, Vec<f64>),
+}
+
+impl Mapping {
+    /// Read the header and select the map's columns (once).
+    fn start<R: BufRead>(&mut self, lines: &mut NumericLines<R>) -> Result<(), LineError> {
+        if let Mapping::Pending(map) = self {
+            let header = match lines.next_text()? {
+                Some(h) => h.to_string(),
+                None => return Err(lines.error(LineErrorKind::Empty)),
+            };
+            let resolved =
+                map.resolve(&header).map_err(|m| lines.error(LineErrorKind::WrongUnits(m)))?;
+            lines.select(&resolved.columns);
+            *self = Mapping::Resolved(resolved, Vec::new());
+        }
+        Ok(())
+    }
+
+    /// The record: the mapped fields, or the line's values as they are.
+    fn record<'a>(&'a mut self, values: &'a [f64]) -> &'a [f64] {
+        match self {
+            Mapping::Resolved(r, out) => {
+                r.apply(values, out);
+                out
+            }
+            _ => values,
+        }
+    }
 }
 
 impl ImuReader<Input> {
@@ -248,7 +287,17 @@ impl<R: BufRead> ImuReader<R> {
             header_done: format == ImuFormat::Increments,
             skipped: SkipCounts::default(),
             records: 0,
+            columns: Mapping::None,
         }
+    }
+
+    /// Read a log with a header through `map`: fields `t, ωx, ωy, ωz, fx, fy, fz` and
+    /// optionally the odometer speed, in s, rad/s and m/s² for rates (rad and m/s for
+    /// increments), FRD axes (see [`crate::io::columns`]).
+    pub fn with_columns(mut self, map: ColumnMap) -> Self {
+        self.columns = Mapping::Pending(map);
+        self.header_done = true;
+        self
     }
 
     /// The largest gap [`BadLinePolicy::Skip`] bridges in one step, in IMU intervals
@@ -281,14 +330,15 @@ impl<R: BufRead> ImuReader<R> {
             }
             self.header_done = true;
         }
+        self.columns.start(&mut self.lines)?;
         loop {
             if !next_record(&mut self.lines, self.policy, &mut self.skipped, self.records)? {
                 return Ok(None);
             }
-            let rec = self.lines.values();
+            let rec = self.columns.record(self.lines.values());
             let allowed: &[usize] = match self.format {
                 ImuFormat::Increments => &[7, 8],
-                ImuFormat::Rates => &[7],
+                ImuFormat::Rates => &[7, 8],
             };
             let checked = if !allowed.contains(&rec.len()) {
                 Err(LineErrorKind::ColumnCount { expected: allowed.to_vec(), found: rec.len() })
@@ -369,7 +419,8 @@ impl<R: BufRead> ImuReader<R> {
                     ImuSample { t, dt, dtheta: a, dvel: b, odometer }
                 }
                 ImuFormat::Rates => {
-                    let s = ImuSample::from_rates(t, dt, a, b, self.prev_rates);
+                    let mut s = ImuSample::from_rates(t, dt, a, b, self.prev_rates);
+                    s.odometer = (rec.len() == 8).then(|| rec[7]);
                     self.prev_rates = Some((a, b));
                     s
                 }
@@ -396,6 +447,7 @@ pub struct GnssReader<R: BufRead> {
     /// What was skipped so far.
     pub skipped: SkipCounts,
     records: usize,
+    mapping: Mapping,
 }
 
 impl GnssReader<Input> {
@@ -415,7 +467,16 @@ impl<R: BufRead> GnssReader<R> {
             prev_t: None,
             skipped: SkipCounts::default(),
             records: 0,
+            mapping: Mapping::None,
         }
+    }
+
+    /// Read a log with a header through `map`: the 7 fields `t, lat, lon, h, σN, σE, σD`
+    /// (s, degrees, m) or the 13 with `vN, vE, vD, σvN, σvE, σvD` (m/s) (see
+    /// [`crate::io::columns`]).
+    pub fn with_columns(mut self, map: ColumnMap) -> Self {
+        self.mapping = Mapping::Pending(map);
+        self
     }
 
     /// Line number of the last epoch.
@@ -430,11 +491,12 @@ impl<R: BufRead> GnssReader<R> {
 
     /// The next epoch, `Ok(None)` at the end.
     pub fn next_epoch(&mut self) -> Result<Option<GnssEpoch>, LineError> {
+        self.mapping.start(&mut self.lines)?;
         loop {
             if !next_record(&mut self.lines, self.policy, &mut self.skipped, self.records)? {
                 return Ok(None);
             }
-            let rec = self.lines.values();
+            let rec = self.mapping.record(self.lines.values());
             let n = rec.len();
             let expected: Vec<usize> = match self.columns {
                 Some(c) => vec![c],

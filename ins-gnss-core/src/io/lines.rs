@@ -112,12 +112,37 @@ pub struct NumericLines<R: BufRead> {
     line: usize,
     buf: Vec<u8>,
     values: Vec<f64>,
+    /// When set, the slot of each 0-based field that is read (`None`: skipped, may hold
+    /// anything, text included), up to the last one read.
+    select: Option<Vec<Option<usize>>>,
+    /// Number of fields read when selecting.
+    selected: usize,
 }
 
 impl<R: BufRead> NumericLines<R> {
     /// Wrap a reader; `path` names it in errors.
     pub fn new(inner: R, path: &Path) -> Self {
-        Self { inner, path: path.to_path_buf(), line: 0, buf: Vec::new(), values: Vec::new() }
+        Self {
+            inner,
+            path: path.to_path_buf(),
+            line: 0,
+            buf: Vec::new(),
+            values: Vec::new(),
+            select: None,
+            selected: 0,
+        }
+    }
+
+    /// Read only the 0-based fields `columns` (distinct) of each line from now on, in that
+    /// order (a CSV log's columns picked by name: see [`crate::io::columns`]).
+    pub fn select(&mut self, columns: &[usize]) {
+        let len = columns.iter().max().map_or(0, |m| m + 1);
+        let mut slots = vec![None; len];
+        for (slot, &c) in columns.iter().enumerate() {
+            slots[c] = Some(slot);
+        }
+        self.select = Some(slots);
+        self.selected = columns.len();
     }
 
     /// The file name used in errors.
@@ -186,6 +211,30 @@ impl<R: BufRead> NumericLines<R> {
         let mut failure = None;
         let fields =
             self.buf.split(|b| b.is_ascii_whitespace() || *b == b',').filter(|s| !s.is_empty());
+        if let Some(slots) = &self.select {
+            // the selected fields only, each into its slot (no allocation per line)
+            values.resize(self.selected, f64::NAN);
+            let mut found = 0;
+            for (i, bytes) in fields.enumerate().take(slots.len()) {
+                found = i + 1;
+                let Some(slot) = slots[i] else { continue };
+                let field = std::str::from_utf8(bytes).unwrap_or("");
+                match field.parse::<f64>() {
+                    Ok(v) if v.is_finite() => values[slot] = v,
+                    Ok(_) => return Err(self.error(LineErrorKind::NonFinite { column: i + 1 })),
+                    Err(_) => {
+                        let text = field.chars().take(40).collect();
+                        return Err(self.error(LineErrorKind::NotNumeric { column: i + 1, text }));
+                    }
+                }
+            }
+            if found < slots.len() {
+                return Err(
+                    self.error(LineErrorKind::ColumnCount { expected: vec![slots.len()], found })
+                );
+            }
+            return Ok(Some(&self.values));
+        }
         for (i, bytes) in fields.enumerate() {
             let Ok(field) = std::str::from_utf8(bytes) else {
                 failure = Some(LineErrorKind::NotNumeric {

@@ -1,9 +1,11 @@
 //! File formats: streaming readers and writers with located, typed errors.
 
+pub mod columns;
 pub mod fixed;
 pub mod formats;
 pub mod lines;
 
+pub use columns::{ColumnMap, Quantity, Source};
 pub use formats::{
     BadLinePolicy, GnssReader, ImuFormat, ImuReader, NavReader, NavRecord, SkipCounts,
 };

@@ -91,6 +91,10 @@ enum Command {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// Read a truth log with a header through this configuration's
+        /// `[data.truth_columns]`.
+        #[arg(long)]
+        config: Option<PathBuf>,
     },
     /// Simulate a dataset (IMU, GNSS, truth, config) from a scenario file.
     Simulate {
@@ -158,8 +162,8 @@ fn main() -> ExitCode {
             };
             cli::run(&config, &o)
         }
-        Some(Command::Eval { result, truth, skip, windows, json }) => {
-            cli::eval(&result, &truth, skip, &windows, json)
+        Some(Command::Eval { result, truth, skip, windows, json, config }) => {
+            cli::eval(&result, &truth, skip, &windows, json, config.as_deref())
         }
         Some(Command::Simulate { scenario, out }) => cli::simulate(&scenario, &out),
         Some(Command::Compare { config, strategies, truth, skip, out }) => {

@@ -1,0 +1,325 @@
+//! The configuration's column maps for logs with a header (`[data.imu_columns]`,
+//! `[data.gnss_columns]`, `[data.truth_columns]`): which named column holds what, in
+//! which unit, axes and conventions, turned into the readers' [`ColumnMap`]s.
+//!
+//! Every key has a default (the documented default map), so `[data.imu_columns]` alone
+//! reads a CSV whose header is `t,gx,gy,gz,ax,ay,az` in s, rad/s and m/s².
+
+use serde::{Deserialize, Serialize};
+
+use ins_gnss_core::io::columns::unit_factor;
+use ins_gnss_core::io::{ColumnMap, Quantity, Source};
+
+/// Body axes of a log.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Axes {
+    /// Forward, right, down (the filter's).
+    #[default]
+    Frd,
+    /// Forward, left, up: y and z change sign.
+    Flu,
+}
+
+/// Frame of a velocity triple.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VelocityFrame {
+    /// North, east, down.
+    #[default]
+    Ned,
+    /// East, north, up.
+    Enu,
+}
+
+/// How a log's heading (yaw) is counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Heading {
+    /// From north, clockwise (NED yaw; the filter's).
+    #[default]
+    NorthClockwise,
+    /// From east, counter-clockwise (ENU yaw): `yaw_NED = 90° − yaw_ENU`.
+    EastCounterclockwise,
+}
+
+fn t() -> String {
+    "t".into()
+}
+fn seconds() -> String {
+    "s".into()
+}
+fn gyro() -> [String; 3] {
+    ["gx".into(), "gy".into(), "gz".into()]
+}
+fn accel() -> [String; 3] {
+    ["ax".into(), "ay".into(), "az".into()]
+}
+fn lat() -> String {
+    "lat".into()
+}
+fn lon() -> String {
+    "lon".into()
+}
+fn height() -> String {
+    "h".into()
+}
+fn degrees() -> String {
+    "deg".into()
+}
+fn metres() -> String {
+    "m".into()
+}
+fn metres_per_second() -> String {
+    "m/s".into()
+}
+
+/// `[data.imu_columns]`: an IMU log with a header. Rates or increments as
+/// `data.imu_format` says.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuColumns {
+    /// Time column. Default `t`.
+    #[serde(default = "t")]
+    pub time: String,
+    /// `s` (default), `ms`, `us`, `ns`.
+    #[serde(default = "seconds")]
+    pub time_unit: String,
+    /// Added to every time, s (after the unit). Default 0.
+    #[serde(default)]
+    pub time_offset: f64,
+    /// Gyro x, y, z columns. Default `gx, gy, gz`.
+    #[serde(default = "gyro")]
+    pub gyro: [String; 3],
+    /// Rates: `rad/s` (default), `deg/s`, `deg/h`; increments: `rad` (default), `deg`.
+    #[serde(default)]
+    pub gyro_unit: Option<String>,
+    /// Accelerometer x, y, z columns. Default `ax, ay, az`.
+    #[serde(default = "accel")]
+    pub accel: [String; 3],
+    /// Rates: `m/s^2` (default), `g`, `mg`; increments: `m/s` (default).
+    #[serde(default)]
+    pub accel_unit: Option<String>,
+    /// `frd` (default) or `flu`.
+    #[serde(default)]
+    pub axes: Axes,
+    /// Wheel-speed column, optional.
+    #[serde(default)]
+    pub odometer: Option<String>,
+    /// `m/s` (default), `km/h`.
+    #[serde(default = "metres_per_second")]
+    pub odometer_unit: String,
+}
+
+impl Default for ImuColumns {
+    fn default() -> Self {
+        toml::from_str("").expect("every key has a default")
+    }
+}
+
+fn time_source(name: &str, unit: &str, offset: f64) -> Result<Source, String> {
+    let scale = unit_factor(Quantity::Time, unit)?;
+    Ok(Source::Column { name: name.into(), scale, offset })
+}
+
+impl ImuColumns {
+    /// The IMU reader's map: `t, ωx, ωy, ωz, fx, fy, fz [, odometer]`.
+    pub fn map(&self, rates: bool) -> Result<ColumnMap, String> {
+        let (gq, aq, gu, au) = if rates {
+            (Quantity::Rate, Quantity::Acceleration, "rad/s", "m/s^2")
+        } else {
+            (Quantity::Angle, Quantity::Speed, "rad", "m/s")
+        };
+        let g = unit_factor(gq, self.gyro_unit.as_deref().unwrap_or(gu))?;
+        let a = unit_factor(aq, self.accel_unit.as_deref().unwrap_or(au))?;
+        let sign = |k: usize| if self.axes == Axes::Flu && k > 0 { -1.0 } else { 1.0 };
+        let mut fields = vec![time_source(&self.time, &self.time_unit, self.time_offset)?];
+        fields.extend((0..3).map(|k| Source::scaled(&self.gyro[k], g * sign(k))));
+        fields.extend((0..3).map(|k| Source::scaled(&self.accel[k], a * sign(k))));
+        if let Some(o) = &self.odometer {
+            fields.push(Source::scaled(o, unit_factor(Quantity::Speed, &self.odometer_unit)?));
+        }
+        Ok(ColumnMap { fields })
+    }
+}
+
+/// `[data.gnss_columns]`: a GNSS log with a header.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssColumns {
+    /// Time column. Default `t`.
+    #[serde(default = "t")]
+    pub time: String,
+    /// `s` (default), `ms`, `us`, `ns`.
+    #[serde(default = "seconds")]
+    pub time_unit: String,
+    /// Added to every time, s. Default 0.
+    #[serde(default)]
+    pub time_offset: f64,
+    /// Latitude column. Default `lat`.
+    #[serde(default = "lat")]
+    pub latitude: String,
+    /// Longitude column. Default `lon`.
+    #[serde(default = "lon")]
+    pub longitude: String,
+    /// `deg` (default) or `rad`.
+    #[serde(default = "degrees")]
+    pub angle_unit: String,
+    /// Ellipsoidal height column. Default `h`.
+    #[serde(default = "height")]
+    pub height: String,
+    /// `m` (default) or `mm`, `cm`, `km`, for the height and the σ.
+    #[serde(default = "metres")]
+    pub length_unit: String,
+    /// Position σ north, east, down columns; without them `gnss.position_std` is
+    /// required.
+    #[serde(default)]
+    pub position_std: Option<[String; 3]>,
+    /// Velocity columns (in `velocity_frame` order), optional.
+    #[serde(default)]
+    pub velocity: Option<[String; 3]>,
+    /// `ned` (default) or `enu`.
+    #[serde(default)]
+    pub velocity_frame: VelocityFrame,
+    /// `m/s` (default), `km/h`, `mm/s`, for the velocity and its σ.
+    #[serde(default = "metres_per_second")]
+    pub velocity_unit: String,
+    /// Velocity σ columns (north, east, down); without them, with a velocity,
+    /// `gnss.velocity_std` is required.
+    #[serde(default)]
+    pub velocity_std: Option<[String; 3]>,
+}
+
+impl GnssColumns {
+    /// The GNSS reader's map: `t, lat, lon, h, σN, σE, σD` (s, deg, m) and, with a
+    /// velocity, `vN, vE, vD, σvN, σvE, σvD`. σ the log does not have are placeholders
+    /// (1) that `gnss.position_std` / `gnss.velocity_std` replace.
+    pub fn map(&self) -> Result<ColumnMap, String> {
+        let deg = unit_factor(Quantity::Angle, &self.angle_unit)?.to_degrees();
+        let m = unit_factor(Quantity::Length, &self.length_unit)?;
+        let v = unit_factor(Quantity::Speed, &self.velocity_unit)?;
+        let mut fields = vec![
+            time_source(&self.time, &self.time_unit, self.time_offset)?,
+            Source::scaled(&self.latitude, deg),
+            Source::scaled(&self.longitude, deg),
+            Source::scaled(&self.height, m),
+        ];
+        match &self.position_std {
+            Some(s) => fields.extend(s.iter().map(|n| Source::scaled(n, m))),
+            None => fields.extend((0..3).map(|_| Source::Constant(1.0))),
+        }
+        if let Some(vel) = &self.velocity {
+            fields.extend(ned(vel, self.velocity_frame, v));
+            match &self.velocity_std {
+                Some(s) => fields.extend(s.iter().map(|n| Source::scaled(n, v))),
+                None => fields.extend((0..3).map(|_| Source::Constant(1.0))),
+            }
+        }
+        Ok(ColumnMap { fields })
+    }
+}
+
+/// North, east, down from a triple named in `frame`'s order, times `scale`.
+fn ned(v: &[String; 3], frame: VelocityFrame, scale: f64) -> [Source; 3] {
+    match frame {
+        VelocityFrame::Ned => [0, 1, 2].map(|k| Source::scaled(&v[k], scale)),
+        VelocityFrame::Enu => [
+            Source::scaled(&v[1], scale),
+            Source::scaled(&v[0], scale),
+            Source::scaled(&v[2], -scale),
+        ],
+    }
+}
+
+/// `[data.truth_columns]`: a truth or reference log with a header (for `run --truth`,
+/// `eval --config` and the plots).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TruthColumns {
+    /// Time column. Default `t`.
+    #[serde(default = "t")]
+    pub time: String,
+    /// `s` (default), `ms`, `us`, `ns`.
+    #[serde(default = "seconds")]
+    pub time_unit: String,
+    /// Added to every time, s. Default 0.
+    #[serde(default)]
+    pub time_offset: f64,
+    /// Latitude column. Default `lat`.
+    #[serde(default = "lat")]
+    pub latitude: String,
+    /// Longitude column. Default `lon`.
+    #[serde(default = "lon")]
+    pub longitude: String,
+    /// `deg` (default) or `rad`, for latitude and longitude.
+    #[serde(default = "degrees")]
+    pub angle_unit: String,
+    /// Ellipsoidal height column. Default `h`.
+    #[serde(default = "height")]
+    pub height: String,
+    /// `m` (default), `mm`, `cm`, `km`.
+    #[serde(default = "metres")]
+    pub length_unit: String,
+    /// Velocity columns (in `velocity_frame` order); without them (and the attitude)
+    /// the reference is positions only, compared at its own epochs.
+    #[serde(default)]
+    pub velocity: Option<[String; 3]>,
+    /// `ned` (default) or `enu`.
+    #[serde(default)]
+    pub velocity_frame: VelocityFrame,
+    /// `m/s` (default), `km/h`, `mm/s`.
+    #[serde(default = "metres_per_second")]
+    pub velocity_unit: String,
+    /// Roll, pitch, yaw (heading) columns, optional.
+    #[serde(default)]
+    pub attitude: Option<[String; 3]>,
+    /// `deg` (default) or `rad`.
+    #[serde(default = "degrees")]
+    pub attitude_unit: String,
+    /// `north-clockwise` (default) or `east-counterclockwise`.
+    #[serde(default)]
+    pub heading: Heading,
+}
+
+impl TruthColumns {
+    /// The reference reader's map, the 11 fields of the navigation format (`week, t,
+    /// lat, lon, h` in deg and m, `vN, vE, vD`, roll, pitch, yaw in deg); what the log
+    /// does not have is NaN.
+    pub fn map(&self) -> Result<ColumnMap, String> {
+        let deg = unit_factor(Quantity::Angle, &self.angle_unit)?.to_degrees();
+        let m = unit_factor(Quantity::Length, &self.length_unit)?;
+        let v = unit_factor(Quantity::Speed, &self.velocity_unit)?;
+        let nan = || Source::Constant(f64::NAN);
+        let mut fields = vec![
+            Source::Constant(0.0),
+            time_source(&self.time, &self.time_unit, self.time_offset)?,
+            Source::scaled(&self.latitude, deg),
+            Source::scaled(&self.longitude, deg),
+            Source::scaled(&self.height, m),
+        ];
+        match &self.velocity {
+            Some(vel) => fields.extend(ned(vel, self.velocity_frame, v)),
+            None => fields.extend([nan(), nan(), nan()]),
+        }
+        match &self.attitude {
+            Some(att) => {
+                let a = unit_factor(Quantity::Angle, &self.attitude_unit)?.to_degrees();
+                fields.push(Source::scaled(&att[0], a));
+                fields.push(Source::scaled(&att[1], a));
+                fields.push(match self.heading {
+                    Heading::NorthClockwise => Source::scaled(&att[2], a),
+                    Heading::EastCounterclockwise => {
+                        Source::Column { name: att[2].clone(), scale: -a, offset: 90.0 }
+                    }
+                });
+            }
+            None => fields.extend([nan(), nan(), nan()]),
+        }
+        Ok(ColumnMap { fields })
+    }
+
+    /// Positions only (no velocity): compared at the reference's epochs.
+    pub fn positions_only(&self) -> bool {
+        self.velocity.is_none()
+    }
+}
