@@ -88,6 +88,9 @@ pub fn print_summary(s: &RunSummary) {
         s.imu_epochs as f64 / s.wall_time.max(1e-9),
         s.out_dir.display()
     );
+    if !s.noise.is_empty() {
+        out!("{}", s.noise);
+    }
     if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
         let [n, z, r, o] = s.aiding;
         out!(

@@ -186,12 +186,29 @@ pub struct NoiseSection {
     pub arw: [f64; 3],
     /// Velocity random walk, m/s/√h.
     pub vrw: [f64; 3],
-    /// Gyro bias instability (Gauss–Markov σ), deg/h.
-    pub gyro_bias_std: [f64; 3],
-    /// Accelerometer bias instability, mGal.
-    pub accel_bias_std: [f64; 3],
-    /// Gauss–Markov correlation time, hours.
-    pub corr_time: f64,
+    /// Gyro bias instability (Gauss–Markov σ), deg/h; with `corr_time`. Or give the
+    /// bias random walk (`gyro_bias_rw` or `gyro_bias_rw_si`) instead.
+    #[serde(default)]
+    pub gyro_bias_std: Option<[f64; 3]>,
+    /// Accelerometer bias instability, mGal; or `accel_bias_rw` / `accel_bias_rw_si`.
+    #[serde(default)]
+    pub accel_bias_std: Option<[f64; 3]>,
+    /// Gauss–Markov correlation time of the instabilities, hours.
+    #[serde(default)]
+    pub corr_time: Option<f64>,
+    /// Gyro bias random walk (the density of its driving noise), deg/h/√h, instead of
+    /// `gyro_bias_std` and `corr_time` (`bias_model = "random-walk"`).
+    #[serde(default)]
+    pub gyro_bias_rw: Option<[f64; 3]>,
+    /// The same in rad/s/√s.
+    #[serde(default)]
+    pub gyro_bias_rw_si: Option<[f64; 3]>,
+    /// Accelerometer bias random walk, mGal/√h.
+    #[serde(default)]
+    pub accel_bias_rw: Option<[f64; 3]>,
+    /// The same in m/s²/√s.
+    #[serde(default)]
+    pub accel_bias_rw_si: Option<[f64; 3]>,
     /// Gyro scale-factor instability (Gauss–Markov σ with `corr_time`), ppm (21 states).
     /// Default 1000.
     #[serde(default = "default_scale_std")]
@@ -674,19 +691,16 @@ impl Config {
         let n = &self.imu_noise;
         positive("imu_noise.arw", &n.arw)?;
         positive("imu_noise.vrw", &n.vrw)?;
-        positive("imu_noise.gyro_bias_std", &n.gyro_bias_std)?;
-        positive("imu_noise.accel_bias_std", &n.accel_bias_std)?;
-        finite("imu_noise.corr_time", &[n.corr_time])?;
+        self.check_bias_noise()?;
         positive("imu_noise.gyro_scale_std", &n.gyro_scale_std)?;
         positive("imu_noise.accel_scale_std", &n.accel_scale_std)?;
         if self.filter.states != 15 && self.filter.states != 21 {
             return Err(format!("`filter.states` must be 15 or 21, got {}", self.filter.states));
         }
-        if n.corr_time <= 0.0 {
-            return Err(format!(
-                "`imu_noise.corr_time` must be positive (hours), got {}",
-                n.corr_time
-            ));
+        if self.filter.states == 21 && n.corr_time.is_none() {
+            return Err("21 states need `imu_noise.corr_time` (hours): the scale factors' \
+                        instability is a Gauss–Markov σ with that correlation time"
+                .into());
         }
         finite("gnss.lever_arm", &self.gnss.lever_arm)?;
         if self.gnss.lever_arm.iter().any(|v| v.abs() > 100.0) {
@@ -815,19 +829,127 @@ impl Config {
     /// The IMU noise in SI units.
     pub fn imu_noise(&self) -> ImuNoise {
         let n = &self.imu_noise;
+        // (validated: the instability and τ are there unless a random walk is given)
+        let tau_h = n.corr_time.unwrap_or(1.0);
         let noise = ImuNoise::from_datasheet(
             v3(n.arw),
             v3(n.vrw),
-            v3(n.gyro_bias_std),
-            v3(n.accel_bias_std),
-            n.corr_time,
+            v3(n.gyro_bias_std.unwrap_or_default()),
+            v3(n.accel_bias_std.unwrap_or_default()),
+            tau_h,
         );
-        let tau = n.corr_time * 3600.0;
-        noise.with_bias_model(match n.bias_model {
+        let tau = tau_h * 3600.0;
+        let mut noise = noise.with_bias_model(match n.bias_model {
             BiasModelName::RandomWalk => BiasModel::RandomWalk,
             BiasModelName::GaussMarkov => BiasModel::GaussMarkov { tau },
             BiasModelName::GaussMarkovHeld => BiasModel::GaussMarkovHeld { tau },
-        })
+        });
+        // a random walk given as such replaces the density σ √(2/τ)
+        if let Some(q) = self.gyro_bias_rw() {
+            noise.gyro_bias = q;
+        }
+        if let Some(q) = self.accel_bias_rw() {
+            noise.accel_bias = q;
+        }
+        noise
+    }
+
+    /// The gyro bias random walk given (`gyro_bias_rw` or `gyro_bias_rw_si`), rad/s/√s.
+    fn gyro_bias_rw(&self) -> Option<Vector3<f64>> {
+        let n = &self.imu_noise;
+        n.gyro_bias_rw.map(|q| v3(q) * (DEG_PER_H / 60.0)).or(n.gyro_bias_rw_si.map(v3))
+    }
+
+    /// The accelerometer bias random walk given, m/s²/√s.
+    fn accel_bias_rw(&self) -> Option<Vector3<f64>> {
+        let n = &self.imu_noise;
+        n.accel_bias_rw.map(|q| v3(q) * (MGAL / 60.0)).or(n.accel_bias_rw_si.map(v3))
+    }
+
+    /// Either the instability with its correlation time or the random walk, per sensor,
+    /// each once; a random walk only with `bias_model = "random-walk"`.
+    fn check_bias_noise(&self) -> Result<(), String> {
+        let n = &self.imu_noise;
+        let rw_model = n.bias_model == BiasModelName::RandomWalk;
+        for (sensor, std, rw, rw_si, unit) in [
+            ("gyro", n.gyro_bias_std, n.gyro_bias_rw, n.gyro_bias_rw_si, "deg/h"),
+            ("accel", n.accel_bias_std, n.accel_bias_rw, n.accel_bias_rw_si, "mGal"),
+        ] {
+            let given: Vec<String> = [
+                std.map(|_| format!("imu_noise.{sensor}_bias_std")),
+                rw.map(|_| format!("imu_noise.{sensor}_bias_rw")),
+                rw_si.map(|_| format!("imu_noise.{sensor}_bias_rw_si")),
+            ]
+            .into_iter()
+            .flatten()
+            .collect();
+            match given.len() {
+                0 => {
+                    return Err(format!(
+                        "missing `imu_noise.{sensor}_bias_std` ({unit}, with `corr_time`) or \
+                         `imu_noise.{sensor}_bias_rw` ({unit}/√h; `_si`: SI per √s)"
+                    ))
+                }
+                1 => {}
+                _ => {
+                    return Err(format!(
+                        "`{}`: give the bias noise once, either as an instability with \
+                         `corr_time` or as a random walk",
+                        given.join("`, `")
+                    ))
+                }
+            }
+            if let Some(v) = std {
+                positive(&format!("imu_noise.{sensor}_bias_std"), &v)?;
+                match n.corr_time {
+                    None => {
+                        return Err(format!(
+                            "`imu_noise.{sensor}_bias_std` needs `imu_noise.corr_time` (hours)"
+                        ))
+                    }
+                    Some(t) => {
+                        finite("imu_noise.corr_time", &[t])?;
+                        if t <= 0.0 {
+                            return Err(format!(
+                                "`imu_noise.corr_time` must be positive (hours), got {t}"
+                            ));
+                        }
+                    }
+                }
+            }
+            for (key, v) in [("rw", rw), ("rw_si", rw_si)] {
+                if let Some(v) = v {
+                    positive(&format!("imu_noise.{sensor}_bias_{key}"), &v)?;
+                    if !rw_model {
+                        return Err(format!(
+                            "`imu_noise.{sensor}_bias_{key}` is a random walk: it needs \
+                             `bias_model = \"random-walk\"` (a Gauss–Markov model needs \
+                             `{sensor}_bias_std` and `corr_time`)"
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The noise densities the filter uses, SI, for the run summary.
+    pub fn noise_echo(&self) -> String {
+        let n = self.imu_noise();
+        let f = |v: &Vector3<f64>| format!("[{:.3e}, {:.3e}, {:.3e}]", v.x, v.y, v.z);
+        let bias = match n.bias_model {
+            BiasModel::RandomWalk => format!(
+                "bias random walk gyro {} rad/s/√s, accel {} m/s²/√s",
+                f(&n.gyro_bias),
+                f(&n.accel_bias)
+            ),
+            BiasModel::GaussMarkov { tau } | BiasModel::GaussMarkovHeld { tau } => format!(
+                "bias Gauss–Markov σ gyro {} rad/s, accel {} m/s², τ {tau:.0} s",
+                f(&n.gyro_bias),
+                f(&n.accel_bias)
+            ),
+        };
+        format!("noise (SI): ARW {} rad/√s, VRW {} m/s/√s; {bias}", f(&n.arw), f(&n.vrw))
     }
 
     /// The initial position.
@@ -876,7 +998,7 @@ impl Config {
             v3(n.gyro_scale_std),
             v3(n.accel_scale_std),
             model,
-            n.corr_time * 3600.0,
+            n.corr_time.unwrap_or(1.0) * 3600.0,
         )
     }
 
@@ -1107,9 +1229,13 @@ mod kf_gins {
             imu_noise: NoiseSection {
                 arw: triple(doc, "imunoise.arw")?,
                 vrw: triple(doc, "imunoise.vrw")?,
-                gyro_bias_std: triple(doc, "imunoise.gbstd")?,
-                accel_bias_std: triple(doc, "imunoise.abstd")?,
-                corr_time: scalar(doc, "imunoise.corrtime")?,
+                gyro_bias_std: Some(triple(doc, "imunoise.gbstd")?),
+                accel_bias_std: Some(triple(doc, "imunoise.abstd")?),
+                corr_time: Some(scalar(doc, "imunoise.corrtime")?),
+                gyro_bias_rw: None,
+                gyro_bias_rw_si: None,
+                accel_bias_rw: None,
+                accel_bias_rw_si: None,
                 gyro_scale_std: triple(doc, "imunoise.gsstd")
                     .unwrap_or_else(|_| default_scale_std()),
                 accel_scale_std: triple(doc, "imunoise.asstd")

@@ -156,6 +156,8 @@ pub struct RunSummary {
     /// Rows of `nav_smoothed.txt` when the run smoothed (`filter.smooth`), and the wall
     /// time of the backward pass, s.
     pub smoothed: Option<(usize, f64)>,
+    /// The IMU noise densities the filter used, SI ([`Config::noise_echo`]).
+    pub noise: String,
 }
 
 /// Updates of one vehicle-aiding stream.
@@ -488,8 +490,12 @@ where
     let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
     let strategy = config.strategy(strategy).map_err(RunError::Config)?;
     let nav = S::navigator(config, strategy, start)?.with_vehicle_aiding(config.vehicle_aiding());
-    let summary =
-        RunSummary { strategy: name.to_string(), span: (start, start), ..Default::default() };
+    let summary = RunSummary {
+        strategy: name.to_string(),
+        span: (start, start),
+        noise: config.noise_echo(),
+        ..Default::default()
+    };
     Ok((nav, summary, end))
 }
 
