@@ -70,7 +70,14 @@ fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
 
 /// Print a run summary.
 pub fn print_summary(s: &RunSummary) {
-    out!(
+    for line in summary_lines(s) {
+        out!("{line}");
+    }
+}
+
+/// The lines of a run summary (printed, and in the report).
+pub fn summary_lines(s: &RunSummary) -> Vec<String> {
+    let mut lines = vec![format!(
         "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {} rejected; \
          skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s; output {}",
         s.strategy,
@@ -87,27 +94,28 @@ pub fn print_summary(s: &RunSummary) {
         s.wall_time,
         s.imu_epochs as f64 / s.wall_time.max(1e-9),
         s.out_dir.display()
-    );
+    )];
     if !s.noise.is_empty() {
-        out!("{}", s.noise);
+        lines.push(s.noise.clone());
     }
     if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
         let [n, z, r, o] = s.aiding;
-        out!(
+        lines.push(format!(
             "vehicle aiding: NHC {} used, {} refused; ZUPT {} used, {} refused; ZARU {} used, {} refused; odometer {} used, {} refused; stationary {:.1} s",
             n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
-        );
+        ));
     }
     if let Some(c) = s.consistency() {
-        out!("{}", c.verdict());
+        lines.push(c.verdict());
     }
     if let Some((rows, secs)) = s.smoothed {
-        out!(
+        lines.push(format!(
             "smoothed: {rows} epochs in {secs:.2} s (backward pass) -> {}, {}",
             s.out_dir.join("nav_smoothed.txt").display(),
             s.out_dir.join("std_smoothed.txt").display()
-        );
+        ));
     }
+    lines
 }
 
 /// Options of `ins-gnss run`.
@@ -141,6 +149,8 @@ pub struct RunOptions<'a> {
     pub states: Option<u32>,
     /// Smooth the run (sets `filter.smooth`).
     pub smooth: bool,
+    /// Write `report.html` (with the plots when there is a truth).
+    pub report: bool,
 }
 
 /// `ins-gnss run`.
@@ -188,6 +198,9 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     }
     print_summary(&summary);
     let truth = truth.map(Path::to_path_buf).or_else(|| cfg.data.truth.clone());
+    let plots = plots || (o.report && truth.is_some());
+    let mut tables: Vec<(String, Evaluation)> = Vec::new();
+    let mut figures: Vec<PathBuf> = Vec::new();
     if let Some(truth) = truth {
         let columns = cfg.data.truth_columns.as_ref();
         let ev = evaluate_with(&out_dir.join("nav.txt"), &truth, columns, skip, &[])?;
@@ -198,19 +211,40 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
             require_overlap(&ev_s, &smoothed, &truth, skip)?;
             let label = format!("{name}, smoothed");
             print_table(&[(&name, &ev.overall), (&label, &ev_s.overall)]);
+            tables.push((label, ev_s));
         } else {
             print_table(&[(&name, &ev.overall)]);
         }
+        tables.insert(0, (name.clone(), ev));
         if plots {
-            let files = crate::plot::write_all(&out_dir, &truth, columns)?;
-            for f in files {
+            let fixes = read_fixes(&cfg)?;
+            let files = crate::plot::write_all(&out_dir, &truth, columns, &fixes)?;
+            for f in &files {
                 out!("plot: {}", f.display());
             }
+            figures = files;
         }
     } else if plots {
         return Err("--plots needs a truth file (--truth or data.truth)".into());
     }
+    if o.report {
+        let page = crate::report::write(&out_dir, &summary, &cfg, &tables, &figures)?;
+        out!("report: {}", page.display());
+    }
     Ok(())
+}
+
+/// The GNSS fixes of a configuration (time, position), for the plan view.
+fn read_fixes(cfg: &Config) -> Result<Vec<(f64, ins_gnss_core::GeoPos)>, CliError> {
+    let mut r = ins_gnss_core::io::GnssReader::open(&cfg.data.gnss, cfg.bad_lines())?;
+    if let Some(c) = &cfg.data.gnss_columns {
+        r = r.with_columns(c.map()?);
+    }
+    let mut out = Vec::new();
+    while let Some(g) = r.next_epoch()? {
+        out.push((g.t, g.pos));
+    }
+    Ok(out)
 }
 
 fn progress_bar(cfg: &Config) -> (indicatif::ProgressBar, f64) {
@@ -435,7 +469,7 @@ pub fn demo() -> Result<(), CliError> {
     print_table(&rows);
     for name in names {
         let out = dir.join("out").join(name);
-        for f in crate::plot::write_all(&out, &truth, None)? {
+        for f in crate::plot::write_all(&out, &truth, None, &[])? {
             out!("plot: {}", f.display());
         }
     }

@@ -208,7 +208,8 @@ impl RefReader {
     }
 }
 
-fn interpolate(a: &NavRecord, b: &NavRecord, t: f64) -> NavRecord {
+/// The record between `a` and `b` at `t` (positions and velocity linear, angles wrapped).
+pub fn interpolate(a: &NavRecord, b: &NavRecord, t: f64) -> NavRecord {
     let u = if b.t > a.t { ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 0.0 };
     let lerp = |x: f64, y: f64| x + (y - x) * u;
     let att = Vector3::new(

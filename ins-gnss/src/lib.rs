@@ -10,6 +10,7 @@
 //! | [`run`] | one streaming run over files (bounded memory), or over data in memory |
 //! | [`eval`] | errors of a result against a truth file: RMS, maxima, windows |
 //! | [`plot`] | SVG plots of errors with ±3σ envelopes and adaptation factors |
+//! | [`report`] | `report.html`: a run's summary, tables, plots and configuration in one file |
 //! | [`scenario`] | scenario files for `simulate`, and Monte Carlo over seeds |
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
@@ -20,5 +21,6 @@ pub mod columns;
 pub mod config;
 pub mod eval;
 pub mod plot;
+pub mod report;
 pub mod run;
 pub mod scenario;

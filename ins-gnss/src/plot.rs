@@ -1,6 +1,6 @@
 //! SVG plots of a run: position and attitude errors with ±3σ envelopes, forward and,
 //! when the run smoothed, smoothed (stationary periods shaded when ZUPT ran), and the
-//! adaptation factors. Reads the run's output files and the truth; writes
+//! adaptation factors, and the trajectory in plan view with the GNSS fixes and outages. Reads the run's output files and the truth; writes
 //! `errors_position.svg`, `errors_attitude.svg` and `adaptation.svg`.
 
 use std::path::{Path, PathBuf};
@@ -8,9 +8,11 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 use crate::columns::TruthColumns;
-use crate::eval::{errors, RefReader};
+use crate::eval::{errors, interpolate, RefReader, MAX_REFERENCE_GAP};
+use ins_gnss_core::earth::geodetic_to_local_ned;
 use ins_gnss_core::io::formats::open;
 use ins_gnss_core::io::{NavReader, NumericLines};
+use ins_gnss_core::position::GeoPos;
 
 type Series = Vec<(f64, f64)>;
 
@@ -100,6 +102,28 @@ fn error_series(
     let mut tru = RefReader::open(truth, map.as_ref()).map_err(|e| e.to_string())?;
     let mut all = Decimator::<(f64, [f64; 6])>::new(MAX_POINTS);
     let mut t_rec = tru.next_record().map_err(|e| e.to_string())?;
+    if t_rec.is_some_and(|t| t.vel.x.is_nan()) {
+        // a position reference (RTK fixes at a few Hz): the result interpolated at its
+        // epochs, as `eval` compares them; no attitude
+        let (mut a, mut b) = (res.next_record().map_err(|e| e.to_string())?, None);
+        b = b.or(res.next_record().map_err(|e| e.to_string())?);
+        while let Some(t) = t_rec {
+            while let (Some(_), Some(rb)) = (&a, &b) {
+                if rb.t >= t.t {
+                    break;
+                }
+                a = b.take();
+                b = res.next_record().map_err(|e| e.to_string())?;
+            }
+            if let (Some(ra), Some(rb)) = (&a, &b) {
+                if ra.t <= t.t && rb.t >= t.t && rb.t - ra.t <= MAX_REFERENCE_GAP {
+                    let (dp, _, _) = errors(&interpolate(ra, rb, t.t), &t);
+                    all.push((t.t, [dp.x, dp.y, dp.z, f64::NAN, f64::NAN, f64::NAN]));
+                }
+            }
+            t_rec = tru.next_record().map_err(|e| e.to_string())?;
+        }
+    }
     while let Some(r) = res.next_record().map_err(|e| e.to_string())? {
         while let Some(t) = &t_rec {
             if t.t >= r.t - 1e-6 {
@@ -123,9 +147,34 @@ fn error_series(
     Ok(out)
 }
 
-/// One line of a panel: label, points, colour, and whether its mirror image (−y) is drawn
-/// too (a ±3σ envelope).
+/// One line of a panel: label, points, colour, and whether it is a ±y envelope (drawn as
+/// a shaded band between −y and +y) rather than a line.
 type Line<'a> = (&'a str, &'a [(f64, f64)], RGBColor, bool);
+
+/// A series cut where it has a hole: consecutive points further apart in time than
+/// `GAP_FACTOR` times the series' median spacing (an outage, a streak of refused updates)
+/// are not joined.
+const GAP_FACTOR: f64 = 5.0;
+
+/// The runs of `pts` without holes (see [`GAP_FACTOR`]).
+fn runs(pts: &[(f64, f64)]) -> Vec<&[(f64, f64)]> {
+    if pts.len() < 3 {
+        return vec![pts];
+    }
+    let mut steps: Vec<f64> = pts.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    steps.sort_by(f64::total_cmp);
+    let limit = GAP_FACTOR * steps[steps.len() / 2];
+    let mut out = Vec::new();
+    let mut start = 0;
+    for k in 1..pts.len() {
+        if pts[k].0 - pts[k - 1].0 > limit {
+            out.push(&pts[start..k]);
+            start = k;
+        }
+    }
+    out.push(&pts[start..]);
+    out
+}
 
 /// Draw `lines` in one panel; the y range is symmetric about 0 when `symmetric`, else
 /// from 0 up; the time spans of `shade` (stationary periods) shaded grey behind.
@@ -145,13 +194,24 @@ fn draw_lines(
     let m = points().map(|p| p.1.abs()).filter(|v| v.is_finite()).fold(1e-6_f64, f64::max);
     let y0 = if symmetric { -m * 1.05 } else { 0.0 };
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 16))
-        .margin(8)
-        .x_label_area_size(28)
-        .y_label_area_size(56)
+        .caption(title, ("sans-serif", 17))
+        .margin(10)
+        .margin_right(36)
+        .x_label_area_size(40)
+        .y_label_area_size(64)
         .build_cartesian_2d(t0..t1, y0..m * 1.05)
         .map_err(e)?;
-    chart.configure_mesh().x_desc("t [s]").y_desc(unit).draw().map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc(unit)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 14))
+        .x_labels(8)
+        .y_labels(6)
+        .x_label_formatter(&|t| format!("{t:.0}"))
+        .draw()
+        .map_err(e)?;
     let grey = RGBColor(200, 200, 200).mix(0.5).filled();
     for (k, (a, b)) in shade.iter().enumerate() {
         let rect = Rectangle::new([(*a, y0), (*b, m * 1.05)], grey);
@@ -162,20 +222,41 @@ fn draw_lines(
             });
         }
     }
-    for (label, pts, colour, mirror) in lines {
+    // envelopes first (shaded bands behind the lines), then the lines
+    for (label, pts, colour, band) in lines.iter().filter(|l| l.3) {
         let c = *colour;
-        chart
-            .draw_series(LineSeries::new(pts.iter().copied(), c))
-            .map_err(e)?
-            .label(*label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c));
-        if *mirror {
-            chart.draw_series(LineSeries::new(pts.iter().map(|p| (p.0, -p.1)), c)).map_err(e)?;
+        let mut first = true;
+        for run in runs(pts) {
+            let outline: Vec<(f64, f64)> =
+                run.iter().copied().chain(run.iter().rev().map(|p| (p.0, -p.1))).collect();
+            let drawn = chart
+                .draw_series(std::iter::once(Polygon::new(outline, c.mix(0.18).filled())))
+                .map_err(e)?;
+            if std::mem::take(&mut first) && *band {
+                drawn.label(*label).legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.mix(0.35).filled())
+                });
+            }
+        }
+    }
+    for (label, pts, colour, _) in lines.iter().filter(|l| !l.3) {
+        let c = *colour;
+        let style = ShapeStyle::from(c).stroke_width(1);
+        let mut first = true;
+        for run in runs(pts) {
+            let drawn =
+                chart.draw_series(LineSeries::new(run.iter().copied(), style)).map_err(e)?;
+            if std::mem::take(&mut first) {
+                drawn
+                    .label(*label)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+            }
         }
     }
     chart
         .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
+        .label_font(("sans-serif", 13))
+        .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
         .map_err(e)?;
@@ -259,6 +340,7 @@ pub fn write_all(
     out_dir: &Path,
     truth: &Path,
     columns: Option<&TruthColumns>,
+    fixes: &[(f64, GeoPos)],
 ) -> Result<Vec<PathBuf>, String> {
     let errs = error_series(&out_dir.join("nav.txt"), truth, columns)?;
     let std = read_columns(&out_dir.join("std.txt"))?;
@@ -298,7 +380,9 @@ pub fn write_all(
     written.push(p);
 
     let p = out_dir.join("errors_attitude.svg");
-    {
+    // (a position reference has no attitude to plot)
+    let attitude = errs[3].iter().any(|p| p.1.is_finite());
+    if attitude {
         let tmp = partial(&p);
         let root = SVGBackend::new(&tmp, (1000, 900)).into_drawing_area();
         root.fill(&WHITE).map_err(e)?;
@@ -308,9 +392,13 @@ pub fn write_all(
             panel(&areas[k], &title, "deg", &component(3 + k, 7 + k), &still)?;
         }
         root.present().map_err(e)?;
+        drop(root);
+        publish(&p)?;
+        written.push(p);
+    } else if p.exists() {
+        // an earlier run's attitude plot would not belong to this result
+        std::fs::remove_file(&p).map_err(|e| format!("{}: {e}", p.display()))?;
     }
-    publish(&p)?;
-    written.push(p);
 
     let ups = read_updates(&out_dir.join("updates.csv"))?;
     let p = out_dir.join("adaptation.svg");
@@ -332,32 +420,205 @@ pub fn write_all(
             .fold(2.0_f64, f64::max)
             .min(1e3);
         let mut chart = ChartBuilder::on(&root)
-            .caption("adaptation factors (λ_P on P⁻, λ_R on R)", ("sans-serif", 16))
-            .margin(8)
-            .x_label_area_size(28)
-            .y_label_area_size(56)
+            .caption("adaptation factors (λ_P on P⁻, λ_R on R)", ("sans-serif", 17))
+            .margin(10)
+            .margin_right(36)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
             .build_cartesian_2d(t0..t1, (0.01f64..top * 1.2).log_scale())
             .map_err(e)?;
         chart.configure_mesh().x_desc("t [s]").y_desc("factor").draw().map_err(e)?;
         let finite = |v: f64| v.is_finite() && v > 0.0;
+        for (label, colour, pick) in [
+            ("λ_P", BLUE, (|u: &(f64, f64, f64, f64)| u.2) as fn(&(f64, f64, f64, f64)) -> f64),
+            ("λ_R", RED, |u| u.3),
+        ] {
+            let pts: Series =
+                ups.iter().filter(|u| finite(pick(u))).map(|u| (u.0, pick(u))).collect();
+            let mut first = true;
+            // no line across an outage or a streak of refused updates
+            for run in runs(&pts) {
+                let drawn =
+                    chart.draw_series(LineSeries::new(run.iter().copied(), colour)).map_err(e)?;
+                if std::mem::take(&mut first) {
+                    drawn
+                        .label(label)
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour));
+                }
+            }
+        }
         chart
-            .draw_series(LineSeries::new(
-                ups.iter().filter(|u| finite(u.2)).map(|u| (u.0, u.2)),
-                &BLUE,
-            ))
-            .map_err(e)?
-            .label("λ_P");
-        chart
-            .draw_series(LineSeries::new(
-                ups.iter().filter(|u| finite(u.3)).map(|u| (u.0, u.3)),
-                &RED,
-            ))
-            .map_err(e)?
-            .label("λ_R");
-        chart.configure_series_labels().border_style(BLACK).draw().map_err(e)?;
+            .configure_series_labels()
+            .label_font(("sans-serif", 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(e)?;
         root.present().map_err(e)?;
     }
     publish(&p)?;
     written.push(p);
+
+    let p = out_dir.join("trajectory.svg");
+    plan_view(&p, out_dir, truth, columns, fixes)?;
+    written.push(p);
     Ok(written)
+}
+
+/// The plan view (north against east, metres from the first truth point) of the estimate,
+/// the smoothed estimate when there is one, the truth and the GNSS fixes, with the
+/// estimate drawn red inside the GNSS outages (holes in the fixes longer than
+/// [`GAP_FACTOR`] of their usual interval). Writes `path` (`trajectory.svg`).
+fn plan_view(
+    path: &Path,
+    out_dir: &Path,
+    truth: &Path,
+    columns: Option<&TruthColumns>,
+    fixes: &[(f64, GeoPos)],
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+    let map = columns.map(TruthColumns::map).transpose()?;
+    let mut tru = RefReader::open(truth, map.as_ref()).map_err(|e| e.to_string())?;
+    let mut truth_pts = Decimator::new(MAX_POINTS);
+    let mut origin = None;
+    while let Some(r) = tru.next_record().map_err(|e| e.to_string())? {
+        let o = *origin.get_or_insert(r.pos.tuple());
+        let d = geodetic_to_local_ned(o, r.pos.tuple());
+        truth_pts.push((r.t, d.y, d.x));
+    }
+    let Some(origin) = origin else { return Err(format!("{}: no record", truth.display())) };
+    let read = |name: &str| -> Result<Vec<(f64, f64, f64)>, String> {
+        let mut r = NavReader::open(&out_dir.join(name)).map_err(|e| e.to_string())?;
+        let mut pts = Decimator::new(MAX_POINTS);
+        while let Some(rec) = r.next_record().map_err(|e| e.to_string())? {
+            let d = geodetic_to_local_ned(origin, rec.pos.tuple());
+            pts.push((rec.t, d.y, d.x));
+        }
+        Ok(pts.items)
+    };
+    let estimate = read("nav.txt")?;
+    let smoothed = match out_dir.join("nav_smoothed.txt").is_file() {
+        true => Some(read("nav_smoothed.txt")?),
+        false => None,
+    };
+    let fix_pts: Vec<(f64, f64, f64)> = fixes
+        .iter()
+        .map(|(t, p)| {
+            let d = geodetic_to_local_ned(origin, p.tuple());
+            (*t, d.y, d.x)
+        })
+        .collect();
+    // outages: holes in the fixes
+    let outages: Vec<(f64, f64)> = {
+        let times: Series = fix_pts.iter().map(|f| (f.0, 0.0)).collect();
+        let r = runs(&times);
+        r.windows(2).map(|w| (w[0][w[0].len() - 1].0, w[1][0].0)).collect()
+    };
+    let all = || truth_pts.items.iter().chain(&estimate).chain(&fix_pts);
+    let (mut e0, mut e1, mut n0, mut n1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in all() {
+        (e0, e1, n0, n1) = (e0.min(p.1), e1.max(p.1), n0.min(p.2), n1.max(p.2));
+    }
+    // equal scales on both axes
+    let half = ((e1 - e0).max(n1 - n0) * 0.55).max(1.0);
+    let (ec, nc) = ((e0 + e1) / 2.0, (n0 + n1) / 2.0);
+    let tmp = partial(path);
+    {
+        let root = SVGBackend::new(&tmp, (900, 900)).into_drawing_area();
+        root.fill(&WHITE).map_err(e)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption("trajectory (plan view)", ("sans-serif", 17))
+            .margin(10)
+            .margin_right(36)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(ec - half..ec + half, nc - half..nc + half)
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_desc("east [m]")
+            .y_desc("north [m]")
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 14))
+            .draw()
+            .map_err(e)?;
+        let line = |chart: &mut ChartContext<'_, SVGBackend, _>,
+                    pts: &[(f64, f64, f64)],
+                    label: &str,
+                    style: ShapeStyle|
+         -> Result<(), String> {
+            chart
+                .draw_series(LineSeries::new(pts.iter().map(|p| (p.1, p.2)), style))
+                .map_err(e)?
+                .label(label.to_string())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+            Ok(())
+        };
+        if !fix_pts.is_empty() {
+            let step = (fix_pts.len() / MAX_POINTS).max(1);
+            let c = RGBColor(230, 140, 0);
+            chart
+                .draw_series(
+                    fix_pts.iter().step_by(step).map(|p| Circle::new((p.1, p.2), 2, c.filled())),
+                )
+                .map_err(e)?
+                .label("GNSS fixes")
+                .legend(move |(x, y)| Circle::new((x + 8, y), 3, c.filled()));
+        }
+        line(&mut chart, &truth_pts.items, "truth", ShapeStyle::from(BLACK).stroke_width(2))?;
+        line(&mut chart, &estimate, "estimate", ShapeStyle::from(BLUE).stroke_width(1))?;
+        if let Some(s) = &smoothed {
+            line(&mut chart, s, "smoothed", ShapeStyle::from(RGBColor(0, 150, 0)).stroke_width(1))?;
+        }
+        let red = ShapeStyle::from(RED).stroke_width(3);
+        for (k, (a, b)) in outages.iter().enumerate() {
+            let inside: Vec<(f64, f64)> =
+                estimate.iter().filter(|p| p.0 > *a && p.0 < *b).map(|p| (p.1, p.2)).collect();
+            let drawn = chart.draw_series(LineSeries::new(inside, red)).map_err(e)?;
+            if k == 0 {
+                drawn
+                    .label("estimate in a GNSS outage")
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], red));
+            }
+        }
+        chart
+            .configure_series_labels()
+            .label_font(("sans-serif", 13))
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(e)?;
+        root.present().map_err(e)?;
+    }
+    publish(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn series_are_cut_at_holes_only() {
+        // 10 Hz with a 3 s hole and a 0.3 s one (3 samples: joined)
+        let mut pts: Series = (0..50).map(|k| (k as f64 * 0.1, 1.0)).collect();
+        pts.extend((80..120).map(|k| (k as f64 * 0.1, 1.0)));
+        pts.extend((123..130).map(|k| (k as f64 * 0.1, 1.0)));
+        let r = runs(&pts);
+        assert_eq!(r.len(), 2);
+        assert_eq!((r[0].len(), r[1].len()), (50, 47));
+    }
+
+    #[test]
+    fn the_decimator_keeps_a_bounded_even_sample() {
+        let mut d = Decimator::new(100);
+        for k in 0..100_000 {
+            d.push(k);
+        }
+        assert!((100..=200).contains(&d.items.len()), "{}", d.items.len());
+        let gaps: Vec<i32> = d.items.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(gaps.iter().all(|g| *g == gaps[0]), "evenly spaced");
+    }
 }

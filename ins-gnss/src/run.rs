@@ -6,8 +6,8 @@
 //! - `nav.txt`: the 11-column navigation result at every IMU epoch;
 //! - `std.txt`: `t`, 1σ of position N E D (m), velocity N E D (m/s), roll pitch yaw
 //!   (deg), gyro bias x y z (deg/h), accelerometer bias x y z (mGal), with 21 states the
-//!   gyro and accelerometer scale factors (ppm), after every IMU sample with an update
-//!   and at the end;
+//!   gyro and accelerometer scale factors (ppm), after every IMU sample with an update,
+//!   at least once a second, and at the end;
 //! - `imu_errors.txt`: `t`, gyro bias x y z (deg/h), accelerometer bias x y z (mGal), with
 //!   21 states the scale factors (ppm), at the same epochs;
 //! - `updates.csv`: one row per update: time, stream name (`gnss-position`,
@@ -621,6 +621,10 @@ where
     Ok(count)
 }
 
+/// Longest time between two rows of `std.txt` and `imu_errors.txt`, s (they are written
+/// after every update, and at this interval without one).
+const STD_EVERY: f64 = 1.0;
+
 /// Samples or records per message between the pipeline's threads.
 const BATCH: usize = 1024;
 
@@ -772,6 +776,7 @@ where
             let mut batch_lines: Vec<usize> = Vec::with_capacity(4);
             let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
             let mut records = Vec::with_capacity(BATCH);
+            let mut last_std = f64::NEG_INFINITY;
             'outer: for message in &imu_rx {
                 for (sample, imu_line) in message? {
                     if sample.t <= start + 1e-9 {
@@ -814,8 +819,10 @@ where
                     for u in &updates {
                         write_update(&mut out, u).map_err(|e| out.err("updates.csv", e))?;
                     }
-                    if !updates.is_empty() {
+                    // after every update, and once a second without (an outage's σ)
+                    if !updates.is_empty() || sample.t >= last_std + STD_EVERY - 1e-9 {
                         write_std(&mut out, sample.t, &nav).map_err(|e| out.err("std.txt", e))?;
+                        last_std = sample.t;
                     }
                     summary.span.1 = sample.t;
                     if summary.imu_epochs.is_multiple_of(2000) {

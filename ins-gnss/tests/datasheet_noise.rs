@@ -26,8 +26,9 @@ fn with_bias(lines: &str) -> String {
     let keep: Vec<&str> = text
         .lines()
         .filter(|l| {
-            !(l.starts_with("gyro_bias_std = [10") || l.starts_with("accel_bias_std = [100"))
-                && !l.starts_with("corr_time")
+            !(l.starts_with("gyro_bias_std = [10")
+                || l.starts_with("accel_bias_std = [100")
+                || l.starts_with("corr_time"))
         })
         .collect();
     keep.join("\n").replace("[imu_noise]\n", &format!("[imu_noise]\n{lines}\n"))

@@ -74,6 +74,10 @@ enum Command {
         /// `filter.smooth`).
         #[arg(long)]
         smooth: bool,
+        /// Write `report.html`: summary, consistency, error tables and plots (with a
+        /// truth), the configuration used; one self-contained file.
+        #[arg(long)]
+        report: bool,
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
@@ -143,6 +147,7 @@ fn main() -> ExitCode {
             states,
             no_vehicle,
             smooth,
+            report,
         }) => {
             let o = cli::RunOptions {
                 strategy: strategy.as_deref(),
@@ -159,6 +164,7 @@ fn main() -> ExitCode {
                 no_vehicle,
                 states: states.as_deref().and_then(|s| s.parse().ok()),
                 smooth,
+                report,
             };
             cli::run(&config, &o)
         }

@@ -1,0 +1,122 @@
+//! `report.html`: one run in one self-contained file — the summary and consistency
+//! verdict, the error tables against the truth, the plots inline (SVG), and the
+//! configuration used (TOML). No script, no external file: it opens offline in any
+//! browser and can be mailed as it is.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use crate::cli::summary_lines;
+use crate::config::Config;
+use crate::eval::{Evaluation, Stats};
+use crate::run::RunSummary;
+
+/// Text made safe for HTML.
+fn escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+/// One table row of statistics.
+fn row(out: &mut String, label: &str, s: &Stats) {
+    let _ = write!(out, "<tr><td>{}</td><td>{}</td>", escape(label), s.epochs);
+    for v in [
+        s.north.rms,
+        s.east.rms,
+        s.down.rms,
+        s.horizontal.rms,
+        s.horizontal.max,
+        s.position_3d.rms,
+        s.velocity_3d.rms,
+        s.roll.rms,
+        s.pitch.rms,
+        s.yaw.rms,
+        s.yaw.max,
+    ] {
+        let _ = write!(out, "<td>{v:.3}</td>");
+    }
+    out.push_str("</tr>\n");
+}
+
+const HEADER: &str = "<tr><th>result</th><th>epochs</th><th>N RMS m</th><th>E RMS m</th>\
+<th>D RMS m</th><th>horizontal RMS m</th><th>horizontal max m</th><th>3D RMS m</th>\
+<th>velocity 3D RMS m/s</th><th>roll RMS °</th><th>pitch RMS °</th><th>yaw RMS °</th>\
+<th>yaw max °</th></tr>\n";
+
+/// An SVG file's markup, for inlining (its XML declaration dropped).
+fn inline_svg(path: &Path) -> Result<String, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let start = text.find("<svg").ok_or_else(|| format!("{}: not an SVG", path.display()))?;
+    Ok(text[start..].to_string())
+}
+
+/// Write `out_dir/report.html` (through a `.partial` file, renamed when complete).
+pub fn write(
+    out_dir: &Path,
+    summary: &RunSummary,
+    config: &Config,
+    tables: &[(String, Evaluation)],
+    plots: &[PathBuf],
+) -> Result<PathBuf, String> {
+    let mut h = String::new();
+    h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n");
+    let _ = writeln!(h, "<title>ins-gnss run: {}</title>", escape(&summary.strategy));
+    h.push_str(
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em}\
+         table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #bbb;\
+         padding:3px 6px;text-align:right}td:first-child{text-align:left}\
+         pre{background:#f4f4f4;padding:1em;overflow-x:auto}.bad{color:#b00}\
+         svg{max-width:100%;height:auto}</style>\n</head>\n<body>\n",
+    );
+    let _ = writeln!(h, "<h1>ins-gnss run: {}</h1>", escape(&summary.strategy));
+    h.push_str("<h2>Summary</h2>\n<ul>\n");
+    for line in summary_lines(summary) {
+        let _ = writeln!(h, "<li>{}</li>", escape(&line));
+    }
+    h.push_str("</ul>\n<h2>Consistency</h2>\n");
+    match summary.consistency() {
+        Some(c) => {
+            let class = if c.consistent() { "" } else { " class=\"bad\"" };
+            let _ = writeln!(h, "<p{class}>{}</p>", escape(&c.verdict()));
+        }
+        None => h.push_str("<p>No accepted update to judge by.</p>\n"),
+    }
+    if !tables.is_empty() {
+        h.push_str("<h2>Errors against the truth</h2>\n<table>\n");
+        h.push_str(HEADER);
+        for (label, ev) in tables {
+            row(&mut h, &format!("{label} ({})", ev.overall.label), &ev.overall);
+            for w in &ev.windows {
+                row(&mut h, &format!("{label} ({})", w.label), w);
+            }
+        }
+        h.push_str("</table>\n");
+    }
+    if !plots.is_empty() {
+        h.push_str("<h2>Plots</h2>\n");
+        for p in plots {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("plot");
+            let _ = writeln!(h, "<figure id=\"{}\">", escape(name));
+            h.push_str(&inline_svg(p)?);
+            let _ = writeln!(h, "\n<figcaption>{}</figcaption>\n</figure>", escape(name));
+        }
+    }
+    h.push_str("<h2>Configuration</h2>\n<pre>");
+    let toml = toml::to_string_pretty(config).map_err(|e| format!("configuration: {e}"))?;
+    h.push_str(&escape(&toml));
+    h.push_str("</pre>\n</body>\n</html>\n");
+    let path = out_dir.join("report.html");
+    let partial = ins_gnss_core::io::formats::partial_path(&path);
+    std::fs::write(&partial, h).map_err(|e| format!("{}: {e}", partial.display()))?;
+    std::fs::rename(&partial, &path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(path)
+}
