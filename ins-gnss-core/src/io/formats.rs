@@ -203,7 +203,9 @@ pub struct ImuReader<R: BufRead> {
     policy: BadLinePolicy,
     prev_t: Option<f64>,
     prev_line: usize,
-    prev_rates: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// Rates: the last records read (time, interval, ω, f, odometer), oldest first, up to
+    /// four; the interval ending at the second-newest is emitted once the newest is read.
+    rate_history: Vec<RateRecord>,
     header_done: bool,
     /// What was skipped so far.
     pub skipped: SkipCounts,
@@ -283,7 +285,7 @@ impl<R: BufRead> ImuReader<R> {
             policy,
             prev_t: None,
             prev_line: 0,
-            prev_rates: None,
+            rate_history: Vec::with_capacity(4),
             header_done: format == ImuFormat::Increments,
             skipped: SkipCounts::default(),
             records: 0,
@@ -333,6 +335,11 @@ impl<R: BufRead> ImuReader<R> {
         self.columns.start(&mut self.lines)?;
         loop {
             if !next_record(&mut self.lines, self.policy, &mut self.skipped, self.records)? {
+                // rates: the last interval, without a sample after it
+                if let Some(s) = integrate_rates(&self.rate_history, 0) {
+                    self.rate_history.clear();
+                    return Ok(Some(s));
+                }
                 return Ok(None);
             }
             let rec = self.columns.record(self.lines.values());
@@ -419,10 +426,19 @@ impl<R: BufRead> ImuReader<R> {
                     ImuSample { t, dt, dtheta: a, dvel: b, odometer }
                 }
                 ImuFormat::Rates => {
-                    let mut s = ImuSample::from_rates(t, dt, a, b, self.prev_rates);
-                    s.odometer = (rec.len() == 8).then(|| rec[7]);
-                    self.prev_rates = Some((a, b));
-                    s
+                    let odometer = (rec.len() == 8).then(|| rec[7]);
+                    if self.rate_history.len() == 4 {
+                        self.rate_history.remove(0);
+                    }
+                    self.rate_history.push(RateRecord { t, dt, w: a, f: b, odometer });
+                    self.prev_t = Some(t);
+                    self.prev_line = self.lines.line();
+                    self.records += 1;
+                    // the interval ending at the previous record, now that the next is known
+                    match integrate_rates(&self.rate_history, 1) {
+                        Some(s) => return Ok(Some(s)),
+                        None => continue,
+                    }
                 }
             };
             self.prev_t = Some(t);
@@ -436,6 +452,63 @@ impl<R: BufRead> ImuReader<R> {
     pub fn line(&self) -> usize {
         self.lines.line()
     }
+}
+
+/// One record of a rate-type IMU log.
+#[derive(Clone, Copy, Debug)]
+struct RateRecord {
+    t: f64,
+    dt: f64,
+    w: Vector3<f64>,
+    f: Vector3<f64>,
+    odometer: Option<f64>,
+}
+
+/// The increments of the interval ending at `h[h.len() − 1 − ahead]` from instantaneous
+/// rate samples (`ahead` = how many samples after it are known, 0 or 1; `None` when that
+/// record does not exist).
+///
+/// With two samples on each side of a uniformly sampled interval, the integral of the
+/// cubic through the four, `dt (−ω₋₁ + 13 ω₀ + 13 ω₁ − ω₂)/24` (exact for cubic rates;
+/// on a 2 Hz coning sampled at 100 Hz the trapezoid's gain error is 1.3e-3, this one's
+/// 3.8e-6: `tests/rate_path.rs`); at the log's second and last samples the quadratic
+/// through three; across an irregular interval the trapezoid `dt (ω₀ + ω₁)/2`; for the
+/// first record the rectangle over its nominal interval.
+fn integrate_rates(h: &[RateRecord], ahead: usize) -> Option<ImuSample> {
+    let j = h.len().checked_sub(1 + ahead)?;
+    let cur = &h[j];
+    let trapezoid = |p: &RateRecord| ((p.w + cur.w) * 0.5, (p.f + cur.f) * 0.5);
+    let (w, f) = match j {
+        0 => (cur.w, cur.f),
+        _ => {
+            let prev = &h[j - 1];
+            let uniform = |a: f64| (a - cur.dt).abs() <= 0.01 * cur.dt;
+            match (j.checked_sub(2).map(|i| &h[i]), h.get(j + 1)) {
+                (Some(p2), Some(next)) if uniform(prev.dt) && uniform(next.dt) => (
+                    (-p2.w + (prev.w + cur.w) * 13.0 - next.w) / 24.0,
+                    (-p2.f + (prev.f + cur.f) * 13.0 - next.f) / 24.0,
+                ),
+                // the log's first interval: the quadratic through it and the next sample
+                (None, Some(next)) if uniform(next.dt) => (
+                    (prev.w * 5.0 + cur.w * 8.0 - next.w) / 12.0,
+                    (prev.f * 5.0 + cur.f * 8.0 - next.f) / 12.0,
+                ),
+                // its last: the quadratic through the two samples before
+                (Some(p2), None) if uniform(prev.dt) => (
+                    (-p2.w + prev.w * 8.0 + cur.w * 5.0) / 12.0,
+                    (-p2.f + prev.f * 8.0 + cur.f * 5.0) / 12.0,
+                ),
+                _ => trapezoid(prev),
+            }
+        }
+    };
+    Some(ImuSample {
+        t: cur.t,
+        dt: cur.dt,
+        dtheta: w * cur.dt,
+        dvel: f * cur.dt,
+        odometer: cur.odometer,
+    })
 }
 
 /// Streaming GNSS reader (7 or 13 columns, detected from the first data line).
