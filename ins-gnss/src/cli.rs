@@ -280,20 +280,9 @@ pub fn print_table(rows: &[(&str, &Stats)]) {
         "pitch °"
     );
     for (name, s) in rows {
+        let [n, e, d, h, hmax, p3, v, roll, pitch, yaw, ymax] = s.table_row();
         out!(
-            "| {:12} | {:7.3} | {:7.3} | {:7.3} | {:7.3} | {:8.3} | {:8.3} | {:8.4} | {:8.4} | {:8.4} | yaw RMS {:.4}° max {:.3}°",
-            name,
-            s.north.rms,
-            s.east.rms,
-            s.down.rms,
-            s.horizontal.rms,
-            s.horizontal.max,
-            s.position_3d.rms,
-            s.velocity_3d.rms,
-            s.roll.rms,
-            s.pitch.rms,
-            s.yaw.rms,
-            s.yaw.max
+            "| {name:12} | {n:7.3} | {e:7.3} | {d:7.3} | {h:7.3} | {hmax:8.3} | {p3:8.3} | {v:8.4} | {roll:8.4} | {pitch:8.4} | yaw RMS {yaw:.4}° max {ymax:.3}°"
         );
     }
 }

@@ -195,15 +195,13 @@ impl GnssColumns {
     /// velocity, `vN, vE, vD, σvN, σvE, σvD`. σ the log does not have are placeholders
     /// (1) that `gnss.position_std` / `gnss.velocity_std` replace.
     pub fn map(&self) -> Result<ColumnMap, String> {
-        let deg = unit_factor(Quantity::Angle, &self.angle_unit)?.to_degrees();
         let m = unit_factor(Quantity::Length, &self.length_unit)?;
         let v = unit_factor(Quantity::Speed, &self.velocity_unit)?;
-        let mut fields = vec![
-            time_source(&self.time, &self.time_unit, self.time_offset)?,
-            Source::scaled(&self.latitude, deg),
-            Source::scaled(&self.longitude, deg),
-            Source::scaled(&self.height, m),
-        ];
+        let mut fields = position_fields(
+            (&self.time, &self.time_unit, self.time_offset),
+            [&self.latitude, &self.longitude, &self.angle_unit],
+            (&self.height, &self.length_unit),
+        )?;
         match &self.position_std {
             Some(s) => fields.extend(s.iter().map(|n| Source::scaled(n, m))),
             None => fields.extend((0..3).map(|_| Source::Constant(1.0))),
@@ -217,6 +215,23 @@ impl GnssColumns {
         }
         Ok(ColumnMap { fields })
     }
+}
+
+/// `t, lat, lon, h` in s, degrees and metres from (time column, unit, offset),
+/// (latitude, longitude, angle unit) and (height, length unit).
+fn position_fields(
+    (time, time_unit, offset): (&str, &str, f64),
+    [lat, lon, angle_unit]: [&str; 3],
+    (height, length_unit): (&str, &str),
+) -> Result<Vec<Source>, String> {
+    let deg = unit_factor(Quantity::Angle, angle_unit)?.to_degrees();
+    let m = unit_factor(Quantity::Length, length_unit)?;
+    Ok(vec![
+        time_source(time, time_unit, offset)?,
+        Source::scaled(lat, deg),
+        Source::scaled(lon, deg),
+        Source::scaled(height, m),
+    ])
 }
 
 /// North, east, down from a triple named in `frame`'s order, times `scale`.
@@ -286,17 +301,14 @@ impl TruthColumns {
     /// lat, lon, h` in deg and m, `vN, vE, vD`, roll, pitch, yaw in deg); what the log
     /// does not have is NaN.
     pub fn map(&self) -> Result<ColumnMap, String> {
-        let deg = unit_factor(Quantity::Angle, &self.angle_unit)?.to_degrees();
-        let m = unit_factor(Quantity::Length, &self.length_unit)?;
         let v = unit_factor(Quantity::Speed, &self.velocity_unit)?;
         let nan = || Source::Constant(f64::NAN);
-        let mut fields = vec![
-            Source::Constant(0.0),
-            time_source(&self.time, &self.time_unit, self.time_offset)?,
-            Source::scaled(&self.latitude, deg),
-            Source::scaled(&self.longitude, deg),
-            Source::scaled(&self.height, m),
-        ];
+        let mut fields = vec![Source::Constant(0.0)];
+        fields.extend(position_fields(
+            (&self.time, &self.time_unit, self.time_offset),
+            [&self.latitude, &self.longitude, &self.angle_unit],
+            (&self.height, &self.length_unit),
+        )?);
         match &self.velocity {
             Some(vel) => fields.extend(ned(vel, self.velocity_frame, v)),
             None => fields.extend([nan(), nan(), nan()]),

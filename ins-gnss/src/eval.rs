@@ -127,6 +127,26 @@ pub struct Evaluation {
     pub unmatched: usize,
 }
 
+impl Stats {
+    /// The figures of a results table, in its order: N, E, D, horizontal RMS, horizontal
+    /// max, 3-D RMS (m), velocity 3-D RMS (m/s), roll, pitch, yaw RMS and yaw max (deg).
+    pub fn table_row(&self) -> [f64; 11] {
+        [
+            self.north.rms,
+            self.east.rms,
+            self.down.rms,
+            self.horizontal.rms,
+            self.horizontal.max,
+            self.position_3d.rms,
+            self.velocity_3d.rms,
+            self.roll.rms,
+            self.pitch.rms,
+            self.yaw.rms,
+            self.yaw.max,
+        ]
+    }
+}
+
 /// Largest gap of the reference that is interpolated across, s.
 pub const MAX_REFERENCE_GAP: f64 = 1.0;
 

@@ -176,6 +176,42 @@ fn runs(pts: &[(f64, f64)]) -> Vec<&[(f64, f64)]> {
     out
 }
 
+/// The legend box of a chart, in the same style everywhere.
+fn legend<'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", 13))
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|x| x.to_string())
+}
+
+/// A series drawn as lines cut at its holes ([`runs`]), with one legend entry.
+fn draw_runs<'a, CT: CoordTranslate<From = (f64, f64)>>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, CT>,
+    pts: &[(f64, f64)],
+    label: &str,
+    style: ShapeStyle,
+) -> Result<(), String> {
+    let mut first = true;
+    for run in runs(pts) {
+        let drawn = chart
+            .draw_series(LineSeries::new(run.iter().copied(), style))
+            .map_err(|x| x.to_string())?;
+        if std::mem::take(&mut first) {
+            drawn
+                .label(label.to_string())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+        }
+    }
+    Ok(())
+}
+
 /// Draw `lines` in one panel; the y range is symmetric about 0 when `symmetric`, else
 /// from 0 up; the time spans of `shade` (stationary periods) shaded grey behind.
 fn draw_lines(
@@ -240,27 +276,9 @@ fn draw_lines(
         }
     }
     for (label, pts, colour, _) in lines.iter().filter(|l| !l.3) {
-        let c = *colour;
-        let style = ShapeStyle::from(c).stroke_width(1);
-        let mut first = true;
-        for run in runs(pts) {
-            let drawn =
-                chart.draw_series(LineSeries::new(run.iter().copied(), style)).map_err(e)?;
-            if std::mem::take(&mut first) {
-                drawn
-                    .label(*label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-            }
-        }
+        draw_runs(&mut chart, pts, label, ShapeStyle::from(*colour).stroke_width(1))?;
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    legend(&mut chart, SeriesLabelPosition::MiddleRight)
 }
 
 /// The error and ±3σ of one component, forward and (when the run smoothed) smoothed.
@@ -435,25 +453,10 @@ pub fn write_all(
         ] {
             let pts: Series =
                 ups.iter().filter(|u| finite(pick(u))).map(|u| (u.0, pick(u))).collect();
-            let mut first = true;
             // no line across an outage or a streak of refused updates
-            for run in runs(&pts) {
-                let drawn =
-                    chart.draw_series(LineSeries::new(run.iter().copied(), colour)).map_err(e)?;
-                if std::mem::take(&mut first) {
-                    drawn
-                        .label(label)
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour));
-                }
-            }
+            draw_runs(&mut chart, &pts, label, ShapeStyle::from(colour).stroke_width(1))?;
         }
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(e)?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(e)?;
     }
     publish(&p)?;
@@ -583,14 +586,7 @@ fn plan_view(
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], red));
             }
         }
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", 13))
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(e)?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(e)?;
     }
     publish(path)

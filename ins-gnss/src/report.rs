@@ -29,19 +29,7 @@ fn escape(s: &str) -> String {
 /// One table row of statistics.
 fn row(out: &mut String, label: &str, s: &Stats) {
     let _ = write!(out, "<tr><td>{}</td><td>{}</td>", escape(label), s.epochs);
-    for v in [
-        s.north.rms,
-        s.east.rms,
-        s.down.rms,
-        s.horizontal.rms,
-        s.horizontal.max,
-        s.position_3d.rms,
-        s.velocity_3d.rms,
-        s.roll.rms,
-        s.pitch.rms,
-        s.yaw.rms,
-        s.yaw.max,
-    ] {
+    for v in s.table_row() {
         let _ = write!(out, "<td>{v:.3}</td>");
     }
     out.push_str("</tr>\n");

@@ -9,13 +9,9 @@ mod common;
 use std::io::Cursor;
 
 use estimator_core::{FixedNoise, NoObserver, SegmentSmoother, SmoothedRow};
-use ins_gnss_core::{GnssConfig, ImuInput, InitialState, InsModel, InsState, Navigator};
+use ins_gnss_core::{GnssConfig, ImuInput, InsModel, InsState, Navigator};
 use ins_gnss_sim::simulate_from;
-use manifolds::{Manifold, Tangent};
-use nalgebra::Vector3;
-use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
-use rand_distr::StandardNormal;
+use manifolds::Manifold;
 
 const OUTAGE: (f64, f64) = (300.0, 360.0);
 
@@ -31,19 +27,9 @@ struct Seed {
 }
 
 fn run(setup: &common::Setup, seed: u64) -> Seed {
-    let mut rng = StdRng::seed_from_u64(20_000 + seed);
     let errors = common::imu_errors();
     let data = simulate_from(&setup.exact, &setup.traj, &errors, &setup.gnss, seed);
-    let std = common::initial_std();
-    let truth0 = &data.truth[0].state;
-    let mut d = Tangent::<InsState>::zeros();
-    for i in 0..3 {
-        d[i] = std.att[i] * rng.sample::<f64, _>(StandardNormal);
-        d[3 + i] = std.vel[i] * rng.sample::<f64, _>(StandardNormal);
-        d[6 + i] = std.pos[i] * rng.sample::<f64, _>(StandardNormal);
-    }
-    let start = InsState { bg: Vector3::zeros(), ba: Vector3::zeros(), ..truth0.oplus(&d) };
-    let init = InitialState { time: data.truth[0].t, state: start, std };
+    let init = common::initial_state(&data, 20_000 + seed, None);
     let cfg = GnssConfig { lever_arm: setup.gnss.lever_arm, ..GnssConfig::default() };
     let mut nav = Navigator::new(&init, InsModel::wgs84(errors.noise), FixedNoise, cfg).unwrap();
     let mut recorder = SegmentSmoother::<InsState, ImuInput, _>::new(Cursor::new(Vec::new()), 64);

@@ -60,6 +60,26 @@ pub fn initial_std() -> InitialStd {
     }
 }
 
+/// The filter's start: the truth with an attitude, velocity and position error drawn from
+/// P0 (`rng_seed`), the yaw error replaced by `yaw` when given, biases 0 (so the bias
+/// error is the true bias).
+pub fn initial_state(data: &SimDataset, rng_seed: u64, yaw: Option<f64>) -> InitialState {
+    let mut rng = StdRng::seed_from_u64(rng_seed);
+    let std = initial_std();
+    let mut d = Tangent::<InsState>::zeros();
+    for i in 0..3 {
+        d[i] = std.att[i] * rng.sample::<f64, _>(StandardNormal);
+        d[3 + i] = std.vel[i] * rng.sample::<f64, _>(StandardNormal);
+        d[6 + i] = std.pos[i] * rng.sample::<f64, _>(StandardNormal);
+    }
+    if let Some(yaw) = yaw {
+        d[2] = yaw;
+    }
+    let truth0 = &data.truth[0].state;
+    let start = InsState { bg: Vector3::zeros(), ba: Vector3::zeros(), ..truth0.oplus(&d) };
+    InitialState { time: data.truth[0].t, state: start, std }
+}
+
 pub struct Record {
     pub t: f64,
     pub error: SVector<f64, 15>,
@@ -81,23 +101,9 @@ pub fn run<A: NoiseStrategy>(
     strategy: A,
     init_yaw_error: Option<f64>,
 ) -> RunOutput {
-    let mut rng = StdRng::seed_from_u64(10_000 + seed);
     let errors = imu_errors();
     let data = simulate_from(&setup.exact, &setup.traj, &errors, &setup.gnss, seed);
-    let std = initial_std();
-    let truth0 = &data.truth[0].state;
-    let mut d = Tangent::<InsState>::zeros();
-    for i in 0..3 {
-        d[i] = std.att[i] * rng.sample::<f64, _>(StandardNormal);
-        d[3 + i] = std.vel[i] * rng.sample::<f64, _>(StandardNormal);
-        d[6 + i] = std.pos[i] * rng.sample::<f64, _>(StandardNormal);
-    }
-    if let Some(yaw) = init_yaw_error {
-        d[2] = yaw;
-    }
-    // The filter starts from biases 0: its bias error is the true turn-on + GM bias.
-    let start = InsState { bg: Vector3::zeros(), ba: Vector3::zeros(), ..truth0.oplus(&d) };
-    let init = InitialState { time: data.truth[0].t, state: start, std };
+    let init = initial_state(&data, 10_000 + seed, init_yaw_error);
     let model = InsModel::wgs84(errors.noise);
     let cfg = GnssConfig { lever_arm: setup.gnss.lever_arm, ..GnssConfig::default() };
     let mut nav = Navigator::new(&init, model, strategy, cfg).unwrap();
