@@ -217,3 +217,27 @@ fn a_rate_type_car_navigates_as_well_as_the_same_car_as_increments() {
     );
     assert!(rate.0 <= inc.0 * 1.02 && rate.1 <= inc.1 * 1.02, "{rate:?} vs {inc:?}");
 }
+
+#[test]
+fn each_rate_sample_reports_its_own_line() {
+    // the reader looks one sample ahead; `line()` is still the returned sample's line
+    let mut text = String::from("t,gx,gy,gz,ax,ay,az\n");
+    for k in 0..5 {
+        text += &format!("{},0.01,0.0,0.0,0.0,0.0,-9.8\n", k as f64 * 0.01);
+    }
+    let mut r = ImuReader::new(
+        std::io::Cursor::new(text.into_bytes()),
+        std::path::Path::new("rates.csv"),
+        ImuFormat::Rates,
+        100.0,
+        5.0,
+        BadLinePolicy::Error,
+    );
+    let mut lines = Vec::new();
+    while let Some(s) = r.next_sample().unwrap() {
+        lines.push((s.t, r.line()));
+        assert!((s.dtheta.x - 1e-4).abs() < 1e-15, "a constant rate integrates exactly");
+    }
+    let expected: Vec<(f64, usize)> = (0..5).map(|k| (k as f64 * 0.01, k + 2)).collect();
+    assert_eq!(lines, expected);
+}

@@ -206,6 +206,8 @@ pub struct ImuReader<R: BufRead> {
     /// Rates: the last records read (time, interval, ω, f, odometer), oldest first, up to
     /// four; the interval ending at the second-newest is emitted once the newest is read.
     rate_history: Vec<RateRecord>,
+    /// Rates: the line of the last sample returned.
+    emitted_line: usize,
     header_done: bool,
     /// What was skipped so far.
     pub skipped: SkipCounts,
@@ -286,6 +288,7 @@ impl<R: BufRead> ImuReader<R> {
             prev_t: None,
             prev_line: 0,
             rate_history: Vec::with_capacity(4),
+            emitted_line: 0,
             header_done: format == ImuFormat::Increments,
             skipped: SkipCounts::default(),
             records: 0,
@@ -337,6 +340,7 @@ impl<R: BufRead> ImuReader<R> {
             if !next_record(&mut self.lines, self.policy, &mut self.skipped, self.records)? {
                 // rates: the last interval, without a sample after it
                 if let Some(s) = integrate_rates(&self.rate_history, 0) {
+                    self.emitted_line = self.rate_history[self.rate_history.len() - 1].line;
                     self.rate_history.clear();
                     return Ok(Some(s));
                 }
@@ -430,13 +434,17 @@ impl<R: BufRead> ImuReader<R> {
                     if self.rate_history.len() == 4 {
                         self.rate_history.remove(0);
                     }
-                    self.rate_history.push(RateRecord { t, dt, w: a, f: b, odometer });
+                    let line = self.lines.line();
+                    self.rate_history.push(RateRecord { t, dt, w: a, f: b, odometer, line });
                     self.prev_t = Some(t);
                     self.prev_line = self.lines.line();
                     self.records += 1;
                     // the interval ending at the previous record, now that the next is known
                     match integrate_rates(&self.rate_history, 1) {
-                        Some(s) => return Ok(Some(s)),
+                        Some(s) => {
+                            self.emitted_line = self.rate_history[self.rate_history.len() - 2].line;
+                            return Ok(Some(s));
+                        }
                         None => continue,
                     }
                 }
@@ -450,7 +458,11 @@ impl<R: BufRead> ImuReader<R> {
 
     /// Line number of the last sample.
     pub fn line(&self) -> usize {
-        self.lines.line()
+        match self.format {
+            // (a rate sample is emitted when the line after it has been read)
+            ImuFormat::Rates => self.emitted_line,
+            ImuFormat::Increments => self.lines.line(),
+        }
     }
 }
 
@@ -462,6 +474,8 @@ struct RateRecord {
     w: Vector3<f64>,
     f: Vector3<f64>,
     odometer: Option<f64>,
+    /// Its line in the file.
+    line: usize,
 }
 
 /// The increments of the interval ending at `h[h.len() − 1 − ahead]` from instantaneous
