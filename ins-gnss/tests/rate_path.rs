@@ -241,3 +241,72 @@ fn each_rate_sample_reports_its_own_line() {
     let expected: Vec<(f64, usize)> = (0..5).map(|k| (k as f64 * 0.01, k + 2)).collect();
     assert_eq!(lines, expected);
 }
+
+#[test]
+fn a_mapped_rate_log_in_datasheet_units_reads_as_the_native_one() {
+    // the same rates as a logger writes them: an index, time in ms, deg/s, g, FLU axes
+    let (deg, g) = (std::f64::consts::PI / 180.0, 9.80665);
+    let rows: Vec<(f64, Vector3<f64>, Vector3<f64>)> = (0..50)
+        .map(|k| {
+            let t = k as f64 * 0.01;
+            (t, Vector3::new(0.1 * t.sin(), 0.02, -0.3 * t), Vector3::new(0.5, -0.2 * t, -9.8))
+        })
+        .collect();
+    let mut native = String::from("t,gx,gy,gz,ax,ay,az\n");
+    let mut logger = String::from("k;t_ms;wx_dps;wy_dps;wz_dps;ax_g;ay_g;az_g;flags\n");
+    for (k, (t, w, f)) in rows.iter().enumerate() {
+        native += &format!(
+            "{t:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e}\n",
+            w.x, w.y, w.z, f.x, f.y, f.z
+        );
+        logger += &format!(
+            "{k};{:.17e};{:.17e};{:.17e};{:.17e};{:.17e};{:.17e};{:.17e};ok\n",
+            t * 1e3,
+            w.x / deg,
+            -w.y / deg,
+            -w.z / deg,
+            f.x / g,
+            -f.y / g,
+            -f.z / g
+        );
+    }
+    let columns: ins_gnss::config::ImuColumns = toml::from_str(
+        r#"time = "t_ms"
+time_unit = "ms"
+gyro = ["wx_dps", "wy_dps", "wz_dps"]
+gyro_unit = "deg/s"
+accel = ["ax_g", "ay_g", "az_g"]
+accel_unit = "g"
+axes = "flu""#,
+    )
+    .unwrap();
+    let read = |text: String, map: Option<ins_gnss_core::io::ColumnMap>| {
+        let mut r = ImuReader::new(
+            std::io::Cursor::new(text.into_bytes()),
+            std::path::Path::new("log.csv"),
+            ImuFormat::Rates,
+            100.0,
+            5.0,
+            BadLinePolicy::Error,
+        );
+        if let Some(m) = map {
+            r = r.with_columns(m);
+        }
+        let mut out = Vec::new();
+        while let Some(s) = r.next_sample().unwrap() {
+            out.push(s);
+        }
+        out
+    };
+    let a = read(native, None);
+    let b = read(logger, Some(columns.map(true).unwrap()));
+    assert_eq!(a.len(), rows.len());
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x.t - y.t).abs() < 1e-12);
+        assert!(
+            (x.dtheta - y.dtheta).norm() < 1e-15 && (x.dvel - y.dvel).norm() < 1e-13,
+            "{x:?} {y:?}"
+        );
+    }
+}

@@ -105,7 +105,8 @@ impl fmt::Display for LineError {
 
 impl std::error::Error for LineError {}
 
-/// Reads numeric records from any `BufRead`.
+/// Reads numeric records from any `BufRead` (fields separated by white space, commas or
+/// semicolons).
 pub struct NumericLines<R: BufRead> {
     inner: R,
     path: PathBuf,
@@ -209,8 +210,10 @@ impl<R: BufRead> NumericLines<R> {
         let values = &mut self.values;
         values.clear();
         let mut failure = None;
-        let fields =
-            self.buf.split(|b| b.is_ascii_whitespace() || *b == b',').filter(|s| !s.is_empty());
+        let fields = self
+            .buf
+            .split(|b| b.is_ascii_whitespace() || *b == b',' || *b == b';')
+            .filter(|s| !s.is_empty());
         if let Some(slots) = &self.select {
             // the selected fields only, each into its slot (no allocation per line)
             values.resize(self.selected, f64::NAN);
