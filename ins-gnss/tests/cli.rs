@@ -414,6 +414,14 @@ fn a_logger_csv_runs_through_column_maps_like_the_native_files() {
     for (u, v) in native.iter().zip(&csv) {
         assert!((u - v).abs() <= 1e-6 * u.max(1e-3), "{native:?} vs {csv:?}");
     }
+    // fixes without σ columns need the configured σ, named when missing
+    let no_sigma = std::fs::read_to_string(dir.join("csv.toml"))
+        .unwrap()
+        .replace("position_std = [\"sd_north_m\", \"sd_east_m\", \"sd_down_m\"]\n", "");
+    std::fs::write(dir.join("no_sigma.toml"), no_sigma).unwrap();
+    let out = bin().arg("run").arg(dir.join("no_sigma.toml")).arg("--quiet").output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("`gnss.position_std`"), "{err}");
     // a missing column is named, with the columns present
     let broken =
         std::fs::read_to_string(dir.join("csv.toml")).unwrap().replace("\"dv_y\"", "\"dv_yy\"");
