@@ -266,8 +266,9 @@ fn progress_bar(cfg: &Config) -> (indicatif::ProgressBar, f64) {
 
 /// Print a table of statistics, one row per labelled result.
 pub fn print_table(rows: &[(&str, &Stats)]) {
+    let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0).max(12);
     out!(
-        "| {:12} | {:>7} | {:>7} | {:>7} | {:>7} | {:>8} | {:>8} | {:>8} | {:>8} | {:>8} |",
+        "| {:w$} | {:>7} | {:>7} | {:>7} | {:>7} | {:>8} | {:>8} | {:>8} | {:>8} | {:>8} |",
         "strategy",
         "N RMS",
         "E RMS",
@@ -282,7 +283,7 @@ pub fn print_table(rows: &[(&str, &Stats)]) {
     for (name, s) in rows {
         let [n, e, d, h, hmax, p3, v, roll, pitch, yaw, ymax] = s.table_row();
         out!(
-            "| {name:12} | {n:7.3} | {e:7.3} | {d:7.3} | {h:7.3} | {hmax:8.3} | {p3:8.3} | {v:8.4} | {roll:8.4} | {pitch:8.4} | yaw RMS {yaw:.4}° max {ymax:.3}°"
+            "| {name:w$} | {n:7.3} | {e:7.3} | {d:7.3} | {h:7.3} | {hmax:8.3} | {p3:8.3} | {v:8.4} | {roll:8.4} | {pitch:8.4} | yaw RMS {yaw:.4}° max {ymax:.3}°"
         );
     }
 }
@@ -439,14 +440,30 @@ pub fn demo() -> Result<(), CliError> {
     let cfg = Config::load(&cfg_path)?;
     let truth = dir.join("truth.nav");
     let names = ["fixed", "iae", "afkf", "fused", "iakf", "sage-husa"];
+    let windows = [(200.0, 260.0), (400.0, 460.0)];
     let mut evals = Vec::new();
     for name in names {
         let out = dir.join("out").join(name);
         let s = run_config(&cfg, strategy(name)?, &out, None)?;
         print_summary(&s);
-        let ev = evaluate(&out.join("nav.txt"), &truth, 30.0, &[(200.0, 260.0), (400.0, 460.0)])?;
+        let ev = evaluate(&out.join("nav.txt"), &truth, 30.0, &windows)?;
         evals.push((name, ev));
     }
+    // post-processing: the fixed filter smoothed, with the one-file report
+    let smoothed_dir = dir.join("out").join("fixed-smoothed");
+    let smoothed_cfg = Config {
+        filter: crate::config::FilterSection { smooth: true, ..cfg.filter.clone() },
+        ..cfg.clone()
+    };
+    let s = run_config(&smoothed_cfg, strategy("fixed")?, &smoothed_dir, None)?;
+    print_summary(&s);
+    let ev = evaluate(&smoothed_dir.join("nav_smoothed.txt"), &truth, 30.0, &windows)?;
+    let forward = evaluate(&smoothed_dir.join("nav.txt"), &truth, 30.0, &windows)?;
+    let fixes = read_fixes(&cfg)?;
+    let figures = crate::plot::write_all(&smoothed_dir, &truth, None, &fixes)?;
+    let tables = vec![("fixed".to_string(), forward), ("fixed, smoothed".to_string(), ev.clone())];
+    let page = crate::report::write(&smoothed_dir, &s, &smoothed_cfg, &tables, &figures)?;
+    evals.push(("fixed, smoothed", ev));
     out!("\nwhole run after 30 s:");
     let rows: Vec<(&str, &Stats)> = evals.iter().map(|(n, e)| (*n, &e.overall)).collect();
     print_table(&rows);
@@ -458,10 +475,14 @@ pub fn demo() -> Result<(), CliError> {
     print_table(&rows);
     for name in names {
         let out = dir.join("out").join(name);
-        for f in crate::plot::write_all(&out, &truth, None, &[])? {
+        for f in crate::plot::write_all(&out, &truth, None, &fixes)? {
             out!("plot: {}", f.display());
         }
     }
+    for f in &figures {
+        out!("plot: {}", f.display());
+    }
+    out!("report (the fixed filter, forward and smoothed): {}", page.display());
     out!("demo finished in {:.1} s", t.elapsed().as_secs_f64());
     Ok(())
 }
