@@ -14,6 +14,18 @@ use ins_gnss_sim::simulate_from;
 use manifolds::Manifold;
 use nalgebra::Vector3;
 
+/// A rate-type IMU reader over `text` at `rate` Hz.
+fn rate_reader(text: String, rate: f64) -> ImuReader<std::io::Cursor<Vec<u8>>> {
+    ImuReader::new(
+        std::io::Cursor::new(text.into_bytes()),
+        std::path::Path::new("rates.csv"),
+        ImuFormat::Rates,
+        rate,
+        5.0,
+        BadLinePolicy::Error,
+    )
+}
+
 /// The reader's conversion of a rate log: the samples written as the rate-type text
 /// format (`t,gx,gy,gz,ax,ay,az`, full precision) and read back by `ImuReader`.
 fn from_rates(t: &[f64], w: &[Vector3<f64>], f: &[Vector3<f64>]) -> Vec<ImuSample> {
@@ -25,14 +37,7 @@ fn from_rates(t: &[f64], w: &[Vector3<f64>], f: &[Vector3<f64>]) -> Vec<ImuSampl
         );
     }
     let rate = 1.0 / (t[1] - t[0]);
-    let mut r = ImuReader::new(
-        std::io::Cursor::new(text.into_bytes()),
-        std::path::Path::new("rates.csv"),
-        ImuFormat::Rates,
-        rate,
-        5.0,
-        BadLinePolicy::Error,
-    );
+    let mut r = rate_reader(text, rate);
     let mut out = Vec::new();
     while let Some(s) = r.next_sample().unwrap() {
         out.push(s);
@@ -225,14 +230,7 @@ fn each_rate_sample_reports_its_own_line() {
     for k in 0..5 {
         text += &format!("{},0.01,0.0,0.0,0.0,0.0,-9.8\n", k as f64 * 0.01);
     }
-    let mut r = ImuReader::new(
-        std::io::Cursor::new(text.into_bytes()),
-        std::path::Path::new("rates.csv"),
-        ImuFormat::Rates,
-        100.0,
-        5.0,
-        BadLinePolicy::Error,
-    );
+    let mut r = rate_reader(text, 100.0);
     let mut lines = Vec::new();
     while let Some(s) = r.next_sample().unwrap() {
         lines.push((s.t, r.line()));
@@ -281,14 +279,7 @@ axes = "flu""#,
     )
     .unwrap();
     let read = |text: String, map: Option<ins_gnss_core::io::ColumnMap>| {
-        let mut r = ImuReader::new(
-            std::io::Cursor::new(text.into_bytes()),
-            std::path::Path::new("log.csv"),
-            ImuFormat::Rates,
-            100.0,
-            5.0,
-            BadLinePolicy::Error,
-        );
+        let mut r = rate_reader(text, 100.0);
         if let Some(m) = map {
             r = r.with_columns(m);
         }
