@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use adaptive::{AnyStrategy, GrossErrorGate, PerStream};
-use estimator_core::{NoObserver, NoiseStrategy, UpdateSummary, Verdict};
+use estimator_core::{NoObserver, NoiseStrategy, SmoothedRow, UpdateSummary, Verdict};
 use nalgebra::{DimName, Vector3};
 
 use crate::config::Config;
@@ -513,7 +513,6 @@ const SMOOTHER_SEGMENT: usize = 128;
 
 /// The recorder of a run that smooths: the segment smoother on a scratch file.
 type Recorder<S> = estimator_core::SegmentSmoother<S, ImuInput>;
-use estimator_core::SmoothedRow;
 
 /// The backward pass: `nav_smoothed.txt` and `std_smoothed.txt` (as `.partial`, in the
 /// formats of `nav.txt` and `std.txt`, at every IMU epoch). The smoother hands the
