@@ -491,38 +491,38 @@ struct RateRecord {
 fn integrate_rates(h: &[RateRecord], ahead: usize) -> Option<ImuSample> {
     let j = h.len().checked_sub(1 + ahead)?;
     let cur = &h[j];
-    let trapezoid = |p: &RateRecord| ((p.w + cur.w) * 0.5, (p.f + cur.f) * 0.5);
-    let (w, f) = match j {
-        0 => (cur.w, cur.f),
-        _ => {
-            let prev = &h[j - 1];
-            let uniform = |a: f64| (a - cur.dt).abs() <= 0.01 * cur.dt;
-            match (j.checked_sub(2).map(|i| &h[i]), h.get(j + 1)) {
-                (Some(p2), Some(next)) if uniform(prev.dt) && uniform(next.dt) => (
-                    (-p2.w + (prev.w + cur.w) * 13.0 - next.w) / 24.0,
-                    (-p2.f + (prev.f + cur.f) * 13.0 - next.f) / 24.0,
-                ),
-                // the log's first interval: the quadratic through it and the next sample
-                (None, Some(next)) if uniform(next.dt) => (
-                    (prev.w * 5.0 + cur.w * 8.0 - next.w) / 12.0,
-                    (prev.f * 5.0 + cur.f * 8.0 - next.f) / 12.0,
-                ),
-                // its last: the quadratic through the two samples before
-                (Some(p2), None) if uniform(prev.dt) => (
-                    (-p2.w + prev.w * 8.0 + cur.w * 5.0) / 12.0,
-                    (-p2.f + prev.f * 8.0 + cur.f * 5.0) / 12.0,
-                ),
-                _ => trapezoid(prev),
-            }
+    // the mean rates over the interval from the samples around it, where there are enough
+    let mean = j.checked_sub(1).and_then(|i| {
+        let prev = &h[i];
+        let uniform = |a: f64| (a - cur.dt).abs() <= 0.01 * cur.dt;
+        match (j.checked_sub(2).map(|i| &h[i]), h.get(j + 1)) {
+            (Some(p2), Some(next)) if uniform(prev.dt) && uniform(next.dt) => Some((
+                (-p2.w + (prev.w + cur.w) * 13.0 - next.w) / 24.0,
+                (-p2.f + (prev.f + cur.f) * 13.0 - next.f) / 24.0,
+            )),
+            // the log's first interval: the quadratic through it and the next sample
+            (None, Some(next)) if uniform(next.dt) => Some((
+                (prev.w * 5.0 + cur.w * 8.0 - next.w) / 12.0,
+                (prev.f * 5.0 + cur.f * 8.0 - next.f) / 12.0,
+            )),
+            // its last: the quadratic through the two samples before
+            (Some(p2), None) if uniform(prev.dt) => Some((
+                (-p2.w + prev.w * 8.0 + cur.w * 5.0) / 12.0,
+                (-p2.f + prev.f * 8.0 + cur.f * 5.0) / 12.0,
+            )),
+            _ => None,
+        }
+    });
+    let mut s = match mean {
+        Some((w, f)) => ImuSample::from_increments(cur.t, cur.dt, w * cur.dt, f * cur.dt),
+        // the trapezoid, or the rectangle for the first record
+        None => {
+            let previous = j.checked_sub(1).map(|i| (h[i].w, h[i].f));
+            ImuSample::from_rates(cur.t, cur.dt, cur.w, cur.f, previous)
         }
     };
-    Some(ImuSample {
-        t: cur.t,
-        dt: cur.dt,
-        dtheta: w * cur.dt,
-        dvel: f * cur.dt,
-        odometer: cur.odometer,
-    })
+    s.odometer = cur.odometer;
+    Some(s)
 }
 
 /// Streaming GNSS reader (7 or 13 columns, detected from the first data line).
