@@ -17,6 +17,7 @@
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`], [`scale::On21`] |
 //! | [`vehicle`] | land-vehicle aiding: [`vehicle::Nhc`], [`vehicle::Zupt`], [`vehicle::Zaru`], the stationary detector |
 //! | [`spill`] | the states and IMU inputs as exact rows of numbers for the smoother's storage |
+//! | [`align`] | initialisation from the data: the static start (levelling, gyro biases, noise), the in-motion alignment |
 //! | [`init`] | static coarse alignment, heading from the GNSS track |
 //! | [`io`] | streaming readers and writers of the KF-GINS formats, errors with file and line |
 //!
@@ -25,6 +26,7 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+pub mod align;
 pub mod earth;
 pub mod gnss;
 pub mod imu;

@@ -95,6 +95,7 @@ pub fn summary_lines(s: &RunSummary) -> Vec<String> {
         s.imu_epochs as f64 / s.wall_time.max(1e-9),
         s.out_dir.display()
     )];
+    lines.extend(s.start.iter().cloned());
     if !s.noise.is_empty() {
         lines.push(s.noise.clone());
     }

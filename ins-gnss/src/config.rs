@@ -7,7 +7,7 @@ use core::fmt;
 use std::path::{Path, PathBuf};
 
 use manifolds::So3;
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 pub use crate::columns::{GnssColumns, ImuColumns, TruthColumns};
@@ -134,32 +134,44 @@ pub enum PolicyName {
     Skip,
 }
 
-/// Initial state and its 1σ, datasheet units.
+/// Initial state and its 1σ, datasheet units. Every key is optional: what is not given
+/// is found from the data before the run starts (see [`crate::start`]): position and
+/// velocity from the first GNSS fixes, roll and pitch by levelling over a static start or
+/// by the in-motion alignment, heading by the in-motion alignment, the gyro biases from a
+/// static start. Given values always win.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitSection {
     /// Latitude, longitude (deg), height (m).
-    pub position: [f64; 3],
-    /// NED velocity, m/s.
-    pub velocity: [f64; 3],
-    /// Roll, pitch, yaw, deg.
-    pub attitude: [f64; 3],
-    /// Gyro bias, deg/h. Default 0.
     #[serde(default)]
-    pub gyro_bias: [f64; 3],
+    pub position: Option<[f64; 3]>,
+    /// NED velocity, m/s.
+    #[serde(default)]
+    pub velocity: Option<[f64; 3]>,
+    /// Roll, pitch, yaw, deg.
+    #[serde(default)]
+    pub attitude: Option<[f64; 3]>,
+    /// Gyro bias, deg/h (from the static start when there is one, else 0).
+    #[serde(default)]
+    pub gyro_bias: Option<[f64; 3]>,
     /// Accelerometer bias, mGal. Default 0.
     #[serde(default)]
-    pub accel_bias: [f64; 3],
+    pub accel_bias: Option<[f64; 3]>,
     /// Position 1σ (N, E, D), m.
-    pub position_std: [f64; 3],
+    #[serde(default)]
+    pub position_std: Option<[f64; 3]>,
     /// Velocity 1σ, m/s.
-    pub velocity_std: [f64; 3],
+    #[serde(default)]
+    pub velocity_std: Option<[f64; 3]>,
     /// Attitude 1σ, deg.
-    pub attitude_std: [f64; 3],
+    #[serde(default)]
+    pub attitude_std: Option<[f64; 3]>,
     /// Gyro bias 1σ, deg/h.
-    pub gyro_bias_std: [f64; 3],
-    /// Accelerometer bias 1σ, mGal.
-    pub accel_bias_std: [f64; 3],
+    #[serde(default)]
+    pub gyro_bias_std: Option<[f64; 3]>,
+    /// Accelerometer bias 1σ, mGal (default 20,000: a consumer MEMS turn-on bias).
+    #[serde(default)]
+    pub accel_bias_std: Option<[f64; 3]>,
     /// Gyro scale factors, ppm (21 states). Default 0.
     #[serde(default)]
     pub gyro_scale: [f64; 3],
@@ -174,6 +186,160 @@ pub struct InitSection {
     pub accel_scale_std: [f64; 3],
 }
 
+impl Default for InitSection {
+    fn default() -> Self {
+        toml::from_str("").expect("every key of [init] has a default")
+    }
+}
+
+impl InitSection {
+    /// Every part of the initial state given (nothing to find from the data).
+    pub fn is_complete(&self) -> bool {
+        self.position.is_some()
+            && self.velocity.is_some()
+            && self.attitude.is_some()
+            && self.position_std.is_some()
+            && self.velocity_std.is_some()
+            && self.attitude_std.is_some()
+            && self.gyro_bias_std.is_some()
+    }
+}
+
+/// `[imu]`: how the IMU is mounted.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuSection {
+    /// The sensor's axes in the body (vehicle) frame, FRD: an axis map
+    /// (`["-y", "-x", "-z"]`: body x is the sensor's −y, …), the sensor's roll, pitch, yaw
+    /// relative to the body in degrees (`[180.0, 0.0, -90.0]`, the same mounting), or the
+    /// sensor-to-body matrix `C_bs` (rows). Applied to every sample as it is read (after
+    /// a column map's `axes`); the filter, the lever arms, NHC and the odometer then work
+    /// in the body frame. A left-handed map is refused. Default: the sensor axes are the
+    /// body's.
+    #[serde(default)]
+    pub mounting: Option<Mounting>,
+}
+
+/// A sensor mounting as the configuration states it ([`ImuSection::mounting`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Mounting {
+    /// Body x, y, z as signed sensor axes: `["-y", "-x", "-z"]`.
+    Axes([String; 3]),
+    /// Roll, pitch, yaw of the sensor relative to the body, degrees.
+    Angles([f64; 3]),
+    /// `C_bs`, row by row.
+    Matrix([[f64; 3]; 3]),
+}
+
+impl Mounting {
+    /// `C_bs` (sensor → body), checked to be a proper rotation. The error names what is
+    /// wrong (the caller names the key).
+    pub fn matrix(&self) -> Result<Matrix3<f64>, String> {
+        let c = match self {
+            Mounting::Axes(axes) => {
+                let mut c = Matrix3::zeros();
+                let mut seen = [false; 3];
+                for (row, a) in axes.iter().enumerate() {
+                    let a = a.trim().to_ascii_lowercase();
+                    let (sign, name) = match a.strip_prefix('-') {
+                        Some(n) => (-1.0, n),
+                        None => (1.0, a.strip_prefix('+').unwrap_or(&a)),
+                    };
+                    let col = match name {
+                        "x" => 0,
+                        "y" => 1,
+                        "z" => 2,
+                        _ => {
+                            return Err(format!(
+                                "axis `{a}`: each entry is a sensor axis `x`, `y` or `z`, with a \
+                                 sign if reversed (`-y`)"
+                            ))
+                        }
+                    };
+                    if seen[col] {
+                        return Err(format!("sensor axis `{name}` named twice in {axes:?}"));
+                    }
+                    seen[col] = true;
+                    c[(row, col)] = sign;
+                }
+                c
+            }
+            Mounting::Angles(a) => {
+                finite("imu.mounting", a)?;
+                if a.iter().any(|v| v.abs() > 360.0) {
+                    return Err(format!("angles {a:?}: degrees within ±360"));
+                }
+                let d = core::f64::consts::PI / 180.0;
+                So3::from_euler(a[0] * d, a[1] * d, a[2] * d).matrix()
+            }
+            Mounting::Matrix(m) => {
+                let c = Matrix3::from_fn(|i, j| m[i][j]);
+                finite("imu.mounting", c.as_slice())?;
+                let err = (c * c.transpose() - Matrix3::identity()).abs().max();
+                if err > 1e-6 {
+                    return Err(format!(
+                        "the matrix is not a rotation (C Cᵀ differs from I by {err:.2e})"
+                    ));
+                }
+                c
+            }
+        };
+        if c.determinant() < 0.0 {
+            return Err(format!(
+                "{self:?} is left-handed (a mirror image, determinant −1): no rotation mounts \
+                 a sensor so; one axis sign or one swap too many"
+            ));
+        }
+        Ok(c)
+    }
+}
+
+/// `[align]`: how the missing parts of `[init]` are found from the data, and the checks of
+/// units and axes against the data.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AlignSection {
+    /// Window of the static-start detector, s. Default 1.
+    #[serde(default = "one")]
+    pub static_window: f64,
+    /// Shortest static start used for levelling and gyro biases, s. Default 5.
+    #[serde(default = "default_min_static")]
+    pub min_static: f64,
+    /// Longest span of data (from the start) the in-motion alignment may use, s.
+    /// Default 120.
+    #[serde(default = "default_align_time")]
+    pub max_time: f64,
+    /// The alignment stops once its heading 1σ is below this, deg. Default 1.
+    #[serde(default = "one")]
+    pub heading_std: f64,
+    /// Check units, axes and times against the data before the run (default true).
+    #[serde(default = "yes")]
+    pub checks: bool,
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn default_min_static() -> f64 {
+    5.0
+}
+fn default_align_time() -> f64 {
+    120.0
+}
+
+impl Default for AlignSection {
+    fn default() -> Self {
+        Self {
+            static_window: 1.0,
+            min_static: default_min_static(),
+            max_time: default_align_time(),
+            heading_std: 1.0,
+            checks: true,
+        }
+    }
+}
+
 fn default_scale_std() -> [f64; 3] {
     [1000.0; 3]
 }
@@ -182,10 +348,17 @@ fn default_scale_std() -> [f64; 3] {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NoiseSection {
-    /// Angular random walk, deg/√h.
+    /// Angular random walk, deg/√h (required unless `from_static`).
+    #[serde(default)]
     pub arw: [f64; 3],
-    /// Velocity random walk, m/s/√h.
+    /// Velocity random walk, m/s/√h (required unless `from_static`).
+    #[serde(default)]
     pub vrw: [f64; 3],
+    /// Measure ARW and VRW per axis on the static start (σ of the rates and specific
+    /// forces times √dt; vibration at rest included) instead of `arw` and `vrw`; the run
+    /// stops when the start is not static for `align.min_static` seconds.
+    #[serde(default)]
+    pub from_static: bool,
     /// Gyro bias instability (Gauss–Markov σ), deg/h; with `corr_time`. Or give the
     /// bias random walk (`gyro_bias_rw` or `gyro_bias_rw_si`) instead.
     #[serde(default)]
@@ -365,8 +538,15 @@ pub enum MechanizationName {
 pub struct Config {
     /// Files.
     pub data: DataSection,
-    /// Initial state.
+    /// Initial state: what is not given is found from the data.
+    #[serde(default)]
     pub init: InitSection,
+    /// The IMU's mounting.
+    #[serde(default)]
+    pub imu: ImuSection,
+    /// Initialisation from the data and the checks of units and axes.
+    #[serde(default)]
+    pub align: AlignSection,
     /// IMU noise.
     pub imu_noise: NoiseSection,
     /// GNSS use.
@@ -553,6 +733,10 @@ impl Default for ZuptSection {
     }
 }
 
+/// The accelerometer bias 1σ when `[init]` does not give one, mGal: a consumer MEMS
+/// turn-on bias (20 mg; KF-GINS's drive-0708 configuration uses the same).
+pub const DEFAULT_ACCEL_BIAS_STD: [f64; 3] = [20_000.0; 3];
+
 fn v3(a: [f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0], a[1], a[2])
 }
@@ -652,31 +836,51 @@ impl Config {
             }
         }
         let i = &self.init;
-        finite("init.position", &i.position)?;
-        finite("init.velocity", &i.velocity)?;
-        finite("init.attitude", &i.attitude)?;
-        finite("init.gyro_bias", &i.gyro_bias)?;
-        finite("init.accel_bias", &i.accel_bias)?;
-        if i.position[0].abs() > 90.0 || i.position[1].abs() > 360.0 {
-            return Err(format!(
-                "`init.position` latitude/longitude out of range (degrees): {:?}",
-                i.position
-            ));
+        for (key, v) in [
+            ("init.position", i.position),
+            ("init.velocity", i.velocity),
+            ("init.attitude", i.attitude),
+            ("init.gyro_bias", i.gyro_bias),
+            ("init.accel_bias", i.accel_bias),
+        ] {
+            if let Some(v) = v {
+                finite(key, &v)?;
+            }
         }
-        if !(-1_000.0..=100_000.0).contains(&i.position[2]) {
-            return Err(format!(
-                "`init.position` height {} m is outside −1 km…+100 km",
-                i.position[2]
-            ));
+        if let Some(p) = i.position {
+            if p[0].abs() > 90.0 || p[1].abs() > 360.0 {
+                return Err(format!(
+                    "`init.position` latitude/longitude out of range (degrees): {p:?}"
+                ));
+            }
+            if !(-1_000.0..=100_000.0).contains(&p[2]) {
+                return Err(format!("`init.position` height {} m is outside −1 km…+100 km", p[2]));
+            }
         }
-        if i.velocity.iter().any(|v| v.abs() > 2_000.0) {
-            return Err(format!("`init.velocity` {:?} m/s: a component beyond 2 km/s", i.velocity));
+        if let Some(v) = i.velocity {
+            if v.iter().any(|v| v.abs() > 2_000.0) {
+                return Err(format!("`init.velocity` {v:?} m/s: a component beyond 2 km/s"));
+            }
         }
-        positive("init.position_std", &i.position_std)?;
-        positive("init.velocity_std", &i.velocity_std)?;
-        positive("init.attitude_std", &i.attitude_std)?;
-        positive("init.gyro_bias_std", &i.gyro_bias_std)?;
-        positive("init.accel_bias_std", &i.accel_bias_std)?;
+        for (key, v) in [
+            ("init.position_std", i.position_std),
+            ("init.velocity_std", i.velocity_std),
+            ("init.attitude_std", i.attitude_std),
+            ("init.gyro_bias_std", i.gyro_bias_std),
+            ("init.accel_bias_std", i.accel_bias_std),
+        ] {
+            if let Some(v) = v {
+                positive(key, &v)?;
+            }
+        }
+        if let Some(m) = &self.imu.mounting {
+            m.matrix().map_err(|e| format!("`imu.mounting`: {e}"))?;
+        }
+        let a = &self.align;
+        positive("align.static_window", &[a.static_window])?;
+        nonneg("align.min_static", &[a.min_static])?;
+        positive("align.max_time", &[a.max_time])?;
+        positive("align.heading_std", &[a.heading_std])?;
         finite("init.gyro_scale", &i.gyro_scale)?;
         finite("init.accel_scale", &i.accel_scale)?;
         if i.gyro_scale.iter().chain(&i.accel_scale).any(|v| v.abs() >= 1e5) {
@@ -689,8 +893,22 @@ impl Config {
         positive("init.gyro_scale_std", &i.gyro_scale_std)?;
         positive("init.accel_scale_std", &i.accel_scale_std)?;
         let n = &self.imu_noise;
-        positive("imu_noise.arw", &n.arw)?;
-        positive("imu_noise.vrw", &n.vrw)?;
+        if n.from_static {
+            if n.arw != [0.0; 3] || n.vrw != [0.0; 3] {
+                return Err("`imu_noise.from_static` measures `arw` and `vrw` on the static \
+                            start: give either, not both"
+                    .into());
+            }
+        } else {
+            if n.arw == [0.0; 3] || n.vrw == [0.0; 3] {
+                return Err("missing `imu_noise.arw` (deg/√h) and `imu_noise.vrw` (m/s/√h), \
+                            or `imu_noise.from_static = true` to measure them on the static \
+                            start"
+                    .into());
+            }
+            positive("imu_noise.arw", &n.arw)?;
+            positive("imu_noise.vrw", &n.vrw)?;
+        }
         self.check_bias_noise()?;
         positive("imu_noise.gyro_scale_std", &n.gyro_scale_std)?;
         positive("imu_noise.accel_scale_std", &n.accel_scale_std)?;
@@ -952,29 +1170,34 @@ impl Config {
         format!("noise (SI): ARW {} rad/√s, VRW {} m/s/√s; {bias}", f(&n.arw), f(&n.vrw))
     }
 
-    /// The initial position.
+    /// The initial position (the data's, once [`crate::start`] has filled `[init]` in;
+    /// the equator at sea level before).
     pub fn initial_position(&self) -> GeoPos {
-        let p = self.init.position;
+        let p = self.init.position.unwrap_or_default();
         GeoPos::from_degrees(p[0], p[1], p[2])
     }
 
-    /// The initial state at `time`.
+    /// The initial state at `time`, from `[init]` as it is after [`crate::start`] has
+    /// filled in what was missing (an unfilled value is 0, and a missing 1σ is refused by
+    /// that step before this is called).
     pub fn initial_state(&self, time: f64) -> InitialState {
         let i = &self.init;
         let d = core::f64::consts::PI / 180.0;
+        let get = |v: Option<[f64; 3]>| v3(v.unwrap_or_default());
+        let att = get(i.attitude) * d;
         let state = InsState {
-            att: So3::from_euler(i.attitude[0] * d, i.attitude[1] * d, i.attitude[2] * d),
-            vel: v3(i.velocity),
+            att: So3::from_euler(att.x, att.y, att.z),
+            vel: get(i.velocity),
             pos: self.initial_position(),
-            bg: v3(i.gyro_bias) * DEG_PER_H,
-            ba: v3(i.accel_bias) * MGAL,
+            bg: get(i.gyro_bias) * DEG_PER_H,
+            ba: get(i.accel_bias) * MGAL,
         };
         let std = InitialStd {
-            att: v3(i.attitude_std) * d,
-            vel: v3(i.velocity_std),
-            pos: v3(i.position_std),
-            bg: v3(i.gyro_bias_std) * DEG_PER_H,
-            ba: v3(i.accel_bias_std) * MGAL,
+            att: get(i.attitude_std) * d,
+            vel: get(i.velocity_std),
+            pos: get(i.position_std),
+            bg: get(i.gyro_bias_std) * DEG_PER_H,
+            ba: v3(i.accel_bias_std.unwrap_or(DEFAULT_ACCEL_BIAS_STD)) * MGAL,
         };
         InitialState { time, state, std }
     }
@@ -1211,16 +1434,16 @@ mod kf_gins {
                 truth_columns: None,
             },
             init: InitSection {
-                position: triple(doc, "initpos")?,
-                velocity: triple(doc, "initvel")?,
-                attitude: triple(doc, "initatt")?,
-                gyro_bias: triple(doc, "initgyrbias").unwrap_or([0.0; 3]),
-                accel_bias: triple(doc, "initaccbias").unwrap_or([0.0; 3]),
-                position_std: triple(doc, "initposstd")?,
-                velocity_std: triple(doc, "initvelstd")?,
-                attitude_std: triple(doc, "initattstd")?,
-                gyro_bias_std: triple(doc, "initbgstd")?,
-                accel_bias_std: triple(doc, "initbastd")?,
+                position: Some(triple(doc, "initpos")?),
+                velocity: Some(triple(doc, "initvel")?),
+                attitude: Some(triple(doc, "initatt")?),
+                gyro_bias: Some(triple(doc, "initgyrbias").unwrap_or([0.0; 3])),
+                accel_bias: Some(triple(doc, "initaccbias").unwrap_or([0.0; 3])),
+                position_std: Some(triple(doc, "initposstd")?),
+                velocity_std: Some(triple(doc, "initvelstd")?),
+                attitude_std: Some(triple(doc, "initattstd")?),
+                gyro_bias_std: Some(triple(doc, "initbgstd")?),
+                accel_bias_std: Some(triple(doc, "initbastd")?),
                 gyro_scale: triple(doc, "initgyrscale").unwrap_or([0.0; 3]),
                 accel_scale: triple(doc, "initaccscale").unwrap_or([0.0; 3]),
                 gyro_scale_std: triple(doc, "initsgstd").unwrap_or_else(|_| default_scale_std()),
@@ -1229,6 +1452,7 @@ mod kf_gins {
             imu_noise: NoiseSection {
                 arw: triple(doc, "imunoise.arw")?,
                 vrw: triple(doc, "imunoise.vrw")?,
+                from_static: false,
                 gyro_bias_std: Some(triple(doc, "imunoise.gbstd")?),
                 accel_bias_std: Some(triple(doc, "imunoise.abstd")?),
                 corr_time: Some(scalar(doc, "imunoise.corrtime")?),
@@ -1246,6 +1470,8 @@ mod kf_gins {
                 lever_arm: triple(doc, "antlever").unwrap_or([0.0; 3]),
                 ..GnssSection::default()
             },
+            imu: ImuSection::default(),
+            align: AlignSection::default(),
             filter: FilterSection::default(),
             vehicle: VehicleSection::default(),
         })

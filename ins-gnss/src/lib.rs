@@ -11,6 +11,7 @@
 //! | [`eval`] | errors of a result against a truth file: RMS, maxima, windows |
 //! | [`plot`] | SVG plots of errors with ±3σ envelopes and adaptation factors |
 //! | [`report`] | `report.html`: a run's summary, tables, plots and configuration in one file |
+//! | [`start`] | before the run: the data checked against the declared units and axes, the initial state found from them |
 //! | [`scenario`] | scenario files for `simulate`, and Monte Carlo over seeds |
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
@@ -24,3 +25,4 @@ pub mod plot;
 pub mod report;
 pub mod run;
 pub mod scenario;
+pub mod start;

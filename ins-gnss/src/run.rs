@@ -67,6 +67,9 @@ pub enum RunError {
     },
     /// The IMU file ends before the start time or has no sample after it.
     NoData(String),
+    /// The data do not match the configuration (units, axes, rate), or the initial state
+    /// cannot be found from them; the message names the key to change.
+    Start(String),
     /// The run failed after it had started writing: its outputs stay as `*.partial` in
     /// `dir`, earlier results there are untouched.
     Incomplete {
@@ -90,6 +93,7 @@ impl fmt::Display for RunError {
                 write!(f, "{}: cannot write: {message}", path.display())
             }
             RunError::NoData(m) => write!(f, "{m}"),
+            RunError::Start(m) => write!(f, "{m}"),
             RunError::Incomplete { error, dir } => write!(
                 f,
                 "{error}\n(no earlier result in {} was touched; this run's partial output is \
@@ -158,6 +162,9 @@ pub struct RunSummary {
     pub smoothed: Option<(usize, f64)>,
     /// The IMU noise densities the filter used, SI ([`Config::noise_echo`]).
     pub noise: String,
+    /// How the parts of the initial state (and the noise) not given were found from the
+    /// data ([`crate::start`]), one line each.
+    pub start: Vec<String>,
 }
 
 /// Updates of one vehicle-aiding stream.
@@ -419,6 +426,9 @@ fn open_inputs(
         let rates = config.imu_format() == ins_gnss_core::io::ImuFormat::Rates;
         imu = imu.with_columns(c.map(rates).map_err(|e| bad("data.imu_columns", e))?);
     }
+    if let Some(m) = &config.imu.mounting {
+        imu = imu.with_mounting(m.matrix().map_err(|e| bad("imu.mounting", e))?);
+    }
     if let Some(c) = &config.data.gnss_columns {
         gnss = gnss.with_columns(c.map().map_err(|e| bad("data.gnss_columns", e))?);
     }
@@ -640,13 +650,20 @@ pub fn run(
     out_dir: &Path,
     progress: Option<Progress<'_>>,
 ) -> Result<RunSummary, RunError> {
-    let (imu, gnss) = open_inputs(config)?;
+    let (mut imu, mut gnss) = open_inputs(config)?;
+    let prefix = read_prefix(config, &mut imu, &mut gnss)?;
+    let start = prepare_start(config, &prefix)?;
+    let config = &start.config;
     let (out, nav_file) = Outputs::create(out_dir)?;
-    let inputs = ((imu, gnss), (out, nav_file));
+    let inputs = ((imu, gnss, prefix), (out, nav_file));
     let result = match config.filter.states {
         21 => run_into::<InsState21>(config, strategy, out_dir, progress, inputs.0, inputs.1),
         _ => run_into::<InsState>(config, strategy, out_dir, progress, inputs.0, inputs.1),
     };
+    let result = result.map(|mut s| {
+        s.start = start.report;
+        s
+    });
     // the smoother's scratch files go whatever happened
     for name in [SMOOTHER_STATES, SMOOTHER_ROWS] {
         let _ = std::fs::remove_file(out_dir.join(name));
@@ -662,13 +679,59 @@ pub fn run(
     }
 }
 
+/// The first seconds of the inputs, read before the filter starts ([`crate::start`]):
+/// IMU samples and GNSS epochs (with their lines) up to `align.max_time` after the start.
+pub struct Prefix {
+    /// IMU samples and their lines.
+    pub imu: Vec<(ImuSample, usize)>,
+    /// GNSS epochs and their lines.
+    pub gnss: std::collections::VecDeque<(GnssEpoch, usize)>,
+}
+
+/// Read the [`Prefix`]: up to `align.max_time` seconds after the start time.
+fn read_prefix(
+    config: &Config,
+    imu: &mut ImuReader<FileReader>,
+    gnss: &mut GnssReader<FileReader>,
+) -> Result<Prefix, RunError> {
+    let mut p = Prefix { imu: Vec::new(), gnss: Default::default() };
+    let first =
+        imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
+    let t0 = config.data.start_time.unwrap_or(first.t);
+    let t_end = t0 + config.align.max_time;
+    p.imu.push((first, imu.line()));
+    if first.t <= t_end {
+        while let Some(s) = imu.next_sample()? {
+            p.imu.push((s, imu.line()));
+            if s.t > t_end {
+                break;
+            }
+        }
+    }
+    while let Some(g) = gnss.next_epoch()? {
+        p.gnss.push_back((g, gnss.line()));
+        if g.t > t_end {
+            break;
+        }
+    }
+    Ok(p)
+}
+
+/// [`crate::start::prepare`] on a prefix.
+fn prepare_start(config: &Config, prefix: &Prefix) -> Result<crate::start::Start, RunError> {
+    let imu: Vec<ImuSample> = prefix.imu.iter().map(|(s, _)| *s).collect();
+    let gnss: Vec<GnssEpoch> = prefix.gnss.iter().map(|(g, _)| *g).collect();
+    let t0 = config.data.start_time.or(imu.first().map(|s| s.t)).unwrap_or(0.0);
+    crate::start::prepare(config, &imu, &gnss, t0).map_err(RunError::Start)
+}
+
 /// [`run`] with its inputs open and its partial outputs created.
 fn run_into<S: RunState>(
     config: &Config,
     strategy: AnyStrategy,
     out_dir: &Path,
     mut progress: Option<Progress<'_>>,
-    (mut imu, mut gnss): (ImuReader<FileReader>, GnssReader<FileReader>),
+    (mut imu, mut gnss, prefix): (ImuReader<FileReader>, GnssReader<FileReader>, Prefix),
     (mut out, nav_file): (Outputs, std::io::BufWriter<std::fs::File>),
 ) -> Result<RunSummary, RunError>
 where
@@ -678,10 +741,13 @@ where
     let wall = Instant::now();
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
-    let first =
-        imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
-    let first = (first, imu.line());
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.0.t)?;
+    let Prefix { imu: first_samples, gnss: mut first_epochs } = prefix;
+    let first_t = first_samples
+        .first()
+        .ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?
+        .0
+        .t;
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t)?;
     let start = summary.span.0;
     summary.out_dir = out_dir.to_path_buf();
     let mut recorder: Option<Recorder<S>> = if config.filter.smooth {
@@ -716,8 +782,7 @@ where
         let (nav_tx, nav_rx) =
             std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::state::InsState)>>(4);
         let reader = scope.spawn(move || {
-            let mut batch = Vec::with_capacity(BATCH);
-            batch.push(first);
+            let mut batch = first_samples;
             loop {
                 match imu.next_sample() {
                     Ok(Some(s)) => {
@@ -759,15 +824,18 @@ where
         });
 
         let result = (|| -> Result<(), RunError> {
-            let read_gnss = |gnss: &mut GnssReader<FileReader>, span: &mut (f64, f64)| {
-                let g = gnss.next_epoch()?;
-                if let Some(g) = &g {
+            let mut read_gnss = |gnss: &mut GnssReader<FileReader>, span: &mut (f64, f64)| {
+                let g = match first_epochs.pop_front() {
+                    Some(g) => Some(g),
+                    None => gnss.next_epoch()?.map(|g| (g, gnss.line())),
+                };
+                if let Some((g, _)) = &g {
                     if span.0.is_nan() {
                         span.0 = g.t;
                     }
                     span.1 = g.t;
                 }
-                Ok::<_, RunError>(g.map(|g| (g, gnss.line())))
+                Ok::<_, RunError>(g)
             };
             summary.gnss_span = (f64::NAN, f64::NAN);
             let mut next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
@@ -933,7 +1001,15 @@ where
 {
     let wall = Instant::now();
     let first = imu.first().ok_or_else(|| RunError::NoData("no IMU samples".into()))?;
+    let t0 = config.data.start_time.unwrap_or(first.t);
+    let t_end = t0 + config.align.max_time;
+    let n_imu = imu.partition_point(|s| s.t <= t_end + 1e-9);
+    let n_gnss = gnss.partition_point(|e| e.t <= t_end + 1e-9);
+    let start = crate::start::prepare(config, &imu[..n_imu], &gnss[..n_gnss], t0)
+        .map_err(RunError::Start)?;
+    let config = &start.config;
     let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.t)?;
+    summary.start = start.report;
     let start = summary.span.0;
     let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
     // GNSS epochs at or before the start are not used.

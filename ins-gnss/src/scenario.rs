@@ -558,16 +558,16 @@ impl Scenario {
                 truth_columns: None,
             },
             init: InitSection {
-                position: [x0.pos.lat * d, x0.pos.lon * d, x0.pos.h],
-                velocity: [x0.vel.x, x0.vel.y, x0.vel.z],
-                attitude: [r * d, p * d, y * d],
-                gyro_bias: [0.0; 3],
-                accel_bias: [0.0; 3],
-                position_std: ie.position_std,
-                velocity_std: ie.velocity_std,
-                attitude_std: ie.attitude_std,
-                gyro_bias_std: total(i.gyro_bias_std, i.gyro_turn_on),
-                accel_bias_std: total(i.accel_bias_std, i.accel_turn_on),
+                position: Some([x0.pos.lat * d, x0.pos.lon * d, x0.pos.h]),
+                velocity: Some([x0.vel.x, x0.vel.y, x0.vel.z]),
+                attitude: Some([r * d, p * d, y * d]),
+                gyro_bias: Some([0.0; 3]),
+                accel_bias: Some([0.0; 3]),
+                position_std: Some(ie.position_std),
+                velocity_std: Some(ie.velocity_std),
+                attitude_std: Some(ie.attitude_std),
+                gyro_bias_std: Some(total(i.gyro_bias_std, i.gyro_turn_on)),
+                accel_bias_std: Some(total(i.accel_bias_std, i.accel_turn_on)),
                 gyro_scale: [0.0; 3],
                 accel_scale: [0.0; 3],
                 // a 21-state run starts with a 1σ as large as the simulated error
@@ -577,6 +577,7 @@ impl Scenario {
             imu_noise: NoiseSection {
                 arw: [i.arw.max(1e-6); 3],
                 vrw: [i.vrw.max(1e-6); 3],
+                from_static: false,
                 gyro_bias_std: Some([i.gyro_bias_std; 3]),
                 accel_bias_std: Some([i.accel_bias_std; 3]),
                 corr_time: Some(i.corr_time),
@@ -590,6 +591,8 @@ impl Scenario {
             },
             gnss: GnssSection { lever_arm: self.gnss.lever_arm, ..GnssSection::default() },
             filter: FilterSection::default(),
+            imu: Default::default(),
+            align: Default::default(),
             vehicle: Default::default(),
         }
     }

@@ -213,6 +213,8 @@ pub struct ImuReader<R: BufRead> {
     pub skipped: SkipCounts,
     records: usize,
     columns: Mapping,
+    /// Sensor-to-body rotation applied to every sample as it is read.
+    mounting: Option<nalgebra::Matrix3<f64>>,
 }
 
 /// A reader's column map, before and after its header is read, and the mapped values.
@@ -293,7 +295,17 @@ impl<R: BufRead> ImuReader<R> {
             skipped: SkipCounts::default(),
             records: 0,
             columns: Mapping::None,
+            mounting: None,
         }
+    }
+
+    /// Rotate every sample from the sensor's axes into the body frame: `C_bs`, the
+    /// sensor-to-body rotation (a proper rotation; the configuration refuses a
+    /// left-handed one), applied to the rates and specific forces (or increments) as they
+    /// are read, before rates are integrated.
+    pub fn with_mounting(mut self, c_bs: nalgebra::Matrix3<f64>) -> Self {
+        self.mounting = Some(c_bs);
+        self
     }
 
     /// Read a log with a header through `map`: fields `t, ωx, ωy, ωz, fx, fy, fz` and
@@ -363,7 +375,10 @@ impl<R: BufRead> ImuReader<R> {
                 })
             };
             let (t, a, b) = match checked {
-                Ok(v) => v,
+                Ok((t, a, b)) => match &self.mounting {
+                    Some(c) => (t, c * a, c * b),
+                    None => (t, a, b),
+                },
                 Err(kind) => {
                     if self.policy == BadLinePolicy::Skip {
                         count(&mut self.skipped, &kind);
@@ -376,6 +391,18 @@ impl<R: BufRead> ImuReader<R> {
                 Some(p) => t - p,
                 None => self.nominal_dt,
             };
+            if self.records < 20 && (dt > 100.0 * self.nominal_dt || dt < 0.01 * self.nominal_dt) {
+                // the first intervals 100× off the rate: the times are not in seconds
+                // (ms, µs) or the rate is wrong, not a gap
+                return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                    "samples {dt} s apart where the IMU rate ({:.6} Hz) says {:.6} s: the \
+                     times are not in seconds (a factor of {:.3e}), or the rate is wrong; \
+                     set `time_unit` (ms, us, ns) in the column map or `data.imu_rate`",
+                    1.0 / self.nominal_dt,
+                    self.nominal_dt,
+                    dt / self.nominal_dt
+                ))));
+            }
             if dt > self.max_gap {
                 let bridged = self.policy == BadLinePolicy::Skip && dt <= self.max_bridge;
                 let allowed =
@@ -387,13 +414,25 @@ impl<R: BufRead> ImuReader<R> {
                 count(&mut self.skipped, &kind);
             }
             let sample = match self.format {
-                ImuFormat::Rates if self.records == 0 && b.norm() < 1.0 => {
+                ImuFormat::Rates if self.records == 0 && b.norm() < 0.5 => {
                     // Gravity alone is 9.8 m/s²: a first specific force below 1 m/s² is an
                     // increment over one interval, not a rate.
                     return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
                         "|f| = {:.4} m/s² is far below gravity: these look like increments, \
                          not rates; set the IMU format to increments",
                         b.norm()
+                    ))));
+                }
+                ImuFormat::Rates if self.records == 0 && b.norm() > 5.0 * 9.80665 => {
+                    // the first sample, at rest or nearly: gravity read in a unit
+                    // 10×, 1000× … too large
+                    let ratio = b.norm() / 9.80665;
+                    return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                        "|f| = {:.3} m/s² is {ratio:.0}× gravity: `accel_unit` is about \
+                         {:.0}× too large for this log (mg read as g: 1000×; m/s² read as g: \
+                         9.8×)",
+                        b.norm(),
+                        if ratio > 300.0 { (ratio / 1000.0).round() * 1000.0 } else { ratio }
                     ))));
                 }
                 ImuFormat::Rates if b.norm() > 1000.0 || a.norm() > 50.0 => {
@@ -592,8 +631,14 @@ impl<R: BufRead> GnssReader<R> {
             let result = if !expected.contains(&n) {
                 Err(LineErrorKind::ColumnCount { expected, found: n })
             } else if rec[1].abs() > 90.0 || rec[2].abs() > 360.0 {
+                let hint = if rec[1].abs() > 90.0 && rec[2].abs() <= 90.0 {
+                    ": latitude and longitude swapped? (the latitude field holds the value of a \
+                     longitude; check which column is `latitude` and which `longitude`)"
+                } else {
+                    " (degrees expected; `angle_unit` in the column map)"
+                };
                 Err(LineErrorKind::WrongUnits(format!(
-                    "latitude {} / longitude {} out of range (degrees expected)",
+                    "latitude {} / longitude {} out of range{hint}",
                     rec[1], rec[2]
                 )))
             } else if rec[4..7].iter().any(|s| *s <= 0.0)

@@ -1,0 +1,260 @@
+//! Runs that start themselves from the data: no `[init]`, noise from the static start, a
+//! stated sensor mounting, and logs whose units or axes do not match the configuration,
+//! each refused with the key to change.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ins-gnss"))
+}
+
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("estimator-start-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `ins-gnss simulate` of `scenario` (a file of `scenarios/`, with `edit` applied) into
+/// `dir`.
+fn simulate(scenario: &str, dir: &Path, edit: impl Fn(String) -> String) {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(scenario),
+    )
+    .unwrap();
+    std::fs::write(dir.join("scenario.toml"), edit(text)).unwrap();
+    let out = bin()
+        .arg("simulate")
+        .arg(dir.join("scenario.toml"))
+        .arg("--out")
+        .arg(dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// The configuration text without its `[init]` section.
+fn without_init(config: &str) -> String {
+    let mut out = String::new();
+    let mut skip = false;
+    for line in config.lines() {
+        if line.starts_with('[') {
+            skip = line.trim() == "[init]";
+        }
+        if !skip {
+            out += line;
+            out += "\n";
+        }
+    }
+    out
+}
+
+/// `ins-gnss run CONFIG --out DIR --quiet`: (success, stdout, stderr).
+fn run(config: &Path, out: &Path) -> (bool, String, String) {
+    let o = bin().arg("run").arg(config).arg("--out").arg(out).arg("--quiet").output().unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Horizontal RMS of `dir/nav.txt` against `truth` after `skip` seconds.
+fn horizontal_rms(dir: &Path, truth: &Path, skip: f64) -> f64 {
+    let out = bin()
+        .arg("eval")
+        .arg(dir.join("nav.txt"))
+        .arg(truth)
+        .args(["--json", "--skip", &skip.to_string()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    v["overall"]["horizontal"]["rms"].as_f64().unwrap()
+}
+
+fn rows(path: &Path) -> Vec<Vec<f64>> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+#[test]
+fn a_simulated_drive_without_init_scores_within_ten_percent_of_the_given_state() {
+    let dir = temp("noinit");
+    simulate("drive.toml", &dir, |s| s);
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    std::fs::write(dir.join("noinit.toml"), without_init(&config)).unwrap();
+    let (ok, _, err) = run(&dir.join("config.toml"), &dir.join("given"));
+    assert!(ok, "{err}");
+    let (ok, stdout, err) = run(&dir.join("noinit.toml"), &dir.join("found"));
+    assert!(ok, "{err}");
+    // the summary says how each part was found
+    for part in ["init: roll", "heading", "init: position", "init: velocity", "init: gyro bias"] {
+        assert!(stdout.contains(part), "{part} missing from:\n{stdout}");
+    }
+    let truth = dir.join("truth.nav");
+    let (given, found) = (
+        horizontal_rms(&dir.join("given"), &truth, 20.0),
+        horizontal_rms(&dir.join("found"), &truth, 20.0),
+    );
+    assert!(found <= 1.1 * given + 0.05, "from the data {found:.3} m, given {given:.3} m");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The body → sensor axes of the mounting `["-y", "-x", "-z"]` (roll 180°, yaw −90°): the
+/// sensor reads `(−b_y, −b_x, −b_z)` (`C_bs` is its own inverse).
+fn to_sensor(v: &[f64]) -> [f64; 3] {
+    [-v[1], -v[0], -v[2]]
+}
+
+#[test]
+fn a_stated_mounting_matches_the_square_run_and_a_left_handed_one_is_refused() {
+    let dir = temp("mounting");
+    simulate("drive.toml", &dir, |s| s);
+    let mut imu = String::new();
+    for r in rows(&dir.join("IMU.txt")) {
+        let (w, f) = (to_sensor(&r[1..4]), to_sensor(&r[4..7]));
+        imu += &format!(
+            "{:.6} {:.15e} {:.15e} {:.15e} {:.15e} {:.15e} {:.15e}\n",
+            r[0], w[0], w[1], w[2], f[0], f[1], f[2]
+        );
+    }
+    std::fs::write(dir.join("IMU_mounted.txt"), imu).unwrap();
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let mounted = |mounting: &str| {
+        // (the simulator writes the whole configuration, an empty `[imu]` included)
+        config
+            .replace("imu = \"IMU.txt\"", "imu = \"IMU_mounted.txt\"")
+            .replace("[imu]\n", &format!("[imu]\nmounting = {mounting}\n"))
+    };
+    let (ok, _, err) = run(&dir.join("config.toml"), &dir.join("square"));
+    assert!(ok, "{err}");
+    let nav = |d: &str| std::fs::read_to_string(dir.join(d).join("nav.txt")).unwrap();
+    for (name, m) in [
+        ("axes", r#"["-y", "-x", "-z"]"#),
+        ("angles", "[180.0, 0.0, -90.0]"),
+        ("matrix", "[[0, -1, 0], [-1, 0, 0], [0, 0, -1]]"),
+    ] {
+        std::fs::write(dir.join(format!("{name}.toml")), mounted(m)).unwrap();
+        let (ok, _, err) = run(&dir.join(format!("{name}.toml")), &dir.join(name));
+        assert!(ok, "{name}: {err}");
+        let (a, b) = (nav("square"), nav(name));
+        assert_eq!(a.lines().count(), b.lines().count());
+        for (x, y) in a.lines().zip(b.lines()) {
+            for (u, v) in x.split_whitespace().zip(y.split_whitespace()) {
+                let (u, v): (f64, f64) = (u.parse().unwrap(), v.parse().unwrap());
+                assert!((u - v).abs() <= 1e-6 * u.abs().max(1.0), "{name}\n{x}\n{y}");
+            }
+        }
+    }
+    // a mirror image (two axes swapped without a sign) is no mounting
+    std::fs::write(dir.join("mirror.toml"), mounted(r#"["y", "x", "z"]"#)).unwrap();
+    let (ok, _, err) = run(&dir.join("mirror.toml"), &dir.join("mirror"));
+    assert!(!ok && err.contains("`imu.mounting`") && err.contains("left-handed"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A rate log (`t,gx,gy,gz,ax,ay,az` in s, rad/s, m/s², FRD) of the simulated drive, with
+/// `convert(t, ω, f)` giving the written row, and its configuration with `columns` (the
+/// `[data.imu_columns]` body) and no `[init]`.
+fn rate_log(
+    dir: &Path,
+    name: &str,
+    header: &str,
+    convert: impl Fn(f64, [f64; 3], [f64; 3]) -> [f64; 7],
+    columns: &str,
+) -> PathBuf {
+    let mut text = format!("{header}\n");
+    for r in rows(&dir.join("IMU.txt")) {
+        let dt = 0.01;
+        let w = [r[1] / dt, r[2] / dt, r[3] / dt];
+        let f = [r[4] / dt, r[5] / dt, r[6] / dt];
+        let v = convert(r[0], w, f);
+        text += &v.map(|x| format!("{x:.12e}")).join(",");
+        text += "\n";
+    }
+    std::fs::write(dir.join(format!("{name}.csv")), text).unwrap();
+    let config = without_init(&std::fs::read_to_string(dir.join("config.toml")).unwrap())
+        .replace("imu = \"IMU.txt\"", &format!("imu = \"{name}.csv\""))
+        .replace("imu_format = \"increments\"", "imu_format = \"rates\"")
+        + &format!("\n[data.imu_columns]\n{columns}\n");
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, config).unwrap();
+    path
+}
+
+#[test]
+fn mislabelled_units_axes_and_times_are_refused_with_the_key() {
+    let dir = temp("labels");
+    // started at a longitude beyond 90° so that a latitude/longitude swap is out of range
+    simulate("drive.toml", &dir, |s| {
+        s.replace("position = [45.0, 7.6, 240.0]", "position = [40.1, -105.1, 1600.0]")
+    });
+    let g = 9.80665;
+    let h = "t,gx,gy,gz,ax,ay,az";
+    let id = |t, w: [f64; 3], f: [f64; 3]| [t, w[0], w[1], w[2], f[0], f[1], f[2]];
+    // the correct log runs (a check never refuses it)
+    let good = rate_log(&dir, "good", h, id, "");
+    let (ok, stdout, err) = run(&good, &dir.join("good_out"));
+    assert!(ok, "{err}");
+    assert!(stdout.contains("init: roll"), "{stdout}");
+    let cases: Vec<(&str, PathBuf, &[&str])> = vec![
+        (
+            "accelerometer in g declared m/s²",
+            rate_log(&dir, "in_g", h, |t, w, f| id(t, w, f.map(|v| v / g)), ""),
+            &["`data.imu_columns.accel_unit`", "accel_unit = \"g\""],
+        ),
+        (
+            "accelerometer in mg declared g",
+            rate_log(
+                &dir,
+                "in_mg",
+                h,
+                |t, w, f| id(t, w, f.map(|v| v / g * 1e3)),
+                "accel_unit = \"g\"",
+            ),
+            &["in_mg.csv:2", "`accel_unit`", "1000× too large"],
+        ),
+        (
+            "FRD declared FLU",
+            rate_log(&dir, "flu", h, id, "axes = \"flu\""),
+            &["`data.imu_columns.axes`", "upside down"],
+        ),
+        (
+            "ms declared s",
+            rate_log(&dir, "ms", h, |t, w, f| id(t * 1e3, w, f), ""),
+            &["time_unit", "not in seconds"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (what, config, needles) in cases {
+        let (ok, _, err) = run(&config, &dir.join("out"));
+        if ok || !needles.iter().all(|n| err.contains(n)) {
+            failures.push(format!("{what}: ok = {ok}, {err}"));
+        }
+    }
+    // latitude and longitude swapped in the GNSS file
+    let mut gnss = String::new();
+    for r in rows(&dir.join("GNSS.txt")) {
+        let mut r = r.clone();
+        r.swap(1, 2);
+        gnss += &r.iter().map(|v| format!("{v:.12}")).collect::<Vec<_>>().join(" ");
+        gnss += "\n";
+    }
+    std::fs::write(dir.join("GNSS_swapped.txt"), gnss).unwrap();
+    let swapped = std::fs::read_to_string(&good)
+        .unwrap()
+        .replace("gnss = \"GNSS.txt\"", "gnss = \"GNSS_swapped.txt\"");
+    std::fs::write(dir.join("swapped.toml"), swapped).unwrap();
+    let (ok, _, err) = run(&dir.join("swapped.toml"), &dir.join("out"));
+    if ok || !err.contains("swapped") || !err.contains("GNSS_swapped.txt:1") {
+        failures.push(format!("latitude/longitude swapped: ok = {ok}, {err}"));
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
