@@ -222,7 +222,11 @@ pub struct ImuSection {
 
 /// A sensor mounting as the configuration states it ([`ImuSection::mounting`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "a mounting: an axis map such as [\"-y\", \"-x\", \"-z\"], three angles \
+                 [roll, pitch, yaw] in degrees, or a 3×3 matrix [[…], […], […]]"
+)]
 pub enum Mounting {
     /// Body x, y, z as signed sensor axes: `["-y", "-x", "-z"]`.
     Axes([String; 3]),
@@ -266,7 +270,7 @@ impl Mounting {
                 c
             }
             Mounting::Angles(a) => {
-                finite("imu.mounting", a)?;
+                finite("angles", a)?;
                 if a.iter().any(|v| v.abs() > 360.0) {
                     return Err(format!("angles {a:?}: degrees within ±360"));
                 }
@@ -275,7 +279,7 @@ impl Mounting {
             }
             Mounting::Matrix(m) => {
                 let c = Matrix3::from_fn(|i, j| m[i][j]);
-                finite("imu.mounting", c.as_slice())?;
+                finite("matrix", c.as_slice())?;
                 let err = (c * c.transpose() - Matrix3::identity()).abs().max();
                 if err > 1e-6 {
                     return Err(format!(
@@ -330,13 +334,7 @@ fn default_align_time() -> f64 {
 
 impl Default for AlignSection {
     fn default() -> Self {
-        Self {
-            static_window: 1.0,
-            min_static: default_min_static(),
-            max_time: default_align_time(),
-            heading_std: 1.0,
-            checks: true,
-        }
+        toml::from_str("").expect("every key of [align] has a default")
     }
 }
 

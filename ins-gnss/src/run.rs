@@ -697,8 +697,7 @@ fn read_prefix(
     let mut p = Prefix { imu: Vec::new(), gnss: Default::default() };
     let first =
         imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
-    let t0 = config.data.start_time.unwrap_or(first.t);
-    let t_end = t0 + config.align.max_time;
+    let (_, t_end) = start_span(config, first.t);
     p.imu.push((first, imu.line()));
     if first.t <= t_end {
         while let Some(s) = imu.next_sample()? {
@@ -717,11 +716,18 @@ fn read_prefix(
     Ok(p)
 }
 
+/// The run's start time (the configured one, or the first IMU sample's `first_t`) and the
+/// end of the data [`crate::start::prepare`] looks at (`align.max_time` later).
+fn start_span(config: &Config, first_t: f64) -> (f64, f64) {
+    let t0 = config.data.start_time.unwrap_or(first_t);
+    (t0, t0 + config.align.max_time)
+}
+
 /// [`crate::start::prepare`] on a prefix.
 fn prepare_start(config: &Config, prefix: &Prefix) -> Result<crate::start::Start, RunError> {
     let imu: Vec<ImuSample> = prefix.imu.iter().map(|(s, _)| *s).collect();
     let gnss: Vec<GnssEpoch> = prefix.gnss.iter().map(|(g, _)| *g).collect();
-    let t0 = config.data.start_time.or(imu.first().map(|s| s.t)).unwrap_or(0.0);
+    let (t0, _) = start_span(config, imu.first().map_or(0.0, |s| s.t));
     crate::start::prepare(config, &imu, &gnss, t0).map_err(RunError::Start)
 }
 
@@ -1001,8 +1007,7 @@ where
 {
     let wall = Instant::now();
     let first = imu.first().ok_or_else(|| RunError::NoData("no IMU samples".into()))?;
-    let t0 = config.data.start_time.unwrap_or(first.t);
-    let t_end = t0 + config.align.max_time;
+    let (t0, t_end) = start_span(config, first.t);
     let n_imu = imu.partition_point(|s| s.t <= t_end + 1e-9);
     let n_gnss = gnss.partition_point(|e| e.t <= t_end + 1e-9);
     let start = crate::start::prepare(config, &imu[..n_imu], &gnss[..n_gnss], t0)

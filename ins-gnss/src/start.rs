@@ -26,10 +26,9 @@ use ins_gnss_core::init::level;
 use ins_gnss_core::io::columns::{unit_factor, Quantity};
 
 /// The gyro bias 1σ without a static start to measure it, deg/h. On navego (no static
-/// start; the filter's bias estimates settle at 12–70 deg/h) the forward horizontal RMS is
-/// 1.562 m with 48 deg/h, 1.761 m with 100, 2.135 m with 400 and 1.797 m with 1000: a
-/// prior far above the sensor's bias costs accuracy, one below it consistency. Give
-/// `init.gyro_bias_std` (or record a static start) to do better.
+/// start; the filter's bias estimates settle at 12–70 deg/h) the forward horizontal RMS
+/// with this prior given as `init.gyro_bias_std` is 1.562 m at 48, 1.552 m at 100, 1.593 m
+/// at 400 and 1.797 m at 1000 deg/h: a prior far above the sensor's bias costs accuracy.
 pub const DEFAULT_GYRO_BIAS_STD: f64 = 100.0;
 
 /// The χ² gain (in units of the fit's χ² per degree of freedom) by which a mirror image
@@ -46,10 +45,6 @@ pub struct Start {
     pub report: Vec<String>,
 }
 
-fn deg3(v: &Vector3<f64>) -> [f64; 3] {
-    [v.x.to_degrees(), v.y.to_degrees(), v.z.to_degrees()]
-}
-
 fn fmt3(v: [f64; 3], digits: usize) -> String {
     format!("[{:.digits$}, {:.digits$}, {:.digits$}]", v[0], v[1], v[2])
 }
@@ -63,8 +58,9 @@ pub fn prepare(
     gnss: &[GnssEpoch],
     t0: f64,
 ) -> Result<Start, String> {
-    let imu: Vec<ImuSample> = imu.iter().filter(|s| s.t > t0 + 1e-9).copied().collect();
-    let gnss: Vec<GnssEpoch> = gnss.iter().filter(|e| e.t > t0 + 1e-9).copied().collect();
+    // (both in time order: the readers refuse time going backwards)
+    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
+    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
     let mut config = config.clone();
     let mut report = Vec::new();
     let a = config.align.clone();
@@ -74,12 +70,12 @@ pub fn prepare(
         return Ok(Start { config, report });
     }
     let g = gnss.first().map_or(9.80, |e| normal_gravity(e.pos.lat, e.pos.h));
-    let still = detect_static(&imu, &gnss, a.static_window);
+    let still = detect_static(imu, gnss, a.static_window);
     let is_static = still.samples > 0 && still.duration() >= a.min_static;
 
     if a.checks {
-        check_rate(&config, &imu)?;
-        check_accel_unit(&config, &imu, &still, g)?;
+        check_rate(&config, imu)?;
+        check_accel_unit(&config, imu, &still, g)?;
         check_gyro_at_rest(&config, &still)?;
     }
     let lever = Vector3::from(config.gnss.lever_arm);
@@ -93,8 +89,8 @@ pub fn prepare(
     };
     let fit = |scale: f64| {
         align_in_motion(
-            &imu,
-            &gnss,
+            imu,
+            gnss,
             t0,
             &(bias0 * scale),
             scale,
@@ -157,7 +153,7 @@ pub fn prepare(
     }
 
     if need_init {
-        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), t0, g)?;
+        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), t0)?;
     }
     Ok(Start { config, report })
 }
@@ -357,7 +353,6 @@ fn fill_init(
     is_static: bool,
     motion: Option<&MotionFit>,
     t0: f64,
-    g: f64,
 ) -> Result<(), String> {
     let i = config.init.clone();
     let need_motion = i.attitude.is_none() || i.position.is_none() || i.velocity.is_none();
@@ -431,9 +426,8 @@ fn fill_init(
         let (lat, lon, h) = m.pos.tuple();
         config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
         if i.position_std.is_none() {
-            // no tighter than half the fixes' own σ (the fit's is formal)
-            let fix = Vector3::from(m.pos_std);
-            config.init.position_std = Some(fix.map(|v| v.max(0.01)).into());
+            // the fit's σ (floored at 1 cm)
+            config.init.position_std = Some(m.pos_std.map(|v| v.max(0.01)).into());
         }
         let s = config.init.position_std.unwrap_or_default();
         report.push(format!(
@@ -465,7 +459,6 @@ fn fill_init(
             fmt3(config.init.velocity_std.unwrap_or_default(), 3)
         ));
     }
-    let _ = g;
     fill_rest(config, report, still, is_static, Some(m))
 }
 
@@ -527,8 +520,7 @@ fn fill_rest(
     // 1σ asked for without the value: defaults that the data would have given
     let fit = m.map(|m| (m.att_std.map(|v| v.to_degrees().max(0.5)), m.pos_std, m.vel_std));
     if config.init.attitude_std.is_none() {
-        config.init.attitude_std =
-            Some(fit.map_or([1.0, 1.0, 5.0], |f| deg3(&(f.0 * d)).map(|v| v.max(0.5))));
+        config.init.attitude_std = Some(fit.map_or([1.0, 1.0, 5.0], |f| f.0.into()));
     }
     if config.init.position_std.is_none() {
         config.init.position_std = Some(fit.map_or([5.0; 3], |f| f.1.map(|v| v.max(0.01)).into()));
