@@ -17,7 +17,8 @@ use nalgebra::Vector3;
 
 use crate::config::Config;
 use ins_gnss_core::align::{
-    align_in_motion, detect_static, static_gyro_bias, MotionFit, StaticStart,
+    align_in_motion, detect_static, fit_span, static_gyro_bias, turn_ratio, MotionFit, StaticStart,
+    TurnRatio,
 };
 use ins_gnss_core::earth::normal_gravity;
 use ins_gnss_core::gnss::GnssEpoch;
@@ -102,8 +103,23 @@ pub fn prepare(
     };
     let motion = if need_init || a.checks { fit(1.0) } else { None };
     if a.checks {
+        let turns = turn_ratio(imu, gnss, t0, t0 + a.max_time);
         if let Some(m) = &motion {
-            check_motion(&config, m, &fit)?;
+            // the fit stops once the heading is known, which may be before the first
+            // turn, and its span is chosen for the heading: a mirror image shows only
+            // when the motion turned, so it is judged on the whole span (no early stop)
+            // and only when the course turned (the early fit of navego's ADIS16405, a
+            // straight drive with a large gyro bias, looked like one)
+            let turned = turns.is_some_and(|t| t.turned > 30f64.to_radians());
+            let whole = if turned {
+                fit_span(imu, gnss, t0, &bias0, &lever, t0 + a.max_time)
+            } else {
+                None
+            };
+            check_motion(&config, m, whole.as_ref(), &fit)?;
+        }
+        if let Some(t) = turns {
+            check_turns(&config, &t, a.max_time)?;
         }
         let (roll, _) = match (&motion, is_static) {
             (_, true) => level(&still.mean_f),
@@ -301,16 +317,18 @@ fn gyro_unit_error(config: &Config, factor: f64, why: &str) -> String {
     }
 }
 
-/// What the in-motion fit says of the data: a mirror image (left-handed axes) and a gyro
-/// unit that another one fits far better.
+/// What the in-motion fits say of the data: a mirror image (left-handed axes; judged on
+/// `mirror`, the whole-span fit, present when the motion turned) and a gyro unit that
+/// another one fits far better (on `m`, the alignment's fit).
 fn check_motion(
     config: &Config,
     m: &MotionFit,
+    mirror: Option<&MotionFit>,
     fit: &dyn Fn(f64) -> Option<MotionFit>,
 ) -> Result<(), String> {
     // a mirror image that fits decisively better (χ² down by 100 reduced units: the
     // motion turned, so all three axes were seen)
-    if m.mirror > MIRROR_DECISIVE {
+    if let Some(mirror) = mirror.filter(|w| w.mirror > MIRROR_DECISIVE) {
         let key = if config.data.imu_columns.is_some() {
             "`data.imu_columns.gyro` / `data.imu_columns.accel`"
         } else {
@@ -321,7 +339,7 @@ fn check_motion(
              image (a left-handed frame: two axes swapped, or one sign reversed); list the \
              columns in x, y, z order and state the mounting with `imu.mounting` (an axis map \
              such as [\"-y\", \"-x\", \"-z\"] or angles)",
-            m.t_a, m.t_b
+            mirror.t_a, mirror.t_b
         ));
     }
     // only a gross misfit that another unit removes: vibration, a gyro bias or a
@@ -341,6 +359,39 @@ fn check_motion(
                 }
             }
         }
+    }
+    Ok(())
+}
+
+/// The GNSS course's turns against the gyro's (a straight start hides a gyro unit from
+/// the in-motion fit): a slope near 57 or 1/57 names the unit, a negative one the axes.
+fn check_turns(config: &Config, t: &TurnRatio, max_time: f64) -> Result<(), String> {
+    // decisive only: the vehicle turned, and the fitted slope explains the course
+    // changes far better than the declared one
+    // (an F test of the slope 1 against the fitted one, at far beyond any tail: the
+    // course of a car and the gyro's turn part by sideslip and the lever arm, 13 % on
+    // navego's velocity fixes)
+    let noise = t.misfit_fitted / (t.pairs - 1) as f64;
+    if t.turned < 30f64.to_radians() || t.misfit_declared - t.misfit_fitted < 100.0 * noise {
+        return Ok(());
+    }
+    let why = format!(
+        "over {} pairs of moving GNSS fixes in the first {max_time} s the course turned {:.3}×          as far as the gyro says",
+        t.pairs, t.ratio
+    );
+    if t.ratio < -0.5 {
+        let key = if config.data.imu_columns.is_some() {
+            "`data.imu_columns.gyro`"
+        } else {
+            "`data.imu`"
+        };
+        return Err(format!(
+            "{key}: {why}: the gyro turns the other way from the accelerometer's axes (a \
+             sign reversed in the gyro columns only)"
+        ));
+    }
+    if t.ratio.ln().abs() > 5f64.ln() {
+        return Err(gyro_unit_error(config, t.ratio, &why));
     }
     Ok(())
 }

@@ -221,6 +221,21 @@ fn mislabelled_units_axes_and_times_are_refused_with_the_key() {
             &["in_mg.csv:2", "`accel_unit`", "1000× too large"],
         ),
         (
+            "gyro in deg/s declared rad/s",
+            rate_log(&dir, "in_deg", h, |t, w, f| id(t, w.map(f64::to_degrees), f), ""),
+            &["`data.imu_columns.gyro_unit`", "gyro_unit = \"deg/s\""],
+        ),
+        (
+            "gyro in rad/s declared deg/s",
+            rate_log(&dir, "in_rad", h, id, "gyro_unit = \"deg/s\""),
+            &["`data.imu_columns.gyro_unit`", "gyro_unit = \"rad/s\""],
+        ),
+        (
+            "x and y columns swapped (a left-handed frame)",
+            rate_log(&dir, "swap_xy", "t,gy,gx,gz,ay,ax,az", id, ""),
+            &["`data.imu_columns.gyro` / `data.imu_columns.accel`", "left-handed"],
+        ),
+        (
             "FRD declared FLU",
             rate_log(&dir, "flu", h, id, "axes = \"flu\""),
             &["`data.imu_columns.axes`", "upside down"],
