@@ -254,8 +254,6 @@ pub struct MotionFit {
     pub gyro_bias: Vector3<f64>,
     /// 1σ of [`gyro_bias`](Self::gyro_bias), rad/s (z: the prior's; 0 when not fitted).
     pub gyro_bias_std: Vector3<f64>,
-    /// The factor on the IMU's specific force that fits best (1 for consistent units).
-    pub scale: f64,
     /// How much better a mirror image of the IMU's motion fits than the best rotation:
     /// the drop of χ² in units of the fit's χ² per degree of freedom (positive: a
     /// left-handed sensor frame; 0 when the motion cannot tell, e.g. a straight line).
@@ -334,7 +332,8 @@ pub fn align_in_motion(
     let mut best: Option<MotionFit> = None;
     let mut solve_at = 0;
     let input = Input { imu, gnss, t_a, gyro_bias, gyro_scale, lever_arm, t_b: t_a + max_time };
-    accumulate(&input, |sums, fixes, reference, t, travelled| {
+    // (what was added is in `best` already)
+    let _ = accumulate(&input, |sums, fixes, reference, t, travelled| {
         if sums.n < min_fixes || sums.n < solve_at {
             return true;
         }
@@ -374,17 +373,12 @@ pub fn fit_span(
     t_b: f64,
 ) -> Option<MotionFit> {
     let input = Input { imu, gnss, t_a, gyro_bias, gyro_scale: 1.0, lever_arm, t_b };
-    let mut last = None;
-    let mut all = Vec::new();
-    accumulate(&input, |sums, fixes, reference, t, _| {
-        last = Some((*sums, reference, t));
-        all = fixes.to_vec();
-        true
-    });
-    let (sums, reference, t) = last?;
+    let last = accumulate(&input, |_, _, _, _, _| true)?;
     // (the bias as given: a fit over a long span would take a wrong axis's error for
     // one)
-    (sums.n >= 8).then(|| solve(&sums, &all, reference, t_a, t, gyro_bias, 0.0)).flatten()
+    (last.sums.n >= 8)
+        .then(|| solve(&last.sums, &last.fixes, last.reference, t_a, last.t, gyro_bias, 0.0))
+        .flatten()
 }
 
 /// The data of an in-motion fit.
@@ -398,14 +392,25 @@ struct Input<'a> {
     t_b: f64,
 }
 
+/// What [`accumulate`] had added when it stopped: the sums, the fixes, the reference
+/// position and the last fix's time.
+struct Accumulated {
+    sums: Sums,
+    fixes: Vec<Fix>,
+    reference: GeoPos,
+    t: f64,
+}
+
 /// Integrates the IMU from `t_a` and adds each fix in `(t_a, t_b]` to the sums, calling
-/// `at_fix(sums, fixes, reference, t, travelled)` after each; it returns whether to go on.
-fn accumulate(input: &Input, mut at_fix: impl FnMut(&Sums, &[Fix], GeoPos, f64, f64) -> bool) {
+/// `at_fix(sums, fixes, reference, t, travelled)` after each, which returns whether to go
+/// on; returns what it had added (`None` without a fix).
+fn accumulate(
+    input: &Input,
+    mut at_fix: impl FnMut(&Sums, &[Fix], GeoPos, f64, f64) -> bool,
+) -> Option<Accumulated> {
     let Input { imu, gnss, t_a, gyro_bias, gyro_scale, lever_arm, t_b } = *input;
     let fixes: Vec<&GnssEpoch> = gnss.iter().filter(|e| e.t > t_a + 1e-9 && e.t <= t_b).collect();
-    let Some(reference) = fixes.first().map(|e| e.pos) else {
-        return;
-    };
+    let reference = fixes.first()?.pos;
     let g = normal_gravity(reference.lat, reference.h);
     let mut sums = Sums::default();
     let mut records = Vec::with_capacity(fixes.len());
@@ -417,9 +422,10 @@ fn accumulate(input: &Input, mut at_fix: impl FnMut(&Sums, &[Fix], GeoPos, f64, 
     let mut t = t_a;
     let mut next = 0;
     let mut travelled: f64 = 0.0;
+    let mut last_t = t_a;
     for s in imu.iter().filter(|s| s.t > t_a + 1e-9) {
         if next == fixes.len() {
-            return;
+            break;
         }
         let dt = s.t - t.max(s.t - s.dt);
         let dtheta = (s.dtheta * gyro_scale - gyro_bias * s.dt) * (dt / s.dt);
@@ -428,12 +434,13 @@ fn accumulate(input: &Input, mut at_fix: impl FnMut(&Sums, &[Fix], GeoPos, f64, 
         let (ju0, ja0) = (ju, ja);
         let half = dc * So3::exp(&(dtheta * 0.5));
         let du = half.rotate(&dvel);
-        let b_mid = b_int + half.matrix() * (0.5 * dt);
+        let half_m = half.matrix();
+        let b_mid = b_int + half_m * (0.5 * dt);
         u += du;
         ju += du.cross_matrix() * b_mid;
         alpha += (u0 + u) * (0.5 * dt);
         ja += (ju0 + ju) * (0.5 * dt);
-        b_int += half.matrix() * dt;
+        b_int += half_m * dt;
         dc = dc * So3::exp(&dtheta);
         t = s.t;
         while next < fixes.len() && fixes[next].t <= t + 1e-9 {
@@ -451,11 +458,13 @@ fn accumulate(input: &Input, mut at_fix: impl FnMut(&Sums, &[Fix], GeoPos, f64, 
             let var = e.pos_std.map(|v| v.max(MODEL_ERROR).powi(2)).sum() / 3.0;
             sums.add(tau, &y, &col, 1.0 / var);
             records.push(Fix { tau, y, a: col, jac, w: 1.0 / var });
+            last_t = e.t;
             if !at_fix(&sums, &records, reference, e.t, travelled) {
-                return;
+                return Some(Accumulated { sums, fixes: records, reference, t: last_t });
             }
         }
     }
+    Some(Accumulated { sums, fixes: records, reference, t: last_t })
 }
 
 /// The parameters of the fit's refinement ([`solve`]).
@@ -552,7 +561,6 @@ fn solve(
     let inflate = (chi2 / dof).max(1.0);
     // a mirror image gains 4 s_min on χ² when det B < 0
     let mirror = if d < 0.0 { 4.0 * s_min / inflate } else { -4.0 * s_min / inflate };
-    let scale = fit_trace / aa.trace().max(1e-300);
     let pv = (s.y - c * s.a) * ginv;
 
     // Levenberg–Marquardt: x = [θ (nav-frame rotation), p₀, v₀, δb]
@@ -613,7 +621,6 @@ fn solve(
         vel_std: sqrt(std(6)),
         gyro_bias: gyro_bias + db,
         gyro_bias_std: if estimate_bias { sqrt(std(9)) } else { Vector3::zeros() },
-        scale,
         mirror,
         residual: (chi2 / (3 * fixes.len()) as f64).sqrt(),
     })

@@ -697,7 +697,12 @@ fn read_prefix(
     let mut p = Prefix { imu: Vec::new(), gnss: Default::default() };
     let first =
         imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
-    let (_, t_end) = start_span(config, first.t);
+    // (only the first sample when nothing will look at the rest)
+    let t_end = if crate::start::looks_at_data(config) {
+        start_span(config, first.t).1
+    } else {
+        f64::NEG_INFINITY
+    };
     p.imu.push((first, imu.line()));
     if first.t <= t_end {
         while let Some(s) = imu.next_sample()? {

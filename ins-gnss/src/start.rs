@@ -28,8 +28,8 @@ use ins_gnss_core::io::columns::{unit_factor, Quantity};
 
 /// The gyro bias 1σ without a static start to measure it, deg/h. On navego (no static
 /// start; the filter's bias estimates settle at 12–70 deg/h) the forward horizontal RMS
-/// with this prior given as `init.gyro_bias_std` is 1.562 m at 48, 1.552 m at 100, 1.593 m
-/// at 400 and 1.797 m at 1000 deg/h: a prior far above the sensor's bias costs accuracy.
+/// with this prior given as `init.gyro_bias_std` is 1.414 m at 48, 1.413 m at 100, 1.418 m
+/// at 400 and 1.430 m at 1000 deg/h (the alignment fits the horizontal biases itself).
 pub const DEFAULT_GYRO_BIAS_STD: f64 = 100.0;
 
 /// The χ² gain (in units of the fit's χ² per degree of freedom) by which a mirror image
@@ -67,7 +67,7 @@ pub fn prepare(
     let a = config.align.clone();
     let need_init = !config.init.is_complete();
     let need_noise = config.imu_noise.from_static;
-    if imu.is_empty() || (!a.checks && !need_init && !need_noise) {
+    if imu.is_empty() || !looks_at_data(&config) {
         return Ok(Start { config, report });
     }
     let g = gnss.first().map_or(9.80, |e| normal_gravity(e.pos.lat, e.pos.h));
@@ -172,6 +172,12 @@ pub fn prepare(
         fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), t0)?;
     }
     Ok(Start { config, report })
+}
+
+/// Whether [`prepare`] reads the data at all: checks on, or a part of `[init]` or the
+/// noise to find.
+pub fn looks_at_data(config: &Config) -> bool {
+    config.align.checks || !config.init.is_complete() || config.imu_noise.from_static
 }
 
 /// The column map's key for the axes, or the mounting's.
@@ -442,7 +448,8 @@ fn fill_init(
         } else {
             (m_roll, m_pitch, format!("from the in-motion alignment ({span})"))
         };
-        // the heading's σ: the fit's with the drift of the gyro bias over the span
+        // the heading's σ: the fit's (the vertical gyro bias's drift included), at
+        // least 0.25°
         let yaw_std = m.att_std.z.hypot(0.25f64.to_radians());
         if yaw_std > 20f64.to_radians() {
             return Err(format!(
