@@ -417,22 +417,29 @@ fn open_inputs(
         config.bad_lines(),
     )?
     .with_max_bridge(config.data.max_bridge);
-    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
-    // (the maps were checked when the configuration was loaded)
-    let bad = |key: &str, e: String| {
-        RunError::Config(crate::config::ConfigError { path: PathBuf::from(key), message: e })
-    };
     if let Some(c) = &config.data.imu_columns {
         let rates = config.imu_format() == ins_gnss_core::io::ImuFormat::Rates;
-        imu = imu.with_columns(c.map(rates).map_err(|e| bad("data.imu_columns", e))?);
+        imu = imu.with_columns(c.map(rates).map_err(|e| bad_map("data.imu_columns", e))?);
     }
     if let Some(m) = &config.imu.mounting {
-        imu = imu.with_mounting(m.matrix().map_err(|e| bad("imu.mounting", e))?);
+        imu = imu.with_mounting(m.matrix().map_err(|e| bad_map("imu.mounting", e))?);
     }
+    Ok((imu, open_gnss(config)?))
+}
+
+/// A column map or mounting the reader cannot take (they were checked when the
+/// configuration was loaded).
+fn bad_map(key: &str, message: String) -> RunError {
+    RunError::Config(crate::config::ConfigError { path: PathBuf::from(key), message })
+}
+
+/// The configured GNSS file, open.
+fn open_gnss(config: &Config) -> Result<GnssReader<FileReader>, RunError> {
+    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
     if let Some(c) = &config.data.gnss_columns {
-        gnss = gnss.with_columns(c.map().map_err(|e| bad("data.gnss_columns", e))?);
+        gnss = gnss.with_columns(c.map().map_err(|e| bad_map("data.gnss_columns", e))?);
     }
-    Ok((imu, gnss))
+    Ok(gnss)
 }
 
 /// The states a run can use (`filter.states = 15 | 21`): how each starts and what it
@@ -650,12 +657,37 @@ pub fn run(
     out_dir: &Path,
     progress: Option<Progress<'_>>,
 ) -> Result<RunSummary, RunError> {
-    let (mut imu, mut gnss) = open_inputs(config)?;
-    let prefix = read_prefix(config, &mut imu, &mut gnss)?;
-    let start = prepare_start(config, &prefix)?;
+    let (imu, mut gnss) = open_inputs(config)?;
+    // With the whole initial state and noise given, the data's first seconds are only
+    // checked (`start::prepare` changes nothing): the checks run beside the filter on a
+    // copy of them, and a refusal stops the run. Otherwise the filter waits for `prepare`.
+    let beside = config.align.checks && !crate::start::fills(config);
+    let (mut feed, checks) = if beside {
+        let (tee, prefix) = std::sync::mpsc::channel();
+        let checks = Checks::spawn(config, prefix)?;
+        (ImuFeed::spawn(imu, Some((tee, config.clone()))), Some(checks))
+    } else {
+        (ImuFeed::spawn(imu, None), None)
+    };
+    let prefix = match read_prefix(config, &mut feed, &mut gnss, beside)
+        .and_then(|prefix| {
+            let start = match beside {
+                true => crate::start::Start { config: config.clone(), report: Vec::new() },
+                false => prepare_start(config, &prefix)?,
+            };
+            Ok((start, prefix))
+        })
+        .and_then(|(start, prefix)| Ok((start, prefix, Outputs::create(out_dir)?)))
+    {
+        Ok(ready) => ready,
+        Err(e) => {
+            let _ = feed.finish();
+            return Err(e);
+        }
+    };
+    let (start, prefix, (out, nav_file)) = prefix;
     let config = &start.config;
-    let (out, nav_file) = Outputs::create(out_dir)?;
-    let inputs = ((imu, gnss, prefix), (out, nav_file));
+    let inputs = ((feed, gnss, prefix, checks), (out, nav_file));
     let result = match config.filter.states {
         21 => run_into::<InsState21>(config, strategy, out_dir, progress, inputs.0, inputs.1),
         _ => run_into::<InsState>(config, strategy, out_dir, progress, inputs.0, inputs.1),
@@ -673,45 +705,168 @@ pub fn run(
             Outputs::publish(out_dir, summary.smoothed.is_some())?;
             Ok(summary)
         }
+        // refused by the checks, as before a start: nothing of this run is kept
+        Err(error @ RunError::Start(_)) => {
+            for name in Outputs::NAMES.iter().chain(&Outputs::SMOOTHED) {
+                let _ = std::fs::remove_file(partial_path(&out_dir.join(name)));
+            }
+            Err(error)
+        }
         Err(error) => {
             Err(RunError::Incomplete { error: Box::new(error), dir: out_dir.to_path_buf() })
         }
     }
 }
 
+/// Batches of parsed IMU samples (with their lines) from the reader thread.
+type ImuBatch = Result<Vec<(ImuSample, usize)>, LineError>;
+
+/// The IMU file parsed on a thread of its own, [`BATCH`] samples per message over a
+/// bounded channel; a parse error ends the stream after the samples before it.
+struct ImuFeed {
+    batches: std::sync::mpsc::Receiver<ImuBatch>,
+    reader: std::thread::JoinHandle<SkipCounts>,
+}
+
+impl ImuFeed {
+    /// Start reading `imu`. With a `tee`, the samples up to the first after
+    /// `align.max_time` from the start go to it too (for [`Checks`]).
+    fn spawn(mut imu: ImuReader<FileReader>, tee: Option<(Tee, Config)>) -> Self {
+        let (tx, batches) = std::sync::mpsc::sync_channel::<ImuBatch>(4);
+        let reader = std::thread::spawn(move || {
+            let mut batch = Vec::with_capacity(BATCH);
+            let (mut tee, config) = tee.unzip();
+            let mut t_end = f64::NAN;
+            loop {
+                match imu.next_sample() {
+                    Ok(Some(s)) => {
+                        if let (Some(to), Some(config)) = (&tee, &config) {
+                            if t_end.is_nan() {
+                                t_end = start_span(config, s.t).1;
+                            }
+                            let _ = to.send(s);
+                            if s.t > t_end {
+                                tee = None;
+                            }
+                        }
+                        batch.push((s, imu.line()));
+                        if batch.len() == BATCH
+                            && tx
+                                .send(Ok(std::mem::replace(&mut batch, Vec::with_capacity(BATCH))))
+                                .is_err()
+                        {
+                            break;
+                        }
+                    }
+                    Ok(None) => {
+                        let _ = tx.send(Ok(batch));
+                        break;
+                    }
+                    Err(e) => {
+                        let _ = tx.send(Ok(std::mem::take(&mut batch)));
+                        let _ = tx.send(Err(e));
+                        break;
+                    }
+                }
+            }
+            imu.skipped
+        });
+        Self { batches, reader }
+    }
+
+    /// Stop reading (if not at the end yet) and return the reader's skipped lines.
+    /// (A tee still open closes with the reader: the data ended before `align.max_time`.)
+    fn finish(self) -> Result<SkipCounts, RunError> {
+        drop(self.batches);
+        self.reader.join().map_err(|_| RunError::NoData("the reader thread panicked".into()))
+    }
+}
+
+/// The IMU samples [`Checks`] look at, one by one (the channel closes after the last).
+type Tee = std::sync::mpsc::Sender<ImuSample>;
+
+/// [`crate::start::prepare`] run beside the filter when it only checks (the initial state
+/// and noise are given): on the IMU samples the reader tees to it and the GNSS epochs of
+/// the same span, read from a reader of its own.
+struct Checks(std::thread::JoinHandle<Result<(), RunError>>);
+
+impl Checks {
+    fn spawn(config: &Config, imu: std::sync::mpsc::Receiver<ImuSample>) -> Result<Self, RunError> {
+        let mut gnss = open_gnss(config)?;
+        let config = config.clone();
+        Ok(Self(std::thread::spawn(move || {
+            let samples: Vec<ImuSample> = imu.iter().collect();
+            let Some(first) = samples.first() else {
+                return Ok(());
+            };
+            let (t0, t_end) = start_span(&config, first.t);
+            let mut epochs = Vec::new();
+            while let Some(g) = gnss.next_epoch()? {
+                epochs.push(g);
+                if g.t > t_end {
+                    break;
+                }
+            }
+            crate::start::prepare(&config, &samples, &epochs, t0)
+                .map(|_| ())
+                .map_err(RunError::Start)
+        })))
+    }
+
+    /// Whether the checks have finished (they can be joined without waiting).
+    fn done(&self) -> bool {
+        self.0.is_finished()
+    }
+
+    fn join(self) -> Result<(), RunError> {
+        self.0.join().map_err(|_| RunError::NoData("the checks' thread panicked".into()))?
+    }
+}
+
 /// The first seconds of the inputs, read before the filter starts ([`crate::start`]):
 /// IMU samples and GNSS epochs (with their lines) up to `align.max_time` after the start.
 pub struct Prefix {
-    /// IMU samples and their lines.
-    pub imu: Vec<(ImuSample, usize)>,
+    /// IMU batches as the reader sent them (the filter takes them first); they hold the
+    /// samples [`crate::start::prepare`] looks at and may run on past them.
+    batches: Vec<Vec<(ImuSample, usize)>>,
+    /// How many of the batches' samples `prepare` looks at.
+    looked_at: usize,
     /// GNSS epochs and their lines.
-    pub gnss: std::collections::VecDeque<(GnssEpoch, usize)>,
+    gnss: std::collections::VecDeque<(GnssEpoch, usize)>,
 }
 
 /// Read the [`Prefix`]: up to `align.max_time` seconds after the start time.
+/// `beside`: the checks run beside the filter, nothing to read here but the first sample.
 fn read_prefix(
     config: &Config,
-    imu: &mut ImuReader<FileReader>,
+    imu: &mut ImuFeed,
     gnss: &mut GnssReader<FileReader>,
+    beside: bool,
 ) -> Result<Prefix, RunError> {
-    let mut p = Prefix { imu: Vec::new(), gnss: Default::default() };
-    let first =
-        imu.next_sample()?.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
-    // (only the first sample when nothing will look at the rest)
-    let t_end = if crate::start::looks_at_data(config) {
-        start_span(config, first.t).1
-    } else {
-        f64::NEG_INFINITY
-    };
-    p.imu.push((first, imu.line()));
-    if first.t <= t_end {
-        while let Some(s) = imu.next_sample()? {
-            p.imu.push((s, imu.line()));
-            if s.t > t_end {
-                break;
+    let mut p = Prefix { batches: Vec::new(), looked_at: 0, gnss: Default::default() };
+    let mut t_end = None;
+    // the samples up to the first after the end (only the first when nothing will look)
+    'batches: for batch in imu.batches.iter() {
+        let batch = batch?;
+        for (s, _) in &batch {
+            let end = *t_end.get_or_insert_with(|| {
+                if crate::start::looks_at_data(config) && !beside {
+                    start_span(config, s.t).1
+                } else {
+                    f64::NEG_INFINITY
+                }
+            });
+            p.looked_at += 1;
+            if s.t > end {
+                p.batches.push(batch);
+                break 'batches;
             }
         }
+        p.batches.push(batch);
     }
+    let Some(t_end) = t_end else {
+        return Err(RunError::NoData("the IMU file has no samples".into()));
+    };
     while let Some(g) = gnss.next_epoch()? {
         p.gnss.push_back((g, gnss.line()));
         if g.t > t_end {
@@ -730,7 +885,8 @@ fn start_span(config: &Config, first_t: f64) -> (f64, f64) {
 
 /// [`crate::start::prepare`] on a prefix.
 fn prepare_start(config: &Config, prefix: &Prefix) -> Result<crate::start::Start, RunError> {
-    let imu: Vec<ImuSample> = prefix.imu.iter().map(|(s, _)| *s).collect();
+    let imu: Vec<ImuSample> =
+        prefix.batches.iter().flatten().take(prefix.looked_at).map(|(s, _)| *s).collect();
     let gnss: Vec<GnssEpoch> = prefix.gnss.iter().map(|(g, _)| *g).collect();
     let (t0, _) = start_span(config, imu.first().map_or(0.0, |s| s.t));
     crate::start::prepare(config, &imu, &gnss, t0).map_err(RunError::Start)
@@ -742,7 +898,7 @@ fn run_into<S: RunState>(
     strategy: AnyStrategy,
     out_dir: &Path,
     mut progress: Option<Progress<'_>>,
-    (mut imu, mut gnss, prefix): (ImuReader<FileReader>, GnssReader<FileReader>, Prefix),
+    (feed, mut gnss, prefix, mut checks): (ImuFeed, GnssReader<FileReader>, Prefix, Option<Checks>),
     (mut out, nav_file): (Outputs, std::io::BufWriter<std::fs::File>),
 ) -> Result<RunSummary, RunError>
 where
@@ -752,9 +908,11 @@ where
     let wall = Instant::now();
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
-    let Prefix { imu: first_samples, gnss: mut first_epochs } = prefix;
-    let first_t = first_samples
-        .first()
+    let Prefix { batches: first_batches, gnss: mut first_epochs, .. } = prefix;
+    let first_t = first_batches
+        .iter()
+        .flatten()
+        .next()
         .ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?
         .0
         .t;
@@ -787,38 +945,9 @@ where
     };
 
     std::thread::scope(|scope| -> Result<(), RunError> {
-        let (imu_tx, imu_rx) =
-            std::sync::mpsc::sync_channel::<Result<Vec<(ImuSample, usize)>, LineError>>(4);
         // States, not records: the writer thread does the Euler conversion.
         let (nav_tx, nav_rx) =
             std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::state::InsState)>>(4);
-        let reader = scope.spawn(move || {
-            let mut batch = first_samples;
-            loop {
-                match imu.next_sample() {
-                    Ok(Some(s)) => {
-                        batch.push((s, imu.line()));
-                        if batch.len() == BATCH
-                            && imu_tx
-                                .send(Ok(std::mem::replace(&mut batch, Vec::with_capacity(BATCH))))
-                                .is_err()
-                        {
-                            break;
-                        }
-                    }
-                    Ok(None) => {
-                        let _ = imu_tx.send(Ok(batch));
-                        break;
-                    }
-                    Err(e) => {
-                        let _ = imu_tx.send(Ok(std::mem::take(&mut batch)));
-                        let _ = imu_tx.send(Err(e));
-                        break;
-                    }
-                }
-            }
-            imu.skipped
-        });
         let nav_path = partial_path(&out_dir.join("nav.txt"));
         let writer = scope.spawn(move || -> Result<(), RunError> {
             let mut w = nav_file;
@@ -855,7 +984,12 @@ where
             let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
             let mut records = Vec::with_capacity(BATCH);
             let mut last_std = f64::NEG_INFINITY;
-            'outer: for message in &imu_rx {
+            let messages = first_batches.into_iter().map(Ok).chain(feed.batches.iter());
+            'outer: for message in messages {
+                // a refusal by the checks stops the run
+                if checks.as_ref().is_some_and(Checks::done) {
+                    checks.take().map_or(Ok(()), Checks::join)?;
+                }
                 for (sample, imu_line) in message? {
                     if sample.t <= start + 1e-9 {
                         continue;
@@ -914,11 +1048,11 @@ where
             Ok(())
         })();
         drop(nav_tx);
-        drop(imu_rx);
         let written =
             writer.join().map_err(|_| RunError::NoData("the writer thread panicked".into()))?;
-        summary.imu_skipped =
-            reader.join().map_err(|_| RunError::NoData("the reader thread panicked".into()))?;
+        summary.imu_skipped = feed.finish()?;
+        // the checks' verdict first: a refused input explains a failed run
+        checks.take().map_or(Ok(()), Checks::join)?;
         result?;
         written
     })?;

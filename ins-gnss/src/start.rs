@@ -174,10 +174,16 @@ pub fn prepare(
     Ok(Start { config, report })
 }
 
-/// Whether [`prepare`] reads the data at all: checks on, or a part of `[init]` or the
-/// noise to find.
+/// Whether [`prepare`] reads the data at all: checks on, or a part of the configuration
+/// to fill.
 pub fn looks_at_data(config: &Config) -> bool {
-    config.align.checks || !config.init.is_complete() || config.imu_noise.from_static
+    config.align.checks || fills(config)
+}
+
+/// Whether [`prepare`] fills a part of the configuration from the data: `[init]`
+/// incomplete or the noise `from_static`. (Otherwise it only checks.)
+pub fn fills(config: &Config) -> bool {
+    !config.init.is_complete() || config.imu_noise.from_static
 }
 
 /// The column map's key for the axes, or the mounting's.

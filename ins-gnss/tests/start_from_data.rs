@@ -152,6 +152,58 @@ fn a_stated_mounting_matches_the_square_run_and_a_left_handed_one_is_refused() {
             }
         }
     }
+    // the simulator's own mounting option: the IMU turned inside the car, its errors off
+    // (they are drawn on the sensor's axes, so a mounted IMU's noise is not the square
+    // one's), run with the square run's configuration and the rotation stated
+    let quiet = |s: String| {
+        ["arw = 0.3", "vrw = 0.1", "gyro_bias_std = 10.0", "accel_bias_std = 100.0"]
+            .iter()
+            .fold(s, |s, line| {
+                s.replace(line, &format!("{} = 0.0", line.split(' ').next().unwrap()))
+            })
+            .replace("gyro_turn_on = [30.0, -20.0, 40.0]", "")
+            .replace("accel_turn_on = [300.0, -200.0, 100.0]", "")
+    };
+    let (sq, sim) = (dir.join("sim_square"), dir.join("sim_mounted"));
+    std::fs::create_dir_all(&sq).unwrap();
+    std::fs::create_dir_all(&sim).unwrap();
+    simulate("drive.toml", &sq, quiet);
+    simulate("drive.toml", &sim, |s| {
+        quiet(s).replace("[imu]\n", "[imu]\nmounting = [180.0, 0.0, -90.0]\n")
+    });
+    // (the filter keeps the noisy drive's noise settings: zero noise is no setting)
+    let square_config = std::fs::read_to_string(sq.join("config.toml")).unwrap();
+    let noise = |c: &str| {
+        let a = c.find("[imu_noise]").unwrap();
+        let b = a + 1 + c[a + 1..].find("\n[").unwrap();
+        c[a..b].to_string()
+    };
+    let square_config = square_config.replace(&noise(&square_config), &noise(&config));
+    std::fs::write(sq.join("config.toml"), &square_config).unwrap();
+    std::fs::write(
+        sq.join("mounted.toml"),
+        square_config
+            .replace("imu = \"IMU.txt\"", &format!("imu = {:?}", sim.join("IMU.txt")))
+            .replace("[imu]\n", "[imu]\nmounting = [180.0, 0.0, -90.0]\n"),
+    )
+    .unwrap();
+    for (config, out) in [("config.toml", "square_out"), ("mounted.toml", "mounted_out")] {
+        let (ok, _, err) = run(&sq.join(config), &sq.join(out));
+        assert!(ok, "{config}: {err}");
+    }
+    let (a, b) = (
+        std::fs::read_to_string(sq.join("square_out/nav.txt")).unwrap(),
+        std::fs::read_to_string(sq.join("mounted_out/nav.txt")).unwrap(),
+    );
+    assert_eq!(a.lines().count(), b.lines().count());
+    let mut worst = 0f64;
+    for (x, y) in a.lines().zip(b.lines()) {
+        for (u, v) in x.split_whitespace().zip(y.split_whitespace()) {
+            let (u, v): (f64, f64) = (u.parse().unwrap(), v.parse().unwrap());
+            worst = worst.max((u - v).abs() / u.abs().max(1.0));
+        }
+    }
+    assert!(worst <= 1e-6, "simulator-mounted against square: relative difference {worst:e}");
     // a mirror image (two axes swapped without a sign) is no mounting
     std::fs::write(dir.join("mirror.toml"), mounted(r#"["y", "x", "z"]"#)).unwrap();
     let (ok, _, err) = run(&dir.join("mirror.toml"), &dir.join("mirror"));
@@ -169,6 +221,19 @@ fn rate_log(
     convert: impl Fn(f64, [f64; 3], [f64; 3]) -> [f64; 7],
     columns: &str,
 ) -> PathBuf {
+    rate_log_with(dir, name, header, convert, columns, without_init)
+}
+
+/// [`rate_log`] with `init(config)` giving the configuration's text (with or without
+/// `[init]`).
+fn rate_log_with(
+    dir: &Path,
+    name: &str,
+    header: &str,
+    convert: impl Fn(f64, [f64; 3], [f64; 3]) -> [f64; 7],
+    columns: &str,
+    init: fn(&str) -> String,
+) -> PathBuf {
     let mut text = format!("{header}\n");
     for r in rows(&dir.join("IMU.txt")) {
         let dt = 0.01;
@@ -179,7 +244,7 @@ fn rate_log(
         text += "\n";
     }
     std::fs::write(dir.join(format!("{name}.csv")), text).unwrap();
-    let config = without_init(&std::fs::read_to_string(dir.join("config.toml")).unwrap())
+    let config = init(&std::fs::read_to_string(dir.join("config.toml")).unwrap())
         .replace("imu = \"IMU.txt\"", &format!("imu = \"{name}.csv\""))
         .replace("imu_format = \"increments\"", "imu_format = \"rates\"")
         + &format!("\n[data.imu_columns]\n{columns}\n");
@@ -269,6 +334,68 @@ fn mislabelled_units_axes_and_times_are_refused_with_the_key() {
     let (ok, _, err) = run(&dir.join("swapped.toml"), &dir.join("out"));
     if ok || !err.contains("swapped") || !err.contains("GNSS_swapped.txt:1") {
         failures.push(format!("latitude/longitude swapped: ok = {ok}, {err}"));
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// With the whole initial state given, the checks run beside the filter (it does not wait
+/// for them): a refusal still stops the run with the key, keeps no partial output and
+/// leaves the earlier result untouched.
+#[test]
+fn with_init_given_the_checks_beside_the_filter_still_refuse() {
+    let dir = temp("labels-init");
+    simulate("drive.toml", &dir, |s| s);
+    let h = "t,gx,gy,gz,ax,ay,az";
+    let id = |t, w: [f64; 3], f: [f64; 3]| [t, w[0], w[1], w[2], f[0], f[1], f[2]];
+    let keep = |c: &str| c.to_string();
+    let out = dir.join("out");
+    let good = rate_log_with(&dir, "good", h, id, "", keep);
+    let (ok, stdout, err) = run(&good, &out);
+    assert!(ok, "{err}");
+    assert!(!stdout.contains("init: roll"), "the given state was kept: {stdout}");
+    let earlier = std::fs::read(out.join("nav.txt")).unwrap();
+    let g = 9.80665;
+    let cases: Vec<(&str, PathBuf, &[&str])> = vec![
+        (
+            "accelerometer in g declared m/s²",
+            rate_log_with(&dir, "in_g", h, |t, w, f| id(t, w, f.map(|v| v / g)), "", keep),
+            &["`data.imu_columns.accel_unit`", "accel_unit = \"g\""],
+        ),
+        (
+            "gyro in deg/s declared rad/s",
+            rate_log_with(&dir, "in_deg", h, |t, w, f| id(t, w.map(f64::to_degrees), f), "", keep),
+            &["`data.imu_columns.gyro_unit`", "gyro_unit = \"deg/s\""],
+        ),
+        (
+            "x and y columns swapped (a left-handed frame)",
+            rate_log_with(&dir, "swap_xy", "t,gy,gx,gz,ay,ax,az", id, "", keep),
+            &["left-handed"],
+        ),
+        (
+            "FRD declared FLU",
+            rate_log_with(&dir, "flu", h, id, "axes = \"flu\"", keep),
+            &["`data.imu_columns.axes`", "upside down"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (what, config, needles) in cases {
+        let (ok, _, err) = run(&config, &out);
+        if ok || !needles.iter().all(|n| err.contains(n)) || err.contains(".partial") {
+            failures.push(format!("{what}: ok = {ok}, {err}"));
+        }
+        let partial: Vec<_> = std::fs::read_dir(&out)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".partial"))
+            .map(|e| e.file_name())
+            .collect();
+        if !partial.is_empty() {
+            failures.push(format!("{what}: left {partial:?}"));
+        }
+        if std::fs::read(out.join("nav.txt")).unwrap() != earlier {
+            failures.push(format!("{what}: the earlier nav.txt changed"));
+        }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
     std::fs::remove_dir_all(&dir).unwrap();
