@@ -106,9 +106,7 @@ pub fn summary_lines(s: &RunSummary) -> Vec<String> {
             n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
         ));
     }
-    if let Some(c) = s.consistency() {
-        lines.push(c.verdict());
-    }
+    lines.extend(s.streams.iter().map(|st| st.verdict()));
     if let Some((rows, secs)) = s.smoothed {
         lines.push(format!(
             "smoothed: {rows} epochs in {secs:.2} s (backward pass) -> {}, {}",
@@ -152,6 +150,9 @@ pub struct RunOptions<'a> {
     pub smooth: bool,
     /// Write `report.html` (with the plots when there is a truth).
     pub report: bool,
+    /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
+    /// of an error.
+    pub accept_inconsistent: bool,
 }
 
 /// `ins-gnss run`.
@@ -232,7 +233,14 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         let page = crate::report::write(&out_dir, &summary, &cfg, &tables, &figures)?;
         out!("report: {}", page.display());
     }
-    Ok(())
+    match crate::health::assess(&summary, &cfg) {
+        Err(u) if o.accept_inconsistent => {
+            out!("warning (--accept-inconsistent): {u}");
+            Ok(())
+        }
+        Err(u) => Err(Box::new(u)),
+        Ok(()) => Ok(()),
+    }
 }
 
 /// The GNSS fixes of a configuration (time, position), for the plan view.

@@ -21,6 +21,7 @@ pub mod cli;
 pub mod columns;
 pub mod config;
 pub mod eval;
+pub mod health;
 pub mod plot;
 pub mod report;
 pub mod run;

@@ -165,6 +165,166 @@ pub struct RunSummary {
     /// How the parts of the initial state (and the noise) not given were found from the
     /// data ([`crate::start`]), one line each.
     pub start: Vec<String>,
+    /// Every stream's innovations, whatever their verdict, in the order first seen.
+    pub streams: Vec<StreamStats>,
+    /// The first GNSS epoch the filter used.
+    pub first_fix: Option<GnssEpoch>,
+}
+
+/// A GNSS gap longer than this (s) is an outage for [`StreamStats::refused_after_outage`].
+pub const OUTAGE: f64 = 5.0;
+
+/// One measurement stream's innovations over the run: all of them (accepted, inflated and
+/// refused), with the nominal `S` (before any adaptation).
+#[derive(Clone, Debug)]
+pub struct StreamStats {
+    /// The stream.
+    pub stream: estimator_core::StreamId,
+    /// Whether it is a GNSS stream (not vehicle aiding).
+    pub gnss: bool,
+    /// Updates.
+    pub epochs: usize,
+    /// Refused updates.
+    pub refused: usize,
+    /// Sum of the NIS (nominal `S`) and of the dimensions.
+    pub nis_sum: f64,
+    /// See [`nis_sum`](Self::nis_sum).
+    pub dof: usize,
+    /// Updates whose NIS exceeds the median of its χ² distribution (half of them for a
+    /// consistent filter, whatever a few gross errors do).
+    pub above_median: usize,
+    /// The median over the updates of NIS / (χ² median): the factor² by which `S` is too
+    /// small (about 1 when consistent), from the sorted ratios at the end of the run.
+    pub median_ratio: f64,
+    /// Refusals from a gap of more than [`OUTAGE`] s in the stream until its next
+    /// accepted update.
+    pub refused_after_outage: usize,
+    ratios: Vec<f32>,
+    last_t: f64,
+    after_outage: bool,
+    accepted_any: bool,
+}
+
+impl StreamStats {
+    /// The mean NIS per degree of freedom and its two-sided 99 % band for a consistent
+    /// filter (the summed NIS is χ² with the summed degrees of freedom).
+    pub fn mean_nis(&self) -> (f64, (f64, f64)) {
+        let k = self.dof.max(1) as f64;
+        let q = |p| estimator_core::consistency::chi2_quantile(p, k) / k;
+        (self.nis_sum / k, (q(0.005), q(0.995)))
+    }
+
+    /// The fraction of updates above their χ² median and its band at a two-sided
+    /// probability of 1e-6 for a consistent filter (binomial with p = ½, normal
+    /// approximation): outside it, the innovations are far from their distribution.
+    pub fn above_median_band(&self) -> (f64, (f64, f64)) {
+        let n = self.epochs.max(1) as f64;
+        // the standard normal quantile of 1 − 0.5e-6
+        let half = 4.8916 * 0.5 / n.sqrt();
+        (self.above_median as f64 / n, (0.5 - half, 0.5 + half))
+    }
+
+    /// Consistent by the mean NIS of all innovations.
+    pub fn consistent(&self) -> bool {
+        let (m, (lo, hi)) = self.mean_nis();
+        m >= lo && m <= hi
+    }
+
+    /// One line for the run summary.
+    pub fn verdict(&self) -> String {
+        let (m, (lo, hi)) = self.mean_nis();
+        let (f, (flo, fhi)) = self.above_median_band();
+        let head = format!(
+            "consistency of {}: mean NIS per degree of freedom {m:.3} over all {} updates \
+             ({} refused), 99 % band [{lo:.3}, {hi:.3}]; {:.1} % above their χ² median \
+             (band [{:.1}, {:.1}] %)",
+            self.stream,
+            self.epochs,
+            self.refused,
+            100.0 * f,
+            100.0 * flo,
+            100.0 * fhi
+        );
+        if self.consistent() {
+            format!("{head}: consistent")
+        } else if m > hi {
+            format!(
+                "{head}: NOT consistent — the innovations are larger than the filter believes \
+                 (the typical one {:.2}× its σ, the excess in the largest ones), so its \
+                 reported σ (std.txt) is too small",
+                self.median_ratio.max(0.0).sqrt()
+            )
+        } else {
+            format!(
+                "{head}: NOT consistent — the innovations are smaller than the filter \
+                 believes, so its reported σ is too large (noise settings pessimistic)"
+            )
+        }
+    }
+
+    fn new(stream: estimator_core::StreamId) -> Self {
+        Self {
+            stream,
+            gnss: !VEHICLE_STREAMS.contains(&stream),
+            epochs: 0,
+            refused: 0,
+            nis_sum: 0.0,
+            dof: 0,
+            above_median: 0,
+            median_ratio: f64::NAN,
+            refused_after_outage: 0,
+            ratios: Vec::new(),
+            last_t: f64::NAN,
+            after_outage: false,
+            accepted_any: false,
+        }
+    }
+
+    fn add(&mut self, u: &UpdateSummary, median: f64) {
+        // (an outage after accepted updates: refusals from the start are not its doing)
+        if self.last_t.is_finite() && u.time - self.last_t > OUTAGE && self.accepted_any {
+            self.after_outage = true;
+        }
+        self.last_t = u.time;
+        self.epochs += 1;
+        self.nis_sum += u.nis;
+        self.dof += u.dim;
+        self.above_median += usize::from(u.nis > median);
+        self.ratios.push((u.nis / median) as f32);
+        match u.verdict {
+            Verdict::Rejected => {
+                self.refused += 1;
+                self.refused_after_outage += usize::from(self.after_outage);
+            }
+            Verdict::Accepted => {
+                self.after_outage = false;
+                self.accepted_any = true;
+            }
+            Verdict::Inflated => {}
+        }
+    }
+
+    fn finish(&mut self) {
+        let mut r = std::mem::take(&mut self.ratios);
+        if !r.is_empty() {
+            let k = r.len() / 2;
+            let (_, m, _) = r.select_nth_unstable_by(k, f32::total_cmp);
+            self.median_ratio = f64::from(*m);
+        }
+    }
+}
+
+/// The median of χ² with `k` degrees of freedom (cached for the small `k` of
+/// measurements).
+fn chi2_median(k: usize) -> f64 {
+    static CACHE: std::sync::OnceLock<[f64; 13]> = std::sync::OnceLock::new();
+    let c = CACHE.get_or_init(|| {
+        core::array::from_fn(|k| estimator_core::consistency::chi2_quantile(0.5, k.max(1) as f64))
+    });
+    match c.get(k) {
+        Some(m) => *m,
+        None => estimator_core::consistency::chi2_quantile(0.5, k as f64),
+    }
 }
 
 /// Updates of one vehicle-aiding stream.
@@ -231,10 +391,25 @@ impl RunSummary {
         })
     }
 
+    /// Close the streams' statistics at the end of the run.
+    fn finish_streams(&mut self) {
+        for s in &mut self.streams {
+            s.finish();
+        }
+    }
+
     /// Count the verdicts of one epoch's updates (GNSS and vehicle aiding apart; only
     /// GNSS updates enter the consistency check).
     fn tally(&mut self, updates: &[UpdateSummary]) {
         for u in updates {
+            let i = match self.streams.iter().position(|s| s.stream == u.stream) {
+                Some(i) => i,
+                None => {
+                    self.streams.push(StreamStats::new(u.stream));
+                    self.streams.len() - 1
+                }
+            };
+            self.streams[i].add(u, chi2_median(u.dim));
             if let Some(k) = VEHICLE_STREAMS.iter().position(|s| *s == u.stream) {
                 match u.verdict {
                     Verdict::Rejected => self.aiding[k].rejected += 1,
@@ -659,9 +834,17 @@ pub fn run(
 ) -> Result<RunSummary, RunError> {
     let (imu, mut gnss) = open_inputs(config)?;
     // With the whole initial state and noise given, the data's first seconds are only
-    // checked (`start::prepare` changes nothing): the checks run beside the filter on a
-    // copy of them, and a refusal stops the run. Otherwise the filter waits for `prepare`.
-    let beside = config.align.checks && !crate::start::fills(config);
+    // checked (`start::prepare` changes nothing but the noise floor, which needs only the
+    // static start): the checks run beside the filter on a copy of them, and a refusal
+    // stops the run. Otherwise the filter waits for `prepare`.
+    let look = if crate::start::fills(config) {
+        Look::Span
+    } else if crate::start::floors(config) {
+        Look::StaticStart
+    } else {
+        Look::First
+    };
+    let beside = config.align.checks && look != Look::Span;
     let (mut feed, checks) = if beside {
         let (tee, prefix) = std::sync::mpsc::channel();
         let checks = Checks::spawn(config, prefix)?;
@@ -669,14 +852,8 @@ pub fn run(
     } else {
         (ImuFeed::spawn(imu, None), None)
     };
-    let prefix = match read_prefix(config, &mut feed, &mut gnss, beside)
-        .and_then(|prefix| {
-            let start = match beside {
-                true => crate::start::Start { config: config.clone(), report: Vec::new() },
-                false => prepare_start(config, &prefix)?,
-            };
-            Ok((start, prefix))
-        })
+    let prefix = match read_prefix(config, &mut feed, &mut gnss, look)
+        .and_then(|prefix| Ok((prepare_start(config, &prefix, look)?, prefix)))
         .and_then(|(start, prefix)| Ok((start, prefix, Outputs::create(out_dir)?)))
     {
         Ok(ready) => ready,
@@ -835,45 +1012,83 @@ pub struct Prefix {
     gnss: std::collections::VecDeque<(GnssEpoch, usize)>,
 }
 
-/// Read the [`Prefix`]: up to `align.max_time` seconds after the start time.
-/// `beside`: the checks run beside the filter, nothing to read here but the first sample.
+/// How much of the data's start [`run`] reads before the filter starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Look {
+    /// The first sample (nothing to find from the data).
+    First,
+    /// Until the static start ends ([`crate::start::prepare_floor`]).
+    StaticStart,
+    /// `align.max_time` ([`crate::start::prepare`]).
+    Span,
+}
+
+/// Read the [`Prefix`] (`look`): from the start time up to the first IMU sample past
+/// its end, and the GNSS epochs up to the first past that sample.
 fn read_prefix(
     config: &Config,
     imu: &mut ImuFeed,
     gnss: &mut GnssReader<FileReader>,
-    beside: bool,
+    look: Look,
 ) -> Result<Prefix, RunError> {
     let mut p = Prefix { batches: Vec::new(), looked_at: 0, gnss: Default::default() };
-    let mut t_end = None;
-    // the samples up to the first after the end (only the first when nothing will look)
+    let mut span = None;
+    let mut read_gnss = |p: &mut Prefix, t: f64| -> Result<(), RunError> {
+        while p.gnss.back().is_none_or(|(g, _)| g.t <= t) {
+            match gnss.next_epoch()? {
+                Some(g) => p.gnss.push_back((g, gnss.line())),
+                None => break,
+            }
+        }
+        Ok(())
+    };
     'batches: for batch in imu.batches.iter() {
         let batch = batch?;
+        if batch.is_empty() {
+            // (the reader's last message before an error, or at the end of the data)
+            continue;
+        }
+        let (t0, t_end) = *span.get_or_insert_with(|| {
+            let first = batch.first().map_or(f64::NAN, |(s, _)| s.t);
+            let (t0, t_end) = start_span(config, first);
+            (t0, if look == Look::First { f64::NEG_INFINITY } else { t_end })
+        });
         for (s, _) in &batch {
-            let end = *t_end.get_or_insert_with(|| {
-                if crate::start::looks_at_data(config) && !beside {
-                    start_span(config, s.t).1
-                } else {
-                    f64::NEG_INFINITY
-                }
-            });
             p.looked_at += 1;
-            if s.t > end {
+            if s.t > t_end {
                 p.batches.push(batch);
                 break 'batches;
             }
         }
         p.batches.push(batch);
-    }
-    let Some(t_end) = t_end else {
-        return Err(RunError::NoData("the IMU file has no samples".into()));
-    };
-    while let Some(g) = gnss.next_epoch()? {
-        p.gnss.push_back((g, gnss.line()));
-        if g.t > t_end {
-            break;
+        if look == Look::StaticStart {
+            // stop once the static start has ended inside what was read
+            let last = p.batches.iter().flatten().last().map_or(f64::NAN, |(s, _)| s.t);
+            read_gnss(&mut p, last)?;
+            let (imu, gnss) = p.samples();
+            let (still, _) = crate::start::static_start(config, &imu, &gnss, t0);
+            if still.samples == 0 || still.span.1 < last - config.align.static_window {
+                break;
+            }
         }
     }
+    let Some((_, t_end)) = span else {
+        return Err(RunError::NoData("the IMU file has no samples".into()));
+    };
+    let t_gnss = match look {
+        Look::StaticStart => p.batches.iter().flatten().last().map_or(t_end, |(s, _)| s.t),
+        _ => t_end,
+    };
+    read_gnss(&mut p, t_gnss)?;
     Ok(p)
+}
+
+impl Prefix {
+    /// The IMU samples looked at, and the GNSS epochs.
+    fn samples(&self) -> (Vec<ImuSample>, Vec<GnssEpoch>) {
+        let imu = self.batches.iter().flatten().take(self.looked_at).map(|(s, _)| *s).collect();
+        (imu, self.gnss.iter().map(|(g, _)| *g).collect())
+    }
 }
 
 /// The run's start time (the configured one, or the first IMU sample's `first_t`) and the
@@ -883,13 +1098,19 @@ fn start_span(config: &Config, first_t: f64) -> (f64, f64) {
     (t0, t0 + config.align.max_time)
 }
 
-/// [`crate::start::prepare`] on a prefix.
-fn prepare_start(config: &Config, prefix: &Prefix) -> Result<crate::start::Start, RunError> {
-    let imu: Vec<ImuSample> =
-        prefix.batches.iter().flatten().take(prefix.looked_at).map(|(s, _)| *s).collect();
-    let gnss: Vec<GnssEpoch> = prefix.gnss.iter().map(|(g, _)| *g).collect();
+/// [`crate::start::prepare`] (or its part `look` calls for) on a prefix.
+fn prepare_start(
+    config: &Config,
+    prefix: &Prefix,
+    look: Look,
+) -> Result<crate::start::Start, RunError> {
+    let (imu, gnss) = prefix.samples();
     let (t0, _) = start_span(config, imu.first().map_or(0.0, |s| s.t));
-    crate::start::prepare(config, &imu, &gnss, t0).map_err(RunError::Start)
+    match look {
+        Look::Span => crate::start::prepare(config, &imu, &gnss, t0).map_err(RunError::Start),
+        Look::StaticStart => Ok(crate::start::prepare_floor(config, &imu, &gnss, t0)),
+        Look::First => Ok(crate::start::Start { config: config.clone(), report: Vec::new() }),
+    }
 }
 
 /// [`run`] with its inputs open and its partial outputs created.
@@ -1004,6 +1225,7 @@ where
                             break;
                         }
                         if g.t > start + 1e-9 {
+                            summary.first_fix.get_or_insert(g);
                             batch.push(g);
                             batch_lines.push(line);
                         }
@@ -1063,6 +1285,7 @@ where
             config.data.imu.display()
         )));
     }
+    summary.finish_streams();
     check_gnss_overlap(&summary, &config.data.gnss)?;
     write_std(&mut out, summary.span.1, &nav).map_err(|e| out.err("std.txt", e))?;
     for (w, name) in [
@@ -1169,6 +1392,9 @@ where
         while g < gnss.len() && gnss[g].t <= sample.t + 1e-9 {
             g += 1;
         }
+        if summary.first_fix.is_none() && g > first {
+            summary.first_fix = Some(gnss[first]);
+        }
         updates.clear();
         nav.process_into(sample, &gnss[first..g], &mut NoObserver, &mut updates)?;
         summary.imu_epochs += 1;
@@ -1183,6 +1409,7 @@ where
         (Some(a), Some(b)) => (a.t, b.t),
         _ => (f64::NAN, f64::NAN),
     };
+    summary.finish_streams();
     check_gnss_overlap(&summary, Path::new("(GNSS data)"))?;
     summary.stationary_time = nav.stationary_time();
     summary.wall_time = wall.elapsed().as_secs_f64();

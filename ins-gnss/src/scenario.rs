@@ -578,6 +578,7 @@ impl Scenario {
                 arw: [i.arw.max(1e-6); 3],
                 vrw: [i.vrw.max(1e-6); 3],
                 from_static: false,
+                static_floor: true,
                 gyro_bias_std: Some([i.gyro_bias_std; 3]),
                 accel_bias_std: Some([i.accel_bias_std; 3]),
                 corr_time: Some(i.corr_time),

@@ -32,6 +32,13 @@ use ins_gnss_core::io::columns::{unit_factor, Quantity};
 /// at 400 and 1.430 m at 1000 deg/h (the alignment fits the horizontal biases itself).
 pub const DEFAULT_GYRO_BIAS_STD: f64 = 100.0;
 
+/// How much noisier at rest than declared an axis must be before
+/// `imu_noise.static_floor` raises its ARW or VRW: the σ of a static start of
+/// `align.min_static` (5 s) at 100 Hz is known to ±3 % (1/√(2N)), and at-rest noise that
+/// is not white (vibration) makes the √dt scaling approximate; drive-0708's engine shakes
+/// the axes 1.6–27× above KF-GINS's generic figures.
+pub const FLOOR_FACTOR: f64 = 1.5;
+
 /// The χ² gain (in units of the fit's χ² per degree of freedom) by which a mirror image
 /// must beat the best rotation before a left-handed frame is refused.
 const MIRROR_DECISIVE: f64 = 100.0;
@@ -71,8 +78,7 @@ pub fn prepare(
         return Ok(Start { config, report });
     }
     let g = gnss.first().map_or(9.80, |e| normal_gravity(e.pos.lat, e.pos.h));
-    let still = detect_static(imu, gnss, a.static_window);
-    let is_static = still.samples > 0 && still.duration() >= a.min_static;
+    let (still, is_static) = static_start(&config, imu, gnss, t0);
 
     if a.checks {
         check_rate(&config, imu)?;
@@ -168,22 +174,96 @@ pub fn prepare(
         ));
     }
 
+    if !need_noise && is_static {
+        noise_floor(&mut config, &mut report, &still);
+    }
     if need_init {
         fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), t0)?;
     }
     Ok(Start { config, report })
 }
 
+/// The static start of the data after `t0` (the start time), with the configuration's
+/// window, and whether it lasts `align.min_static`.
+pub fn static_start(
+    config: &Config,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> (StaticStart, bool) {
+    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
+    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
+    let still = detect_static(imu, gnss, config.align.static_window);
+    let is_static = still.samples > 0 && still.duration() >= config.align.min_static;
+    (still, is_static)
+}
+
+/// [`prepare`]'s part that needs only the static start: `imu_noise.static_floor` (when
+/// `[init]` is complete and the noise given, the rest of `prepare` only checks, beside
+/// the filter).
+pub fn prepare_floor(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Start {
+    let mut config = config.clone();
+    let mut report = Vec::new();
+    let (still, is_static) = static_start(&config, imu, gnss, t0);
+    if is_static && !config.imu_noise.from_static {
+        noise_floor(&mut config, &mut report, &still);
+    }
+    Start { config, report }
+}
+
+/// `imu_noise.static_floor`: raise each ARW / VRW axis the static start shows
+/// [`FLOOR_FACTOR`]× noisier than declared to the measured value.
+fn noise_floor(config: &mut Config, report: &mut Vec<String>, still: &StaticStart) {
+    if !config.imu_noise.static_floor {
+        return;
+    }
+    let arw = still.arw() / DEG_PER_SQRT_H;
+    let vrw = still.vrw() / M_S_PER_SQRT_H;
+    let n = &mut config.imu_noise;
+    let (arw0, vrw0) = (n.arw, n.vrw);
+    let mut raised = false;
+    for k in 0..3 {
+        if arw[k] > FLOOR_FACTOR * n.arw[k] {
+            n.arw[k] = arw[k];
+            raised = true;
+        }
+        if vrw[k] > FLOOR_FACTOR * n.vrw[k] {
+            n.vrw[k] = vrw[k];
+            raised = true;
+        }
+    }
+    if raised {
+        report.push(format!(
+            "noise raised to what the IMU shows at rest (static start {:.3}–{:.3} s, {:.1} s): \
+             ARW {} deg/√h (declared {}), VRW {} m/s/√h (declared {}); \
+             `imu_noise.static_floor = false` keeps the declared",
+            still.span.0,
+            still.span.1,
+            still.duration(),
+            fmt3(n.arw, 3),
+            fmt3(arw0, 3),
+            fmt3(n.vrw, 3),
+            fmt3(vrw0, 3)
+        ));
+    }
+}
+
 /// Whether [`prepare`] reads the data at all: checks on, or a part of the configuration
 /// to fill.
 pub fn looks_at_data(config: &Config) -> bool {
-    config.align.checks || fills(config)
+    config.align.checks || fills(config) || floors(config)
 }
 
 /// Whether [`prepare`] fills a part of the configuration from the data: `[init]`
 /// incomplete or the noise `from_static`. (Otherwise it only checks.)
 pub fn fills(config: &Config) -> bool {
     !config.init.is_complete() || config.imu_noise.from_static
+}
+
+/// Whether [`prepare_floor`] may change the noise (it reads the data until the static
+/// start ends).
+pub fn floors(config: &Config) -> bool {
+    config.imu_noise.static_floor && !config.imu_noise.from_static
 }
 
 /// The column map's key for the axes, or the mounting's.

@@ -160,41 +160,143 @@ fn kf_gins_yaml_as_it_is_on_navego() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-#[test]
-fn drive_0708_outage_score_with_a_position_only_reference() {
-    // The KF-GINS authors' outage score: RMS over the ten 15 s outages of the maximum
-    // horizontal error against RTK-fixed positions (4-column reference). With the gate
-    // open, as KF-GINS runs: the configuration's 1 cm RTK σ is not consistent with the
-    // filter's innovations, and the default gate refuses most fixes (see README).
-    let d = sample_data("drive-0708");
-    let dir = temp("d0708");
-    run_quiet(&d.join("kf-gins-outage15.yaml"), &dir, &["--no-gate", "--smooth"]);
+/// The outage score (RMS over the ten 15 s outages of the maximum horizontal error against
+/// the RTK-fixed positions) of the forward and, if any, smoothed results in `dir`.
+fn outage_score(d: &Path, dir: &Path) -> serde_json::Value {
     let windows: Vec<(f64, f64)> =
         serde_json::from_str(&std::fs::read_to_string(d.join("outage_windows_15s.json")).unwrap())
             .unwrap();
     let mut cmd = bin();
-    cmd.arg("eval").arg(&dir).arg(sample_data::file(&d, "ref_rtkfix.txt")).arg("--json");
+    cmd.arg("eval").arg(dir).arg(sample_data::file(d, "ref_rtkfix.txt")).arg("--json");
     for (a, b) in &windows {
         cmd.arg("--window").arg(format!("{a},{b}"));
     }
     let out = cmd.output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let both: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn drive_0708_outage_score_with_a_position_only_reference() {
+    // The KF-GINS authors' outage score on their YAML as shipped, default settings (no
+    // --no-gate): the static start shows the IMU 1.6–27× noisier than the YAML's generic
+    // figures, and the noise floor raises them (README "defaults").
+    let d = sample_data("drive-0708");
+    let dir = temp("d0708");
+    run_quiet(&d.join("kf-gins-outage15.yaml"), &dir, &["--smooth"]);
+    let both = outage_score(&d, &dir);
     let smoothed = both["smoothed"]["windows_rms_of_max_horizontal"].as_f64().unwrap();
     eprintln!("drive-0708, smoothed: RMS of max horizontal error in the outages {smoothed:.2} m");
-    // the smoothing issue's target: ≤ 2 m (forward 13.46 m, KF-GINS 12.4 m)
+    // the smoothing issue's target: ≤ 2 m (KF-GINS 12.4 m forward)
     assert!(smoothed <= 2.0, "smoothed {smoothed}");
     let v = &both["forward"];
     let score = v["windows_rms_of_max_horizontal"].as_f64().unwrap();
     let vertical = v["windows_rms_of_max_vertical"].as_f64().unwrap();
     eprintln!("drive-0708, ten 15 s outages: RMS of max horizontal drift {score:.2} m, vertical {vertical:.2} m (KF-GINS 12.4 / 1.08)");
-    // What we measure (see README): within 15 % of KF-GINS's 12.4 m, not better.
-    assert!(score > 1.0 && score < 12.4 * 1.15, "score {score}");
+    // KF-GINS (21 states) reaches 12.4 m on this file
+    assert!(score > 1.0 && score <= 12.4, "score {score}");
     for w in v["windows"].as_array().unwrap() {
         assert!(w["epochs"].as_u64().unwrap() >= 55, "each outage has its RTK fixes");
     }
     // Position-only reference: attitude statistics are empty, not NaN-polluted.
     assert!(v["overall"]["yaw"]["rms"].as_f64().unwrap().abs() < 1e-12);
+    // 21 states with the YAML's 1 % initial scale-factor σ: it diverged (307 m) while the
+    // YAML's noise was used as given
+    run_quiet(&d.join("kf-gins-outage15.yaml"), &dir, &["--states", "21"]);
+    let score21 =
+        outage_score(&d, &dir)["forward"]["windows_rms_of_max_horizontal"].as_f64().unwrap();
+    eprintln!("drive-0708, 21 states: {score21:.2} m");
+    assert!(score21 > 1.0 && score21 <= 12.4, "21 states: score {score21}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A one-digit typo in the initial latitude (0.01°, 1.1 km): the run ends with exit status
+/// 3 and a diagnosis naming the initial position and the distance; its outputs are
+/// written; `--accept-inconsistent` keeps them with exit status 0.
+#[test]
+fn a_typo_in_the_initial_position_exits_non_zero_with_the_distance() {
+    let dir = temp("typo");
+    simulate("drive.toml", &dir);
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let (ok, _) = (bin().arg("run").arg(dir.join("config.toml")).arg("--quiet"))
+        .arg("--out")
+        .arg(dir.join("good"))
+        .output()
+        .map(|o| (o.status.code() == Some(0), o))
+        .unwrap();
+    assert!(ok, "the simulated drive as written runs with exit status 0");
+    let lat = config.lines().skip_while(|l| !l.starts_with("position = [")).nth(1).unwrap();
+    let v: f64 = lat.trim().trim_end_matches(',').parse().unwrap();
+    let typo = config.replacen(lat, &format!("    {},", v + 0.01), 1);
+    std::fs::write(dir.join("typo.toml"), typo).unwrap();
+    let run = |extra: &[&str]| {
+        bin()
+            .arg("run")
+            .arg(dir.join("typo.toml"))
+            .arg("--quiet")
+            .args(extra)
+            .arg("--out")
+            .arg(dir.join("typo"))
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(err.contains("`init.position` is 1.1 km horizontally"), "{err}");
+    assert!(dir.join("typo/nav.txt").exists(), "the outputs are published");
+    let out = run(&["--accept-inconsistent"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1.1 km"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The verdict counts every innovation, refused ones included, before adaptation: the
+/// simulated drive's interference window (GNSS noise 6× its reported σ for 15 s, which
+/// the gate partly refuses) makes it "NOT consistent"; it once read "consistent" from the
+/// accepted updates alone.
+#[test]
+fn the_interference_window_reads_not_consistent() {
+    let dir = temp("verdict");
+    simulate("drive.toml", &dir);
+    let out = bin()
+        .arg("run")
+        .arg(dir.join("config.toml"))
+        .arg("--quiet")
+        .arg("--out")
+        .arg(dir.join("o"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let verdict = stdout.lines().find(|l| l.starts_with("consistency of gnss-")).unwrap();
+    assert!(verdict.contains("NOT consistent — the innovations are larger"), "{verdict}");
+    // without the window, the same drive is consistent
+    let scenario = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join("drive.toml"),
+    )
+    .unwrap()
+    .replace("kind = \"interference\"\nfactor = 6.0", "kind = \"interference\"\nfactor = 1.0");
+    std::fs::write(dir.join("calm.toml"), scenario).unwrap();
+    let sim = bin()
+        .arg("simulate")
+        .arg(dir.join("calm.toml"))
+        .arg("--out")
+        .arg(dir.join("calm"))
+        .output()
+        .unwrap();
+    assert!(sim.status.success());
+    let out = bin()
+        .arg("run")
+        .arg(dir.join("calm/config.toml"))
+        .arg("--quiet")
+        .arg("--out")
+        .arg(dir.join("calm/o"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let verdict = stdout.lines().find(|l| l.starts_with("consistency of gnss-")).unwrap();
+    assert!(verdict.ends_with(": consistent"), "{verdict}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -78,6 +78,11 @@ enum Command {
         /// truth), the configuration used; one self-contained file.
         #[arg(long)]
         report: bool,
+        /// Keep a result the end-of-run check judges untrustworthy (a GNSS stream mostly
+        /// refused, or innovations far from their χ² distribution): a warning and exit
+        /// status 0 instead of the diagnosis and exit status 3
+        #[arg(long)]
+        accept_inconsistent: bool,
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
@@ -127,6 +132,11 @@ enum Command {
     },
 }
 
+/// The exit status of a run that finished with outputs that cannot be trusted
+/// ([`ins_gnss::health::assess`]); input and configuration errors exit with 1, argument
+/// errors with 2.
+const UNTRUSTED: u8 = 3;
+
 fn main() -> ExitCode {
     let args = Args::parse();
     let result = match args.command {
@@ -148,6 +158,7 @@ fn main() -> ExitCode {
             no_vehicle,
             smooth,
             report,
+            accept_inconsistent,
         }) => {
             let o = cli::RunOptions {
                 strategy: strategy.as_deref(),
@@ -165,6 +176,7 @@ fn main() -> ExitCode {
                 states: states.as_deref().and_then(|s| s.parse().ok()),
                 smooth,
                 report,
+                accept_inconsistent,
             };
             cli::run(&config, &o)
         }
@@ -180,7 +192,12 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            // a finished run whose result cannot be trusted, apart from the input errors
+            if e.downcast_ref::<ins_gnss::health::Unhealthy>().is_some() {
+                ExitCode::from(UNTRUSTED)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

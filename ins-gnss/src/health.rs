@@ -1,0 +1,149 @@
+//! After a run: is its result quietly wrong? A run whose GNSS stream was mostly refused,
+//! or whose innovations are far from their distribution, has an answer nobody should use
+//! without knowing; [`assess`] says so, with the likeliest cause it can tell.
+//!
+//! "Far" is defined by the χ² distribution: for a consistent filter each update's NIS
+//! exceeds the median of its χ² distribution with probability ½, whatever its dimension,
+//! so the number of updates above it is binomial(n, ½); a fraction outside the two-sided
+//! 1e-6 band of that binomial is far ([`StreamStats::above_median_band`]). The statistic
+//! counts rather than sums, so a few gross errors refused by the gate do not trip it.
+
+use crate::config::Config;
+use crate::run::{RunSummary, StreamStats, OUTAGE};
+use nalgebra::Vector3;
+
+/// Streams below this many updates are not judged (the band needs a sample).
+const MIN_EPOCHS: usize = 30;
+
+/// A run whose result is quietly wrong: what is wrong and the likeliest causes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Unhealthy {
+    /// What is wrong, one line each.
+    pub problems: Vec<String>,
+    /// The likeliest causes found, one line each (may be empty).
+    pub diagnosis: Vec<String>,
+}
+
+impl core::fmt::Display for Unhealthy {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        writeln!(f, "the run's result cannot be trusted (its outputs are written):")?;
+        for p in &self.problems {
+            writeln!(f, "  - {p}")?;
+        }
+        if self.diagnosis.is_empty() {
+            writeln!(f, "likeliest cause: none the program can tell")?;
+        } else {
+            writeln!(f, "likeliest cause:")?;
+            for d in &self.diagnosis {
+                writeln!(f, "  - {d}")?;
+            }
+        }
+        write!(f, "(--accept-inconsistent keeps the result with exit status 0)")
+    }
+}
+
+impl std::error::Error for Unhealthy {}
+
+/// What is wrong with one GNSS stream, if anything.
+fn stream_problems(s: &StreamStats) -> Vec<String> {
+    let mut out = Vec::new();
+    if s.refused * 2 > s.epochs {
+        out.push(format!(
+            "{}: {} of {} epochs refused (more than half)",
+            s.stream, s.refused, s.epochs
+        ));
+    }
+    if s.epochs >= MIN_EPOCHS {
+        let (f, (lo, hi)) = s.above_median_band();
+        if f < lo || f > hi {
+            out.push(format!(
+                "{}: {:.1} % of the innovations lie above their χ² median, where a consistent \
+                 filter has 50 % (outside [{:.1}, {:.1}] %, probability 1e-6)",
+                s.stream,
+                100.0 * f,
+                100.0 * lo,
+                100.0 * hi
+            ));
+        }
+    }
+    out
+}
+
+/// A distance in m or km.
+fn distance(d: f64) -> String {
+    if d >= 1000.0 {
+        format!("{:.1} km", d / 1000.0)
+    } else {
+        format!("{d:.1} m")
+    }
+}
+
+/// The configured initial position against the first fix the filter used: (horizontal,
+/// vertical) distance in m and their 1σ.
+fn initial_offset(summary: &RunSummary, config: &Config) -> Option<((f64, f64), (f64, f64))> {
+    let p = config.init.position?;
+    let fix = summary.first_fix?;
+    let m = fix.pos.metric();
+    let dn = (fix.pos.lat - p[0].to_radians()) * m.x;
+    let de = (fix.pos.lon - p[1].to_radians()) * m.y;
+    let dh = fix.pos.h - p[2];
+    let s = Vector3::from(config.init.position_std.unwrap_or([0.0; 3]));
+    let sigma_h =
+        (s.x.powi(2) + s.y.powi(2) + fix.pos_std.x.powi(2) + fix.pos_std.y.powi(2)).sqrt();
+    let sigma_v = (s.z.powi(2) + fix.pos_std.z.powi(2)).sqrt();
+    Some(((dn.hypot(de), dh.abs()), (sigma_h, sigma_v)))
+}
+
+/// Judge a finished run: `Err` when a GNSS stream refused more than half of its epochs or
+/// its innovations are far from their distribution. `config` is the run's configuration
+/// as the user gave it (the initial position, if given, is checked against the first
+/// fix).
+pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
+    let gnss: Vec<&StreamStats> = summary.streams.iter().filter(|s| s.gnss).collect();
+    let problems: Vec<String> = gnss.iter().flat_map(|s| stream_problems(s)).collect();
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let mut diagnosis = Vec::new();
+    // the initial position, farther from the first fix than its σ and the fix's allow
+    if let Some(((h, v), (sh, sv))) = initial_offset(summary, config) {
+        if h > 5.0 * sh.max(0.5) || v > 5.0 * sv.max(0.5) {
+            diagnosis.push(format!(
+                "the initial position `init.position` is {} horizontally and {} vertically \
+                 from the first GNSS fix (at {:.3} s; 1σ together {:.2} m and {:.2} m): a typo \
+                 in it, or in the file's position",
+                distance(h),
+                distance(v),
+                summary.first_fix.map_or(f64::NAN, |f| f.t),
+                sh,
+                sv
+            ));
+        }
+    }
+    for s in &gnss {
+        if s.refused > 0 && s.refused_after_outage * 2 > s.refused {
+            diagnosis.push(format!(
+                "{}: {} of the {} refusals follow a GNSS gap of more than {OUTAGE} s until the \
+                 next accepted fix: the filter's σ grew too little over the gap (the IMU noise \
+                 or bias settings are too small for this sensor)",
+                s.stream, s.refused_after_outage, s.refused
+            ));
+        }
+        let factor = s.median_ratio.max(0.0).sqrt();
+        if factor > 2.0 && s.epochs >= MIN_EPOCHS {
+            diagnosis.push(format!(
+                "{}: the typical innovation is {factor:.1}× its σ (the median NIS against its \
+                 χ² median): the receiver's σ (`gnss.position_std`) or the IMU noise \
+                 (`[imu_noise]`) is too small by about that factor",
+                s.stream
+            ));
+        } else if factor < 0.5 && s.epochs >= MIN_EPOCHS {
+            diagnosis.push(format!(
+                "{}: the typical innovation is {factor:.2}× its σ: the noise settings are \
+                 pessimistic by about that factor",
+                s.stream
+            ));
+        }
+    }
+    Err(Unhealthy { problems, diagnosis })
+}
