@@ -125,7 +125,10 @@ pub fn navego(dir: &Path, seeds: u64) -> Result<Vec<NavegoRow>, String> {
 /// rejected)`.
 pub fn drive(dir: &Path) -> Result<Vec<(&'static str, f64, f64, usize)>, String> {
     let d = dir.join("drive-0708");
-    let cfg = Config::load(&d.join("kf-gins-outage15.yaml")).map_err(|e| e.to_string())?;
+    let mut cfg = Config::load(&d.join("kf-gins-outage15.yaml")).map_err(|e| e.to_string())?;
+    // the strategies on the YAML's noise as given (`docs/results.md` compares them there;
+    // the default static-start noise floor gives the fixed filter 11.72 m without the gate)
+    cfg.imu_noise.static_floor = false;
     let cfg =
         Config { filter: ins_gnss::config::FilterSection { gate: no_gate(), ..cfg.filter }, ..cfg };
     let (imu, gnss) = load_inputs(&cfg).map_err(|e| e.to_string())?;
