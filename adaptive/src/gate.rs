@@ -1,10 +1,10 @@
 //! A gross-error gate in front of any strategy.
 
-use estimator_core::consistency::chi2_gate;
+use estimator_core::consistency::{chi2_gate, chi2_quantile};
 use estimator_core::{
     Adaptation, FilterAlloc, NoiseStrategy, PostUpdate, PriorScaling, StreamMap, Verdict,
 };
-use nalgebra::{DefaultAllocator, DimName};
+use nalgebra::{DefaultAllocator, DimName, OVector};
 
 /// Largest measurement dimension whose gate threshold is cached (larger ones are computed
 /// at every update).
@@ -33,21 +33,272 @@ impl Thresholds {
     }
 }
 
+/// What the gate does with a stream whose innovations are all larger than its `S`
+/// says, not just one of them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum GateMode {
+    /// Adapt before refusing (the default): the stream's `R` is inflated by a robust
+    /// covariance-matching factor when its recent innovations are, as a whole, too large
+    /// for their white noise, and the prior is doubted when they keep pointing the same
+    /// way (a wrong state); only what stays beyond the gate after that is refused. See
+    /// [`GrossErrorGate`].
+    #[default]
+    Adapt,
+    /// Refuse everything beyond the gate, re-admitting one measurement after
+    /// `readmit_after` refusals in a row (the behaviour before adaptation existed).
+    Refuse,
+}
+
+/// Innovations the adaptive gate remembers per stream.
+pub const GATE_WINDOW: usize = 10;
+
+/// Largest measurement dimension whose whitened innovation the adaptive gate keeps (larger
+/// streams are gated without the direction test).
+const WHITE_DIMS: usize = 16;
+
+/// Probability that a consistent stream is judged too noisy in one window (the
+/// order-statistic test below).
+const SCALE_FALSE_ALARM: f64 = 1e-3;
+
+/// Cosine between successive whitened innovations above which every one of the last
+/// [`SAME_WAY_PAIRS`] pairs must lie for them to be taken as pointing the same way (a
+/// state error, not noise or gross errors): two independent directions in the plane
+/// exceed it with probability 0.14, in three dimensions 0.05.
+const SAME_WAY_COS: f64 = 0.9;
+
+/// Mean cosine over the window below which the innovations are taken for white noise
+/// (whose `R` may be matched).
+const WHITE_COS: f64 = 0.5;
+
+/// Once the state is doubted, it stays doubted while the innovations stay beyond the gate
+/// and each keeps within about 60° of the previous one.
+const KEEP_WAY_COS: f64 = 0.5;
+
+/// Successive pairs whose cosines are averaged for the direction test.
+const SAME_WAY_PAIRS: usize = 3;
+
+/// Upper bound on the `R` factor (σ × 100).
+pub const MAX_R_FACTOR: f64 = 1e4;
+
+#[derive(Clone, Debug)]
+struct GateStream {
+    refusals: u32,
+    /// Nominal NIS of the last innovations (ring).
+    nis: [f64; GATE_WINDOW],
+    /// Cosines between successive whitened innovations (ring).
+    cos: [f64; GATE_WINDOW],
+    filled: usize,
+    cos_filled: usize,
+    head: usize,
+    /// The previous whitened innovation (`L⁻¹ r`, `S = L Lᵀ`).
+    white: [f64; WHITE_DIMS],
+    has_white: bool,
+    /// `R` is being matched to the innovations.
+    matching: bool,
+    /// The state is being doubted.
+    doubting: bool,
+}
+
+impl GateStream {
+    fn new() -> Self {
+        Self {
+            refusals: 0,
+            nis: [0.0; GATE_WINDOW],
+            cos: [0.0; GATE_WINDOW],
+            filled: 0,
+            cos_filled: 0,
+            head: 0,
+            white: [0.0; WHITE_DIMS],
+            has_white: false,
+            matching: false,
+            doubting: false,
+        }
+    }
+
+    /// Remember one innovation: its nominal NIS and, when `white` is given, the cosine
+    /// with the previous whitened innovation.
+    fn push(&mut self, nis: f64, white: Option<&[f64]>) {
+        let i = self.head;
+        self.nis[i] = nis;
+        self.filled = (self.filled + 1).min(GATE_WINDOW);
+        match white {
+            Some(w) => {
+                if self.has_white {
+                    let prev = &self.white[..w.len()];
+                    let dot: f64 = w.iter().zip(prev).map(|(a, b)| a * b).sum();
+                    let na = w.iter().map(|a| a * a).sum::<f64>().sqrt();
+                    let nb = prev.iter().map(|a| a * a).sum::<f64>().sqrt();
+                    self.cos[i] = if na > 0.0 && nb > 0.0 { dot / (na * nb) } else { 0.0 };
+                    self.cos_filled = (self.cos_filled + 1).min(GATE_WINDOW);
+                } else {
+                    self.cos[i] = 0.0;
+                }
+                self.white[..w.len()].copy_from_slice(w);
+                self.has_white = true;
+            }
+            None => {
+                self.has_white = false;
+                self.cos_filled = 0;
+            }
+        }
+        self.head = (i + 1) % GATE_WINDOW;
+    }
+
+    /// Smallest cosine of the last `SAME_WAY_PAIRS` pairs (−1 until there are that many).
+    fn same_way(&self) -> f64 {
+        if self.cos_filled < SAME_WAY_PAIRS {
+            return -1.0;
+        }
+        (1..=SAME_WAY_PAIRS)
+            .map(|j| self.cos[(self.head + GATE_WINDOW - j) % GATE_WINDOW])
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Mean cosine of the window's pairs (0 when there is none).
+    fn mean_cos(&self) -> f64 {
+        if self.cos_filled == 0 {
+            return 0.0;
+        }
+        let n = self.cos_filled;
+        (1..=n).map(|j| self.cos[(self.head + GATE_WINDOW - j) % GATE_WINDOW]).sum::<f64>()
+            / n as f64
+    }
+
+    /// Cosine of the latest pair (−1 when there is none).
+    fn latest_cos(&self) -> f64 {
+        if self.cos_filled == 0 {
+            return -1.0;
+        }
+        self.cos[(self.head + GATE_WINDOW - 1) % GATE_WINDOW]
+    }
+
+    /// Whether the last `k` NIS all exceed `gate`.
+    fn all_beyond(&self, k: usize, gate: f64) -> bool {
+        self.filled >= k
+            && (1..=k).all(|j| self.nis[(self.head + GATE_WINDOW - j) % GATE_WINDOW] > gate)
+    }
+
+    /// The smallest NIS of the window.
+    fn smallest(&self) -> f64 {
+        self.nis[..self.filled].iter().copied().fold(f64::INFINITY, f64::min)
+    }
+
+    /// The `k`-th smallest NIS of the window (1-based).
+    fn order_statistic(&self, k: usize) -> f64 {
+        let mut v = [0.0; GATE_WINDOW];
+        let n = self.filled;
+        v[..n].copy_from_slice(&self.nis[..n]);
+        let v = &mut v[..n];
+        v.sort_unstable_by(f64::total_cmp);
+        v[k - 1]
+    }
+}
+
+/// The order-statistic test of a window of `n` NIS values of dimension `m`: the `k`-th
+/// smallest (`k = max(1, n/4)`: a quarter of the window may be gross errors without
+/// moving it) is compared with `χ²_{q_d}(m)`, `q_d` chosen so that a consistent stream
+/// exceeds it with probability [`SCALE_FALSE_ALARM`] (`P(Bin(n, q_d) ≤ k − 1) = α`);
+/// beyond it, the factor is the `k`-th smallest over its median-unbiased quantile
+/// `χ²_{(k − 0.3)/(n + 0.4)}(m)`.
+#[derive(Clone, Copy, Debug)]
+struct ScaleTest {
+    k: usize,
+    detect: f64,
+    reference: f64,
+    /// `χ²_{1e-3}(m)`.
+    floor: f64,
+}
+
+impl ScaleTest {
+    fn new(m: usize, n: usize) -> Self {
+        let k = (n / KDIV).max(1);
+        // P(Bin(n, q) ≤ k − 1) falls from 1 to 0 as q goes from 0 to 1: bisection
+        let tail = |q: f64| -> f64 {
+            let mut c = 1.0; // C(n, j)
+            let mut sum = 0.0;
+            for j in 0..k {
+                if j > 0 {
+                    c *= (n - j + 1) as f64 / j as f64;
+                }
+                sum += c * q.powi(j as i32) * (1.0 - q).powi((n - j) as i32);
+            }
+            sum
+        };
+        let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if tail(mid) > SCALE_FALSE_ALARM {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let m = m as f64;
+        Self {
+            k,
+            detect: chi2_quantile(hi, m),
+            reference: chi2_quantile((k as f64 - 0.3) / (n as f64 + 0.4), m),
+            floor: chi2_quantile(SCALE_FALSE_ALARM, m),
+        }
+    }
+}
+
+/// Smallest window the scale test judges.
+const MIN_WINDOW: usize = 3;
+const KDIV: usize = 2;
+
+/// The scale tests per measurement dimension and window size, computed once.
+#[derive(Clone, Debug)]
+struct ScaleTests(Vec<Option<ScaleTest>>);
+
+impl ScaleTests {
+    fn get(&mut self, m: usize, n: usize) -> ScaleTest {
+        let i = m * (GATE_WINDOW + 1) + n;
+        if self.0.len() <= i {
+            self.0.resize(i + 1, None);
+        }
+        *self.0[i].get_or_insert_with(|| ScaleTest::new(m, n))
+    }
+}
+
 /// Refuses an innovation far outside anything the filter believes, whatever the strategy
-/// behind it: when `NIS = rᵀ S⁻¹ r` (nominal `S`) exceeds the χ² quantile
-/// `χ²_{1−p}(m)`, the update is rejected and the inner strategy does not see it (its
-/// windows stay free of gross errors). So that an outage, a diverged heading or a
-/// converging filter can never lock a stream out, after `readmit_after` refusals in a row
-/// the next gated measurement is admitted down-weighted: `R* = R + (NIS/gate − 1) S`, so
-/// that its NIS with `S*` equals the gate (a Huber-like bounded influence), and the count
-/// starts again. Innovations inside the gate go to the inner strategy unchanged.
+/// behind it, after first asking whether the whole stream, not this innovation, is what
+/// is wrong.
 ///
-/// With `p = 1e-6` (the program's default) a consistent filter refuses one update in a
-/// million; a 1 km error on a 5 m fix is refused at once.
+/// The gate is `χ²_{1−p}(m)` on `NIS = rᵀ S⁻¹ r` (nominal `S`); with `p = 1e-6` (the
+/// program's default) a consistent filter refuses one update in a million, and a 1 km
+/// error on a 5 m fix is refused at once. Refused innovations never reach the inner
+/// strategy (its windows stay free of gross errors).
+///
+/// In [`GateMode::Adapt`] (the default) every innovation of a stream, refused or not, is
+/// remembered for [`GATE_WINDOW`] epochs, and two tests run before the gate:
+///
+/// - **Noise too small for the stream (covariance matching, robust).** When the `k`-th
+///   smallest NIS of the window (`k = max(1, n/4)`, so a quarter of the window may be
+///   gross errors without moving it) exceeds the level a consistent stream passes with
+///   probability 1e-3, the innovations are, as a whole, larger than `S`: the factor
+///   `s = NIS_(k) / χ²_{(k−0.3)/(n+0.4)}(m)` (the order statistic over its
+///   median-unbiased quantile) estimates `E[r rᵀ] ≈ s S`,
+///   and the excess is put on the measurement: `R* = R + (s − 1) S`, so that
+///   `S* = s S`. The gate then judges `NIS / s`. A factor beyond [`MAX_R_FACTOR`] (σ
+///   more than 100× too small) is not taken for noise: such a window is gross errors.
+/// - **A wrong state (innovations that keep their direction).** When the innovation is
+///   beyond the gate and the last [`SAME_WAY_PAIRS`] successive whitened innovations
+///   (`L⁻¹ r`, `S = L Lᵀ`) point the same way (mean cosine above 0.7; white noise gives
+///   0 ± `1/√m`), the filter, not the measurement, is doubted: the measurement is used
+///   with the prior inflated along the measurement subspace so that its NIS equals the
+///   gate (`λ = NIS/gate`, as at a re-admission). An initial heading 90° off or a
+///   filter come back from an outage is pulled in instead of locked out. The `R` factor
+///   is not applied to such a stream.
+///
+/// Whatever stays beyond the gate is refused; after `readmit_after` refusals in a row the
+/// next one is admitted with the prior inflated (`P⁻* = P⁻ + (λ − 1) P⁻Hᵀ(HP⁻Hᵀ)⁻¹HP⁻`,
+/// `λ = NIS/gate`, a Huber-like bounded influence), so that nothing can lock a stream
+/// out. [`GateMode::Refuse`] skips the two tests (the behaviour before them).
 ///
 /// Decisions: `Rejected` with reason `"gate: NIS beyond the χ² gate"`; `Inflated` with
-/// reason `"gate: re-admitted, down-weighted to the gate"`. The factor `dom` reports
-/// `NIS / gate` on both.
+/// `lambda_r = s` (`"gate: R matched to the stream's innovations"`) or with `lambda_p = λ`
+/// (re-admitted, or the state doubted). The factor `dom` reports `NIS / gate`.
 ///
 /// ```
 /// use adaptive::GrossErrorGate;
@@ -72,8 +323,11 @@ pub struct GrossErrorGate<A> {
     /// Refusals in a row after which the next gated measurement is admitted
     /// down-weighted.
     pub readmit_after: u32,
-    refusals: StreamMap<u32>,
+    /// Whether a stream is adapted to before it is refused. Default [`GateMode::Adapt`].
+    pub mode: GateMode,
+    streams: StreamMap<GateStream>,
     thresholds: Thresholds,
+    scale_tests: ScaleTests,
     /// The last update was decided by the gate, not by `inner`.
     bypassed: bool,
 }
@@ -86,8 +340,10 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
             inner,
             probability,
             readmit_after: readmit_after.max(1),
-            refusals: StreamMap::new(),
+            mode: GateMode::Adapt,
+            streams: StreamMap::new(),
             thresholds: Thresholds::new(),
+            scale_tests: ScaleTests(Vec::new()),
             bypassed: false,
         }
     }
@@ -96,6 +352,12 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
     /// behaviour.
     pub fn disabled(inner: A) -> Self {
         Self::new(inner, 0.0, 1)
+    }
+
+    /// The same gate in `mode`.
+    pub fn with_mode(mut self, mode: GateMode) -> Self {
+        self.mode = mode;
+        self
     }
 
     /// Whether the gate refuses anything.
@@ -123,28 +385,76 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
         if !self.is_enabled() {
             return self.inner.adapt(a);
         }
-        let gate = self.threshold(M::DIM);
-        let refusals = self.refusals.get_or_insert_with(a.stream, || 0);
-        if a.nis.is_nan() || a.nis <= gate {
-            *refusals = 0;
+        let m = M::DIM;
+        let gate = self.threshold(m);
+        let adapt = self.mode == GateMode::Adapt;
+        let st = self.streams.get_or_insert_with(a.stream, GateStream::new);
+        if a.nis.is_nan() {
+            st.refusals = 0;
             return self.inner.adapt(a);
+        }
+        let (mut scale, mut same_way) = (1.0, false);
+        if adapt {
+            let mut buf = [0.0; WHITE_DIMS];
+            let white = whiten(a.S, a.innovation, &mut buf);
+            st.push(a.nis, white);
+            // a wrong state: entered when the last pairs all keep their direction and were
+            // all beyond the gate, kept while the innovations stay beyond it without
+            // turning round
+            let latest = st.latest_cos();
+            st.doubting = if st.doubting {
+                a.nis > gate && latest > KEEP_WAY_COS
+            } else {
+                st.same_way() > SAME_WAY_COS && st.all_beyond(SAME_WAY_PAIRS + 1, gate)
+            };
+            same_way = st.doubting;
+            let n = st.filled;
+            // noise is white: a window whose innovations keep their direction on the whole
+            // is a state error, whatever its size
+            if n >= MIN_WINDOW && !same_way && st.mean_cos() < WHITE_COS {
+                let test = self.scale_tests.get(m, n);
+                let x = st.order_statistic(test.k);
+                let s = x / test.reference;
+                // switched on by the test, off when the window looks consistent again
+                st.matching = if st.matching { s > 1.0 } else { x > test.detect };
+                // beyond the bound the stream is not noisier than it says but wrong; and a
+                // window that also holds innovations the nominal noise explains is gross
+                // errors among good fixes, not a noisy stream
+                let plausible = s <= MAX_R_FACTOR && st.smallest() * 10.0 >= s * test.floor;
+                if st.matching && plausible {
+                    scale = s.max(1.0);
+                }
+            } else {
+                st.matching = false;
+            }
+        }
+        if a.nis <= gate * scale {
+            st.refusals = 0;
+            self.inner.adapt(a);
+            if scale > 1.0 && a.verdict != Verdict::Rejected {
+                // R* = R + (s − 1) S: S* = s S
+                a.R += a.S * (scale - 1.0);
+                a.factors.lambda_r *= scale;
+                a.verdict = Verdict::Inflated;
+                a.reason = "gate: R matched to the stream's innovations";
+            }
+            return;
         }
         self.bypassed = true;
         a.factors.dom = a.nis / gate;
-        if *refusals < self.readmit_after {
-            *refusals += 1;
+        if same_way {
+            st.refusals = 0;
+            doubt_prior(a, gate, "gate: innovations keep their direction, the state is doubted");
+            return;
+        }
+        if st.refusals < self.readmit_after {
+            st.refusals += 1;
             a.verdict = Verdict::Rejected;
             a.reason = "gate: NIS beyond the χ² gate";
             return;
         }
-        // Re-admit, doubting the prior: P⁻* = P⁻ + (λ − 1) P⁻Hᵀ(HP⁻Hᵀ)⁻¹HP⁻, λ = NIS/gate.
-        *refusals = 0;
-        let k = a.nis / gate;
-        a.prior_scale = k;
-        a.prior_scaling = PriorScaling::MeasurementSubspace;
-        a.factors.lambda_p = k;
-        a.verdict = Verdict::Inflated;
-        a.reason = "gate: re-admitted after refusals in a row, prior inflated";
+        st.refusals = 0;
+        doubt_prior(a, gate, "gate: re-admitted after refusals in a row, prior inflated");
     }
 
     fn prediction_fading(&self) -> f64 {
@@ -164,6 +474,47 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
             self.inner.after_update(p)
         }
     }
+}
+
+/// Use the measurement with the prior inflated along the measurement subspace so that its
+/// NIS equals the gate: `P⁻* = P⁻ + (λ − 1) P⁻Hᵀ(HP⁻Hᵀ)⁻¹HP⁻`, `λ = NIS/gate`.
+fn doubt_prior<N: DimName, M: DimName>(a: &mut Adaptation<'_, N, M>, gate: f64, why: &'static str)
+where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    let k = a.nis / gate;
+    a.prior_scale = k;
+    a.prior_scaling = PriorScaling::MeasurementSubspace;
+    a.factors.lambda_p = k;
+    a.verdict = Verdict::Inflated;
+    a.reason = why;
+}
+
+/// `L⁻¹ r` with `S = L Lᵀ`, in `buf`; `None` when `S` is not positive definite or the
+/// dimension is beyond [`WHITE_DIMS`].
+fn whiten<'b, M: DimName>(
+    s: &nalgebra::OMatrix<f64, M, M>,
+    r: &OVector<f64, M>,
+    buf: &'b mut [f64; WHITE_DIMS],
+) -> Option<&'b [f64]>
+where
+    DefaultAllocator: nalgebra::allocator::Allocator<M, M> + nalgebra::allocator::Allocator<M>,
+{
+    let m = M::DIM;
+    if m > WHITE_DIMS {
+        return None;
+    }
+    // forward substitution on the Cholesky factor, computed in place of a copy of S
+    let chol = s.clone().cholesky()?;
+    let l = chol.l_dirty();
+    for i in 0..m {
+        let mut v = r[i];
+        for j in 0..i {
+            v -= l[(i, j)] * buf[j];
+        }
+        buf[i] = v / l[(i, i)];
+    }
+    Some(&buf[..m])
 }
 
 /// The plain χ² gate (FilterPy users write it by hand): an innovation whose NIS exceeds

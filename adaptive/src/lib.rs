@@ -49,7 +49,7 @@ pub use afkf::{Afkf, FadingAt, MismatchEstimate};
 pub use any::{AnyStrategy, UnknownStrategy, STRATEGY_NAMES};
 pub use estimator_core::FixedNoise;
 pub use fused::{FusedDualWindow, GrossTest, RReading};
-pub use gate::{ChiSquareGate, GrossErrorGate};
+pub use gate::{ChiSquareGate, GateMode, GrossErrorGate, GATE_WINDOW, MAX_R_FACTOR};
 pub use iae::Iae;
 pub use iakf::{Iakf, Inflation};
 pub use per_stream::{PerStream, Route};

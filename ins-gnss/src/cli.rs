@@ -106,7 +106,10 @@ pub fn summary_lines(s: &RunSummary) -> Vec<String> {
             n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
         ));
     }
-    lines.extend(s.streams.iter().map(|st| st.verdict()));
+    for st in &s.streams {
+        lines.push(st.verdict());
+        lines.extend(st.adaptation());
+    }
     if let Some((rows, secs)) = s.smoothed {
         lines.push(format!(
             "smoothed: {rows} epochs in {secs:.2} s (backward pass) -> {}, {}",

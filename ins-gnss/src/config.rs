@@ -491,6 +491,32 @@ pub struct GateSection {
     /// prior inflated (the filter is doubted, not the measurement). Default 20.
     #[serde(default = "default_readmit")]
     pub readmit_after: u32,
+    /// `"adapt"` (default): a stream whose innovations are all too large for their noise
+    /// gets its `R` matched to them, and one whose innovations keep their direction gets
+    /// its prior doubted, before anything is refused; `"refuse"`: refuse everything beyond
+    /// the gate (the behaviour before; see [`adaptive::GateMode`]).
+    #[serde(default)]
+    pub mode: GateModeName,
+}
+
+/// `filter.gate.mode`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GateModeName {
+    /// [`adaptive::GateMode::Adapt`].
+    #[default]
+    Adapt,
+    /// [`adaptive::GateMode::Refuse`].
+    Refuse,
+}
+
+impl From<GateModeName> for adaptive::GateMode {
+    fn from(m: GateModeName) -> Self {
+        match m {
+            GateModeName::Adapt => adaptive::GateMode::Adapt,
+            GateModeName::Refuse => adaptive::GateMode::Refuse,
+        }
+    }
 }
 
 fn default_gate_probability() -> f64 {
@@ -506,6 +532,7 @@ impl Default for GateSection {
             enabled: true,
             probability: default_gate_probability(),
             readmit_after: default_readmit(),
+            mode: GateModeName::default(),
         }
     }
 }
@@ -1023,6 +1050,7 @@ impl Config {
         let g = &self.filter.gate;
         Ok(if g.enabled {
             adaptive::GrossErrorGate::new(inner, g.probability, g.readmit_after)
+                .with_mode(g.mode.into())
         } else {
             adaptive::GrossErrorGate::disabled(inner)
         })

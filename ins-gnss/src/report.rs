@@ -78,6 +78,14 @@ pub fn write(
         }
         None => h.push_str("<p>No accepted update to judge by.</p>\n"),
     }
+    // every innovation of each stream, before adaptation
+    for st in &summary.streams {
+        let class = if st.consistent() { "" } else { " class=\"bad\"" };
+        let _ = writeln!(h, "<p{class}>{}</p>", escape(&st.verdict()));
+        if let Some(a) = st.adaptation() {
+            let _ = writeln!(h, "<p>{}</p>", escape(&a));
+        }
+    }
     if !tables.is_empty() {
         h.push_str("<h2>Errors against the truth</h2>\n<table>\n");
         h.push_str(HEADER);

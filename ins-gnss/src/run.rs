@@ -199,6 +199,15 @@ pub struct StreamStats {
     /// Refusals from a gap of more than [`OUTAGE`] s in the stream until its next
     /// accepted update.
     pub refused_after_outage: usize,
+    /// Updates used with `R` inflated (a strategy's or the gate's `R` factor above 1).
+    pub r_inflated: usize,
+    /// The largest `R` factor, and the time of the first and the last inflated update.
+    pub r_factor_max: f64,
+    /// See [`r_factor_max`](Self::r_factor_max).
+    pub r_inflated_span: (f64, f64),
+    /// Updates used with the prior inflated (a strategy's or the gate's factor on `P⁻`
+    /// above 1: a re-admission, or the state doubted).
+    pub prior_inflated: usize,
     ratios: Vec<f32>,
     last_t: f64,
     after_outage: bool,
@@ -273,6 +282,10 @@ impl StreamStats {
             above_median: 0,
             median_ratio: f64::NAN,
             refused_after_outage: 0,
+            r_inflated: 0,
+            r_factor_max: 1.0,
+            r_inflated_span: (f64::NAN, f64::NAN),
+            prior_inflated: 0,
             ratios: Vec::new(),
             last_t: f64::NAN,
             after_outage: false,
@@ -302,6 +315,45 @@ impl StreamStats {
             }
             Verdict::Inflated => {}
         }
+        if u.verdict != Verdict::Rejected {
+            if u.factors.lambda_r > 1.0 {
+                self.r_inflated += 1;
+                self.r_factor_max = self.r_factor_max.max(u.factors.lambda_r);
+                if self.r_inflated_span.0.is_nan() {
+                    self.r_inflated_span.0 = u.time;
+                }
+                self.r_inflated_span.1 = u.time;
+            }
+            self.prior_inflated += usize::from(u.factors.lambda_p > 1.0);
+        }
+    }
+
+    /// How the stream's noise was adapted (`None` when it was not): the updates with `R`
+    /// inflated, the largest factor and when; the updates with the prior inflated.
+    pub fn adaptation(&self) -> Option<String> {
+        if self.r_inflated == 0 && self.prior_inflated == 0 {
+            return None;
+        }
+        let mut parts = Vec::new();
+        if self.r_inflated > 0 {
+            parts.push(format!(
+                "R inflated on {} of {} updates (up to {:.1}×, σ × {:.1}; between {:.1} and \
+                 {:.1} s)",
+                self.r_inflated,
+                self.epochs,
+                self.r_factor_max,
+                self.r_factor_max.sqrt(),
+                self.r_inflated_span.0,
+                self.r_inflated_span.1
+            ));
+        }
+        if self.prior_inflated > 0 {
+            parts.push(format!(
+                "the prior inflated on {} (re-admitted after refusals, or the state doubted)",
+                self.prior_inflated
+            ));
+        }
+        Some(format!("adaptation of {}: {}", self.stream, parts.join("; ")))
     }
 
     fn finish(&mut self) {

@@ -539,3 +539,84 @@ fn a_logger_csv_runs_through_column_maps_like_the_native_files() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The demo drive with its scenario text changed by `edit`, simulated into `dir/name`;
+/// the horizontal RMS after 20 s of `run` with each of `modes` (`filter.gate.mode`,
+/// or `"open"` for `--no-gate`).
+fn drive_variant(dir: &Path, name: &str, edit: &[(&str, &str)], modes: &[&str]) -> Vec<f64> {
+    let mut scenario = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join("drive.toml"),
+    )
+    .unwrap();
+    for (from, to) in edit {
+        assert!(scenario.contains(from), "{from}");
+        scenario = scenario.replace(from, to);
+    }
+    let sim = dir.join(name);
+    std::fs::create_dir_all(&sim).unwrap();
+    std::fs::write(sim.join("scenario.toml"), scenario).unwrap();
+    let out = bin()
+        .arg("simulate")
+        .arg(sim.join("scenario.toml"))
+        .arg("--out")
+        .arg(&sim)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let config = std::fs::read_to_string(sim.join("config.toml")).unwrap();
+    assert!(config.contains("mode = \"adapt\""), "the default gate mode is written out");
+    modes
+        .iter()
+        .map(|mode| {
+            let file = sim.join(format!("{mode}.toml"));
+            let m = if *mode == "open" { "adapt" } else { mode };
+            std::fs::write(&file, config.replace("mode = \"adapt\"", &format!("mode = \"{m}\"")))
+                .unwrap();
+            let mut cmd = bin();
+            cmd.arg("run").arg(&file).args(["--quiet", "--accept-inconsistent", "--skip", "20"]);
+            cmd.arg("--out").arg(sim.join(format!("o-{mode}")));
+            if *mode == "open" {
+                cmd.arg("--no-gate");
+            }
+            let out = cmd.output().unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            let row = stdout.lines().find(|l| l.starts_with("| fixed")).unwrap();
+            row.split('|').nth(5).unwrap().trim().parse::<f64>().unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn the_default_gate_adapts_before_it_refuses() {
+    let dir = temp("adapt-gate");
+    // RTK fixes whose real noise is 5× their σ over the whole drive: the refusing gate
+    // locks most of them out; the default matches R and keeps them
+    let rtk = [
+        ("position_std = [1.0, 1.0, 2.0]", "position_std = [0.02, 0.02, 0.04]"),
+        ("velocity_std = [0.05, 0.05, 0.05]", "velocity_std = [0.02, 0.02, 0.02]"),
+        (
+            "start = 50.0\nend = 65.0\nkind = \"interference\"\nfactor = 6.0",
+            "start = 0.0\nend = 200.0\nkind = \"interference\"\nfactor = 5.0",
+        ),
+    ];
+    let r = drive_variant(&dir, "rtk5", &rtk, &["adapt", "refuse", "open"]);
+    eprintln!("RTK 5× σ: adapt {:.3} m, refuse {:.3} m, open {:.3} m", r[0], r[1], r[2]);
+    assert!(r[0] < 0.1 * r[1], "adapt {} vs refuse {}", r[0], r[1]);
+    assert!(r[0] <= r[2], "adapt {} vs the open gate {}", r[0], r[2]);
+    // an initial heading 90° off (σ 3°): the refusing gate locks the GNSS out
+    let h90 = [("attitude_error = [0.3, -0.3, 1.5]", "attitude_error = [0.3, -0.3, 90.0]")];
+    let h = drive_variant(&dir, "h90", &h90, &["adapt", "refuse"]);
+    eprintln!("heading 90° off: adapt {:.3} m, refuse {:.3} m", h[0], h[1]);
+    assert!(h[0] < 0.15 * h[1], "adapt {} vs refuse {}", h[0], h[1]);
+    // 20 % of the fixes 30σ off: refused as before, within 10 %
+    let outliers = [(
+        "start = 50.0\nend = 65.0\nkind = \"interference\"\nfactor = 6.0",
+        "start = 0.0\nend = 200.0\nkind = \"outliers\"\nprobability = 0.2\nsigmas = 30.0",
+    )];
+    let o = drive_variant(&dir, "outliers", &outliers, &["adapt", "refuse", "open"]);
+    eprintln!("outliers: adapt {:.3} m, refuse {:.3} m, open {:.3} m", o[0], o[1], o[2]);
+    assert!(o[0] <= 1.1 * o[1], "adapt {} vs refuse {}", o[0], o[1]);
+    assert!(o[0] < 0.25 * o[2], "adapt {} vs the open gate {}", o[0], o[2]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
