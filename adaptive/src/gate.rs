@@ -195,8 +195,7 @@ impl GateStream {
 }
 
 /// The order-statistic test of a window of `n` NIS values of dimension `m`: the `k`-th
-/// smallest (`k = max(1, n/4)`: a quarter of the window may be gross errors without
-/// moving it) is compared with `χ²_{q_d}(m)`, `q_d` chosen so that a consistent stream
+/// smallest (`k = max(1, n/2)`, the window's median) is compared with `χ²_{q_d}(m)`, `q_d` chosen so that a consistent stream
 /// exceeds it with probability [`SCALE_FALSE_ALARM`] (`P(Bin(n, q_d) ≤ k − 1) = α`);
 /// beyond it, the factor is the `k`-th smallest over its median-unbiased quantile
 /// `χ²_{(k − 0.3)/(n + 0.4)}(m)`.
@@ -211,7 +210,7 @@ struct ScaleTest {
 
 impl ScaleTest {
     fn new(m: usize, n: usize) -> Self {
-        let k = (n / KDIV).max(1);
+        let k = (n / 2).max(1);
         // P(Bin(n, q) ≤ k − 1) falls from 1 to 0 as q goes from 0 to 1: bisection
         let tail = |q: f64| -> f64 {
             let mut c = 1.0; // C(n, j)
@@ -245,7 +244,6 @@ impl ScaleTest {
 
 /// Smallest window the scale test judges.
 const MIN_WINDOW: usize = 3;
-const KDIV: usize = 2;
 
 /// The scale tests per measurement dimension and window size, computed once.
 #[derive(Clone, Debug)]
@@ -274,18 +272,23 @@ impl ScaleTests {
 /// remembered for [`GATE_WINDOW`] epochs, and two tests run before the gate:
 ///
 /// - **Noise too small for the stream (covariance matching, robust).** When the `k`-th
-///   smallest NIS of the window (`k = max(1, n/4)`, so a quarter of the window may be
-///   gross errors without moving it) exceeds the level a consistent stream passes with
-///   probability 1e-3, the innovations are, as a whole, larger than `S`: the factor
+///   smallest NIS of the window (`k = max(1, n/2)`, its median) exceeds the level a
+///   consistent stream passes with probability 1e-3, the innovations are, as a whole,
+///   larger than `S` (matching stays on until the factor falls to 1): the factor
 ///   `s = NIS_(k) / χ²_{(k−0.3)/(n+0.4)}(m)` (the order statistic over its
 ///   median-unbiased quantile) estimates `E[r rᵀ] ≈ s S`,
 ///   and the excess is put on the measurement: `R* = R + (s − 1) S`, so that
 ///   `S* = s S`. The gate then judges `NIS / s`. A factor beyond [`MAX_R_FACTOR`] (σ
-///   more than 100× too small) is not taken for noise: such a window is gross errors.
+///   more than 100× too small) is not taken for noise, nor is a window whose smallest NIS
+///   is more than 10× below `s χ²_{1e-3}(m)` (good fixes among gross errors); nor a
+///   window whose successive innovations keep their direction on the whole (mean cosine
+///   above 0.5): noise is white.
 /// - **A wrong state (innovations that keep their direction).** When the innovation is
-///   beyond the gate and the last [`SAME_WAY_PAIRS`] successive whitened innovations
-///   (`L⁻¹ r`, `S = L Lᵀ`) point the same way (mean cosine above 0.7; white noise gives
-///   0 ± `1/√m`), the filter, not the measurement, is doubted: the measurement is used
+///   beyond the gate, the last four all were, and each of the last three pairs of
+///   successive whitened innovations (`L⁻¹ r`, `S = L Lᵀ`)
+///   has a cosine above 0.9 (white noise gives 0 ± `1/√m`), the filter, not the
+///   measurement, is doubted until the innovations fall inside the gate or turn by more
+///   than about 60°: the measurement is used
 ///   with the prior inflated along the measurement subspace so that its NIS equals the
 ///   gate (`λ = NIS/gate`, as at a re-admission). An initial heading 90° off or a
 ///   filter come back from an outage is pulled in instead of locked out. The `R` factor
