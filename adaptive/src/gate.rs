@@ -61,21 +61,16 @@ const WHITE_DIMS: usize = 16;
 const SCALE_FALSE_ALARM: f64 = 1e-3;
 
 /// Cosine between successive whitened innovations above which every one of the last
-/// [`SAME_WAY_PAIRS`] pairs must lie for them to be taken as pointing the same way (a
-/// state error, not noise or gross errors): two independent directions in the plane
-/// exceed it with probability 0.14, in three dimensions 0.05.
+/// few pairs (as many as `same_way_pairs` asks) must lie for them to be taken as
+/// pointing the same way (a state error, not noise or gross errors): two independent
+/// directions in the plane exceed it with probability 0.14, in three dimensions 0.05,
+/// in six 0.003.
 const SAME_WAY_COS: f64 = 0.9;
 
 /// Mean cosine over the window below which the innovations are taken for white noise
-/// (whose `R` may be matched).
+/// (whose `R` may be matched); once the state is doubted, it stays doubted until the
+/// window's mean cosine falls below it.
 const WHITE_COS: f64 = 0.5;
-
-/// Once the state is doubted, it stays doubted while the innovations stay beyond the gate
-/// and each keeps within about 60° of the previous one.
-const KEEP_WAY_COS: f64 = 0.5;
-
-/// Successive pairs whose cosines are averaged for the direction test.
-const SAME_WAY_PAIRS: usize = 3;
 
 /// Upper bound on the `R` factor (σ × 100).
 pub const MAX_R_FACTOR: f64 = 1e4;
@@ -144,12 +139,12 @@ impl GateStream {
         self.head = (i + 1) % GATE_WINDOW;
     }
 
-    /// Smallest cosine of the last `SAME_WAY_PAIRS` pairs (−1 until there are that many).
-    fn same_way(&self) -> f64 {
-        if self.cos_filled < SAME_WAY_PAIRS {
+    /// Smallest cosine of the last `pairs` pairs (−1 until there are that many).
+    fn same_way(&self, pairs: usize) -> f64 {
+        if self.cos_filled < pairs {
             return -1.0;
         }
-        (1..=SAME_WAY_PAIRS)
+        (1..=pairs)
             .map(|j| self.cos[(self.head + GATE_WINDOW - j) % GATE_WINDOW])
             .fold(f64::INFINITY, f64::min)
     }
@@ -162,14 +157,6 @@ impl GateStream {
         let n = self.cos_filled;
         (1..=n).map(|j| self.cos[(self.head + GATE_WINDOW - j) % GATE_WINDOW]).sum::<f64>()
             / n as f64
-    }
-
-    /// Cosine of the latest pair (−1 when there is none).
-    fn latest_cos(&self) -> f64 {
-        if self.cos_filled == 0 {
-            return -1.0;
-        }
-        self.cos[(self.head + GATE_WINDOW - 1) % GATE_WINDOW]
     }
 
     /// Whether the last `k` NIS all exceed `gate`.
@@ -242,6 +229,50 @@ impl ScaleTest {
     }
 }
 
+/// Probability that two independent isotropic directions in `m` dimensions have a cosine
+/// above `c` (the cosine's density is proportional to `(1 − x²)^{(m−3)/2}`), by the
+/// midpoint rule.
+fn cosine_tail(m: usize, c: f64) -> f64 {
+    if m <= 1 {
+        return 0.5;
+    }
+    let e = (m as f64 - 3.0) / 2.0;
+    let integral = |a: f64, b: f64| -> f64 {
+        const N: usize = 2000;
+        let h = (b - a) / N as f64;
+        (0..N).map(|i| (1.0 - (a + (i as f64 + 0.5) * h).powi(2)).powf(e)).sum::<f64>() * h
+    };
+    integral(c, 1.0) / integral(-1.0, 1.0)
+}
+
+/// Pairs of successive whitened innovations of dimension `m` that must all keep their
+/// direction (cosine above [`SAME_WAY_COS`]) for white innovations to do so with
+/// probability at most [`SCALE_FALSE_ALARM`]: 4 in the plane, 3 in space, 2 for a
+/// position + velocity fix.
+fn same_way_pairs(m: usize) -> usize {
+    let p = cosine_tail(m, SAME_WAY_COS);
+    let k = (SCALE_FALSE_ALARM.ln() / p.ln()).ceil() as usize;
+    k.clamp(1, GATE_WINDOW - 1)
+}
+
+/// [`same_way_pairs`] per measurement dimension, computed once (0: not yet).
+#[derive(Clone, Debug)]
+struct PairCounts([usize; CACHED_DIMS + 1]);
+
+impl PairCounts {
+    fn get(&mut self, m: usize) -> usize {
+        match self.0.get_mut(m) {
+            Some(k) => {
+                if *k == 0 {
+                    *k = same_way_pairs(m);
+                }
+                *k
+            }
+            None => same_way_pairs(m),
+        }
+    }
+}
+
 /// Smallest window the scale test judges.
 const MIN_WINDOW: usize = 3;
 
@@ -284,11 +315,13 @@ impl ScaleTests {
 ///   window whose successive innovations keep their direction on the whole (mean cosine
 ///   above 0.5): noise is white.
 /// - **A wrong state (innovations that keep their direction).** When the innovation is
-///   beyond the gate, the last four all were, and each of the last three pairs of
-///   successive whitened innovations (`L⁻¹ r`, `S = L Lᵀ`)
-///   has a cosine above 0.9 (white noise gives 0 ± `1/√m`), the filter, not the
-///   measurement, is doubted until the innovations fall inside the gate or turn by more
-///   than about 60°: the measurement is used
+///   beyond the gate, the last `k + 1` all were, and each of the last `k` pairs of
+///   successive whitened innovations (`L⁻¹ r`, `S = L Lᵀ`) has a cosine above 0.9
+///   (white noise gives 0 ± `1/√m`; `k` is the fewest pairs that white innovations pass
+///   together with probability below 1e-3: 4 for `m = 2`, 3 for `m = 3`, 2 for a
+///   position + velocity fix), the filter, not the measurement, is doubted until the
+///   window's mean cosine falls below 0.5 (white again): each innovation beyond the
+///   gate meanwhile is used
 ///   with the prior inflated along the measurement subspace so that its NIS equals the
 ///   gate (`λ = NIS/gate`, as at a re-admission). An initial heading 90° off or a
 ///   filter come back from an outage is pulled in instead of locked out. The `R` factor
@@ -331,6 +364,7 @@ pub struct GrossErrorGate<A> {
     streams: StreamMap<GateStream>,
     thresholds: Thresholds,
     scale_tests: ScaleTests,
+    same_way_pairs: PairCounts,
     /// The last update was decided by the gate, not by `inner`.
     bypassed: bool,
 }
@@ -347,6 +381,7 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
             streams: StreamMap::new(),
             thresholds: Thresholds::new(),
             scale_tests: ScaleTests(Vec::new()),
+            same_way_pairs: PairCounts([0; CACHED_DIMS + 1]),
             bypassed: false,
         }
     }
@@ -402,13 +437,12 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
             let white = whiten(a.S, a.innovation, &mut buf);
             st.push(a.nis, white);
             // a wrong state: entered when the last pairs all keep their direction and were
-            // all beyond the gate, kept while the innovations stay beyond it without
-            // turning round
-            let latest = st.latest_cos();
+            // all beyond the gate, kept until the window's innovations look white again
             st.doubting = if st.doubting {
-                a.nis > gate && latest > KEEP_WAY_COS
+                st.mean_cos() > WHITE_COS
             } else {
-                st.same_way() > SAME_WAY_COS && st.all_beyond(SAME_WAY_PAIRS + 1, gate)
+                let pairs = self.same_way_pairs.get(m);
+                st.same_way(pairs) > SAME_WAY_COS && st.all_beyond(pairs + 1, gate)
             };
             same_way = st.doubting;
             let n = st.filled;
@@ -580,6 +614,31 @@ impl NoiseStrategy for ChiSquareGate {
         if a.nis > gate {
             a.verdict = Verdict::Rejected;
             a.reason = "χ² gate: NIS beyond χ²_{1−α}(m)";
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cosine_tail_matches_its_closed_forms() {
+        // m = 3: the cosine is uniform on [−1, 1]; m = 2: the angle is uniform
+        assert!((cosine_tail(3, 0.9) - 0.05).abs() < 1e-6);
+        assert!((cosine_tail(2, 0.9) - 0.9_f64.acos() / std::f64::consts::PI).abs() < 1e-3);
+        // m = 5: density ∝ 1 − x², tail (2/3 − c + c³/3) / (4/3)
+        let c: f64 = 0.9;
+        assert!((cosine_tail(5, c) - (2.0 / 3.0 - c + c.powi(3) / 3.0) * 0.75).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_direction_test_needs_fewer_pairs_in_more_dimensions() {
+        let k: Vec<usize> = [1, 2, 3, 6, 9].iter().map(|&m| same_way_pairs(m)).collect();
+        assert_eq!(k, [9, 4, 3, 2, 1]);
+        for (m, k) in [(2, 4), (3, 3), (6, 2)] {
+            assert!(cosine_tail(m, SAME_WAY_COS).powi(k) <= SCALE_FALSE_ALARM);
+            assert!(cosine_tail(m, SAME_WAY_COS).powi(k - 1) > SCALE_FALSE_ALARM);
         }
     }
 }

@@ -216,9 +216,12 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
             require_overlap(&ev_s, &smoothed, &truth, skip)?;
             let label = format!("{name}, smoothed");
             print_table(&[(&name, &ev.overall), (&label, &ev_s.overall)]);
+            print_nees(&name, &ev);
+            print_nees(&label, &ev_s);
             tables.push((label, ev_s));
         } else {
             print_table(&[(&name, &ev.overall)]);
+            print_nees(&name, &ev);
         }
         tables.insert(0, (name.clone(), ev));
         if plots {
@@ -243,6 +246,13 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         }
         Err(u) => Err(Box::new(u)),
         Ok(()) => Ok(()),
+    }
+}
+
+/// The NEES line of an evaluation against the truth, if its σ file was there.
+fn print_nees(label: &str, ev: &Evaluation) {
+    if let Some(n) = &ev.nees {
+        out!("consistency against the truth ({label}): {}", n.line());
     }
 }
 
@@ -302,6 +312,9 @@ pub fn print_table(rows: &[(&str, &Stats)]) {
 
 fn print_eval(ev: &Evaluation) {
     out!("epochs compared: {} (unmatched {})", ev.overall.epochs, ev.unmatched);
+    if let Some(n) = &ev.nees {
+        out!("consistency against the truth: {}", n.line());
+    }
     if !ev.windows.is_empty() {
         out!(
             "windows: RMS over windows of the maximum horizontal error {:.3} m, vertical {:.3} m",

@@ -96,6 +96,30 @@ pub fn write(
             }
         }
         h.push_str("</table>\n");
+        let nees: Vec<_> =
+            tables.iter().filter_map(|(l, ev)| ev.nees.as_ref().map(|n| (l, n))).collect();
+        if !nees.is_empty() {
+            h.push_str("<h2>Consistency against the truth (NEES)</h2>\n<table>\n");
+            h.push_str(
+                "<tr><th>result</th><th>block</th><th>epochs</th><th>NEES/dof (1)</th>\
+                 <th>beyond χ²<sub>0.99</sub> (1 %, at most 5 %)</th><th>verdict</th></tr>\n",
+            );
+            for (label, n) in nees {
+                for (block, b) in n.blocks() {
+                    let ok = b.consistent() == Some(true);
+                    let _ = writeln!(
+                        h,
+                        "<tr><td>{}</td><td>{block}</td><td>{}</td><td>{:.2}</td><td>{:.1} %</td><td>{}</td></tr>",
+                        escape(label),
+                        b.epochs,
+                        b.mean_per_dof,
+                        100.0 * b.beyond_99,
+                        if ok { "consistent" } else { "<b>NOT consistent</b>" }
+                    );
+                }
+            }
+            h.push_str("</table>\n");
+        }
     }
     if !plots.is_empty() {
         h.push_str("<h2>Plots</h2>\n");

@@ -606,9 +606,12 @@ fn the_default_gate_adapts_before_it_refuses() {
     assert!(r[0] <= r[2], "adapt {} vs the open gate {}", r[0], r[2]);
     // an initial heading 90° off (σ 3°): the refusing gate locks the GNSS out
     let h90 = [("attitude_error = [0.3, -0.3, 1.5]", "attitude_error = [0.3, -0.3, 90.0]")];
-    let h = drive_variant(&dir, "h90", &h90, &["adapt", "refuse"]);
-    eprintln!("heading 90° off: adapt {:.3} m, refuse {:.3} m", h[0], h[1]);
-    assert!(h[0] < 0.15 * h[1], "adapt {} vs refuse {}", h[0], h[1]);
+    let h = drive_variant(&dir, "h90", &h90, &["adapt", "refuse", "open"]);
+    eprintln!("heading 90° off: adapt {:.3} m, refuse {:.3} m, open {:.3} m", h[0], h[1], h[2]);
+    assert!(h[0] < 0.05 * h[1], "adapt {} vs refuse {}", h[0], h[1]);
+    // still short of the open gate (docs/results.md: 3.8 m against 1.58 m); a guard
+    // against losing more
+    assert!(h[0] < 2.6 * h[2], "adapt {} vs the open gate {}", h[0], h[2]);
     // 20 % of the fixes 30σ off: refused as before, within 10 %
     let outliers = [(
         "start = 50.0\nend = 65.0\nkind = \"interference\"\nfactor = 6.0",
@@ -619,4 +622,55 @@ fn the_default_gate_adapts_before_it_refuses() {
     assert!(o[0] <= 1.1 * o[1], "adapt {} vs refuse {}", o[0], o[1]);
     assert!(o[0] < 0.25 * o[2], "adapt {} vs the open gate {}", o[0], o[2]);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The verdict against a truth (NEES of the reported σ): on the simulated drive, whose
+/// GNSS noise is 6× its σ for 15 s, the default gate (R matched there) is consistent and
+/// the open gate, which believes the noisy fixes, is not; `eval --json` carries the same
+/// figures.
+#[test]
+fn the_nees_against_the_truth_tells_an_honest_sigma_from_a_small_one() {
+    let dir = temp("nees");
+    let sim = dir.join("sim");
+    let out = bin()
+        .arg("simulate")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join("drive.toml"))
+        .arg("--out")
+        .arg(&sim)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let verdict = |extra: &[&str], o: &str| -> (String, PathBuf) {
+        let od = dir.join(o);
+        let mut cmd = bin();
+        cmd.arg("run").arg(sim.join("config.toml")).arg("--out").arg(&od);
+        cmd.args(["--quiet", "--accept-inconsistent", "--skip", "20"]).args(extra);
+        let out = cmd.output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with("consistency against the truth (fixed)"))
+            .unwrap_or_else(|| panic!("no NEES line in\n{stdout}"))
+            .to_string();
+        (line, od)
+    };
+    let (adapt, od) = verdict(&[], "adapt");
+    assert!(adapt.ends_with(": consistent"), "{adapt}");
+    let (open, _) = verdict(&["--no-gate"], "open");
+    assert!(open.contains("NOT consistent"), "{open}");
+    let out = bin()
+        .arg("eval")
+        .arg(&od)
+        .arg(sim.join("truth.nav"))
+        .args(["--skip", "20", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let p = &v["forward"]["nees"]["position"];
+    assert!(p["epochs"].as_u64().unwrap() >= 80, "{p}");
+    let m = p["mean_per_dof"].as_f64().unwrap();
+    assert!(m > 0.2 && m < 2.0, "position NEES/dof {m}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }
