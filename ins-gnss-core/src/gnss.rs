@@ -36,6 +36,34 @@ pub struct GnssEpoch {
     pub pos_std: Vector3<f64>,
     /// NED velocity and its 1σ (m/s), when the file has them.
     pub vel: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// The full NED position covariance (m²) when the file gives its correlations
+    /// (RTKLIB's `sdne`, `sdeu`, `sdun`); `None`: diagonal, from `pos_std`.
+    pub pos_cov: Option<Matrix3<f64>>,
+    /// The same for the velocity (m²/s²).
+    pub vel_cov: Option<Matrix3<f64>>,
+}
+
+impl GnssEpoch {
+    /// An epoch with uncorrelated errors (σ per axis).
+    pub fn new(
+        t: f64,
+        pos: GeoPos,
+        pos_std: Vector3<f64>,
+        vel: Option<(Vector3<f64>, Vector3<f64>)>,
+    ) -> Self {
+        Self { t, pos, pos_std, vel, pos_cov: None, vel_cov: None }
+    }
+
+    /// The position covariance (NED, m²): the file's, or the σ's diagonal.
+    pub fn position_covariance(&self) -> Matrix3<f64> {
+        self.pos_cov.unwrap_or_else(|| Matrix3::from_diagonal(&self.pos_std.map(|s| s * s)))
+    }
+
+    /// The velocity covariance (NED, m²/s²), when there is a velocity.
+    pub fn velocity_covariance(&self) -> Option<Matrix3<f64>> {
+        let (_, std) = self.vel?;
+        Some(self.vel_cov.unwrap_or_else(|| Matrix3::from_diagonal(&std.map(|s| s * s))))
+    }
 }
 
 /// What the position and velocity predictions and Jacobians share at one state: the

@@ -613,25 +613,29 @@ where
     ) -> Result<UpdateSummary, NavError> {
         let err = |source| NavError::Measurement { t: g.t, source };
         self.vehicle.last_gnss = g.t;
-        let pos_std = self.gnss.pos_std.unwrap_or(g.pos_std);
+        // the file's covariance (its correlations included), unless the configuration
+        // states the σ
+        let r_pos = match self.gnss.pos_std {
+            Some(s) => diag3(&s.component_mul(&s)),
+            None => g.position_covariance(),
+        };
         let lever = self.gnss.lever_arm;
         match (self.gnss.use_velocity, g.vel) {
-            (true, Some((v, v_std))) => {
-                let v_std = self.gnss.vel_std.unwrap_or(v_std);
-                let mut d = nalgebra::SVector::<f64, 6>::zeros();
-                for i in 0..3 {
-                    d[i] = pos_std[i].powi(2);
-                    d[3 + i] = v_std[i].powi(2);
-                }
+            (true, Some((v, _))) => {
+                let r_vel = match self.gnss.vel_std {
+                    Some(s) => diag3(&s.component_mul(&s)),
+                    None => g.velocity_covariance().unwrap_or_else(Matrix3::zeros),
+                };
+                let mut r = diag6(&nalgebra::SVector::<f64, 6>::zeros());
+                r.fixed_view_mut::<3, 3>(0, 0).copy_from(&r_pos);
+                r.fixed_view_mut::<3, 3>(3, 3).copy_from(&r_vel);
                 let model = GnssPosVel { lever_arm: lever, gyro_rate: self.rate };
-                let r = diag6(&d);
                 S::update::<A, GnssPosVel, O>(&mut self.filter, &model, &(g.pos, v), &r, observer)
                     .map_err(err)
             }
             _ => {
                 let model = GnssPosition { lever_arm: lever };
-                let r = diag3(&pos_std.component_mul(&pos_std));
-                S::update::<A, GnssPosition, O>(&mut self.filter, &model, &g.pos, &r, observer)
+                S::update::<A, GnssPosition, O>(&mut self.filter, &model, &g.pos, &r_pos, observer)
                     .map_err(err)
             }
         }

@@ -175,7 +175,7 @@ fn gnss_epochs<E>(
                     k.vel + k.att.rotate(&k.w_ib_b.cross(&gnss.lever_arm)) - w_in.cross(&lever_n);
                 (gnss.corrupt_velocity(&v_ant, &s, factor, &mut rng_gnss), s)
             });
-            each(GnssEpoch { t, pos, pos_std: gnss.pos_sigma, vel })?;
+            each(GnssEpoch::new(t, pos, gnss.pos_sigma, vel))?;
         }
     }
     Ok(())

@@ -191,6 +191,10 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     }
     let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
+    // refused before the run, not after it
+    if plots && truth.is_none() && cfg.data.truth.is_none() {
+        return Err("--plots needs a truth file (--truth or data.truth)".into());
+    }
     let bar = progress.then(|| progress_bar(&cfg));
     let mut tick = |t: f64| {
         if let Some(b) = &bar {
@@ -239,6 +243,7 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         let page = crate::report::write(&out_dir, &summary, &cfg, &tables, &figures)?;
         out!("report: {}", page.display());
     }
+    remove_stale(&out_dir, o.report, &figures)?;
     match crate::health::assess(&summary, &cfg) {
         Err(u) if o.accept_inconsistent => {
             out!("warning (--accept-inconsistent): {u}");
@@ -247,6 +252,23 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         Err(u) => Err(Box::new(u)),
         Ok(()) => Ok(()),
     }
+}
+
+/// Removes a report and plots an earlier run left in `dir` that this run did not write
+/// (they would describe another result), saying so.
+fn remove_stale(dir: &Path, report: bool, figures: &[PathBuf]) -> Result<(), CliError> {
+    let mut names: Vec<&str> = crate::plot::FILES.to_vec();
+    if !report {
+        names.push("report.html");
+    }
+    for name in names {
+        let p = dir.join(name);
+        if p.is_file() && !figures.contains(&p) {
+            std::fs::remove_file(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+            out!("removed {} (an earlier run's, not this result's)", p.display());
+        }
+    }
+    Ok(())
 }
 
 /// The NEES line of an evaluation against the truth, if its σ file was there.
@@ -258,7 +280,9 @@ fn print_nees(label: &str, ev: &Evaluation) {
 
 /// The GNSS fixes of a configuration (time, position), for the plan view.
 fn read_fixes(cfg: &Config) -> Result<Vec<(f64, ins_gnss_core::GeoPos)>, CliError> {
-    let mut r = ins_gnss_core::io::GnssReader::open(&cfg.data.gnss, cfg.bad_lines())?;
+    let mut r = ins_gnss_core::io::GnssReader::open(&cfg.data.gnss, cfg.bad_lines())?
+        .with_format(cfg.data.gnss_format.into())
+        .with_quality(cfg.gnss.quality.factors()?);
     if let Some(c) = &cfg.data.gnss_columns {
         r = r.with_columns(c.map()?);
     }
@@ -443,7 +467,13 @@ pub fn compare(
         let dir = base.join(name);
         let s = run_config(&cfg, strategy(name)?, &dir, None)?;
         print_summary(&s);
-        let ev = evaluate(&dir.join("nav.txt"), &truth, skip, &[])?;
+        let ev = evaluate_with(
+            &dir.join("nav.txt"),
+            &truth,
+            cfg.data.truth_columns.as_ref(),
+            skip,
+            &[],
+        )?;
         require_overlap(&ev, &dir.join("nav.txt"), &truth, skip)?;
         evals.push((name.clone(), ev));
     }

@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use ins_gnss_core::io::columns::unit_factor;
-use ins_gnss_core::io::{ColumnMap, Quantity, Source};
+use ins_gnss_core::io::{ColumnMap, Quantity, Source, TimeScale};
 
 /// Body axes of a log.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -19,6 +19,29 @@ pub enum Axes {
     Frd,
     /// Forward, left, up: y and z change sign.
     Flu,
+}
+
+/// The time scale of a log's time column.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TimeScaleName {
+    /// Already GPS seconds of week (or relative seconds that match the other files).
+    #[default]
+    AsIs,
+    /// Unix time, UTC: converted to GPST seconds of week with the leap seconds of its date.
+    UnixUtc,
+    /// Seconds since the GPS epoch (1980-01-06), GPST.
+    GpsSeconds,
+}
+
+impl From<TimeScaleName> for TimeScale {
+    fn from(t: TimeScaleName) -> Self {
+        match t {
+            TimeScaleName::AsIs => TimeScale::AsIs,
+            TimeScaleName::UnixUtc => TimeScale::UnixUtc,
+            TimeScaleName::GpsSeconds => TimeScale::GpsSeconds,
+        }
+    }
 }
 
 /// Frame of a velocity triple.
@@ -43,25 +66,25 @@ pub enum Heading {
     EastCounterclockwise,
 }
 
-fn t() -> String {
+fn t() -> Col {
     "t".into()
 }
 fn seconds() -> String {
     "s".into()
 }
-fn gyro() -> [String; 3] {
+fn gyro() -> [Col; 3] {
     ["gx".into(), "gy".into(), "gz".into()]
 }
-fn accel() -> [String; 3] {
+fn accel() -> [Col; 3] {
     ["ax".into(), "ay".into(), "az".into()]
 }
-fn lat() -> String {
+fn lat() -> Col {
     "lat".into()
 }
-fn lon() -> String {
+fn lon() -> Col {
     "lon".into()
 }
-fn height() -> String {
+fn height() -> Col {
     "h".into()
 }
 fn degrees() -> String {
@@ -73,6 +96,59 @@ fn metres() -> String {
 fn metres_per_second() -> String {
     "m/s".into()
 }
+fn yes() -> bool {
+    true
+}
+
+/// A column: its name in the header, or with `header = false` its 0-based index (written
+/// as a number or a string).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(transparent)]
+pub struct Col(pub String);
+
+impl std::ops::Deref for Col {
+    type Target = str;
+    fn deref(&self) -> &str {
+        &self.0
+    }
+}
+
+impl From<&str> for Col {
+    fn from(s: &str) -> Self {
+        Col(s.to_string())
+    }
+}
+
+impl std::fmt::Display for Col {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl<'de> Deserialize<'de> for Col {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Col;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a column name or a 0-based column index")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Col, E> {
+                Ok(Col(v.to_string()))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Col, E> {
+                if v < 0 {
+                    return Err(E::custom(format!("column index {v}: 0 or more")));
+                }
+                Ok(Col(v.to_string()))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Col, E> {
+                Ok(Col(v.to_string()))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
 
 /// `[data.imu_columns]`: an IMU log with a header. Rates or increments as
 /// `data.imu_format` says.
@@ -81,7 +157,7 @@ fn metres_per_second() -> String {
 pub struct ImuColumns {
     /// Time column. Default `t`.
     #[serde(default = "t")]
-    pub time: String,
+    pub time: Col,
     /// `s` (default), `ms`, `us`, `ns`.
     #[serde(default = "seconds")]
     pub time_unit: String,
@@ -90,13 +166,13 @@ pub struct ImuColumns {
     pub time_offset: f64,
     /// Gyro x, y, z columns. Default `gx, gy, gz`.
     #[serde(default = "gyro")]
-    pub gyro: [String; 3],
+    pub gyro: [Col; 3],
     /// Rates: `rad/s` (default), `deg/s`, `deg/h`; increments: `rad` (default), `deg`.
     #[serde(default)]
     pub gyro_unit: Option<String>,
     /// Accelerometer x, y, z columns. Default `ax, ay, az`.
     #[serde(default = "accel")]
-    pub accel: [String; 3],
+    pub accel: [Col; 3],
     /// Rates: `m/s^2` (default), `g`, `mg`; increments: `m/s` (default).
     #[serde(default)]
     pub accel_unit: Option<String>,
@@ -105,10 +181,18 @@ pub struct ImuColumns {
     pub axes: Axes,
     /// Wheel-speed column, optional.
     #[serde(default)]
-    pub odometer: Option<String>,
+    pub odometer: Option<Col>,
     /// `m/s` (default), `km/h`.
     #[serde(default = "metres_per_second")]
     pub odometer_unit: String,
+    /// The log has a header line (default true); `false`: columns are named by 0-based
+    /// index (`gyro = [4, 5, 6]`).
+    #[serde(default = "yes")]
+    pub header: bool,
+    /// `as-is` (default: GPS seconds of week), `unix-utc` or `gps-seconds`: converted to
+    /// GPST seconds of week (the leap seconds of the file's first time).
+    #[serde(default)]
+    pub time_scale: TimeScaleName,
 }
 
 impl Default for ImuColumns {
@@ -139,7 +223,12 @@ impl ImuColumns {
         if let Some(o) = &self.odometer {
             fields.push(Source::scaled(o, unit_factor(Quantity::Speed, &self.odometer_unit)?));
         }
-        Ok(ColumnMap { fields })
+        Ok(ColumnMap {
+            fields,
+            headerless: !self.header,
+            time_scale: self.time_scale.into(),
+            time_field: 0,
+        })
     }
 }
 
@@ -149,7 +238,7 @@ impl ImuColumns {
 pub struct GnssColumns {
     /// Time column. Default `t`.
     #[serde(default = "t")]
-    pub time: String,
+    pub time: Col,
     /// `s` (default), `ms`, `us`, `ns`.
     #[serde(default = "seconds")]
     pub time_unit: String,
@@ -158,26 +247,26 @@ pub struct GnssColumns {
     pub time_offset: f64,
     /// Latitude column. Default `lat`.
     #[serde(default = "lat")]
-    pub latitude: String,
+    pub latitude: Col,
     /// Longitude column. Default `lon`.
     #[serde(default = "lon")]
-    pub longitude: String,
+    pub longitude: Col,
     /// `deg` (default) or `rad`.
     #[serde(default = "degrees")]
     pub angle_unit: String,
     /// Ellipsoidal height column. Default `h`.
     #[serde(default = "height")]
-    pub height: String,
+    pub height: Col,
     /// `m` (default) or `mm`, `cm`, `km`, for the height and the σ.
     #[serde(default = "metres")]
     pub length_unit: String,
     /// Position σ north, east, down columns; without them `gnss.position_std` is
     /// required.
     #[serde(default)]
-    pub position_std: Option<[String; 3]>,
+    pub position_std: Option<[Col; 3]>,
     /// Velocity columns (in `velocity_frame` order), optional.
     #[serde(default)]
-    pub velocity: Option<[String; 3]>,
+    pub velocity: Option<[Col; 3]>,
     /// `ned` (default) or `enu`.
     #[serde(default)]
     pub velocity_frame: VelocityFrame,
@@ -187,7 +276,15 @@ pub struct GnssColumns {
     /// Velocity σ columns (north, east, down); without them, with a velocity,
     /// `gnss.velocity_std` is required.
     #[serde(default)]
-    pub velocity_std: Option<[String; 3]>,
+    pub velocity_std: Option<[Col; 3]>,
+    /// The log has a header line (default true); `false`: columns are named by 0-based
+    /// index (`gyro = [4, 5, 6]`).
+    #[serde(default = "yes")]
+    pub header: bool,
+    /// `as-is` (default: GPS seconds of week), `unix-utc` or `gps-seconds`: converted to
+    /// GPST seconds of week (the leap seconds of the file's first time).
+    #[serde(default)]
+    pub time_scale: TimeScaleName,
 }
 
 impl GnssColumns {
@@ -213,7 +310,12 @@ impl GnssColumns {
                 None => fields.extend((0..3).map(|_| Source::Constant(1.0))),
             }
         }
-        Ok(ColumnMap { fields })
+        Ok(ColumnMap {
+            fields,
+            headerless: !self.header,
+            time_scale: self.time_scale.into(),
+            time_field: 0,
+        })
     }
 }
 
@@ -235,7 +337,7 @@ fn position_fields(
 }
 
 /// North, east, down from a triple named in `frame`'s order, times `scale`.
-fn ned(v: &[String; 3], frame: VelocityFrame, scale: f64) -> [Source; 3] {
+fn ned(v: &[Col; 3], frame: VelocityFrame, scale: f64) -> [Source; 3] {
     match frame {
         VelocityFrame::Ned => [0, 1, 2].map(|k| Source::scaled(&v[k], scale)),
         VelocityFrame::Enu => [
@@ -253,7 +355,7 @@ fn ned(v: &[String; 3], frame: VelocityFrame, scale: f64) -> [Source; 3] {
 pub struct TruthColumns {
     /// Time column. Default `t`.
     #[serde(default = "t")]
-    pub time: String,
+    pub time: Col,
     /// `s` (default), `ms`, `us`, `ns`.
     #[serde(default = "seconds")]
     pub time_unit: String,
@@ -262,23 +364,23 @@ pub struct TruthColumns {
     pub time_offset: f64,
     /// Latitude column. Default `lat`.
     #[serde(default = "lat")]
-    pub latitude: String,
+    pub latitude: Col,
     /// Longitude column. Default `lon`.
     #[serde(default = "lon")]
-    pub longitude: String,
+    pub longitude: Col,
     /// `deg` (default) or `rad`, for latitude and longitude.
     #[serde(default = "degrees")]
     pub angle_unit: String,
     /// Ellipsoidal height column. Default `h`.
     #[serde(default = "height")]
-    pub height: String,
+    pub height: Col,
     /// `m` (default), `mm`, `cm`, `km`.
     #[serde(default = "metres")]
     pub length_unit: String,
     /// Velocity columns (in `velocity_frame` order); without them (and the attitude)
     /// the reference is positions only, compared at its own epochs.
     #[serde(default)]
-    pub velocity: Option<[String; 3]>,
+    pub velocity: Option<[Col; 3]>,
     /// `ned` (default) or `enu`.
     #[serde(default)]
     pub velocity_frame: VelocityFrame,
@@ -287,13 +389,21 @@ pub struct TruthColumns {
     pub velocity_unit: String,
     /// Roll, pitch, yaw (heading) columns, optional.
     #[serde(default)]
-    pub attitude: Option<[String; 3]>,
+    pub attitude: Option<[Col; 3]>,
     /// `deg` (default) or `rad`.
     #[serde(default = "degrees")]
     pub attitude_unit: String,
     /// `north-clockwise` (default) or `east-counterclockwise`.
     #[serde(default)]
     pub heading: Heading,
+    /// The log has a header line (default true); `false`: columns are named by 0-based
+    /// index (`gyro = [4, 5, 6]`).
+    #[serde(default = "yes")]
+    pub header: bool,
+    /// `as-is` (default: GPS seconds of week), `unix-utc` or `gps-seconds`: converted to
+    /// GPST seconds of week (the leap seconds of the file's first time).
+    #[serde(default)]
+    pub time_scale: TimeScaleName,
 }
 
 impl TruthColumns {
@@ -321,13 +431,18 @@ impl TruthColumns {
                 fields.push(match self.heading {
                     Heading::NorthClockwise => Source::scaled(&att[2], a),
                     Heading::EastCounterclockwise => {
-                        Source::Column { name: att[2].clone(), scale: -a, offset: 90.0 }
+                        Source::Column { name: att[2].to_string(), scale: -a, offset: 90.0 }
                     }
                 });
             }
             None => fields.extend([nan(), nan(), nan()]),
         }
-        Ok(ColumnMap { fields })
+        Ok(ColumnMap {
+            fields,
+            headerless: !self.header,
+            time_scale: self.time_scale.into(),
+            time_field: 1,
+        })
     }
 
     /// Positions only (no velocity): compared at the reference's epochs.

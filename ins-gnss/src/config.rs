@@ -97,6 +97,10 @@ pub struct DataSection {
     /// The GNSS file is a log with a header ([`GnssColumns`]).
     #[serde(default)]
     pub gnss_columns: Option<GnssColumns>,
+    /// `auto` (default: an RTKLIB solution when its header says so, else the 7/13-column
+    /// format), `columns` or `rtklib` (a `.pos` file; `[gnss.quality]` scales its σ).
+    #[serde(default)]
+    pub gnss_format: GnssFormatName,
     /// The truth file is a log with a header ([`TruthColumns`]).
     #[serde(default)]
     pub truth_columns: Option<TruthColumns>,
@@ -121,6 +125,110 @@ pub enum ImuFormatName {
     Increments,
     /// Rates (CSV with header).
     Rates,
+}
+
+/// GNSS file layouts in configs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GnssFormatName {
+    /// Detected from the header.
+    #[default]
+    Auto,
+    /// The 7/13-column format or a column-mapped log.
+    Columns,
+    /// An RTKLIB solution file.
+    Rtklib,
+}
+
+impl From<GnssFormatName> for ins_gnss_core::io::GnssFormat {
+    fn from(f: GnssFormatName) -> Self {
+        match f {
+            GnssFormatName::Auto => Self::Auto,
+            GnssFormatName::Columns => Self::Columns,
+            GnssFormatName::Rtklib => Self::Rtklib,
+        }
+    }
+}
+
+/// `[gnss.quality]`: σ factors of RTKLIB solutions by quality flag `Q`, and the qualities
+/// whose epochs are dropped.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QualitySection {
+    /// σ factor for fixed solutions (Q = 1). Default 1.
+    #[serde(default = "q_fix")]
+    pub fix: f64,
+    /// Float (Q = 2). Default 2.
+    #[serde(default = "q_float")]
+    pub float: f64,
+    /// SBAS (Q = 3). Default 5.
+    #[serde(default = "q_single")]
+    pub sbas: f64,
+    /// DGPS (Q = 4). Default 3.
+    #[serde(default = "q_dgps")]
+    pub dgps: f64,
+    /// Single point (Q = 5). Default 5.
+    #[serde(default = "q_single")]
+    pub single: f64,
+    /// PPP (Q = 6). Default 2.
+    #[serde(default = "q_float")]
+    pub ppp: f64,
+    /// Qualities dropped: any of `fix`, `float`, `sbas`, `dgps`, `single`, `ppp`.
+    #[serde(default)]
+    pub drop: Vec<String>,
+}
+
+fn q_fix() -> f64 {
+    1.0
+}
+fn q_float() -> f64 {
+    2.0
+}
+fn q_dgps() -> f64 {
+    3.0
+}
+fn q_single() -> f64 {
+    5.0
+}
+
+impl Default for QualitySection {
+    fn default() -> Self {
+        Self {
+            fix: q_fix(),
+            float: q_float(),
+            sbas: q_single(),
+            dgps: q_dgps(),
+            single: q_single(),
+            ppp: q_float(),
+            drop: Vec::new(),
+        }
+    }
+}
+
+impl QualitySection {
+    /// The reader's factors, or the key that is wrong.
+    pub fn factors(&self) -> Result<ins_gnss_core::io::rtklib::QualityFactors, String> {
+        use ins_gnss_core::io::rtklib::QUALITY_NAMES;
+        let f = [1.0, self.fix, self.float, self.sbas, self.dgps, self.single, self.ppp];
+        for (name, v) in QUALITY_NAMES.iter().zip(f).skip(1) {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("`gnss.quality.{name}` = {v}: a σ factor must be positive"));
+            }
+        }
+        let mut drop = [false; 7];
+        for d in &self.drop {
+            match QUALITY_NAMES.iter().position(|n| n == d).filter(|&i| i > 0) {
+                Some(i) => drop[i] = true,
+                None => {
+                    return Err(format!(
+                        "`gnss.quality.drop`: unknown quality `{d}` (fix, float, sbas, dgps, \
+                         single, ppp)"
+                    ))
+                }
+            }
+        }
+        Ok(ins_gnss_core::io::rtklib::QualityFactors { factor: f, drop })
+    }
 }
 
 /// Bad-line policy names in configs.
@@ -431,6 +539,9 @@ pub struct GnssSection {
     /// Replace the file's velocity σ, m/s.
     #[serde(default)]
     pub velocity_std: Option<[f64; 3]>,
+    /// RTKLIB solutions: σ factor per quality, qualities dropped.
+    #[serde(default)]
+    pub quality: QualitySection,
 }
 
 fn yes() -> bool {
@@ -439,7 +550,13 @@ fn yes() -> bool {
 
 impl Default for GnssSection {
     fn default() -> Self {
-        Self { lever_arm: [0.0; 3], use_velocity: true, position_std: None, velocity_std: None }
+        Self {
+            lever_arm: [0.0; 3],
+            use_velocity: true,
+            position_std: None,
+            velocity_std: None,
+            quality: QualitySection::default(),
+        }
     }
 }
 
@@ -799,6 +916,24 @@ impl Config {
             }
         }
         cfg.validate().map_err(err)?;
+        // a missing input is named by the key that names it
+        let yaml = matches!(ext.as_str(), "yaml" | "yml");
+        let inputs = [
+            (if yaml { "imupath" } else { "data.imu" }, Some(&cfg.data.imu)),
+            (if yaml { "gnsspath" } else { "data.gnss" }, Some(&cfg.data.gnss)),
+            ("data.truth", cfg.data.truth.as_ref()),
+        ];
+        for (key, file) in inputs {
+            let Some(file) = file else { continue };
+            if !file.is_file() {
+                let what = if file.exists() { "is not a file" } else { "does not exist" };
+                return Err(err(format!(
+                    "`{key}`: {} {what} (a relative path is read from the configuration's \
+                     folder)",
+                    file.display()
+                )));
+            }
+        }
         Ok(cfg)
     }
 
@@ -811,6 +946,12 @@ impl Config {
         let rates = d.imu_format == ImuFormatName::Rates;
         if let Some(c) = &d.imu_columns {
             c.map(rates).map_err(|e| format!("`data.imu_columns`: {e}"))?;
+        }
+        self.gnss.quality.factors()?;
+        if d.gnss_columns.is_some() && d.gnss_format == GnssFormatName::Rtklib {
+            return Err("`data.gnss_format = \"rtklib\"` and `data.gnss_columns` exclude each \
+                        other: an RTKLIB solution names its columns in its header"
+                .into());
         }
         if let Some(c) = &d.gnss_columns {
             c.map().map_err(|e| format!("`data.gnss_columns`: {e}"))?;
@@ -1465,6 +1606,7 @@ mod kf_gins {
                 truth: None,
                 imu_columns: None,
                 gnss_columns: None,
+                gnss_format: Default::default(),
                 truth_columns: None,
             },
             init: InitSection {

@@ -353,6 +353,10 @@ fn publish(path: &Path) -> Result<(), String> {
     std::fs::rename(partial(path), path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
+/// Every file [`write_all`] can write.
+pub const FILES: [&str; 4] =
+    ["errors_position.svg", "errors_attitude.svg", "adaptation.svg", "trajectory.svg"];
+
 /// Write the plots of the run in `out_dir` against `truth`; returns the files written.
 pub fn write_all(
     out_dir: &Path,

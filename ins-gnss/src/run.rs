@@ -492,6 +492,9 @@ struct Outputs {
     std: std::io::BufWriter<std::fs::File>,
     imu_err: std::io::BufWriter<std::fs::File>,
     updates: std::io::BufWriter<std::fs::File>,
+    pos: std::io::BufWriter<std::fs::File>,
+    /// Time of the last `nav.pos` epoch (the end of a run can repeat it).
+    pos_last_t: Option<f64>,
 }
 
 impl Outputs {
@@ -512,7 +515,15 @@ impl Outputs {
             std: open("std.txt")?,
             imu_err: open("imu_errors.txt")?,
             updates: open("updates.csv")?,
+            pos: open("nav.pos")?,
+            pos_last_t: None,
         };
+        ins_gnss_core::io::rtklib::write_header(
+            &mut o.pos,
+            concat!("ins-gnss ", env!("CARGO_PKG_VERSION")),
+            true,
+        )
+        .map_err(|e| out(dir.join("nav.pos"), e))?;
         writeln!(
             o.updates,
             "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r,scaling_fallback"
@@ -526,7 +537,8 @@ impl Outputs {
     }
 
     /// The names of the outputs.
-    const NAMES: [&'static str; 4] = ["nav.txt", "std.txt", "imu_errors.txt", "updates.csv"];
+    const NAMES: [&'static str; 5] =
+        ["nav.txt", "std.txt", "imu_errors.txt", "updates.csv", "nav.pos"];
 
     /// The outputs of the smoother.
     const SMOOTHED: [&'static str; 2] = ["nav_smoothed.txt", "std_smoothed.txt"];
@@ -562,12 +574,32 @@ fn write_std<A: NoiseStrategy, S: RunState>(
     o: &mut Outputs,
     t: f64,
     nav: &Navigator<A, S>,
+    gnss_fix: bool,
 ) -> std::io::Result<()>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
     let x = nav.nav_state();
     write_sigma_row(&mut o.std, t, nav.sigma().as_slice())?;
+    // nav.pos: the position and velocity with their NED covariance blocks (error states
+    // 6–8 and 3–5); Q 1 after a GNSS update, 5 (no GNSS) otherwise
+    if o.pos_last_t == Some(t) {
+        return Ok(());
+    }
+    o.pos_last_t = Some(t);
+    let p = nav.covariance();
+    let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
+    let (pos_cov, vel_cov) = (block(6), block(3));
+    let q = if gnss_fix { 1 } else { 5 };
+    ins_gnss_core::io::rtklib::write_epoch(
+        &mut o.pos,
+        0.0,
+        t,
+        &x.pos,
+        &pos_cov,
+        Some((&x.vel, &vel_cov)),
+        q,
+    )?;
     write!(
         o.imu_err,
         "{t:.6} {:.6} {:.6} {:.6} {:.6} {:.6} {:.6}",
@@ -662,7 +694,9 @@ fn bad_map(key: &str, message: String) -> RunError {
 
 /// The configured GNSS file, open.
 fn open_gnss(config: &Config) -> Result<GnssReader<FileReader>, RunError> {
-    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?;
+    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?
+        .with_format(config.data.gnss_format.into())
+        .with_quality(config.gnss.quality.factors().map_err(|e| bad_map("gnss.quality", e))?);
     if let Some(c) = &config.data.gnss_columns {
         gnss = gnss.with_columns(c.map().map_err(|e| bad_map("data.gnss_columns", e))?);
     }
@@ -1307,7 +1341,12 @@ where
                     }
                     // after every update, and once a second without (an outage's σ)
                     if !updates.is_empty() || sample.t >= last_std + STD_EVERY - 1e-9 {
-                        write_std(&mut out, sample.t, &nav).map_err(|e| out.err("std.txt", e))?;
+                        let fix = updates.iter().any(|u| {
+                            ins_gnss_core::gnss::GNSS_STREAMS.contains(&u.stream)
+                                && u.verdict != estimator_core::Verdict::Rejected
+                        });
+                        write_std(&mut out, sample.t, &nav, fix)
+                            .map_err(|e| out.err("std.txt", e))?;
                         last_std = sample.t;
                     }
                     summary.span.1 = sample.t;
@@ -1339,8 +1378,9 @@ where
     }
     summary.finish_streams();
     check_gnss_overlap(&summary, &config.data.gnss)?;
-    write_std(&mut out, summary.span.1, &nav).map_err(|e| out.err("std.txt", e))?;
+    write_std(&mut out, summary.span.1, &nav, false).map_err(|e| out.err("std.txt", e))?;
     for (w, name) in [
+        (&mut out.pos, "nav.pos"),
         (&mut out.std, "std.txt"),
         (&mut out.imu_err, "imu_errors.txt"),
         (&mut out.updates, "updates.csv"),
@@ -1366,15 +1406,42 @@ where
 fn check_gnss_overlap(summary: &RunSummary, gnss: &Path) -> Result<(), RunError> {
     let (g0, g1) = summary.gnss_span;
     if summary.gnss_epochs == 0 && !g0.is_nan() {
-        return Err(RunError::NoData(format!(
-            "{}: no GNSS epoch falls inside the IMU span {:.3}–{:.3} s (the file's epochs \
-             read span {g0:.3}–{g1:.3} s); check the files' times and `data.start_time`",
+        let (i0, i1) = summary.span;
+        let gap = if g0 > i1 { g0 - i1 } else { i0 - g1.max(g0) };
+        let offset = g0 - i0;
+        let hint = time_scale_hint(offset, i0, g0);
+        // refused like an input that cannot give a result: nothing of it is kept
+        return Err(RunError::Start(format!(
+            "{}: no GNSS epoch falls inside the IMU span {i0:.3}–{i1:.3} s (the file's epochs \
+             read span {g0:.3}–{g1:.3} s, {gap:.3} s {} it); both files are read as seconds on \
+             one scale (the KF-GINS formats: GPS seconds of week; RTKLIB solutions are \
+             converted to it){hint}; check the files' times and `data.start_time`",
             gnss.display(),
-            summary.span.0,
-            summary.span.1
+            if g0 > i1 { "after" } else { "before" },
         )));
     }
     Ok(())
+}
+
+/// What an offset `gnss − imu` (s) between two files' first times suggests about their
+/// time scales.
+fn time_scale_hint(offset: f64, imu0: f64, gnss0: f64) -> String {
+    let week = 604_800.0;
+    let near = |x: f64, v: f64| (x - v).abs() < 0.5;
+    if near(offset.abs(), 18.0) {
+        format!(
+            "; the offset is {offset:+.1} s, GPS − UTC since 2017: one file is in UTC, the other \
+             in GPST"
+        )
+    } else if offset.abs() > 0.5 * week && (offset / week - (offset / week).round()).abs() < 1e-3 {
+        format!("; the offset is {:.0} whole GPS weeks", offset / week)
+    } else if (gnss0 > 1e8) != (imu0 > 1e8) {
+        "; one file's times look like Unix or absolute seconds, the other's like seconds of \
+         week or of the day"
+            .into()
+    } else {
+        String::new()
+    }
 }
 
 /// Read the configured IMU and GNSS files whole, with the same checks and skip policy as

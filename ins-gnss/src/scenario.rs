@@ -555,6 +555,7 @@ impl Scenario {
                 truth: Some("truth.nav".into()),
                 imu_columns: None,
                 gnss_columns: None,
+                gnss_format: Default::default(),
                 truth_columns: None,
             },
             init: InitSection {

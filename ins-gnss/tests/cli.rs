@@ -516,6 +516,45 @@ fn a_logger_csv_runs_through_column_maps_like_the_native_files() {
     for (u, v) in native.iter().zip(&csv) {
         assert!((u - v).abs() <= 1e-6 * u.max(1e-3), "{native:?} vs {csv:?}");
     }
+    // compare reads the CSV truth through the configuration's map too (it stopped on the
+    // header before)
+    let out = bin()
+        .arg("compare")
+        .arg(dir.join("csv.toml"))
+        .args(["--strategies", "fixed,iae", "--out"])
+        .arg(dir.join("cmp"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table = String::from_utf8_lossy(&out.stdout);
+    let row = table.lines().find(|l| l.starts_with("| fixed")).expect("a row per strategy");
+    let h: f64 = row.split('|').nth(5).unwrap().trim().parse().unwrap();
+    // (the table has three decimals)
+    assert!((h - native[0]).abs() <= 6e-4, "compare {h} vs eval {native:?}");
+    // the same logs without their header lines, columns by 0-based index
+    for f in ["imu_log.csv", "gnss_log.csv"] {
+        let text = std::fs::read_to_string(dir.join(f)).unwrap();
+        let body = &text[text.find('\n').unwrap() + 1..];
+        std::fs::write(dir.join(format!("bare_{f}")), body).unwrap();
+    }
+    let csv = std::fs::read_to_string(dir.join("csv.toml")).unwrap();
+    let indexed = csv
+        .replace("imu = \"imu_log.csv\"", "imu = \"bare_imu_log.csv\"")
+        .replace("gnss = \"gnss_log.csv\"", "gnss = \"bare_gnss_log.csv\"")
+        .replace("time = \"t_ms\"", "header = false\ntime = 1")
+        .replace("[\"dtheta_x_deg\", \"dtheta_y_deg\", \"dtheta_z_deg\"]", "[2, 3, 4]")
+        .replace("[\"dv_x\", \"dv_y\", \"dv_z\"]", "[5, 6, 7]")
+        .replace("time = \"time_s\"", "header = false\ntime = 0")
+        .replace("latitude = \"lat_deg\"", "latitude = 1")
+        .replace("longitude = \"lon_deg\"", "longitude = 2")
+        .replace("height = \"alt_m\"", "height = 3")
+        .replace("[\"sd_north_m\", \"sd_east_m\", \"sd_down_m\"]", "[4, 5, 6]")
+        .replace("[\"ve_mps\", \"vn_mps\", \"vu_mps\"]", "[7, 8, \"9\"]")
+        .replace("[\"sd_vn\", \"sd_ve\", \"sd_vd\"]", "[10, 11, 12]");
+    assert!(!indexed.contains("dtheta") && !indexed.contains("sd_vn"), "{indexed}");
+    std::fs::write(dir.join("indexed.toml"), indexed).unwrap();
+    run_quiet(&dir.join("indexed.toml"), &dir.join("indexed"), &[]);
+    assert_eq!(nav("csv"), nav("indexed"), "headerless logs read by index: the same result");
     // fixes without σ columns need the configured σ, named when missing
     let no_sigma = std::fs::read_to_string(dir.join("csv.toml"))
         .unwrap()
@@ -729,4 +768,73 @@ fn twenty_one_states_with_a_one_percent_scale_sigma_converge_on_the_drive() {
     assert!(r21 < r15, "21 states {r21} vs 15 states {r15}");
     assert!(r21 < 3.0, "21 states {r21}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The defects a newcomer hit: a missing input names its key; `--plots` without a truth is
+/// refused before the run; a reused output folder loses the report and plots of an
+/// earlier run that this run did not write; GNSS and IMU files that do not overlap are
+/// refused with the gap and the likely time scales, and leave nothing behind.
+#[test]
+fn a_newcomers_mistakes_are_refused_early_and_named() {
+    let dir = temp("newcomer");
+    simulate("drive.toml", &dir);
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let write = |name: &str, text: String| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    // a missing file: the key, the path
+    let missing = write("missing.toml", config.replace("imu = \"IMU.txt\"", "imu = \"IMU.tx\""));
+    let out = bin().arg("run").arg(&missing).arg("--quiet").output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("`data.imu`") && err.contains("IMU.tx"), "{err}");
+    // --plots without a truth: refused before anything is written
+    let no_truth = write("no_truth.toml", config.replace("truth = \"truth.nav\"\n", ""));
+    let out = bin()
+        .arg("run")
+        .arg(&no_truth)
+        .args(["--quiet", "--plots", "--out"])
+        .arg(dir.join("o-plots"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--plots needs a truth"), "{err}");
+    assert!(!dir.join("o-plots").join("nav.txt").exists(), "refused before the run");
+    // a report and plots from an earlier run are not left beside a new result
+    let o = dir.join("o-report");
+    run_quiet(&dir.join("config.toml"), &o, &["--report", "--accept-inconsistent"]);
+    assert!(o.join("report.html").is_file() && o.join("errors_position.svg").is_file());
+    let out = bin()
+        .arg("run")
+        .arg(&no_truth)
+        .args(["--quiet", "--accept-inconsistent", "--out"])
+        .arg(&o)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(!o.join("report.html").exists() && !o.join("errors_position.svg").exists());
+    assert!(said.contains("removed") && said.contains("report.html"), "{said}");
+    // GNSS times 1000 s late: refused, the gap and the scales named, nothing kept
+    let gnss = std::fs::read_to_string(dir.join("GNSS.txt")).unwrap();
+    let late: String = gnss
+        .lines()
+        .map(|l| {
+            let (t, rest) = l.split_once(' ').unwrap();
+            format!("{} {rest}\n", t.parse::<f64>().unwrap() + 1000.0)
+        })
+        .collect();
+    std::fs::write(dir.join("late.txt"), late).unwrap();
+    let late = write("late.toml", config.replace("gnss = \"GNSS.txt\"", "gnss = \"late.txt\""));
+    let o = dir.join("o-late");
+    let out = bin().arg("run").arg(&late).args(["--quiet", "--out"]).arg(&o).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("s after it") && err.contains("seconds of week"),
+        "{err}"
+    );
+    let left: Vec<_> = std::fs::read_dir(&o).map(|d| d.flatten().collect()).unwrap_or_default();
+    assert!(left.is_empty(), "nothing kept: {left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -75,12 +75,12 @@ proptest! {
     #[test]
     fn gnss_round_trip(lat in -89.0f64..89.0, lon in -179.0f64..179.0, h in -100.0f64..9000.0,
                        s in prop::array::uniform3(0.01f64..50.0), vel in prop::option::of(prop::array::uniform3(-50.0f64..50.0))) {
-        let e = GnssEpoch {
-            t: 1234.5,
-            pos: GeoPos::from_degrees(lat, lon, h),
-            pos_std: Vector3::new(s[0], s[1], s[2]),
-            vel: vel.map(|v| (Vector3::new(v[0], v[1], v[2]), Vector3::new(0.05, 0.05, 0.1))),
-        };
+        let e = GnssEpoch::new(
+            1234.5,
+            GeoPos::from_degrees(lat, lon, h),
+            Vector3::new(s[0], s[1], s[2]),
+            vel.map(|v| (Vector3::new(v[0], v[1], v[2]), Vector3::new(0.05, 0.05, 0.1))),
+        );
         let mut buf = Vec::new();
         write_gnss(&mut buf, &e).unwrap();
         let mut r = GnssReader::new(Cursor::new(buf), Path::new("gnss.txt"), BadLinePolicy::Error);

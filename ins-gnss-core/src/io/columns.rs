@@ -42,6 +42,42 @@ impl Source {
 pub struct ColumnMap {
     /// The fields.
     pub fields: Vec<Source>,
+    /// The log has no header: every column is named by its 0-based index (`"4"`).
+    pub headerless: bool,
+    /// The time scale of the time field, converted to GPST seconds of week.
+    pub time_scale: TimeScale,
+    /// Which field is the time (0 for the IMU and GNSS readers, 1 for a reference's
+    /// `week, t, …`).
+    pub time_field: usize,
+}
+
+/// The time scale of a log's time column (after its unit and offset).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TimeScale {
+    /// Already on the run's scale (GPS seconds of week, or relative seconds that match
+    /// the other files).
+    #[default]
+    AsIs,
+    /// Unix time (seconds since 1970-01-01 UTC, leap seconds not counted).
+    UnixUtc,
+    /// Seconds since the GPS epoch (1980-01-06), GPST.
+    GpsSeconds,
+}
+
+impl TimeScale {
+    /// The offset that takes a time `t` of this scale to GPST seconds of week (taken at
+    /// the file's first time and kept for the whole file, so that a file crossing a week
+    /// or a leap second stays continuous).
+    pub fn offset_at(self, t: f64) -> f64 {
+        const WEEK: f64 = 604_800.0;
+        const GPS_EPOCH_UNIX: f64 = 315_964_800.0;
+        let gps = match self {
+            TimeScale::AsIs => return 0.0,
+            TimeScale::UnixUtc => t - GPS_EPOCH_UNIX + crate::io::rtklib::gps_minus_utc(t),
+            TimeScale::GpsSeconds => t,
+        };
+        gps.rem_euclid(WEEK) - t
+    }
 }
 
 /// A [`ColumnMap`] matched to a header: the columns to read (in field order, distinct)
@@ -52,6 +88,10 @@ pub struct Resolved {
     pub columns: Vec<usize>,
     /// Per field: `(index into the values read, scale, offset)`, or a constant.
     plan: Vec<Result<(usize, f64, f64), f64>>,
+    time_scale: TimeScale,
+    time_field: usize,
+    /// The time scale's offset, from the first line.
+    time_offset: Option<f64>,
 }
 
 /// The column names of a header line (split at commas and white space, quotes removed).
@@ -64,22 +104,31 @@ pub fn header_names(header: &str) -> Vec<String> {
 }
 
 impl ColumnMap {
-    /// Match the map to a header line. Errors name the missing column and list the ones
-    /// present.
+    /// Match the map to a header line (ignored when the map is
+    /// [`headerless`](Self::headerless)). Errors name the missing column and list the
+    /// ones present.
     pub fn resolve(&self, header: &str) -> Result<Resolved, String> {
         let names = header_names(header);
+        let index_of = |name: &str| -> Result<usize, String> {
+            if self.headerless {
+                return name.trim().parse::<usize>().map_err(|_| {
+                    format!(
+                        "the log has no header (`header = false`): columns are named by \
+                         0-based index, not `{name}`"
+                    )
+                });
+            }
+            names.iter().position(|n| n == name).ok_or_else(|| {
+                format!("no column `{name}` in the header; its columns are: {}", names.join(", "))
+            })
+        };
         let mut columns: Vec<usize> = Vec::new();
         let mut plan = Vec::with_capacity(self.fields.len());
         for f in &self.fields {
             match f {
                 Source::Constant(v) => plan.push(Err(*v)),
                 Source::Column { name, scale, offset } => {
-                    let Some(i) = names.iter().position(|n| n == name) else {
-                        return Err(format!(
-                            "no column `{name}` in the header; its columns are: {}",
-                            names.join(", ")
-                        ));
-                    };
+                    let i = index_of(name)?;
                     let slot = match columns.iter().position(|&c| c == i) {
                         Some(s) => s,
                         None => {
@@ -91,19 +140,31 @@ impl ColumnMap {
                 }
             }
         }
-        Ok(Resolved { columns, plan })
+        Ok(Resolved {
+            columns,
+            plan,
+            time_scale: self.time_scale,
+            time_field: self.time_field,
+            time_offset: None,
+        })
     }
 }
 
 impl Resolved {
     /// The fields of one line from the values of [`columns`](Self::columns) (in that
     /// order), into `out` (cleared first).
-    pub fn apply(&self, values: &[f64], out: &mut Vec<f64>) {
+    pub fn apply(&mut self, values: &[f64], out: &mut Vec<f64>) {
         out.clear();
         out.extend(self.plan.iter().map(|p| match p {
             Ok((slot, scale, offset)) => values[*slot] * scale + offset,
             Err(v) => *v,
         }));
+        if self.time_scale != TimeScale::AsIs {
+            if let Some(t) = out.get_mut(self.time_field) {
+                let scale = self.time_scale;
+                *t += *self.time_offset.get_or_insert_with(|| scale.offset_at(*t));
+            }
+        }
     }
 }
 
@@ -159,6 +220,9 @@ mod tests {
     #[test]
     fn resolves_names_units_and_constants() {
         let map = ColumnMap {
+            headerless: false,
+            time_scale: TimeScale::AsIs,
+            time_field: 0,
             fields: vec![
                 Source::scaled("t_ms", 1e-3),
                 Source::Constant(2.5),
@@ -166,7 +230,7 @@ mod tests {
                 Source::column("t_ms"),
             ],
         };
-        let r = map.resolve("k, t_ms ,\"yaw\", status").unwrap();
+        let mut r = map.resolve("k, t_ms ,\"yaw\", status").unwrap();
         assert_eq!(r.columns, vec![1, 2]);
         let mut out = Vec::new();
         r.apply(&[1500.0, 30.0], &mut out);

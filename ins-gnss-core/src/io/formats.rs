@@ -230,9 +230,13 @@ impl Mapping {
     /// Read the header and select the map's columns (once).
     fn start<R: BufRead>(&mut self, lines: &mut NumericLines<R>) -> Result<(), LineError> {
         if let Mapping::Pending(map) = self {
-            let header = match lines.next_text()? {
-                Some(h) => h.to_string(),
-                None => return Err(lines.error(LineErrorKind::Empty)),
+            let header = if map.headerless {
+                String::new()
+            } else {
+                match lines.next_text()? {
+                    Some(h) => h.to_string(),
+                    None => return Err(lines.error(LineErrorKind::Empty)),
+                }
             };
             let resolved =
                 map.resolve(&header).map_err(|m| lines.error(LineErrorKind::WrongUnits(m)))?;
@@ -564,7 +568,21 @@ fn integrate_rates(h: &[RateRecord], ahead: usize) -> Option<ImuSample> {
     Some(s)
 }
 
-/// Streaming GNSS reader (7 or 13 columns, detected from the first data line).
+/// The layout of a GNSS file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GnssFormat {
+    /// An RTKLIB solution when the header says so, else the 7/13-column format (default).
+    #[default]
+    Auto,
+    /// The 7- or 13-column KF-GINS format (or a column-mapped log).
+    Columns,
+    /// An RTKLIB solution file (`.pos`); see [`crate::io::rtklib`].
+    Rtklib,
+}
+
+/// Streaming GNSS reader: the 7 or 13 columns of the KF-GINS format (detected from the
+/// first data line), a column-mapped log, or an RTKLIB solution file (detected from its
+/// header).
 pub struct GnssReader<R: BufRead> {
     lines: NumericLines<R>,
     policy: BadLinePolicy,
@@ -574,6 +592,12 @@ pub struct GnssReader<R: BufRead> {
     pub skipped: SkipCounts,
     records: usize,
     mapping: Mapping,
+    format: GnssFormat,
+    started: bool,
+    rtklib: Option<super::rtklib::PosHeader>,
+    quality: super::rtklib::QualityFactors,
+    /// RTKLIB epochs dropped, by solution quality `Q` (0: no solution).
+    pub dropped: [usize; 7],
 }
 
 impl GnssReader<Input> {
@@ -594,7 +618,30 @@ impl<R: BufRead> GnssReader<R> {
             skipped: SkipCounts::default(),
             records: 0,
             mapping: Mapping::None,
+            format: GnssFormat::Auto,
+            started: false,
+            rtklib: None,
+            quality: Default::default(),
+            dropped: [0; 7],
         }
+    }
+
+    /// Read the file as `format` (default: detected).
+    pub fn with_format(mut self, format: GnssFormat) -> Self {
+        self.format = format;
+        self
+    }
+
+    /// σ factors and dropped qualities for RTKLIB solutions.
+    pub fn with_quality(mut self, quality: super::rtklib::QualityFactors) -> Self {
+        self.quality = quality;
+        self
+    }
+
+    /// The RTKLIB header, when the file is an RTKLIB solution (once the first epoch is
+    /// read).
+    pub fn rtklib_header(&self) -> Option<&super::rtklib::PosHeader> {
+        self.rtklib.as_ref()
     }
 
     /// Read a log with a header through `map`: the 7 fields `t, lat, lon, h, σN, σE, σD`
@@ -617,6 +664,24 @@ impl<R: BufRead> GnssReader<R> {
 
     /// The next epoch, `Ok(None)` at the end.
     pub fn next_epoch(&mut self) -> Result<Option<GnssEpoch>, LineError> {
+        if !self.started {
+            self.started = true;
+            if matches!(self.mapping, Mapping::None) && self.format != GnssFormat::Columns {
+                let comments = self.lines.leading_comments()?;
+                self.rtklib =
+                    comments.iter().rev().find_map(|l| super::rtklib::PosHeader::parse(l));
+                if self.rtklib.is_none() && self.format == GnssFormat::Rtklib {
+                    return Err(self.lines.error(LineErrorKind::WrongUnits(
+                        "no RTKLIB solution header (a `%` line naming the time system and \
+                         `latitude(deg)` or `x-ecef(m)` before the first epoch)"
+                            .into(),
+                    )));
+                }
+            }
+        }
+        if self.rtklib.is_some() {
+            return self.next_rtklib();
+        }
         self.mapping.start(&mut self.lines)?;
         loop {
             if !next_record(&mut self.lines, self.policy, &mut self.skipped, self.records)? {
@@ -654,16 +719,18 @@ impl<R: BufRead> GnssReader<R> {
             } else if !(-1_000.0..=100_000.0).contains(&rec[3]) {
                 Err(LineErrorKind::WrongUnits(format!("height {} m outside −1 km…+100 km", rec[3])))
             } else {
-                check_time(self.prev_t, rec[0]).map(|_| GnssEpoch {
-                    t: rec[0],
-                    pos: GeoPos::from_degrees(rec[1], rec[2], rec[3]),
-                    pos_std: Vector3::new(rec[4], rec[5], rec[6]),
-                    vel: (n == 13).then(|| {
-                        (
-                            Vector3::new(rec[7], rec[8], rec[9]),
-                            Vector3::new(rec[10], rec[11], rec[12]),
-                        )
-                    }),
+                check_time(self.prev_t, rec[0]).map(|_| {
+                    GnssEpoch::new(
+                        rec[0],
+                        GeoPos::from_degrees(rec[1], rec[2], rec[3]),
+                        Vector3::new(rec[4], rec[5], rec[6]),
+                        (n == 13).then(|| {
+                            (
+                                Vector3::new(rec[7], rec[8], rec[9]),
+                                Vector3::new(rec[10], rec[11], rec[12]),
+                            )
+                        }),
+                    )
                 })
             };
             match result {
@@ -672,6 +739,55 @@ impl<R: BufRead> GnssReader<R> {
                     self.prev_t = Some(e.t);
                     self.records += 1;
                     return Ok(Some(e));
+                }
+                Err(kind) => {
+                    let fatal = matches!(kind, LineErrorKind::WrongUnits(_)) && self.records == 0;
+                    if self.policy == BadLinePolicy::Skip && !fatal {
+                        count(&mut self.skipped, &kind);
+                        continue;
+                    }
+                    return Err(self.lines.error(kind));
+                }
+            }
+        }
+    }
+}
+
+impl<R: BufRead> GnssReader<R> {
+    fn next_rtklib(&mut self) -> Result<Option<GnssEpoch>, LineError> {
+        let Some(header) = &self.rtklib else { return Ok(None) };
+        loop {
+            let Some(text) = self.lines.next_text()? else {
+                if self.records == 0 {
+                    return Err(LineError {
+                        path: self.lines.path().to_path_buf(),
+                        line: 0,
+                        kind: LineErrorKind::Empty,
+                    });
+                }
+                return Ok(None);
+            };
+            let result =
+                super::rtklib::parse_line(header, text, &self.quality).and_then(|e| match e {
+                    Some(e) => check_time(self.prev_t, e.t).map(|_| Some(e)),
+                    None => Ok(None),
+                });
+            match result {
+                Ok(Some(e)) => {
+                    self.columns.get_or_insert(if e.vel.is_some() { 13 } else { 7 });
+                    self.prev_t = Some(e.t);
+                    self.records += 1;
+                    return Ok(Some(e));
+                }
+                Ok(None) => {
+                    // the quality of a dropped epoch: the field after the position
+                    let q = text
+                        .split_whitespace()
+                        .nth(2 + header.quality_field().unwrap_or(usize::MAX - 2))
+                        .and_then(|q| q.parse::<usize>().ok())
+                        .unwrap_or(0)
+                        .min(6);
+                    self.dropped[q] += 1;
                 }
                 Err(kind) => {
                     let fatal = matches!(kind, LineErrorKind::WrongUnits(_)) && self.records == 0;

@@ -173,6 +173,41 @@ impl<R: BufRead> NumericLines<R> {
         }
     }
 
+    /// Reads the comment (`#`, `%`) and blank lines at the start of the file, before any
+    /// data line, and returns them (trimmed); the next record is then the first data
+    /// line. Called before any record is read.
+    pub fn leading_comments(&mut self) -> Result<Vec<String>, LineError> {
+        let mut out = Vec::new();
+        loop {
+            let io = |e: std::io::Error, line| LineError {
+                path: self.path.clone(),
+                line,
+                kind: LineErrorKind::Io(e.to_string()),
+            };
+            let line = self.line + 1;
+            let buf = self.inner.fill_buf().map_err(|e| io(e, line))?;
+            let mut start = 0;
+            if self.line == 0 && buf.starts_with(b"\xEF\xBB\xBF") {
+                start = 3;
+            }
+            match buf[start.min(buf.len())..].iter().find(|b| **b != b' ' && **b != b'\t') {
+                Some(b'#') | Some(b'%') | Some(b'\n') | Some(b'\r') => {}
+                _ => return Ok(out),
+            }
+            self.buf.clear();
+            let n = self.inner.read_until(b'\n', &mut self.buf).map_err(|e| io(e, line))?;
+            if n == 0 {
+                return Ok(out);
+            }
+            self.line += 1;
+            let text = String::from_utf8_lossy(&self.buf[start.min(self.buf.len())..]);
+            let text = text.trim();
+            if !text.is_empty() {
+                out.push(text.to_string());
+            }
+        }
+    }
+
     /// Move to the next data line; false at the end of the file.
     fn advance(&mut self) -> Result<bool, LineError> {
         loop {

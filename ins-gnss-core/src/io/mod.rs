@@ -4,9 +4,10 @@ pub mod columns;
 pub mod fixed;
 pub mod formats;
 pub mod lines;
+pub mod rtklib;
 
-pub use columns::{ColumnMap, Quantity, Source};
+pub use columns::{ColumnMap, Quantity, Source, TimeScale};
 pub use formats::{
-    BadLinePolicy, GnssReader, ImuFormat, ImuReader, NavReader, NavRecord, SkipCounts,
+    BadLinePolicy, GnssFormat, GnssReader, ImuFormat, ImuReader, NavReader, NavRecord, SkipCounts,
 };
 pub use lines::{LineError, LineErrorKind, NumericLines};

@@ -1,0 +1,551 @@
+//! RTKLIB solution files (`.pos`, written by `rnx2rtkp`, RTKPOST, RTKNAVI, the demo5
+//! fork): read as GNSS epochs, and the navigation result written in the same format.
+//!
+//! The header's last line names the columns: the time system (`GPST`, `UTC`, `JST`),
+//! then `latitude(deg) longitude(deg) height(m)` (or `latitude(d'")` … in degrees,
+//! minutes and seconds, or `x-ecef(m) y-ecef(m) z-ecef(m)`), `Q ns`, the σ and the
+//! signed square roots of the covariances (`sdn sde sdu sdne sdeu sdun`, or `sdx sdy sdz
+//! sdxy sdyz sdzx`), `age ratio`, and optionally the velocity with its σ and covariances
+//! (`vn ve vu sdvn sdve sdvu sdvne sdveu sdvun`, or their ECEF counterparts). Each epoch's
+//! time is a date and time (`2025/08/28 17:30:39.749`) or a GPS week and seconds of week.
+//! Epochs are returned on the GPST seconds-of-week scale of the KF-GINS formats (UTC
+//! plus the leap seconds of its date; JST minus 9 h first).
+//!
+//! RTKLIB writes a covariance `c` as `sign(c) √|c|`, so `c = s |s|`. The quality flag
+//! `Q` (1 fix, 2 float, 3 SBAS, 4 DGPS, 5 single, 6 PPP) scales σ by
+//! [`QualityFactors`] and can drop an epoch.
+
+use std::io::Write;
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::lines::LineErrorKind;
+use crate::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
+use crate::gnss::GnssEpoch;
+use crate::position::GeoPos;
+
+/// Seconds in a GPS week.
+const WEEK: f64 = 604_800.0;
+
+/// GPS − UTC (s) from each date (year, month, day; 0 h UTC) on: the leap seconds since
+/// the GPS epoch (1980-01-06), from the IERS bulletins.
+const LEAP_SECONDS: [(i64, i64, i64, f64); 18] = [
+    (1981, 7, 1, 1.0),
+    (1982, 7, 1, 2.0),
+    (1983, 7, 1, 3.0),
+    (1985, 7, 1, 4.0),
+    (1988, 1, 1, 5.0),
+    (1990, 1, 1, 6.0),
+    (1991, 1, 1, 7.0),
+    (1992, 7, 1, 8.0),
+    (1993, 7, 1, 9.0),
+    (1994, 7, 1, 10.0),
+    (1996, 1, 1, 11.0),
+    (1997, 7, 1, 12.0),
+    (1999, 1, 1, 13.0),
+    (2006, 1, 1, 14.0),
+    (2009, 1, 1, 15.0),
+    (2012, 7, 1, 16.0),
+    (2015, 7, 1, 17.0),
+    (2017, 1, 1, 18.0),
+];
+
+/// Days from 1970-01-01 to a civil date (proleptic Gregorian).
+pub fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let mp = (m + 9) % 12;
+    let doy = (153 * mp + 2) / 5 + d - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    era * 146_097 + doe - 719_468
+}
+
+/// Civil date (year, month, day) of a day count from 1970-01-01.
+pub fn civil_from_days(z: i64) -> (i64, i64, i64) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    (if m <= 2 { yoe + era * 400 + 1 } else { yoe + era * 400 }, m, d)
+}
+
+/// Days from 1970-01-01 to the GPS epoch, 1980-01-06.
+const GPS_EPOCH_DAYS: i64 = 3657;
+
+/// GPS − UTC (s) at a UTC instant given as seconds since 1970-01-01 (UTC, no leap
+/// seconds counted, as Unix time).
+pub fn gps_minus_utc(unix: f64) -> f64 {
+    let day = (unix / 86_400.0).floor() as i64;
+    LEAP_SECONDS
+        .iter()
+        .rev()
+        .find(|(y, m, d, _)| day >= days_from_civil(*y, *m, *d))
+        .map_or(0.0, |l| l.3)
+}
+
+/// A time scale of a file's time stamps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeSystem {
+    /// GPS time.
+    Gpst,
+    /// UTC.
+    Utc,
+    /// Japan standard time (UTC + 9 h), which RTKLIB can write.
+    Jst,
+}
+
+impl TimeSystem {
+    fn from_label(s: &str) -> Option<Self> {
+        match s {
+            "GPST" => Some(Self::Gpst),
+            "UTC" => Some(Self::Utc),
+            "JST" => Some(Self::Jst),
+            _ => None,
+        }
+    }
+
+    /// The label RTKLIB writes.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Gpst => "GPST",
+            Self::Utc => "UTC",
+            Self::Jst => "JST",
+        }
+    }
+}
+
+/// GPST seconds of week of a date and time `(y, m, d, hh, mm, ss)` on `system`'s scale.
+pub fn seconds_of_week(system: TimeSystem, date: (i64, i64, i64), hms: (i64, i64, f64)) -> f64 {
+    let days = days_from_civil(date.0, date.1, date.2);
+    let mut secs = (days - GPS_EPOCH_DAYS) as f64 * 86_400.0
+        + hms.0 as f64 * 3600.0
+        + hms.1 as f64 * 60.0
+        + hms.2;
+    match system {
+        TimeSystem::Gpst => {}
+        TimeSystem::Utc => secs += gps_minus_utc(days as f64 * 86_400.0 + hms_secs(hms)),
+        TimeSystem::Jst => {
+            secs -= 9.0 * 3600.0;
+            let unix = days as f64 * 86_400.0 + hms_secs(hms) - 9.0 * 3600.0;
+            secs += gps_minus_utc(unix);
+        }
+    }
+    secs.rem_euclid(WEEK)
+}
+
+fn hms_secs(hms: (i64, i64, f64)) -> f64 {
+    hms.0 as f64 * 3600.0 + hms.1 as f64 * 60.0 + hms.2
+}
+
+/// The σ factor per solution quality `Q` (index 1–6) and the qualities dropped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QualityFactors {
+    /// σ factor for Q = 1 (fix) … 6 (PPP); index 0 is unused (Q = 0: no solution, always
+    /// dropped).
+    pub factor: [f64; 7],
+    /// Epochs of these qualities are dropped.
+    pub drop: [bool; 7],
+}
+
+impl Default for QualityFactors {
+    /// Fix 1, float 2, SBAS 5, DGPS 3, single 5, PPP 2 (the factors the open INS/GNSS
+    /// tools that read RTKLIB output use for float and single: 2 and 5); nothing dropped.
+    fn default() -> Self {
+        Self { factor: [1.0, 1.0, 2.0, 5.0, 3.0, 5.0, 2.0], drop: [false; 7] }
+    }
+}
+
+/// The solution quality names, by `Q`.
+pub const QUALITY_NAMES: [&str; 7] = ["none", "fix", "float", "sbas", "dgps", "single", "ppp"];
+
+/// How positions are written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PosForm {
+    /// Latitude, longitude in degrees.
+    Degrees,
+    /// Latitude, longitude as degrees, minutes, seconds (three fields each).
+    Dms,
+    /// ECEF x, y, z.
+    Ecef,
+}
+
+/// A parsed `.pos` header: where each quantity sits in a data line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PosHeader {
+    /// The time scale named by the header.
+    pub system: TimeSystem,
+    form: PosForm,
+    /// Field index (after the two time fields) of position, Q, σ, velocity, velocity σ.
+    pos: usize,
+    q: Option<usize>,
+    sd: Option<usize>,
+    vel: Option<usize>,
+    sdv: Option<usize>,
+}
+
+impl PosHeader {
+    /// Parses a header line (`%  GPST  latitude(deg) …`); `None` when it is not one.
+    pub fn parse(line: &str) -> Option<Self> {
+        let body = line.trim_start().strip_prefix('%')?;
+        let mut names = body.split_whitespace();
+        let system = TimeSystem::from_label(names.next()?)?;
+        let names: Vec<&str> = names.collect();
+        let at = |n: &str| names.iter().position(|x| x.starts_with(n));
+        let (pos_name, form) = if let Some(i) = at("latitude(d'\"") {
+            (i, PosForm::Dms)
+        } else if let Some(i) = at("latitude(") {
+            (i, PosForm::Degrees)
+        } else {
+            (at("x-ecef(")?, PosForm::Ecef)
+        };
+        // data fields per header name: a dms angle is three
+        let width = |i: usize| -> usize {
+            if form == PosForm::Dms && (i == pos_name || i == pos_name + 1) {
+                3
+            } else {
+                1
+            }
+        };
+        let field = |name_index: usize| -> usize { (0..name_index).map(width).sum() };
+        let idx = |n: &str| at(n).map(field);
+        let (vel, sdv) = match form {
+            PosForm::Ecef => (idx("vx-ecef("), idx("sdvx")),
+            _ => (idx("vn("), idx("sdvn")),
+        };
+        let sd = match form {
+            PosForm::Ecef => idx("sdx("),
+            _ => idx("sdn("),
+        };
+        Some(Self { system, form, pos: field(pos_name), q: idx("Q"), sd, vel, sdv })
+    }
+
+    /// Index of the `Q` field after the two time fields.
+    pub fn quality_field(&self) -> Option<usize> {
+        self.q
+    }
+
+    /// Whether the file has velocities.
+    pub fn has_velocity(&self) -> bool {
+        self.vel.is_some()
+    }
+}
+
+/// The `c = s |s|` of RTKLIB's signed square roots.
+fn unsqrt(s: f64) -> f64 {
+    s * s.abs()
+}
+
+/// A symmetric matrix from σ (3) and the signed roots of the (01, 12, 20) covariances.
+fn covariance(sd: &[f64]) -> Matrix3<f64> {
+    let (xy, yz, zx) = (unsqrt(sd[3]), unsqrt(sd[4]), unsqrt(sd[5]));
+    Matrix3::new(sd[0] * sd[0], xy, zx, xy, sd[1] * sd[1], yz, zx, yz, sd[2] * sd[2])
+}
+
+/// NEU (RTKLIB's local frame) → NED: `D = −U`.
+fn neu_to_ned(c: &Matrix3<f64>) -> Matrix3<f64> {
+    let f = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
+    f * c * f
+}
+
+/// One data line: the epoch, or `None` when its quality is dropped (`Q = 0` always).
+pub fn parse_line(
+    h: &PosHeader,
+    line: &str,
+    quality: &QualityFactors,
+) -> Result<Option<GnssEpoch>, LineErrorKind> {
+    let mut it = line.split_whitespace();
+    let (a, b) = match (it.next(), it.next()) {
+        (Some(a), Some(b)) => (a, b),
+        _ => return Err(LineErrorKind::ColumnCount { expected: vec![3], found: 1 }),
+    };
+    let t = parse_time(h.system, a, b)?;
+    let fields: Vec<&str> = it.collect();
+    let num = |i: usize| -> Result<f64, LineErrorKind> {
+        let s = fields
+            .get(i)
+            .ok_or(LineErrorKind::ColumnCount { expected: vec![i + 3], found: fields.len() + 2 })?;
+        match s.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(_) => Err(LineErrorKind::NonFinite { column: i + 3 }),
+            Err(_) => {
+                Err(LineErrorKind::NotNumeric { column: i + 3, text: s.chars().take(40).collect() })
+            }
+        }
+    };
+    let q = match h.q {
+        Some(i) => {
+            let q = num(i)?;
+            if !(0.0..=6.0).contains(&q) || q.fract() != 0.0 {
+                return Err(LineErrorKind::WrongUnits(format!(
+                    "solution quality Q = {q}: RTKLIB writes 0–6"
+                )));
+            }
+            q as usize
+        }
+        None => 1,
+    };
+    if q == 0 || quality.drop[q] {
+        return Ok(None);
+    }
+    let k = quality.factor[q];
+    let p = h.pos;
+    let (pos, c_ne) = match h.form {
+        PosForm::Degrees => {
+            let pos = GeoPos::from_degrees(num(p)?, num(p + 1)?, num(p + 2)?);
+            (pos, None)
+        }
+        PosForm::Dms => {
+            let angle = |i: usize| -> Result<f64, LineErrorKind> {
+                let (d, m, s) = (num(i)?, num(i + 1)?, num(i + 2)?);
+                let negative = d < 0.0 || fields[i].starts_with('-');
+                let v = d.abs() + m / 60.0 + s / 3600.0;
+                Ok(if negative { -v } else { v })
+            };
+            (GeoPos::from_degrees(angle(p)?, angle(p + 3)?, num(p + 6)?), None)
+        }
+        PosForm::Ecef => {
+            let r = Vector3::new(num(p)?, num(p + 1)?, num(p + 2)?);
+            if r.norm() < 1e6 {
+                return Err(LineErrorKind::WrongUnits(format!(
+                    "ECEF position {:.1} m from the Earth's centre",
+                    r.norm()
+                )));
+            }
+            let (lat, lon, hgt) = ecef_to_geodetic(&r);
+            (GeoPos::new(lat, lon, hgt), Some(ecef_to_ned_rotation(lat, lon)))
+        }
+    };
+    if pos.lat.abs() > core::f64::consts::FRAC_PI_2 || pos.lon.abs() > 2.0 * core::f64::consts::PI {
+        return Err(LineErrorKind::WrongUnits("latitude or longitude out of range".into()));
+    }
+    let local = |c: Matrix3<f64>| -> Matrix3<f64> {
+        match c_ne {
+            Some(r) => r * c * r.transpose(),
+            None => neu_to_ned(&c),
+        }
+    };
+    let read6 = |i: usize| -> Result<[f64; 6], LineErrorKind> {
+        let mut v = [0.0; 6];
+        for (j, x) in v.iter_mut().enumerate() {
+            *x = num(i + j)?;
+        }
+        Ok(v)
+    };
+    let pos_cov = match h.sd {
+        Some(i) => local(covariance(&read6(i)?)) * (k * k),
+        None => return Err(LineErrorKind::WrongUnits("the header names no σ columns".into())),
+    };
+    check_cov(&pos_cov, "position")?;
+    let vel = match (h.vel, h.sdv) {
+        (Some(i), Some(j)) => {
+            let v = Vector3::new(num(i)?, num(i + 1)?, num(i + 2)?);
+            let v = match c_ne {
+                Some(r) => r * v,
+                None => Vector3::new(v.x, v.y, -v.z),
+            };
+            let c = local(covariance(&read6(j)?)) * (k * k);
+            check_cov(&c, "velocity")?;
+            Some((v, c))
+        }
+        _ => None,
+    };
+    let sd = |c: &Matrix3<f64>| c.diagonal().map(f64::sqrt);
+    let mut e = GnssEpoch::new(t, pos, sd(&pos_cov), vel.map(|(v, c)| (v, sd(&c))));
+    e.pos_cov = Some(pos_cov);
+    e.vel_cov = vel.map(|(_, c)| c);
+    Ok(Some(e))
+}
+
+fn check_cov(c: &Matrix3<f64>, what: &str) -> Result<(), LineErrorKind> {
+    if c.diagonal().iter().any(|v| *v <= 0.0) {
+        return Err(LineErrorKind::WrongUnits(format!("{what} σ must be positive")));
+    }
+    if c.cholesky().is_none() {
+        return Err(LineErrorKind::WrongUnits(format!(
+            "{what} covariance (σ and sdne/sdeu/sdun) is not positive definite"
+        )));
+    }
+    Ok(())
+}
+
+/// GPST seconds of week of a time written as `yyyy/mm/dd hh:mm:ss.sss` or `week tow`.
+fn parse_time(system: TimeSystem, a: &str, b: &str) -> Result<f64, LineErrorKind> {
+    let bad = |text: String| LineErrorKind::NotNumeric { column: 1, text };
+    if a.contains('/') || a.contains('-') && a.len() >= 8 {
+        let d: Vec<i64> = a
+            .split(['/', '-'])
+            .map(|x| x.parse::<i64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| bad(a.into()))?;
+        let t: Vec<&str> = b.split(':').collect();
+        if d.len() != 3 || t.len() != 3 {
+            return Err(bad(format!("{a} {b}")));
+        }
+        let hh = t[0].parse::<i64>().map_err(|_| bad(b.into()))?;
+        let mm = t[1].parse::<i64>().map_err(|_| bad(b.into()))?;
+        let ss = t[2].parse::<f64>().map_err(|_| bad(b.into()))?;
+        if !(1..=12).contains(&d[1]) || !(1..=31).contains(&d[2]) || !(0.0..61.0).contains(&ss) {
+            return Err(bad(format!("{a} {b}")));
+        }
+        Ok(seconds_of_week(system, (d[0], d[1], d[2]), (hh, mm, ss)))
+    } else {
+        let week = a.parse::<f64>().map_err(|_| bad(a.into()))?;
+        let tow = b.parse::<f64>().map_err(|_| bad(b.into()))?;
+        if week.fract() != 0.0 || !(0.0..WEEK).contains(&tow) {
+            return Err(bad(format!("{a} {b}")));
+        }
+        match system {
+            TimeSystem::Gpst => Ok(tow),
+            _ => {
+                // a week and seconds in UTC or JST: through the calendar
+                let unix = (GPS_EPOCH_DAYS as f64) * 86_400.0 + week * WEEK + tow;
+                let day = (unix / 86_400.0).floor();
+                let (y, m, d) = civil_from_days(day as i64);
+                let s = unix - day * 86_400.0;
+                let (hh, mm) = ((s / 3600.0).floor(), ((s % 3600.0) / 60.0).floor());
+                Ok(seconds_of_week(
+                    system,
+                    (y, m, d),
+                    (hh as i64, mm as i64, s - hh * 3600.0 - mm * 60.0),
+                ))
+            }
+        }
+    }
+}
+
+/// Writes the header of a `.pos` file in RTKLIB's layout (LLH in degrees, GPST as week
+/// and seconds of week, σ and covariances, and the velocity with its σ when `velocity`).
+pub fn write_header<W: Write>(w: &mut W, program: &str, velocity: bool) -> std::io::Result<()> {
+    writeln!(w, "% program   : {program}")?;
+    writeln!(w, "% pos mode  : INS/GNSS (the filter's state at the GNSS antenna's IMU origin)")?;
+    writeln!(w, "% (lat/lon/height=WGS84/ellipsoidal,Q=1:fix,2:float,3:sbas,4:dgps,5:single,6:ppp,ns=# of satellites)")?;
+    write!(
+        w,
+        "%  GPST   {:>16} {:>16} {:>12} {:>3} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6}",
+        "latitude(deg)",
+        "longitude(deg)",
+        "height(m)",
+        "Q",
+        "ns",
+        "sdn(m)",
+        "sde(m)",
+        "sdu(m)",
+        "sdne(m)",
+        "sdeu(m)",
+        "sdun(m)",
+        "age(s)",
+        "ratio"
+    )?;
+    if velocity {
+        write!(
+            w,
+            " {:>11} {:>11} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}",
+            "vn(m/s)", "ve(m/s)", "vu(m/s)", "sdvn", "sdve", "sdvu", "sdvne", "sdveu", "sdvun"
+        )?;
+    }
+    writeln!(w)
+}
+
+/// The signed square root RTKLIB writes for a covariance.
+fn sqvar(c: f64) -> f64 {
+    if c < 0.0 {
+        -(-c).sqrt()
+    } else {
+        c.sqrt()
+    }
+}
+
+/// Writes one epoch: GPS `week` and seconds of week `t`, the position, its NED covariance,
+/// and the velocity (NED) with its covariance. `Q` is written as 1 when the epoch is a
+/// GNSS fix's and 5 otherwise (an inertial solution, no GNSS that epoch); `ns` as 0.
+#[allow(clippy::too_many_arguments)]
+pub fn write_epoch<W: Write>(
+    w: &mut W,
+    week: f64,
+    t: f64,
+    pos: &GeoPos,
+    pos_cov: &Matrix3<f64>,
+    vel: Option<(&Vector3<f64>, &Matrix3<f64>)>,
+    q: u8,
+) -> std::io::Result<()> {
+    let d = 180.0 / core::f64::consts::PI;
+    // NED → NEU
+    let f = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
+    let c = f * pos_cov * f;
+    write!(
+        w,
+        "{:4} {:11.4} {:16.11} {:16.11} {:12.6} {:3} {:3} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:6.2} {:6.1}",
+        week as i64,
+        t,
+        pos.lat * d,
+        pos.lon * d,
+        pos.h,
+        q,
+        0,
+        c[(0, 0)].sqrt(),
+        c[(1, 1)].sqrt(),
+        c[(2, 2)].sqrt(),
+        sqvar(c[(0, 1)]),
+        sqvar(c[(1, 2)]),
+        sqvar(c[(2, 0)]),
+        0.0,
+        0.0
+    )?;
+    if let Some((v, vc)) = vel {
+        let c = f * vc * f;
+        write!(
+            w,
+            " {:11.6} {:11.6} {:11.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6}",
+            v.x,
+            v.y,
+            -v.z,
+            c[(0, 0)].sqrt(),
+            c[(1, 1)].sqrt(),
+            c[(2, 2)].sqrt(),
+            sqvar(c[(0, 1)]),
+            sqvar(c[(1, 2)]),
+            sqvar(c[(2, 0)])
+        )?;
+    }
+    writeln!(w)
+}
+
+/// ECEF of a geodetic position (for writers and tests).
+pub fn to_ecef(p: &GeoPos) -> Vector3<f64> {
+    geodetic_to_ecef(p.lat, p.lon, p.h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_calendar_round_trips_and_knows_the_gps_epoch() {
+        assert_eq!(days_from_civil(1980, 1, 6), GPS_EPOCH_DAYS);
+        assert_eq!(days_from_civil(1970, 1, 1), 0);
+        for z in [-1000, 0, 3657, 17_532, 20_000, 40_000] {
+            let (y, m, d) = civil_from_days(z);
+            assert_eq!(days_from_civil(y, m, d), z);
+        }
+    }
+
+    #[test]
+    fn utc_and_gpst_differ_by_the_leap_seconds_of_the_date() {
+        // 2017-01-01 on: 18 s; 2016-12-31: 17 s; 1980-01-06: 0
+        let at = |y, m, d| days_from_civil(y, m, d) as f64 * 86_400.0 + 3600.0;
+        assert_eq!(gps_minus_utc(at(2025, 8, 28)), 18.0);
+        assert_eq!(gps_minus_utc(at(2016, 12, 31)), 17.0);
+        assert_eq!(gps_minus_utc(at(1980, 1, 6)), 0.0);
+        let g = seconds_of_week(TimeSystem::Gpst, (2025, 8, 28), (17, 30, 39.749));
+        let u = seconds_of_week(TimeSystem::Utc, (2025, 8, 28), (17, 30, 39.749));
+        let j = seconds_of_week(TimeSystem::Jst, (2025, 8, 29), (2, 30, 39.749));
+        assert!((u - g - 18.0).abs() < 1e-9 && (j - u).abs() < 1e-9, "{g} {u} {j}");
+        // 2025-08-28 is a Thursday: 4 days into the GPS week
+        assert!((g - (4.0 * 86_400.0 + 17.0 * 3600.0 + 30.0 * 60.0 + 39.749)).abs() < 1e-9);
+    }
+}
