@@ -195,6 +195,10 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     if plots && truth.is_none() && cfg.data.truth.is_none() {
         return Err("--plots needs a truth file (--truth or data.truth)".into());
     }
+    if let Some(t) = truth.filter(|t| !t.is_file()) {
+        return Err(format!("--truth {}: no such file", t.display()).into());
+    }
+    cfg.require_inputs()?;
     let bar = progress.then(|| progress_bar(&cfg));
     let mut tick = |t: f64| {
         if let Some(b) = &bar {

@@ -916,25 +916,31 @@ impl Config {
             }
         }
         cfg.validate().map_err(err)?;
-        // a missing input is named by the key that names it
-        let yaml = matches!(ext.as_str(), "yaml" | "yml");
+        Ok(cfg)
+    }
+
+    /// That each input file named exists; the error names its key (`data.imu`,
+    /// `data.gnss`, `data.truth`; `imupath`, `gnsspath` in a KF-GINS YAML).
+    pub fn require_inputs(&self) -> Result<(), ConfigError> {
         let inputs = [
-            (if yaml { "imupath" } else { "data.imu" }, Some(&cfg.data.imu)),
-            (if yaml { "gnsspath" } else { "data.gnss" }, Some(&cfg.data.gnss)),
-            ("data.truth", cfg.data.truth.as_ref()),
+            ("data.imu (imupath in a KF-GINS YAML)", Some(&self.data.imu)),
+            ("data.gnss (gnsspath in a KF-GINS YAML)", Some(&self.data.gnss)),
+            ("data.truth", self.data.truth.as_ref()),
         ];
         for (key, file) in inputs {
             let Some(file) = file else { continue };
             if !file.is_file() {
                 let what = if file.exists() { "is not a file" } else { "does not exist" };
-                return Err(err(format!(
-                    "`{key}`: {} {what} (a relative path is read from the configuration's \
-                     folder)",
-                    file.display()
-                )));
+                return Err(ConfigError {
+                    path: file.clone(),
+                    message: format!(
+                        "`{key}`: {what} (a relative path is read from the configuration's \
+                         folder)"
+                    ),
+                });
             }
         }
-        Ok(cfg)
+        Ok(())
     }
 
     /// Check that every value is finite and physically possible; the message names the

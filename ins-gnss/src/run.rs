@@ -668,6 +668,7 @@ type FileReader = ins_gnss_core::io::formats::Input;
 fn open_inputs(
     config: &Config,
 ) -> Result<(ImuReader<FileReader>, GnssReader<FileReader>), RunError> {
+    config.require_inputs().map_err(RunError::Config)?;
     let mut imu = ImuReader::open(
         &config.data.imu,
         config.imu_format(),

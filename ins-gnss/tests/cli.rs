@@ -788,7 +788,7 @@ fn a_newcomers_mistakes_are_refused_early_and_named() {
     let missing = write("missing.toml", config.replace("imu = \"IMU.txt\"", "imu = \"IMU.tx\""));
     let out = bin().arg("run").arg(&missing).arg("--quiet").output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("`data.imu`") && err.contains("IMU.tx"), "{err}");
+    assert!(!out.status.success() && err.contains("`data.imu") && err.contains("IMU.tx"), "{err}");
     // --plots without a truth: refused before anything is written
     let no_truth = write("no_truth.toml", config.replace("truth = \"truth.nav\"\n", ""));
     let out = bin()
