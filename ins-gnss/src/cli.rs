@@ -286,7 +286,8 @@ fn print_nees(label: &str, ev: &Evaluation) {
 fn read_fixes(cfg: &Config) -> Result<Vec<(f64, ins_gnss_core::GeoPos)>, CliError> {
     let mut r = ins_gnss_core::io::GnssReader::open(&cfg.data.gnss, cfg.bad_lines())?
         .with_format(cfg.data.gnss_format.into())
-        .with_quality(cfg.gnss.quality.factors()?);
+        .with_quality(cfg.gnss.quality.factors()?)
+        .with_default_sigma(cfg.gnss.position_std.map(|s| s.into()));
     if let Some(c) = &cfg.data.gnss_columns {
         r = r.with_columns(c.map()?);
     }

@@ -97,8 +97,9 @@ pub struct DataSection {
     /// The GNSS file is a log with a header ([`GnssColumns`]).
     #[serde(default)]
     pub gnss_columns: Option<GnssColumns>,
-    /// `auto` (default: an RTKLIB solution when its header says so, else the 7/13-column
-    /// format), `columns` or `rtklib` (a `.pos` file; `[gnss.quality]` scales its σ).
+    /// `auto` (default: an RTKLIB solution when its header says so, NMEA when the lines
+    /// start with `$`, else the 7/13-column format), `columns`, `rtklib` (a `.pos` file)
+    /// or `nmea`; `[gnss.quality]` scales the σ of the last two by solution quality.
     #[serde(default)]
     pub gnss_format: GnssFormatName,
     /// The truth file is a log with a header ([`TruthColumns`]).
@@ -138,6 +139,8 @@ pub enum GnssFormatName {
     Columns,
     /// An RTKLIB solution file.
     Rtklib,
+    /// NMEA 0183 (GGA, GST, RMC/ZDA).
+    Nmea,
 }
 
 impl From<GnssFormatName> for ins_gnss_core::io::GnssFormat {
@@ -146,6 +149,7 @@ impl From<GnssFormatName> for ins_gnss_core::io::GnssFormat {
             GnssFormatName::Auto => Self::Auto,
             GnssFormatName::Columns => Self::Columns,
             GnssFormatName::Rtklib => Self::Rtklib,
+            GnssFormatName::Nmea => Self::Nmea,
         }
     }
 }

@@ -697,7 +697,8 @@ fn bad_map(key: &str, message: String) -> RunError {
 fn open_gnss(config: &Config) -> Result<GnssReader<FileReader>, RunError> {
     let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?
         .with_format(config.data.gnss_format.into())
-        .with_quality(config.gnss.quality.factors().map_err(|e| bad_map("gnss.quality", e))?);
+        .with_quality(config.gnss.quality.factors().map_err(|e| bad_map("gnss.quality", e))?)
+        .with_default_sigma(config.gnss.position_std.map(|s| s.into()));
     if let Some(c) = &config.data.gnss_columns {
         gnss = gnss.with_columns(c.map().map_err(|e| bad_map("data.gnss_columns", e))?);
     }

@@ -356,3 +356,81 @@ fn an_imu_in_unix_utc_meets_gnss_in_gpst() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `$body*hh` with its checksum.
+fn sentence(body: &str) -> String {
+    let c = body.bytes().fold(0u8, |a, b| a ^ b);
+    format!("${body}*{c:02X}\n")
+}
+
+/// ddmm.mmmmmmmmmm and its hemisphere.
+fn nmea_angle(deg: f64, degree_digits: usize, pos: char, neg: char) -> (String, char) {
+    let a = deg.abs();
+    let d = a.floor();
+    let m = (a - d) * 60.0;
+    (format!("{:0w$}{:013.10}", d as i64, m, w = degree_digits), if deg < 0.0 { neg } else { pos })
+}
+
+/// A simulated drive's GNSS as an NMEA log (RMC, GGA, GST; UTC; a geoid separation) runs
+/// as the 7-column file; a bad checksum is an error with its line, or a counted skip.
+#[test]
+fn an_nmea_log_runs_as_its_kf_gins_twin() {
+    let dir = temp("nmea");
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join("drive.toml");
+    let o = bin().arg("simulate").arg(&scenario).arg("--out").arg(&dir).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let es = epochs(&dir.join("GNSS.txt"));
+    let mut seven = Vec::new();
+    for e in &es {
+        write_gnss(&mut seven, &GnssEpoch::new(e.t, e.pos, e.pos_std, None)).unwrap();
+    }
+    std::fs::write(dir.join("GNSS7.txt"), seven).unwrap();
+    let base = run_with(&dir, &config, &dir.join("GNSS7.txt"), "kf-gins-7");
+    let mut log = String::new();
+    for e in &es {
+        let dt = date_time(e.t, 18.0); // yyyy/mm/dd hh:mm:ss.ssssss, UTC
+        let (date, time) = dt.split_once(' ').unwrap();
+        let hms = time.replace(':', "");
+        let ddmmyy = format!("{}{}{}", &date[8..10], &date[5..7], &date[2..4]);
+        let (lat, ns) = nmea_angle(e.pos.lat.to_degrees(), 2, 'N', 'S');
+        let (lon, ew) = nmea_angle(e.pos.lon.to_degrees(), 3, 'E', 'W');
+        let sep = 47.25;
+        log += &sentence(&format!("GPRMC,{hms},A,{lat},{ns},{lon},{ew},0.0,0.0,{ddmmyy},,,D"));
+        log += &sentence(&format!(
+            "GPGGA,{hms},{lat},{ns},{lon},{ew},4,12,0.8,{:.6},M,{sep},M,1.0,0001",
+            e.pos.h - sep
+        ));
+        log += &sentence(&format!(
+            "GPGST,{hms},0.5,0.1,0.1,0.0,{},{},{}",
+            e.pos_std.x, e.pos_std.y, e.pos_std.z
+        ));
+        log += &sentence("GPGSV,3,1,12,01,40,083,46,02,17,308,41,12,07,344,39,14,22,228,45");
+    }
+    std::fs::write(dir.join("gnss.nmea"), &log).unwrap();
+    let nmea = run_with(&dir, &config, &dir.join("gnss.nmea"), "nmea");
+    same_to_the_printed_digit(&base, &nmea, "NMEA against the 7-column file");
+    // one corrupted character: the line is named; skipped and counted with bad_lines = "skip"
+    let k = log.find("GPGGA").unwrap() + 8; // a digit of the first GGA's time
+    let mut bytes = log.clone().into_bytes();
+    bytes[k] ^= 1;
+    std::fs::write(dir.join("bad.nmea"), &bytes).unwrap();
+    let mut r = GnssReader::open(&dir.join("bad.nmea"), BadLinePolicy::Error).unwrap();
+    let err = loop {
+        match r.next_epoch() {
+            Ok(Some(_)) => continue,
+            Ok(None) => panic!("the corrupted sentence was read"),
+            Err(e) => break e,
+        }
+    };
+    assert_eq!(err.line, 2, "{err}");
+    assert!(err.to_string().contains("checksum"), "{err}");
+    let mut r = GnssReader::open(&dir.join("bad.nmea"), BadLinePolicy::Skip).unwrap();
+    let mut n = 0;
+    while r.next_epoch().unwrap().is_some() {
+        n += 1;
+    }
+    assert_eq!(r.skipped.malformed, 1);
+    assert_eq!(n, es.len() - 1, "the epoch of the bad GGA is lost, the others kept");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

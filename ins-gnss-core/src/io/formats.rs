@@ -578,6 +578,8 @@ pub enum GnssFormat {
     Columns,
     /// An RTKLIB solution file (`.pos`); see [`crate::io::rtklib`].
     Rtklib,
+    /// NMEA 0183 sentences (GGA, GST, RMC/ZDA); see [`crate::io::nmea`].
+    Nmea,
 }
 
 /// Streaming GNSS reader: the 7 or 13 columns of the KF-GINS format (detected from the
@@ -598,6 +600,9 @@ pub struct GnssReader<R: BufRead> {
     quality: super::rtklib::QualityFactors,
     /// RTKLIB epochs dropped, by solution quality `Q` (0: no solution).
     pub dropped: [usize; 7],
+    nmea: Option<super::nmea::NmeaState>,
+    /// σ (N, E, D) for NMEA fixes without a GST sentence.
+    default_sigma: Option<Vector3<f64>>,
 }
 
 impl GnssReader<Input> {
@@ -623,7 +628,20 @@ impl<R: BufRead> GnssReader<R> {
             rtklib: None,
             quality: Default::default(),
             dropped: [0; 7],
+            nmea: None,
+            default_sigma: None,
         }
+    }
+
+    /// σ (N, E, D, m) for NMEA fixes that have no GST sentence.
+    pub fn with_default_sigma(mut self, sigma: Option<Vector3<f64>>) -> Self {
+        self.default_sigma = sigma;
+        self
+    }
+
+    /// NMEA epochs dropped, by GGA fix quality (0–9), when the file is NMEA.
+    pub fn nmea_dropped(&self) -> Option<[usize; 10]> {
+        self.nmea.as_ref().map(|n| n.dropped)
     }
 
     /// Read the file as `format` (default: detected).
@@ -670,6 +688,12 @@ impl<R: BufRead> GnssReader<R> {
                 let comments = self.lines.leading_comments()?;
                 self.rtklib =
                     comments.iter().rev().find_map(|l| super::rtklib::PosHeader::parse(l));
+                let first = self.lines.peek_byte()?;
+                if self.format == GnssFormat::Nmea
+                    || (self.format == GnssFormat::Auto && first == Some(b'$'))
+                {
+                    self.nmea = Some(Default::default());
+                }
                 if self.rtklib.is_none() && self.format == GnssFormat::Rtklib {
                     return Err(self.lines.error(LineErrorKind::WrongUnits(
                         "no RTKLIB solution header (a `%` line naming the time system and \
@@ -681,6 +705,9 @@ impl<R: BufRead> GnssReader<R> {
         }
         if self.rtklib.is_some() {
             return self.next_rtklib();
+        }
+        if self.nmea.is_some() {
+            return self.next_nmea();
         }
         self.mapping.start(&mut self.lines)?;
         loop {
@@ -754,6 +781,55 @@ impl<R: BufRead> GnssReader<R> {
 }
 
 impl<R: BufRead> GnssReader<R> {
+    fn next_nmea(&mut self) -> Result<Option<GnssEpoch>, LineError> {
+        loop {
+            let (quality, sigma) = (self.quality, self.default_sigma);
+            let Some(state) = self.nmea.as_mut() else { return Ok(None) };
+            let step = match self.lines.next_text()? {
+                Some(text) => state.push(text, &quality, sigma),
+                None => match state.finish(&quality, sigma) {
+                    Ok(None) if self.records == 0 => {
+                        return Err(LineError {
+                            path: self.lines.path().to_path_buf(),
+                            line: 0,
+                            kind: LineErrorKind::Empty,
+                        })
+                    }
+                    other => {
+                        let e = other.map_err(|k| self.lines.error(k))?;
+                        if let Some(e) = &e {
+                            self.prev_t = Some(e.t);
+                            self.records += 1;
+                        }
+                        return Ok(e);
+                    }
+                },
+            };
+            let result = step.and_then(|e| match e {
+                Some(e) => check_time(self.prev_t, e.t).map(|_| Some(e)),
+                None => Ok(None),
+            });
+            match result {
+                Ok(Some(e)) => {
+                    self.columns.get_or_insert(7);
+                    self.prev_t = Some(e.t);
+                    self.records += 1;
+                    return Ok(Some(e));
+                }
+                Ok(None) => {}
+                Err(kind) => {
+                    let fatal = matches!(kind, LineErrorKind::WrongUnits(ref m)
+                        if m.contains("before any date") || m.contains("without its σ"));
+                    if self.policy == BadLinePolicy::Skip && !fatal {
+                        count(&mut self.skipped, &kind);
+                        continue;
+                    }
+                    return Err(self.lines.error(kind));
+                }
+            }
+        }
+    }
+
     fn next_rtklib(&mut self) -> Result<Option<GnssEpoch>, LineError> {
         let Some(header) = &self.rtklib else { return Ok(None) };
         loop {

@@ -208,6 +208,18 @@ impl<R: BufRead> NumericLines<R> {
         }
     }
 
+    /// The first byte of the next line that is not a space or a tab (without reading
+    /// it), `None` at the end of the file.
+    pub fn peek_byte(&mut self) -> Result<Option<u8>, LineError> {
+        let line = self.line + 1;
+        let buf = self.inner.fill_buf().map_err(|e| LineError {
+            path: self.path.clone(),
+            line,
+            kind: LineErrorKind::Io(e.to_string()),
+        })?;
+        Ok(buf.iter().copied().find(|b| *b != b' ' && *b != b'\t'))
+    }
+
     /// Move to the next data line; false at the end of the file.
     fn advance(&mut self) -> Result<bool, LineError> {
         loop {

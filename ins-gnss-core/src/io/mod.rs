@@ -4,6 +4,7 @@ pub mod columns;
 pub mod fixed;
 pub mod formats;
 pub mod lines;
+pub mod nmea;
 pub mod rtklib;
 
 pub use columns::{ColumnMap, Quantity, Source, TimeScale};

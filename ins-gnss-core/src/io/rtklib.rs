@@ -122,7 +122,8 @@ impl TimeSystem {
 /// GPST seconds of week of a date and time `(y, m, d, hh, mm, ss)` on `system`'s scale.
 pub fn seconds_of_week(system: TimeSystem, date: (i64, i64, i64), hms: (i64, i64, f64)) -> f64 {
     let days = days_from_civil(date.0, date.1, date.2);
-    let mut secs = (days - GPS_EPOCH_DAYS) as f64 * 86_400.0
+    // the day of the week first: seconds of week stay small numbers (no rounding at 1e9 s)
+    let mut secs = (days - GPS_EPOCH_DAYS).rem_euclid(7) as f64 * 86_400.0
         + hms.0 as f64 * 3600.0
         + hms.1 as f64 * 60.0
         + hms.2;
