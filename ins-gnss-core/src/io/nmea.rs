@@ -87,14 +87,6 @@ pub struct NmeaState {
     pub dropped: [usize; 10],
 }
 
-/// What a line did.
-pub enum Step {
-    /// An epoch is complete.
-    Epoch(GnssEpoch),
-    /// Nothing yet.
-    More,
-}
-
 impl NmeaState {
     /// Takes one line; an epoch is returned when a sentence of a later time starts the
     /// next one. `sigma` replaces a missing GST.
