@@ -234,7 +234,7 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         tables.insert(0, (name.clone(), ev));
         if plots {
             let fixes = read_fixes(&cfg)?;
-            let files = crate::plot::write_all(&out_dir, &truth, columns, &fixes)?;
+            let files = crate::plot::write_all(&out_dir, &truth, columns, &fixes, skip)?;
             for f in &files {
                 out!("plot: {}", f.display());
             }
@@ -535,7 +535,7 @@ pub fn demo() -> Result<(), CliError> {
     let mut fixed_figures = Vec::new();
     for name in names {
         let out = dir.join("out").join(name);
-        let figures = crate::plot::write_all(&out, &truth, None, &fixes)?;
+        let figures = crate::plot::write_all(&out, &truth, None, &fixes, 30.0)?;
         for f in &figures {
             out!("plot: {}", f.display());
         }

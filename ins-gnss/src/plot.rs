@@ -227,12 +227,15 @@ fn draw_lines(
     let t0 = points().map(|p| p.0).fold(f64::INFINITY, f64::min);
     let t0 = if t0.is_finite() { t0 } else { 0.0 };
     let t1 = points().map(|p| p.0).fold(t0 + 1.0, f64::max);
-    let m = points().map(|p| p.1.abs()).filter(|v| v.is_finite()).fold(1e-6_f64, f64::max);
+    // the y range from the lines (the errors), not from the σ bands, which are clipped
+    // to it: a converged error is not drawn as a flat line under an initial or outage σ
+    let values = || lines.iter().filter(|l| !l.3).flat_map(|l| l.1.iter());
+    let m = values().map(|p| p.1.abs()).filter(|v| v.is_finite()).fold(1e-6_f64, f64::max);
     let y0 = if symmetric { -m * 1.05 } else { 0.0 };
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 17))
         .margin(10)
-        .margin_right(36)
+        .margin_right(LEGEND_WIDTH)
         .x_label_area_size(40)
         .y_label_area_size(64)
         .build_cartesian_2d(t0..t1, y0..m * 1.05)
@@ -262,9 +265,13 @@ fn draw_lines(
     for (label, pts, colour, band) in lines.iter().filter(|l| l.3) {
         let c = *colour;
         let mut first = true;
+        let top = m * 1.05;
         for run in runs(pts) {
-            let outline: Vec<(f64, f64)> =
-                run.iter().copied().chain(run.iter().rev().map(|p| (p.0, -p.1))).collect();
+            let outline: Vec<(f64, f64)> = run
+                .iter()
+                .map(|p| (p.0, p.1.min(top)))
+                .chain(run.iter().rev().map(|p| (p.0, -p.1.min(top))))
+                .collect();
             let drawn = chart
                 .draw_series(std::iter::once(Polygon::new(outline, c.mix(0.18).filled())))
                 .map_err(e)?;
@@ -278,7 +285,38 @@ fn draw_lines(
     for (label, pts, colour, _) in lines.iter().filter(|l| !l.3) {
         draw_runs(&mut chart, pts, label, ShapeStyle::from(*colour).stroke_width(1))?;
     }
-    legend(&mut chart, SeriesLabelPosition::MiddleRight)
+    // the legend in the right margin, off the data
+    let mut entries: Vec<(&str, RGBColor, bool)> = Vec::new();
+    if !shade.is_empty() {
+        entries.push(("stationary", RGBColor(200, 200, 200), true));
+    }
+    entries.extend(lines.iter().map(|l| (l.0, l.2, l.3)));
+    legend_beside(area, &entries)
+}
+
+/// Room kept right of a time panel for its legend, px.
+const LEGEND_WIDTH: u32 = 170;
+
+/// A legend drawn in the right margin of `area` (pixel coordinates), off the plotting
+/// area: a swatch (a band's colour, or a line) and the label per entry.
+fn legend_beside(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    entries: &[(&str, RGBColor, bool)],
+) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+    let x = area.dim_in_pixel().0 as i32 - LEGEND_WIDTH as i32 + 12;
+    for (k, (label, colour, band)) in entries.iter().enumerate() {
+        let y = 44 + 20 * k as i32;
+        if *band {
+            area.draw(&Rectangle::new([(x, y - 5), (x + 16, y + 5)], colour.mix(0.35).filled()))
+                .map_err(e)?;
+        } else {
+            area.draw(&PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)))
+                .map_err(e)?;
+        }
+        area.draw(&Text::new(label.to_string(), (x + 22, y - 7), ("sans-serif", 13))).map_err(e)?;
+    }
+    Ok(())
 }
 
 /// The error and ±3σ of one component, forward and (when the run smoothed) smoothed.
@@ -363,18 +401,35 @@ pub fn write_all(
     truth: &Path,
     columns: Option<&TruthColumns>,
     fixes: &[(f64, GeoPos)],
+    skip: f64,
 ) -> Result<Vec<PathBuf>, String> {
-    let errs = error_series(&out_dir.join("nav.txt"), truth, columns)?;
-    let std = read_columns(&out_dir.join("std.txt"))?;
+    let mut errs = error_series(&out_dir.join("nav.txt"), truth, columns)?;
+    let mut std = read_columns(&out_dir.join("std.txt"))?;
+    // the time panels start after the skip, as the tables do
+    let start = errs.iter().filter_map(|s| s.first().map(|p| p.0)).fold(f64::INFINITY, f64::min);
+    let from = start + skip;
+    if skip > 0.0 && from.is_finite() {
+        for s in errs.iter_mut() {
+            s.retain(|p| p.0 >= from);
+        }
+        std.retain(|r| r[0] >= from);
+    }
     let s3 = |std: &[Vec<f64>], col: usize| -> Series {
         std.iter().map(|r| (r[0], 3.0 * r[col])).collect()
     };
     // the smoother's, when the run smoothed
     let smoothed = match out_dir.join("nav_smoothed.txt").is_file() {
-        true => Some((
-            error_series(&out_dir.join("nav_smoothed.txt"), truth, columns)?,
-            read_columns(&out_dir.join("std_smoothed.txt"))?,
-        )),
+        true => {
+            let mut e = error_series(&out_dir.join("nav_smoothed.txt"), truth, columns)?;
+            let mut s = read_columns(&out_dir.join("std_smoothed.txt"))?;
+            if skip > 0.0 && from.is_finite() {
+                for x in e.iter_mut() {
+                    x.retain(|p| p.0 >= from);
+                }
+                s.retain(|r| r[0] >= from);
+            }
+            Some((e, s))
+        }
         false => None,
     };
     let component = |k: usize, col: usize| Component {

@@ -95,6 +95,65 @@ fn plots_render_and_the_report_holds_them() {
     for entry in ["error", "±3σ", "smoothed error", "smoothed ±3σ"] {
         assert!(svg.lines().any(|l| l.trim() == entry), "no legend entry {entry}");
     }
+    // ... in the margin right of the plotting area, off the data (they sat on it at
+    // t ≈ 510–590 s): every legend label starts right of the x axis's end
+    let axis_end = svg
+        .split("points=\"")
+        .skip(1)
+        .filter_map(|p| {
+            let pts: Vec<(i64, i64)> = p[..p.find('"').unwrap()]
+                .split_whitespace()
+                .filter_map(|xy| xy.split_once(','))
+                .map(|(x, y)| (x.parse().unwrap(), y.parse().unwrap()))
+                .collect();
+            // the x axis: one horizontal segment
+            (pts.len() == 2 && pts[0].1 == pts[1].1 && pts[1].0 - pts[0].0 > 500)
+                .then_some(pts[1].0)
+        })
+        .max()
+        .expect("an x axis");
+    let label_x = |label: &str| -> Vec<i64> {
+        let lines: Vec<&str> = svg.lines().collect();
+        (1..lines.len())
+            .filter(|&i| lines[i].trim() == label)
+            .map(|i| {
+                let tag = lines[i - 1];
+                let x = &tag[tag.find("x=\"").unwrap() + 3..];
+                x[..x.find('"').unwrap()].parse().unwrap()
+            })
+            .collect()
+    };
+    for entry in ["error", "±3σ", "smoothed error", "smoothed ±3σ"] {
+        for x in label_x(entry) {
+            assert!(x > axis_end, "legend `{entry}` at x = {x}, the data end at {axis_end}");
+        }
+    }
+    // the y range from the errors after the skip, not from the initial σ: with --skip 20
+    // the north panel's top tick is within 2× the largest north error after 20 s
+    let skipped = dir.join("skipped");
+    let out = bin()
+        .arg("run")
+        .arg(dir.join("config.toml"))
+        .args(["--quiet", "--plots", "--skip", "20", "--out"])
+        .arg(&skipped)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let row = stdout.lines().find(|l| l.starts_with("| fixed")).unwrap();
+    let north_rms: f64 = row.split('|').nth(2).unwrap().trim().parse().unwrap();
+    let svg = std::fs::read_to_string(skipped.join("errors_position.svg")).unwrap();
+    let first_panel = &svg[..svg.find("position error, east").unwrap()];
+    let lines: Vec<&str> = first_panel.lines().collect();
+    let top_tick = (1..lines.len())
+        .filter(|&i| lines[i - 1].contains("text-anchor=\"end\""))
+        .filter_map(|i| lines[i].trim().parse::<f64>().ok())
+        .fold(f64::NEG_INFINITY, f64::max);
+    // (the initial σ is 2 m × 3; the largest error after 20 s a few times the RMS)
+    assert!(
+        top_tick < 6.0 && top_tick > north_rms,
+        "top tick {top_tick} m, north RMS {north_rms} m"
+    );
     let plan = std::fs::read_to_string(out_dir.join("trajectory.svg")).unwrap();
     for entry in ["truth", "estimate", "smoothed", "GNSS fixes", "estimate in a GNSS outage"] {
         assert!(plan.lines().any(|l| l.trim() == entry), "no legend entry {entry}");
