@@ -541,7 +541,8 @@ impl Outputs {
         ["nav.txt", "std.txt", "imu_errors.txt", "updates.csv", "nav.pos"];
 
     /// The outputs of the smoother.
-    const SMOOTHED: [&'static str; 2] = ["nav_smoothed.txt", "std_smoothed.txt"];
+    const SMOOTHED: [&'static str; 3] =
+        ["nav_smoothed.txt", "std_smoothed.txt", "nav_smoothed.pos"];
 
     /// Rename every finished `NAME.partial` over `NAME`. A run that did not smooth removes
     /// the smoothed files of an earlier run, which would not match its `nav.txt`.
@@ -794,6 +795,10 @@ const SMOOTHER_SEGMENT: usize = 128;
 /// The recorder of a run that smooths: the segment smoother on a scratch file.
 type Recorder<S> = estimator_core::SegmentSmoother<S, ImuInput>;
 
+/// Rows per second of `nav_smoothed.pos` at most (its text at every IMU epoch cost 15 %
+/// of a smoothed navego run).
+const POS_SMOOTHED_RATE: f64 = 10.0;
+
 /// The backward pass: `nav_smoothed.txt` and `std_smoothed.txt` (as `.partial`, in the
 /// formats of `nav.txt` and `std.txt`, at every IMU epoch). The smoother hands the
 /// segments last to first; their text goes to a scratch file, which is then copied out
@@ -827,21 +832,45 @@ where
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
     let writer = std::thread::spawn(move || -> std::io::Result<_> {
         let mut rows_file = std::io::BufWriter::with_capacity(1 << 16, file);
-        // (offset, bytes of nav rows, bytes of std rows) of each segment's text
-        let mut chunks: Vec<(u64, usize, usize)> = Vec::new();
+        // (offset, bytes of nav rows, of std rows, of .pos rows) of each segment's text
+        let mut chunks: Vec<(u64, usize, usize, usize)> = Vec::new();
         let (mut at, mut count) = (0u64, 0usize);
-        let (mut nav_text, mut std_text) = (Vec::new(), Vec::new());
+        let (mut nav_text, mut std_text, mut pos_text) = (Vec::new(), Vec::new(), Vec::new());
+        let var = |s: &[f64]| -> nalgebra::Matrix3<f64> {
+            let z = 0.0;
+            nalgebra::Matrix3::new(s[0] * s[0], z, z, z, s[1] * s[1], z, z, z, s[2] * s[2])
+        };
         for rows in rx {
             nav_text.clear();
             std_text.clear();
+            pos_text.clear();
+            let mut bin = f64::NAN;
             for (t, x, sigma) in &rows {
                 write_nav(&mut nav_text, &nav_record(*t, x))?;
                 write_sigma_row(&mut std_text, *t, &sigma[..n])?;
+                // nav_smoothed.pos at most at 10 Hz (the first row of each 0.1 s); the
+                // smoother keeps the variances only: the covariances are written as 0
+                let here = (t * POS_SMOOTHED_RATE + 1e-6).floor();
+                if here == bin {
+                    continue;
+                }
+                bin = here;
+                let vel_var = var(&sigma[3..6]);
+                ins_gnss_core::io::rtklib::write_epoch(
+                    &mut pos_text,
+                    0.0,
+                    *t,
+                    &x.pos,
+                    &var(&sigma[6..9]),
+                    Some((&x.vel, &vel_var)),
+                    1,
+                )?;
             }
             rows_file.write_all(&nav_text)?;
             rows_file.write_all(&std_text)?;
-            chunks.push((at, nav_text.len(), std_text.len()));
-            at += (nav_text.len() + std_text.len()) as u64;
+            rows_file.write_all(&pos_text)?;
+            chunks.push((at, nav_text.len(), std_text.len(), pos_text.len()));
+            at += (nav_text.len() + std_text.len() + pos_text.len()) as u64;
             count += rows.len();
         }
         Ok((rows_file.into_inner().map_err(|e| e.into_error())?, chunks, count))
@@ -885,18 +914,28 @@ where
     let (mut file, chunks, count) = written.map_err(io(&scratch))?;
     let nav_path = dir.join("nav_smoothed.txt");
     let std_path = dir.join("std_smoothed.txt");
+    let pos_path = dir.join("nav_smoothed.pos");
     let mut nav_out = create_partial(&nav_path).map_err(io(&partial_path(&nav_path)))?;
     let mut std_out = create_partial(&std_path).map_err(io(&partial_path(&std_path)))?;
+    let mut pos_out = create_partial(&pos_path).map_err(io(&partial_path(&pos_path)))?;
+    ins_gnss_core::io::rtklib::write_header(
+        &mut pos_out,
+        concat!("ins-gnss ", env!("CARGO_PKG_VERSION"), ", smoothed"),
+        true,
+    )
+    .map_err(io(&partial_path(&pos_path)))?;
     let mut buf = Vec::new();
-    for &(offset, n, s) in chunks.iter().rev() {
-        buf.resize(n + s, 0);
+    for &(offset, n, s, p) in chunks.iter().rev() {
+        buf.resize(n + s + p, 0);
         file.seek(SeekFrom::Start(offset)).map_err(io(&scratch))?;
         file.read_exact(&mut buf).map_err(io(&scratch))?;
         nav_out.write_all(&buf[..n]).map_err(io(&partial_path(&nav_path)))?;
-        std_out.write_all(&buf[n..]).map_err(io(&partial_path(&std_path)))?;
+        std_out.write_all(&buf[n..n + s]).map_err(io(&partial_path(&std_path)))?;
+        pos_out.write_all(&buf[n + s..]).map_err(io(&partial_path(&pos_path)))?;
     }
     nav_out.flush().map_err(io(&partial_path(&nav_path)))?;
     std_out.flush().map_err(io(&partial_path(&std_path)))?;
+    pos_out.flush().map_err(io(&partial_path(&pos_path)))?;
     Ok(count)
 }
 

@@ -242,7 +242,7 @@ fn nav_pos_reads_back_and_rtklib_converts_it() {
     let o = bin()
         .arg("run")
         .arg(dir.join("config.toml"))
-        .args(["--quiet", "--accept-inconsistent", "--out"])
+        .args(["--quiet", "--accept-inconsistent", "--smooth", "--out"])
         .arg(&out)
         .output()
         .unwrap();
@@ -287,6 +287,21 @@ fn nav_pos_reads_back_and_rtklib_converts_it() {
         }
     }
     assert!(matched as f64 > 0.99 * pos.len() as f64, "{matched} of {}", pos.len());
+    // the smoothed result at 10 Hz: one epoch of nav_smoothed.txt in ten (100 Hz), the
+    // same positions
+    let smoothed = epochs(&out.join("nav_smoothed.pos"));
+    let mut nav = NavReader::open(&out.join("nav_smoothed.txt")).unwrap();
+    let (mut n, mut rows) = (0usize, 0usize);
+    while let Some(r) = nav.next_record().unwrap() {
+        rows += 1;
+        let Some(e) = smoothed.get(n).filter(|e| (e.t - r.t).abs() < 1e-4) else { continue };
+        assert!((r.pos.lat - e.pos.lat).abs().to_degrees() <= 1e-9);
+        assert!((r.pos.lon - e.pos.lon).abs().to_degrees() <= 1e-9);
+        n += 1;
+    }
+    assert_eq!(n, smoothed.len(), "every smoothed .pos epoch is a nav_smoothed.txt row");
+    // (a 0.1 s bin split between two of the smoother's batches is written twice)
+    assert!(n + 2 >= rows / 10 && n <= rows / 10 + rows / 1000 + 5, "10 Hz: {n} of {rows} rows");
     // RTKLIB's own reader: every epoch in the KML track
     let kml = dir.join("nav.kml");
     match Command::new("pos2kml").arg("-o").arg(&kml).arg(out.join("nav.pos")).output() {
