@@ -64,6 +64,11 @@ pub enum Verdict {
     Accepted,
     /// Used with inflated / adapted noise or a scaled prior.
     Inflated,
+    /// Used with adapted noise that the innovation finds smaller than the nominal one
+    /// (its adapted NIS above the nominal NIS: a strategy that estimated `R` or `Q` below
+    /// its nominal value). Strategies set [`Verdict::Inflated`]; the filter tells the two
+    /// apart.
+    Deflated,
     /// Not used; state and covariance unchanged.
     Rejected,
 }
@@ -74,6 +79,7 @@ impl Verdict {
         match self {
             Verdict::Accepted => "accepted",
             Verdict::Inflated => "inflated",
+            Verdict::Deflated => "deflated",
             Verdict::Rejected => "rejected",
         }
     }

@@ -461,6 +461,10 @@ where
                 symmetrize(&mut S_used);
                 let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
                 report.nis_adapted = whitened_norm_sq(&chol, r);
+                // an adaptation that made S smaller along the innovation deflated it
+                if report.verdict == Verdict::Inflated && report.nis_adapted > nis {
+                    report.verdict = Verdict::Deflated;
+                }
                 report.log_likelihood = log_likelihood(&chol, report.nis_adapted);
                 S_adapted = Some(S_used);
                 chol

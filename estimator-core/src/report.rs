@@ -157,13 +157,18 @@ pub struct UpdateLog {
 }
 
 impl UpdateLog {
-    /// Counts of (accepted, inflated, rejected).
+    /// Counts of (accepted, adapted — inflated or deflated —, rejected).
     pub fn counts(&self) -> (usize, usize, usize) {
         self.entries.iter().fold((0, 0, 0), |(a, i, r), e| match e.verdict {
             Verdict::Accepted => (a + 1, i, r),
-            Verdict::Inflated => (a, i + 1, r),
+            Verdict::Inflated | Verdict::Deflated => (a, i + 1, r),
             Verdict::Rejected => (a, i, r + 1),
         })
+    }
+
+    /// Updates whose adapted noise was smaller than the nominal ([`Verdict::Deflated`]).
+    pub fn deflated(&self) -> usize {
+        self.entries.iter().filter(|e| e.verdict == Verdict::Deflated).count()
     }
 }
 

@@ -233,3 +233,33 @@ fn fallback_from_subspace_to_full_scaling_is_reported() {
     let fourth = f.update(&pos(), &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
     assert!(!third.prior_scaling_fallback && !fourth.prior_scaling_fallback);
 }
+
+/// A strategy that replaces R by `factor` × R and says "inflated".
+#[derive(Clone)]
+struct ScaleR(f64);
+
+impl NoiseStrategy for ScaleR {
+    fn name(&self) -> &'static str {
+        "scale-r"
+    }
+    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        a.R = a.R_nominal * self.0;
+        a.verdict = Verdict::Inflated;
+        a.reason = "R scaled";
+    }
+}
+
+#[test]
+fn a_smaller_adapted_noise_is_reported_as_deflated() {
+    let (x0, p0, r) = (Vector2::new(0.0, 0.0), Matrix2::identity(), Matrix1::new(1.0));
+    for (factor, verdict) in [(4.0, Verdict::Inflated), (0.25, Verdict::Deflated)] {
+        let mut f = ErrorStateFilter::new(x0, p0, ScaleR(factor)).unwrap();
+        let rep = f.update(&pos(), &Vector1::new(1.0), &r).unwrap();
+        assert_eq!(rep.verdict, verdict, "R × {factor}");
+        assert_eq!((rep.nis_adapted > rep.nis), factor < 1.0);
+    }
+    assert_eq!(Verdict::Deflated.as_str(), "deflated");
+}

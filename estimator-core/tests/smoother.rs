@@ -134,6 +134,8 @@ fn smoothed_estimates_are_the_batch_least_squares_solution_on_every_backend() {
     };
     check("static", &run(&p, estimator_core::StaticCov).0);
     check("dynamic", &run(&p, DynamicCov::default()).0);
+    // (the faer back-end is opt-in; `cargo test --workspace` enables it)
+    #[cfg(feature = "faer")]
     check("faer", &run(&p, estimator_core::FaerCov::default()).0);
     // the smoother is not the filter: the estimates differ where later data tells more
     let (smoothed, filtered) = run(&p, estimator_core::StaticCov);

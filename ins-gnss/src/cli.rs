@@ -78,7 +78,7 @@ pub fn print_summary(s: &RunSummary) {
 /// The lines of a run summary (printed, and in the report).
 pub fn summary_lines(s: &RunSummary) -> Vec<String> {
     let mut lines = vec![format!(
-        "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {} rejected; \
+        "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {}{} rejected; \
          skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s; output {}",
         s.strategy,
         s.imu_epochs,
@@ -87,6 +87,7 @@ pub fn summary_lines(s: &RunSummary) -> Vec<String> {
         s.gnss_epochs,
         s.accepted,
         s.inflated,
+        if s.deflated > 0 { format!("{} deflated, ", s.deflated) } else { String::new() },
         s.rejected,
         s.imu_skipped.total() - s.imu_skipped.gaps,
         s.imu_skipped.gaps,

@@ -131,6 +131,8 @@ pub struct RunSummary {
     pub accepted: usize,
     /// Inflated updates.
     pub inflated: usize,
+    /// Updates with adapted noise smaller than the nominal.
+    pub deflated: usize,
     /// Rejected updates.
     pub rejected: usize,
     /// IMU lines skipped / gaps bridged.
@@ -313,7 +315,7 @@ impl StreamStats {
                 self.after_outage = false;
                 self.accepted_any = true;
             }
-            Verdict::Inflated => {}
+            Verdict::Inflated | Verdict::Deflated => {}
         }
         if u.verdict != Verdict::Rejected {
             if u.factors.lambda_r > 1.0 {
@@ -477,6 +479,7 @@ impl RunSummary {
                     self.nis_dof += u.dim;
                 }
                 Verdict::Inflated => self.inflated += 1,
+                Verdict::Deflated => self.deflated += 1,
                 Verdict::Rejected => self.rejected += 1,
             }
         }
