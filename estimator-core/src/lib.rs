@@ -40,6 +40,7 @@ pub mod error;
 pub mod filter;
 #[cfg(feature = "testing")]
 pub mod harness;
+pub mod iterated;
 mod kernels;
 pub mod linalg;
 pub mod linear;
@@ -60,6 +61,7 @@ pub use backend::{CovBackend, DenseCov, DynamicCov, StaticCov, UpdateForm};
 pub use entries::Entries;
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
+pub use iterated::IteratedReport;
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
 pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder};
 pub use smoother::{RtsSmoother, RtsStep, Smoothed};
