@@ -58,6 +58,14 @@ impl fmt::Display for JacobianMismatch {
                  {s:.3e} (cancellation or a kink in the model; try another step or point)"
             )?;
         }
+        if self.what == "process transition Φ" {
+            write!(
+                f,
+                "; a first-order Φ = I + F dt is off by O((‖F‖ dt)²) from an exact \
+                 propagate: compute Φ and Q_d with `discretize::van_loan`, or check with a \
+                 tolerance of that order"
+            )?;
+        }
         Ok(())
     }
 }

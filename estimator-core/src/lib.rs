@@ -35,6 +35,7 @@ pub mod adapt;
 pub mod backend;
 pub mod consistency;
 mod dims;
+pub mod discretize;
 mod entries;
 pub mod error;
 pub mod filter;
