@@ -231,6 +231,19 @@ impl NeesSummary {
     }
 }
 
+/// The reference reader of `truth`, through its column map when it has one.
+fn reference_reader(truth: &Path, columns: Option<&TruthColumns>) -> Result<RefReader, LineError> {
+    let map = match columns {
+        Some(c) => Some(c.map().map_err(|m| LineError {
+            path: truth.to_path_buf(),
+            line: 0,
+            kind: ins_gnss_core::io::LineErrorKind::WrongUnits(m),
+        })?),
+        None => None,
+    };
+    RefReader::open(truth, map.as_ref())
+}
+
 /// The σ file written beside a result (`nav.txt` → `std.txt`, `nav_smoothed.txt` →
 /// `std_smoothed.txt`), when it exists.
 pub fn sigma_file(result: &Path) -> Option<std::path::PathBuf> {
@@ -251,15 +264,7 @@ pub fn nees_with(
     skip: f64,
 ) -> Result<NeesSummary, LineError> {
     let mut res = NavReader::open(result)?;
-    let map = match columns {
-        Some(c) => Some(c.map().map_err(|m| LineError {
-            path: truth.to_path_buf(),
-            line: 0,
-            kind: ins_gnss_core::io::LineErrorKind::WrongUnits(m),
-        })?),
-        None => None,
-    };
-    let mut refs = RefReader::open(truth, map.as_ref())?;
+    let mut refs = reference_reader(truth, columns)?;
     let mut tru = Bracket::new(|| refs.next_record())?;
     let mut std =
         ins_gnss_core::io::NumericLines::new(ins_gnss_core::io::formats::open(sigma)?, sigma);
@@ -460,15 +465,7 @@ pub fn evaluate_with(
     windows: &[(f64, f64)],
 ) -> Result<Evaluation, LineError> {
     let mut res = NavReader::open(result)?;
-    let map = match columns {
-        Some(c) => Some(c.map().map_err(|m| LineError {
-            path: truth.to_path_buf(),
-            line: 0,
-            kind: ins_gnss_core::io::LineErrorKind::WrongUnits(m),
-        })?),
-        None => None,
-    };
-    let mut refs = RefReader::open(truth, map.as_ref())?;
+    let mut refs = reference_reader(truth, columns)?;
     let positions_only = match columns {
         Some(c) => c.positions_only(),
         None => reference_columns(truth)? == 4,

@@ -771,11 +771,7 @@ impl<R: BufRead> GnssReader<R> {
                 }
                 Err(kind) => {
                     let fatal = matches!(kind, LineErrorKind::WrongUnits(_)) && self.records == 0;
-                    if self.policy == BadLinePolicy::Skip && !fatal {
-                        count(&mut self.skipped, &kind);
-                        continue;
-                    }
-                    return Err(self.lines.error(kind));
+                    self.skip_or_fail(kind, fatal)?;
                 }
             }
         }
@@ -783,6 +779,16 @@ impl<R: BufRead> GnssReader<R> {
 }
 
 impl<R: BufRead> GnssReader<R> {
+    /// A malformed line: counted and skipped under [`BadLinePolicy::Skip`] unless
+    /// `fatal`, else the error at the current line.
+    fn skip_or_fail(&mut self, kind: LineErrorKind, fatal: bool) -> Result<(), LineError> {
+        if self.policy == BadLinePolicy::Skip && !fatal {
+            count(&mut self.skipped, &kind);
+            return Ok(());
+        }
+        Err(self.lines.error(kind))
+    }
+
     fn next_nmea(&mut self) -> Result<Option<GnssEpoch>, LineError> {
         loop {
             let (quality, sigma) = (self.quality, self.default_sigma);
@@ -822,18 +828,15 @@ impl<R: BufRead> GnssReader<R> {
                 Err(kind) => {
                     let fatal = matches!(kind, LineErrorKind::WrongUnits(ref m)
                         if m.contains("before any date") || m.contains("without its σ"));
-                    if self.policy == BadLinePolicy::Skip && !fatal {
-                        count(&mut self.skipped, &kind);
-                        continue;
-                    }
-                    return Err(self.lines.error(kind));
+                    self.skip_or_fail(kind, fatal)?;
                 }
             }
         }
     }
 
     fn next_rtklib(&mut self) -> Result<Option<GnssEpoch>, LineError> {
-        let Some(header) = &self.rtklib else { return Ok(None) };
+        // (a few indices, copied so that the reader can count and fail below)
+        let Some(header) = self.rtklib.clone() else { return Ok(None) };
         loop {
             let Some(text) = self.lines.next_text()? else {
                 if self.records == 0 {
@@ -846,7 +849,7 @@ impl<R: BufRead> GnssReader<R> {
                 return Ok(None);
             };
             let result =
-                super::rtklib::parse_line(header, text, &self.quality).and_then(|e| match e {
+                super::rtklib::parse_line(&header, text, &self.quality).and_then(|e| match e {
                     Some(e) => check_time(self.prev_t, e.t).map(|_| Some(e)),
                     None => Ok(None),
                 });
@@ -859,9 +862,9 @@ impl<R: BufRead> GnssReader<R> {
                 }
                 Ok(None) => {
                     // the quality of a dropped epoch: the field after the position
-                    let q = text
-                        .split_whitespace()
-                        .nth(2 + header.quality_field().unwrap_or(usize::MAX - 2))
+                    let q = header
+                        .quality_field()
+                        .and_then(|i| text.split_whitespace().nth(2 + i))
                         .and_then(|q| q.parse::<usize>().ok())
                         .unwrap_or(0)
                         .min(6);
@@ -869,11 +872,7 @@ impl<R: BufRead> GnssReader<R> {
                 }
                 Err(kind) => {
                     let fatal = matches!(kind, LineErrorKind::WrongUnits(_)) && self.records == 0;
-                    if self.policy == BadLinePolicy::Skip && !fatal {
-                        count(&mut self.skipped, &kind);
-                        continue;
-                    }
-                    return Err(self.lines.error(kind));
+                    self.skip_or_fail(kind, fatal)?;
                 }
             }
         }

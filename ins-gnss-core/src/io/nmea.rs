@@ -38,8 +38,9 @@ fn angle(v: &str, hemi: &str, degree_digits: usize) -> Option<f64> {
     if v.len() < degree_digits + 2 {
         return None;
     }
-    let d: f64 = v[..degree_digits].parse().ok()?;
-    let m: f64 = v[degree_digits..].parse().ok()?;
+    // (`get`: a byte that is not a character boundary is bad input, not a panic)
+    let d: f64 = v.get(..degree_digits)?.parse().ok()?;
+    let m: f64 = v.get(degree_digits..)?.parse().ok()?;
     if !(0.0..60.0).contains(&m) {
         return None;
     }
@@ -56,9 +57,9 @@ fn time_of_day(v: &str) -> Option<f64> {
     if v.len() < 6 {
         return None;
     }
-    let h: f64 = v[..2].parse().ok()?;
-    let m: f64 = v[2..4].parse().ok()?;
-    let s: f64 = v[4..].parse().ok()?;
+    let h: f64 = v.get(..2)?.parse().ok()?;
+    let m: f64 = v.get(2..4)?.parse().ok()?;
+    let s: f64 = v.get(4..)?.parse().ok()?;
     (h < 24.0 && m < 60.0 && s < 61.0).then_some(h * 3600.0 + m * 60.0 + s)
 }
 
@@ -252,6 +253,26 @@ mod tests {
         let bad = ok.replace("*76", "*77");
         assert!(fields(&bad).is_err());
         assert!(fields("$GPGGA,1,2").is_err());
+    }
+
+    #[test]
+    fn text_that_is_not_ascii_is_an_error_not_a_panic() {
+        let with_sum = |body: &str| {
+            let c = body.bytes().fold(0u8, |a, b| a ^ b);
+            format!("${body}*{c:02X}")
+        };
+        let q = QualityFactors::default();
+        for body in [
+            "GPRMC,092750.000,A,5321.6802,N,00630.3372,W,0.02,31.66,2é0825,,,A",
+            "GPGGA,0é2750.000,5321.6802,N,00630.3372,W,4,8,1.03,61.7,M,55.2,M,,",
+            "GPGGA,092750.000,5é21.6802,N,00630.3372,W,4,8,1.03,61.7,M,55.2,M,,",
+            "GPGGA,092750.000,5321.6802,N,00é30.3372,W,4,8,1.03,61.7,M,55.2,M,,",
+            "GPGST,0é2750.000,1.0,0.02,0.01,12.0,0.010,0.020,0.030",
+        ] {
+            let mut s = NmeaState::default();
+            let r = s.push(&with_sum(body), &q, None);
+            assert!(r.is_err() || r.unwrap().is_none(), "{body}");
+        }
     }
 
     #[test]
