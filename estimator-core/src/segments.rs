@@ -16,18 +16,23 @@
 //! which needs no inverse inside a segment:
 //!
 //! ```text
-//! at the segment's end n (the prior of the next segment's first update):
-//!   λₙ = Pₙ⁻¹ (x̂ˢ ⊖ x̂ₙ),   Λₙ = Pₙ⁻¹ − Pₙ⁻¹ Pˢ Pₙ⁻¹
+//! at the segment's end n (the prior of the next segment's first update), with
+//! d = x̂ˢ ⊖ x̂ₙ and Σ = G(x̂ₙ, d)⁻¹ Pˢ G(x̂ₙ, d)⁻ᵀ (Pˢ taken into the prior's frame):
+//!   λₙ = Pₙ⁻¹ d,           Λₙ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
 //! backwards through the steps:
 //!   λᵢ = Φᵢᵀ λᵢ₊₁,          Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ
 //!   x̂ˢᵢ = x̂ᵢ ⊕ Pᵢ λᵢ,        Pˢᵢ = Pᵢ − Pᵢ Λᵢ Pᵢ
 //! ```
 //!
 //! which is the RTS gain `Cᵢ = Pᵢ Φᵢᵀ Pᵢ₊₁⁻¹` applied step by step (`δᵢ = Cᵢ δᵢ₊₁`
-//! with `δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁`). At a segment's start `Pˢ` is formed whole and taken through
-//! the reset Jacobian `G` of `⊕`, as [`RtsSmoother`](crate::RtsSmoother) does at every
-//! step; in between only the variances are formed (`diag(Pᵢ Λᵢ Pᵢ)`: one product).
-//! On a vector space both smoothers give the same numbers (`tests/segment_smoother.rs`).
+//! with `δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁`). The frames are those of [`RtsSmoother`](crate::RtsSmoother)
+//! (see its module): inside a segment there is no update, so the smoothed error stays in
+//! the frames of the replayed nominals; `Pˢ` is taken into the prior's frame at the
+//! segment's end and out to the smoothed estimate's (`G(x̂ᵢ, δᵢ) Pˢᵢ G(x̂ᵢ, δᵢ)ᵀ`) where it
+//! is reported. At a segment's start `Pˢ` is formed whole; in between only the reported
+//! variances, from the entries of `Pᵢ Λᵢ Pᵢ` that the diagonal and the reset blocks need.
+//! Both smoothers give the same numbers, on a vector space (`tests/segment_smoother.rs`)
+//! and on SO(3) × R³ (`tests/smoother_manifold.rs`), to 1e-9.
 //!
 //! The forward pass records through [`StepRecorder::before_predict`], called with the
 //! filter before each prediction; a new segment starts whenever the filter's update
@@ -53,6 +58,7 @@ use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
 use crate::kernels;
 use crate::linalg::{cholesky, symmetrize};
+use crate::smoother::{reframe, Reframe};
 use crate::traits::ProcessModel;
 
 /// A value stored exactly as `LEN` numbers (states and inputs a [`SegmentSmoother`]
@@ -571,9 +577,12 @@ where
     fn segment<U>(&mut self, seg: &Replayed<X, U>) -> Result<(), SmootherError> {
         let (xs, ps, phis) = (&seg.xs, &seg.ps, &seg.phis);
         let count = seg.steps.len();
-        // the segment's end: λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Pˢ Pₙ⁻¹
+        // the segment's end: Pˢ into the frame of the prior x̂ₙ, then
+        // λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Pˢ Pₙ⁻¹
+        let d = self.x_s.ominus(&xs[count]);
+        reframe(&xs[count], &d, &mut self.p_s, Reframe::Into)?;
         let chol = cholesky("smoother: predicted covariance Pₙ", ps[count].clone())?;
-        let mut lambda = chol.solve(&self.x_s.ominus(&xs[count]));
+        let mut lambda = chol.solve(&d);
         let m = chol.solve(&self.p_s); // Pₙ⁻¹ Pˢ
         let mut big = chol.inverse() - chol.solve(&m.transpose());
         symmetrize(&mut big);
@@ -587,9 +596,8 @@ where
                 let delta = p * &lambda;
                 let x_s = x.oplus(&delta);
                 let mut p_s = p - &pl * p;
-                let g = x.oplus_jacobians(&delta).J_y_delta;
-                p_s = &g * p_s * g.transpose();
                 symmetrize(&mut p_s);
+                reframe(x, &delta, &mut p_s, Reframe::OutOf)?;
                 if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
                     return Err(
                         FilterError::NonFinite { what: "smoothed state or covariance" }.into()
@@ -602,9 +610,7 @@ where
             let (t, _, mark, _) = &seg.steps[k - 1];
             if *mark {
                 let delta = p * &lambda;
-                let var = OVector::<f64, X::Dim>::from_fn(|i, _| {
-                    p[(i, i)] - pl.row(i).dot(&p.column(i).transpose())
-                });
+                let var = variances_out_of(x, &delta, p, &pl);
                 self.rows.push(SmoothedRow { time: *t, x: x.oplus(&delta), var });
             }
             phis[k - 1].transpose_to(&mut phi_t);
@@ -650,4 +656,40 @@ where
         u.spill(&mut self.open[at..]);
         self.open_steps += 1;
     }
+}
+
+/// The diagonal of `G S Gᵀ` for `S = P − (PΛ) P` and `G = G(x, δ)`: the smoothed
+/// variances in the frame of `x ⊕ δ`, from the entries of `S` that the reset blocks touch
+/// (`S` is not formed; outside the blocks the variance is `S`'s diagonal).
+fn variances_out_of<X: Manifold>(
+    x: &X,
+    delta: &manifolds::Tangent<X>,
+    p: &Cov<X::Dim>,
+    pl: &Cov<X::Dim>,
+) -> OVector<f64, X::Dim>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    let s = |r: usize, c: usize| p[(r, c)] - pl.row(r).dot(&p.column(c).transpose());
+    let mut var = OVector::<f64, X::Dim>::from_fn(|i, _| s(i, i));
+    x.reset_blocks(delta, &mut |o, b| {
+        let d = b.nrows();
+        for i in 0..d {
+            let mut v = 0.0;
+            for j in 0..d {
+                let gij = b[(i, j)];
+                if gij == 0.0 {
+                    continue;
+                }
+                for l in 0..d {
+                    let gil = b[(i, l)];
+                    if gil != 0.0 {
+                        v += gij * gil * s(o + j, o + l);
+                    }
+                }
+            }
+            var[o + i] = v;
+        }
+    });
+    var
 }

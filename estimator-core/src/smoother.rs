@@ -8,27 +8,37 @@
 //! predictions). [`RtsSmoother::smooth`] then runs, from the last posterior back,
 //!
 //! ```text
+//! d_k   = x̂ˢ_{k+1} ⊖ x̂⁻_{k+1}
+//! Σ_k   = G(x̂⁻_{k+1}, d_k)⁻¹ Pˢ_{k+1} G(x̂⁻_{k+1}, d_k)⁻ᵀ          (into the prior's frame)
 //! C_k   = P⁺_k Φ_kᵀ (P⁻_{k+1})⁻¹
-//! δ_k   = C_k (x̂ˢ_{k+1} ⊖ x̂⁻_{k+1})
+//! δ_k   = C_k d_k
 //! x̂ˢ_k  = x̂⁺_k ⊕ δ_k
-//! Pˢ_k  = G (P⁺_k + C_k (Pˢ_{k+1} − P⁻_{k+1}) C_kᵀ) Gᵀ,   G = ∂((x̂⁺_k ⊕ (δ_k+ε)) ⊖ x̂ˢ_k)/∂ε
+//! Pˢ_k  = G(x̂⁺_k, δ_k) (P⁺_k + C_k (Σ_k − P⁻_{k+1}) C_kᵀ) G(x̂⁺_k, δ_k)ᵀ   (out to x̂ˢ_k)
 //! ```
 //!
-//! The tangent differences and the reset Jacobian `G` (the same as the filter's after an
-//! update; the identity on a vector space) carry the recursion onto the manifold. On a
-//! linear-Gaussian problem the result is the batch weighted-least-squares solution of the
-//! whole interval (`tests/smoother.rs`, to 1e-9). Rauch, Tung & Striebel (1965);
-//! Bar-Shalom, Li & Kirubarajan (2001) §8.6.
+//! with `G(x, δ) = ∂((x ⊕ (δ + ε)) ⊖ (x ⊕ δ))/∂ε`, the reset Jacobian of the filter's
+//! update (the identity on a vector space). The forward records live in the frames of the
+//! forward nominals (`P⁺_k` at `x̂⁺_k`, `Φ_k` from there to `x̂⁻_{k+1}`, `P⁻_{k+1}` at
+//! `x̂⁻_{k+1}`), the smoothed covariance in the frame of the smoothed estimate, so each step
+//! takes `Pˢ_{k+1}` into the prior's frame before it meets `P⁻_{k+1}` and the result out to
+//! `x̂ˢ_k`. Between two predictions without an update the two transports cancel; after an
+//! update they do not. Both are needed: on SO(3) × R³ without process noise, where the
+//! smoothed covariance is exactly the final one carried back through the dynamics, this
+//! recursion matches it to 1.4e-5 (relative σ) while the out-transport alone misses by
+//! 115 % and no transport by up to 5 % (`tests/smoother_manifold.rs`). On a linear-Gaussian
+//! problem the result is the batch weighted-least-squares solution of the whole interval
+//! (`tests/smoother.rs`, to 1e-9). Rauch, Tung & Striebel (1965); Bar-Shalom, Li &
+//! Kirubarajan (2001) §8.6.
 //!
 //! Memory: one record of two states and three `N × N` matrices per prediction — fine for
 //! thousands of steps at moderate `N`; a long high-rate run should record less often.
 
 use nalgebra::DefaultAllocator;
 
-use manifolds::{DimAlloc, Manifold};
+use manifolds::{DimAlloc, Manifold, Tangent};
 
 use crate::adapt::NoiseStrategy;
-use crate::backend::CovBackend;
+use crate::backend::{CovBackend, StaticCov};
 use crate::dims::Cov;
 use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
@@ -150,15 +160,16 @@ where
         let mut p = filter.covariance().into_owned();
         out.push(Smoothed { time: filter.time(), x: x.clone(), p: p.clone() });
         for (k, s) in self.steps.iter().enumerate().rev() {
+            let d = x.ominus(&s.x_prior);
+            reframe(&s.x_prior, &d, &mut p, Reframe::Into)?;
             // C = P⁺ Φᵀ (P⁻)⁻¹, i.e. Cᵀ = (P⁻)⁻¹ Φ P⁺ (both covariances symmetric)
             let chol = cholesky("smoother: predicted covariance P⁻", s.p_prior.clone())?;
             let c = chol.solve(&(&s.phi * &s.p_post)).transpose();
-            let delta = &c * x.ominus(&s.x_prior);
+            let delta = &c * d;
             let x_s = s.x_post.oplus(&delta);
             let mut p_s = &s.p_post + &c * (&p - &s.p_prior) * c.transpose();
-            let g = s.x_post.oplus_jacobians(&delta).J_y_delta;
-            p_s = &g * p_s * g.transpose();
             symmetrize(&mut p_s);
+            reframe(&s.x_post, &delta, &mut p_s, Reframe::OutOf)?;
             if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
                 return Err(FilterError::NonFinite { what: "smoothed state or covariance" });
             }
@@ -171,4 +182,40 @@ where
         out.reverse();
         Ok(out)
     }
+}
+
+/// Which way [`reframe`] moves a covariance.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Reframe {
+    /// From the frame of `x ⊕ δ` into the frame of `x`: `P ← G⁻¹ P G⁻ᵀ`.
+    Into,
+    /// From the frame of `x` out to the frame of `x ⊕ δ`: `P ← G P Gᵀ`.
+    OutOf,
+}
+
+/// Move the symmetric covariance `p` of an error between the frames of `x` and `x ⊕ δ`
+/// through the reset Jacobian `G(x, δ)`, block by block
+/// ([`reset_blocks`](Manifold::reset_blocks); nothing on a vector space).
+pub(crate) fn reframe<X: Manifold>(
+    x: &X,
+    delta: &Tangent<X>,
+    p: &mut Cov<X::Dim>,
+    way: Reframe,
+) -> Result<(), FilterError>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    let mut backend = StaticCov;
+    let mut singular = false;
+    x.reset_blocks(delta, &mut |o, b| match way {
+        Reframe::OutOf => backend.reset_block(p, o, b),
+        Reframe::Into => match b.clone_owned().try_inverse() {
+            Some(inv) => backend.reset_block(p, o, inv.as_view()),
+            None => singular = true,
+        },
+    });
+    if singular || p.iter().any(|v| !v.is_finite()) {
+        return Err(FilterError::NonFinite { what: "smoother: reset Jacobian G or its inverse" });
+    }
+    Ok(())
 }
