@@ -10,7 +10,7 @@
 //! | [`models`] | `models` | reusable motion models and the AHRS |
 //! | [`ins_gnss`] | `ins-gnss-core` | the INS/GNSS library: Earth model, mechanization, 15-state filter, file formats |
 //!
-//! Features: `faer` (default) forwards to `estimator-core/faer` (the `FaerCov` back-end);
+//! Features: `faer` (opt-in) forwards to `estimator-core/faer` (the `FaerCov` back-end);
 //! `testing` forwards to `manifolds/testing` and `estimator-core/testing` (the law and
 //! Jacobian harnesses).
 #![deny(missing_docs)]

@@ -48,6 +48,11 @@ pub enum FilterError {
         /// The offending step in seconds.
         dt: f64,
     },
+    /// An iteration (a mean on a manifold) did not converge within its cap.
+    NotConverged {
+        /// What was iterated.
+        what: &'static str,
+    },
 }
 
 impl fmt::Display for FilterError {
@@ -79,6 +84,11 @@ impl fmt::Display for FilterError {
             FilterError::InvalidTimeStep { dt } => {
                 write!(f, "time step {dt} s is negative or not finite (time went backwards?)")
             }
+            FilterError::NotConverged { what } => write!(
+                f,
+                "{what} did not converge within its iteration cap (points spread too far on a \
+                 curved state? try a smaller α) — the filter was left unchanged"
+            ),
         }
     }
 }

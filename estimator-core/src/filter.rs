@@ -290,6 +290,37 @@ where
         Ok(())
     }
 
+    /// Take up a prediction made outside [`predict`](Self::predict) (the sigma-point
+    /// one): the propagated state and covariance (checked), the interval, and the
+    /// transition and process noise that carry `Q_Σ` for a strategy that tracks it. On
+    /// `Err` the filter is unchanged.
+    pub(crate) fn finish_prediction(
+        &mut self,
+        x: X,
+        P: Cov<X::Dim>,
+        dt: f64,
+        Phi: &Cov<X::Dim>,
+        Q: &Cov<X::Dim>,
+    ) -> Result<(), FilterError> {
+        if !x.is_finite() {
+            return Err(FilterError::NonFinite { what: "propagated state" });
+        }
+        let P = B::from_static(&checked_symmetric("propagated covariance P⁻", P)?);
+        if self.strategy.tracks_process_noise() {
+            let q_sum = self.q_sum.get_or_insert_with(|| B::from_static(&Cov::<X::Dim>::zeros()));
+            let mut next = Phi * B::as_static(q_sum).as_ref() * Phi.transpose() + Q;
+            symmetrize(&mut next);
+            check_finite("accumulated process noise Q_Σ", &next)?;
+            *q_sum = B::from_static(&next);
+        }
+        let next = (self.cur + 1) % 3;
+        self.bufs[next] = P;
+        self.x = x;
+        self.commit();
+        self.time += dt;
+        Ok(())
+    }
+
     /// Update with measurement `z` of `model` and noise `R` (checked: finite, symmetric,
     /// positive definite). Returns the report; a rejected measurement is `Ok` with
     /// `verdict = Rejected`. On `Err` the state and covariance are unchanged.

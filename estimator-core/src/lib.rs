@@ -7,6 +7,7 @@
 //! | [`ProcessModel`], [`MeasurementModel`] | what users implement; Jacobians in named structs |
 //! | [`ErrorStateFilter`] | predict / update (Cholesky, Joseph) / inject and reset on any [`Manifold`] state |
 //! | [`RtsSmoother`] | the fixed-interval (RTS) smoother on manifolds: records the forward pass, runs the backward one |
+//! | [`SigmaPoints`], [`unscented`] | the unscented (sigma-point) filter on manifolds: `predict_unscented` / `update_unscented` on the same filter, models, strategies and reports |
 //! | [`SegmentSmoother`] | the same smoother for long high-rate runs: one record per update on disk, steps rebuilt by replay |
 //! | [`NoiseStrategy`], [`FixedNoise`], [`Adaptation`] | the adaptation hook and its zero-sized default |
 //! | [`StreamId`], [`StreamMap`] | named measurement streams and per-stream strategy state |
@@ -21,7 +22,7 @@
 //!
 //! # Features
 //!
-//! - `faer` (on by default): the [`FaerCov`] back-end on faer's products. Without it the
+//! - `faer` (opt-in): the [`FaerCov`] back-end on faer's products. Without it the
 //!   crate depends on nalgebra and statrs only.
 //! - `testing`: the Jacobian harness (`harness`) and the manifold law harness of
 //!   `manifolds` (`manifolds/testing`), with proptest.
@@ -51,6 +52,7 @@ pub mod simd;
 pub mod smoother;
 mod stream;
 pub mod traits;
+pub mod unscented;
 
 pub use adapt::{
     Adaptation, CovView, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust,
@@ -71,6 +73,7 @@ pub use traits::{
     Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
     ProcessModel, StateDim,
 };
+pub use unscented::{SigmaPoints, SigmaWeights};
 
 pub use manifolds::{self, DimAlloc, Manifold, Tangent, TangentMatrix};
 pub use nalgebra;

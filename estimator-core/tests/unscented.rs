@@ -1,0 +1,116 @@
+//! The unscented filter on a vector space with linear models is the Kalman filter (to
+//! 1e-12, for two sigma-point sets), and its update goes through the same strategy hook,
+//! verdicts and reports as the error-state update.
+
+#![allow(non_snake_case)]
+
+mod common;
+
+use common::{close, gaussian, rng, spd};
+use estimator_core::linear::{LinearMeasurement, LinearProcess};
+use estimator_core::{
+    Adaptation, ErrorStateFilter, FilterAlloc, FixedNoise, NoiseStrategy, SigmaPoints, Verdict,
+};
+use nalgebra::{DefaultAllocator, DimName, Matrix2, Matrix2x4, Matrix4, Vector2, Vector4};
+
+/// The textbook Kalman filter (explicit inverse: a path independent of the crate's).
+struct PlainKf {
+    x: Vector4<f64>,
+    p: Matrix4<f64>,
+}
+
+impl PlainKf {
+    fn predict(&mut self, f: &Matrix4<f64>, q: &Matrix4<f64>) {
+        self.x = f * self.x;
+        self.p = f * self.p * f.transpose() + q;
+    }
+    fn update(&mut self, h: &Matrix2x4<f64>, z: &Vector2<f64>, r: &Matrix2<f64>) -> f64 {
+        let y = z - h * self.x;
+        let s = h * self.p * h.transpose() + r;
+        let s_inv = s.try_inverse().unwrap();
+        let k = self.p * h.transpose() * s_inv;
+        self.x += k * y;
+        let ikh = Matrix4::identity() - k * h;
+        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
+        (y.transpose() * s_inv * y)[0]
+    }
+}
+
+fn problem() -> (Matrix4<f64>, Matrix4<f64>, Matrix2x4<f64>) {
+    let dt = 0.1;
+    let mut r = rng(3);
+    let f = Matrix4::new(
+        1.0, 0.0, dt, 0.0, //
+        0.0, 1.0, 0.0, dt, //
+        0.0, 0.0, 1.0, 0.0, //
+        0.0, 0.0, 0.0, 1.0,
+    );
+    (f, spd::<4>(&mut r, 0.01) * 0.01, Matrix2x4::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.3, 0.0))
+}
+
+#[test]
+fn the_unscented_filter_is_the_kalman_filter_on_a_linear_problem() {
+    let (f, q, h) = problem();
+    for sp in [SigmaPoints::default(), SigmaPoints::merwe(0.5, 2.0, 0.0)] {
+        let mut r = rng(7);
+        let p0 = spd::<4>(&mut r, 0.5);
+        let x0 = gaussian::<4, 1>(&mut r);
+        let (process, sensor) = (LinearProcess { F: f, Q: q }, LinearMeasurement::new(h));
+        let mut ukf = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+        let mut kf = PlainKf { x: x0, p: p0 };
+        let mut truth = Vector4::new(0.0, 0.0, 1.0, -0.5);
+        for k in 0..200 {
+            truth = f * truth;
+            ukf.predict_unscented(&process, &(), 0.1, &sp).unwrap();
+            kf.predict(&f, &q);
+            assert!(close(ukf.state(), &kf.x, 1e-12), "{sp:?}: predicted x at {k}");
+            assert!(close(&ukf.covariance(), &kf.p, 1e-12), "{sp:?}: predicted P at {k}");
+            let rk = spd::<2>(&mut r, 0.1) * (0.5 + (k % 7) as f64 * 0.1);
+            let z = h * truth + gaussian::<2, 1>(&mut r) * 0.3;
+            let report = ukf.update_unscented(&sensor, &z, &rk, &sp).unwrap();
+            let nis = kf.update(&h, &z, &rk);
+            assert!(close(ukf.state(), &kf.x, 1e-12), "{sp:?}: x at {k}");
+            assert!(close(&ukf.covariance(), &kf.p, 1e-12), "{sp:?}: P at {k}");
+            assert!((report.nis - nis).abs() <= 1e-12 * nis.max(1.0), "{sp:?}: NIS at {k}");
+        }
+        assert!((ukf.time() - 20.0).abs() < 1e-9 && ukf.epoch() == 200);
+    }
+}
+
+/// Refuses a measurement whose NIS is above 9.
+#[derive(Clone, Debug, Default)]
+struct Gate {
+    seen: usize,
+}
+
+impl NoiseStrategy for Gate {
+    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        self.seen += 1;
+        if a.nis > 9.0 {
+            a.verdict = Verdict::Rejected;
+        }
+    }
+}
+
+#[test]
+fn the_unscented_update_goes_through_the_strategy_hook() {
+    let (f, q, h) = problem();
+    let sp = SigmaPoints::default();
+    let (process, sensor) = (LinearProcess { F: f, Q: q }, LinearMeasurement::new(h));
+    let mut ukf =
+        ErrorStateFilter::new(Vector4::zeros(), Matrix4::identity(), Gate::default()).unwrap();
+    ukf.predict_unscented(&process, &(), 0.1, &sp).unwrap();
+    let r = Matrix2::identity() * 0.01;
+    let ok = ukf.update_unscented(&sensor, &Vector2::new(0.1, -0.1), &r, &sp).unwrap();
+    assert_eq!(ok.verdict, Verdict::Accepted);
+    let (x, p) = (*ukf.state(), ukf.covariance().into_owned());
+    let refused = ukf.update_unscented(&sensor, &Vector2::new(50.0, 0.0), &r, &sp).unwrap();
+    assert_eq!(refused.verdict, Verdict::Rejected);
+    assert!(refused.nis > 9.0);
+    assert_eq!(*ukf.state(), x);
+    assert_eq!(ukf.covariance().into_owned(), p);
+    assert_eq!((ukf.strategy().seen, ukf.epoch()), (2, 2));
+}
