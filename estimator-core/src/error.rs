@@ -48,6 +48,13 @@ pub enum FilterError {
         /// The offending step in seconds.
         dt: f64,
     },
+    /// A delayed measurement older than the replay history.
+    TooLate {
+        /// How far in the past it was stamped, s.
+        delay: f64,
+        /// How far back the history reaches, s.
+        history: f64,
+    },
     /// An iteration (a mean on a manifold) did not converge within its cap.
     NotConverged {
         /// What was iterated.
@@ -84,6 +91,11 @@ impl fmt::Display for FilterError {
             FilterError::InvalidTimeStep { dt } => {
                 write!(f, "time step {dt} s is negative or not finite (time went backwards?)")
             }
+            FilterError::TooLate { delay, history } => write!(
+                f,
+                "a measurement {delay:.3} s old is older than the replay history \
+                 ({history:.3} s); keep a longer history — the filter was left unchanged"
+            ),
             FilterError::NotConverged { what } => write!(
                 f,
                 "{what} did not converge within its iteration cap (points spread too far on a \

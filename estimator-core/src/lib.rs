@@ -8,6 +8,8 @@
 //! | [`ErrorStateFilter`] | predict / update (Cholesky, Joseph) / inject and reset on any [`Manifold`] state |
 //! | [`RtsSmoother`] | the fixed-interval (RTS) smoother on manifolds: records the forward pass, runs the backward one |
 //! | [`SigmaPoints`], [`unscented`] | the unscented (sigma-point) filter on manifolds: `predict_unscented` / `update_unscented` on the same filter, models, strategies and reports |
+//! | [`FixedLagSmoother`] | the same recursion over the last lag only (steps or seconds), bounded memory |
+//! | [`Replay`] | delayed measurements applied at their own time, by replay of a bounded history |
 //! | [`SegmentSmoother`] | the same smoother for long high-rate runs: one record per update on disk, steps rebuilt by replay |
 //! | [`NoiseStrategy`], [`FixedNoise`], [`Adaptation`] | the adaptation hook and its zero-sized default |
 //! | [`StreamId`], [`StreamMap`] | named measurement streams and per-stream strategy state |
@@ -35,6 +37,7 @@
 pub mod adapt;
 pub mod backend;
 pub mod consistency;
+pub mod delayed;
 mod dims;
 pub mod discretize;
 mod entries;
@@ -61,13 +64,14 @@ pub use adapt::{
 #[cfg(feature = "faer")]
 pub use backend::FaerCov;
 pub use backend::{CovBackend, DenseCov, DynamicCov, StaticCov, UpdateForm};
+pub use delayed::Replay;
 pub use entries::Entries;
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
 pub use iterated::IteratedReport;
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
 pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder};
-pub use smoother::{RtsSmoother, RtsStep, Smoothed};
+pub use smoother::{FixedLagSmoother, Lag, RtsSmoother, RtsStep, Smoothed};
 pub use stream::{short_type_name, StreamId, StreamMap};
 pub use traits::{
     Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,

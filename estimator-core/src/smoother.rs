@@ -126,21 +126,10 @@ where
         B: CovBackend<X::Dim>,
         PM: ProcessModel<State = X>,
     {
-        let x_post = filter.state().clone();
-        let p_post = filter.covariance().into_owned();
-        let phi = model.jacobians(&x_post, u, dt).Phi;
         if self.start_time.is_none() {
             self.start_time = Some(filter.time());
         }
-        filter.predict(model, u, dt)?;
-        self.steps.push(RtsStep {
-            x_post,
-            p_post,
-            phi,
-            x_prior: filter.state().clone(),
-            p_prior: filter.covariance().into_owned(),
-            time: filter.time(),
-        });
+        self.steps.push(record(filter, model, u, dt)?);
         Ok(())
     }
 
@@ -155,33 +144,191 @@ where
         A: NoiseStrategy,
         B: CovBackend<X::Dim>,
     {
-        let mut out = Vec::with_capacity(self.steps.len() + 1);
-        let mut x = filter.state().clone();
-        let mut p = filter.covariance().into_owned();
-        out.push(Smoothed { time: filter.time(), x: x.clone(), p: p.clone() });
-        for (k, s) in self.steps.iter().enumerate().rev() {
-            let d = x.ominus(&s.x_prior);
-            reframe(&s.x_prior, &d, &mut p, Reframe::Into)?;
-            // C = P⁺ Φᵀ (P⁻)⁻¹, i.e. Cᵀ = (P⁻)⁻¹ Φ P⁺ (both covariances symmetric)
-            let chol = cholesky("smoother: predicted covariance P⁻", s.p_prior.clone())?;
-            let c = chol.solve(&(&s.phi * &s.p_post)).transpose();
-            let delta = &c * d;
-            let x_s = s.x_post.oplus(&delta);
-            let mut p_s = &s.p_post + &c * (&p - &s.p_prior) * c.transpose();
-            symmetrize(&mut p_s);
-            reframe(&s.x_post, &delta, &mut p_s, Reframe::OutOf)?;
-            if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
-                return Err(FilterError::NonFinite { what: "smoothed state or covariance" });
-            }
-            let time =
-                if k == 0 { self.start_time.unwrap_or(s.time) } else { self.steps[k - 1].time };
-            x = x_s;
-            p = p_s;
-            out.push(Smoothed { time, x: x.clone(), p: p.clone() });
-        }
-        out.reverse();
-        Ok(out)
+        let start = self.start_time.unwrap_or_else(|| filter.time());
+        backward(self.steps.iter(), start, filter)
     }
+}
+
+/// The backward pass over `steps` (in time order; the first starts at `start`) from the
+/// filter's current posterior: the smoothed estimates at `start` and after every step.
+fn backward<'a, X, A, B>(
+    steps: impl DoubleEndedIterator<Item = &'a RtsStep<X>> + ExactSizeIterator,
+    start: f64,
+    filter: &ErrorStateFilter<X, A, B>,
+) -> Result<Vec<Smoothed<X>>, FilterError>
+where
+    X: Manifold + 'a,
+    A: NoiseStrategy,
+    B: CovBackend<X::Dim>,
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    let mut out = Vec::with_capacity(steps.len() + 1);
+    let (mut x, mut p) = (filter.state().clone(), filter.covariance().into_owned());
+    if steps.len() == 0 {
+        out.push(Smoothed { time: filter.time(), x, p });
+        return Ok(out);
+    }
+    for s in steps.rev() {
+        // the estimate at the end of step `s` (the filter's time, for the last one)
+        out.push(Smoothed { time: s.time, x: x.clone(), p: p.clone() });
+        let d = x.ominus(&s.x_prior);
+        reframe(&s.x_prior, &d, &mut p, Reframe::Into)?;
+        // C = P⁺ Φᵀ (P⁻)⁻¹, i.e. Cᵀ = (P⁻)⁻¹ Φ P⁺ (both covariances symmetric)
+        let chol = cholesky("smoother: predicted covariance P⁻", s.p_prior.clone())?;
+        let c = chol.solve(&(&s.phi * &s.p_post)).transpose();
+        let delta = &c * d;
+        let x_s = s.x_post.oplus(&delta);
+        let mut p_s = &s.p_post + &c * (&p - &s.p_prior) * c.transpose();
+        symmetrize(&mut p_s);
+        reframe(&s.x_post, &delta, &mut p_s, Reframe::OutOf)?;
+        if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
+            return Err(FilterError::NonFinite { what: "smoothed state or covariance" });
+        }
+        x = x_s;
+        p = p_s;
+    }
+    out.push(Smoothed { time: start, x, p });
+    out.reverse();
+    Ok(out)
+}
+
+/// How far back a [`FixedLagSmoother`] reaches.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lag {
+    /// The last `n` predictions.
+    Steps(usize),
+    /// The predictions that start at most this many seconds before the filter's time (the
+    /// window's oldest estimate is at `t − lag` when the steps fall on it).
+    Seconds(f64),
+}
+
+/// The fixed-lag smoother: the RTS recursion over the predictions of the last lag only,
+/// so memory stays bounded (one record of two states and three `N × N` matrices per step
+/// in the window; no allocation once the window is full). At any time it gives the
+/// smoothed estimates over the window, the oldest of which is `x(t − lag | t)`; the
+/// result is the fixed-interval smoother's on the data so far, restricted to the window
+/// (`tests/fixed_lag.rs`: equal to [`RtsSmoother`] to 1e-12 when the lag covers the run).
+#[derive(Clone, Debug)]
+pub struct FixedLagSmoother<X: Manifold>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    lag: Lag,
+    steps: std::collections::VecDeque<RtsStep<X>>,
+    /// Time at the start of the oldest step kept.
+    start: Option<f64>,
+}
+
+impl<X: Manifold> FixedLagSmoother<X>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    /// An empty window of `lag`.
+    pub fn new(lag: Lag) -> Self {
+        let room = match lag {
+            Lag::Steps(n) => n + 1,
+            Lag::Seconds(_) => 0,
+        };
+        Self { lag, steps: std::collections::VecDeque::with_capacity(room), start: None }
+    }
+
+    /// The predictions in the window.
+    pub fn len(&self) -> usize {
+        self.steps.len()
+    }
+
+    /// No prediction in the window yet.
+    pub fn is_empty(&self) -> bool {
+        self.steps.is_empty()
+    }
+
+    /// `filter.predict(model, u, dt)`, recording the step and dropping the steps that
+    /// left the window. On `Err` nothing is recorded and the filter is unchanged.
+    pub fn predict<A, B, PM>(
+        &mut self,
+        filter: &mut ErrorStateFilter<X, A, B>,
+        model: &PM,
+        u: &PM::Input,
+        dt: f64,
+    ) -> Result<(), FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+        PM: ProcessModel<State = X>,
+    {
+        let before = filter.time();
+        let step = record(filter, model, u, dt)?;
+        self.start.get_or_insert(before);
+        self.steps.push_back(step);
+        let now = filter.time();
+        while let (Some(front), Some(start)) = (self.steps.front(), self.start) {
+            let out = match self.lag {
+                Lag::Steps(n) => self.steps.len() > n,
+                // (a step that starts a rounding error short of the lag stays)
+                Lag::Seconds(s) => start < now - s - 1e-9 * now.abs().max(1.0),
+            };
+            if !out {
+                break;
+            }
+            self.start = Some(front.time);
+            self.steps.pop_front();
+        }
+        Ok(())
+    }
+
+    /// The smoothed estimates over the window, oldest first (at the window's start and
+    /// after every step in it), from the filter's current posterior.
+    pub fn smooth<A, B>(
+        &self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) -> Result<Vec<Smoothed<X>>, FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+    {
+        backward(self.steps.iter(), self.start.unwrap_or_else(|| filter.time()), filter)
+    }
+
+    /// The oldest smoothed estimate of the window, `x(t − lag | t)`.
+    pub fn lagged<A, B>(
+        &self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) -> Result<Smoothed<X>, FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+    {
+        let mut all = self.smooth(filter)?;
+        Ok(all.swap_remove(0))
+    }
+}
+
+/// Predict with `filter`, returning the record of the step.
+fn record<X, A, B, PM>(
+    filter: &mut ErrorStateFilter<X, A, B>,
+    model: &PM,
+    u: &PM::Input,
+    dt: f64,
+) -> Result<RtsStep<X>, FilterError>
+where
+    X: Manifold,
+    A: NoiseStrategy,
+    B: CovBackend<X::Dim>,
+    PM: ProcessModel<State = X>,
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    let x_post = filter.state().clone();
+    let p_post = filter.covariance().into_owned();
+    let phi = model.jacobians(&x_post, u, dt).Phi;
+    filter.predict(model, u, dt)?;
+    Ok(RtsStep {
+        x_post,
+        p_post,
+        phi,
+        x_prior: filter.state().clone(),
+        p_prior: filter.covariance().into_owned(),
+        time: filter.time(),
+    })
 }
 
 /// Which way [`reframe`] moves a covariance.

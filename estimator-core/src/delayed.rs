@@ -1,0 +1,218 @@
+//! Delayed measurements: a measurement stamped in the past is applied at its own time, by
+//! replaying a bounded history of predictions and updates.
+//!
+//! [`Replay`] owns the filter and the process model and keeps, for the last
+//! `history` seconds, the filter as it was at the history's start and every event since
+//! (the input and interval of each prediction, each update). A measurement stamped at
+//! `t` earlier than the filter's time goes into the history at `t` — a prediction that
+//! spans `t` is split in two with the same input, as an on-time filter would have split
+//! it — and the history is replayed from its start. The result is the filter that would
+//! have seen the measurement on time, exactly (the same operations in the same order;
+//! `tests/delayed.rs`: to 1e-9 and in fact bit for bit). A measurement older than the
+//! history is refused ([`FilterError::TooLate`]); on any `Err` the filter and the history
+//! are unchanged.
+//!
+//! Cost: a delayed measurement replays the history (its events since the history's start);
+//! every event is also applied a second time when it leaves the history (to move the
+//! history's start on), so a filter in a `Replay` does about twice the work of a bare one,
+//! plus the replays. Each update event holds its model, measurement and noise in an `Rc`.
+
+use std::collections::VecDeque;
+use std::rc::Rc;
+
+use nalgebra::DefaultAllocator;
+
+use manifolds::Manifold;
+
+use crate::adapt::NoiseStrategy;
+use crate::backend::CovBackend;
+use crate::dims::{Cov, FilterAlloc, StateDim};
+use crate::error::FilterError;
+use crate::filter::ErrorStateFilter;
+use crate::traits::{MeasurementModel, ProcessModel};
+
+/// An update as the history keeps it.
+type Apply<X, A, B> = Rc<dyn Fn(&mut ErrorStateFilter<X, A, B>) -> Result<(), FilterError>>;
+
+enum Event<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>, U>
+where
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    Predict { u: U, dt: f64 },
+    Update { apply: Apply<X, A, B> },
+}
+
+impl<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>, U: Clone> Clone for Event<X, A, B, U>
+where
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    fn clone(&self) -> Self {
+        match self {
+            Event::Predict { u, dt } => Event::Predict { u: u.clone(), dt: *dt },
+            Event::Update { apply } => Event::Update { apply: apply.clone() },
+        }
+    }
+}
+
+/// A filter with a replay history for delayed measurements (see the
+/// [module](crate::delayed)).
+pub struct Replay<X, A, B, PM>
+where
+    X: Manifold,
+    A: NoiseStrategy,
+    B: CovBackend<X::Dim>,
+    PM: ProcessModel<State = X>,
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    model: PM,
+    history: f64,
+    start: ErrorStateFilter<X, A, B>,
+    events: VecDeque<Event<X, A, B, PM::Input>>,
+    filter: ErrorStateFilter<X, A, B>,
+    replays: u64,
+}
+
+impl<X, A, B, PM> Replay<X, A, B, PM>
+where
+    X: Manifold + 'static,
+    A: NoiseStrategy + 'static,
+    B: CovBackend<X::Dim> + 'static,
+    PM: ProcessModel<State = X>,
+    PM::Input: Clone,
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    /// Keep `history` seconds of events for `filter` propagated by `model`.
+    pub fn new(filter: ErrorStateFilter<X, A, B>, model: PM, history: f64) -> Self {
+        Self { model, history, start: filter.clone(), events: VecDeque::new(), filter, replays: 0 }
+    }
+
+    /// The filter, up to date.
+    pub fn filter(&self) -> &ErrorStateFilter<X, A, B> {
+        &self.filter
+    }
+
+    /// The time at the start of the history: the oldest time a measurement may carry.
+    pub fn oldest(&self) -> f64 {
+        self.start.time()
+    }
+
+    /// How many times the history was replayed.
+    pub fn replays(&self) -> u64 {
+        self.replays
+    }
+
+    /// Predict with the model; the history's start moves on past events older than the
+    /// history. On `Err` nothing changes.
+    pub fn predict(&mut self, u: &PM::Input, dt: f64) -> Result<(), FilterError> {
+        self.filter.predict(&self.model, u, dt)?;
+        self.events.push_back(Event::Predict { u: u.clone(), dt });
+        self.trim()
+    }
+
+    /// Update with `z` of `sensor` and noise `R`, measured at `time` (at most the filter's
+    /// time): now if `time` is the filter's time, otherwise at its own time by replay.
+    /// On `Err` the filter and the history are unchanged.
+    pub fn update_at<MM>(
+        &mut self,
+        sensor: MM,
+        z: MM::Measurement,
+        R: Cov<StateDim<MM::Measurement>>,
+        time: f64,
+    ) -> Result<(), FilterError>
+    where
+        MM: MeasurementModel<State = X> + 'static,
+        MM::Measurement: 'static,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+        Cov<StateDim<MM::Measurement>>: 'static,
+    {
+        let now = self.filter.time();
+        if !time.is_finite() || time > now {
+            return Err(FilterError::InvalidTimeStep { dt: now - time });
+        }
+        if time < self.start.time() {
+            return Err(FilterError::TooLate {
+                delay: now - time,
+                history: now - self.start.time(),
+            });
+        }
+        let apply: Apply<X, A, B> =
+            Rc::new(move |f: &mut ErrorStateFilter<X, A, B>| f.update(&sensor, &z, &R).map(|_| ()));
+        if time == now {
+            apply(&mut self.filter)?;
+            self.events.push_back(Event::Update { apply });
+            return Ok(());
+        }
+        // the history with the update at its time: after the events that end at or
+        // before it, a prediction across it split in two
+        let mut events = VecDeque::with_capacity(self.events.len() + 2);
+        let mut t = self.start.time();
+        let mut placed = false;
+        for e in &self.events {
+            if !placed {
+                if let Event::Predict { u, dt } = e {
+                    let end = t + dt;
+                    if time == t {
+                        // at the prediction's start: before it, nothing to split
+                        events.push_back(Event::Update { apply: apply.clone() });
+                        placed = true;
+                    } else if end > time {
+                        let first = time - t;
+                        events.push_back(Event::Predict { u: u.clone(), dt: first });
+                        events.push_back(Event::Update { apply: apply.clone() });
+                        events.push_back(Event::Predict { u: u.clone(), dt: dt - first });
+                        placed = true;
+                        t = end;
+                        continue;
+                    }
+                    t = end;
+                }
+            }
+            events.push_back(e.clone());
+        }
+        if !placed {
+            events.push_back(Event::Update { apply });
+        }
+        let mut filter = self.start.clone();
+        for e in &events {
+            run(&mut filter, &self.model, e)?;
+        }
+        self.filter = filter;
+        self.events = events;
+        self.replays += 1;
+        Ok(())
+    }
+
+    /// Move the history's start on past events that ended more than `history` seconds
+    /// before the filter's time.
+    fn trim(&mut self) -> Result<(), FilterError> {
+        let horizon = self.filter.time() - self.history;
+        while let Some(e) = self.events.front() {
+            if let Event::Predict { dt, .. } = e {
+                if self.start.time() + dt > horizon {
+                    break;
+                }
+            }
+            run(&mut self.start, &self.model, e)?;
+            self.events.pop_front();
+        }
+        Ok(())
+    }
+}
+
+fn run<X, A, B, PM>(
+    f: &mut ErrorStateFilter<X, A, B>,
+    model: &PM,
+    e: &Event<X, A, B, PM::Input>,
+) -> Result<(), FilterError>
+where
+    X: Manifold,
+    A: NoiseStrategy,
+    B: CovBackend<X::Dim>,
+    PM: ProcessModel<State = X>,
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    match e {
+        Event::Predict { u, dt } => f.predict(model, u, *dt),
+        Event::Update { apply } => apply(f),
+    }
+}
