@@ -6,6 +6,7 @@ use nalgebra::{DefaultAllocator, DimName};
 use crate::window::{trace_ratio, InnovationWindow};
 
 /// How the AFKF estimates the innovation covariance `Ĉ_k`.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MismatchEstimate {
     /// Mean of `r rᵀ` over the last N innovations.
@@ -18,6 +19,7 @@ pub enum MismatchEstimate {
 }
 
 /// Where the AFKF applies its factor.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FadingAt {
     /// At the update epoch, `P⁻* = λ P⁻` (default; right for many predictions per update).
@@ -68,6 +70,7 @@ pub enum FadingAt {
 /// Q. Xia, M. Rao, Y. Ying, X. Shen, "Adaptive fading Kalman filter with an application",
 /// *Automatica* 30(8), 1333–1338 (1994); the trace form as used in paper `fused-iae-afkf`
 /// (section 3). Fading memory: Y. Bar-Shalom et al. (2001) §11.7; R. Labbe, FilterPy.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct Afkf {
     /// Estimator of `Ĉ`. Default `Window(20)`.
@@ -92,6 +95,7 @@ pub struct Afkf {
     last_lambda: f64,
 }
 
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 enum AfkfStream {
     Window(InnovationWindow),

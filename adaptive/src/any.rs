@@ -12,6 +12,7 @@ use crate::{
 
 /// Any of the crate's strategies, chosen at run time. Static dispatch by `match`; a filter
 /// typed `ErrorStateFilter<X, AnyStrategy>` can run every strategy.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub enum AnyStrategy {
     /// [`FixedNoise`].
@@ -49,6 +50,7 @@ pub const STRATEGY_NAMES: [&str; 14] = [
 ];
 
 /// An unknown strategy name.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct UnknownStrategy(pub String);
 

@@ -47,6 +47,7 @@ use crate::window::InnovationWindow;
 ///
 /// Paper `fused-iae-afkf` (fused IAE + AFKF for MEMS-INS/GNSS), sections 3–4: windows
 /// N_P = 20 and N_R = 30.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct FusedDualWindow {
     /// Process-loop window N_P. Default 20.
@@ -75,6 +76,7 @@ pub struct FusedDualWindow {
 
 /// Which `R` the fused filter's measurement loop scales (the paper's eq. 29 is read two
 /// ways; see [`FusedDualWindow`]).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum RReading {
     /// `R* = λ_R R₀` at every epoch, DOM against `H P⁻ Hᵀ + R₀`.
@@ -90,6 +92,7 @@ pub enum RReading {
 }
 
 /// The statistic of the fused filter's gross-error rule.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum GrossTest {
     /// `|r_k|² / tr S_k`.
@@ -99,6 +102,7 @@ pub enum GrossTest {
     Window,
 }
 
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 struct FusedStream {
     w_p: InnovationWindow,

@@ -12,8 +12,15 @@ const CACHED_DIMS: usize = 16;
 
 /// `χ²_{1−p}(m)` for every measurement dimension, computed once per dimension (the
 /// quantile is an iterative inverse of the χ² distribution).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 struct Thresholds([f64; CACHED_DIMS + 1]);
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Self::new()
+    }
+}
 
 impl Thresholds {
     fn new() -> Self {
@@ -35,6 +42,7 @@ impl Thresholds {
 
 /// What the gate does with a stream whose innovations are all larger than its `S`
 /// says, not just one of them.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum GateMode {
     /// Adapt before refusing (the default): the stream's `R` is inflated by a robust
@@ -75,6 +83,7 @@ const WHITE_COS: f64 = 0.5;
 /// Upper bound on the `R` factor (σ × 100).
 pub const MAX_R_FACTOR: f64 = 1e4;
 
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 struct GateStream {
     refusals: u32,
@@ -186,6 +195,7 @@ impl GateStream {
 /// exceeds it with probability [`SCALE_FALSE_ALARM`] (`P(Bin(n, q_d) ≤ k − 1) = α`);
 /// beyond it, the factor is the `k`-th smallest over its median-unbiased quantile
 /// `χ²_{(k − 0.3)/(n + 0.4)}(m)`.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug)]
 struct ScaleTest {
     k: usize,
@@ -256,7 +266,8 @@ fn same_way_pairs(m: usize) -> usize {
 }
 
 /// [`same_way_pairs`] per measurement dimension, computed once (0: not yet).
-#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Clone, Debug, Default)]
 struct PairCounts([usize; CACHED_DIMS + 1]);
 
 impl PairCounts {
@@ -277,7 +288,8 @@ impl PairCounts {
 const MIN_WINDOW: usize = 3;
 
 /// The scale tests per measurement dimension and window size, computed once.
-#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Clone, Debug, Default)]
 struct ScaleTests(Vec<Option<ScaleTest>>);
 
 impl ScaleTests {
@@ -349,6 +361,7 @@ impl ScaleTests {
 /// assert_eq!(r.verdict, Verdict::Rejected);
 /// assert_eq!(f.state()[0], 0.0);
 /// ```
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct GrossErrorGate<A> {
     /// The strategy behind the gate.
@@ -362,8 +375,12 @@ pub struct GrossErrorGate<A> {
     /// Whether a stream is adapted to before it is refused. Default [`GateMode::Adapt`].
     pub mode: GateMode,
     streams: StreamMap<GateStream>,
+    // caches of values computed from the dimension alone: not state, not serialised
+    #[cfg_attr(feature = "serde", serde(skip))]
     thresholds: Thresholds,
+    #[cfg_attr(feature = "serde", serde(skip))]
     scale_tests: ScaleTests,
+    #[cfg_attr(feature = "serde", serde(skip))]
     same_way_pairs: PairCounts,
     /// The last update was decided by the gate, not by `inner`.
     bypassed: bool,
@@ -574,10 +591,12 @@ where
 /// assert_eq!(r.verdict, Verdict::Rejected);
 /// assert_eq!(f.covariance()[(0, 0)], 1.0);
 /// ```
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct ChiSquareGate {
     /// Probability that a consistent innovation is refused (α).
     pub probability: f64,
+    #[cfg_attr(feature = "serde", serde(skip))]
     thresholds: Thresholds,
 }
 

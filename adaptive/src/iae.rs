@@ -36,6 +36,7 @@ use crate::window::{project_noise, trace_ratio, InnovationWindow, NoiseBounds};
 ///
 /// A. H. Mohamed and K. P. Schwarz, "Adaptive Kalman filtering for INS/GPS", *Journal of
 /// Geodesy* 73, 193–203 (1999); window N = 20 as in paper `fused-iae-afkf`.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct Iae {
     /// Window length N (innovations). Default 20.
@@ -49,6 +50,7 @@ pub struct Iae {
     streams: StreamMap<IaeStream>,
 }
 
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 struct IaeStream {
     window: InnovationWindow,

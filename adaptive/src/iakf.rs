@@ -8,6 +8,7 @@ use crate::window::{trace_ratio, RunningMean};
 
 /// The two readings of the inflation weight in the paper's eq. 19 (the extracted text is
 /// ambiguous; see `ALGORITHMS.md` §2.5).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Inflation {
     /// `w_k = 1`: `R_k = R₀ + (r_k − r̄_k)(r_k − r̄_k)ᵀ` (`iakf-raw`).
@@ -53,6 +54,7 @@ pub enum Inflation {
 ///
 /// Paper `iakf-chi-square` (χ²-test-based innovation-adaptive KF for INS/GPS), section 3,
 /// eq. 17–19; α = 0.05.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct Iakf {
     /// Significance α of the gate (0.05 → 95 % quantile). Default 0.05.
@@ -66,6 +68,7 @@ pub struct Iakf {
     streams: StreamMap<IakfStream>,
 }
 
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 struct IakfStream {
     mean: RunningMean,

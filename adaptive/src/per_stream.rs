@@ -15,6 +15,7 @@ use nalgebra::{DefaultAllocator, DimName};
 /// let s = Route::new(StreamId::named("gnss-position"), FusedDualWindow::default(), FixedNoise);
 /// assert_eq!(s.name(), "per-stream");
 /// ```
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct Route<A, B> {
     /// The stream that gets `on`.
@@ -81,6 +82,7 @@ impl<A: NoiseStrategy, B: NoiseStrategy> NoiseStrategy for Route<A, B> {
 /// assert_eq!(s.strategy_of(StreamId::named("gnss-position")).name(), "fused");
 /// assert_eq!(s.strategy_of(StreamId::named("compass")).name(), "fixed");
 /// ```
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct PerStream<A> {
     default: A,

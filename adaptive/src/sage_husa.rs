@@ -23,6 +23,7 @@ use crate::window::{project_noise, trace_ratio, NoiseBounds};
 /// A. P. Sage and G. W. Husa, "Adaptive filtering with unknown prior statistics", *Proc.
 /// Joint Automatic Control Conference*, 760–769 (1969); forgetting form as used as the
 /// AKF baseline in paper `iakf-chi-square` (b ∈ [0.95, 0.995]).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct SageHusa {
     /// Forgetting factor b. Default 0.98.
@@ -32,6 +33,7 @@ pub struct SageHusa {
     streams: StreamMap<SageHusaStream>,
 }
 
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 struct SageHusaStream {
     k: u32,

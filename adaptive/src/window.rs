@@ -9,6 +9,7 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
 /// The last `capacity` innovations of one stream (fewer at start-up: statistics use what
 /// there is, and report how many).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct InnovationWindow {
     capacity: usize,
@@ -106,6 +107,7 @@ impl InnovationWindow {
 }
 
 /// Running mean of every innovation of a stream so far, `r̄_k = (1/k) Σ_{i≤k} r_i`.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Debug)]
 pub struct RunningMean {
     count: u64,
@@ -146,6 +148,7 @@ impl RunningMean {
 
 /// Bounds that keep an estimated noise matrix usable, relative to the nominal `R` the
 /// caller gave: the diagonal of the result lies in `[floor·R₀ᵢᵢ, ceiling·R₀ᵢᵢ]`.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NoiseBounds {
     /// Lower bound as a fraction of the nominal diagonal (> 0).

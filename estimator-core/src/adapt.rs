@@ -58,6 +58,7 @@ where
 }
 
 /// What happened to a measurement.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Verdict {
     /// Used with the nominal noise.
@@ -86,6 +87,7 @@ impl Verdict {
 }
 
 /// The numbers behind a decision (NaN where a strategy does not compute one).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Factors {
     /// Degree of mismatch `tr(Ĉ)/tr(S)`.
@@ -103,6 +105,7 @@ impl Default for Factors {
 }
 
 /// How a prior scale `λ = prior_scale` is applied to `P⁻`.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum PriorScaling {
     /// Along the measurement subspace only:
@@ -118,6 +121,14 @@ pub enum PriorScaling {
 
 /// How the strategy wants the process noise of the following predictions changed.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "Cov<N>: serde::Serialize",
+        deserialize = "Cov<N>: serde::Deserialize<'de>"
+    ))
+)]
 pub enum QAdjust<N: DimName>
 where
     DefaultAllocator: nalgebra::allocator::Allocator<N, N>,
@@ -292,6 +303,7 @@ pub trait NoiseStrategy: Clone {
 
 /// The standard Kalman filter: nominal `Q` and `R`, every measurement accepted.
 /// Zero-sized; the default strategy of every filter.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FixedNoise;
 

@@ -66,6 +66,7 @@ use crate::traits::{ProcessJacobians, ProcessModel};
 /// The two Joseph variants compute the same function of `K`, so both keep the Joseph
 /// form's first-order insensitivity to errors in the gain; they differ in cost and in
 /// rounding.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum UpdateForm {
     /// The Joseph form multiplied out, `P + V Kᵀ + K Vᵀ` with `V = K S/2 − P Hᵀ` and
@@ -216,6 +217,7 @@ where
 }
 
 /// The default: a stack-allocated nalgebra matrix.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StaticCov;
 

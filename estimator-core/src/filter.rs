@@ -38,6 +38,7 @@ use crate::report::{NoObserver, Observer, UpdateReport};
 use crate::traits::{MeasurementModel, ProcessModel};
 
 /// How the covariance is reset after injecting the correction.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ResetMode {
     /// `P ← G P Gᵀ` with the exact reset Jacobian `G` from ⊕ (default).
@@ -85,6 +86,17 @@ where
 /// ```
 #[allow(non_snake_case)]
 #[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "X: serde::Serialize, A: serde::Serialize, B: serde::Serialize, \
+                     B::Cov: serde::Serialize, QAdjust<X::Dim>: serde::Serialize",
+        deserialize = "X: serde::Deserialize<'de>, A: serde::Deserialize<'de>, \
+                       B: serde::Deserialize<'de>, B::Cov: serde::Deserialize<'de>, \
+                       QAdjust<X::Dim>: serde::Deserialize<'de>"
+    ))
+)]
 pub struct ErrorStateFilter<
     X: Manifold,
     A: NoiseStrategy = FixedNoise,

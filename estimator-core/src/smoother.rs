@@ -47,6 +47,14 @@ use crate::traits::ProcessModel;
 
 /// What the backward pass needs of one prediction.
 #[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "X: serde::Serialize, Cov<X::Dim>: serde::Serialize",
+        deserialize = "X: serde::Deserialize<'de>, Cov<X::Dim>: serde::Deserialize<'de>"
+    ))
+)]
 pub struct RtsStep<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
@@ -67,6 +75,14 @@ where
 
 /// A smoothed estimate.
 #[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "X: serde::Serialize, Cov<X::Dim>: serde::Serialize",
+        deserialize = "X: serde::Deserialize<'de>, Cov<X::Dim>: serde::Deserialize<'de>"
+    ))
+)]
 pub struct Smoothed<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
@@ -81,6 +97,14 @@ where
 
 /// The fixed-interval smoother: a recorder for the forward pass and the backward pass.
 #[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "X: serde::Serialize, Cov<X::Dim>: serde::Serialize",
+        deserialize = "X: serde::Deserialize<'de>, Cov<X::Dim>: serde::Deserialize<'de>"
+    ))
+)]
 pub struct RtsSmoother<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
@@ -193,6 +217,7 @@ where
 }
 
 /// How far back a [`FixedLagSmoother`] reaches.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Lag {
     /// The last `n` predictions.
@@ -209,6 +234,14 @@ pub enum Lag {
 /// result is the fixed-interval smoother's on the data so far, restricted to the window
 /// (`tests/fixed_lag.rs`: equal to [`RtsSmoother`] to 1e-12 when the lag covers the run).
 #[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "X: serde::Serialize, Cov<X::Dim>: serde::Serialize",
+        deserialize = "X: serde::Deserialize<'de>, Cov<X::Dim>: serde::Deserialize<'de>"
+    ))
+)]
 pub struct FixedLagSmoother<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,

@@ -88,6 +88,7 @@ pub fn short_type_name<T: ?Sized>() -> &'static str {
 /// Per-stream state of a strategy: a small vector searched linearly (a filter has a
 /// handful of streams). Allocates only when a new stream first appears.
 #[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct StreamMap<T> {
     entries: Vec<(StreamId, T)>,
 }
@@ -123,5 +124,26 @@ impl<T> StreamMap<T> {
     /// True before any stream was seen.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
+    }
+}
+
+/// A stream (de)serialises as its name and hash; a deserialised name is leaked to give it
+/// the `'static` lifetime (one small string per stream and checkpoint read).
+#[cfg(feature = "serde")]
+impl serde::Serialize for StreamId {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        serde::Serialize::serialize(&(self.name, self.hash), s)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> serde::Deserialize<'de> for StreamId {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (name, hash): (String, u64) = serde::Deserialize::deserialize(d)?;
+        let id = StreamId::named(Box::leak(name.into_boxed_str()));
+        if id.hash != hash {
+            return Err(serde::de::Error::custom("stream name and hash disagree"));
+        }
+        Ok(id)
     }
 }

@@ -43,3 +43,6 @@ pub use traits::{DimAlloc, Manifold, OminusJacobians, OplusJacobians, Tangent, T
 
 /// nalgebra, re-exported so that macros and users agree on the version.
 pub use nalgebra;
+#[cfg(feature = "serde")]
+#[doc(hidden)]
+pub use serde as __serde;

@@ -319,6 +319,44 @@ macro_rules! __composite_law_sampler {
     ($($t:tt)*) => {};
 }
 
+/// With the feature `serde`: a composite state (de)serialises as the tuple of its fields
+/// (when they all do).
+#[cfg(feature = "serde")]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __composite_serde {
+    ($Name:ident; $($field:ident : $T:ty),+) => {
+        // (the bounds are higher-ranked so that a field type without serde makes the impl
+        // absent instead of an error: enabling the feature never breaks a build)
+        impl $crate::__serde::Serialize for $Name
+        where
+            $(for<'__a> $T: $crate::__serde::Serialize,)+
+        {
+            fn serialize<S: $crate::__serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                $crate::__serde::Serialize::serialize(&($(&self.$field,)+), s)
+            }
+        }
+        impl<'de> $crate::__serde::Deserialize<'de> for $Name
+        where
+            $(for<'__a> $T: $crate::__serde::Deserialize<'de>,)+
+        {
+            fn deserialize<D: $crate::__serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let ($($field,)+) =
+                    <($($T,)+) as $crate::__serde::Deserialize<'de>>::deserialize(d)?;
+                Ok(Self { $($field),+ })
+            }
+        }
+    };
+}
+
+/// Without the feature `serde`: nothing.
+#[cfg(not(feature = "serde"))]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __composite_serde {
+    ($($t:tt)*) => {};
+}
+
 /// Define a named composite state whose tangent dimension is the sum of its fields',
 /// known at compile time, with a typed [`Block`] constant per field.
 ///
@@ -364,6 +402,7 @@ macro_rules! composite_state {
         }
 
         $crate::composite_state!(@blocks $Name, 0usize, $($field : $T => $BLOCK),+);
+        $crate::__composite_serde!($Name; $($field : $T),+);
         $crate::__composite_law_sampler!($Name; $($field : $T => $BLOCK),+);
 
         impl $crate::Manifold for $Name {

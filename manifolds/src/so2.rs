@@ -23,6 +23,7 @@ pub fn wrap_angle(a: f64) -> f64 {
 }
 
 /// A planar rotation by `angle` (radians, kept in (−π, π]).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct So2 {
     angle: f64,

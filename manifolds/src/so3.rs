@@ -15,6 +15,7 @@ use crate::traits::{Manifold, OminusJacobians, OplusJacobians};
 const SMALL_ANGLE: f64 = 1e-2;
 
 /// A rotation, stored as a unit quaternion (`R_ab`: maps frame-`b` vectors into frame `a`).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct So3 {
     q: UnitQuaternion<f64>,
