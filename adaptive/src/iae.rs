@@ -146,7 +146,7 @@ impl NoiseStrategy for Iae {
         }
         let mut q = p.K * c * p.K.transpose() / dt;
         // Exactly symmetric (models may rely on a symmetric Q, see SYMMETRIC_PROPAGATION).
-        estimator_core::linalg::symmetrize(&mut q);
+        estimator_core::symmetrize(&mut q);
         if q.iter().all(|v| v.is_finite()) {
             p.q = QAdjust::AddRate(q);
         }

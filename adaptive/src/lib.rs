@@ -43,7 +43,7 @@ mod iae;
 mod iakf;
 mod per_stream;
 mod sage_husa;
-pub mod window;
+mod window;
 
 pub use afkf::{Afkf, FadingAt, MismatchEstimate};
 pub use any::{AnyStrategy, UnknownStrategy, STRATEGY_NAMES};

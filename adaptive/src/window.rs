@@ -3,7 +3,7 @@
 //! positive definite. All storage is allocated when a stream first appears; updates do not
 //! allocate.
 
-use estimator_core::linalg::symmetrize;
+use estimator_core::symmetrize;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
@@ -40,16 +40,6 @@ impl InnovationWindow {
     /// Number of innovations held.
     pub fn len(&self) -> usize {
         self.len
-    }
-
-    /// True when empty.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Capacity N.
-    pub fn capacity(&self) -> usize {
-        self.capacity
     }
 
     /// `Ĉ = (1/n) Σ r rᵀ` over the held innovations (zero when empty).

@@ -195,7 +195,7 @@ where
 /// The model's `x⁺`, `Φ` and `Q_d` for one step, `Q_d` adjusted as the strategy asked
 /// (`Scale(s)`: `s Q_d`; `AddRate(q)`: `Q_d + q dt`) and checked by
 /// [`check_process_noise`], which names the model.
-pub fn adjusted_step<PM: ProcessModel, N: DimName>(
+pub(crate) fn adjusted_step<PM: ProcessModel, N: DimName>(
     model: &PM,
     q: &QAdjust<N>,
     x: &PM::State,
@@ -370,6 +370,7 @@ where
 
 /// The dense matrix operations the dynamic back-ends need; implemented for nalgebra's
 /// `DMatrix` and faer's `Mat`, so [`DenseCov`] is written once.
+#[doc(hidden)]
 pub trait Dense: Clone + core::fmt::Debug + Entries {
     /// Name of the back-end.
     const NAME: &'static str;

@@ -217,6 +217,11 @@ where
         self.cur = (self.cur + 1) % 3;
     }
 
+    /// How the covariance follows an injected correction.
+    pub fn reset_mode(&self) -> ResetMode {
+        self.reset
+    }
+
     /// The strategy (to read its diagnostics).
     pub fn strategy(&self) -> &A {
         &self.strategy

@@ -9,8 +9,9 @@
 //! `Δ_j = K_j (r_j + H_j J_j⁻¹ δ_j) − J_j⁻¹ δ_j`, `K_j = P_j H_jᵀ (H_j P_j H_jᵀ + R)⁻¹`,
 //!
 //! `x_{j+1} = x_j ⊕ Δ_j`, until `‖Δ_j‖ ≤ tolerance` or `max_iterations`. The covariance is
-//! the Joseph form at the last linearisation, `(I − K H) P_j (I − K H)ᵀ + K R Kᵀ`. One
-//! iteration is the plain error-state update. Without the transport `J_j` (taking it as
+//! the Joseph form at the last linearisation, `(I − K H) P_j (I − K H)ᵀ + K R Kᵀ`, taken
+//! to the new estimate by the reset `G(x_j, Δ_j)` as the plain update does (under
+//! [`ResetMode::Exact`]). One iteration is the plain error-state update (on SO(3) too). Without the transport `J_j` (taking it as
 //! the identity) the iteration still converges on a curved state, but to a slightly
 //! different point and more slowly.
 //!
@@ -25,7 +26,9 @@ use crate::backend::CovBackend;
 use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
+use crate::filter::ResetMode;
 use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize, whitened_norm_sq};
+use crate::smoother::{reframe, Reframe};
 use crate::traits::MeasurementModel;
 use crate::NoiseStrategy;
 
@@ -71,6 +74,7 @@ where
         let mut report =
             IteratedReport { iterations: 0, converged: false, nis: f64::NAN, post_fit: f64::NAN };
         let (mut gain, mut h, mut p_j) = (None, None, p_prior.clone());
+        let (mut x_j, mut last_step) = (x.clone(), None);
         for _ in 0..max_iterations.max(1) {
             let (r, jac) = model.innovation(&x, z);
             check_finite("innovation", &r)?;
@@ -94,11 +98,14 @@ where
             let back = &j_inv * &delta;
             let step = &k * (&r + &jac.H * &back) - &back;
             check_finite("iterated step", &step)?;
+            x_j = x.clone();
             x = x.oplus(&step);
             report.iterations += 1;
             gain = Some(k);
             h = Some(jac.H);
-            if step.norm() <= tolerance {
+            let small = step.norm() <= tolerance;
+            last_step = Some(step);
+            if small {
                 report.converged = true;
                 break;
             }
@@ -107,6 +114,10 @@ where
         let i_kh = OMatrix::<f64, X::Dim, X::Dim>::identity() - &k * &h;
         let mut p = &i_kh * &p_j * i_kh.transpose() + &k * R * k.transpose();
         symmetrize(&mut p);
+        // the reset of the last step, as the plain update's: P ← G P Gᵀ at x_j ⊕ Δ
+        if let (ResetMode::Exact, Some(step)) = (self.reset_mode(), &last_step) {
+            reframe(&x_j, step, &mut p, Reframe::OutOf)?;
+        }
         if !x.is_finite() {
             return Err(FilterError::NonFinite { what: "updated state" });
         }

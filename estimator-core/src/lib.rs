@@ -18,8 +18,7 @@
 //! | [`backend`] | covariance back-ends: nalgebra static (default), nalgebra dynamic, faer (feature `faer`) |
 //! | [`consistency`] | NEES / NIS and χ² bands |
 //! | `harness` (feature `testing`) | analytic vs numerical Jacobians through ⊕/⊖ for any model |
-//! | [`simd`], [`fma_kernel!`] | for model authors: one kernel body compiled for AVX2/FMA with a portable twin |
-//! | [`linalg`] | checks and Cholesky helpers with typed errors |
+//! | [`fixed_from_dynamic`], [`symmetrize`] | a runtime-sized matrix into a typed one (typed error); exact symmetry for a custom strategy's covariances |
 //! | [`linear`] | linear-Gaussian models (the plain Kalman filter as a special case) |
 //!
 //! # Features
@@ -47,10 +46,11 @@ pub mod filter;
 pub mod harness;
 pub mod iterated;
 mod kernels;
-pub mod linalg;
+mod linalg;
 pub mod linear;
 pub mod report;
 pub mod segments;
+#[doc(hidden)]
 pub mod simd;
 pub mod smoother;
 mod stream;
@@ -65,10 +65,12 @@ pub use adapt::{
 pub use backend::FaerCov;
 pub use backend::{CovBackend, DenseCov, DynamicCov, StaticCov, UpdateForm};
 pub use delayed::Replay;
+#[doc(hidden)]
 pub use entries::Entries;
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
 pub use iterated::IteratedReport;
+pub use linalg::{fixed_from_dynamic, symmetrize};
 pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
 pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder};
 pub use smoother::{FixedLagSmoother, Lag, RtsSmoother, RtsStep, Smoothed};

@@ -2,7 +2,7 @@
 
 #![allow(non_snake_case)]
 
-use estimator_core::linalg::fixed_from_dynamic;
+use estimator_core::fixed_from_dynamic;
 use estimator_core::linear::{LinearMeasurement, LinearProcess};
 use estimator_core::{ErrorStateFilter, FilterError, FixedNoise};
 use nalgebra::{DMatrix, Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};

@@ -138,6 +138,22 @@ impl MeasurementModel for TwoVectors {
 }
 
 #[test]
+fn one_iteration_is_the_plain_update_on_so3_too() {
+    let truth = So3::exp(&Vector3::new(0.1, -0.2, 0.3));
+    let x0 = truth.oplus(&Vector3::new(0.2, -0.1, 0.3));
+    let p0 = Matrix3::new(0.04, 0.01, 0.0, 0.01, 0.09, 0.02, 0.0, 0.02, 0.25);
+    let z = TwoVectors.predict(&truth);
+    let r = nalgebra::Matrix6::identity() * 1e-3;
+    let mut plain = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+    plain.update(&TwoVectors, &z, &r).unwrap();
+    let mut once = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+    once.update_iterated(&TwoVectors, &z, &r, 1, 0.0).unwrap();
+    assert!(plain.state().ominus(once.state()).amax() < 1e-12);
+    let dp = (plain.covariance().into_owned() - once.covariance().into_owned()).amax();
+    assert!(dp < 1e-12, "{dp:e}");
+}
+
+#[test]
 fn on_so3_the_iteration_converges_where_one_step_does_not() {
     let truth = So3::exp(&Vector3::new(0.1, -0.2, 0.3));
     // the prior 40° off about an axis both directions see

@@ -13,6 +13,7 @@ use nalgebra::{DefaultAllocator, DimName, DimNameAdd, DimNameSum, OMatrix, OVect
 use crate::traits::{DimAlloc, Manifold, Tangent, TangentMatrix};
 
 /// Copy of the block of `v` that starts at `offset` and has `B::DIM` rows.
+#[doc(hidden)]
 pub fn block_of<D, B>(v: &OVector<f64, D>, offset: usize) -> OVector<f64, B>
 where
     D: DimName,
@@ -23,6 +24,7 @@ where
 }
 
 /// Write `b` into `v` from row `offset` on.
+#[doc(hidden)]
 pub fn set_block<D, B>(v: &mut OVector<f64, D>, offset: usize, b: &OVector<f64, B>)
 where
     D: DimName,
@@ -35,6 +37,7 @@ where
 }
 
 /// Write the square block `b` on the diagonal of `m` at `(offset, offset)`.
+#[doc(hidden)]
 pub fn set_diagonal_block<D, B>(m: &mut OMatrix<f64, D, D>, offset: usize, b: &OMatrix<f64, B, B>)
 where
     D: DimName,
