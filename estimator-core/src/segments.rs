@@ -516,12 +516,14 @@ impl<S: Read + Seek> Store<'_, S> {
             return Err(corrupt("segment length"));
         }
         seg.xs.clear();
-        seg.ps.clear();
-        seg.phis.clear();
         seg.steps.clear();
         seg.xs.push(X::unspill(&v[at..at + X::LEN]));
         at += X::LEN;
-        let mut p0 = Cov::<X::Dim>::zeros();
+        // the covariances and transitions are written in place (a segment's buffers are
+        // reused: they grow to the longest segment once, then are only overwritten)
+        seg.ps.resize(count + 1, Cov::<X::Dim>::zeros());
+        seg.phis.resize(count, Cov::<X::Dim>::zeros());
+        let p0 = &mut seg.ps[0];
         for c in 0..n {
             for r in 0..=c {
                 p0[(r, c)] = v[at];
@@ -529,7 +531,6 @@ impl<S: Read + Seek> Store<'_, S> {
                 at += 1;
             }
         }
-        seg.ps.push(p0);
         for _ in 0..count {
             let u = U::unspill(&v[at + STEP..at + STEP + U::LEN]);
             seg.steps.push((v[at], v[at + 1], v[at + 2] != 0.0, u));
@@ -540,11 +541,10 @@ impl<S: Read + Seek> Store<'_, S> {
         let mut backend = StaticCov;
         for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
             let x = &seg.xs[k];
-            seg.phis.push(model.transition(x, u, *dt));
-            let mut next = Cov::<X::Dim>::zeros();
-            let x_next = backend.predict(model, x, u, *dt, &seg.ps[k], fading, &q, &mut next)?;
+            seg.phis[k] = model.transition(x, u, *dt);
+            let (done, next) = seg.ps.split_at_mut(k + 1);
+            let x_next = backend.predict(model, x, u, *dt, &done[k], fading, &q, &mut next[0])?;
             seg.xs.push(x_next);
-            seg.ps.push(next);
         }
         Ok(())
     }
@@ -584,14 +584,17 @@ where
         let chol = cholesky("smoother: predicted covariance Pₙ", ps[count].clone())?;
         let mut lambda = chol.solve(&d);
         let m = chol.solve(&self.p_s); // Pₙ⁻¹ Pˢ
-        let mut big = chol.inverse() - chol.solve(&m.transpose());
-        symmetrize(&mut big);
+                                       // Λ in one of two buffers, the next one written into the other (no swap: swapping
+                                       // two covariances copies three of them)
+        let mut bigs = [chol.inverse() - chol.solve(&m.transpose()), Cov::<X::Dim>::zeros()];
+        symmetrize(&mut bigs[0]);
+        let mut cur = 0;
         self.rows.clear();
         let (mut pl, mut phi_t) = (Cov::<X::Dim>::zeros(), Cov::<X::Dim>::zeros());
-        let (mut next_big, zero) = (Cov::<X::Dim>::zeros(), Cov::<X::Dim>::zeros());
+        let zero = Cov::<X::Dim>::zeros();
         for k in (0..=count).rev() {
             let (x, p) = (&xs[k], &ps[k]);
-            kernels::mat_mul(p, &big, &mut pl); // Pᵢ Λᵢ
+            kernels::mat_mul(p, &bigs[cur], &mut pl); // Pᵢ Λᵢ
             if k == 0 {
                 let delta = p * &lambda;
                 let x_s = x.oplus(&delta);
@@ -616,8 +619,10 @@ where
             phis[k - 1].transpose_to(&mut phi_t);
             lambda = &phi_t * &lambda;
             // Λ ← Φᵀ Λ Φ (exactly symmetric)
-            kernels::dense_sandwich(&phi_t, &big, &zero, &mut next_big);
-            core::mem::swap(&mut big, &mut next_big);
+            let [a, b] = &mut bigs;
+            let (from, to) = if cur == 0 { (a, b) } else { (b, a) };
+            kernels::dense_sandwich(&phi_t, from, &zero, to);
+            cur = 1 - cur;
         }
         self.rows.reverse();
         if self.rows.iter().any(|r| !r.x.is_finite() || r.var.iter().any(|v| !v.is_finite())) {
