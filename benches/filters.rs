@@ -3,7 +3,8 @@
 //! - predict and update vs state dimension (6 … 240) × covariance back-end;
 //! - one 15-state INS epoch (mechanization + covariance propagation), dense vs structured;
 //! - one GNSS position+velocity update of the INS filter;
-//! - a whole run of the simulator's 10-minute drive at 200 Hz (IMU epochs per second).
+//! - a whole run of the simulator's 10-minute drive at 200 Hz (IMU epochs per second);
+//! - text in and out: the IMU reader and the navigation writer, in MB/s.
 //!
 //! Run: `cargo bench --bench filters` (add a filter, e.g. `-- ins_epoch`, to run a part).
 //! The 240-state static matrices are large, so the benches run on a thread with a 256 MiB
@@ -265,6 +266,79 @@ fn whole_run(c: &mut Criterion) {
     g.finish();
 }
 
+/// Text in and out at the speed of the parser and formatter: 20,000 IMU lines (KF-GINS
+/// increments, 7 columns) read from memory, 20,000 navigation rows written to memory.
+fn text_io(c: &mut Criterion) {
+    use estimator::ins_gnss::io::formats::{
+        write_nav, BadLinePolicy, ImuFormat, ImuReader, NavRecord,
+    };
+    use estimator::ins_gnss::position::GeoPos;
+    use std::io::Write as _;
+    let n = 20_000;
+    let mut imu = Vec::new();
+    for k in 0..n {
+        let t = 456_300.0 + k as f64 * 0.005;
+        let a = k as f64 * 1e-3;
+        writeln!(
+            imu,
+            "{t:.3} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e}",
+            1e-5 * a.sin(),
+            -2e-5 * a.cos(),
+            3e-6 + 1e-7 * a,
+            0.01 * a.cos(),
+            -0.002 * a.sin(),
+            -0.049 + 1e-5 * a
+        )
+        .unwrap();
+    }
+    let mut g = c.benchmark_group("text_io");
+    g.throughput(Throughput::Bytes(imu.len() as u64));
+    g.bench_function("imu_reader_20k_lines", |b| {
+        b.iter(|| {
+            let mut r = ImuReader::new(
+                std::io::Cursor::new(&imu[..]),
+                std::path::Path::new("bench-imu.txt"),
+                ImuFormat::Increments,
+                200.0,
+                1.5,
+                BadLinePolicy::Error,
+            );
+            let mut sum = 0.0;
+            while let Some(s) = r.next_sample().unwrap() {
+                sum += s.dvel.z;
+            }
+            black_box(sum)
+        })
+    });
+    let rows: Vec<NavRecord> = (0..n)
+        .map(|k| {
+            let a = k as f64 * 1e-3;
+            NavRecord {
+                week: 2017.0,
+                t: 456_300.0 + k as f64 * 0.005,
+                pos: GeoPos { lat: 0.5 + 1e-7 * a, lon: 2.0 - 1e-7 * a, h: 30.0 + a.sin() },
+                vel: Vector3::new(10.0 * a.cos(), 10.0 * a.sin(), 0.01),
+                att: Vector3::new(0.01 * a.sin(), -0.02, a % 3.0),
+            }
+        })
+        .collect();
+    let mut out = Vec::with_capacity(4 << 20);
+    for r in &rows {
+        write_nav(&mut out, r).unwrap();
+    }
+    g.throughput(Throughput::Bytes(out.len() as u64));
+    g.bench_function("nav_writer_20k_rows", |b| {
+        b.iter(|| {
+            out.clear();
+            for r in &rows {
+                write_nav(&mut out, r).unwrap();
+            }
+            black_box(out.len())
+        })
+    });
+    g.finish();
+}
+
 fn main() {
     std::thread::Builder::new()
         .stack_size(256 << 20)
@@ -274,6 +348,7 @@ fn main() {
                 .measurement_time(Duration::from_secs(2))
                 .configure_from_args();
             ins(&mut c);
+            text_io(&mut c);
             whole_run(&mut c);
             dims(&mut c);
             c.final_summary();
