@@ -577,15 +577,16 @@ where
     fn segment<U>(&mut self, seg: &Replayed<X, U>) -> Result<(), SmootherError> {
         let (xs, ps, phis) = (&seg.xs, &seg.ps, &seg.phis);
         let count = seg.steps.len();
-        // the segment's end: Pˢ into the frame of the prior x̂ₙ, then
-        // λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Pˢ Pₙ⁻¹
+        // the segment's end: Pˢ into the frame of the prior x̂ₙ (Σ), then
+        // λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
         let d = self.x_s.ominus(&xs[count]);
         reframe(&xs[count], &d, &mut self.p_s, Reframe::Into)?;
         let chol = cholesky("smoother: predicted covariance Pₙ", ps[count].clone())?;
         let mut lambda = chol.solve(&d);
-        let m = chol.solve(&self.p_s); // Pₙ⁻¹ Pˢ
-                                       // Λ in one of two buffers, the next one written into the other (no swap: swapping
-                                       // two covariances copies three of them)
+        // Pₙ⁻¹ Σ
+        let m = chol.solve(&self.p_s);
+        // Λ in one of two buffers, the next one written into the other (no swap: swapping
+        // two covariances copies three of them)
         let mut bigs = [chol.inverse() - chol.solve(&m.transpose()), Cov::<X::Dim>::zeros()];
         symmetrize(&mut bigs[0]);
         let mut cur = 0;

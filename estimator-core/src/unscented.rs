@@ -161,17 +161,33 @@ where
     Err(FilterError::NotConverged { what: "sigma-point mean on the manifold" })
 }
 
-/// The points `x ⊕ 0, x ⊕ Lᵢ, x ⊕ −Lᵢ` for `L Lᵀ = spread · P`, and their tangent offsets.
-fn draw<X: Manifold>(
-    x: &X,
-    P: &Cov<X::Dim>,
-    w: &SigmaWeights,
-) -> Result<(Vec<X>, Vec<Tangent<X>>), FilterError>
+/// The sigma points drawn from `(x, P)`.
+struct Drawn<X: Manifold>
+where
+    DefaultAllocator: manifolds::DimAlloc<X::Dim>,
+{
+    /// `x ⊕ 0, x ⊕ Lᵢ, x ⊕ −Lᵢ` for `L Lᵀ = (n + λ) P`.
+    points: Vec<X>,
+    /// Their tangent offsets `0, Lᵢ, −Lᵢ`.
+    offsets: Vec<Tangent<X>>,
+    /// The Cholesky factor of `P` itself, for the regressions `(·) P⁻¹`.
+    chol: nalgebra::Cholesky<f64, X::Dim>,
+}
+
+/// Draw the points around `x` from one Cholesky factor of `P` (the columns of
+/// `√(n + λ) L`, `L Lᵀ = P`).
+fn draw<X: Manifold>(x: &X, P: Cov<X::Dim>, w: &SigmaWeights) -> Result<Drawn<X>, FilterError>
 where
     DefaultAllocator: manifolds::DimAlloc<X::Dim>,
 {
     let n = X::Dim::DIM;
-    let l = cholesky("sigma points: covariance (n + λ) P", P * w.spread)?.l();
+    if !(w.spread.is_finite() && w.spread > 0.0) {
+        return Err(FilterError::NotPositiveDefinite {
+            what: "sigma-point spread n + λ (from α and κ)",
+        });
+    }
+    let chol = cholesky("covariance P", P)?;
+    let l = chol.l() * w.spread.sqrt();
     let mut offsets = Vec::with_capacity(2 * n + 1);
     offsets.push(Tangent::<X>::zeros());
     for sign in [1.0, -1.0] {
@@ -180,7 +196,7 @@ where
         }
     }
     let points = offsets.iter().map(|d| x.oplus(d)).collect();
-    Ok((points, offsets))
+    Ok(Drawn { points, offsets, chol })
 }
 
 /// A measurement linearised by its sigma points: a fixed innovation and `H̃`, for the
@@ -253,9 +269,8 @@ where
         }
         let n = X::Dim::DIM;
         let w = sp.weights(n);
-        let P = self.covariance().into_owned();
-        let (points, offsets) = draw(self.state(), &P, &w)?;
-        let moved: Vec<X> = points.iter().map(|p| model.propagate(p, u, dt)).collect();
+        let drawn = draw(self.state(), self.covariance().into_owned(), &w)?;
+        let moved: Vec<X> = drawn.points.iter().map(|p| model.propagate(p, u, dt)).collect();
         if moved.iter().any(|p| !p.is_finite()) {
             return Err(FilterError::NonFinite { what: "propagated sigma point" });
         }
@@ -263,7 +278,7 @@ where
         let (_, jac) = adjusted_step(model, self.process_noise_adjustment(), self.state(), u, dt)?;
         let mut spread = Cov::<X::Dim>::zeros();
         let mut cross = Cov::<X::Dim>::zeros(); // Σ Wᶜ (yᵢ ⊖ ȳ)(χᵢ ⊖ x̂)ᵀ
-        for (i, (y, d)) in moved.iter().zip(&offsets).enumerate() {
+        for (i, (y, d)) in moved.iter().zip(&drawn.offsets).enumerate() {
             let e = y.ominus(&mean);
             spread.ger(w.cov(i), &e, &e, 1.0);
             cross.ger(w.cov(i), &e, d, 1.0);
@@ -272,7 +287,7 @@ where
         symmetrize(&mut P_next);
         // the statistically linearised transition Φ̃ = P_yx P⁻¹, for a strategy that
         // tracks the process noise since the last update
-        let phi = cholesky("covariance P", P.clone())?.solve(&cross.transpose()).transpose();
+        let phi = drawn.chol.solve(&cross.transpose()).transpose();
         self.finish_prediction(mean, P_next, dt, &phi, &jac.Q)
     }
 
@@ -313,9 +328,8 @@ where
         }
         check_covariance("measurement noise R", R)?;
         let w = sp.weights(X::Dim::DIM);
-        let P = self.covariance().into_owned();
-        let (points, offsets) = draw(self.state(), &P, &w)?;
-        let zs: Vec<MM::Measurement> = points.iter().map(|p| model.predict(p)).collect();
+        let drawn = draw(self.state(), self.covariance().into_owned(), &w)?;
+        let zs: Vec<MM::Measurement> = drawn.points.iter().map(|p| model.predict(p)).collect();
         if zs.iter().any(|z| !z.is_finite()) {
             return Err(FilterError::NonFinite { what: "predicted measurement of a sigma point" });
         }
@@ -323,15 +337,18 @@ where
         type M<MM> = StateDim<<MM as MeasurementModel>::Measurement>;
         let mut Pzz = Cov::<M<MM>>::zeros();
         let mut Pxz = OMatrix::<f64, X::Dim, M<MM>>::zeros();
-        for (i, (zi, d)) in zs.iter().zip(&offsets).enumerate() {
+        for (i, (zi, d)) in zs.iter().zip(&drawn.offsets).enumerate() {
             let e = model.residual(zi, &z_hat);
             Pzz.ger(w.cov(i), &e, &e, 1.0);
             Pxz.ger(w.cov(i), d, &e, 1.0);
         }
         // H̃ = P_xzᵀ P⁻¹, Ω = P_zz − H̃ P H̃ᵀ = P_zz − H̃ P_xz
-        let H = cholesky("covariance P", P)?.solve(&Pxz).transpose();
+        let H = drawn.chol.solve(&Pxz).transpose();
         let mut R_total = Pzz - &H * &Pxz + R;
         symmetrize(&mut R_total);
+        // (checked here, under its own name: a centre weight below zero can take the
+        // points' linearisation error Ω below −R)
+        check_covariance("R + Ω (the noise and the sigma points' linearisation error)", &R_total)?;
         let innovation = model.residual(z, &z_hat);
         check_finite("innovation z ⊖ ẑ", &innovation)?;
         let regressed = Regressed { model, innovation, H };

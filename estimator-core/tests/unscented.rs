@@ -6,35 +6,12 @@
 
 mod common;
 
-use common::{close, gaussian, rng, spd};
+use common::{close, gaussian, rng, spd, PlainKf};
 use estimator_core::linear::{LinearMeasurement, LinearProcess};
 use estimator_core::{
     Adaptation, ErrorStateFilter, FilterAlloc, FixedNoise, NoiseStrategy, SigmaPoints, Verdict,
 };
 use nalgebra::{DefaultAllocator, DimName, Matrix2, Matrix2x4, Matrix4, Vector2, Vector4};
-
-/// The textbook Kalman filter (explicit inverse: a path independent of the crate's).
-struct PlainKf {
-    x: Vector4<f64>,
-    p: Matrix4<f64>,
-}
-
-impl PlainKf {
-    fn predict(&mut self, f: &Matrix4<f64>, q: &Matrix4<f64>) {
-        self.x = f * self.x;
-        self.p = f * self.p * f.transpose() + q;
-    }
-    fn update(&mut self, h: &Matrix2x4<f64>, z: &Vector2<f64>, r: &Matrix2<f64>) -> f64 {
-        let y = z - h * self.x;
-        let s = h * self.p * h.transpose() + r;
-        let s_inv = s.try_inverse().unwrap();
-        let k = self.p * h.transpose() * s_inv;
-        self.x += k * y;
-        let ikh = Matrix4::identity() - k * h;
-        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
-        (y.transpose() * s_inv * y)[0]
-    }
-}
 
 fn problem() -> (Matrix4<f64>, Matrix4<f64>, Matrix2x4<f64>) {
     let dt = 0.1;
