@@ -79,7 +79,7 @@ pub fn print_summary(s: &RunSummary) {
 pub fn summary_lines(s: &RunSummary) -> Vec<String> {
     let mut lines = vec![format!(
         "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {}{} rejected; \
-         skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s; output {}",
+         skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s{}",
         s.strategy,
         s.imu_epochs,
         s.span.0,
@@ -94,7 +94,12 @@ pub fn summary_lines(s: &RunSummary) -> Vec<String> {
         s.gnss_skipped.total(),
         s.wall_time,
         s.imu_epochs as f64 / s.wall_time.max(1e-9),
-        s.out_dir.display()
+        // (a run in memory has no output directory)
+        if s.out_dir.as_os_str().is_empty() {
+            String::new()
+        } else {
+            format!("; output {}", s.out_dir.display())
+        }
     )];
     lines.extend(s.start.iter().cloned());
     if !s.noise.is_empty() {
@@ -112,11 +117,15 @@ pub fn summary_lines(s: &RunSummary) -> Vec<String> {
         lines.extend(st.adaptation());
     }
     if let Some((rows, secs)) = s.smoothed {
-        lines.push(format!(
-            "smoothed: {rows} epochs in {secs:.2} s (backward pass) -> {}, {}",
-            s.out_dir.join("nav_smoothed.txt").display(),
-            s.out_dir.join("std_smoothed.txt").display()
-        ));
+        let mut line = format!("smoothed: {rows} epochs in {secs:.2} s (backward pass)");
+        if !s.out_dir.as_os_str().is_empty() {
+            line += &format!(
+                " -> {}, {}",
+                s.out_dir.join("nav_smoothed.txt").display(),
+                s.out_dir.join("std_smoothed.txt").display()
+            );
+        }
+        lines.push(line);
     }
     lines
 }
@@ -159,11 +168,10 @@ pub struct RunOptions<'a> {
     pub accept_inconsistent: bool,
 }
 
-/// `ins-gnss run`.
-pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
-    let (strategy_name, out, truth, skip, progress, plots) =
-        (o.strategy, o.out, o.truth, o.skip, o.progress, o.plots);
-    let mut cfg = Config::load(config)?;
+/// Apply the options of `ins-gnss run` that change the configuration (bias model, gate,
+/// vehicle aiding, states, smoothing) to `cfg`; returns the strategy's name (the option's,
+/// or the configuration's). The Python bindings take the same options through it.
+pub fn configure(cfg: &mut Config, o: &RunOptions<'_>) -> Result<String, CliError> {
     if let Some(b) = o.bias_model {
         cfg.imu_noise.bias_model = toml::Value::String(b.to_string()).try_into().map_err(|_| {
             format!("unknown bias model `{b}`: random-walk, gauss-markov, gauss-markov-held")
@@ -190,7 +198,14 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     if o.smooth {
         cfg.filter.smooth = true;
     }
-    let name = strategy_name.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone());
+    Ok(o.strategy.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone()))
+}
+
+/// `ins-gnss run`.
+pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
+    let (out, truth, skip, progress, plots) = (o.out, o.truth, o.skip, o.progress, o.plots);
+    let mut cfg = Config::load(config)?;
+    let name = configure(&mut cfg, o)?;
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
     // refused before the run, not after it
     if plots && truth.is_none() && cfg.data.truth.is_none() {

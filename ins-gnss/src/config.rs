@@ -887,6 +887,17 @@ impl Default for ZuptSection {
     }
 }
 
+/// The languages of a configuration's text ([`Config::parse`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConfigKind {
+    /// Our TOML (`.toml`).
+    Toml,
+    /// A KF-GINS YAML (`.yaml`, `.yml`).
+    KfGinsYaml,
+    /// Our TOML's tables as JSON (what a Python dict becomes).
+    Json,
+}
+
 /// The accelerometer bias 1σ when `[init]` does not give one, mGal: a consumer MEMS
 /// turn-on bias (20 mg; KF-GINS's drive-0708 configuration uses the same).
 pub const DEFAULT_ACCEL_BIAS_STD: [f64; 3] = [20_000.0; 3];
@@ -904,11 +915,23 @@ impl Config {
         // a UTF-8 byte-order mark (Windows editors write one) is not part of the text
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        let mut cfg = match ext.as_str() {
-            "yaml" | "yml" => kf_gins::from_yaml(text).map_err(err)?,
-            _ => toml::from_str::<Config>(text).map_err(|e| err(e.to_string()))?,
+        let kind = match ext.as_str() {
+            "yaml" | "yml" => ConfigKind::KfGinsYaml,
+            _ => ConfigKind::Toml,
         };
         let base = path.parent().unwrap_or_else(|| Path::new("."));
+        Self::parse(text, kind, base).map_err(err)
+    }
+
+    /// A configuration from text in `kind`, validated, its relative paths resolved against
+    /// `base` ([`load`](Self::load) on a file's text; the Python bindings on a dict as
+    /// JSON).
+    pub fn parse(text: &str, kind: ConfigKind, base: &Path) -> Result<Self, String> {
+        let mut cfg = match kind {
+            ConfigKind::KfGinsYaml => kf_gins::from_yaml(text)?,
+            ConfigKind::Toml => toml::from_str::<Config>(text).map_err(|e| e.to_string())?,
+            ConfigKind::Json => serde_json::from_str::<Config>(text).map_err(|e| e.to_string())?,
+        };
         for p in [&mut cfg.data.imu, &mut cfg.data.gnss, &mut cfg.data.output] {
             if p.is_relative() {
                 *p = base.join(&*p);
@@ -919,7 +942,7 @@ impl Config {
                 *t = base.join(&*t);
             }
         }
-        cfg.validate().map_err(err)?;
+        cfg.validate()?;
         Ok(cfg)
     }
 

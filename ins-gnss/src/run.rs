@@ -489,7 +489,55 @@ impl RunSummary {
 /// Called every `every` IMU epochs with the current time, for progress bars.
 pub type Progress<'a> = &'a mut dyn FnMut(f64);
 
-/// The outputs written by the filter thread (`nav.txt` goes to the writer thread).
+/// Where a run's results go: files in a directory ([`Outputs`], the program) or memory
+/// ([`Results`], the bindings). The filter thread writes the σ, IMU-error and update rows;
+/// the navigation rows go to [`Sink::Nav`] on the writer thread.
+trait Sink {
+    /// What takes the navigation rows, on the writer thread.
+    type Nav: NavSink;
+    /// The smoother's storage.
+    type Store: std::io::Read + std::io::Write + std::io::Seek + Send;
+    /// The smoother, recording into this sink's storage.
+    fn recorder<S: RunState>(&mut self) -> Result<Recorder<S, Self::Store>, RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>;
+    /// The σ and IMU-error rows (and `nav.pos`) at `t`; `gnss_fix`: a GNSS update was used
+    /// at `t`.
+    fn epoch<S: RunState>(
+        &mut self,
+        t: f64,
+        nav: &Navigator<RunStrategy, S>,
+        gnss_fix: bool,
+    ) -> Result<(), RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>;
+    /// One update's row.
+    fn update(&mut self, u: &UpdateSummary) -> Result<(), RunError>;
+    /// The navigation rows' taker back from the writer thread, at the end of the pass.
+    fn nav_done(&mut self, nav: Self::Nav);
+    /// End of the forward pass.
+    fn flush(&mut self) -> Result<(), RunError>;
+    /// The backward pass; returns the number of smoothed rows.
+    fn smoothed<S: RunState>(
+        &mut self,
+        recorder: Recorder<S, Self::Store>,
+        nav: &Navigator<RunStrategy, S>,
+    ) -> Result<usize, RunError>
+    where
+        estimator_core::Cov<S::Dim>: Send,
+        DefaultAllocator: DimAlloc<S::Dim>;
+}
+
+/// Takes the navigation rows (time, state) on the writer thread.
+trait NavSink: Send {
+    /// A batch of rows, in time order.
+    fn rows(&mut self, batch: &[(f64, InsState)]) -> Result<(), RunError>;
+    /// After the last batch.
+    fn finish(&mut self) -> Result<(), RunError>;
+}
+
+/// The output files written by the filter thread (`nav.txt`, [`NavFile`], goes to the
+/// writer thread).
 struct Outputs {
     dir: PathBuf,
     std: std::io::BufWriter<std::fs::File>,
@@ -500,9 +548,34 @@ struct Outputs {
     pos_last_t: Option<f64>,
 }
 
+/// `nav.txt`, written on the writer thread.
+struct NavFile {
+    w: std::io::BufWriter<std::fs::File>,
+    path: PathBuf,
+}
+
+impl NavSink for NavFile {
+    fn rows(&mut self, batch: &[(f64, InsState)]) -> Result<(), RunError> {
+        for (t, x) in batch {
+            write_nav(&mut self.w, &nav_record(*t, x)).map_err(|e| self.err(e))?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), RunError> {
+        self.w.flush().map_err(|e| self.err(e))
+    }
+}
+
+impl NavFile {
+    fn err(&self, e: std::io::Error) -> RunError {
+        RunError::Output { path: self.path.clone(), message: e.to_string() }
+    }
+}
+
 impl Outputs {
     /// Create the output directory and files; returns the outputs and `nav.txt`.
-    fn create(dir: &Path) -> Result<(Self, std::io::BufWriter<std::fs::File>), RunError> {
+    fn create(dir: &Path) -> Result<(Self, NavFile), RunError> {
         let out =
             |path: PathBuf, e: std::io::Error| RunError::Output { path, message: e.to_string() };
         std::fs::create_dir_all(dir).map_err(|e| out(dir.to_path_buf(), e))?;
@@ -512,7 +585,7 @@ impl Outputs {
             let p = dir.join(name);
             create_partial(&p).map_err(|e| out(partial_path(&p), e))
         };
-        let nav = open("nav.txt")?;
+        let nav = NavFile { w: open("nav.txt")?, path: partial_path(&dir.join("nav.txt")) };
         let mut o = Outputs {
             dir: dir.to_path_buf(),
             std: open("std.txt")?,
@@ -566,6 +639,264 @@ impl Outputs {
         }
         Ok(())
     }
+
+    /// `std.txt`, `imu_errors.txt` and `nav.pos` at `t`.
+    fn write_epoch<S: RunState>(
+        &mut self,
+        t: f64,
+        nav: &Navigator<RunStrategy, S>,
+        gnss_fix: bool,
+    ) -> std::io::Result<()>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        let x = nav.nav_state();
+        let (row, n) = sigma_row(t, nav.sigma().as_slice());
+        let mut line = Vec::with_capacity(200);
+        push_row(&mut line, &row[..n]);
+        self.std.write_all(&line)?;
+        // nav.pos: the position and velocity with their NED covariance blocks (error
+        // states 6–8 and 3–5); Q 1 after a GNSS update, 5 (no GNSS) otherwise
+        if self.pos_last_t == Some(t) {
+            return Ok(());
+        }
+        self.pos_last_t = Some(t);
+        let p = nav.covariance();
+        let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
+        let (pos_cov, vel_cov) = (block(6), block(3));
+        let q = if gnss_fix { 1 } else { 5 };
+        ins_gnss_core::io::rtklib::write_epoch(
+            &mut self.pos,
+            0.0,
+            t,
+            &x.pos,
+            &pos_cov,
+            Some((&x.vel, &vel_cov)),
+            q,
+        )?;
+        let (row, n) = imu_error_row(t, x, nav.state().scale_factors());
+        for (i, (v, decimals)) in row[..n].iter().enumerate() {
+            let space = if i == 0 { "" } else { " " };
+            write!(self.imu_err, "{space}{v:.decimals$}")?;
+        }
+        writeln!(self.imu_err)
+    }
+}
+
+impl Sink for Outputs {
+    type Nav = NavFile;
+    type Store = std::fs::File;
+
+    fn recorder<S: RunState>(&mut self) -> Result<Recorder<S, Self::Store>, RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        let path = self.dir.join(SMOOTHER_STATES);
+        Recorder::<S, _>::on_file(&path, SMOOTHER_SEGMENT)
+            .map_err(|e| RunError::Output { path, message: e.to_string() })
+    }
+
+    fn epoch<S: RunState>(
+        &mut self,
+        t: f64,
+        nav: &Navigator<RunStrategy, S>,
+        gnss_fix: bool,
+    ) -> Result<(), RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        self.write_epoch(t, nav, gnss_fix).map_err(|e| self.err("std.txt", e))
+    }
+
+    fn update(&mut self, u: &UpdateSummary) -> Result<(), RunError> {
+        writeln!(
+            self.updates,
+            "{:.6},{},{},{:.6},{:.6},{},\"{}\",{:.6},{:.6},{:.6},{}",
+            u.time,
+            u.stream.name(),
+            u.dim,
+            u.nis,
+            u.nis_adapted,
+            u.verdict.as_str(),
+            u.reason,
+            u.factors.dom,
+            u.factors.lambda_p,
+            u.factors.lambda_r,
+            u8::from(u.prior_scaling_fallback)
+        )
+        .map_err(|e| self.err("updates.csv", e))
+    }
+
+    fn nav_done(&mut self, _nav: NavFile) {}
+
+    fn flush(&mut self) -> Result<(), RunError> {
+        for (w, name) in [
+            (&mut self.pos, "nav.pos"),
+            (&mut self.std, "std.txt"),
+            (&mut self.imu_err, "imu_errors.txt"),
+            (&mut self.updates, "updates.csv"),
+        ] {
+            w.flush().map_err(|e| RunError::Output {
+                path: partial_path(&self.dir.join(name)),
+                message: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+
+    fn smoothed<S: RunState>(
+        &mut self,
+        recorder: Recorder<S, Self::Store>,
+        nav: &Navigator<RunStrategy, S>,
+    ) -> Result<usize, RunError>
+    where
+        estimator_core::Cov<S::Dim>: Send,
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        write_smoothed(recorder, nav, &self.dir)
+    }
+}
+
+/// A run's results in memory ([`run_in_memory`]): the rows of the output files, as
+/// numbers in the files' units, without `nav.pos`.
+#[derive(Clone, Debug, Default)]
+pub struct Results {
+    /// `nav.txt` without the week: `t`, latitude and longitude (deg), height (m), velocity
+    /// N E D (m/s), roll, pitch, yaw (deg), at every IMU epoch.
+    pub nav: Vec<[f64; 10]>,
+    /// `std.txt`, row-major, [`std_width`](Self::std_width) numbers per row.
+    pub std: Vec<f64>,
+    /// Numbers per row of [`std`](Self::std) and [`smoothed_std`](Self::smoothed_std):
+    /// 16 with 15 states, 22 with 21.
+    pub std_width: usize,
+    /// `imu_errors.txt`, row-major, [`imu_errors_width`](Self::imu_errors_width) per row.
+    pub imu_errors: Vec<f64>,
+    /// Numbers per row of [`imu_errors`](Self::imu_errors): 7, or 13 with 21 states.
+    pub imu_errors_width: usize,
+    /// Every update (`updates.csv`).
+    pub updates: Vec<UpdateSummary>,
+    /// `nav_smoothed.txt` in the layout of [`nav`](Self::nav), when the run smoothed.
+    pub smoothed_nav: Vec<[f64; 10]>,
+    /// `std_smoothed.txt` in the layout of [`std`](Self::std), when the run smoothed.
+    pub smoothed_std: Vec<f64>,
+}
+
+/// The navigation rows in memory, on the writer thread.
+#[derive(Default)]
+struct NavRows(Vec<[f64; 10]>);
+
+impl NavSink for NavRows {
+    fn rows(&mut self, batch: &[(f64, InsState)]) -> Result<(), RunError> {
+        self.0.extend(batch.iter().map(|(t, x)| nav_values(*t, x)));
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), RunError> {
+        Ok(())
+    }
+}
+
+/// `nav.txt`'s numbers without the week.
+fn nav_values(t: f64, x: &InsState) -> [f64; 10] {
+    let v = nav_record(t, x).values();
+    core::array::from_fn(|i| v[i + 1])
+}
+
+impl Sink for Results {
+    type Nav = NavRows;
+    type Store = std::io::Cursor<Vec<u8>>;
+
+    fn recorder<S: RunState>(&mut self) -> Result<Recorder<S, Self::Store>, RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        Ok(Recorder::<S, _>::new(Default::default(), SMOOTHER_SEGMENT))
+    }
+
+    fn epoch<S: RunState>(
+        &mut self,
+        t: f64,
+        nav: &Navigator<RunStrategy, S>,
+        _gnss_fix: bool,
+    ) -> Result<(), RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        let (row, n) = sigma_row(t, nav.sigma().as_slice());
+        self.std.extend(row[..n].iter().map(|r| r.0));
+        self.std_width = n;
+        // (like `imu_errors.txt`: not twice at the same time, which the run's end can
+        // repeat)
+        let w = self.imu_errors_width;
+        if w > 0 && self.imu_errors.len() >= w && self.imu_errors[self.imu_errors.len() - w] == t {
+            return Ok(());
+        }
+        let (row, n) = imu_error_row(t, nav.nav_state(), nav.state().scale_factors());
+        self.imu_errors.extend(row[..n].iter().map(|r| r.0));
+        self.imu_errors_width = n;
+        Ok(())
+    }
+
+    fn update(&mut self, u: &UpdateSummary) -> Result<(), RunError> {
+        self.updates.push(*u);
+        Ok(())
+    }
+
+    fn nav_done(&mut self, nav: NavRows) {
+        self.nav = nav.0;
+    }
+
+    fn flush(&mut self) -> Result<(), RunError> {
+        Ok(())
+    }
+
+    fn smoothed<S: RunState>(
+        &mut self,
+        recorder: Recorder<S, Self::Store>,
+        nav: &Navigator<RunStrategy, S>,
+    ) -> Result<usize, RunError>
+    where
+        estimator_core::Cov<S::Dim>: Send,
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        let n = S::Dim::DIM.min(21);
+        // segments arrive last to first, each in time order
+        let mut segments: Vec<(Vec<[f64; 10]>, Vec<f64>)> = Vec::new();
+        recorder
+            .smooth_threaded(nav.filter(), nav.model(), |rows: &[SmoothedRow<S>]| {
+                let mut navs = Vec::with_capacity(rows.len());
+                let mut stds = Vec::with_capacity(rows.len() * (n + 1));
+                for r in rows {
+                    let (t, x, sigma) = smoothed_row(r);
+                    navs.push(nav_values(t, &x));
+                    stds.extend(sigma_row(t, &sigma[..n]).0[..n + 1].iter().map(|v| v.0));
+                }
+                segments.push((navs, stds));
+                Ok(())
+            })
+            .map_err(|e| RunError::Output {
+                path: PathBuf::from("(the smoother's memory)"),
+                message: e.to_string(),
+            })?;
+        for (navs, stds) in segments.into_iter().rev() {
+            self.smoothed_nav.extend(navs);
+            self.smoothed_std.extend(stds);
+        }
+        Ok(self.smoothed_nav.len())
+    }
+}
+
+/// A smoothed row: time, navigation state, and the σ of the error states (as many as the
+/// state has).
+fn smoothed_row<S: RunState>(r: &SmoothedRow<S>) -> (f64, InsState, [f64; 21])
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    let mut sigma = [0.0; 21];
+    for (s, v) in sigma.iter_mut().zip(r.var.iter()) {
+        *s = v.max(0.0).sqrt();
+    }
+    (r.time, r.x.nav().clone(), sigma)
 }
 
 /// The navigation record of a state.
@@ -574,58 +905,10 @@ pub fn nav_record(t: f64, x: &ins_gnss_core::state::InsState) -> NavRecord {
     NavRecord { week: 0.0, t, pos: x.pos, vel: x.vel, att: Vector3::new(r, p, y) }
 }
 
-fn write_std<A: NoiseStrategy, S: RunState>(
-    o: &mut Outputs,
-    t: f64,
-    nav: &Navigator<A, S>,
-    gnss_fix: bool,
-) -> std::io::Result<()>
-where
-    DefaultAllocator: DimAlloc<S::Dim>,
-{
-    let x = nav.nav_state();
-    write_sigma_row(&mut o.std, t, nav.sigma().as_slice())?;
-    // nav.pos: the position and velocity with their NED covariance blocks (error states
-    // 6–8 and 3–5); Q 1 after a GNSS update, 5 (no GNSS) otherwise
-    if o.pos_last_t == Some(t) {
-        return Ok(());
-    }
-    o.pos_last_t = Some(t);
-    let p = nav.covariance();
-    let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
-    let (pos_cov, vel_cov) = (block(6), block(3));
-    let q = if gnss_fix { 1 } else { 5 };
-    ins_gnss_core::io::rtklib::write_epoch(
-        &mut o.pos,
-        0.0,
-        t,
-        &x.pos,
-        &pos_cov,
-        Some((&x.vel, &vel_cov)),
-        q,
-    )?;
-    write!(
-        o.imu_err,
-        "{t:.6} {:.6} {:.6} {:.6} {:.6} {:.6} {:.6}",
-        x.bg.x / DEG_PER_H,
-        x.bg.y / DEG_PER_H,
-        x.bg.z / DEG_PER_H,
-        x.ba.x / MGAL,
-        x.ba.y / MGAL,
-        x.ba.z / MGAL
-    )?;
-    if let Some((sg, sa)) = nav.state().scale_factors() {
-        for v in sg.iter().chain(sa.iter()) {
-            write!(o.imu_err, " {:.3}", v * 1e6)?;
-        }
-    }
-    writeln!(o.imu_err)
-}
-
-/// One row of `std.txt`: `t`, then the 1σ of the error states `s` in the file's units
-/// (position, velocity, attitude in degrees, biases in deg/h and mGal, scale factors in
-/// ppm).
-fn write_sigma_row(w: &mut impl Write, t: f64, s: &[f64]) -> std::io::Result<()> {
+/// One row of `std.txt` (its values and decimals) and its length: `t`, then the 1σ of
+/// the error states `s` in the file's units (position, velocity, attitude in degrees,
+/// biases in deg/h and mGal, scale factors in ppm).
+fn sigma_row(t: f64, s: &[f64]) -> ([(f64, usize); 22], usize) {
     let d = 180.0 / core::f64::consts::PI;
     let mut row: [(f64, usize); 22] = [(0.0, 0); 22];
     row[0] = (t, 6);
@@ -643,52 +926,74 @@ fn write_sigma_row(w: &mut impl Write, t: f64, s: &[f64]) -> std::io::Result<()>
     for i in 15..n {
         row[1 + i] = (s[i] * 1e6, 3);
     }
-    let mut line = Vec::with_capacity(200);
-    push_row(&mut line, &row[..1 + n]);
-    w.write_all(&line)
+    (row, 1 + n)
 }
 
-fn write_update(o: &mut Outputs, u: &UpdateSummary) -> std::io::Result<()> {
-    writeln!(
-        o.updates,
-        "{:.6},{},{},{:.6},{:.6},{},\"{}\",{:.6},{:.6},{:.6},{}",
-        u.time,
-        u.stream.name(),
-        u.dim,
-        u.nis,
-        u.nis_adapted,
-        u.verdict.as_str(),
-        u.reason,
-        u.factors.dom,
-        u.factors.lambda_p,
-        u.factors.lambda_r,
-        u8::from(u.prior_scaling_fallback)
-    )
+/// One row of `imu_errors.txt` (its values and decimals) and its length: `t`, gyro bias
+/// (deg/h), accelerometer bias (mGal), and with 21 states the scale factors (ppm).
+fn imu_error_row(
+    t: f64,
+    x: &InsState,
+    scale: Option<(Vector3<f64>, Vector3<f64>)>,
+) -> ([(f64, usize); 13], usize) {
+    let mut row = [(0.0, 3); 13];
+    row[0] = (t, 6);
+    for i in 0..3 {
+        row[1 + i] = (x.bg[i] / DEG_PER_H, 6);
+        row[4 + i] = (x.ba[i] / MGAL, 6);
+    }
+    let Some((sg, sa)) = scale else { return (row, 7) };
+    for (i, v) in sg.iter().chain(sa.iter()).enumerate() {
+        row[7 + i] = (v * 1e6, 3);
+    }
+    (row, 13)
 }
 
 type FileReader = ins_gnss_core::io::formats::Input;
 
-/// The configured IMU and GNSS readers (format, rate, gap limit, skip policy).
+/// The configured IMU and GNSS readers (format, rate, gap limit, skip policy) on the
+/// files or arrays of `inputs`.
 fn open_inputs(
     config: &Config,
+    inputs: &Inputs,
 ) -> Result<(ImuReader<FileReader>, GnssReader<FileReader>), RunError> {
-    config.require_inputs().map_err(RunError::Config)?;
-    let mut imu = ImuReader::open(
-        &config.data.imu,
-        config.imu_format(),
-        config.data.imu_rate,
-        config.data.max_gap,
-        config.bad_lines(),
-    )?
+    let (format, rate, gap, policy) =
+        (config.imu_format(), config.data.imu_rate, config.data.max_gap, config.bad_lines());
+    let mut imu = match inputs {
+        Inputs::Files => {
+            config.require_inputs().map_err(RunError::Config)?;
+            ImuReader::open(&config.data.imu, format, rate, gap, policy)?
+        }
+        Inputs::Arrays { imu, imu_width, .. } => {
+            let name = Path::new(IMU_ARRAY);
+            ImuReader::from_rows(imu.clone(), *imu_width, name, format, rate, gap, policy)
+        }
+    }
     .with_max_bridge(config.data.max_bridge);
     if let Some(c) = &config.data.imu_columns {
+        array_refuses(inputs, "data.imu_columns")?;
         let rates = config.imu_format() == ins_gnss_core::io::ImuFormat::Rates;
         imu = imu.with_columns(c.map(rates).map_err(|e| bad_map("data.imu_columns", e))?);
     }
     if let Some(m) = &config.imu.mounting {
         imu = imu.with_mounting(m.matrix().map_err(|e| bad_map("imu.mounting", e))?);
     }
-    Ok((imu, open_gnss(config)?))
+    Ok((imu, open_gnss(config, inputs)?))
+}
+
+/// A column map with arrays: it names a file's columns and units, which an array does
+/// not have (its columns are in the file format's order and units), so it is refused
+/// rather than ignored.
+fn array_refuses(inputs: &Inputs, key: &str) -> Result<(), RunError> {
+    match inputs {
+        Inputs::Files => Ok(()),
+        Inputs::Arrays { .. } => Err(bad_map(
+            key,
+            "a column map applies to a file's header; arrays are read in the file format's \
+             column order and units (convert the columns before the call, and remove the map)"
+                .into(),
+        )),
+    }
 }
 
 /// A column map or mounting the reader cannot take (they were checked when the
@@ -697,13 +1002,22 @@ fn bad_map(key: &str, message: String) -> RunError {
     RunError::Config(crate::config::ConfigError { path: PathBuf::from(key), message })
 }
 
-/// The configured GNSS file, open.
-fn open_gnss(config: &Config) -> Result<GnssReader<FileReader>, RunError> {
-    let mut gnss = GnssReader::open(&config.data.gnss, config.bad_lines())?
-        .with_format(config.data.gnss_format.into())
+/// The configured GNSS file, or array, open.
+fn open_gnss(config: &Config, inputs: &Inputs) -> Result<GnssReader<FileReader>, RunError> {
+    let policy = config.bad_lines();
+    let gnss = match inputs {
+        Inputs::Files => {
+            GnssReader::open(&config.data.gnss, policy)?.with_format(config.data.gnss_format.into())
+        }
+        Inputs::Arrays { gnss, gnss_width, .. } => {
+            GnssReader::from_rows(gnss.clone(), *gnss_width, Path::new(GNSS_ARRAY), policy)
+        }
+    };
+    let mut gnss = gnss
         .with_quality(config.gnss.quality.factors().map_err(|e| bad_map("gnss.quality", e))?)
         .with_default_sigma(config.gnss.position_std.map(|s| s.into()));
     if let Some(c) = &config.data.gnss_columns {
+        array_refuses(inputs, "data.gnss_columns")?;
         gnss = gnss.with_columns(c.map().map_err(|e| bad_map("data.gnss_columns", e))?);
     }
     Ok(gnss)
@@ -796,7 +1110,7 @@ const SMOOTHER_ROWS: &str = "smoother-rows.tmp";
 const SMOOTHER_SEGMENT: usize = 128;
 
 /// The recorder of a run that smooths: the segment smoother on a scratch file.
-type Recorder<S> = estimator_core::SegmentSmoother<S, ImuInput>;
+type Recorder<S, T = std::fs::File> = estimator_core::SegmentSmoother<S, ImuInput, T>;
 
 /// Rows per second of `nav_smoothed.pos` at most (its text at every IMU epoch cost 15 %
 /// of a smoothed navego run).
@@ -850,7 +1164,8 @@ where
             let mut bin = f64::NAN;
             for (t, x, sigma) in &rows {
                 write_nav(&mut nav_text, &nav_record(*t, x))?;
-                write_sigma_row(&mut std_text, *t, &sigma[..n])?;
+                let (row, len) = sigma_row(*t, &sigma[..n]);
+                push_row(&mut std_text, &row[..len]);
                 // nav_smoothed.pos at most at 10 Hz (the first row of each 0.1 s); the
                 // smoother keeps the variances only: the covariances are written as 0
                 let here = (t * POS_SMOOTHED_RATE + 1e-6).floor();
@@ -887,17 +1202,7 @@ where
     };
     let smoothed =
         recorder.smooth_threaded(nav.filter(), nav.model(), |rows: &[SmoothedRow<S>]| {
-            pending.push(
-                rows.iter()
-                    .map(|r| {
-                        let mut sigma = [0.0; 21];
-                        for (s, v) in sigma.iter_mut().zip(r.var.iter()) {
-                            *s = v.max(0.0).sqrt();
-                        }
-                        (r.time, r.x.nav().clone(), sigma)
-                    })
-                    .collect(),
-            );
+            pending.push(rows.iter().map(smoothed_row).collect());
             pending_rows += rows.len();
             if pending_rows >= 4096 {
                 pending_rows = 0;
@@ -962,7 +1267,58 @@ pub fn run(
     out_dir: &Path,
     progress: Option<Progress<'_>>,
 ) -> Result<RunSummary, RunError> {
-    let (imu, mut gnss) = open_inputs(config)?;
+    let result = run_with(config, strategy, &Inputs::Files, progress, || Outputs::create(out_dir));
+    match result {
+        Err((error, false)) => return Err(error),
+        // the smoother's scratch files go whatever happened
+        _ => {
+            for name in [SMOOTHER_STATES, SMOOTHER_ROWS] {
+                let _ = std::fs::remove_file(out_dir.join(name));
+            }
+        }
+    }
+    match result {
+        Ok((mut summary, _)) => {
+            Outputs::publish(out_dir, summary.smoothed.is_some())?;
+            summary.out_dir = out_dir.to_path_buf();
+            Ok(summary)
+        }
+        // refused by the checks, as before a start: nothing of this run is kept
+        Err((error @ RunError::Start(_), _)) => {
+            for name in Outputs::NAMES.iter().chain(&Outputs::SMOOTHED) {
+                let _ = std::fs::remove_file(partial_path(&out_dir.join(name)));
+            }
+            Err(error)
+        }
+        Err((error, _)) => {
+            Err(RunError::Incomplete { error: Box::new(error), dir: out_dir.to_path_buf() })
+        }
+    }
+}
+
+/// [`run`] without output files: the same run (the same start, checks, filter and
+/// smoother, the same numbers) on the configured files or on arrays, its results kept in
+/// memory. With `filter.smooth` the smoother's records are kept in memory too (they grow
+/// with the run, as its scratch file does), so that nothing at all is written.
+pub fn run_in_memory(
+    config: &Config,
+    strategy: AnyStrategy,
+    inputs: &Inputs,
+) -> Result<(RunSummary, Results), RunError> {
+    run_with(config, strategy, inputs, None, || Ok((Results::default(), NavRows::default())))
+        .map_err(|(error, _)| error)
+}
+
+/// [`run`]'s work on any inputs into any sink, created by `create` once the start is
+/// known (a refused start creates nothing). An error says whether the sink was created.
+fn run_with<O: Sink>(
+    config: &Config,
+    strategy: AnyStrategy,
+    inputs: &Inputs,
+    progress: Option<Progress<'_>>,
+    create: impl FnOnce() -> Result<(O, O::Nav), RunError>,
+) -> Result<(RunSummary, O), (RunError, bool)> {
+    let (imu, mut gnss) = open_inputs(config, inputs).map_err(|e| (e, false))?;
     // With the whole initial state and noise given, the data's first seconds are only
     // checked (`start::prepare` changes nothing but the noise floor, which needs only the
     // static start): the checks run beside the filter on a copy of them, and a refusal
@@ -977,50 +1333,77 @@ pub fn run(
     let beside = config.align.checks && look != Look::Span;
     let (mut feed, checks) = if beside {
         let (tee, prefix) = std::sync::mpsc::channel();
-        let checks = Checks::spawn(config, prefix)?;
+        let checks = Checks::spawn(config, inputs, prefix).map_err(|e| (e, false))?;
         (ImuFeed::spawn(imu, Some((tee, config.clone()))), Some(checks))
     } else {
         (ImuFeed::spawn(imu, None), None)
     };
-    let prefix = match read_prefix(config, &mut feed, &mut gnss, look)
+    let ready = read_prefix(config, &mut feed, &mut gnss, look)
         .and_then(|prefix| Ok((prepare_start(config, &prefix, look)?, prefix)))
-        .and_then(|(start, prefix)| Ok((start, prefix, Outputs::create(out_dir)?)))
-    {
+        .and_then(|(start, prefix)| Ok((start, prefix, create()?)));
+    let (start, prefix, (mut out, nav)) = match ready {
         Ok(ready) => ready,
         Err(e) => {
             let _ = feed.finish();
-            return Err(e);
+            return Err((e, false));
         }
     };
-    let (start, prefix, (out, nav_file)) = prefix;
     let config = &start.config;
-    let inputs = ((feed, gnss, prefix, checks), (out, nav_file));
+    let names = (inputs.imu_name(config), inputs.gnss_name(config));
+    let inputs = ((feed, gnss, prefix, checks), (&mut out, nav));
     let result = match config.filter.states {
-        21 => run_into::<InsState21>(config, strategy, out_dir, progress, inputs.0, inputs.1),
-        _ => run_into::<InsState>(config, strategy, out_dir, progress, inputs.0, inputs.1),
+        21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs.0, inputs.1),
+        _ => run_into::<InsState, O>(config, strategy, names, progress, inputs.0, inputs.1),
     };
-    let result = result.map(|mut s| {
-        s.start = start.report;
-        s
-    });
-    // the smoother's scratch files go whatever happened
-    for name in [SMOOTHER_STATES, SMOOTHER_ROWS] {
-        let _ = std::fs::remove_file(out_dir.join(name));
-    }
     match result {
-        Ok(summary) => {
-            Outputs::publish(out_dir, summary.smoothed.is_some())?;
-            Ok(summary)
+        Ok(mut summary) => {
+            summary.start = start.report;
+            Ok((summary, out))
         }
-        // refused by the checks, as before a start: nothing of this run is kept
-        Err(error @ RunError::Start(_)) => {
-            for name in Outputs::NAMES.iter().chain(&Outputs::SMOOTHED) {
-                let _ = std::fs::remove_file(partial_path(&out_dir.join(name)));
-            }
-            Err(error)
+        Err(e) => Err((e, true)),
+    }
+}
+
+/// Where a run's inputs come from.
+#[derive(Clone, Debug, Default)]
+pub enum Inputs {
+    /// The configuration's `data.imu` and `data.gnss` files.
+    #[default]
+    Files,
+    /// Arrays in memory, row-major, in the files' column order and units
+    /// ([`ImuReader::from_rows`], [`GnssReader::from_rows`]); errors name them
+    /// [`IMU_ARRAY`] and [`GNSS_ARRAY`], with the 1-based row as the line. The
+    /// configuration's IMU format (increments or rates), rate, mounting and GNSS settings
+    /// apply; its column maps, which name a file's header, are refused.
+    Arrays {
+        /// The IMU rows.
+        imu: std::sync::Arc<[f64]>,
+        /// Numbers per IMU row: 7, or 8 with the odometer speed.
+        imu_width: usize,
+        /// The GNSS rows.
+        gnss: std::sync::Arc<[f64]>,
+        /// Numbers per GNSS row: 7 (position), or 13 (with velocity).
+        gnss_width: usize,
+    },
+}
+
+/// The name of an IMU array in errors (the line is the 1-based row).
+pub const IMU_ARRAY: &str = "imu array row";
+/// The name of a GNSS array in errors (the line is the 1-based row).
+pub const GNSS_ARRAY: &str = "gnss array row";
+
+impl Inputs {
+    fn imu_name(&self, config: &Config) -> PathBuf {
+        match self {
+            Inputs::Files => config.data.imu.clone(),
+            Inputs::Arrays { .. } => PathBuf::from(IMU_ARRAY),
         }
-        Err(error) => {
-            Err(RunError::Incomplete { error: Box::new(error), dir: out_dir.to_path_buf() })
+    }
+
+    fn gnss_name(&self, config: &Config) -> PathBuf {
+        match self {
+            Inputs::Files => config.data.gnss.clone(),
+            Inputs::Arrays { .. } => PathBuf::from(GNSS_ARRAY),
         }
     }
 }
@@ -1098,8 +1481,12 @@ type Tee = std::sync::mpsc::Sender<ImuSample>;
 struct Checks(std::thread::JoinHandle<Result<(), RunError>>);
 
 impl Checks {
-    fn spawn(config: &Config, imu: std::sync::mpsc::Receiver<ImuSample>) -> Result<Self, RunError> {
-        let mut gnss = open_gnss(config)?;
+    fn spawn(
+        config: &Config,
+        inputs: &Inputs,
+        imu: std::sync::mpsc::Receiver<ImuSample>,
+    ) -> Result<Self, RunError> {
+        let mut gnss = open_gnss(config, inputs)?;
         let config = config.clone();
         Ok(Self(std::thread::spawn(move || {
             let samples: Vec<ImuSample> = imu.iter().collect();
@@ -1243,14 +1630,14 @@ fn prepare_start(
     }
 }
 
-/// [`run`] with its inputs open and its partial outputs created.
-fn run_into<S: RunState>(
+/// [`run`] with its inputs open and its outputs created.
+fn run_into<S: RunState, O: Sink>(
     config: &Config,
     strategy: AnyStrategy,
-    out_dir: &Path,
+    names: (PathBuf, PathBuf),
     mut progress: Option<Progress<'_>>,
     (feed, mut gnss, prefix, mut checks): (ImuFeed, GnssReader<FileReader>, Prefix, Option<Checks>),
-    (mut out, nav_file): (Outputs, std::io::BufWriter<std::fs::File>),
+    (out, nav_sink): (&mut O, O::Nav),
 ) -> Result<RunSummary, RunError>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
@@ -1269,17 +1656,8 @@ where
         .t;
     let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t)?;
     let start = summary.span.0;
-    summary.out_dir = out_dir.to_path_buf();
-    let mut recorder: Option<Recorder<S>> = if config.filter.smooth {
-        let path = out_dir.join(SMOOTHER_STATES);
-        Some(
-            Recorder::<S>::on_file(&path, SMOOTHER_SEGMENT)
-                .map_err(|e| RunError::Output { path, message: e.to_string() })?,
-        )
-    } else {
-        None
-    };
-    let (imu_path, gnss_path) = (config.data.imu.clone(), config.data.gnss.clone());
+    let mut recorder = if config.filter.smooth { Some(out.recorder::<S>()?) } else { None };
+    let (imu_path, gnss_path) = names;
     // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
     // sample whose prediction did.
     // `epochs` and `lines`: the batch's GNSS epochs and their lines, in step
@@ -1299,19 +1677,13 @@ where
         // States, not records: the writer thread does the Euler conversion.
         let (nav_tx, nav_rx) =
             std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::state::InsState)>>(4);
-        let nav_path = partial_path(&out_dir.join("nav.txt"));
-        let writer = scope.spawn(move || -> Result<(), RunError> {
-            let mut w = nav_file;
+        let writer = scope.spawn(move || -> Result<O::Nav, RunError> {
+            let mut w = nav_sink;
             for batch in nav_rx {
-                for (t, x) in &batch {
-                    write_nav(&mut w, &nav_record(*t, x)).map_err(|e| RunError::Output {
-                        path: nav_path.clone(),
-                        message: e.to_string(),
-                    })?;
-                }
+                w.rows(&batch)?;
             }
-            w.flush()
-                .map_err(|e| RunError::Output { path: nav_path.clone(), message: e.to_string() })
+            w.finish()?;
+            Ok(w)
         });
 
         let result = (|| -> Result<(), RunError> {
@@ -1381,7 +1753,7 @@ where
                     }
                     summary.tally(&updates);
                     for u in &updates {
-                        write_update(&mut out, u).map_err(|e| out.err("updates.csv", e))?;
+                        out.update(u)?;
                     }
                     // after every update, and once a second without (an outage's σ)
                     if !updates.is_empty() || sample.t >= last_std + STD_EVERY - 1e-9 {
@@ -1389,8 +1761,7 @@ where
                             ins_gnss_core::gnss::GNSS_STREAMS.contains(&u.stream)
                                 && u.verdict != estimator_core::Verdict::Rejected
                         });
-                        write_std(&mut out, sample.t, &nav, fix)
-                            .map_err(|e| out.err("std.txt", e))?;
+                        out.epoch(sample.t, &nav, fix)?;
                         last_std = sample.t;
                     }
                     summary.span.1 = sample.t;
@@ -1411,34 +1782,25 @@ where
         // the checks' verdict first: a refused input explains a failed run
         checks.take().map_or(Ok(()), Checks::join)?;
         result?;
-        written
+        out.nav_done(written?);
+        Ok(())
     })?;
 
     if summary.imu_epochs == 0 {
         return Err(RunError::NoData(format!(
             "no IMU sample after the start time {start} s in {}",
-            config.data.imu.display()
+            imu_path.display()
         )));
     }
     summary.finish_streams();
-    check_gnss_overlap(&summary, &config.data.gnss)?;
-    write_std(&mut out, summary.span.1, &nav, false).map_err(|e| out.err("std.txt", e))?;
-    for (w, name) in [
-        (&mut out.pos, "nav.pos"),
-        (&mut out.std, "std.txt"),
-        (&mut out.imu_err, "imu_errors.txt"),
-        (&mut out.updates, "updates.csv"),
-    ] {
-        w.flush().map_err(|e| RunError::Output {
-            path: partial_path(&out_dir.join(name)),
-            message: e.to_string(),
-        })?;
-    }
+    check_gnss_overlap(&summary, &gnss_path)?;
+    out.epoch(summary.span.1, &nav, false)?;
+    out.flush()?;
     summary.gnss_skipped = gnss.skipped;
     summary.stationary_time = nav.stationary_time();
     if let Some(recorder) = recorder {
         let backward = Instant::now();
-        let rows = write_smoothed(recorder, &nav, out_dir)?;
+        let rows = out.smoothed(recorder, &nav)?;
         summary.smoothed = Some((rows, backward.elapsed().as_secs_f64()));
     }
     summary.wall_time = wall.elapsed().as_secs_f64();
@@ -1492,7 +1854,7 @@ fn time_scale_hint(offset: f64, imu0: f64, gnss0: f64) -> String {
 /// [`run`], for repeated in-memory runs ([`run_slices`]): Monte Carlo over injected
 /// errors, strategy sweeps. Memory grows with the dataset (≈ 64 bytes per IMU sample).
 pub fn load_inputs(config: &Config) -> Result<(Vec<ImuSample>, Vec<GnssEpoch>), RunError> {
-    let (mut imu, mut gnss) = open_inputs(config)?;
+    let (mut imu, mut gnss) = open_inputs(config, &Inputs::Files)?;
     let (mut samples, mut epochs) = (Vec::new(), Vec::new());
     while let Some(s) = imu.next_sample()? {
         samples.push(s);

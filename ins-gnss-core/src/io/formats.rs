@@ -273,6 +273,31 @@ impl ImuReader<Input> {
     ) -> Result<Self, LineError> {
         Ok(Self::new(open(path)?, path, format, rate_hz, max_gap_factor, policy))
     }
+
+    /// Read the rows of an array instead of a file: `data` row-major, 7 or 8 numbers per
+    /// row (`t`, then the file format's columns in its units: increments in rad and m/s,
+    /// or rates in rad/s and m/s², then the optional odometer speed), with the file's
+    /// checks, mounting and rate integration; `name` and the 1-based row stand for the
+    /// file and line in errors.
+    pub fn from_rows(
+        data: std::sync::Arc<[f64]>,
+        width: usize,
+        name: &Path,
+        format: ImuFormat,
+        rate_hz: f64,
+        max_gap_factor: f64,
+        policy: BadLinePolicy,
+    ) -> Self {
+        let mut r = Self::new(empty_input(), name, format, rate_hz, max_gap_factor, policy);
+        r.lines = r.lines.with_rows(data, width);
+        r.header_done = true;
+        r
+    }
+}
+
+/// An input with nothing in it (readers of arrays).
+fn empty_input() -> Input {
+    BufReader::new(Box::new(std::io::empty()))
 }
 
 impl<R: BufRead> ImuReader<R> {
@@ -612,6 +637,21 @@ impl GnssReader<Input> {
     pub fn open(path: &Path, policy: BadLinePolicy) -> Result<Self, LineError> {
         Ok(Self::new(open(path)?, path, policy))
     }
+
+    /// Read the rows of an array instead of a file: `data` row-major, 7 or 13 numbers per
+    /// row in the 7/13-column format's order and units (`t`, latitude and longitude in
+    /// degrees, height, σ N E D in m, then velocity N E D and its σ in m/s), with the
+    /// file's checks; `name` and the 1-based row stand for the file and line in errors.
+    pub fn from_rows(
+        data: std::sync::Arc<[f64]>,
+        width: usize,
+        name: &Path,
+        policy: BadLinePolicy,
+    ) -> Self {
+        let mut r = Self::new(empty_input(), name, policy).with_format(GnssFormat::Columns);
+        r.lines = r.lines.with_rows(data, width);
+        r
+    }
 }
 
 impl<R: BufRead> GnssReader<R> {
@@ -895,6 +935,14 @@ pub struct NavRecord {
 }
 
 impl NavRecord {
+    /// The 11 numbers of the navigation format: week, `t`, latitude and longitude (deg),
+    /// height (m), velocity N E D (m/s), roll, pitch, yaw (deg).
+    pub fn values(&self) -> [f64; 11] {
+        let d = 180.0 / core::f64::consts::PI;
+        let (p, v, a) = (&self.pos, &self.vel, &self.att);
+        [self.week, self.t, p.lat * d, p.lon * d, p.h, v.x, v.y, v.z, a.x * d, a.y * d, a.z * d]
+    }
+
     /// The attitude as a rotation.
     pub fn rotation(&self) -> So3 {
         So3::from_euler(self.att.x, self.att.y, self.att.z)
@@ -946,24 +994,10 @@ impl<R: BufRead> NavReader<R> {
 /// Writes the 11-column navigation format (lat/lon to 1e-10°, h to 0.1 mm, velocity to
 /// 0.01 mm/s, attitude to 1e-8°).
 pub fn write_nav<W: Write>(w: &mut W, r: &NavRecord) -> std::io::Result<()> {
-    let d = 180.0 / core::f64::consts::PI;
+    const DECIMALS: [usize; 11] = [0, 6, 10, 10, 4, 5, 5, 5, 8, 8, 8];
+    let v = r.values();
     let mut line = Vec::with_capacity(160);
-    super::fixed::push_row(
-        &mut line,
-        &[
-            (r.week, 0),
-            (r.t, 6),
-            (r.pos.lat * d, 10),
-            (r.pos.lon * d, 10),
-            (r.pos.h, 4),
-            (r.vel.x, 5),
-            (r.vel.y, 5),
-            (r.vel.z, 5),
-            (r.att.x * d, 8),
-            (r.att.y * d, 8),
-            (r.att.z * d, 8),
-        ],
-    );
+    super::fixed::push_row(&mut line, &core::array::from_fn::<_, 11, _>(|i| (v[i], DECIMALS[i])));
     w.write_all(&line)
 }
 

@@ -118,6 +118,15 @@ pub struct NumericLines<R: BufRead> {
     select: Option<Vec<Option<usize>>>,
     /// Number of fields read when selecting.
     selected: usize,
+    /// Records held in memory (an array's rows) instead of text: see
+    /// [`with_rows`](Self::with_rows).
+    rows: Option<Rows>,
+}
+
+/// The rows of a row-major array of numbers, `width` per row.
+struct Rows {
+    data: std::sync::Arc<[f64]>,
+    width: usize,
 }
 
 impl<R: BufRead> NumericLines<R> {
@@ -131,7 +140,21 @@ impl<R: BufRead> NumericLines<R> {
             values: Vec::new(),
             select: None,
             selected: 0,
+            rows: None,
         }
+    }
+
+    /// Read the rows of `data` (row-major, `width` numbers per row) instead of text: the
+    /// same records, checks and errors, with the 1-based row number as the line (callers
+    /// with arrays: the Python bindings). There are no comment or header lines.
+    pub fn with_rows(mut self, data: std::sync::Arc<[f64]>, width: usize) -> Self {
+        self.rows = Some(Rows { data, width: width.max(1) });
+        self
+    }
+
+    /// In rows mode: whether a row is left.
+    fn rows_left(&self) -> Option<bool> {
+        self.rows.as_ref().map(|r| self.line * r.width < r.data.len())
     }
 
     /// Read only the 0-based fields `columns` (distinct) of each line from now on, in that
@@ -163,6 +186,9 @@ impl<R: BufRead> NumericLines<R> {
 
     /// Next raw data line (comments and blank lines skipped), as text.
     pub fn next_text(&mut self) -> Result<Option<&str>, LineError> {
+        if self.rows.is_some() {
+            return Ok(None);
+        }
         if !self.advance()? {
             return Ok(None);
         }
@@ -178,6 +204,9 @@ impl<R: BufRead> NumericLines<R> {
     /// line. Called before any record is read.
     pub fn leading_comments(&mut self) -> Result<Vec<String>, LineError> {
         let mut out = Vec::new();
+        if self.rows.is_some() {
+            return Ok(out);
+        }
         loop {
             let io = |e: std::io::Error, line| LineError {
                 path: self.path.clone(),
@@ -211,6 +240,9 @@ impl<R: BufRead> NumericLines<R> {
     /// The first byte of the next line that is not a space or a tab (without reading
     /// it), `None` at the end of the file.
     pub fn peek_byte(&mut self) -> Result<Option<u8>, LineError> {
+        if let Some(left) = self.rows_left() {
+            return Ok(left.then_some(b'0'));
+        }
         let line = self.line + 1;
         let buf = self.inner.fill_buf().map_err(|e| LineError {
             path: self.path.clone(),
@@ -251,6 +283,9 @@ impl<R: BufRead> NumericLines<R> {
 
     /// Next record of numbers; `Ok(None)` at the end of the file.
     pub fn next_record(&mut self) -> Result<Option<&[f64]>, LineError> {
+        if let Some(left) = self.rows_left() {
+            return self.next_row(left);
+        }
         if !self.advance()? {
             return Ok(None);
         }
@@ -304,6 +339,36 @@ impl<R: BufRead> NumericLines<R> {
         }
         match failure {
             Some(kind) => Err(self.error(kind)),
+            None => Ok(Some(&self.values)),
+        }
+    }
+
+    /// [`next_record`](Self::next_record) in rows mode (`left`: a row is left): the
+    /// row's values, or the selected ones, with the text's refusal of NaN and infinity.
+    fn next_row(&mut self, left: bool) -> Result<Option<&[f64]>, LineError> {
+        let Some(rows) = self.rows.as_ref().filter(|_| left) else {
+            return Ok(None);
+        };
+        let row = &rows.data[self.line * rows.width..(self.line + 1) * rows.width];
+        self.line += 1;
+        self.values.clear();
+        match &self.select {
+            Some(slots) => {
+                self.values.resize(self.selected, f64::NAN);
+                if row.len() < slots.len() {
+                    let (expected, found) = (vec![slots.len()], row.len());
+                    return Err(self.error(LineErrorKind::ColumnCount { expected, found }));
+                }
+                for (&v, slot) in row.iter().zip(slots) {
+                    if let Some(slot) = slot {
+                        self.values[*slot] = v;
+                    }
+                }
+            }
+            None => self.values.extend_from_slice(row),
+        }
+        match row.iter().position(|v| !v.is_finite()) {
+            Some(i) => Err(self.error(LineErrorKind::NonFinite { column: i + 1 })),
             None => Ok(Some(&self.values)),
         }
     }

@@ -1,0 +1,282 @@
+"""State estimation from Python: the INS/GNSS navigator and its smoother, and the
+Kalman filter with adaptive noise, running in Rust.
+
+- :func:`navigate` runs the navigator of ``ins-gnss run`` (the same options, start,
+  checks and numbers) on numpy arrays or pandas DataFrames, or on the files a
+  configuration names, and returns a :class:`Navigation` of DataFrames; no file is
+  written.
+- :func:`kalman` runs the Kalman filter and the RTS smoother on a Euclidean state with
+  ``F, Q, H, R`` given as arrays (constant or per step), with any adaptive strategy.
+- :func:`kinematic` gives ``F, Q`` of the built-in kinematic models (CV, CA, Singer).
+
+The runs release the GIL, so threads, ``multiprocessing`` or Dask run many at once.
+A refused input or failed run raises :class:`EstimatorError` with the program's
+message, naming the file and line (or the array and row).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Mapping, Optional, Sequence, Union
+
+import numpy as np
+import pandas as pd
+
+from . import _native
+from ._native import EstimatorError
+
+__all__ = [
+    "navigate",
+    "Navigation",
+    "kalman",
+    "kinematic",
+    "EstimatorError",
+    "NAV_COLUMNS",
+    "STRATEGIES",
+]
+
+#: Columns of the navigation results (degrees for angles, m, m/s).
+NAV_COLUMNS = ["time", "lat", "lon", "height", "vn", "ve", "vd", "roll", "pitch", "yaw"]
+
+#: 1σ columns of ``std`` (m, m/s, deg, deg/h, mGal; with 21 states ppm).
+STD_COLUMNS = ["time"] + [
+    "sigma_" + c
+    for c in ["n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw",
+              "bgx", "bgy", "bgz", "bax", "bay", "baz",
+              "sgx", "sgy", "sgz", "sax", "say", "saz"]
+]
+
+#: Columns of ``imu_errors``: biases (deg/h, mGal), with 21 states scale factors (ppm).
+IMU_ERROR_COLUMNS = ["time", "bgx", "bgy", "bgz", "bax", "bay", "baz",
+                     "sgx", "sgy", "sgz", "sax", "say", "saz"]
+
+#: The adaptive strategies by name (``fixed`` is the plain Kalman filter).
+STRATEGIES = ["fixed", "iae", "iae-qr", "afkf", "afkf-xia", "fused", "fused-nominal",
+              "fused-window-test", "fused-uncensored", "fused-nominal-uncensored",
+              "iakf", "iakf-raw", "sage-husa", "chi2-gate"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+# pyins-style column names: increments or rates, and the GNSS fields
+_INCREMENTS = ["theta_x", "theta_y", "theta_z", "dv_x", "dv_y", "dv_z"]
+_RATES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
+_GNSS_POS = [("lat",), ("lon",), ("height", "alt", "h")]
+_GNSS_SIGMA = ["sigma_n", "sigma_e", "sigma_d"]
+_GNSS_VEL = ["vn", "ve", "vd", "sigma_vn", "sigma_ve", "sigma_vd"]
+
+
+def _times(df: pd.DataFrame) -> np.ndarray:
+    for name in ("time", "t"):
+        if name in df.columns:
+            return df[name].to_numpy(dtype=float)
+    if not np.issubdtype(df.index.dtype, np.number):
+        raise ValueError("the DataFrame needs a `time` column or a numeric index (s)")
+    return df.index.to_numpy(dtype=float)
+
+
+def _imu_array(imu: Any) -> "tuple[np.ndarray, Optional[str]]":
+    """The IMU rows (t, 6 values[, odometer]) and the format the names say, if any."""
+    if isinstance(imu, pd.DataFrame):
+        for names, kind in ((_INCREMENTS, "increments"), (_RATES, "rates")):
+            if all(c in imu.columns for c in names):
+                cols = [_times(imu)] + [imu[c].to_numpy(dtype=float) for c in names]
+                if "odometer" in imu.columns:
+                    cols.append(imu["odometer"].to_numpy(dtype=float))
+                return np.column_stack(cols), kind
+        return np.ascontiguousarray(imu.to_numpy(dtype=float)), None
+    return np.ascontiguousarray(np.asarray(imu, dtype=float)), None
+
+
+def _gnss_array(gnss: Any) -> np.ndarray:
+    """The GNSS rows: t, lat, lon (deg), height, σ N E D (m)[, velocity N E D and σ]."""
+    if isinstance(gnss, pd.DataFrame):
+        if "lat" in gnss.columns:
+            cols = [_times(gnss)]
+            for names in _GNSS_POS:
+                found = [n for n in names if n in gnss.columns]
+                if not found:
+                    raise ValueError(f"the GNSS DataFrame needs a column {' or '.join(names)}")
+                cols.append(gnss[found[0]].to_numpy(dtype=float))
+            missing = [c for c in _GNSS_SIGMA if c not in gnss.columns]
+            if missing:
+                raise ValueError(f"the GNSS DataFrame needs the 1σ columns {missing} (m)")
+            cols += [gnss[c].to_numpy(dtype=float) for c in _GNSS_SIGMA]
+            if all(c in gnss.columns for c in _GNSS_VEL):
+                cols += [gnss[c].to_numpy(dtype=float) for c in _GNSS_VEL]
+            return np.column_stack(cols)
+        return np.ascontiguousarray(gnss.to_numpy(dtype=float))
+    return np.ascontiguousarray(np.asarray(gnss, dtype=float))
+
+
+class Navigation:
+    """The results of :func:`navigate`, in the units of the program's files.
+
+    Attributes:
+        nav: ``NAV_COLUMNS`` at every IMU epoch (``nav.txt`` without the week).
+        std: 1σ of the error states after every update and at least once a second
+            (``std.txt``).
+        imu_errors: estimated IMU biases (and scale factors) at the same epochs.
+        updates: one row per update (``updates.csv``): time, stream, dim, nis,
+            nis_adapted, decision, reason, dom, lambda_p, lambda_r, scaling_fallback.
+        smoothed, smoothed_std: the smoother's ``nav`` and ``std`` (``None`` unless
+            ``smooth=True``).
+        summary: the run's summary (counts, span, mean NIS and its band, the lines the
+            program prints, and the warning of an accepted inconsistent run).
+    """
+
+    def __init__(self, raw: Mapping[str, Any]):
+        nav_cols = NAV_COLUMNS
+        self.nav = pd.DataFrame(raw["nav"], columns=nav_cols)
+        std = raw["std"]
+        self.std = pd.DataFrame(std, columns=STD_COLUMNS[: std.shape[1]])
+        errs = raw["imu_errors"]
+        self.imu_errors = pd.DataFrame(errs, columns=IMU_ERROR_COLUMNS[: errs.shape[1]])
+        self.updates = pd.DataFrame(raw["updates"])
+        self.smoothed = None
+        self.smoothed_std = None
+        if "smoothed_nav" in raw:
+            self.smoothed = pd.DataFrame(raw["smoothed_nav"], columns=nav_cols)
+            s = raw["smoothed_std"]
+            self.smoothed_std = pd.DataFrame(s, columns=STD_COLUMNS[: s.shape[1]])
+        self.summary = dict(raw["summary"])
+
+    def evaluate(self, truth: PathLike, skip: float = 0.0, smoothed: bool = False) -> dict:
+        """Errors against a truth file (11-column navigation or ``t lat lon h``), as
+        ``ins-gnss eval``: a dict of statistics (``overall``: RMS, max, mean of N, E, D,
+        horizontal, 3-D, velocity and attitude errors), after ``skip`` seconds."""
+        nav = self.smoothed if smoothed else self.nav
+        if nav is None:
+            raise ValueError("the run did not smooth (smooth=True)")
+        rows = np.ascontiguousarray(nav[NAV_COLUMNS].to_numpy(dtype=float))
+        return json.loads(_native.evaluate(rows, os.fspath(truth), float(skip)))
+
+    def __repr__(self) -> str:
+        return "Navigation(\n  " + "\n  ".join(self.summary.get("lines", [])) + "\n)"
+
+
+def navigate(
+    config: Union[PathLike, Mapping[str, Any]],
+    imu: Any = None,
+    gnss: Any = None,
+    *,
+    imu_format: Optional[str] = None,
+    strategy: Optional[str] = None,
+    states: Optional[int] = None,
+    smooth: bool = False,
+    gate: bool = True,
+    nhc: bool = False,
+    zupt: bool = False,
+    odometer: bool = False,
+    vehicle: bool = True,
+    bias_model: Optional[str] = None,
+    accept_inconsistent: bool = False,
+    base: Optional[PathLike] = None,
+) -> Navigation:
+    """Run the INS/GNSS navigator, as ``ins-gnss run`` with the same options.
+
+    Args:
+        config: a TOML or KF-GINS YAML file, or a dict of our TOML's tables
+            (``{"data": {"imu_rate": 100.0}, "imu_noise": {...}}``); relative paths in a
+            dict are read from ``base`` (default: the working directory).
+        imu, gnss: arrays or DataFrames (both, or neither: the configuration's files).
+            IMU: rows ``t, x, y, z, x, y, z[, odometer]`` in the configuration's format
+            (increments in rad and m/s, or rates in rad/s and m/s²), or a DataFrame with
+            pyins-style columns ``theta_x … dv_z`` (increments) or ``gyro_x … accel_z``
+            (rates), time in a ``time`` column or the index. GNSS: rows
+            ``t, lat, lon (deg), height (m), σN, σE, σD (m)[, vN, vE, vD, σvN, σvE, σvD]``,
+            or a DataFrame with those names (``lat, lon, height``, ``sigma_n`` …).
+        imu_format: ``"increments"`` or ``"rates"`` (default: the DataFrame's column
+            names, else the configuration's ``data.imu_format``).
+        strategy: an adaptive strategy (``STRATEGIES``; default the configuration's).
+        states: 15 or 21 (with scale factors).
+        smooth: also run the smoother (``smoothed``, ``smoothed_std``).
+        gate: the gross-error gate (``gate=False`` is ``--no-gate``).
+        nhc, zupt, odometer: turn on that vehicle aiding; ``vehicle=False`` turns all off.
+        bias_model: ``random-walk``, ``gauss-markov`` or ``gauss-markov-held``.
+        accept_inconsistent: keep a run the health check judges quietly wrong (its
+            message is ``summary["warning"]``) instead of raising.
+
+    Raises:
+        EstimatorError: the configuration, an input or the run refused, with the
+            program's message (file and line, or array and row).
+    """
+    kind_from_names = None
+    imu_rows = gnss_rows = None
+    if (imu is None) != (gnss is None):
+        raise ValueError("give both imu and gnss, or neither (the configuration's files)")
+    if imu is not None:
+        imu_rows, kind_from_names = _imu_array(imu)
+        gnss_rows = _gnss_array(gnss)
+        for name, rows in (("imu", imu_rows), ("gnss", gnss_rows)):
+            if rows.ndim != 2:
+                raise ValueError(f"{name} must be 2-D (rows of samples), not {rows.shape}")
+    if isinstance(config, Mapping):
+        text, kind = json.dumps(config), "json"
+    else:
+        text, kind = os.fspath(config), "path"
+    raw = _native.navigate(
+        text,
+        kind=kind,
+        base=os.fspath(base) if base is not None else os.getcwd(),
+        imu=imu_rows,
+        gnss=gnss_rows,
+        imu_format=imu_format or kind_from_names,
+        strategy=strategy,
+        bias_model=bias_model,
+        states=states,
+        smooth=smooth,
+        no_gate=not gate,
+        nhc=nhc,
+        zupt=zupt,
+        odometer=odometer,
+        no_vehicle=not vehicle,
+        accept_inconsistent=accept_inconsistent,
+    )
+    return Navigation(raw)
+
+
+def _f64(a: Any) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(a, dtype=float))
+
+
+def kalman(
+    x0: Any,
+    P0: Any,
+    F: Any,
+    Q: Any,
+    H: Any,
+    R: Any,
+    z: Any,
+    *,
+    strategy: str = "fixed",
+    smooth: bool = False,
+) -> dict:
+    """The Kalman filter over the measurements ``z`` (``steps × m``; a row with a NaN is
+    a step without a measurement): at each step predict with ``F, Q`` then update with
+    ``H, R`` (FilterPy's ``batch_filter`` order). ``F, Q, H, R`` are one matrix or one per
+    step (a leading axis of length ``steps``). ``strategy`` is any of ``STRATEGIES``.
+
+    Returns a dict of arrays: ``x``, ``P`` (posteriors), ``x_prior``, ``P_prior``,
+    ``nis``, ``log_likelihood``, ``verdict`` (accepted, inflated, deflated, rejected,
+    none), and with ``smooth=True`` the RTS smoother's ``xs``, ``Ps``. States of 1 to
+    ``MAX_N`` (9), measurements of 1 to ``MAX_M`` (6) dimensions.
+    """
+    z = _f64(z)
+    if z.ndim == 1:
+        z = z.reshape(-1, 1)
+    return _native.kalman(_f64(x0).ravel(), _f64(P0), _f64(F), _f64(Q), _f64(H), _f64(R), z,
+                          strategy=strategy, smooth=smooth)
+
+
+def kinematic(name: str, dt: float, q: float, axes: int = 1,
+              alpha: Optional[float] = None) -> "tuple[np.ndarray, np.ndarray]":
+    """``(F, Q)`` of a built-in model over one step ``dt``: ``cv`` (white acceleration of
+    intensity ``q`` m²/s³), ``ca`` (white jerk, m²/s⁵) or ``singer`` (Markov acceleration,
+    frequency ``alpha`` 1/s, variance ``q`` (m/s²)²), on 1 to 3 ``axes``. The state is the
+    positions of all axes, then the velocities (then the accelerations)."""
+    return _native.kinematic(name, float(dt), float(q), axes=axes, alpha=alpha)
+
+
+MAX_N = _native.MAX_N
+MAX_M = _native.MAX_M

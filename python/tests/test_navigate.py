@@ -1,0 +1,189 @@
+"""The navigator from Python against the program (`ins-gnss run`) on the sample data:
+the same numbers to the digits the program prints, the same verdicts, the same RMS; the
+arrays path against the files path bit for bit; pyins-style DataFrames without a file."""
+
+import json
+import math
+import os
+import subprocess
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import estimator
+from conftest import DATA, read_zst
+
+NAVEGO = DATA / "navego" / "kf-gins-ADIS16488.yaml"
+TRUTH = DATA / "navego" / "truth.nav.zst"
+
+# decimals the program prints, per column
+NAV_DECIMALS = [6, 10, 10, 4, 5, 5, 5, 8, 8, 8]
+STD_DECIMALS = [6] + [6] * 6 + [8] * 3 + [6] * 6
+ERR_DECIMALS = [6] * 7
+
+# the datasheet noise of the navego configurations (data/navego/noinit.toml)
+NOISE = {"arw": [0.3] * 3, "vrw": [0.029] * 3, "gyro_bias_std": [6.5] * 3,
+         "accel_bias_std": [98.0665] * 3, "corr_time": 0.027778}
+
+
+def fixed(v: float, d: int) -> str:
+    """`v` with `d` decimals as the program writes its files (ins-gnss-core's `io::fixed`):
+    `round(v · 10^d)` in f64, halves away from zero, no sign on a zero."""
+    s = float(v) * float(10**d)
+    if not math.isfinite(s) or abs(s) >= 9.0e18:
+        return f"{v:.{d}f}"
+    a = abs(s)
+    n = int(math.floor(a))
+    n += 1 if a - n >= 0.5 else 0
+    digits = str(n).rjust(d + 1, "0")
+    text = digits[: len(digits) - d] + ("." + digits[len(digits) - d:] if d else "")
+    return ("-" if math.copysign(1.0, v) < 0 and n != 0 else "") + text
+
+
+def assert_printed(python: np.ndarray, path, decimals, what: str, skip_columns=0):
+    """Python's numbers, printed as the program prints them, are the program's text,
+    character for character."""
+    lines = path.read_text().splitlines()
+    assert python.shape[0] == len(lines), f"{what}: {python.shape[0]} rows vs {len(lines)}"
+    for k, (row, line) in enumerate(zip(python, lines)):
+        ours = [fixed(v, d) for v, d in zip(row, decimals)]
+        theirs = line.split()[skip_columns:]
+        assert ours == theirs, f"{what} line {k + 1}: {ours} vs {theirs}"
+
+
+@pytest.fixture(scope="module")
+def both(cli, tmp_path_factory):
+    """navego smoothed by the program and by the bindings (the shipped YAML as it is)."""
+    out = tmp_path_factory.mktemp("cli")
+    subprocess.run(
+        [str(cli), "run", str(NAVEGO), "--smooth", "--quiet", "--accept-inconsistent",
+         "--out", str(out)],
+        check=True,
+    )
+    py = estimator.navigate(NAVEGO, smooth=True, accept_inconsistent=True)
+    return out, py
+
+
+def test_python_gives_the_programs_numbers_on_navego(both):
+    out, py = both
+    assert_printed(py.nav.to_numpy(), out / "nav.txt", NAV_DECIMALS, "nav.txt", 1)
+    assert_printed(py.std.to_numpy(), out / "std.txt", STD_DECIMALS, "std.txt")
+    assert_printed(py.imu_errors.to_numpy(), out / "imu_errors.txt", ERR_DECIMALS,
+                   "imu_errors.txt")
+    assert_printed(py.smoothed.to_numpy(), out / "nav_smoothed.txt", NAV_DECIMALS,
+                   "nav_smoothed.txt", 1)
+    assert_printed(py.smoothed_std.to_numpy(), out / "std_smoothed.txt", STD_DECIMALS,
+                   "std_smoothed.txt")
+
+
+def test_python_gives_the_programs_updates_on_navego(both):
+    out, py = both
+    csv = pd.read_csv(out / "updates.csv", dtype=str, keep_default_na=False)
+    assert len(csv) == len(py.updates) > 2000
+    for col in ["stream", "decision", "reason"]:
+        assert (csv[col] == py.updates[col].astype(str)).all(), col
+    assert (csv["dim"] == py.updates["dim"].astype(str)).all()
+    # written with the standard formatter (correctly rounded; NaN as `NaN`)
+    text = lambda v: "NaN" if math.isnan(v) else f"{v:.6f}"  # noqa: E731
+    for col in ["time", "nis", "nis_adapted", "dom", "lambda_p", "lambda_r"]:
+        assert (csv[col] == py.updates[col].map(text)).all(), col
+    assert (csv["scaling_fallback"] == py.updates["scaling_fallback"].map(
+        lambda b: str(int(b)))).all()
+
+
+def test_python_rms_equals_the_programs_to_the_printed_digit(both, cli):
+    out, py = both
+    ev = json.loads(subprocess.run(
+        [str(cli), "eval", str(out), str(TRUTH), "--json"], check=True,
+        capture_output=True, text=True).stdout)
+    for label, smoothed in [("forward", False), ("smoothed", True)]:
+        cli_stats = ev[label]["overall"] if label in ev else ev["outputs"][label]["overall"]
+        py_stats = py.evaluate(TRUTH, smoothed=smoothed)["overall"]
+        for key in ["north", "east", "down", "horizontal", "position_3d", "velocity_3d",
+                    "roll", "pitch", "yaw"]:
+            a, b = py_stats[key]["rms"], cli_stats[key]["rms"]
+            # printed to 3 decimals (m) and 4 (deg, m/s): the same digits
+            assert abs(a - b) <= 5e-5, f"{label} {key}: {a} vs {b}"
+    summary = py.summary
+    assert summary["gnss_epochs"] == 2186 and summary["smoothed_rows"] == len(py.smoothed)
+
+
+def test_arrays_run_exactly_as_the_files(navego_arrays):
+    imu, gnss = navego_arrays
+    files = estimator.navigate(NAVEGO, smooth=True, accept_inconsistent=True)
+    arrays = estimator.navigate(NAVEGO, imu, gnss, smooth=True, accept_inconsistent=True)
+    for name in ["nav", "std", "imu_errors", "smoothed", "smoothed_std"]:
+        a, b = getattr(arrays, name).to_numpy(), getattr(files, name).to_numpy()
+        assert np.array_equal(a, b), name
+    assert arrays.updates.equals(files.updates)
+
+
+def test_pyins_style_rates_dataframe_runs_without_a_file(navego_arrays, tmp_path):
+    """A rate-type IMU DataFrame at 100 Hz and GNSS position + velocity at 1 Hz, the
+    configuration a dict without an initial state: nothing is written."""
+    imu, _ = navego_arrays
+    posvel = read_zst(DATA / "navego" / "GNSS-POSVEL.txt.zst")
+    # 200 Hz increments -> 100 Hz increments (pairs summed) -> rates
+    n = (len(imu) // 2) * 2
+    t = imu[1:n:2, 0]
+    inc = imu[0:n:2, 1:7] + imu[1:n:2, 1:7]
+    rates = inc / np.diff(np.concatenate([[t[0] - 0.01], t]))[:, None]
+    imu_df = pd.DataFrame(rates, columns=["gyro_x", "gyro_y", "gyro_z",
+                                          "accel_x", "accel_y", "accel_z"],
+                          index=pd.Index(t, name="time"))
+    one_hz = posvel[np.isclose(posvel[:, 0] % 1.0, 0.0, atol=1e-6)]
+    gnss_df = pd.DataFrame(one_hz, columns=["time", "lat", "lon", "height", "sigma_n",
+                                            "sigma_e", "sigma_d", "vn", "ve", "vd",
+                                            "sigma_vn", "sigma_ve", "sigma_vd"])
+    config = {"data": {"imu_rate": 100.0}, "imu_noise": NOISE}
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        before = set(os.listdir(tmp_path))
+        run = estimator.navigate(config, imu_df, gnss_df, smooth=True)
+        assert set(os.listdir(tmp_path)) == before, "a file was written"
+    finally:
+        os.chdir(cwd)
+    assert 400 <= len(one_hz) <= 440
+    assert len(run.nav) == len(imu_df) - 1
+    assert run.summary["gnss_epochs"] > 350
+    assert any("position" in s for s in run.updates["stream"])
+    horizontal = run.evaluate(TRUTH, skip=60)["overall"]["horizontal"]["rms"]
+    smoothed = run.evaluate(TRUTH, skip=60, smoothed=True)["overall"]["horizontal"]["rms"]
+    print(f"pyins-style: horizontal RMS {horizontal:.3f} m, smoothed {smoothed:.3f} m")
+    assert horizontal < 3.0 and smoothed < horizontal
+
+
+def test_bad_rows_are_refused_with_the_array_and_row(navego_arrays):
+    imu, gnss = navego_arrays
+    bad = imu[:5000].copy()
+    bad[99, 0] = bad[97, 0]  # row 100 goes back in time
+    with pytest.raises(estimator.EstimatorError, match=r"imu array row:100: time goes backwards"):
+        estimator.navigate(NAVEGO, bad, gnss)
+    bad_gnss = gnss.copy()
+    bad_gnss[4, 1] = 132.0  # latitude out of range
+    with pytest.raises(estimator.EstimatorError, match=r"gnss array row:5: latitude 132"):
+        estimator.navigate(NAVEGO, imu, bad_gnss)
+
+
+def test_a_column_map_with_arrays_is_refused(navego_arrays):
+    imu, gnss = navego_arrays
+    config = {"data": {"imu_rate": 200.0, "imu_columns": {"time": "t_ms", "time_unit": "ms"}},
+              "imu_noise": NOISE}
+    with pytest.raises(estimator.EstimatorError, match="imu_columns"):
+        estimator.navigate(config, imu[:1000], gnss[:10])
+
+
+def test_a_bad_configuration_names_its_key():
+    with pytest.raises(estimator.EstimatorError, match="imu_rate"):
+        estimator.navigate({"data": {"imu_rate": -5.0, "imu": "a", "gnss": "b"},
+                            "imu_noise": NOISE})
+    with pytest.raises(estimator.EstimatorError, match="imu_noise"):
+        estimator.navigate({"data": {"imu_rate": 100.0, "imu": "a", "gnss": "b"}})
+    with pytest.raises(estimator.EstimatorError, match="no_such_file"):
+        estimator.navigate(DATA / "no_such_file.toml")
+    with pytest.raises(ValueError, match="15 or 21"):
+        estimator.navigate(NAVEGO, states=17)
+    with pytest.raises(estimator.EstimatorError, match="strategy"):
+        estimator.navigate(NAVEGO, strategy="kalman-magic")
