@@ -6,12 +6,15 @@
 //!   configuration or on arrays, its results in memory; no file is written.
 //! - [`evaluate`]: a navigation result against a truth file, as `ins-gnss eval`.
 //! - [`filter`]: the generic error-state Kalman filter and RTS smoother on Euclidean
-//!   states, with every adaptive strategy by name.
+//!   states, with every adaptive strategy by name, and the kinematic models' matrices.
+//! - [`ahrs`]: the AHRS of the third paper (conventional, modified, CS-MAEKF) on sensor
+//!   arrays, and its simulated flight.
 //!
 //! The runs release the GIL. Every failure is an `EstimatorError` carrying the program's
 //! message, file (or array) and line (or row).
 #![allow(non_snake_case)]
 
+mod ahrs;
 mod filter;
 
 use std::path::Path;
@@ -259,5 +262,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(navigate, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     filter::register(m)?;
+    ahrs::register(m)?;
     Ok(())
 }

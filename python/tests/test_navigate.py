@@ -187,3 +187,23 @@ def test_a_bad_configuration_names_its_key():
         estimator.navigate(NAVEGO, states=17)
     with pytest.raises(estimator.EstimatorError, match="strategy"):
         estimator.navigate(NAVEGO, strategy="kalman-magic")
+
+
+def test_an_error_carries_the_programs_message_and_location(cli, navego_arrays, tmp_path):
+    imu, gnss = navego_arrays
+    lines = [" ".join(f"{v:.12g}" for v in row) for row in imu[:4000]]
+    lines[49] = lines[49].replace(" ", " x", 1)  # line 50: a field that is not a number
+    (tmp_path / "imu.txt").write_text("\n".join(lines) + "\n")
+    (tmp_path / "gnss.txt").write_text(
+        "\n".join(" ".join(f"{v:.12g}" for v in row) for row in gnss[:100]) + "\n")
+    noise = "\n".join(f"{k} = {v}" for k, v in NOISE.items())
+    (tmp_path / "run.toml").write_text(
+        f'[data]\nimu = "imu.txt"\ngnss = "gnss.txt"\nimu_rate = 200.0\n\n[imu_noise]\n{noise}\n')
+    program = subprocess.run([str(cli), "run", str(tmp_path / "run.toml"), "--quiet",
+                              "--out", str(tmp_path / "out")], capture_output=True, text=True)
+    assert program.returncode != 0
+    with pytest.raises(estimator.EstimatorError) as raised:
+        estimator.navigate(tmp_path / "run.toml")
+    message = str(raised.value)
+    assert "imu.txt:50" in message and "not a number" in message, message
+    assert message in program.stderr, (message, program.stderr)
