@@ -20,6 +20,13 @@
 //!
 //! Generic items carry one bound per dimension, `DefaultAllocator: DimAlloc<M::Dim>`;
 //! concrete code never writes it.
+//!
+//! # Without the standard library
+//!
+//! With `default-features = false` (no feature `std`) the crate is `no_std` and needs no
+//! allocator: the floats' functions come from libm through nalgebra, with `std` from the
+//! standard library as before (the same numbers on the host).
+#![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 

@@ -9,6 +9,9 @@ use core::ops::Range;
 
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, DimNameAdd, DimNameSum, OMatrix, OVector};
+// without `std`, `sqrt` is nalgebra's (libm)
+#[cfg(not(feature = "std"))]
+use nalgebra::ComplexField as _;
 
 use crate::traits::{DimAlloc, Manifold, Tangent, TangentMatrix};
 

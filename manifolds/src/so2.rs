@@ -8,13 +8,19 @@ use core::f64::consts::PI;
 use nalgebra::{Const, Matrix1, Matrix2, Vector1};
 
 use crate::traits::{Manifold, OminusJacobians, OplusJacobians};
+// without `std`, the floats' functions (sin_cos) are nalgebra's (libm)
+#[cfg(not(feature = "std"))]
+use nalgebra::ComplexField as _;
 
 /// Wrap an angle into (−π, π].
 pub fn wrap_angle(a: f64) -> f64 {
     if a > -PI && a <= PI {
         return a;
     }
-    let w = (a + PI).rem_euclid(2.0 * PI) - PI;
+    // (`f64::rem_euclid`, which `core` lacks, spelled out: the same numbers)
+    let m = 2.0 * PI;
+    let r = (a + PI) % m;
+    let w = if r < 0.0 { r + m } else { r } - PI;
     if w <= -PI {
         w + 2.0 * PI
     } else {

@@ -7,6 +7,9 @@
 use core::ops::Mul;
 
 use nalgebra::{Const, Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+// without `std`, the floats' functions (sqrt, sin, cos, tan, atan2) are nalgebra's (libm)
+#[cfg(not(feature = "std"))]
+use nalgebra::{ComplexField as _, RealField as _};
 
 use crate::traits::{Manifold, OminusJacobians, OplusJacobians};
 
