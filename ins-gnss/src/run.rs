@@ -548,6 +548,11 @@ struct Outputs {
     pos_last_t: Option<f64>,
 }
 
+/// A write to the output `name` in `dir` (its `.partial` file) failed.
+fn partial_error(dir: &Path, name: &str, e: std::io::Error) -> RunError {
+    RunError::Output { path: partial_path(&dir.join(name)), message: e.to_string() }
+}
+
 /// `nav.txt`, written on the writer thread.
 struct NavFile {
     w: std::io::BufWriter<std::fs::File>,
@@ -609,7 +614,7 @@ impl Outputs {
     }
 
     fn err(&self, name: &str, e: std::io::Error) -> RunError {
-        RunError::Output { path: partial_path(&self.dir.join(name)), message: e.to_string() }
+        partial_error(&self.dir, name, e)
     }
 
     /// The names of the outputs.
@@ -736,10 +741,7 @@ impl Sink for Outputs {
             (&mut self.imu_err, "imu_errors.txt"),
             (&mut self.updates, "updates.csv"),
         ] {
-            w.flush().map_err(|e| RunError::Output {
-                path: partial_path(&self.dir.join(name)),
-                message: e.to_string(),
-            })?;
+            w.flush().map_err(|e| partial_error(&self.dir, name, e))?;
         }
         Ok(())
     }
@@ -869,7 +871,8 @@ impl Sink for Results {
                 for r in rows {
                     let (t, x, sigma) = smoothed_row(r);
                     navs.push(nav_values(t, &x));
-                    stds.extend(sigma_row(t, &sigma[..n]).0[..n + 1].iter().map(|v| v.0));
+                    let (row, len) = sigma_row(t, &sigma[..n]);
+                    stds.extend(row[..len].iter().map(|v| v.0));
                 }
                 segments.push((navs, stds));
                 Ok(())
@@ -1268,29 +1271,27 @@ pub fn run(
     progress: Option<Progress<'_>>,
 ) -> Result<RunSummary, RunError> {
     let result = run_with(config, strategy, &Inputs::Files, progress, || Outputs::create(out_dir));
-    match result {
-        Err((error, false)) => return Err(error),
-        // the smoother's scratch files go whatever happened
-        _ => {
-            for name in [SMOOTHER_STATES, SMOOTHER_ROWS] {
-                let _ = std::fs::remove_file(out_dir.join(name));
-            }
+    // once the outputs were created, the smoother's scratch files go whatever happened
+    if !matches!(result, Err((_, false))) {
+        for name in [SMOOTHER_STATES, SMOOTHER_ROWS] {
+            let _ = std::fs::remove_file(out_dir.join(name));
         }
     }
     match result {
+        Err((error, false)) => Err(error),
         Ok((mut summary, _)) => {
             Outputs::publish(out_dir, summary.smoothed.is_some())?;
             summary.out_dir = out_dir.to_path_buf();
             Ok(summary)
         }
         // refused by the checks, as before a start: nothing of this run is kept
-        Err((error @ RunError::Start(_), _)) => {
+        Err((error @ RunError::Start(_), true)) => {
             for name in Outputs::NAMES.iter().chain(&Outputs::SMOOTHED) {
                 let _ = std::fs::remove_file(partial_path(&out_dir.join(name)));
             }
             Err(error)
         }
-        Err((error, _)) => {
+        Err((error, true)) => {
             Err(RunError::Incomplete { error: Box::new(error), dir: out_dir.to_path_buf() })
         }
     }

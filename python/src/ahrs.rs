@@ -132,7 +132,7 @@ fn ahrs_flight(py: Python<'_>, seed: u64) -> PyResult<Bound<'_, PyDict>> {
     let samples = flight.simulate(&errors, seed);
     let d = PyDict::new(py);
     let col = |f: &dyn Fn(&models::ahrs::sim::Sample) -> Vector3<f64>| -> Vec<f64> {
-        samples.iter().flat_map(|s| f(s).iter().copied().collect::<Vec<_>>()).collect()
+        samples.iter().flat_map(|s| <[f64; 3]>::from(f(s))).collect()
     };
     d.set_item("t", PyArray1::from_vec(py, samples.iter().map(|s| s.t).collect()))?;
     d.set_item("gyro", matrix(py, col(&|s| s.gyro), 3)?)?;

@@ -129,6 +129,13 @@ struct Rows {
     width: usize,
 }
 
+impl Rows {
+    /// Row `k` (0-based), if there is one.
+    fn row(&self, k: usize) -> Option<&[f64]> {
+        self.data.get(k * self.width..(k + 1) * self.width)
+    }
+}
+
 impl<R: BufRead> NumericLines<R> {
     /// Wrap a reader; `path` names it in errors.
     pub fn new(inner: R, path: &Path) -> Self {
@@ -150,11 +157,6 @@ impl<R: BufRead> NumericLines<R> {
     pub fn with_rows(mut self, data: std::sync::Arc<[f64]>, width: usize) -> Self {
         self.rows = Some(Rows { data, width: width.max(1) });
         self
-    }
-
-    /// In rows mode: whether a row is left.
-    fn rows_left(&self) -> Option<bool> {
-        self.rows.as_ref().map(|r| self.line * r.width < r.data.len())
     }
 
     /// Read only the 0-based fields `columns` (distinct) of each line from now on, in that
@@ -240,8 +242,8 @@ impl<R: BufRead> NumericLines<R> {
     /// The first byte of the next line that is not a space or a tab (without reading
     /// it), `None` at the end of the file.
     pub fn peek_byte(&mut self) -> Result<Option<u8>, LineError> {
-        if let Some(left) = self.rows_left() {
-            return Ok(left.then_some(b'0'));
+        if let Some(rows) = &self.rows {
+            return Ok(rows.row(self.line).map(|_| b'0'));
         }
         let line = self.line + 1;
         let buf = self.inner.fill_buf().map_err(|e| LineError {
@@ -283,8 +285,8 @@ impl<R: BufRead> NumericLines<R> {
 
     /// Next record of numbers; `Ok(None)` at the end of the file.
     pub fn next_record(&mut self) -> Result<Option<&[f64]>, LineError> {
-        if let Some(left) = self.rows_left() {
-            return self.next_row(left);
+        if self.rows.is_some() {
+            return self.next_row();
         }
         if !self.advance()? {
             return Ok(None);
@@ -343,13 +345,12 @@ impl<R: BufRead> NumericLines<R> {
         }
     }
 
-    /// [`next_record`](Self::next_record) in rows mode (`left`: a row is left): the
-    /// row's values, or the selected ones, with the text's refusal of NaN and infinity.
-    fn next_row(&mut self, left: bool) -> Result<Option<&[f64]>, LineError> {
-        let Some(rows) = self.rows.as_ref().filter(|_| left) else {
+    /// [`next_record`](Self::next_record) in rows mode: the row's values, or the selected
+    /// ones, with the text's refusal of NaN and infinity.
+    fn next_row(&mut self) -> Result<Option<&[f64]>, LineError> {
+        let Some(row) = self.rows.as_ref().and_then(|r| r.row(self.line)) else {
             return Ok(None);
         };
-        let row = &rows.data[self.line * rows.width..(self.line + 1) * rows.width];
         self.line += 1;
         self.values.clear();
         match &self.select {
