@@ -234,6 +234,16 @@ fn kinematic<'py>(
     alpha: Option<f64>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     use models::kinematic::{ConstantAcceleration, ConstantVelocity, Singer};
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(PyValueError::new_err(format!("dt = {dt} s: finite and positive")));
+    }
+    if !(q.is_finite() && q >= 0.0) {
+        return Err(PyValueError::new_err(format!("q = {q}: finite and not negative")));
+    }
+    if let Some(a) = alpha.filter(|a| !(a.is_finite() && *a > 0.0)) {
+        return Err(PyValueError::new_err(format!("alpha = {a} 1/s: finite and positive")));
+    }
+
     fn pair<PM: ProcessModel<Input = ()>>(pm: &PM, x: &PM::State, dt: f64) -> (Vec<f64>, usize)
     where
         nalgebra::DefaultAllocator: estimator_core::DimAlloc<estimator_core::StateDim<PM::State>>,

@@ -139,6 +139,13 @@ fn navigate<'py>(
     let inputs = match (&imu, &gnss) {
         (Some(imu), Some(gnss)) => {
             let (imu, gnss) = (imu.as_array(), gnss.as_array());
+            // (an array without columns would read as one without rows)
+            for (name, a, widths) in [("imu", &imu, "7 or 8"), ("gnss", &gnss, "7 or 13")] {
+                if a.ncols() == 0 {
+                    let message = format!("{name} has no columns ({widths} expected)");
+                    return Err(PyValueError::new_err(message));
+                }
+            }
             Inputs::Arrays {
                 imu: rows(&imu),
                 imu_width: imu.ncols(),

@@ -106,6 +106,12 @@ def test_kinematic_models_are_the_closed_forms():
     assert np.allclose(F, estimator.kinematic("ca", dt, q)[0], atol=1e-9)
     with pytest.raises(ValueError, match="alpha"):
         estimator.kinematic("singer", dt, q)
+    with pytest.raises(ValueError, match="dt = NaN"):
+        estimator.kinematic("cv", float("nan"), q)
+    with pytest.raises(ValueError, match="q = -1"):
+        estimator.kinematic("ca", dt, -1.0)
+    with pytest.raises(ValueError, match="alpha = 0"):
+        estimator.kinematic("singer", dt, q, alpha=0.0)
 
 
 def test_bad_shapes_and_dimensions_are_refused():

@@ -165,6 +165,8 @@ def test_bad_rows_are_refused_with_the_array_and_row(navego_arrays):
     bad_gnss[4, 1] = 132.0  # latitude out of range
     with pytest.raises(estimator.EstimatorError, match=r"gnss array row:5: latitude 132"):
         estimator.navigate(NAVEGO, imu, bad_gnss)
+    with pytest.raises(ValueError, match="imu has no columns"):
+        estimator.navigate(NAVEGO, imu[:, :0], gnss)
 
 
 def test_a_column_map_with_arrays_is_refused(navego_arrays):
