@@ -1,19 +1,20 @@
-//! Euclidean blocks: `R^N` as `nalgebra::SVector<f64, N>`, with `⊕ = +` and `⊖ = −`.
+//! Euclidean blocks: `R^N` as `nalgebra::SVector<T, N>`, with `⊕ = +` and `⊖ = −`.
 
 use nalgebra::{Const, DMatrixView, SMatrix, SVector};
 
+use crate::scalar::Real;
 use crate::traits::{Manifold, OminusJacobians, OplusJacobians};
 
-/// `R^N`: a plain vector block (velocity, position, biases …).
-pub type Rn<const N: usize> = SVector<f64, N>;
+/// `R^N`: a plain vector block (velocity, position, biases …), over `f64` unless named.
+pub type Rn<const N: usize, T = f64> = SVector<T, N>;
 /// `R^1`.
-pub type R1 = Rn<1>;
+pub type R1<T = f64> = Rn<1, T>;
 /// `R^2`.
-pub type R2 = Rn<2>;
+pub type R2<T = f64> = Rn<2, T>;
 /// `R^3`.
-pub type R3 = Rn<3>;
+pub type R3<T = f64> = Rn<3, T>;
 
-impl<const N: usize> Manifold for SVector<f64, N> {
+impl<T: Real, const N: usize> Manifold<T> for SVector<T, N> {
     type Dim = Const<N>;
 
     fn origin() -> Self {
@@ -32,18 +33,18 @@ impl<const N: usize> Manifold for SVector<f64, N> {
         self.iter().all(|v| v.is_finite())
     }
 
-    fn oplus_jacobians(&self, _delta: &Self) -> OplusJacobians<Self> {
+    fn oplus_jacobians(&self, _delta: &Self) -> OplusJacobians<Self, T> {
         OplusJacobians { J_y_x: SMatrix::identity(), J_y_delta: SMatrix::identity() }
     }
 
-    fn oplus_jacobian_delta(&self, _delta: &Self) -> SMatrix<f64, N, N> {
+    fn oplus_jacobian_delta(&self, _delta: &Self) -> SMatrix<T, N, N> {
         SMatrix::identity()
     }
 
     /// `G = I`: no blocks.
-    fn reset_blocks(&self, _delta: &Self, _visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>)) {}
+    fn reset_blocks(&self, _delta: &Self, _visit: &mut dyn FnMut(usize, DMatrixView<'_, T>)) {}
 
-    fn ominus_jacobians(&self, _origin: &Self) -> OminusJacobians<Self> {
-        OminusJacobians { J_d_y: SMatrix::identity(), J_d_x: -SMatrix::<f64, N, N>::identity() }
+    fn ominus_jacobians(&self, _origin: &Self) -> OminusJacobians<Self, T> {
+        OminusJacobians { J_d_y: SMatrix::identity(), J_d_x: -SMatrix::<T, N, N>::identity() }
     }
 }

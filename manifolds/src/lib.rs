@@ -5,7 +5,8 @@
 //! | [`Manifold`] | the ⊕/⊖ contract (right perturbation), tangent dimension as a type |
 //! | [`So3`] | rotations on a unit quaternion: `exp`, `log`, [`right_jacobian`], [`right_jacobian_inverse`] |
 //! | [`So2`] | planar rotations (headings, bearings) |
-//! | [`Rn`], [`R1`], [`R2`], [`R3`] | Euclidean blocks (`nalgebra::SVector<f64, N>`) |
+//! | [`Rn`], [`R1`], [`R2`], [`R3`] | Euclidean blocks (`nalgebra::SVector<T, N>`) |
+//! | [`Real`] | the scalar, `f64` (default) or `f32` |
 //! | tuples `(A, B, …)` up to 6 parts | products whose dimension is the type-level sum of the parts |
 //! | [`composite_state!`] | named product states with a typed [`Block`] constant per field |
 //! | [`numdiff`] | central-difference Jacobians through ⊕/⊖ |
@@ -15,6 +16,23 @@
 //!
 //! Right (body-frame) perturbation everywhere: `R ⊕ δθ = R·Exp(δθ)`,
 //! `S ⊖ R = Log(R⁻¹·S)`, Euclidean blocks additive, `true = nominal ⊕ δx`.
+//!
+//! # Scalar
+//!
+//! Every type takes its scalar as a parameter that defaults to `f64`: `So3` is
+//! `So3<f64>`, `Manifold` is `Manifold<f64>`, `Tangent<M>` is `Tangent<M, f64>`. Single
+//! precision is named: `So3<f32>`, `R3<f32>`, `(So3<f32>, R3<f32>)`, all `Manifold<f32>`;
+//! `cast` converts rotations. The `f64` numbers are those of the code before the scalar was
+//! a parameter (bit for bit). Named composite states ([`composite_state!`]) are `f64`.
+//!
+//! ```
+//! use manifolds::{Manifold, So3, R3};
+//! use nalgebra::Vector3;
+//!
+//! let x: (So3<f32>, R3<f32>) = (So3::exp(&Vector3::new(0.1, -0.2, 0.3)), R3::zeros());
+//! let d = nalgebra::SVector::<f32, 6>::from_element(0.01);
+//! assert!((x.oplus(&d).ominus(&x) - d).norm() < 1e-6);
+//! ```
 //!
 //! # Generic code
 //!
@@ -33,6 +51,7 @@
 mod euclid;
 pub mod numdiff;
 pub mod product;
+mod scalar;
 mod so2;
 mod so3;
 mod traits;
@@ -42,6 +61,7 @@ pub mod testing;
 
 pub use euclid::{Rn, R1, R2, R3};
 pub use product::Block;
+pub use scalar::Real;
 pub use so2::{wrap_angle, So2};
 pub use so3::{
     hat, left_jacobian, left_jacobian_inverse, right_jacobian, right_jacobian_inverse, So3,

@@ -8,9 +8,11 @@
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
+use crate::scalar::Real;
 use crate::traits::{DimAlloc, Manifold, Tangent};
 
-/// Default step: balances truncation (`h²`) against rounding (`ε/h`) for unit-scale maps.
+/// Default step in `f64`: balances truncation (`h²`) against rounding (`ε/h`) for
+/// unit-scale maps. Generic code takes [`Real::DIFF_STEP`] (the same in `f64`).
 pub const DEFAULT_STEP: f64 = 1e-6;
 
 /// Jacobian of a tangent-valued map `g` at the point `x`, through `⊕` on the input side:
@@ -18,49 +20,52 @@ pub const DEFAULT_STEP: f64 = 1e-6;
 ///
 /// Use it for maps whose output is already a tangent (or Euclidean) vector, e.g.
 /// `|x| f(x).ominus(&f(x0))`.
-pub fn jacobian<X, R>(x: &X, g: impl Fn(&X) -> OVector<f64, R>, h: f64) -> OMatrix<f64, R, X::Dim>
+pub fn jacobian<X, R, T>(x: &X, g: impl Fn(&X) -> OVector<T, R>, h: T) -> OMatrix<T, R, X::Dim>
 where
-    X: Manifold,
+    X: Manifold<T>,
     R: DimName,
+    T: Real,
     DefaultAllocator: DimAlloc<X::Dim> + Allocator<R> + Allocator<R, X::Dim>,
 {
-    let mut J = OMatrix::<f64, R, X::Dim>::zeros();
-    let mut e = Tangent::<X>::zeros();
+    let mut J = OMatrix::<T, R, X::Dim>::zeros();
+    let mut e = Tangent::<X, T>::zeros();
     for j in 0..X::DIM {
         e[j] = h;
         let plus = g(&x.oplus(&e));
         e[j] = -h;
         let minus = g(&x.oplus(&e));
-        e[j] = 0.0;
-        J.set_column(j, &((plus - minus) / (2.0 * h)));
+        e[j] = T::zero();
+        J.set_column(j, &((plus - minus) / (T::lit(2.0) * h)));
     }
     J
 }
 
 /// Jacobian of a map between manifolds, `∂(f(x ⊕ ε) ⊖ f(x))/∂ε` at `ε = 0`.
-pub fn jacobian_between<X, Y>(x: &X, f: impl Fn(&X) -> Y, h: f64) -> OMatrix<f64, Y::Dim, X::Dim>
+pub fn jacobian_between<X, Y, T>(x: &X, f: impl Fn(&X) -> Y, h: T) -> OMatrix<T, Y::Dim, X::Dim>
 where
-    X: Manifold,
-    Y: Manifold,
+    X: Manifold<T>,
+    Y: Manifold<T>,
+    T: Real,
     DefaultAllocator: DimAlloc<X::Dim> + DimAlloc<Y::Dim> + Allocator<Y::Dim, X::Dim>,
 {
     let y0 = f(x);
-    jacobian::<X, Y::Dim>(x, |xp| f(xp).ominus(&y0), h)
+    jacobian::<X, Y::Dim, T>(x, |xp| f(xp).ominus(&y0), h)
 }
 
 /// Jacobian of a tangent-valued map of a tangent vector of `M` (a flat space, so plain
 /// central differences): column `j` is `(g(d + h eⱼ) − g(d − h eⱼ)) / 2h`.
-pub fn jacobian_of_tangent<M, R>(
-    d: &Tangent<M>,
-    g: impl Fn(&Tangent<M>) -> OVector<f64, R>,
-    h: f64,
-) -> OMatrix<f64, R, M::Dim>
+pub fn jacobian_of_tangent<M, R, T>(
+    d: &Tangent<M, T>,
+    g: impl Fn(&Tangent<M, T>) -> OVector<T, R>,
+    h: T,
+) -> OMatrix<T, R, M::Dim>
 where
-    M: Manifold,
+    M: Manifold<T>,
     R: DimName,
+    T: Real,
     DefaultAllocator: DimAlloc<M::Dim> + Allocator<R> + Allocator<R, M::Dim>,
 {
-    let mut J = OMatrix::<f64, R, M::Dim>::zeros();
+    let mut J = OMatrix::<T, R, M::Dim>::zeros();
     let mut p = d.clone();
     for j in 0..M::DIM {
         p[j] = d[j] + h;
@@ -68,7 +73,7 @@ where
         p[j] = d[j] - h;
         let minus = g(&p);
         p[j] = d[j];
-        J.set_column(j, &((plus - minus) / (2.0 * h)));
+        J.set_column(j, &((plus - minus) / (T::lit(2.0) * h)));
     }
     J
 }

@@ -9,26 +9,24 @@ use core::ops::Range;
 
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, DimNameAdd, DimNameSum, OMatrix, OVector};
-// without `std`, `sqrt` is nalgebra's (libm)
-#[cfg(not(feature = "std"))]
-use nalgebra::ComplexField as _;
 
+use crate::scalar::Real;
 use crate::traits::{DimAlloc, Manifold, Tangent, TangentMatrix};
 
 /// Copy of the block of `v` that starts at `offset` and has `B::DIM` rows.
 #[doc(hidden)]
-pub fn block_of<D, B>(v: &OVector<f64, D>, offset: usize) -> OVector<f64, B>
+pub fn block_of<D, B, T: Real>(v: &OVector<T, D>, offset: usize) -> OVector<T, B>
 where
     D: DimName,
     B: DimName,
     DefaultAllocator: Allocator<D> + Allocator<B>,
 {
-    OVector::<f64, B>::from_fn(|i, _| v[offset + i])
+    OVector::<T, B>::from_fn(|i, _| v[offset + i])
 }
 
 /// Write `b` into `v` from row `offset` on.
 #[doc(hidden)]
-pub fn set_block<D, B>(v: &mut OVector<f64, D>, offset: usize, b: &OVector<f64, B>)
+pub fn set_block<D, B, T: Real>(v: &mut OVector<T, D>, offset: usize, b: &OVector<T, B>)
 where
     D: DimName,
     B: DimName,
@@ -41,8 +39,11 @@ where
 
 /// Write the square block `b` on the diagonal of `m` at `(offset, offset)`.
 #[doc(hidden)]
-pub fn set_diagonal_block<D, B>(m: &mut OMatrix<f64, D, D>, offset: usize, b: &OMatrix<f64, B, B>)
-where
+pub fn set_diagonal_block<D, B, T: Real>(
+    m: &mut OMatrix<T, D, D>,
+    offset: usize,
+    b: &OMatrix<T, B, B>,
+) where
     D: DimName,
     B: DimName,
     DefaultAllocator: Allocator<D, D> + Allocator<B, B>,
@@ -75,10 +76,7 @@ impl<M> core::fmt::Debug for Block<M> {
     }
 }
 
-impl<M: Manifold> Block<M>
-where
-    DefaultAllocator: DimAlloc<M::Dim>,
-{
+impl<M> Block<M> {
     /// A block starting at `offset`.
     pub const fn new(offset: usize) -> Self {
         Self { offset, _m: PhantomData }
@@ -90,42 +88,57 @@ where
     }
 
     /// Tangent dimension of the block.
-    pub const fn len(&self) -> usize {
+    pub const fn len<T: Real>(&self) -> usize
+    where
+        M: Manifold<T>,
+        DefaultAllocator: DimAlloc<M::Dim>,
+    {
         M::DIM
     }
 
     /// Blocks are never empty unless their manifold is zero-dimensional.
-    pub const fn is_empty(&self) -> bool {
+    pub const fn is_empty<T: Real>(&self) -> bool
+    where
+        M: Manifold<T>,
+        DefaultAllocator: DimAlloc<M::Dim>,
+    {
         M::DIM == 0
     }
 
     /// The tangent index range of the block.
-    pub const fn range(&self) -> Range<usize> {
+    pub const fn range<T: Real>(&self) -> Range<usize>
+    where
+        M: Manifold<T>,
+        DefaultAllocator: DimAlloc<M::Dim>,
+    {
         self.offset..self.offset + M::DIM
     }
 
     /// The block's part of a full tangent vector (or of a gain column, a residual …).
-    pub fn of<D: DimName>(&self, v: &OVector<f64, D>) -> Tangent<M>
+    pub fn of<T: Real, D: DimName>(&self, v: &OVector<T, D>) -> Tangent<M, T>
     where
-        DefaultAllocator: Allocator<D>,
+        M: Manifold<T>,
+        DefaultAllocator: DimAlloc<M::Dim> + Allocator<D>,
     {
-        block_of::<D, M::Dim>(v, self.offset)
+        block_of::<D, M::Dim, T>(v, self.offset)
     }
 
     /// The block's diagonal sub-matrix of a full covariance.
-    pub fn cov<D: DimName>(&self, P: &OMatrix<f64, D, D>) -> TangentMatrix<M>
+    pub fn cov<T: Real, D: DimName>(&self, P: &OMatrix<T, D, D>) -> TangentMatrix<M, T>
     where
-        DefaultAllocator: Allocator<D, D>,
+        M: Manifold<T>,
+        DefaultAllocator: DimAlloc<M::Dim> + Allocator<D, D>,
     {
-        TangentMatrix::<M>::from_fn(|r, c| P[(self.offset + r, self.offset + c)])
+        TangentMatrix::<M, T>::from_fn(|r, c| P[(self.offset + r, self.offset + c)])
     }
 
     /// 1σ of each component of the block from a full covariance.
-    pub fn sigma<D: DimName>(&self, P: &OMatrix<f64, D, D>) -> Tangent<M>
+    pub fn sigma<T: Real, D: DimName>(&self, P: &OMatrix<T, D, D>) -> Tangent<M, T>
     where
-        DefaultAllocator: Allocator<D, D>,
+        M: Manifold<T>,
+        DefaultAllocator: DimAlloc<M::Dim> + Allocator<D, D>,
     {
-        Tangent::<M>::from_fn(|r, _| P[(self.offset + r, self.offset + r)].max(0.0).sqrt())
+        Tangent::<M, T>::from_fn(|r, _| P[(self.offset + r, self.offset + r)].max(T::zero()).sqrt())
     }
 }
 
@@ -135,7 +148,7 @@ macro_rules! impl_tuple_manifold {
         bounds = [$($bound:tt)*];
         $($T:ident . $idx:tt),+
     ) => {
-        impl<$($T: Manifold),+> Manifold for ($($T,)+)
+        impl<Sc: Real, $($T: Manifold<Sc>),+> Manifold<Sc> for ($($T,)+)
         where
             $($bound)*
             DefaultAllocator: $(DimAlloc<$T::Dim> +)+ DimAlloc<$Dim>,
@@ -146,17 +159,17 @@ macro_rules! impl_tuple_manifold {
                 ($($T::origin(),)+)
             }
 
-            fn oplus(&self, delta: &Tangent<Self>) -> Self {
+            fn oplus(&self, delta: &Tangent<Self, Sc>) -> Self {
                 let mut _off = 0usize;
                 ($({
-                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    let d = block_of::<Self::Dim, $T::Dim, Sc>(delta, _off);
                     _off += $T::DIM;
                     self.$idx.oplus(&d)
                 },)+)
             }
 
-            fn ominus(&self, origin: &Self) -> Tangent<Self> {
-                let mut out = Tangent::<Self>::zeros();
+            fn ominus(&self, origin: &Self) -> Tangent<Self, Sc> {
+                let mut out = Tangent::<Self, Sc>::zeros();
                 let mut _off = 0usize;
                 $(
                     set_block(&mut out, _off, &self.$idx.ominus(&origin.$idx));
@@ -169,12 +182,12 @@ macro_rules! impl_tuple_manifold {
                 true $(&& self.$idx.is_finite())+
             }
 
-            fn oplus_jacobians(&self, delta: &Tangent<Self>) -> crate::OplusJacobians<Self> {
-                let mut J_y_x = TangentMatrix::<Self>::zeros();
-                let mut J_y_delta = TangentMatrix::<Self>::zeros();
+            fn oplus_jacobians(&self, delta: &Tangent<Self, Sc>) -> crate::OplusJacobians<Self, Sc> {
+                let mut J_y_x = TangentMatrix::<Self, Sc>::zeros();
+                let mut J_y_delta = TangentMatrix::<Self, Sc>::zeros();
                 let mut _off = 0usize;
                 $(
-                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    let d = block_of::<Self::Dim, $T::Dim, Sc>(delta, _off);
                     let j = self.$idx.oplus_jacobians(&d);
                     set_diagonal_block(&mut J_y_x, _off, &j.J_y_x);
                     set_diagonal_block(&mut J_y_delta, _off, &j.J_y_delta);
@@ -183,11 +196,11 @@ macro_rules! impl_tuple_manifold {
                 crate::OplusJacobians { J_y_x, J_y_delta }
             }
 
-            fn oplus_jacobian_delta(&self, delta: &Tangent<Self>) -> TangentMatrix<Self> {
-                let mut J_y_delta = TangentMatrix::<Self>::zeros();
+            fn oplus_jacobian_delta(&self, delta: &Tangent<Self, Sc>) -> TangentMatrix<Self, Sc> {
+                let mut J_y_delta = TangentMatrix::<Self, Sc>::zeros();
                 let mut _off = 0usize;
                 $(
-                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    let d = block_of::<Self::Dim, $T::Dim, Sc>(delta, _off);
                     set_diagonal_block(&mut J_y_delta, _off, &self.$idx.oplus_jacobian_delta(&d));
                     _off += $T::DIM;
                 )+
@@ -196,12 +209,12 @@ macro_rules! impl_tuple_manifold {
 
             fn reset_blocks(
                 &self,
-                delta: &Tangent<Self>,
-                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
+                delta: &Tangent<Self, Sc>,
+                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, Sc>),
             ) {
                 let mut _off = 0usize;
                 $(
-                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    let d = block_of::<Self::Dim, $T::Dim, Sc>(delta, _off);
                     self.$idx.reset_blocks(&d, &mut |o, b| visit(_off + o, b));
                     _off += $T::DIM;
                 )+
@@ -209,21 +222,21 @@ macro_rules! impl_tuple_manifold {
 
             fn oplus_reset(
                 &self,
-                delta: &Tangent<Self>,
-                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, f64>),
+                delta: &Tangent<Self, Sc>,
+                visit: &mut dyn FnMut(usize, nalgebra::DMatrixView<'_, Sc>),
             ) -> Self {
                 let mut _off = 0usize;
                 ($({
-                    let d = block_of::<Self::Dim, $T::Dim>(delta, _off);
+                    let d = block_of::<Self::Dim, $T::Dim, Sc>(delta, _off);
                     let off = _off;
                     _off += $T::DIM;
                     self.$idx.oplus_reset(&d, &mut |o, b| visit(off + o, b))
                 },)+)
             }
 
-            fn ominus_jacobians(&self, origin: &Self) -> crate::OminusJacobians<Self> {
-                let mut J_d_y = TangentMatrix::<Self>::zeros();
-                let mut J_d_x = TangentMatrix::<Self>::zeros();
+            fn ominus_jacobians(&self, origin: &Self) -> crate::OminusJacobians<Self, Sc> {
+                let mut J_d_y = TangentMatrix::<Self, Sc>::zeros();
+                let mut J_d_x = TangentMatrix::<Self, Sc>::zeros();
                 let mut _off = 0usize;
                 $(
                     let j = self.$idx.ominus_jacobians(&origin.$idx);
@@ -237,49 +250,49 @@ macro_rules! impl_tuple_manifold {
     };
 }
 
-type S2<A, B> = DimNameSum<<A as Manifold>::Dim, <B as Manifold>::Dim>;
-type S3<A, B, C> = DimNameSum<S2<A, B>, <C as Manifold>::Dim>;
-type S4<A, B, C, D> = DimNameSum<S3<A, B, C>, <D as Manifold>::Dim>;
-type S5<A, B, C, D, E> = DimNameSum<S4<A, B, C, D>, <E as Manifold>::Dim>;
-type S6<A, B, C, D, E, F> = DimNameSum<S5<A, B, C, D, E>, <F as Manifold>::Dim>;
+type S2<A, B, Sc> = DimNameSum<<A as Manifold<Sc>>::Dim, <B as Manifold<Sc>>::Dim>;
+type S3<A, B, C, Sc> = DimNameSum<S2<A, B, Sc>, <C as Manifold<Sc>>::Dim>;
+type S4<A, B, C, D, Sc> = DimNameSum<S3<A, B, C, Sc>, <D as Manifold<Sc>>::Dim>;
+type S5<A, B, C, D, E, Sc> = DimNameSum<S4<A, B, C, D, Sc>, <E as Manifold<Sc>>::Dim>;
+type S6<A, B, C, D, E, F, Sc> = DimNameSum<S5<A, B, C, D, E, Sc>, <F as Manifold<Sc>>::Dim>;
 
 impl_tuple_manifold!(
-    dim = S2<A, B>;
+    dim = S2<A, B, Sc>;
     bounds = [A::Dim: DimNameAdd<B::Dim>,];
     A.0, B.1
 );
 impl_tuple_manifold!(
-    dim = S3<A, B, C>;
-    bounds = [A::Dim: DimNameAdd<B::Dim>, S2<A, B>: DimNameAdd<C::Dim>,];
+    dim = S3<A, B, C, Sc>;
+    bounds = [A::Dim: DimNameAdd<B::Dim>, S2<A, B, Sc>: DimNameAdd<C::Dim>,];
     A.0, B.1, C.2
 );
 impl_tuple_manifold!(
-    dim = S4<A, B, C, D>;
+    dim = S4<A, B, C, D, Sc>;
     bounds = [
         A::Dim: DimNameAdd<B::Dim>,
-        S2<A, B>: DimNameAdd<C::Dim>,
-        S3<A, B, C>: DimNameAdd<D::Dim>,
+        S2<A, B, Sc>: DimNameAdd<C::Dim>,
+        S3<A, B, C, Sc>: DimNameAdd<D::Dim>,
     ];
     A.0, B.1, C.2, D.3
 );
 impl_tuple_manifold!(
-    dim = S5<A, B, C, D, E>;
+    dim = S5<A, B, C, D, E, Sc>;
     bounds = [
         A::Dim: DimNameAdd<B::Dim>,
-        S2<A, B>: DimNameAdd<C::Dim>,
-        S3<A, B, C>: DimNameAdd<D::Dim>,
-        S4<A, B, C, D>: DimNameAdd<E::Dim>,
+        S2<A, B, Sc>: DimNameAdd<C::Dim>,
+        S3<A, B, C, Sc>: DimNameAdd<D::Dim>,
+        S4<A, B, C, D, Sc>: DimNameAdd<E::Dim>,
     ];
     A.0, B.1, C.2, D.3, E.4
 );
 impl_tuple_manifold!(
-    dim = S6<A, B, C, D, E, F>;
+    dim = S6<A, B, C, D, E, F, Sc>;
     bounds = [
         A::Dim: DimNameAdd<B::Dim>,
-        S2<A, B>: DimNameAdd<C::Dim>,
-        S3<A, B, C>: DimNameAdd<D::Dim>,
-        S4<A, B, C, D>: DimNameAdd<E::Dim>,
-        S5<A, B, C, D, E>: DimNameAdd<F::Dim>,
+        S2<A, B, Sc>: DimNameAdd<C::Dim>,
+        S3<A, B, C, Sc>: DimNameAdd<D::Dim>,
+        S4<A, B, C, D, Sc>: DimNameAdd<E::Dim>,
+        S5<A, B, C, D, E, Sc>: DimNameAdd<F::Dim>,
     ];
     A.0, B.1, C.2, D.3, E.4, F.5
 );

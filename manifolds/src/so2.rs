@@ -3,68 +3,70 @@
 //! `θ ⊕ δ = wrap(θ + δ)`, `φ ⊖ θ = wrap(φ − θ)`: the group is commutative, so left and
 //! right perturbations coincide and every Jacobian of ⊕/⊖ is ±1.
 
-use core::f64::consts::PI;
-
 use nalgebra::{Const, Matrix1, Matrix2, Vector1};
 
+use crate::scalar::Real;
 use crate::traits::{Manifold, OminusJacobians, OplusJacobians};
-// without `std`, the floats' functions (sin_cos) are nalgebra's (libm)
-#[cfg(not(feature = "std"))]
-use nalgebra::ComplexField as _;
 
 /// Wrap an angle into (−π, π].
-pub fn wrap_angle(a: f64) -> f64 {
-    if a > -PI && a <= PI {
+pub fn wrap_angle<T: Real>(a: T) -> T {
+    let pi = T::pi();
+    if a > -pi && a <= pi {
         return a;
     }
     // (`f64::rem_euclid`, which `core` lacks, spelled out: the same numbers)
-    let m = 2.0 * PI;
-    let r = (a + PI) % m;
-    let w = if r < 0.0 { r + m } else { r } - PI;
-    if w <= -PI {
-        w + 2.0 * PI
+    let m = T::two_pi();
+    let r = (a + pi) % m;
+    let w = if r < T::zero() { r + m } else { r } - pi;
+    if w <= -pi {
+        w + T::two_pi()
     } else {
         w
     }
 }
 
-/// A planar rotation by `angle` (radians, kept in (−π, π]).
+/// A planar rotation by `angle` (radians, kept in (−π, π]), over `f64` unless named.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct So2 {
-    angle: f64,
+pub struct So2<T: Real = f64> {
+    angle: T,
 }
 
-impl So2 {
+impl<T: Real> So2<T> {
     /// From an angle in radians (wrapped).
-    pub fn new(angle: f64) -> Self {
+    pub fn new(angle: T) -> Self {
         Self { angle: wrap_angle(angle) }
     }
 
     /// The angle in (−π, π].
-    pub fn angle(&self) -> f64 {
+    pub fn angle(&self) -> T {
         self.angle
     }
 
+    /// The same rotation over another scalar (the angle rounded to it, then wrapped).
+    pub fn cast<U: Real>(&self) -> So2<U> {
+        So2::new(U::lit(self.angle.to_f64()))
+    }
+
     /// The rotation matrix.
-    pub fn matrix(&self) -> Matrix2<f64> {
+    pub fn matrix(&self) -> Matrix2<T> {
         let (s, c) = self.angle.sin_cos();
         Matrix2::new(c, -s, s, c)
     }
 }
 
-impl Manifold for So2 {
+impl<T: Real> Manifold<T> for So2<T> {
     type Dim = Const<1>;
 
     fn origin() -> Self {
-        Self { angle: 0.0 }
+        Self { angle: T::zero() }
     }
 
-    fn oplus(&self, delta: &Vector1<f64>) -> Self {
+    fn oplus(&self, delta: &Vector1<T>) -> Self {
         Self::new(self.angle + delta.x)
     }
 
-    fn ominus(&self, origin: &Self) -> Vector1<f64> {
+    fn ominus(&self, origin: &Self) -> Vector1<T> {
         Vector1::new(wrap_angle(self.angle - origin.angle))
     }
 
@@ -72,11 +74,11 @@ impl Manifold for So2 {
         self.angle.is_finite()
     }
 
-    fn oplus_jacobians(&self, _delta: &Vector1<f64>) -> OplusJacobians<Self> {
+    fn oplus_jacobians(&self, _delta: &Vector1<T>) -> OplusJacobians<Self, T> {
         OplusJacobians { J_y_x: Matrix1::identity(), J_y_delta: Matrix1::identity() }
     }
 
-    fn ominus_jacobians(&self, _origin: &Self) -> OminusJacobians<Self> {
+    fn ominus_jacobians(&self, _origin: &Self) -> OminusJacobians<Self, T> {
         OminusJacobians { J_d_y: Matrix1::identity(), J_d_x: -Matrix1::identity() }
     }
 }

@@ -45,6 +45,7 @@ use proptest::strategy::BoxedStrategy;
 
 use crate::numdiff;
 use crate::product::set_block;
+use crate::scalar::Real;
 use crate::traits::{DimAlloc, Manifold, Tangent};
 use crate::{So2, So3};
 
@@ -60,8 +61,24 @@ pub struct LawTolerance {
 }
 
 impl Default for LawTolerance {
+    /// The `f64` tolerances: [`for_scalar::<f64>`](Self::for_scalar).
     fn default() -> Self {
-        Self { law: 1e-9, jacobian: 1e-6, step: 1e-6 }
+        Self::for_scalar::<f64>()
+    }
+}
+
+impl LawTolerance {
+    /// The tolerances for states over the scalar `T`: in `f64` law 1e-9, Jacobian 1e-6,
+    /// step 1e-6; for a coarser scalar they scale with its epsilon `ε`: law `100 ε`,
+    /// Jacobian `100 ε^(2/3)` (the floor of a central difference), step
+    /// [`T::DIFF_STEP`](Real::DIFF_STEP) — in `f32` 1.2e-5, 2.4e-3 and 1e-3.
+    pub fn for_scalar<T: Real>() -> Self {
+        let eps = T::EPS_F64;
+        Self {
+            law: (100.0 * eps).max(1e-9),
+            jacobian: (100.0 * eps.powf(2.0 / 3.0)).max(1e-6),
+            step: T::DIFF_STEP.to_f64(),
+        }
     }
 }
 
@@ -90,23 +107,23 @@ impl fmt::Display for LawViolation {
 
 impl std::error::Error for LawViolation {}
 
-fn max_abs<R: DimName, C: DimName>(m: &OMatrix<f64, R, C>) -> f64
+fn max_abs<T: Real, R: DimName, C: DimName>(m: &OMatrix<T, R, C>) -> f64
 where
     DefaultAllocator: Allocator<R, C>,
 {
-    m.iter().fold(0.0_f64, |a, v| a.max(v.abs()))
+    m.iter().fold(0.0_f64, |a, v| a.max(v.to_f64().abs()))
 }
 
 /// Run `report` (a call that reports reset blocks, `Manifold::reset_blocks` or
 /// `oplus_reset`) and write its blocks over the identity: its result, `G`, and whether the
 /// blocks came in increasing order, square, in range and disjoint.
-fn assembled_blocks<M: Manifold, T>(
-    report: impl FnOnce(&mut dyn FnMut(usize, DMatrixView<'_, f64>)) -> T,
-) -> (T, OMatrix<f64, M::Dim, M::Dim>, bool)
+fn assembled_blocks<M: Manifold<T>, T: Real, Out>(
+    report: impl FnOnce(&mut dyn FnMut(usize, DMatrixView<'_, T>)) -> Out,
+) -> (Out, OMatrix<T, M::Dim, M::Dim>, bool)
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
-    let mut g = OMatrix::<f64, M::Dim, M::Dim>::identity();
+    let mut g = OMatrix::<T, M::Dim, M::Dim>::identity();
     let mut next_free = 0usize;
     let mut well_formed = true;
     let out = report(&mut |o, b| {
@@ -127,10 +144,12 @@ where
 /// Laws: `x ⊕ 0 = x`, `x ⊕ (y ⊖ x) = y`, `(x ⊕ δ) ⊖ x = δ`; Jacobians of
 /// `x ⊕ δ` (w.r.t. `x` and `δ`) and of `(x ⊕ δ) ⊖ x` (w.r.t. both points) against
 /// central differences through ⊕/⊖. Points are compared through ⊖, never with `==`.
-pub fn check_laws<M: Manifold>(
+/// Over any scalar (`M: Manifold<T>`; give `f32` states
+/// [`LawTolerance::for_scalar`]`::<f32>()`).
+pub fn check_laws<M: Manifold<T>, T: Real>(
     x: &M,
     y: &M,
-    delta: &Tangent<M>,
+    delta: &Tangent<M, T>,
     tol: LawTolerance,
 ) -> Result<(), LawViolation>
 where
@@ -144,34 +163,35 @@ where
             Err(LawViolation { law, error, tolerance, at: at() })
         }
     };
-    let scale = delta.norm().max(1.0);
+    let norm = |v: Tangent<M, T>| v.norm().to_f64();
+    let scale = delta.norm().to_f64().max(1.0);
 
-    let zero = Tangent::<M>::zeros();
-    check("x ⊕ 0 = x", x.oplus(&zero).ominus(x).norm(), tol.law)?;
-    check("x ⊖ x = 0", x.ominus(x).norm(), tol.law)?;
+    let zero = Tangent::<M, T>::zeros();
+    check("x ⊕ 0 = x", norm(x.oplus(&zero).ominus(x)), tol.law)?;
+    check("x ⊖ x = 0", norm(x.ominus(x)), tol.law)?;
     let y_minus_x = y.ominus(x);
     check(
         "x ⊕ (y ⊖ x) = y",
-        x.oplus(&y_minus_x).ominus(y).norm(),
-        tol.law * y_minus_x.norm().max(1.0),
+        norm(x.oplus(&y_minus_x).ominus(y)),
+        tol.law * y_minus_x.norm().to_f64().max(1.0),
     )?;
     let x_plus_d = x.oplus(delta);
-    check("(x ⊕ δ) ⊖ x = δ", (x_plus_d.ominus(x) - delta).norm(), tol.law * scale)?;
+    check("(x ⊕ δ) ⊖ x = δ", norm(x_plus_d.ominus(x) - delta), tol.law * scale)?;
 
     // An analytic Jacobian is compared with central differences at `tol.step`; when they
     // disagree, differences at ten times the step decide whom to blame: if the two
     // numerical estimates disagree with each other as much, the map loses precision at
     // this point (cancellation, a discontinuity) and the check says so instead.
     let jac = |law: &'static str,
-               analytic: &OMatrix<f64, M::Dim, M::Dim>,
-               numeric: &dyn Fn(f64) -> OMatrix<f64, M::Dim, M::Dim>| {
+               analytic: &OMatrix<T, M::Dim, M::Dim>,
+               numeric: &dyn Fn(T) -> OMatrix<T, M::Dim, M::Dim>| {
         let tolerance = tol.jacobian * max_abs(analytic).max(1.0);
-        let fine = numeric(tol.step);
+        let fine = numeric(T::lit(tol.step));
         let err = max_abs(&(analytic - &fine));
         if err.is_finite() && err <= tolerance {
             return Ok(());
         }
-        let coarse = numeric(10.0 * tol.step);
+        let coarse = numeric(T::lit(10.0 * tol.step));
         let spread = max_abs(&(&coarse - &fine));
         if spread.is_nan() || spread > tolerance {
             return Err(LawViolation {
@@ -185,27 +205,28 @@ where
         check(law, err, tolerance)
     };
     let exact =
-        |law: &'static str, a: &OMatrix<f64, M::Dim, M::Dim>, b: &OMatrix<f64, M::Dim, M::Dim>| {
+        |law: &'static str, a: &OMatrix<T, M::Dim, M::Dim>, b: &OMatrix<T, M::Dim, M::Dim>| {
             check(law, max_abs(&(a - b)), tol.jacobian * max_abs(b).max(1.0))
         };
     let op = x.oplus_jacobians(delta);
     let n_x = |h| numdiff::jacobian(x, |xp| xp.oplus(delta).ominus(&x_plus_d), h);
     jac("J of x ⊕ δ w.r.t. x", &op.J_y_x, &n_x)?;
-    let n_d =
-        |h| numdiff::jacobian_of_tangent::<M, M::Dim>(delta, |d| x.oplus(d).ominus(&x_plus_d), h);
+    let n_d = |h| {
+        numdiff::jacobian_of_tangent::<M, M::Dim, T>(delta, |d| x.oplus(d).ominus(&x_plus_d), h)
+    };
     jac("J of x ⊕ δ w.r.t. δ", &op.J_y_delta, &n_d)?;
     exact("oplus_jacobian_delta = J_y_delta", &x.oplus_jacobian_delta(delta), &op.J_y_delta)?;
     // The reset blocks, written over the identity, are the same Jacobian; they must be in
     // increasing order, square, in range and disjoint.
-    let ((), g, well_formed) = assembled_blocks::<M, _>(|visit| x.reset_blocks(delta, visit));
+    let ((), g, well_formed) = assembled_blocks::<M, T, _>(|visit| x.reset_blocks(delta, visit));
     check("reset blocks ordered, square, in range", if well_formed { 0.0 } else { 1.0 }, 0.0)?;
     exact("reset_blocks assemble to J_y_delta", &g, &op.J_y_delta)?;
     // oplus_reset gives the same point and the same blocks as oplus and reset_blocks.
     let (y_fused, g_fused, well_formed) =
-        assembled_blocks::<M, _>(|visit| x.oplus_reset(delta, visit));
+        assembled_blocks::<M, T, _>(|visit| x.oplus_reset(delta, visit));
     let what = "oplus_reset's blocks ordered, square, in range";
     check(what, if well_formed { 0.0 } else { 1.0 }, 0.0)?;
-    check("oplus_reset's point = x ⊕ δ", y_fused.ominus(&x_plus_d).norm(), tol.law * scale)?;
+    check("oplus_reset's point = x ⊕ δ", norm(y_fused.ominus(&x_plus_d)), tol.law * scale)?;
     exact("oplus_reset's blocks = reset_blocks'", &g_fused, &g)?;
 
     // ⊖ Jacobians at a pair whose difference is δ (inside the chart by construction).
@@ -216,22 +237,23 @@ where
     jac("J of y ⊖ x w.r.t. x", &om.J_d_x, &n_xo)?;
     // (x ⊕ δ) ⊖ x = δ for every δ in the chart, so ∂/∂δ: J⊖ (w.r.t. y) · J⊕ (w.r.t. δ) = I
     let chain = &om.J_d_y * &op.J_y_delta;
-    exact("J⊖ · J⊕ = I", &chain, &OMatrix::<f64, M::Dim, M::Dim>::identity())?;
+    exact("J⊖ · J⊕ = I", &chain, &OMatrix::<T, M::Dim, M::Dim>::identity())?;
     Ok(())
 }
 
-/// Sample points and tangents of a manifold for the law harness.
-pub trait LawSampler: Manifold
+/// Sample points and tangents of a manifold for the law harness (over the scalar `T`,
+/// `f64` unless named; the built-in types sample `f32` by rounding their `f64` samples).
+pub trait LawSampler<T: Real = f64>: Manifold<T>
 where
     DefaultAllocator: DimAlloc<Self::Dim>,
 {
     /// Points spread over the manifold (or a large box of a vector space).
     fn arb_point() -> BoxedStrategy<Self>;
     /// Tangents inside the chart (for rotations: angle below π − 1e-3).
-    fn arb_tangent() -> BoxedStrategy<Tangent<Self>>;
+    fn arb_tangent() -> BoxedStrategy<Tangent<Self, T>>;
     /// Tangents at the chart boundary (for rotations: angle π − 1e-4 along several axes).
     /// Empty for flat spaces.
-    fn boundary_tangents() -> Vec<Tangent<Self>> {
+    fn boundary_tangents() -> Vec<Tangent<Self, T>> {
         Vec::new()
     }
 }
@@ -241,13 +263,21 @@ pub fn scaled<M: Manifold>(dir: &Tangent<M>, norm: f64) -> Tangent<M>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
+    scaled_in::<M, f64>(dir, norm)
+}
+
+/// [`scaled`] over any scalar.
+pub fn scaled_in<M: Manifold<T>, T: Real>(dir: &Tangent<M, T>, norm: f64) -> Tangent<M, T>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
     let n = dir.norm();
-    if n > 0.0 {
-        dir * (norm / n)
+    if n > T::zero() {
+        dir * (T::lit(norm) / n)
     } else {
-        let mut e = Tangent::<M>::zeros();
+        let mut e = Tangent::<M, T>::zeros();
         if M::DIM > 0 {
-            e[0] = norm;
+            e[0] = T::lit(norm);
         }
         e
     }
@@ -284,40 +314,67 @@ pub fn arb_rn<const N: usize>(scale: f64) -> BoxedStrategy<SVector<f64, N>> {
     prop::collection::vec(-scale..scale, N).prop_map(SVector::<f64, N>::from_vec).boxed()
 }
 
-impl LawSampler for So3 {
+/// An `f64` vector rounded to the scalar `T`.
+fn round_to<T: Real, const N: usize>(v: SVector<f64, N>) -> SVector<T, N> {
+    v.map(T::lit)
+}
+
+/// How far from π the sampled rotation tangents stay: inside the chart `π − max(1e-3,
+/// 100 h)`, at its boundary `π − max(1e-4, 50 h)`, with `h` the scalar's difference step
+/// (the central differences at `h` and `10 h` must not cross π): in `f64` 1e-3 and 1e-4, in
+/// `f32` 0.1 and 0.05.
+fn chart_margins<T: Real>() -> (f64, f64) {
+    let h = T::DIFF_STEP.to_f64();
+    ((100.0 * h).max(1e-3), (50.0 * h).max(1e-4))
+}
+
+/// Half-width of the box Euclidean points are drawn from: 1e3 in `f64`; 1 in a coarser
+/// scalar, where a difference step `h` added to a point of size `|x|` loses `ulp(|x|)/h`
+/// (6 % at 644 in `f32` with `h` = 1e-3; 1e-4 at 1).
+fn point_box<T: Real>() -> f64 {
+    if T::EPS_F64 > 1e-10 {
+        1.0
+    } else {
+        1e3
+    }
+}
+
+impl<T: Real> LawSampler<T> for So3<T> {
     fn arb_point() -> BoxedStrategy<Self> {
-        arb_so3()
+        arb_so3().prop_map(|r| r.cast::<T>()).boxed()
     }
-    fn arb_tangent() -> BoxedStrategy<Vector3<f64>> {
-        arb_rotation_vector(PI - 1e-3)
+    fn arb_tangent() -> BoxedStrategy<Vector3<T>> {
+        arb_rotation_vector(PI - chart_margins::<T>().0).prop_map(round_to).boxed()
     }
-    fn boundary_tangents() -> Vec<Vector3<f64>> {
-        let a = PI - 1e-4;
+    fn boundary_tangents() -> Vec<Vector3<T>> {
+        let a = PI - chart_margins::<T>().1;
         [Vector3::x(), Vector3::y(), Vector3::z(), Vector3::new(1.0, -2.0, 0.5)]
             .iter()
-            .map(|d| d.normalize() * a)
+            .map(|d| round_to(d.normalize() * a))
             .collect()
     }
 }
 
-impl LawSampler for So2 {
+impl<T: Real> LawSampler<T> for So2<T> {
     fn arb_point() -> BoxedStrategy<Self> {
-        (-PI..PI).prop_map(So2::new).boxed()
+        (-PI..PI).prop_map(|a| So2::new(T::lit(a))).boxed()
     }
-    fn arb_tangent() -> BoxedStrategy<Vector1<f64>> {
-        (-(PI - 1e-3)..(PI - 1e-3)).prop_map(Vector1::new).boxed()
+    fn arb_tangent() -> BoxedStrategy<Vector1<T>> {
+        let a = PI - chart_margins::<T>().0;
+        (-a..a).prop_map(|a| Vector1::new(T::lit(a))).boxed()
     }
-    fn boundary_tangents() -> Vec<Vector1<f64>> {
-        vec![Vector1::new(PI - 1e-4), Vector1::new(-(PI - 1e-4))]
+    fn boundary_tangents() -> Vec<Vector1<T>> {
+        let a = PI - chart_margins::<T>().1;
+        vec![Vector1::new(T::lit(a)), Vector1::new(T::lit(-a))]
     }
 }
 
-impl<const N: usize> LawSampler for SVector<f64, N> {
+impl<T: Real, const N: usize> LawSampler<T> for SVector<T, N> {
     fn arb_point() -> BoxedStrategy<Self> {
-        arb_rn::<N>(1e3)
+        arb_rn::<N>(point_box::<T>()).prop_map(round_to).boxed()
     }
     fn arb_tangent() -> BoxedStrategy<Self> {
-        arb_rn::<N>(10.0)
+        arb_rn::<N>(10.0).prop_map(round_to).boxed()
     }
 }
 
@@ -326,10 +383,19 @@ pub fn embed_boundary<Whole: Manifold, Part: LawSampler>(offset: usize) -> Vec<T
 where
     DefaultAllocator: DimAlloc<Whole::Dim> + DimAlloc<Part::Dim>,
 {
+    embed_boundary_in::<Whole, Part, f64>(offset)
+}
+
+fn embed_boundary_in<Whole: Manifold<T>, Part: LawSampler<T>, T: Real>(
+    offset: usize,
+) -> Vec<Tangent<Whole, T>>
+where
+    DefaultAllocator: DimAlloc<Whole::Dim> + DimAlloc<Part::Dim>,
+{
     Part::boundary_tangents()
         .iter()
         .map(|b| {
-            let mut t = Tangent::<Whole>::zeros();
+            let mut t = Tangent::<Whole, T>::zeros();
             set_block(&mut t, offset, b);
             t
         })
@@ -341,7 +407,14 @@ pub fn concat_tangent<Whole: Manifold>(parts: &[&[f64]]) -> Tangent<Whole>
 where
     DefaultAllocator: DimAlloc<Whole::Dim>,
 {
-    let mut t = Tangent::<Whole>::zeros();
+    concat_tangent_in::<Whole, f64>(parts)
+}
+
+fn concat_tangent_in<Whole: Manifold<T>, T: Real>(parts: &[&[T]]) -> Tangent<Whole, T>
+where
+    DefaultAllocator: DimAlloc<Whole::Dim>,
+{
+    let mut t = Tangent::<Whole, T>::zeros();
     let mut i = 0;
     for p in parts {
         for v in *p {
@@ -354,25 +427,25 @@ where
 
 macro_rules! tuple_sampler {
     ($($T:ident . $idx:tt),+) => {
-        impl<$($T: LawSampler + 'static),+> LawSampler for ($($T,)+)
+        impl<Sc: Real, $($T: LawSampler<Sc> + 'static),+> LawSampler<Sc> for ($($T,)+)
         where
-            ($($T,)+): Manifold,
-            DefaultAllocator: $(DimAlloc<$T::Dim> +)+ DimAlloc<<($($T,)+) as Manifold>::Dim>,
-            $(Tangent<$T>: 'static,)+
+            ($($T,)+): Manifold<Sc>,
+            DefaultAllocator: $(DimAlloc<$T::Dim> +)+ DimAlloc<<($($T,)+) as Manifold<Sc>>::Dim>,
+            $(Tangent<$T, Sc>: 'static,)+
         {
             fn arb_point() -> BoxedStrategy<Self> {
                 ($($T::arb_point(),)+).boxed()
             }
-            fn arb_tangent() -> BoxedStrategy<Tangent<Self>> {
+            fn arb_tangent() -> BoxedStrategy<Tangent<Self, Sc>> {
                 ($($T::arb_tangent(),)+)
-                    .prop_map(|t| concat_tangent::<Self>(&[$(t.$idx.as_slice()),+]))
+                    .prop_map(|t| concat_tangent_in::<Self, Sc>(&[$(t.$idx.as_slice()),+]))
                     .boxed()
             }
-            fn boundary_tangents() -> Vec<Tangent<Self>> {
+            fn boundary_tangents() -> Vec<Tangent<Self, Sc>> {
                 let mut v = Vec::new();
                 let mut _offset = 0;
                 $(
-                    v.extend(embed_boundary::<Self, $T>(_offset));
+                    v.extend(embed_boundary_in::<Self, $T, Sc>(_offset));
                     _offset += $T::DIM;
                 )+
                 v
@@ -391,19 +464,19 @@ tuple_sampler!(A.0, B.1, C.2, D.3, E.4, F.5);
 /// tangents at the chart's boundary (empty for flat spaces). Build one for any type —
 /// yours or a foreign one — from proptest strategies; [`Sampler::of`] for a
 /// [`LawSampler`] type.
-pub struct Sampler<M: Manifold>
+pub struct Sampler<M: Manifold<T>, T: Real = f64>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
     /// Points spread over the manifold (or a large box of a vector space).
     pub points: BoxedStrategy<M>,
     /// Tangents inside the chart (for rotations: angle below π − 1e-3).
-    pub tangents: BoxedStrategy<Tangent<M>>,
+    pub tangents: BoxedStrategy<Tangent<M, T>>,
     /// Tangents at the chart boundary (for rotations: angle π − 1e-4).
-    pub boundary: Vec<Tangent<M>>,
+    pub boundary: Vec<Tangent<M, T>>,
 }
 
-impl<M: Manifold> Clone for Sampler<M>
+impl<M: Manifold<T>, T: Real> Clone for Sampler<M, T>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
@@ -416,17 +489,17 @@ where
     }
 }
 
-impl<M: Manifold> Sampler<M>
+impl<M: Manifold<T>, T: Real> Sampler<M, T>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
     /// Points and tangents from these strategies, no boundary tangents.
-    pub fn new(points: BoxedStrategy<M>, tangents: BoxedStrategy<Tangent<M>>) -> Self {
+    pub fn new(points: BoxedStrategy<M>, tangents: BoxedStrategy<Tangent<M, T>>) -> Self {
         Self { points, tangents, boundary: Vec::new() }
     }
 
     /// The same sampler with these boundary tangents.
-    pub fn with_boundary(mut self, boundary: Vec<Tangent<M>>) -> Self {
+    pub fn with_boundary(mut self, boundary: Vec<Tangent<M, T>>) -> Self {
         self.boundary = boundary;
         self
     }
@@ -434,7 +507,7 @@ where
     /// The sampler of a [`LawSampler`] type.
     pub fn of() -> Self
     where
-        M: LawSampler,
+        M: LawSampler<T>,
     {
         Self {
             points: M::arb_point(),
@@ -444,24 +517,24 @@ where
     }
 
     /// `(x, y, δ)` triples for the random-point test.
-    pub fn triples(&self) -> BoxedStrategy<(M, M, Tangent<M>)>
+    pub fn triples(&self) -> BoxedStrategy<(M, M, Tangent<M, T>)>
     where
         M: 'static,
-        Tangent<M>: 'static,
+        Tangent<M, T>: 'static,
     {
         (self.points.clone(), self.points.clone(), self.tangents.clone()).boxed()
     }
 
     /// Embed this part's boundary tangents at `offset` of a whole tangent (for composite
     /// samplers).
-    pub fn boundary_in<Whole: Manifold>(&self, offset: usize) -> Vec<Tangent<Whole>>
+    pub fn boundary_in<Whole: Manifold<T>>(&self, offset: usize) -> Vec<Tangent<Whole, T>>
     where
         DefaultAllocator: DimAlloc<Whole::Dim>,
     {
         self.boundary
             .iter()
             .map(|b| {
-                let mut t = Tangent::<Whole>::zeros();
+                let mut t = Tangent::<Whole, T>::zeros();
                 set_block(&mut t, offset, b);
                 t
             })
@@ -474,15 +547,23 @@ pub fn near_identity_tangents<M: Manifold>() -> Vec<Tangent<M>>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
+    near_identity_tangents_in::<M, f64>()
+}
+
+/// [`near_identity_tangents`] over any scalar.
+pub fn near_identity_tangents_in<M: Manifold<T>, T: Real>() -> Vec<Tangent<M, T>>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
     let mut out = Vec::new();
     for i in 0..M::DIM {
-        let mut e = Tangent::<M>::zeros();
-        e[i] = 1e-8;
+        let mut e = Tangent::<M, T>::zeros();
+        e[i] = T::lit(1e-8);
         out.push(e.clone());
         out.push(-e);
     }
-    let diag = Tangent::<M>::from_element(1.0);
-    out.push(scaled::<M>(&diag, 1e-8));
+    let diag = Tangent::<M, T>::from_element(T::one());
+    out.push(scaled_in::<M, T>(&diag, 1e-8));
     out
 }
 
@@ -491,9 +572,17 @@ pub fn check_at_identity<M: Manifold>(tol: LawTolerance) -> Result<(), LawViolat
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
+    check_at_identity_in::<M, f64>(tol)
+}
+
+/// [`check_at_identity`] over any scalar.
+pub fn check_at_identity_in<M: Manifold<T>, T: Real>(tol: LawTolerance) -> Result<(), LawViolation>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
     let o = M::origin();
-    check_laws(&o, &o, &Tangent::<M>::zeros(), tol)?;
-    let unit = scaled::<M>(&Tangent::<M>::from_element(1.0), 0.5);
+    check_laws(&o, &o, &Tangent::<M, T>::zeros(), tol)?;
+    let unit = scaled_in::<M, T>(&Tangent::<M, T>::from_element(T::one()), 0.5);
     check_laws(&o, &o.oplus(&unit), &unit, tol)
 }
 
@@ -503,8 +592,18 @@ pub fn check_near_identity<M: Manifold>(tol: LawTolerance) -> Result<(), LawViol
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
+    check_near_identity_in::<M, f64>(tol)
+}
+
+/// [`check_near_identity`] over any scalar.
+pub fn check_near_identity_in<M: Manifold<T>, T: Real>(
+    tol: LawTolerance,
+) -> Result<(), LawViolation>
+where
+    DefaultAllocator: DimAlloc<M::Dim>,
+{
     let o = M::origin();
-    for d in near_identity_tangents::<M>() {
+    for d in near_identity_tangents_in::<M, T>() {
         let near = o.oplus(&d);
         check_laws(&o, &near, &d, tol)?;
         check_laws(&near, &o, &(-d.clone()), tol)?;
@@ -514,15 +613,16 @@ where
 
 /// Run the laws at the chart boundary tangents of `sampler` (none for flat spaces), from
 /// the origin and from a generic point.
-pub fn check_boundary<M: Manifold>(
-    sampler: &Sampler<M>,
+pub fn check_boundary<M: Manifold<T>, T: Real>(
+    sampler: &Sampler<M, T>,
     tol: LawTolerance,
 ) -> Result<(), LawViolation>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
     let o = M::origin();
-    let generic = o.oplus(&scaled::<M>(&Tangent::<M>::from_fn(|i, _| 0.3 + 0.1 * i as f64), 0.7));
+    let dir = Tangent::<M, T>::from_fn(|i, _| T::lit(0.3 + 0.1 * i as f64));
+    let generic = o.oplus(&scaled_in::<M, T>(&dir, 0.7));
     for b in &sampler.boundary {
         for x in [&o, &generic] {
             let y = x.oplus(b);
@@ -539,6 +639,7 @@ where
 /// manifold_law_tests!(name, Type, tolerance);                       // LawTolerance
 /// manifold_law_tests!(name, Type, sampler = expr);                  // any Manifold
 /// manifold_law_tests!(name, Type, sampler = expr, tol = tolerance);
+/// manifold_law_tests!(name, Type, scalar = f32);                   // Type: LawSampler<f32>
 /// ```
 ///
 /// `sampler` is a [`Sampler<Type>`](Sampler) expression: no trait to implement, so a
@@ -561,41 +662,51 @@ where
 macro_rules! manifold_law_tests {
     ($name:ident, $T:ty $(,)?) => {
         $crate::manifold_law_tests!(
-            $name, $T,
-            sampler = $crate::testing::Sampler::<$T>::of(),
-            tol = $crate::testing::LawTolerance::default()
+            @full $name, $T, f64,
+            $crate::testing::Sampler::<$T>::of(),
+            $crate::testing::LawTolerance::default()
+        );
+    };
+    ($name:ident, $T:ty, scalar = $S:ty $(,)?) => {
+        $crate::manifold_law_tests!(
+            @full $name, $T, $S,
+            $crate::testing::Sampler::<$T, $S>::of(),
+            $crate::testing::LawTolerance::for_scalar::<$S>()
         );
     };
     ($name:ident, $T:ty, sampler = $s:expr $(,)?) => {
         $crate::manifold_law_tests!(
-            $name, $T, sampler = $s, tol = $crate::testing::LawTolerance::default()
-        );
-    };
-    ($name:ident, $T:ty, $tol:expr $(,)?) => {
-        $crate::manifold_law_tests!(
-            $name, $T, sampler = $crate::testing::Sampler::<$T>::of(), tol = $tol
+            @full $name, $T, f64, $s, $crate::testing::LawTolerance::default()
         );
     };
     ($name:ident, $T:ty, sampler = $s:expr, tol = $tol:expr $(,)?) => {
+        $crate::manifold_law_tests!(@full $name, $T, f64, $s, $tol);
+    };
+    ($name:ident, $T:ty, $tol:expr $(,)?) => {
+        $crate::manifold_law_tests!(
+            @full $name, $T, f64, $crate::testing::Sampler::<$T>::of(), $tol
+        );
+    };
+    (@full $name:ident, $T:ty, $S:ty, $s:expr, $tol:expr) => {
         mod $name {
             #[allow(unused_imports)]
             use super::*;
             use $crate::testing::proptest::prelude::*;
 
-            fn sampler() -> $crate::testing::Sampler<$T> {
+            fn sampler() -> $crate::testing::Sampler<$T, $S> {
                 $s
             }
 
             #[test]
             fn at_identity() {
-                if let Err(e) = $crate::testing::check_at_identity::<$T>($tol) {
+                if let Err(e) = $crate::testing::check_at_identity_in::<$T, $S>($tol) {
                     panic!("{e}");
                 }
             }
 
             #[test]
             fn near_identity() {
-                if let Err(e) = $crate::testing::check_near_identity::<$T>($tol) {
+                if let Err(e) = $crate::testing::check_near_identity_in::<$T, $S>($tol) {
                     panic!("{e}");
                 }
             }

@@ -6,6 +6,7 @@ use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrixView, DefaultAllocator, DimName, OMatrix, OVector, U1};
 
 use crate::numdiff;
+use crate::scalar::Real;
 
 /// Every allocator bound that generic code over one tangent dimension `D` needs, in one
 /// trait: vectors, square matrices and row vectors of size `D`.
@@ -17,37 +18,38 @@ pub trait DimAlloc<D: DimName>: Allocator<D> + Allocator<D, D> + Allocator<U1, D
 
 impl<D: DimName, T> DimAlloc<D> for T where T: Allocator<D> + Allocator<D, D> + Allocator<U1, D> {}
 
-/// A tangent vector of manifold `M` (stack-allocated for constant dimensions).
-pub type Tangent<M> = OVector<f64, <M as Manifold>::Dim>;
+/// A tangent vector of manifold `M` over the scalar `T` (stack-allocated for constant
+/// dimensions).
+pub type Tangent<M, T = f64> = OVector<T, <M as Manifold<T>>::Dim>;
 
 /// A square matrix over the tangent space of `M` (covariances, Jacobians of ⊕/⊖).
-pub type TangentMatrix<M> = OMatrix<f64, <M as Manifold>::Dim, <M as Manifold>::Dim>;
+pub type TangentMatrix<M, T = f64> = OMatrix<T, <M as Manifold<T>>::Dim, <M as Manifold<T>>::Dim>;
 
 /// Jacobians of `y = x ⊕ δ`, each taken through ⊕/⊖ at zero perturbation:
 /// `J_y_x = ∂((x ⊕ ε) ⊕ δ ⊖ y)/∂ε` and `J_y_delta = ∂((x ⊕ (δ + ε)) ⊖ y)/∂ε`.
 #[allow(non_snake_case)]
 #[derive(Clone, Debug)]
-pub struct OplusJacobians<M: Manifold>
+pub struct OplusJacobians<M: Manifold<T>, T: Real = f64>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
     /// `∂(x ⊕ δ)/∂x`.
-    pub J_y_x: TangentMatrix<M>,
+    pub J_y_x: TangentMatrix<M, T>,
     /// `∂(x ⊕ δ)/∂δ`; at the injected correction this is the exact reset Jacobian.
-    pub J_y_delta: TangentMatrix<M>,
+    pub J_y_delta: TangentMatrix<M, T>,
 }
 
 /// Jacobians of `δ = y ⊖ x`: `J_d_y = ∂((y ⊕ ε) ⊖ x)/∂ε`, `J_d_x = ∂(y ⊖ (x ⊕ ε))/∂ε`.
 #[allow(non_snake_case)]
 #[derive(Clone, Debug)]
-pub struct OminusJacobians<M: Manifold>
+pub struct OminusJacobians<M: Manifold<T>, T: Real = f64>
 where
     DefaultAllocator: DimAlloc<M::Dim>,
 {
     /// `∂(y ⊖ x)/∂y`.
-    pub J_d_y: TangentMatrix<M>,
+    pub J_d_y: TangentMatrix<M, T>,
     /// `∂(y ⊖ x)/∂x`.
-    pub J_d_x: TangentMatrix<M>,
+    pub J_d_x: TangentMatrix<M, T>,
 }
 
 /// A smooth manifold with a retraction `⊕` and its local inverse `⊖`.
@@ -70,6 +72,12 @@ where
 /// Euclidean blocks are additive. A true state is `nominal ⊕ δx` everywhere, with no
 /// per-block sign flips. A different side would be a different type, never a flag.
 ///
+/// # Scalar
+///
+/// `T` is the scalar of the representation and of the tangents, `f64` unless named:
+/// `impl Manifold for MyState` is `Manifold<f64>`; the built-in types implement
+/// `Manifold<T>` for both [`Real`] scalars (`So3<f32>: Manifold<f32>`).
+///
 /// # Jacobians
 ///
 /// [`oplus_jacobians`](Manifold::oplus_jacobians) and
@@ -89,7 +97,7 @@ where
 /// assert!((y.ominus(&x) - d).norm() < 1e-12);           // (x ⊕ δ) ⊖ x = δ
 /// assert!(x.oplus(&y.ominus(&x)).ominus(&y).norm() < 1e-12); // x ⊕ (y ⊖ x) = y
 /// ```
-pub trait Manifold: Clone + Debug
+pub trait Manifold<T: Real = f64>: Clone + Debug
 where
     DefaultAllocator: DimAlloc<Self::Dim>,
 {
@@ -103,23 +111,23 @@ where
     fn origin() -> Self;
 
     /// `self ⊕ delta`.
-    fn oplus(&self, delta: &Tangent<Self>) -> Self;
+    fn oplus(&self, delta: &Tangent<Self, T>) -> Self;
 
     /// `self ⊖ origin`: the tangent at `origin` that carries it to `self`.
-    fn ominus(&self, origin: &Self) -> Tangent<Self>;
+    fn ominus(&self, origin: &Self) -> Tangent<Self, T>;
 
     /// True when every number in the representation is finite.
     fn is_finite(&self) -> bool;
 
     /// Jacobians of `self ⊕ delta`. Default: central differences through ⊕/⊖.
-    fn oplus_jacobians(&self, delta: &Tangent<Self>) -> OplusJacobians<Self> {
+    fn oplus_jacobians(&self, delta: &Tangent<Self, T>) -> OplusJacobians<Self, T> {
         let y = self.oplus(delta);
         OplusJacobians {
-            J_y_x: numdiff::jacobian(self, |x| x.oplus(delta).ominus(&y), numdiff::DEFAULT_STEP),
-            J_y_delta: numdiff::jacobian_of_tangent::<Self, Self::Dim>(
+            J_y_x: numdiff::jacobian(self, |x| x.oplus(delta).ominus(&y), T::DIFF_STEP),
+            J_y_delta: numdiff::jacobian_of_tangent::<Self, Self::Dim, T>(
                 delta,
                 |d| self.oplus(d).ominus(&y),
-                numdiff::DEFAULT_STEP,
+                T::DIFF_STEP,
             ),
         }
     }
@@ -127,7 +135,7 @@ where
     /// `∂(self ⊕ δ)/∂δ` alone: the reset Jacobian of an error-state filter, needed at every
     /// update. Default: `oplus_jacobians(delta).J_y_delta`; override it when `J_y_x` is
     /// costly (the product manifolds and the geodetic position do).
-    fn oplus_jacobian_delta(&self, delta: &Tangent<Self>) -> TangentMatrix<Self> {
+    fn oplus_jacobian_delta(&self, delta: &Tangent<Self, T>) -> TangentMatrix<Self, T> {
         self.oplus_jacobians(delta).J_y_delta
     }
 
@@ -143,11 +151,11 @@ where
     /// assemble to `oplus_jacobian_delta`.
     fn reset_blocks(
         &self,
-        delta: &Tangent<Self>,
-        visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>),
+        delta: &Tangent<Self, T>,
+        visit: &mut dyn FnMut(usize, DMatrixView<'_, T>),
     ) {
         let g = self.oplus_jacobian_delta(delta);
-        if g != TangentMatrix::<Self>::identity() {
+        if g != TangentMatrix::<Self, T>::identity() {
             visit(0, DMatrixView::from_slice(g.as_slice(), Self::DIM, Self::DIM));
         }
     }
@@ -159,18 +167,18 @@ where
     /// same point and the same blocks.
     fn oplus_reset(
         &self,
-        delta: &Tangent<Self>,
-        visit: &mut dyn FnMut(usize, DMatrixView<'_, f64>),
+        delta: &Tangent<Self, T>,
+        visit: &mut dyn FnMut(usize, DMatrixView<'_, T>),
     ) -> Self {
         self.reset_blocks(delta, visit);
         self.oplus(delta)
     }
 
     /// Jacobians of `self ⊖ origin`. Default: central differences through ⊕/⊖.
-    fn ominus_jacobians(&self, origin: &Self) -> OminusJacobians<Self> {
+    fn ominus_jacobians(&self, origin: &Self) -> OminusJacobians<Self, T> {
         OminusJacobians {
-            J_d_y: numdiff::jacobian(self, |y| y.ominus(origin), numdiff::DEFAULT_STEP),
-            J_d_x: numdiff::jacobian(origin, |x| self.ominus(x), numdiff::DEFAULT_STEP),
+            J_d_y: numdiff::jacobian(self, |y| y.ominus(origin), T::DIFF_STEP),
+            J_d_x: numdiff::jacobian(origin, |x| self.ominus(x), T::DIFF_STEP),
         }
     }
 }

@@ -11,6 +11,13 @@ manifolds::manifold_law_tests!(r3_laws, R3);
 manifolds::manifold_law_tests!(pair_laws, (So3, R3));
 manifolds::manifold_law_tests!(triple_laws, (So2, R2, So3));
 
+// The same laws in single precision, with the tolerances of `LawTolerance::for_scalar::<f32>()`.
+manifolds::manifold_law_tests!(so3_laws_f32, So3<f32>, scalar = f32);
+manifolds::manifold_law_tests!(so2_laws_f32, So2<f32>, scalar = f32);
+manifolds::manifold_law_tests!(r3_laws_f32, R3<f32>, scalar = f32);
+manifolds::manifold_law_tests!(pair_laws_f32, (So3<f32>, R3<f32>), scalar = f32);
+manifolds::manifold_law_tests!(triple_laws_f32, (So2<f32>, R2<f32>, So3<f32>), scalar = f32);
+
 composite_state! {
     /// An INS-like state, as the INS/GNSS crate defines it.
     pub struct Ins {
