@@ -11,7 +11,9 @@ use manifolds::DimAlloc;
 
 use crate::dims::{Cov, FilterAlloc};
 use crate::entries::Entries;
-pub use crate::stream::{StreamId, StreamMap};
+pub use crate::stream::StreamId;
+#[cfg(feature = "std")]
+pub use crate::stream::StreamMap;
 
 /// Read access to an `N × N` covariance where its back-end keeps it, without copying it:
 /// entries, contiguous columns, or a static copy on demand

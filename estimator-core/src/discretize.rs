@@ -12,9 +12,13 @@
 //!   exact: check such a model against [`van_loan`] instead, or with a tolerance of order
 //!   `(‖F‖ dt)²`.
 
-use nalgebra::{DMatrix, DefaultAllocator, DimName, OMatrix};
+#[cfg(feature = "std")]
+use nalgebra::DMatrix;
+use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
-/// `Φ` and `Q_d` exactly, by Van Loan's method (see the [module](self)).
+/// `Φ` and `Q_d` exactly, by Van Loan's method (see the [module](self)); feature `std` (a
+/// `2N × 2N` heap matrix).
+#[cfg(feature = "std")]
 #[allow(non_snake_case)]
 pub fn van_loan<N: DimName, L: DimName>(
     F: &OMatrix<f64, N, N>,

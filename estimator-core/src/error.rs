@@ -105,4 +105,4 @@ impl fmt::Display for FilterError {
     }
 }
 
-impl std::error::Error for FilterError {}
+impl core::error::Error for FilterError {}

@@ -18,8 +18,12 @@
 //! Jacobian `G` is, for a rotation block, `Jr(δθ) ≈ I − ½[δθ×]` (Solà 2017, §7.2;
 //! paper `fused-iae-afkf` eq. 21–22).
 
+#[cfg(feature = "std")]
 use std::borrow::Cow;
 
+// without `std`, `sqrt` and `ln` are nalgebra's (libm)
+#[cfg(not(feature = "std"))]
+use nalgebra::ComplexField as _;
 use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
 use manifolds::{DimAlloc, Manifold};
@@ -192,6 +196,7 @@ where
     /// The error covariance as a static matrix, on every back-end: borrowed on the static
     /// one, copied out of the heap storage on the others (use
     /// [`covariance_raw`](Self::covariance_raw) to read it in place there).
+    #[cfg(feature = "std")]
     pub fn covariance(&self) -> Cow<'_, Cov<X::Dim>> {
         B::as_static(&self.bufs[self.cur])
     }
@@ -311,6 +316,7 @@ where
     /// one): the propagated state and covariance (checked), the interval, and the
     /// transition and process noise that carry `Q_Σ` for a strategy that tracks it. On
     /// `Err` the filter is unchanged.
+    #[cfg(feature = "std")]
     pub(crate) fn finish_prediction(
         &mut self,
         x: X,

@@ -25,17 +25,29 @@
 //!
 //! - `faer` (opt-in): the [`FaerCov`] back-end on faer's products. Without it the
 //!   crate depends on nalgebra and statrs only.
+//! - `std` (default): everything below the error-state filter itself. Without it the crate
+//!   is `no_std` with no allocator: [`ErrorStateFilter`] on [`StaticCov`] with
+//!   [`FixedNoise`] (or any strategy that needs no heap), the model traits, [`linear`],
+//!   [`discretize`] and the reports, for a microcontroller
+//!   (`cargo build -p estimator-core --no-default-features --target thumbv7em-none-eabihf`).
+//!   The smoothers, [`Replay`], the sigma-point and iterated updates, the heap back-ends,
+//!   [`consistency`] (χ² quantiles from statrs), [`UpdateLog`] and [`StreamMap`] need it;
+//!   [`ErrorStateFilter::covariance`] too (a `Cow`): use
+//!   [`covariance_raw`](ErrorStateFilter::covariance_raw) there.
 //! - `testing`: the Jacobian harness (`harness`) and the manifold law harness of
 //!   `manifolds` (`manifolds/testing`), with proptest.
 //!
 //! Convention: right (body-frame) perturbation, `true = nominal ⊕ δx`
 //! (see [`manifolds::Manifold`]).
+#![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
 pub mod adapt;
 pub mod backend;
+#[cfg(feature = "std")]
 pub mod consistency;
+#[cfg(feature = "std")]
 pub mod delayed;
 mod dims;
 pub mod discretize;
@@ -44,17 +56,21 @@ pub mod error;
 pub mod filter;
 #[cfg(feature = "testing")]
 pub mod harness;
+#[cfg(feature = "std")]
 pub mod iterated;
 mod kernels;
 mod linalg;
 pub mod linear;
 pub mod report;
+#[cfg(feature = "std")]
 pub mod segments;
 #[doc(hidden)]
 pub mod simd;
+#[cfg(feature = "std")]
 pub mod smoother;
 mod stream;
 pub mod traits;
+#[cfg(feature = "std")]
 pub mod unscented;
 
 pub use adapt::{
@@ -63,22 +79,35 @@ pub use adapt::{
 };
 #[cfg(feature = "faer")]
 pub use backend::FaerCov;
-pub use backend::{CovBackend, DenseCov, DynamicCov, StaticCov, UpdateForm};
+pub use backend::{CovBackend, StaticCov, UpdateForm};
+#[cfg(feature = "std")]
+pub use backend::{DenseCov, DynamicCov};
+#[cfg(feature = "std")]
 pub use delayed::Replay;
 #[doc(hidden)]
 pub use entries::Entries;
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
+#[cfg(feature = "std")]
 pub use iterated::IteratedReport;
-pub use linalg::{fixed_from_dynamic, symmetrize};
-pub use report::{NoObserver, Observer, UpdateLog, UpdateReport, UpdateSummary};
+#[cfg(feature = "std")]
+pub use linalg::fixed_from_dynamic;
+pub use linalg::symmetrize;
+#[cfg(feature = "std")]
+pub use report::UpdateLog;
+pub use report::{NoObserver, Observer, UpdateReport, UpdateSummary};
+#[cfg(feature = "std")]
 pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder};
+#[cfg(feature = "std")]
 pub use smoother::{FixedLagSmoother, Lag, RtsSmoother, RtsStep, Smoothed};
-pub use stream::{short_type_name, StreamId, StreamMap};
+#[cfg(feature = "std")]
+pub use stream::StreamMap;
+pub use stream::{short_type_name, StreamId};
 pub use traits::{
     Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
     ProcessModel, StateDim,
 };
+#[cfg(feature = "std")]
 pub use unscented::{SigmaPoints, SigmaWeights};
 
 pub use manifolds::{self, DimAlloc, Manifold, Tangent, TangentMatrix};

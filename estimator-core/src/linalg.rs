@@ -2,7 +2,9 @@
 //! offending matrix, symmetrisation, Cholesky with a typed error.
 
 use nalgebra::allocator::Allocator;
-use nalgebra::{Cholesky, DMatrix, DefaultAllocator, DimName, OMatrix, OVector};
+#[cfg(feature = "std")]
+use nalgebra::DMatrix;
+use nalgebra::{Cholesky, DefaultAllocator, DimName, OMatrix, OVector};
 
 use crate::error::FilterError;
 
@@ -196,6 +198,7 @@ where
 
 /// Convert a runtime-sized matrix (from a file or a config) to a fixed-size one,
 /// `Err(DimensionMismatch)` when the shape is wrong.
+#[cfg(feature = "std")]
 pub fn fixed_from_dynamic<R: DimName, C: DimName>(
     what: &'static str,
     m: &DMatrix<f64>,

@@ -149,13 +149,15 @@ pub struct NoObserver;
 
 impl Observer for NoObserver {}
 
-/// Keeps a summary of every update.
+/// Keeps a summary of every update (feature `std`).
+#[cfg(feature = "std")]
 #[derive(Clone, Debug, Default)]
 pub struct UpdateLog {
     /// One entry per update, in order.
     pub entries: Vec<UpdateSummary>,
 }
 
+#[cfg(feature = "std")]
 impl UpdateLog {
     /// Counts of (accepted, adapted — inflated or deflated —, rejected).
     pub fn counts(&self) -> (usize, usize, usize) {
@@ -172,6 +174,7 @@ impl UpdateLog {
     }
 }
 
+#[cfg(feature = "std")]
 impl Observer for UpdateLog {
     fn on_update<M: DimName>(&mut self, report: &UpdateReport<M>)
     where

@@ -27,15 +27,19 @@
 //! assert_eq!(dot_portable(&a, &b), dot_avx2(&a, &b)); // exact here: small integers
 //! ```
 
+// without `std`, `mul_add` is nalgebra's (libm)
+#[cfg(not(feature = "std"))]
+use nalgebra::ComplexField as _;
+
 /// Whether this CPU has AVX2 and FMA (cached by the standard library); always false off
-/// x86-64.
+/// x86-64 and without the standard library.
 #[inline(always)]
 pub fn has_avx2_fma() -> bool {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
     }
-    #[cfg(not(target_arch = "x86_64"))]
+    #[cfg(not(all(target_arch = "x86_64", feature = "std")))]
     {
         false
     }
@@ -46,13 +50,13 @@ pub fn has_avx2_fma() -> bool {
 /// multiply-adds; always false off x86-64.
 #[inline(always)]
 pub fn has_avx512vl() -> bool {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         has_avx2_fma()
             && std::is_x86_feature_detected!("avx512f")
             && std::is_x86_feature_detected!("avx512vl")
     }
-    #[cfg(not(target_arch = "x86_64"))]
+    #[cfg(not(all(target_arch = "x86_64", feature = "std")))]
     {
         false
     }

@@ -86,13 +86,15 @@ pub fn short_type_name<T: ?Sized>() -> &'static str {
 }
 
 /// Per-stream state of a strategy: a small vector searched linearly (a filter has a
-/// handful of streams). Allocates only when a new stream first appears.
+/// handful of streams). Allocates only when a new stream first appears (feature `std`).
+#[cfg(feature = "std")]
 #[derive(Clone, Debug, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct StreamMap<T> {
     entries: Vec<(StreamId, T)>,
 }
 
+#[cfg(feature = "std")]
 impl<T> StreamMap<T> {
     /// An empty map.
     pub fn new() -> Self {

@@ -23,7 +23,29 @@
 //! Paper values: `k₁ = k₂ = 23` (useful range 20–25), `a_th = 10`, `a_−th = −10` m/s².
 
 use core::f64::consts::PI;
+#[cfg(feature = "std")]
 use std::sync::Arc;
+
+// without `std`, `exp` and `powi` are nalgebra's (libm)
+#[cfg(not(feature = "std"))]
+use nalgebra::ComplexField as _;
+
+/// How [`CsVariance`] holds its membership function and limit rule: shared (`Arc`) with
+/// the standard library; a `&'static` reference without it (no allocator), e.g.
+/// `&DEFAULT_MEMBERSHIP`.
+#[cfg(feature = "std")]
+pub type Shared<T> = Arc<T>;
+/// How [`CsVariance`] holds its membership function and limit rule: shared (`Arc`) with
+/// the standard library; a `&'static` reference without it (no allocator), e.g.
+/// `&DEFAULT_MEMBERSHIP`.
+#[cfg(not(feature = "std"))]
+pub type Shared<T> = &'static T;
+
+/// The paper's membership function, `k₁ = k₂ = 23` (what `GaussianMembership::default()`
+/// gives).
+pub static DEFAULT_MEMBERSHIP: GaussianMembership = GaussianMembership { k_pos: 23.0, k_neg: 23.0 };
+/// The paper's limit rule, `a_th = ±10 m/s²` (what `InterpolatedLimits::default()` gives).
+pub static DEFAULT_LIMITS: InterpolatedLimits = InterpolatedLimits { a_th: 10.0, a_neg_th: -10.0 };
 
 /// A membership grade `M(ā) ∈ [0, 1]`.
 pub trait Membership: Send + Sync + core::fmt::Debug {
@@ -48,7 +70,7 @@ pub struct GaussianMembership {
 
 impl Default for GaussianMembership {
     fn default() -> Self {
-        Self { k_pos: 23.0, k_neg: 23.0 }
+        DEFAULT_MEMBERSHIP
     }
 }
 
@@ -70,7 +92,7 @@ pub struct InterpolatedLimits {
 
 impl Default for InterpolatedLimits {
     fn default() -> Self {
-        Self { a_th: 10.0, a_neg_th: -10.0 }
+        DEFAULT_LIMITS
     }
 }
 
@@ -127,9 +149,9 @@ impl LimitRule for FixedLimits {
 #[derive(Clone, Debug)]
 pub struct CsVariance {
     /// Membership function.
-    pub membership: Arc<dyn Membership>,
+    pub membership: Shared<dyn Membership>,
     /// Limit rule.
-    pub limits: Arc<dyn LimitRule>,
+    pub limits: Shared<dyn LimitRule>,
     /// Lower bound on σ_a², (m/s²)².
     pub floor: f64,
 }
@@ -142,11 +164,13 @@ impl Default for CsVariance {
     /// 12.4/10.9/28.3°, 0.1 gives 8.2/6.6/18.2°, 1 gives 4.06/3.59/7.41° (the modified
     /// filter: 4.06/3.29/7.30°).
     fn default() -> Self {
-        Self {
-            membership: Arc::new(GaussianMembership::default()),
-            limits: Arc::new(InterpolatedLimits::default()),
-            floor: 1.0,
-        }
+        #[cfg(feature = "std")]
+        let (membership, limits): (Shared<dyn Membership>, Shared<dyn LimitRule>) =
+            (Arc::new(DEFAULT_MEMBERSHIP), Arc::new(DEFAULT_LIMITS));
+        #[cfg(not(feature = "std"))]
+        let (membership, limits): (Shared<dyn Membership>, Shared<dyn LimitRule>) =
+            (&DEFAULT_MEMBERSHIP, &DEFAULT_LIMITS);
+        Self { membership, limits, floor: 1.0 }
     }
 }
 

@@ -44,10 +44,20 @@
 //! f.predict(&cv, &(), 0.1).unwrap();
 //! assert!((f.state().0.x - 0.1).abs() < 1e-12);
 //! ```
+//!
+//! # Without the standard library
+//!
+//! With `default-features = false` the crate is `no_std` with no allocator and keeps the
+//! AHRS state, process and measurement models and the CS variance law ([`ahrs`], [`cs`]):
+//! what a flight controller runs. The AHRS simulator and experiment (rand), the kinematic
+//! and planar models need `std` (feature, default).
+#![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
 pub mod ahrs;
 pub mod cs;
+#[cfg(feature = "std")]
 pub mod kinematic;
+#[cfg(feature = "std")]
 pub mod planar;

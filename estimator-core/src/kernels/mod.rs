@@ -456,9 +456,9 @@ fn p_times_ht_body<N: DimName, M: DimName, const FMA: bool>(
 fma_kernel! {
     /// `P ← G P Gᵀ` in place for a symmetric `n × n` `P`, where `G` is the identity except
     /// for the square block `b` at rows and columns `o..o + d` (one block of
-    /// [`Manifold::reset_blocks`](manifolds::Manifold::reset_blocks)). `scratch` must hold at
-    /// least [`block_reset_scratch(d)`](block_reset_scratch) values (none are used for
-    /// `d ≤ 6`).
+    /// [`Manifold::reset_blocks`](manifolds::Manifold::reset_blocks)). `corner` must hold at
+    /// least `d²` values and `row` `d` (neither is used for `d ≤ 6`); see
+    /// [`block_reset_scratch`].
     ///
     /// Only the rows and columns of the block change. With `T = P[:, o..o+d] bᵀ`, row `r`
     /// outside the block gets `T[r, :]` in columns `o..o + d`, and by symmetry so do those
@@ -472,7 +472,8 @@ fma_kernel! {
         n: usize,
         o: usize,
         b: nalgebra::DMatrixView<'_, f64>,
-        scratch: &mut [f64],
+        corner: &mut [f64],
+        row: &mut [f64],
     ) = block_reset_body / block_reset_avx2 / block_reset_portable
 }
 
@@ -482,7 +483,8 @@ fn block_reset_body<E: Entries, const FMA: bool>(
     n: usize,
     o: usize,
     b: nalgebra::DMatrixView<'_, f64>,
-    scratch: &mut [f64],
+    corner: &mut [f64],
+    row: &mut [f64],
 ) {
     let b = &b;
     match b.nrows() {
@@ -492,7 +494,7 @@ fn block_reset_body<E: Entries, const FMA: bool>(
         4 => block_reset_fixed::<4, E, FMA>(p, n, o, b),
         5 => block_reset_fixed::<5, E, FMA>(p, n, o, b),
         6 => block_reset_fixed::<6, E, FMA>(p, n, o, b),
-        _ => block_reset_any::<E, FMA>(p, n, o, b, scratch),
+        _ => block_reset_any::<E, FMA>(p, n, o, b, corner, row),
     }
 }
 
@@ -574,11 +576,12 @@ fn block_reset_any<E: Entries, const FMA: bool>(
     n: usize,
     o: usize,
     b: &nalgebra::DMatrixView<'_, f64>,
-    scratch: &mut [f64],
+    corner: &mut [f64],
+    row: &mut [f64],
 ) {
     let d = b.nrows();
-    let (corner, t) = scratch.split_at_mut(d * d);
-    let t = &mut t[..d];
+    let corner = &mut corner[..d * d];
+    let t = &mut row[..d];
     for r in (0..o).chain(o + d..n) {
         t.fill(0.0);
         for k in 0..d {
@@ -617,7 +620,9 @@ fn block_reset_any<E: Entries, const FMA: bool>(
     }
 }
 
-/// Scratch length [`block_reset_in_place`] needs for a `d × d` block.
+/// Scratch length [`block_reset_in_place`] needs for a `d × d` block: `d²` for the corner
+/// and `d` for a row.
+#[cfg(feature = "std")]
 pub const fn block_reset_scratch(d: usize) -> usize {
     d * (d + 1)
 }

@@ -14,7 +14,6 @@ use nalgebra::{SMatrix, SVector, Vector3};
 
 use super::sim::{LoiteringFlight, Sample, SensorErrors};
 use super::{AccelModel, AhrsInput, AhrsMeasurement, AhrsModel, AhrsState, AhrsTuning};
-use crate::cs::CsVariance;
 
 /// The three filters of the paper.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,10 +66,7 @@ impl Variant {
             Variant::Conventional => AccelModel::None { q: 1e-6 },
             Variant::Modified => AccelModel::RandomWalk { q: 0.03 },
             Variant::ModifiedTuned => AccelModel::RandomWalk { q: 0.1 },
-            Variant::CsMaekf => AccelModel::CurrentStatistical {
-                alpha: 1.0 / 60.0,
-                variance: CsVariance::default(),
-            },
+            Variant::CsMaekf => return super::onboard::cs_maekf_model(errors.gyro_noise, rate),
         };
         AhrsModel { tuning, accel }
     }

@@ -17,8 +17,12 @@
 //! Error dynamics (right perturbation), with `ω = ω_m − b_g` held over `T`:
 //! `Φ_θθ = Exp(ωT)ᵀ`, `Φ_θb = −Jr(ωT) T`, `Φ_aa = e^{−αT} I` (CS) or `I`.
 
+#[cfg(feature = "std")]
 pub mod experiment;
 mod model;
+pub mod onboard;
+#[cfg(feature = "std")]
 pub mod sim;
 
 pub use model::{AccelModel, AhrsInput, AhrsMeasurement, AhrsModel, AhrsState, AhrsTuning};
+pub use onboard::{Ahrs, Recording};

@@ -2,6 +2,9 @@
 
 use estimator_core::{MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessModel};
 use manifolds::{composite_state, hat, right_jacobian, So3, R3};
+// without `std`, `exp` is nalgebra's (libm)
+#[cfg(not(feature = "std"))]
+use nalgebra::ComplexField as _;
 use nalgebra::{Const, Matrix3, SMatrix, SVector, Vector3};
 
 use crate::cs::CsVariance;

@@ -143,6 +143,26 @@ impl LoiteringFlight {
         self.attitude(t).inverse().rotate(&accel_n)
     }
 
+    /// The bytes of a [`Recording`](super::Recording) of `samples` of this flight with
+    /// `errors` (gyro, accelerometer and magnetometer rounded to counts of `lsb`): what the
+    /// firmware example compiles in.
+    pub fn recording(&self, errors: &SensorErrors, samples: &[Sample], lsb: [f64; 3]) -> Vec<u8> {
+        let raw: Vec<[Vector3<f64>; 3]> =
+            samples.iter().map(|s| [s.gyro, s.accel, s.mag]).collect();
+        let mut bytes = Vec::new();
+        super::Recording::write(
+            &mut bytes,
+            self.rate,
+            errors.gyro_noise,
+            &self.g_n,
+            &self.m_n,
+            &self.attitude(0.0),
+            lsb,
+            &raw,
+        );
+        bytes
+    }
+
     /// Simulate with `errors` and `seed`.
     pub fn simulate(&self, errors: &SensorErrors, seed: u64) -> Vec<Sample> {
         let mut rng = StdRng::seed_from_u64(seed);
