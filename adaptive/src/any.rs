@@ -123,7 +123,7 @@ macro_rules! dispatch {
 
 impl NoiseStrategy for AnyStrategy {
     fn name(&self) -> &'static str {
-        dispatch!(self, s => s.name())
+        dispatch!(self, s => NoiseStrategy::<f64>::name(s))
     }
 
     fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
@@ -134,11 +134,11 @@ impl NoiseStrategy for AnyStrategy {
     }
 
     fn prediction_fading(&self) -> f64 {
-        dispatch!(self, s => s.prediction_fading())
+        dispatch!(self, s => NoiseStrategy::<f64>::prediction_fading(s))
     }
 
     fn tracks_process_noise(&self) -> bool {
-        dispatch!(self, s => s.tracks_process_noise())
+        dispatch!(self, s => NoiseStrategy::<f64>::tracks_process_noise(s))
     }
 
     fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)

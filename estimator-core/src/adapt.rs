@@ -11,6 +11,7 @@ use manifolds::DimAlloc;
 
 use crate::dims::{Cov, FilterAlloc};
 use crate::entries::Entries;
+use crate::scalar::FilterScalar;
 pub use crate::stream::StreamId;
 #[cfg(feature = "std")]
 pub use crate::stream::StreamMap;
@@ -20,37 +21,37 @@ pub use crate::stream::StreamMap;
 /// ([`to_matrix`](Self::to_matrix)). A dense back-end at 120 states would otherwise copy
 /// 115 KB for every update that a strategy might look at.
 #[derive(Clone, Copy)]
-pub struct CovView<'a, N> {
-    p: &'a dyn Entries,
+pub struct CovView<'a, N, T: FilterScalar = f64> {
+    p: &'a dyn Entries<T>,
     _n: PhantomData<N>,
 }
 
-impl<'a, N: DimName> CovView<'a, N>
+impl<'a, N: DimName, T: FilterScalar> CovView<'a, N, T>
 where
     DefaultAllocator: DimAlloc<N>,
 {
     /// A view of `p`, which must be `N × N`.
-    pub fn new(p: &'a dyn Entries) -> Self {
+    pub fn new(p: &'a dyn Entries<T>) -> Self {
         Self { p, _n: PhantomData }
     }
 
     /// Entry `(r, c)`.
-    pub fn at(&self, r: usize, c: usize) -> f64 {
+    pub fn at(&self, r: usize, c: usize) -> T {
         self.p.at(r, c)
     }
 
     /// Column `c`.
-    pub fn column(&self, c: usize) -> &'a [f64] {
+    pub fn column(&self, c: usize) -> &'a [T] {
         self.p.col(c)
     }
 
     /// A copy as a static matrix.
-    pub fn to_matrix(&self) -> Cov<N> {
-        Cov::<N>::from_fn(|r, c| self.p.at(r, c))
+    pub fn to_matrix(&self) -> Cov<N, T> {
+        Cov::<N, T>::from_fn(|r, c| self.p.at(r, c))
     }
 }
 
-impl<N: DimName> core::fmt::Debug for CovView<'_, N>
+impl<N: DimName, T: FilterScalar> core::fmt::Debug for CovView<'_, N, T>
 where
     DefaultAllocator: DimAlloc<N>,
 {
@@ -127,21 +128,21 @@ pub enum PriorScaling {
     feature = "serde",
     derive(serde::Serialize, serde::Deserialize),
     serde(bound(
-        serialize = "Cov<N>: serde::Serialize",
-        deserialize = "Cov<N>: serde::Deserialize<'de>"
+        serialize = "Cov<N, T>: serde::Serialize, T: serde::Serialize",
+        deserialize = "Cov<N, T>: serde::Deserialize<'de>, T: serde::Deserialize<'de>"
     ))
 )]
-pub enum QAdjust<N: DimName>
+pub enum QAdjust<N: DimName, T: FilterScalar = f64>
 where
     DefaultAllocator: nalgebra::allocator::Allocator<N, N>,
 {
     /// Leave `Q` as it is.
     Keep,
     /// Use the model's `Q_d` times this factor.
-    Scale(f64),
+    Scale(T),
     /// Add `rate · dt` to the model's `Q_d` (an extra covariance per second; the model's
     /// `Q_d` stays as a floor, so `P` stays positive definite).
-    AddRate(Cov<N>),
+    AddRate(Cov<N, T>),
     /// Back to the model's `Q_d`.
     Model,
 }
@@ -152,7 +153,7 @@ where
 /// `verdict = Accepted`). The filter then scales `P⁻` as `prior_scaling` says, uses `R`,
 /// or skips the update when `verdict = Rejected`.
 #[allow(non_snake_case)]
-pub struct Adaptation<'a, N: DimName, M: DimName>
+pub struct Adaptation<'a, N: DimName, M: DimName, T: FilterScalar = f64>
 where
     DefaultAllocator: FilterAlloc<N, M>,
 {
@@ -163,22 +164,22 @@ where
     /// Filter time in seconds.
     pub time: f64,
     /// Innovation `r = z ⊖ h(x̂⁻)`.
-    pub innovation: &'a OVector<f64, M>,
+    pub innovation: &'a OVector<T, M>,
     /// Measurement Jacobian.
-    pub H: &'a OMatrix<f64, M, N>,
+    pub H: &'a OMatrix<T, M, N>,
     /// Predicted covariance `P⁻`, read in place.
-    pub P_prior: CovView<'a, N>,
+    pub P_prior: CovView<'a, N, T>,
     /// `H P⁻ Hᵀ`.
-    pub HPHt: &'a OMatrix<f64, M, M>,
+    pub HPHt: &'a OMatrix<T, M, M>,
     /// `H Q_Σ Hᵀ`, `Q_Σ` the process noise accumulated since the previous update
     /// (`Q_Σ ← Φ Q_Σ Φᵀ + Q_d` over the predictions in between, so that
     /// `P⁻ = Φ_Σ P Φ_Σᵀ + Q_Σ`); `Some` only when the strategy asked for it
     /// ([`NoiseStrategy::tracks_process_noise`]).
-    pub HQHt: Option<&'a OMatrix<f64, M, M>>,
+    pub HQHt: Option<&'a OMatrix<T, M, M>>,
     /// The measurement noise the caller gave.
-    pub R_nominal: &'a OMatrix<f64, M, M>,
+    pub R_nominal: &'a OMatrix<T, M, M>,
     /// Nominal innovation covariance `S = H P⁻ Hᵀ + R_nominal`.
-    pub S: &'a OMatrix<f64, M, M>,
+    pub S: &'a OMatrix<T, M, M>,
     /// `NIS = rᵀ S⁻¹ r` with the nominal `S`.
     pub nis: f64,
     /// Output: factor on `P⁻` (≥ 1 inflates).
@@ -190,7 +191,7 @@ where
     /// only when [`HQHt`](Self::HQHt) is `Some`. Default `false`.
     pub scale_propagated_only: bool,
     /// Output: the `R` to use (symmetric positive definite; the filter checks).
-    pub R: OMatrix<f64, M, M>,
+    pub R: OMatrix<T, M, M>,
     /// Output: the verdict.
     pub verdict: Verdict,
     /// Output: why (shown in reports and logs).
@@ -198,12 +199,12 @@ where
     /// Output: the factors behind the decision.
     pub factors: Factors,
     /// Output: process-noise change for the following predictions.
-    pub q: QAdjust<N>,
+    pub q: QAdjust<N, T>,
 }
 
 /// After a successful update: the gain, for strategies that adapt `Q` from it.
 #[allow(non_snake_case)]
-pub struct PostUpdate<'a, N: DimName, M: DimName>
+pub struct PostUpdate<'a, N: DimName, M: DimName, T: FilterScalar = f64>
 where
     DefaultAllocator: FilterAlloc<N, M>,
 {
@@ -212,11 +213,11 @@ where
     /// Filter time in seconds.
     pub time: f64,
     /// The gain actually used.
-    pub K: &'a OMatrix<f64, N, M>,
+    pub K: &'a OMatrix<T, N, M>,
     /// The innovation.
-    pub innovation: &'a OVector<f64, M>,
+    pub innovation: &'a OVector<T, M>,
     /// Output: process-noise change for the following predictions.
-    pub q: QAdjust<N>,
+    pub q: QAdjust<N, T>,
 }
 
 /// A noise-adaptation strategy. One method is required, [`adapt`](Self::adapt); the
@@ -268,7 +269,12 @@ where
 /// assert_eq!(report.stream.name(), "gps");
 /// assert_eq!(f.strategy().inflated.get(gps.stream), Some(&1));
 /// ```
-pub trait NoiseStrategy: Clone {
+///
+/// # Scalar
+///
+/// `impl NoiseStrategy for S` is `NoiseStrategy<f64>`: the strategies of `adaptive` run in
+/// double precision. [`FixedNoise`] serves every scalar.
+pub trait NoiseStrategy<T: FilterScalar = f64>: Clone {
     /// Short name (`"fixed"`, `"iae"` …) for logs and the command line. Default: the
     /// type's name without its module path.
     fn name(&self) -> &'static str {
@@ -276,7 +282,7 @@ pub trait NoiseStrategy: Clone {
     }
 
     /// Decide on one measurement.
-    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M, T>)
     where
         DefaultAllocator: FilterAlloc<N, M>;
 
@@ -296,7 +302,7 @@ pub trait NoiseStrategy: Clone {
     }
 
     /// Called after an accepted or inflated update with the gain used.
-    fn after_update<N: DimName, M: DimName>(&mut self, _p: &mut PostUpdate<'_, N, M>)
+    fn after_update<N: DimName, M: DimName>(&mut self, _p: &mut PostUpdate<'_, N, M, T>)
     where
         DefaultAllocator: FilterAlloc<N, M>,
     {
@@ -309,13 +315,20 @@ pub trait NoiseStrategy: Clone {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FixedNoise;
 
-impl NoiseStrategy for FixedNoise {
+impl FixedNoise {
+    /// `"fixed"` (the strategy serves every scalar, so this spares callers naming one).
+    pub fn name(&self) -> &'static str {
+        "fixed"
+    }
+}
+
+impl<T: FilterScalar> NoiseStrategy<T> for FixedNoise {
     fn name(&self) -> &'static str {
         "fixed"
     }
 
     #[inline]
-    fn adapt<N: DimName, M: DimName>(&mut self, _a: &mut Adaptation<'_, N, M>)
+    fn adapt<N: DimName, M: DimName>(&mut self, _a: &mut Adaptation<'_, N, M, T>)
     where
         DefaultAllocator: FilterAlloc<N, M>,
     {

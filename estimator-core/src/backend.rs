@@ -56,8 +56,8 @@ use crate::adapt::QAdjust;
 use crate::dims::{Cov, FilterAlloc};
 pub use crate::entries::Entries;
 use crate::error::FilterError;
-use crate::kernels;
 use crate::linalg::{check_finite, check_process_noise, symmetrize};
+use crate::scalar::FilterScalar;
 use crate::traits::{ProcessJacobians, ProcessModel};
 
 #[cfg(feature = "std")]
@@ -95,25 +95,26 @@ pub enum UpdateForm {
 }
 
 /// Storage and products of the covariance. See the [module docs](self).
-pub trait CovBackend<N: DimName>: Clone + core::fmt::Debug + Default
+pub trait CovBackend<N: DimName, T: FilterScalar = f64>:
+    Clone + core::fmt::Debug + Default
 where
     DefaultAllocator: DimAlloc<N>,
 {
     /// The stored covariance.
-    type Cov: Clone + core::fmt::Debug + Entries;
+    type Cov: Clone + core::fmt::Debug + Entries<T>;
 
     /// Name for benches and logs.
     const NAME: &'static str;
 
     /// Convert from a static matrix.
-    fn from_static(P: &Cov<N>) -> Self::Cov;
+    fn from_static(P: &Cov<N, T>) -> Self::Cov;
 
     /// The covariance as a static matrix (borrowed for the static back-end; feature `std`).
     #[cfg(feature = "std")]
-    fn as_static(P: &Self::Cov) -> Cow<'_, Cov<N>>;
+    fn as_static(P: &Self::Cov) -> Cow<'_, Cov<N, T>>;
 
     /// `P[i, i]`.
-    fn diag(P: &Self::Cov, i: usize) -> f64;
+    fn diag(P: &Self::Cov, i: usize) -> T;
 
     /// The whole prediction of the filter: returns `x⁺ = f(x, u, dt)` and writes
     /// `out ← λ Φ P Φᵀ + Q_d`, `Q_d` adjusted as the strategy asked (`q`), exactly
@@ -124,19 +125,19 @@ where
     /// [`propagate`](Self::propagate). The static back-end overrides it with the model's
     /// structured [`ProcessModel::step_covariance`].
     #[allow(clippy::too_many_arguments)]
-    fn predict<PM: ProcessModel>(
+    fn predict<PM: ProcessModel<T>>(
         &mut self,
         model: &PM,
         x: &PM::State,
         u: &PM::Input,
-        dt: f64,
+        dt: T,
         P: &Self::Cov,
-        lambda: f64,
-        q: &QAdjust<N>,
+        lambda: T,
+        q: &QAdjust<N, T>,
         out: &mut Self::Cov,
     ) -> Result<PM::State, FilterError>
     where
-        PM::State: Manifold<Dim = N>,
+        PM::State: Manifold<T, Dim = N>,
     {
         let (x_next, jac) = adjusted_step(model, q, x, u, dt)?;
         self.propagate(P, &jac.Phi, &jac.Q, lambda, out);
@@ -147,19 +148,15 @@ where
     fn propagate(
         &mut self,
         P: &Self::Cov,
-        Phi: &Cov<N>,
-        Q: &Cov<N>,
-        lambda: f64,
+        Phi: &Cov<N, T>,
+        Q: &Cov<N, T>,
+        lambda: T,
         out: &mut Self::Cov,
     );
 
     /// `P Hᵀ` (`N × M`) for an `M × N` matrix `H` (the transpose of `H P`, `P` being
     /// symmetric).
-    fn p_times_ht<M: DimName>(
-        &mut self,
-        H: &OMatrix<f64, M, N>,
-        P: &Self::Cov,
-    ) -> OMatrix<f64, N, M>
+    fn p_times_ht<M: DimName>(&mut self, H: &OMatrix<T, M, N>, P: &Self::Cov) -> OMatrix<T, N, M>
     where
         DefaultAllocator: FilterAlloc<N, M>;
 
@@ -167,10 +164,10 @@ where
     fn scale_add<M: DimName>(
         &mut self,
         P: &Self::Cov,
-        a: f64,
-        b: f64,
-        U: &OMatrix<f64, M, N>,
-        V: &OMatrix<f64, M, N>,
+        a: T,
+        b: T,
+        U: &OMatrix<T, M, N>,
+        V: &OMatrix<T, M, N>,
         out: &mut Self::Cov,
     ) where
         DefaultAllocator: FilterAlloc<N, M>;
@@ -182,11 +179,11 @@ where
     fn update<M: DimName>(
         &mut self,
         P: &Self::Cov,
-        K: &OMatrix<f64, N, M>,
-        H: &OMatrix<f64, M, N>,
-        PHt: &OMatrix<f64, N, M>,
-        R: &OMatrix<f64, M, M>,
-        S: &OMatrix<f64, M, M>,
+        K: &OMatrix<T, N, M>,
+        H: &OMatrix<T, M, N>,
+        PHt: &OMatrix<T, N, M>,
+        R: &OMatrix<T, M, M>,
+        S: &OMatrix<T, M, M>,
         form: UpdateForm,
         out: &mut Self::Cov,
     ) where
@@ -196,7 +193,7 @@ where
     /// `block` at rows and columns `offset..` (one of the state's
     /// [`reset_blocks`](manifolds::Manifold::reset_blocks)); `O(d² N)` for a `d × d` block
     /// (see [`block_reset_in_place`](crate::kernels::block_reset_in_place)).
-    fn reset_block(&mut self, P: &mut Self::Cov, offset: usize, block: DMatrixView<'_, f64>);
+    fn reset_block(&mut self, P: &mut Self::Cov, offset: usize, block: DMatrixView<'_, T>);
 
     /// `Err(NonFinite)` when any entry is NaN or infinite.
     fn check_finite(what: &'static str, P: &Self::Cov) -> Result<(), FilterError>;
@@ -205,15 +202,15 @@ where
 /// The model's `x⁺`, `Φ` and `Q_d` for one step, `Q_d` adjusted as the strategy asked
 /// (`Scale(s)`: `s Q_d`; `AddRate(q)`: `Q_d + q dt`) and checked by
 /// [`check_process_noise`], which names the model.
-pub(crate) fn adjusted_step<PM: ProcessModel, N: DimName>(
+pub(crate) fn adjusted_step<T: FilterScalar, PM: ProcessModel<T>, N: DimName>(
     model: &PM,
-    q: &QAdjust<N>,
+    q: &QAdjust<N, T>,
     x: &PM::State,
     u: &PM::Input,
-    dt: f64,
-) -> Result<(PM::State, ProcessJacobians<N>), FilterError>
+    dt: T,
+) -> Result<(PM::State, ProcessJacobians<N, T>), FilterError>
 where
-    PM::State: Manifold<Dim = N>,
+    PM::State: Manifold<T, Dim = N>,
     DefaultAllocator: DimAlloc<N>,
 {
     let (x_next, mut jac) = model.step(x, u, dt);
@@ -231,23 +228,23 @@ where
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StaticCov;
 
-impl<N: DimName> CovBackend<N> for StaticCov
+impl<N: DimName, T: FilterScalar> CovBackend<N, T> for StaticCov
 where
     DefaultAllocator: DimAlloc<N>,
 {
-    type Cov = Cov<N>;
+    type Cov = Cov<N, T>;
     const NAME: &'static str = "nalgebra-static";
 
-    fn from_static(P: &Cov<N>) -> Cov<N> {
+    fn from_static(P: &Cov<N, T>) -> Cov<N, T> {
         P.clone()
     }
 
     #[cfg(feature = "std")]
-    fn as_static(P: &Cov<N>) -> Cow<'_, Cov<N>> {
+    fn as_static(P: &Cov<N, T>) -> Cow<'_, Cov<N, T>> {
         Cow::Borrowed(P)
     }
 
-    fn diag(P: &Cov<N>, i: usize) -> f64 {
+    fn diag(P: &Cov<N, T>, i: usize) -> T {
         P[(i, i)]
     }
 
@@ -256,22 +253,22 @@ where
     /// formed) unless the strategy adjusted `Q_d`; otherwise `Φ` and the (adjusted) `Q_d`,
     /// checked, go through [`ProcessModel::propagate_covariance`]. A fading factor scales
     /// `P` first.
-    fn predict<PM: ProcessModel>(
+    fn predict<PM: ProcessModel<T>>(
         &mut self,
         model: &PM,
         x: &PM::State,
         u: &PM::Input,
-        dt: f64,
-        P: &Cov<N>,
-        lambda: f64,
-        q: &QAdjust<N>,
-        out: &mut Cov<N>,
+        dt: T,
+        P: &Cov<N, T>,
+        lambda: T,
+        q: &QAdjust<N, T>,
+        out: &mut Cov<N, T>,
     ) -> Result<PM::State, FilterError>
     where
-        PM::State: Manifold<Dim = N>,
+        PM::State: Manifold<T, Dim = N>,
     {
         let scaled;
-        let P = if lambda == 1.0 {
+        let P = if lambda == T::one() {
             P
         } else {
             // λ Φ P Φᵀ = Φ (λ P) Φᵀ
@@ -294,33 +291,40 @@ where
         Ok(x_next)
     }
 
-    fn propagate(&mut self, P: &Cov<N>, Phi: &Cov<N>, Q: &Cov<N>, lambda: f64, out: &mut Cov<N>) {
+    fn propagate(
+        &mut self,
+        P: &Cov<N, T>,
+        Phi: &Cov<N, T>,
+        Q: &Cov<N, T>,
+        lambda: T,
+        out: &mut Cov<N, T>,
+    ) {
         // P⁻ = λ Φ P Φᵀ + Q_d = Φ (λ P) Φᵀ + Q_d
-        if lambda == 1.0 {
-            kernels::dense_sandwich(Phi, P, Q, out);
+        if lambda == T::one() {
+            T::dense_sandwich(Phi, P, Q, out);
         } else {
-            kernels::dense_sandwich(Phi, &(P * lambda), Q, out);
+            T::dense_sandwich(Phi, &(P * lambda), Q, out);
         }
     }
 
-    fn p_times_ht<M: DimName>(&mut self, H: &OMatrix<f64, M, N>, P: &Cov<N>) -> OMatrix<f64, N, M>
+    fn p_times_ht<M: DimName>(&mut self, H: &OMatrix<T, M, N>, P: &Cov<N, T>) -> OMatrix<T, N, M>
     where
         DefaultAllocator: FilterAlloc<N, M>,
     {
         // over the non-zero entries of H only
-        let mut PHt = OMatrix::<f64, N, M>::zeros();
-        kernels::p_times_ht(P, H, PHt.as_mut_slice());
+        let mut PHt = OMatrix::<T, N, M>::zeros();
+        T::p_times_ht(P, H, PHt.as_mut_slice());
         PHt
     }
 
     fn scale_add<M: DimName>(
         &mut self,
-        P: &Cov<N>,
-        a: f64,
-        b: f64,
-        U: &OMatrix<f64, M, N>,
-        V: &OMatrix<f64, M, N>,
-        out: &mut Cov<N>,
+        P: &Cov<N, T>,
+        a: T,
+        b: T,
+        U: &OMatrix<T, M, N>,
+        V: &OMatrix<T, M, N>,
+        out: &mut Cov<N, T>,
     ) where
         DefaultAllocator: FilterAlloc<N, M>,
     {
@@ -330,25 +334,25 @@ where
 
     fn update<M: DimName>(
         &mut self,
-        P: &Cov<N>,
-        K: &OMatrix<f64, N, M>,
-        H: &OMatrix<f64, M, N>,
-        PHt: &OMatrix<f64, N, M>,
-        R: &OMatrix<f64, M, M>,
-        S: &OMatrix<f64, M, M>,
+        P: &Cov<N, T>,
+        K: &OMatrix<T, N, M>,
+        H: &OMatrix<T, M, N>,
+        PHt: &OMatrix<T, N, M>,
+        R: &OMatrix<T, M, M>,
+        S: &OMatrix<T, M, M>,
         form: UpdateForm,
-        out: &mut Cov<N>,
+        out: &mut Cov<N, T>,
     ) where
         DefaultAllocator: FilterAlloc<N, M>,
     {
         match form {
             UpdateForm::Joseph => {
                 // P + V Kᵀ + K Vᵀ, V = K S/2 − P Hᵀ
-                kernels::joseph_update(P, K, S, PHt, out);
+                T::joseph_update(P, K, S, PHt, out);
             }
             UpdateForm::JosephFactored => {
                 // P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ   (Bar-Shalom et al. 2001, eq. 5.2.3-18)
-                let IKH = Cov::<N>::identity() - K * H;
+                let IKH = Cov::<N, T>::identity() - K * H;
                 *out = &IKH * P * IKH.transpose() + K * R * K.transpose();
                 symmetrize(out);
             }
@@ -360,25 +364,14 @@ where
         }
     }
 
-    /// Blocks of up to 6 dimensions (rotations, positions, poses) need no scratch, up to
-    /// 16 a small stack one; bigger blocks (custom manifolds only) an `N × N` one on the
-    /// stack, beside `P`. Never the heap.
-    fn reset_block(&mut self, P: &mut Cov<N>, offset: usize, block: DMatrixView<'_, f64>) {
-        let d = block.nrows();
-        if d <= 6 {
-            kernels::block_reset_in_place(P, N::DIM, offset, block, &mut [], &mut []);
-        } else if d <= 16 {
-            let (mut corner, mut row) = ([0.0; 16 * 16], [0.0; 16]);
-            kernels::block_reset_in_place(P, N::DIM, offset, block, &mut corner, &mut row);
-        } else {
-            let mut corner = Cov::<N>::zeros();
-            let mut row = OMatrix::<f64, N, nalgebra::U1>::zeros();
-            let (corner, row) = (corner.as_mut_slice(), row.as_mut_slice());
-            kernels::block_reset_in_place(P, N::DIM, offset, block, corner, row);
-        }
+    /// By [`FilterScalar::block_reset`]: in `f64` the crate's kernel (blocks of up to 6
+    /// dimensions need no scratch, up to 16 a small stack one, bigger ones an `N × N` one on
+    /// the stack); never the heap.
+    fn reset_block(&mut self, P: &mut Cov<N, T>, offset: usize, block: DMatrixView<'_, T>) {
+        T::block_reset(P, offset, block);
     }
 
-    fn check_finite(what: &'static str, P: &Cov<N>) -> Result<(), FilterError> {
+    fn check_finite(what: &'static str, P: &Cov<N, T>) -> Result<(), FilterError> {
         check_finite(what, P)
     }
 }

@@ -19,8 +19,9 @@ impl<N: DimName, M: DimName, T> FilterAlloc<N, M> for T where
 {
 }
 
-/// Tangent dimension of a state type.
-pub type StateDim<X> = <X as Manifold>::Dim;
+/// Tangent dimension of a state type (over the scalar `T`, `f64` unless named).
+pub type StateDim<X, T = f64> = <X as Manifold<T>>::Dim;
 
-/// A square matrix over a tangent space of dimension `N` (covariances, Φ, Q).
-pub type Cov<N> = OMatrix<f64, N, N>;
+/// A square matrix over a tangent space of dimension `N` (covariances, Φ, Q), over `f64`
+/// unless named.
+pub type Cov<N, T = f64> = OMatrix<T, N, N>;

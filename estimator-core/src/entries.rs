@@ -3,34 +3,35 @@
 
 /// Column access to a square column-major matrix, so the block reset
 /// ([`block_reset_in_place`]) is written once for every back-end.
-pub trait Entries {
+pub trait Entries<T: Copy = f64> {
     /// Column `c`, contiguous.
-    fn col(&self, c: usize) -> &[f64];
+    fn col(&self, c: usize) -> &[T];
     /// Column `c`, contiguous and mutable.
-    fn col_mut(&mut self, c: usize) -> &mut [f64];
+    fn col_mut(&mut self, c: usize) -> &mut [T];
     /// Entry `(r, c)`.
     #[inline(always)]
-    fn at(&self, r: usize, c: usize) -> f64 {
+    fn at(&self, r: usize, c: usize) -> T {
         self.col(c)[r]
     }
     /// Set entry `(r, c)`.
     #[inline(always)]
-    fn put(&mut self, r: usize, c: usize, v: f64) {
+    fn put(&mut self, r: usize, c: usize, v: T) {
         self.col_mut(c)[r] = v;
     }
 }
 
-impl<R: nalgebra::Dim, C: nalgebra::Dim, S> Entries for nalgebra::Matrix<f64, R, C, S>
+impl<T: nalgebra::Scalar + Copy, R: nalgebra::Dim, C: nalgebra::Dim, S> Entries<T>
+    for nalgebra::Matrix<T, R, C, S>
 where
-    S: nalgebra::RawStorageMut<f64, R, C> + nalgebra::IsContiguous,
+    S: nalgebra::RawStorageMut<T, R, C> + nalgebra::IsContiguous,
 {
     #[inline(always)]
-    fn col(&self, c: usize) -> &[f64] {
+    fn col(&self, c: usize) -> &[T] {
         let n = self.nrows();
         &self.as_slice()[c * n..(c + 1) * n]
     }
     #[inline(always)]
-    fn col_mut(&mut self, c: usize) -> &mut [f64] {
+    fn col_mut(&mut self, c: usize) -> &mut [T] {
         let n = self.nrows();
         &mut self.as_mut_slice()[c * n..(c + 1) * n]
     }

@@ -36,9 +36,9 @@ use crate::backend::{CovBackend, StaticCov};
 use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::entries::Entries;
 use crate::error::FilterError;
-use crate::kernels;
 use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize, whitened_norm_sq};
 use crate::report::{NoObserver, Observer, UpdateReport};
+use crate::scalar::FilterScalar;
 use crate::traits::{MeasurementModel, ProcessModel};
 
 /// How the covariance is reset after injecting the correction.
@@ -54,10 +54,10 @@ pub enum ResetMode {
 
 /// A user-supplied covariance, checked (finite, symmetric within the tolerance, positive
 /// definite) and stored exactly symmetric: the products assume `P = Pᵀ`.
-fn checked_symmetric<N: nalgebra::DimName>(
+fn checked_symmetric<T: FilterScalar, N: nalgebra::DimName>(
     what: &'static str,
-    mut P: Cov<N>,
-) -> Result<Cov<N>, FilterError>
+    mut P: Cov<N, T>,
+) -> Result<Cov<N, T>, FilterError>
 where
     DefaultAllocator: DimAlloc<N>,
 {
@@ -95,16 +95,17 @@ where
     derive(serde::Serialize, serde::Deserialize),
     serde(bound(
         serialize = "X: serde::Serialize, A: serde::Serialize, B: serde::Serialize, \
-                     B::Cov: serde::Serialize, QAdjust<X::Dim>: serde::Serialize",
+                     B::Cov: serde::Serialize, QAdjust<X::Dim, T>: serde::Serialize",
         deserialize = "X: serde::Deserialize<'de>, A: serde::Deserialize<'de>, \
                        B: serde::Deserialize<'de>, B::Cov: serde::Deserialize<'de>, \
-                       QAdjust<X::Dim>: serde::Deserialize<'de>"
+                       QAdjust<X::Dim, T>: serde::Deserialize<'de>"
     ))
 )]
 pub struct ErrorStateFilter<
-    X: Manifold,
-    A: NoiseStrategy = FixedNoise,
-    B: CovBackend<X::Dim> = StaticCov,
+    X: Manifold<T>,
+    A: NoiseStrategy<T> = FixedNoise,
+    B: CovBackend<X::Dim, T> = StaticCov,
+    T: FilterScalar = f64,
 > where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
@@ -121,33 +122,34 @@ pub struct ErrorStateFilter<
     form: UpdateForm,
     time: f64,
     epoch: u64,
-    q_adjust: QAdjust<X::Dim>,
+    q_adjust: QAdjust<X::Dim, T>,
     /// `Q_Σ`, the process noise accumulated since the previous update, kept only for a
     /// strategy that [tracks](NoiseStrategy::tracks_process_noise) it.
     q_sum: Option<B::Cov>,
 }
 
 #[allow(non_snake_case)]
-impl<X: Manifold, A: NoiseStrategy> ErrorStateFilter<X, A, StaticCov>
+impl<T: FilterScalar, X: Manifold<T>, A: NoiseStrategy<T>> ErrorStateFilter<X, A, StaticCov, T>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     /// A filter at `x0` with covariance `P0` (checked: finite, symmetric, positive
     /// definite) and the given strategy, on the default (static) back-end.
-    pub fn new(x0: X, P0: Cov<X::Dim>, strategy: A) -> Result<Self, FilterError> {
+    pub fn new(x0: X, P0: Cov<X::Dim, T>, strategy: A) -> Result<Self, FilterError> {
         Self::with_backend(x0, P0, strategy, StaticCov)
     }
 }
 
 #[allow(non_snake_case)]
-impl<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>> ErrorStateFilter<X, A, B>
+impl<T: FilterScalar, X: Manifold<T>, A: NoiseStrategy<T>, B: CovBackend<X::Dim, T>>
+    ErrorStateFilter<X, A, B, T>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     /// A filter on the back-end `backend` (e.g. `DynamicCov::default()`, `FaerCov::default()`).
     pub fn with_backend(
         x0: X,
-        P0: Cov<X::Dim>,
+        P0: Cov<X::Dim, T>,
         strategy: A,
         backend: B,
     ) -> Result<Self, FilterError> {
@@ -197,7 +199,7 @@ where
     /// one, copied out of the heap storage on the others (use
     /// [`covariance_raw`](Self::covariance_raw) to read it in place there).
     #[cfg(feature = "std")]
-    pub fn covariance(&self) -> Cow<'_, Cov<X::Dim>> {
+    pub fn covariance(&self) -> Cow<'_, Cov<X::Dim, T>> {
         B::as_static(&self.bufs[self.cur])
     }
 
@@ -248,7 +250,7 @@ where
     }
 
     /// The current process-noise adjustment requested by the strategy.
-    pub fn process_noise_adjustment(&self) -> &QAdjust<X::Dim> {
+    pub fn process_noise_adjustment(&self) -> &QAdjust<X::Dim, T> {
         &self.q_adjust
     }
 
@@ -262,15 +264,15 @@ where
     }
 
     /// Replace the covariance (checked like `P0`).
-    pub fn set_covariance(&mut self, P: Cov<X::Dim>) -> Result<(), FilterError> {
+    pub fn set_covariance(&mut self, P: Cov<X::Dim, T>) -> Result<(), FilterError> {
         self.bufs[self.cur] = B::from_static(&checked_symmetric("covariance P", P)?);
         Ok(())
     }
 
     /// The 1σ of every error-state component.
-    pub fn sigma(&self) -> OMatrix<f64, X::Dim, nalgebra::U1> {
-        OMatrix::<f64, X::Dim, nalgebra::U1>::from_fn(|i, _| {
-            B::diag(&self.bufs[self.cur], i).max(0.0).sqrt()
+    pub fn sigma(&self) -> OMatrix<T, X::Dim, nalgebra::U1> {
+        OMatrix::<T, X::Dim, nalgebra::U1>::from_fn(|i, _| {
+            B::diag(&self.bufs[self.cur], i).max(T::zero()).sqrt()
         })
     }
 
@@ -278,17 +280,18 @@ where
     /// `x̂⁻ = f(x̂, u, dt)`, `P⁻ = λ Φ P Φᵀ + Q_d` (λ = 1 unless the strategy fades), by the
     /// back-end's [`CovBackend::predict`]. `Q_d` is checked (finite, symmetric, positive
     /// semi-definite) whenever it is formed; on `Err` the filter is unchanged.
-    pub fn predict<PM>(&mut self, model: &PM, u: &PM::Input, dt: f64) -> Result<(), FilterError>
+    pub fn predict<PM>(&mut self, model: &PM, u: &PM::Input, dt: T) -> Result<(), FilterError>
     where
-        PM: ProcessModel<State = X>,
+        PM: ProcessModel<T, State = X>,
     {
-        if !(dt.is_finite() && dt >= 0.0) {
-            return Err(FilterError::InvalidTimeStep { dt });
+        if !(dt.is_finite() && dt >= T::zero()) {
+            return Err(FilterError::InvalidTimeStep { dt: dt.to_f64() });
         }
         let fading = self.strategy.prediction_fading();
         if !(fading.is_finite() && fading > 0.0) {
             return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
         }
+        let fading = T::lit(fading);
         let (P, next, aux) = Self::split(&mut self.bufs, self.cur);
         // the back-end owns the path: the model's structured products on the static one,
         // dense products on the heap ones
@@ -301,14 +304,15 @@ where
         if self.strategy.tracks_process_noise() {
             // Q_Σ ← Φ Q_Σ Φᵀ + Q_d, by the same path (into the auxiliary buffer, swapped in
             // only when it succeeded, so that `Err` leaves Q_Σ as it was)
-            let q_sum = self.q_sum.get_or_insert_with(|| B::from_static(&Cov::<X::Dim>::zeros()));
-            self.backend.predict(model, &self.x, u, dt, q_sum, 1.0, &self.q_adjust, aux)?;
+            let q_sum =
+                self.q_sum.get_or_insert_with(|| B::from_static(&Cov::<X::Dim, T>::zeros()));
+            self.backend.predict(model, &self.x, u, dt, q_sum, T::one(), &self.q_adjust, aux)?;
             B::check_finite("accumulated process noise Q_Σ", aux)?;
             core::mem::swap(q_sum, aux);
         }
         self.x = x_next;
         self.commit();
-        self.time += dt;
+        self.time += dt.to_f64();
         Ok(())
     }
 
@@ -320,17 +324,18 @@ where
     pub(crate) fn finish_prediction(
         &mut self,
         x: X,
-        P: Cov<X::Dim>,
+        P: Cov<X::Dim, T>,
         dt: f64,
-        Phi: &Cov<X::Dim>,
-        Q: &Cov<X::Dim>,
+        Phi: &Cov<X::Dim, T>,
+        Q: &Cov<X::Dim, T>,
     ) -> Result<(), FilterError> {
         if !x.is_finite() {
             return Err(FilterError::NonFinite { what: "propagated state" });
         }
         let P = B::from_static(&checked_symmetric("propagated covariance P⁻", P)?);
         if self.strategy.tracks_process_noise() {
-            let q_sum = self.q_sum.get_or_insert_with(|| B::from_static(&Cov::<X::Dim>::zeros()));
+            let q_sum =
+                self.q_sum.get_or_insert_with(|| B::from_static(&Cov::<X::Dim, T>::zeros()));
             let mut next = Phi * B::as_static(q_sum).as_ref() * Phi.transpose() + Q;
             symmetrize(&mut next);
             check_finite("accumulated process noise Q_Σ", &next)?;
@@ -351,11 +356,11 @@ where
         &mut self,
         model: &MM,
         z: &MM::Measurement,
-        R: &Cov<StateDim<MM::Measurement>>,
-    ) -> Result<UpdateReport<StateDim<MM::Measurement>>, FilterError>
+        R: &Cov<StateDim<MM::Measurement, T>, T>,
+    ) -> Result<UpdateReport<StateDim<MM::Measurement, T>, T>, FilterError>
     where
-        MM: MeasurementModel<State = X>,
-        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+        MM: MeasurementModel<T, State = X>,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement, T>>,
     {
         self.update_observed(model, z, R, &mut NoObserver)
     }
@@ -365,13 +370,13 @@ where
         &mut self,
         model: &MM,
         z: &MM::Measurement,
-        R: &Cov<StateDim<MM::Measurement>>,
+        R: &Cov<StateDim<MM::Measurement, T>, T>,
         observer: &mut O,
-    ) -> Result<UpdateReport<StateDim<MM::Measurement>>, FilterError>
+    ) -> Result<UpdateReport<StateDim<MM::Measurement, T>, T>, FilterError>
     where
-        MM: MeasurementModel<State = X>,
-        O: Observer,
-        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+        MM: MeasurementModel<T, State = X>,
+        O: Observer<T>,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement, T>>,
     {
         self.update_with_gain(model, z, R, observer).map(|(report, _)| report)
     }
@@ -383,19 +388,19 @@ where
         &mut self,
         model: &MM,
         z: &MM::Measurement,
-        R: &Cov<StateDim<MM::Measurement>>,
+        R: &Cov<StateDim<MM::Measurement, T>, T>,
         observer: &mut O,
     ) -> Result<
         (
-            UpdateReport<StateDim<MM::Measurement>>,
-            Option<OMatrix<f64, X::Dim, StateDim<MM::Measurement>>>,
+            UpdateReport<StateDim<MM::Measurement, T>, T>,
+            Option<OMatrix<T, X::Dim, StateDim<MM::Measurement, T>>>,
         ),
         FilterError,
     >
     where
-        MM: MeasurementModel<State = X>,
-        O: Observer,
-        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+        MM: MeasurementModel<T, State = X>,
+        O: Observer<T>,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement, T>>,
     {
         if !z.is_finite() {
             return Err(FilterError::NonFinite { what: "measurement z" });
@@ -411,8 +416,8 @@ where
         // S = H P⁻ Hᵀ + R
         let PHt = self.backend.p_times_ht(H, &self.bufs[self.cur]);
         let mut HPHt =
-            OMatrix::<f64, StateDim<MM::Measurement>, StateDim<MM::Measurement>>::zeros();
-        kernels::mat_mul(H, &PHt, &mut HPHt);
+            OMatrix::<T, StateDim<MM::Measurement, T>, StateDim<MM::Measurement, T>>::zeros();
+        T::mat_mul(H, &PHt, &mut HPHt);
         let mut S = &HPHt + R;
         symmetrize(&mut S);
         // H Q_Σ Hᵀ for a strategy that tracks the process noise since the last update
@@ -422,14 +427,14 @@ where
         };
         let HQHt = QHt.as_ref().map(|QHt| {
             let mut m =
-                OMatrix::<f64, StateDim<MM::Measurement>, StateDim<MM::Measurement>>::zeros();
-            kernels::mat_mul(H, QHt, &mut m);
+                OMatrix::<T, StateDim<MM::Measurement, T>, StateDim<MM::Measurement, T>>::zeros();
+            T::mat_mul(H, QHt, &mut m);
             symmetrize(&mut m);
             m
         });
         let chol_S = cholesky("innovation covariance S = H P Hᵀ + R", S.clone())?;
         // NIS = rᵀ S⁻¹ r
-        let nis = whitened_norm_sq(&chol_S, r);
+        let nis = whitened_norm_sq(&chol_S, r).to_f64();
 
         let epoch = self.epoch + 1;
         let mut a = Adaptation {
@@ -511,10 +516,10 @@ where
             let S_adapted;
             let chol = if adapted {
                 check_covariance("adapted measurement noise R*", &R_used)?;
-                let mut S_used = &HPHt + HBHt * (prior_scale - 1.0) + &R_used;
+                let mut S_used = &HPHt + HBHt * T::lit(prior_scale - 1.0) + &R_used;
                 symmetrize(&mut S_used);
                 let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
-                report.nis_adapted = whitened_norm_sq(&chol, r);
+                report.nis_adapted = whitened_norm_sq(&chol, r).to_f64();
                 // an adaptation that made S smaller along the innovation deflated it
                 if report.verdict == Verdict::Inflated && report.nis_adapted > nis {
                     report.verdict = Verdict::Deflated;
@@ -545,29 +550,31 @@ where
                     PriorScaling::Full => None,
                 };
                 match subspace {
-                    Some(A) => backend.scale_add(P, 1.0, prior_scale - 1.0, &HB, &A, aux),
+                    Some(A) => {
+                        backend.scale_add(P, T::one(), T::lit(prior_scale - 1.0), &HB, &A, aux)
+                    }
                     None => {
                         // H B Hᵀ has no Cholesky factor (a measurement direction the prior
                         // does not constrain): the whole of B is scaled, and the report
                         // says so.
                         fallback = prior_scaling == PriorScaling::MeasurementSubspace;
-                        backend.scale_add(P, prior_scale, 0.0, &HB, &HB, aux);
+                        backend.scale_add(P, T::lit(prior_scale), T::zero(), &HB, &HB, aux);
                         if let (true, Some(q_sum)) = (propagated_only, &self.q_sum) {
                             // λ P⁻ − (λ − 1) Q_Σ = P⁻ + (λ − 1)(P⁻ − Q_Σ)
-                            sub_scaled(aux, prior_scale - 1.0, q_sum, X::Dim::DIM);
+                            sub_scaled(aux, T::lit(prior_scale - 1.0), q_sum, X::Dim::DIM);
                         }
                     }
                 }
                 true
             };
             // P⁻* Hᵀ = P⁻ Hᵀ + (λ − 1) B Hᵀ (both scalings)
-            let scaled_PHt = (prior_scale != 1.0).then(|| &PHt + BHt * (prior_scale - 1.0));
+            let scaled_PHt = (prior_scale != 1.0).then(|| &PHt + BHt * T::lit(prior_scale - 1.0));
             let PHt_used = scaled_PHt.unwrap_or(PHt);
             // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
             let mut K = PHt_used.clone();
-            kernels::right_solve_cholesky(chol.l_dirty(), &mut K);
-            let mut dx = OMatrix::<f64, X::Dim, nalgebra::U1>::zeros();
-            kernels::mat_mul(&K, r, &mut dx);
+            T::right_solve_cholesky(chol.l_dirty(), &mut K);
+            let mut dx = OMatrix::<T, X::Dim, nalgebra::U1>::zeros();
+            T::mat_mul(&K, r, &mut dx);
 
             let prior: &B::Cov = if scaled { aux } else { P };
             // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
@@ -600,7 +607,7 @@ where
         if let Some(q_sum) = &mut self.q_sum {
             // the next update's propagated part starts from this posterior
             for c in 0..X::Dim::DIM {
-                q_sum.col_mut(c).fill(0.0);
+                q_sum.col_mut(c).fill(T::zero());
             }
         }
         self.epoch = epoch;
@@ -615,7 +622,7 @@ where
 
     /// Take up the strategy's process-noise request (by reference, for the reason given
     /// in `update_observed`).
-    fn apply_q(&mut self, q: &QAdjust<X::Dim>) {
+    fn apply_q(&mut self, q: &QAdjust<X::Dim, T>) {
         match q {
             QAdjust::Keep => {}
             QAdjust::Model => self.q_adjust = QAdjust::Keep,
@@ -625,21 +632,24 @@ where
 }
 
 /// `out ← out − a Q` for two `n × n` column-major covariances.
-fn sub_scaled<C: Entries>(out: &mut C, a: f64, q: &C, n: usize) {
+fn sub_scaled<T: FilterScalar, C: Entries<T>>(out: &mut C, a: T, q: &C, n: usize) {
     for c in 0..n {
         for (o, v) in out.col_mut(c).iter_mut().zip(q.col(c)) {
-            *o -= a * v;
+            *o -= a * *v;
         }
     }
 }
 
 /// `ln N(r; 0, S) = −½ (m ln 2π + ln det S + rᵀ S⁻¹ r)` from the Cholesky factor of `S` and
 /// the NIS.
-fn log_likelihood<M: nalgebra::DimName>(chol: &nalgebra::Cholesky<f64, M>, nis: f64) -> f64
+fn log_likelihood<T: FilterScalar, M: nalgebra::DimName>(
+    chol: &nalgebra::Cholesky<T, M>,
+    nis: f64,
+) -> f64
 where
     DefaultAllocator: nalgebra::allocator::Allocator<M, M>,
 {
     let l = chol.l_dirty();
-    let log_det = (0..M::DIM).map(|i| l[(i, i)].ln()).sum::<f64>() * 2.0;
+    let log_det = (0..M::DIM).map(|i| l[(i, i)].to_f64().ln()).sum::<f64>() * 2.0;
     -0.5 * (M::DIM as f64 * (2.0 * core::f64::consts::PI).ln() + log_det + nis)
 }

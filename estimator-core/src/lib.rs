@@ -20,6 +20,7 @@
 //! | `harness` (feature `testing`) | analytic vs numerical Jacobians through ⊕/⊖ for any model |
 //! | [`fixed_from_dynamic`], [`symmetrize`] | a runtime-sized matrix into a typed one (typed error); exact symmetry for a custom strategy's covariances |
 //! | [`linear`] | linear-Gaussian models (the plain Kalman filter as a special case) |
+//! | [`FilterScalar`] | the scalar: `f64` (the default of every type, the AVX2/FMA kernels) or `f32` (plain loops; a microcontroller's FPU) |
 //!
 //! # Features
 //!
@@ -36,6 +37,15 @@
 //!   [`covariance_raw`](ErrorStateFilter::covariance_raw) there.
 //! - `testing`: the Jacobian harness (`harness`) and the manifold law harness of
 //!   `manifolds` (`manifolds/testing`), with proptest.
+//!
+//! # Scalar
+//!
+//! The filter, the model traits, the back-end trait, the strategies' hook and the reports
+//! take their scalar as a last type parameter that defaults to `f64` (`ErrorStateFilter<X>`,
+//! `impl ProcessModel for M`, `impl NoiseStrategy for S` are the `f64` ones, as before).
+//! `f32` is named: `ErrorStateFilter<X, FixedNoise, StaticCov, f32>` on a state `X:
+//! Manifold<f32>`, models implementing `ProcessModel<f32>`. The heap back-ends, the
+//! smoothers and the strategies of `adaptive` are `f64`.
 //!
 //! Convention: right (body-frame) perturbation, `true = nominal ⊕ δx`
 //! (see [`manifolds::Manifold`]).
@@ -62,6 +72,7 @@ mod kernels;
 mod linalg;
 pub mod linear;
 pub mod report;
+mod scalar;
 #[cfg(feature = "std")]
 pub mod segments;
 #[doc(hidden)]
@@ -96,6 +107,7 @@ pub use linalg::symmetrize;
 #[cfg(feature = "std")]
 pub use report::UpdateLog;
 pub use report::{NoObserver, Observer, UpdateReport, UpdateSummary};
+pub use scalar::FilterScalar;
 #[cfg(feature = "std")]
 pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder};
 #[cfg(feature = "std")]
@@ -105,7 +117,7 @@ pub use stream::StreamMap;
 pub use stream::{short_type_name, StreamId};
 pub use traits::{
     Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
-    ProcessModel, StateDim,
+    ProcessJacobiansOf, ProcessModel, StateDim,
 };
 #[cfg(feature = "std")]
 pub use unscented::{SigmaPoints, SigmaWeights};

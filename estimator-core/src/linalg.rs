@@ -7,14 +7,22 @@ use nalgebra::DMatrix;
 use nalgebra::{Cholesky, DefaultAllocator, DimName, OMatrix, OVector};
 
 use crate::error::FilterError;
+use crate::scalar::FilterScalar;
 
-/// Relative tolerance of the symmetry check on user-supplied covariances.
+/// Relative tolerance of the symmetry check on user-supplied covariances (in `f64`; a
+/// coarser scalar's is `100 ε` when that is larger, see [`symmetry_tolerance`]).
 pub const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
+/// The relative symmetry tolerance of the scalar `T`: [`SYMMETRY_TOLERANCE`] in `f64`,
+/// `100 ε` in `f32` (1.2e-5).
+pub fn symmetry_tolerance<T: FilterScalar>() -> f64 {
+    SYMMETRY_TOLERANCE.max(100.0 * T::EPS_F64)
+}
+
 /// `Err(NonFinite)` when any entry of `m` is NaN or infinite.
-pub fn check_finite<R: DimName, C: DimName>(
+pub fn check_finite<T: FilterScalar, R: DimName, C: DimName>(
     what: &'static str,
-    m: &OMatrix<f64, R, C>,
+    m: &OMatrix<T, R, C>,
 ) -> Result<(), FilterError>
 where
     DefaultAllocator: Allocator<R, C>,
@@ -28,19 +36,20 @@ where
 
 /// True when any value is NaN or infinite
 /// ([`kernels::non_finite_in`](crate::kernels::non_finite_in)).
-pub fn has_non_finite(values: &[f64]) -> bool {
-    crate::kernels::non_finite_in(values)
+pub fn has_non_finite<T: FilterScalar>(values: &[T]) -> bool {
+    T::non_finite_in(values)
 }
 
 /// Replace `A` by `(A + Aᵀ)/2` in place.
-pub fn symmetrize<D: DimName>(a: &mut OMatrix<f64, D, D>)
+pub fn symmetrize<T: FilterScalar, D: DimName>(a: &mut OMatrix<T, D, D>)
 where
     DefaultAllocator: Allocator<D, D>,
 {
     let n = D::DIM;
+    let half = T::lit(0.5);
     for c in 0..n {
         for r in (c + 1)..n {
-            let m = 0.5 * (a[(r, c)] + a[(c, r)]);
+            let m = half * (a[(r, c)] + a[(c, r)]);
             a[(r, c)] = m;
             a[(c, r)] = m;
         }
@@ -48,10 +57,10 @@ where
 }
 
 /// Cholesky factor of `a`, or `Err(NotPositiveDefinite { what })`.
-pub fn cholesky<D: DimName>(
+pub fn cholesky<T: FilterScalar, D: DimName>(
     what: &'static str,
-    a: OMatrix<f64, D, D>,
-) -> Result<Cholesky<f64, D>, FilterError>
+    a: OMatrix<T, D, D>,
+) -> Result<Cholesky<T, D>, FilterError>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
@@ -60,14 +69,14 @@ where
 
 /// `eᵀ A⁻¹ e` for `A = L Lᵀ` given by its Cholesky factor: `|L⁻¹ e|²`, one forward
 /// substitution (half the work of solving `A x = e`).
-pub fn whitened_norm_sq<D: DimName>(chol: &Cholesky<f64, D>, e: &OVector<f64, D>) -> f64
+pub fn whitened_norm_sq<T: FilterScalar, D: DimName>(chol: &Cholesky<T, D>, e: &OVector<T, D>) -> T
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
     let l = chol.l_dirty();
     // The reciprocals of the diagonal first: independent divisions, off the substitution's
     // chain of dependent steps.
-    let inv_diag = OVector::<f64, D>::from_fn(|i, _| 1.0 / l[(i, i)]);
+    let inv_diag = OVector::<T, D>::from_fn(|i, _| T::one() / l[(i, i)]);
     let mut y = e.clone_owned();
     for i in 0..D::DIM {
         let v = (0..i).fold(y[i], |v, k| v - l[(i, k)] * y[k]);
@@ -91,16 +100,16 @@ struct Symmetry {
 /// update's `R`). The values are finite here, so a plain comparison serves as the
 /// maximum: `f64::max` spends more instructions on NaN than this whole check on the
 /// numbers.
-fn symmetry_of(s: &[f64], n: usize) -> Symmetry {
+fn symmetry_of<T: FilterScalar>(s: &[T], n: usize) -> Symmetry {
     let max = |m: f64, x: f64| if x > m { x } else { m };
     let (mut diagonal, mut asym, mut off_diagonal) = (f64::MIN_POSITIVE, 0.0_f64, 0.0_f64);
     let mut diagonal_positive = true;
     for c in 0..n {
-        let d = s[c * n + c];
+        let d = s[c * n + c].to_f64();
         diagonal = max(diagonal, d.abs());
         diagonal_positive &= d > 0.0;
         for r in (c + 1)..n {
-            let (lo, up) = (s[c * n + r], s[r * n + c]);
+            let (lo, up) = (s[c * n + r].to_f64(), s[r * n + c].to_f64());
             off_diagonal = max(max(off_diagonal, lo.abs()), up.abs());
             asym = max(asym, (lo - up).abs());
         }
@@ -115,16 +124,16 @@ fn symmetry_of(s: &[f64], n: usize) -> Symmetry {
 
 /// Validate a user-supplied covariance: finite, symmetric within
 /// [`SYMMETRY_TOLERANCE`] (relative), positive definite.
-pub fn check_covariance<D: DimName>(
+pub fn check_covariance<T: FilterScalar, D: DimName>(
     what: &'static str,
-    a: &OMatrix<f64, D, D>,
+    a: &OMatrix<T, D, D>,
 ) -> Result<(), FilterError>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
     check_finite(what, a)?;
     let s = symmetry_of(a.as_slice(), D::DIM);
-    if s.asymmetry > SYMMETRY_TOLERANCE * s.scale {
+    if s.asymmetry > symmetry_tolerance::<T>() * s.scale {
         return Err(FilterError::NotSymmetric { what, asymmetry: s.asymmetry });
     }
     let (off_diagonal, diagonal_positive) = (s.off_diagonal, s.diagonal_positive);
@@ -144,9 +153,9 @@ where
 /// [`SYMMETRY_TOLERANCE`] (relative), and positive semi-definite within the tolerance
 /// `1e-12 · max|Q_ij|` on the pivots of an LDLᵀ factorisation (zero rows, such as a
 /// position block without noise of its own, are allowed). `O(N³/6)`.
-pub fn check_process_noise<D: DimName>(
+pub fn check_process_noise<T: FilterScalar, D: DimName>(
     model: &'static str,
-    q: &OMatrix<f64, D, D>,
+    q: &OMatrix<T, D, D>,
 ) -> Result<(), FilterError>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
@@ -157,7 +166,7 @@ where
     }
     let n = D::DIM;
     let sym = symmetry_of(q.as_slice(), n);
-    if sym.asymmetry > SYMMETRY_TOLERANCE * sym.scale {
+    if sym.asymmetry > symmetry_tolerance::<T>() * sym.scale {
         return Err(err("not symmetric", sym.asymmetry));
     }
     let scale = sym.scale;
@@ -167,8 +176,10 @@ where
     // LDLᵀ of the lower triangle (Q = L D Lᵀ, unit L): a negative pivot beyond the
     // tolerance means an indefinite Q; a pivot within it is a zero direction, whose column
     // must then vanish too.
-    let tol = 1e-12 * scale;
-    let mut a = q.clone_owned();
+    // (in f64 whatever the scalar: these are the checks' own numbers; a coarser scalar's
+    // pivot tolerance is 10 ε when that is larger)
+    let tol = 1e-12f64.max(10.0 * T::EPS_F64) * scale;
+    let mut a = OMatrix::<f64, D, D>::from_fn(|r, c| q[(r, c)].to_f64());
     let mut col = OVector::<f64, D>::zeros();
     for j in 0..n {
         let d = a[(j, j)];
@@ -178,7 +189,8 @@ where
         if d <= tol {
             // a (numerically) zero variance: for a semi-definite Q its whole row is zero
             // (|Q_ij|² ≤ Q_ii Q_jj)
-            if let Some(i) = ((j + 1)..n).find(|&i| a[(i, j)].abs() > 1e-6 * scale) {
+            let row_tol = 1e-6f64.max(100.0 * T::EPS_F64) * scale;
+            if let Some(i) = ((j + 1)..n).find(|&i| a[(i, j)].abs() > row_tol) {
                 return Err(err("not positive semi-definite", -a[(i, j)].abs()));
             }
             continue;

@@ -6,12 +6,13 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 use manifolds::DimAlloc;
 
 use crate::adapt::{Factors, Verdict};
+use crate::scalar::FilterScalar;
 use crate::stream::StreamId;
 
 /// Everything about one measurement update.
 #[allow(non_snake_case)]
 #[derive(Clone, Debug)]
-pub struct UpdateReport<M: DimName>
+pub struct UpdateReport<M: DimName, T: FilterScalar = f64>
 where
     DefaultAllocator: DimAlloc<M>,
 {
@@ -22,9 +23,9 @@ where
     /// Filter time in seconds.
     pub time: f64,
     /// Innovation `r = z ⊖ h(x̂⁻)`.
-    pub innovation: OVector<f64, M>,
+    pub innovation: OVector<T, M>,
     /// Nominal innovation covariance `S = H P⁻ Hᵀ + R`.
-    pub S: OMatrix<f64, M, M>,
+    pub S: OMatrix<T, M, M>,
     /// `rᵀ S⁻¹ r` with the nominal `S`.
     pub nis: f64,
     /// `rᵀ S*⁻¹ r` with the innovation covariance actually used,
@@ -49,7 +50,7 @@ where
     pub log_likelihood: f64,
 }
 
-impl<M: DimName> UpdateReport<M>
+impl<M: DimName, T: FilterScalar> UpdateReport<M, T>
 where
     DefaultAllocator: DimAlloc<M>,
 {
@@ -134,9 +135,12 @@ pub struct UpdateSummary {
 /// assert_eq!(worst.0["gps"].1, 0);
 /// assert!(worst.0["gps"].0 > 1.0);
 /// ```
-pub trait Observer {
+///
+/// `impl Observer for O` observes `f64` filters (`Observer<f64>`); [`NoObserver`] and
+/// `&mut O` serve every scalar.
+pub trait Observer<T: FilterScalar = f64> {
     /// After every update attempt that produced a verdict (accepted, inflated, rejected).
-    fn on_update<M: DimName>(&mut self, _report: &UpdateReport<M>)
+    fn on_update<M: DimName>(&mut self, _report: &UpdateReport<M, T>)
     where
         DefaultAllocator: DimAlloc<M>,
     {
@@ -147,7 +151,7 @@ pub trait Observer {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoObserver;
 
-impl Observer for NoObserver {}
+impl<T: FilterScalar> Observer<T> for NoObserver {}
 
 /// Keeps a summary of every update (feature `std`).
 #[cfg(feature = "std")]
@@ -184,8 +188,8 @@ impl Observer for UpdateLog {
     }
 }
 
-impl<O: Observer> Observer for &mut O {
-    fn on_update<M: DimName>(&mut self, report: &UpdateReport<M>)
+impl<T: FilterScalar, O: Observer<T>> Observer<T> for &mut O {
+    fn on_update<M: DimName>(&mut self, report: &UpdateReport<M, T>)
     where
         DefaultAllocator: DimAlloc<M>,
     {

@@ -6,30 +6,31 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix};
 use manifolds::{DimAlloc, Manifold, Tangent};
 
 pub use crate::dims::{Cov, FilterAlloc, StateDim};
+use crate::scalar::FilterScalar;
 use crate::stream::StreamId;
 
 /// Jacobians of one prediction step, defined at zero error in the tangent spaces.
 #[allow(non_snake_case)]
 #[derive(Clone, Debug)]
-pub struct ProcessJacobians<N: DimName>
+pub struct ProcessJacobians<N: DimName, T: FilterScalar = f64>
 where
     DefaultAllocator: Allocator<N, N>,
 {
     /// Error-state transition `Φ = ∂(f(x ⊕ δ) ⊖ f(x))/∂δ` over the step.
-    pub Phi: Cov<N>,
+    pub Phi: Cov<N, T>,
     /// Discrete process-noise covariance `Q_d` of the step (may depend on the state).
-    pub Q: Cov<N>,
+    pub Q: Cov<N, T>,
 }
 
 /// Measurement Jacobian `H = ∂(h(x ⊕ δ) ⊖ h(x))/∂δ` at `δ = 0`.
 #[allow(non_snake_case)]
 #[derive(Clone, Debug)]
-pub struct MeasurementJacobians<M: DimName, N: DimName>
+pub struct MeasurementJacobians<M: DimName, N: DimName, T: FilterScalar = f64>
 where
     DefaultAllocator: Allocator<M, N>,
 {
     /// `∂h/∂δx` through ⊕ on the state and ⊖ on the measurement.
-    pub H: OMatrix<f64, M, N>,
+    pub H: OMatrix<T, M, N>,
 }
 
 /// A process model `x_{k+1} = f(x_k, u_k, dt)` with its error-state Jacobians.
@@ -59,29 +60,29 @@ where
 ///     }
 /// }
 /// ```
-pub trait ProcessModel
+pub trait ProcessModel<T: FilterScalar = f64>
 where
-    DefaultAllocator: DimAlloc<StateDim<Self::State>>,
+    DefaultAllocator: DimAlloc<StateDim<Self::State, T>>,
 {
     /// The state manifold.
-    type State: Manifold;
+    type State: Manifold<T>;
     /// The input (IMU sample, control …); `()` for autonomous models.
     type Input;
 
     /// Propagate the nominal state over `dt` seconds.
-    fn propagate(&self, x: &Self::State, u: &Self::Input, dt: f64) -> Self::State;
+    fn propagate(&self, x: &Self::State, u: &Self::Input, dt: T) -> Self::State;
 
     /// Transition and process noise of the step from `x` over `dt`.
-    fn jacobians(
-        &self,
-        x: &Self::State,
-        u: &Self::Input,
-        dt: f64,
-    ) -> ProcessJacobians<StateDim<Self::State>>;
+    fn jacobians(&self, x: &Self::State, u: &Self::Input, dt: T) -> ProcessJacobiansOf<Self, T>;
 
     /// The transition `Φ` alone (what a smoother's backward pass needs). The default takes
     /// it from [`jacobians`](Self::jacobians); override it when `Q_d` costs work of its own.
-    fn transition(&self, x: &Self::State, u: &Self::Input, dt: f64) -> Cov<StateDim<Self::State>> {
+    fn transition(
+        &self,
+        x: &Self::State,
+        u: &Self::Input,
+        dt: T,
+    ) -> Cov<StateDim<Self::State, T>, T> {
         self.jacobians(x, u, dt).Phi
     }
 
@@ -90,8 +91,8 @@ where
         &self,
         x: &Self::State,
         u: &Self::Input,
-        dt: f64,
-    ) -> (Self::State, ProcessJacobians<StateDim<Self::State>>) {
+        dt: T,
+    ) -> (Self::State, ProcessJacobiansOf<Self, T>) {
         (self.propagate(x, u, dt), self.jacobians(x, u, dt))
     }
 
@@ -113,12 +114,12 @@ where
     #[allow(non_snake_case)]
     fn propagate_covariance(
         &self,
-        P: &Cov<StateDim<Self::State>>,
-        jac: &ProcessJacobians<StateDim<Self::State>>,
-        out: &mut Cov<StateDim<Self::State>>,
+        P: &Cov<StateDim<Self::State, T>, T>,
+        jac: &ProcessJacobians<StateDim<Self::State, T>, T>,
+        out: &mut Cov<StateDim<Self::State, T>, T>,
     ) {
         // P⁻ = Φ P Φᵀ + Q_d
-        crate::kernels::dense_sandwich(&jac.Phi, P, &jac.Q, out);
+        T::dense_sandwich(&jac.Phi, P, &jac.Q, out);
     }
 
     /// The whole prediction in one call: returns `x⁺` and writes `out ← Φ P Φᵀ + Q_d`.
@@ -133,9 +134,9 @@ where
         &self,
         x: &Self::State,
         u: &Self::Input,
-        dt: f64,
-        P: &Cov<StateDim<Self::State>>,
-        out: &mut Cov<StateDim<Self::State>>,
+        dt: T,
+        P: &Cov<StateDim<Self::State, T>, T>,
+        out: &mut Cov<StateDim<Self::State, T>, T>,
     ) -> Self::State {
         let (x_next, jac) = self.step(x, u, dt);
         self.propagate_covariance(P, &jac, out);
@@ -143,10 +144,15 @@ where
     }
 }
 
-/// The [`MeasurementJacobians`] of a measurement model.
-pub type JacobiansOf<MM> = MeasurementJacobians<
-    StateDim<<MM as MeasurementModel>::Measurement>,
-    StateDim<<MM as MeasurementModel>::State>,
+/// The [`ProcessJacobians`] of a process model (over the scalar `T`).
+pub type ProcessJacobiansOf<PM, T = f64> =
+    ProcessJacobians<StateDim<<PM as ProcessModel<T>>::State, T>, T>;
+
+/// The [`MeasurementJacobians`] of a measurement model (over the scalar `T`).
+pub type JacobiansOf<MM, T = f64> = MeasurementJacobians<
+    StateDim<<MM as MeasurementModel<T>>::Measurement, T>,
+    StateDim<<MM as MeasurementModel<T>>::State, T>,
+    T,
 >;
 
 /// A measurement model `z = h(x) ⊕ v`, `v ~ N(0, R)`, where `z` may live on a manifold.
@@ -154,28 +160,25 @@ pub type JacobiansOf<MM> = MeasurementJacobians<
 /// The residual is `r = z ⊖ h(x̂)` (so a bearing that crosses ±π gives a small residual,
 /// not 2π). Contract: stateless; `H = ∂(h(x ⊕ δ) ⊖ h(x))/∂δ` at `δ = 0`, checked by
 /// [`check_measurement_model`](crate::harness::check_measurement_model).
-pub trait MeasurementModel
+pub trait MeasurementModel<T: FilterScalar = f64>
 where
-    DefaultAllocator: FilterAlloc<StateDim<Self::State>, StateDim<Self::Measurement>>,
+    DefaultAllocator: FilterAlloc<StateDim<Self::State, T>, StateDim<Self::Measurement, T>>,
 {
     /// The state manifold.
-    type State: Manifold;
+    type State: Manifold<T>;
     /// The measurement manifold (`SVector<f64, M>` for plain vectors).
-    type Measurement: Manifold;
+    type Measurement: Manifold<T>;
 
     /// Predicted measurement `h(x)`.
     fn predict(&self, x: &Self::State) -> Self::Measurement;
 
     /// `H` at `x`.
-    fn jacobian(
-        &self,
-        x: &Self::State,
-    ) -> MeasurementJacobians<StateDim<Self::Measurement>, StateDim<Self::State>>;
+    fn jacobian(&self, x: &Self::State) -> JacobiansOf<Self, T>;
 
     /// `h(x)` and `H` at once; override when they share work (rotation matrices, Earth
     /// rates). [`innovation`](Self::innovation)'s default, which the filter calls, calls
     /// this one; the harness checks it against the two above.
-    fn linearize(&self, x: &Self::State) -> (Self::Measurement, JacobiansOf<Self>) {
+    fn linearize(&self, x: &Self::State) -> (Self::Measurement, JacobiansOf<Self, T>) {
         (self.predict(x), self.jacobian(x))
     }
 
@@ -184,7 +187,7 @@ where
         &self,
         z: &Self::Measurement,
         z_hat: &Self::Measurement,
-    ) -> Tangent<Self::Measurement> {
+    ) -> Tangent<Self::Measurement, T> {
         z.ominus(z_hat)
     }
 
@@ -196,7 +199,7 @@ where
         &self,
         x: &Self::State,
         z: &Self::Measurement,
-    ) -> (Tangent<Self::Measurement>, JacobiansOf<Self>) {
+    ) -> (Tangent<Self::Measurement, T>, JacobiansOf<Self, T>) {
         let (z_hat, jac) = self.linearize(x);
         (self.residual(z, &z_hat), jac)
     }

@@ -1,5 +1,6 @@
 //! The CS-MAEKF AHRS as firmware for a Cortex-M4F: `no_std`, no heap, no operating
-//! system. It runs the filter over the sensor sequence compiled into it
+//! system, in single precision on the FPU (feature `f64`: double precision, in software).
+//! It runs the filter over the sensor sequence compiled into it
 //! (`data/flight.bin`, 60 s of the simulated loitering flight at 100 Hz as 16-bit counts),
 //! prints the attitude every 100 samples by semihosting, then the stack's high-water mark,
 //! and exits. `firmware/check` runs it under QEMU and compares it with the host.
@@ -15,6 +16,13 @@ use models::ahrs::onboard::cs_maekf_model;
 use models::ahrs::Recording;
 #[cfg(not(feature = "baseline"))]
 use models::ahrs::{Ahrs, AhrsMeasurement};
+
+/// The filter's scalar.
+#[cfg(not(any(feature = "f64", feature = "baseline")))]
+type S = f32;
+/// The filter's scalar.
+#[cfg(all(feature = "f64", not(feature = "baseline")))]
+type S = f64;
 
 /// The recorded sensor sequence.
 static FLIGHT: &[u8] = include_bytes!("../data/flight.bin");
@@ -73,7 +81,7 @@ fn run() -> Result<(), &'static str> {
     let rec = Recording::parse(FLIGHT).map_err(|_| "the compiled-in recording is unreadable")?;
     let mut sum = nalgebra::Vector3::<f64>::zeros();
     for k in 0..rec.len() {
-        let [g, a, m] = rec.sample(k).ok_or("sample past the end")?;
+        let [g, a, m] = rec.sample::<f64>(k).ok_or("sample past the end")?;
         sum += g + a + m;
         if (k + 1) % 100 == 0 || k + 1 == rec.len() {
             hprintln!("att {} {:.15e} {:.15e} {:.15e}", k + 1, sum.x, sum.y, sum.z);
@@ -87,10 +95,12 @@ fn run() -> Result<(), &'static str> {
 fn run() -> Result<(), &'static str> {
     let rec = Recording::parse(FLIGHT).map_err(|_| "the compiled-in recording is unreadable")?;
     let model = cs_maekf_model(rec.gyro_noise, rec.rate);
-    let meas = AhrsMeasurement { g_n: rec.g_n, m_n: rec.m_n };
-    let mut ahrs = Ahrs::new(model, meas, rec.att0, rec.rate).map_err(|_| "filter start")?;
+    let lit = |v: f64| v as S;
+    let meas = AhrsMeasurement { g_n: rec.g_n.map(lit), m_n: rec.m_n.map(lit) };
+    let mut ahrs =
+        Ahrs::<S>::new(model, meas, rec.att0.cast::<S>(), rec.rate).map_err(|_| "filter start")?;
     for k in 0..rec.len() {
-        let [g, a, m] = rec.sample(k).ok_or("sample past the end")?;
+        let [g, a, m] = rec.sample::<S>(k).ok_or("sample past the end")?;
         ahrs.step(&g, &a, &m).map_err(|_| "filter step failed")?;
         if (k + 1) % 100 == 0 || k + 1 == rec.len() {
             let (r, p, y) = ahrs.state().att.euler();

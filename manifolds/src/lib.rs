@@ -23,7 +23,9 @@
 //! `So3<f64>`, `Manifold` is `Manifold<f64>`, `Tangent<M>` is `Tangent<M, f64>`. Single
 //! precision is named: `So3<f32>`, `R3<f32>`, `(So3<f32>, R3<f32>)`, all `Manifold<f32>`;
 //! `cast` converts rotations. The `f64` numbers are those of the code before the scalar was
-//! a parameter (bit for bit). Named composite states ([`composite_state!`]) are `f64`.
+//! a parameter (bit for bit). A named composite state ([`composite_state!`]) takes a scalar
+//! when declared `struct Name<T> { … }` (its fields then name their type without one:
+//! `att: So3 => ATT`).
 //!
 //! ```
 //! use manifolds::{Manifold, So3, R3};

@@ -304,7 +304,7 @@ impl_tuple_manifold!(
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __composite_law_sampler {
-    ($Name:ident; $($field:ident : $T:ty => $BLOCK:ident),+) => {
+    ($Name:ty; $($field:ident : $T:ty => $BLOCK:ident),+) => {
         impl $Name {
             /// The law harness's sampler of this state from one sampler per field, in
             /// declaration order (`manifolds::testing`, feature `testing`).
@@ -366,6 +366,29 @@ macro_rules! __composite_serde {
             }
         }
     };
+    (@generic $Name:ident, $S:ident; $($field:ident : $T:ident),+) => {
+        impl<$S: $crate::Real> $crate::__serde::Serialize for $Name<$S>
+        where
+            $(for<'__a> $T<$S>: $crate::__serde::Serialize,)+
+        {
+            fn serialize<Ser: $crate::__serde::Serializer>(
+                &self,
+                s: Ser,
+            ) -> Result<Ser::Ok, Ser::Error> {
+                $crate::__serde::Serialize::serialize(&($(&self.$field,)+), s)
+            }
+        }
+        impl<'de, $S: $crate::Real> $crate::__serde::Deserialize<'de> for $Name<$S>
+        where
+            $(for<'__a> $T<$S>: $crate::__serde::Deserialize<'de>,)+
+        {
+            fn deserialize<D: $crate::__serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let ($($field,)+) =
+                    <($($T<$S>,)+) as $crate::__serde::Deserialize<'de>>::deserialize(d)?;
+                Ok(Self { $($field),+ })
+            }
+        }
+    };
 }
 
 /// Without the feature `serde`: nothing.
@@ -403,6 +426,24 @@ macro_rules! __composite_serde {
 /// assert_eq!(Ins::VEL.range(), 3..6);
 /// assert_eq!(Ins::BA.range(), 12..15);
 /// ```
+///
+/// Over any scalar (`f64` by default): declare the struct with a parameter and name the
+/// fields' types without one.
+///
+/// ```
+/// use manifolds::{composite_state, Manifold, So3, R3};
+///
+/// composite_state! {
+///     /// A pose.
+///     pub struct Pose<T> { pub att: So3 => ATT, pub pos: R3 => POS }
+/// }
+/// let x = Pose::<f32> { att: So3::identity(), pos: R3::zeros() };
+/// let d = nalgebra::SVector::<f32, 6>::from_element(0.01);
+/// assert!((x.oplus(&d).ominus(&x) - d).norm() < 1e-6);
+/// let y: Pose = Pose { att: So3::identity(), pos: R3::zeros() }; // Pose<f64>
+/// assert_eq!(<Pose as Manifold>::DIM, 6);
+/// # let _ = y;
+/// ```
 #[macro_export]
 macro_rules! composite_state {
     (
@@ -425,20 +466,50 @@ macro_rules! composite_state {
         $crate::__composite_law_sampler!($Name; $($field : $T => $BLOCK),+);
 
         impl $crate::Manifold for $Name {
+            $crate::composite_state!(@body f64; $($field : $T, $T => $BLOCK),+);
+        }
+    };
+
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $Name:ident<$S:ident> {
+            $(
+                $(#[$fmeta:meta])*
+                $fvis:vis $field:ident : $T:ident => $BLOCK:ident
+            ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq)]
+        $vis struct $Name<$S: $crate::Real = f64> {
+            $( $(#[$fmeta])* $fvis $field: $T<$S>, )+
+        }
+
+        $crate::composite_state!(@gblocks $Name, $S, 0usize, $($field : $T => $BLOCK),+);
+        $crate::__composite_serde!(@generic $Name, $S; $($field : $T),+);
+        $crate::__composite_law_sampler!($Name<f64>; $($field : $T<f64> => $BLOCK),+);
+
+        impl<$S: $crate::Real> $crate::Manifold<$S> for $Name<$S> {
+            $crate::composite_state!(@body $S; $($field : $T, $T<$S> => $BLOCK),+);
+        }
+    };
+
+    // `$T` names the field's type at f64 (for the dimension, a constant), `$FT` at `$S`
+    (@body $S:ty; $($field:ident : $T:ty, $FT:ty => $BLOCK:ident),+) => {
             type Dim = $crate::nalgebra::Const<{ 0usize $(+ <$T as $crate::Manifold>::DIM)+ }>;
 
             fn origin() -> Self {
-                Self { $( $field: <$T as $crate::Manifold>::origin(), )+ }
+                Self { $( $field: <$FT as $crate::Manifold<$S>>::origin(), )+ }
             }
 
-            fn oplus(&self, delta: &$crate::Tangent<Self>) -> Self {
+            fn oplus(&self, delta: &$crate::Tangent<Self, $S>) -> Self {
                 Self {
                     $( $field: self.$field.oplus(&Self::$BLOCK.of(delta)), )+
                 }
             }
 
-            fn ominus(&self, origin: &Self) -> $crate::Tangent<Self> {
-                let mut out = $crate::Tangent::<Self>::zeros();
+            fn ominus(&self, origin: &Self) -> $crate::Tangent<Self, $S> {
+                let mut out = $crate::Tangent::<Self, $S>::zeros();
                 $(
                     $crate::product::set_block(
                         &mut out,
@@ -455,10 +526,10 @@ macro_rules! composite_state {
 
             fn oplus_jacobians(
                 &self,
-                delta: &$crate::Tangent<Self>,
-            ) -> $crate::OplusJacobians<Self> {
-                let mut J_y_x = $crate::TangentMatrix::<Self>::zeros();
-                let mut J_y_delta = $crate::TangentMatrix::<Self>::zeros();
+                delta: &$crate::Tangent<Self, $S>,
+            ) -> $crate::OplusJacobians<Self, $S> {
+                let mut J_y_x = $crate::TangentMatrix::<Self, $S>::zeros();
+                let mut J_y_delta = $crate::TangentMatrix::<Self, $S>::zeros();
                 $(
                     let j = self.$field.oplus_jacobians(&Self::$BLOCK.of(delta));
                     $crate::product::set_diagonal_block(&mut J_y_x, Self::$BLOCK.start(), &j.J_y_x);
@@ -473,9 +544,9 @@ macro_rules! composite_state {
 
             fn oplus_jacobian_delta(
                 &self,
-                delta: &$crate::Tangent<Self>,
-            ) -> $crate::TangentMatrix<Self> {
-                let mut J_y_delta = $crate::TangentMatrix::<Self>::zeros();
+                delta: &$crate::Tangent<Self, $S>,
+            ) -> $crate::TangentMatrix<Self, $S> {
+                let mut J_y_delta = $crate::TangentMatrix::<Self, $S>::zeros();
                 $(
                     $crate::product::set_diagonal_block(
                         &mut J_y_delta,
@@ -488,8 +559,8 @@ macro_rules! composite_state {
 
             fn reset_blocks(
                 &self,
-                delta: &$crate::Tangent<Self>,
-                visit: &mut dyn FnMut(usize, $crate::nalgebra::DMatrixView<'_, f64>),
+                delta: &$crate::Tangent<Self, $S>,
+                visit: &mut dyn FnMut(usize, $crate::nalgebra::DMatrixView<'_, $S>),
             ) {
                 $(
                     self.$field.reset_blocks(
@@ -501,8 +572,8 @@ macro_rules! composite_state {
 
             fn oplus_reset(
                 &self,
-                delta: &$crate::Tangent<Self>,
-                visit: &mut dyn FnMut(usize, $crate::nalgebra::DMatrixView<'_, f64>),
+                delta: &$crate::Tangent<Self, $S>,
+                visit: &mut dyn FnMut(usize, $crate::nalgebra::DMatrixView<'_, $S>),
             ) -> Self {
                 Self {
                     $(
@@ -514,9 +585,9 @@ macro_rules! composite_state {
                 }
             }
 
-            fn ominus_jacobians(&self, origin: &Self) -> $crate::OminusJacobians<Self> {
-                let mut J_d_y = $crate::TangentMatrix::<Self>::zeros();
-                let mut J_d_x = $crate::TangentMatrix::<Self>::zeros();
+            fn ominus_jacobians(&self, origin: &Self) -> $crate::OminusJacobians<Self, $S> {
+                let mut J_d_y = $crate::TangentMatrix::<Self, $S>::zeros();
+                let mut J_d_x = $crate::TangentMatrix::<Self, $S>::zeros();
                 $(
                     let j = self.$field.ominus_jacobians(&origin.$field);
                     $crate::product::set_diagonal_block(&mut J_d_y, Self::$BLOCK.start(), &j.J_d_y);
@@ -524,8 +595,16 @@ macro_rules! composite_state {
                 )+
                 $crate::OminusJacobians { J_d_y, J_d_x }
             }
-        }
     };
+
+    (@gblocks $Name:ident, $S:ident, $off:expr, $field:ident : $T:ident => $BLOCK:ident $(, $rf:ident : $rT:ident => $RB:ident)*) => {
+        impl<$S: $crate::Real> $Name<$S> {
+            #[doc = concat!("Tangent block of `", stringify!($field), "`.")]
+            pub const $BLOCK: $crate::Block<$T<$S>> = $crate::Block::new($off);
+        }
+        $crate::composite_state!(@gblocks $Name, $S, $off + <$T as $crate::Manifold>::DIM $(, $rf : $rT => $RB)*);
+    };
+    (@gblocks $Name:ident, $S:ident, $off:expr) => {};
 
     (@blocks $Name:ident, $off:expr, $field:ident : $T:ty => $BLOCK:ident $(, $rf:ident : $rT:ty => $RB:ident)*) => {
         impl $Name {

@@ -640,6 +640,7 @@ where
 /// manifold_law_tests!(name, Type, sampler = expr);                  // any Manifold
 /// manifold_law_tests!(name, Type, sampler = expr, tol = tolerance);
 /// manifold_law_tests!(name, Type, scalar = f32);                   // Type: LawSampler<f32>
+/// manifold_law_tests!(name, Type, sampler = expr, scalar = f32);   // any Manifold<f32>
 /// ```
 ///
 /// `sampler` is a [`Sampler<Type>`](Sampler) expression: no trait to implement, so a
@@ -677,6 +678,11 @@ macro_rules! manifold_law_tests {
     ($name:ident, $T:ty, sampler = $s:expr $(,)?) => {
         $crate::manifold_law_tests!(
             @full $name, $T, f64, $s, $crate::testing::LawTolerance::default()
+        );
+    };
+    ($name:ident, $T:ty, sampler = $s:expr, scalar = $S:ty $(,)?) => {
+        $crate::manifold_law_tests!(
+            @full $name, $T, $S, $s, $crate::testing::LawTolerance::for_scalar::<$S>()
         );
     };
     ($name:ident, $T:ty, sampler = $s:expr, tol = $tol:expr $(,)?) => {

@@ -134,3 +134,45 @@ fn harness_rejects_a_wrong_jacobian() {
     )
     .is_ok());
 }
+
+// A composite state over any scalar (`struct Name<T>`): the laws in f64 (its law sampler)
+// and in f32 (a sampler built from the parts').
+composite_state! {
+    /// Attitude and position over the scalar `T`.
+    pub struct Pose<T> { pub att: So3 => ATT, pub pos: R3 => POS }
+}
+
+fn pose_sampler_f32() -> manifolds::testing::Sampler<Pose<f32>, f32> {
+    use manifolds::testing::Sampler;
+    let parts = Sampler::<(So3<f32>, R3<f32>), f32>::of();
+    let points = parts.points.prop_map(|(att, pos)| Pose { att, pos }).boxed();
+    let tangents = parts
+        .tangents
+        .prop_map(|t| Tangent::<Pose<f32>, f32>::from_iterator(t.iter().copied()))
+        .boxed();
+    Sampler::new(points, tangents)
+}
+
+manifolds::manifold_law_tests!(
+    generic_composite_laws,
+    Pose,
+    sampler =
+        Pose::law_sampler(manifolds::testing::Sampler::of(), manifolds::testing::Sampler::of()),
+);
+manifolds::manifold_law_tests!(
+    generic_composite_laws_f32,
+    Pose<f32>,
+    sampler = pose_sampler_f32(),
+    scalar = f32,
+);
+
+#[test]
+fn generic_composite_blocks_and_dimension() {
+    assert_eq!(<Pose<f32> as Manifold<f32>>::DIM, 6);
+    assert_eq!((Pose::<f32>::ATT.range(), Pose::<f32>::POS.range()), (0..3, 3..6));
+    let x =
+        Pose::<f32> { att: So3::exp(&nalgebra::Vector3::new(0.1, 0.2, -0.3)), pos: R3::zeros() };
+    let d = Tangent::<Pose<f32>, f32>::from_element(0.01);
+    assert_eq!(Pose::<f32>::POS.of(&d), R3::<f32>::from_element(0.01));
+    assert!((x.oplus(&d).ominus(&x) - d).norm() < 1e-6);
+}

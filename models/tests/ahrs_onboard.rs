@@ -31,7 +31,7 @@ fn recording_round_trip_within_half_a_count() {
     );
     assert_eq!(rec.att0.quaternion().coords, att0.quaternion().coords);
     for (k, want) in raw.iter().enumerate() {
-        let got = rec.sample(k).unwrap();
+        let got = rec.sample::<f64>(k).unwrap();
         for s in 0..3 {
             for i in 0..3 {
                 let w = want[s][i].clamp(-32767.0 * lsb[s], 32767.0 * lsb[s]);
@@ -42,8 +42,8 @@ fn recording_round_trip_within_half_a_count() {
             }
         }
     }
-    assert_eq!(rec.sample(3).unwrap()[1].x, 32767.0 * 1e-3);
-    assert!(rec.sample(raw.len()).is_none());
+    assert_eq!(rec.sample::<f64>(3).unwrap()[1].x, 32767.0 * 1e-3);
+    assert!(rec.sample::<f64>(raw.len()).is_none());
 }
 
 #[test]

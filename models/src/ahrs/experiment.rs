@@ -182,3 +182,84 @@ pub fn run_seed_with_control(
         run(Variant::CsMaekf)?,
     ])
 }
+
+/// Single against double precision on one sample sequence: the same model and start in
+/// `Ahrs<f64>` and `Ahrs<f32>` (the samples and the start rounded to `f32`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrecisionDifference {
+    /// Samples run (all of them unless the `f32` filter failed).
+    pub samples: usize,
+    /// Largest angle between the two filters' attitudes, degrees.
+    pub max_deg: f64,
+    /// RMS of that angle over the samples, degrees.
+    pub rms_deg: f64,
+    /// Smallest eigenvalue of the `f32` covariance at the checks, relative to its largest.
+    pub min_relative_eigenvalue: f64,
+    /// Whether the `f32` covariance had a Cholesky factor (in `f32`) at every check and was
+    /// exactly symmetric.
+    pub positive_definite: bool,
+    /// The sample at which the `f32` filter returned an error, if it did.
+    pub failed_at: Option<usize>,
+}
+
+/// Run `model` in `f64` and in `f32` over `samples` with the paper's settings and update
+/// `form`, comparing the attitudes after every sample and checking the `f32` covariance
+/// every `check_every` samples (see [`PrecisionDifference`]).
+pub fn f32_against_f64(
+    model: &AhrsModel,
+    flight: &LoiteringFlight,
+    samples: &[Sample],
+    form: estimator_core::UpdateForm,
+    check_every: usize,
+) -> Result<PrecisionDifference, FilterError> {
+    use super::Ahrs;
+    use manifolds::Manifold;
+    let meas = AhrsMeasurement { g_n: flight.g_n, m_n: flight.m_n };
+    let meas32 =
+        AhrsMeasurement { g_n: flight.g_n.map(|v| v as f32), m_n: flight.m_n.map(|v| v as f32) };
+    let att0 = flight.attitude(0.0);
+    let mut a64 = Ahrs::<f64>::new(model.clone(), meas, att0, flight.rate)?.with_update_form(form);
+    let mut a32 = Ahrs::<f32>::new(model.clone(), meas32, att0.cast::<f32>(), flight.rate)?
+        .with_update_form(form);
+    let mut out = PrecisionDifference {
+        samples: 0,
+        max_deg: 0.0,
+        rms_deg: 0.0,
+        min_relative_eigenvalue: f64::INFINITY,
+        positive_definite: true,
+        failed_at: None,
+    };
+    let mut sq = 0.0;
+    for (k, s) in samples.iter().enumerate() {
+        a64.step(&s.gyro, &s.accel, &s.mag)?;
+        let f = |v: &Vector3<f64>| v.map(|x| x as f32);
+        if a32.step(&f(&s.gyro), &f(&s.accel), &f(&s.mag)).is_err() {
+            out.failed_at = Some(k);
+            out.positive_definite = false;
+            break;
+        }
+        let d = a32.state().att.cast::<f64>().ominus(&a64.state().att).norm().to_degrees();
+        out.max_deg = out.max_deg.max(d);
+        sq += d * d;
+        out.samples = k + 1;
+        if (k + 1) % check_every.max(1) == 0 || k + 1 == samples.len() {
+            let p = a32.filter().covariance_raw();
+            out.positive_definite &= (*p).cholesky().is_some() && p == &p.transpose();
+            let eig = p.map(|v| v as f64).symmetric_eigenvalues();
+            let (lo, hi) = (eig.min(), eig.max());
+            out.min_relative_eigenvalue = out.min_relative_eigenvalue.min(lo / hi);
+        }
+    }
+    out.rms_deg = (sq / out.samples.max(1) as f64).sqrt();
+    Ok(out)
+}
+
+impl LoiteringFlight {
+    /// The same loiter flown `repeats` times over (its acceleration segments repeated): a
+    /// flight of `repeats` times the duration.
+    pub fn repeated(&self, repeats: usize) -> LoiteringFlight {
+        let mut f = self.clone();
+        f.segments = (0..repeats).flat_map(|_| self.segments.iter().copied()).collect();
+        f
+    }
+}

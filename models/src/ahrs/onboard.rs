@@ -4,8 +4,8 @@
 //! (`firmware/`, run under QEMU) and the host replay (`cargo run -p models --example
 //! ahrs_replay`) share them, so the two runs differ only in the machine.
 
-use estimator_core::{ErrorStateFilter, FilterError, FixedNoise};
-use manifolds::So3;
+use estimator_core::{ErrorStateFilter, FilterError, FilterScalar, FixedNoise, StaticCov};
+use manifolds::{Real, So3};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use super::{AccelModel, AhrsInput, AhrsMeasurement, AhrsModel, AhrsState, AhrsTuning};
@@ -31,28 +31,37 @@ pub fn cs_maekf_model(gyro_noise: f64, rate: f64) -> AhrsModel {
 }
 
 /// An AHRS filter driven sample by sample: predict with the gyro, update with the
-/// accelerometer and magnetometer.
+/// accelerometer and magnetometer; over the scalar `T` (`f64` unless named, `Ahrs<f32>` on
+/// a single-precision FPU).
 #[derive(Clone, Debug)]
-pub struct Ahrs {
-    filter: ErrorStateFilter<AhrsState>,
+pub struct Ahrs<T: FilterScalar = f64> {
+    filter: ErrorStateFilter<AhrsState<T>, FixedNoise, StaticCov, T>,
     model: AhrsModel,
-    meas: AhrsMeasurement,
-    r: SMatrix<f64, 6, 6>,
-    dt: f64,
+    meas: AhrsMeasurement<T>,
+    r: SMatrix<T, 6, 6>,
+    dt: T,
 }
 
-impl Ahrs {
+impl<T: FilterScalar> Ahrs<T> {
     /// A filter at attitude `att0` with the paper's settings, sampling at `rate` Hz.
     pub fn new(
         model: AhrsModel,
-        meas: AhrsMeasurement,
-        att0: So3,
+        meas: AhrsMeasurement<T>,
+        att0: So3<T>,
         rate: f64,
     ) -> Result<Self, FilterError> {
         let x0 = AhrsState { att: att0, bg: Vector3::zeros(), acc: Vector3::zeros() };
-        let filter = ErrorStateFilter::new(x0, SMatrix::<f64, 9, 9>::identity() * P0, FixedNoise)?;
-        let r = SMatrix::<f64, 6, 6>::identity() * R;
-        Ok(Self { filter, model, meas, r, dt: 1.0 / rate })
+        let p0 = SMatrix::<T, 9, 9>::identity() * T::lit(P0);
+        let filter = ErrorStateFilter::new(x0, p0, FixedNoise)?;
+        let r = SMatrix::<T, 6, 6>::identity() * T::lit(R);
+        Ok(Self { filter, model, meas, r, dt: T::lit(1.0 / rate) })
+    }
+
+    /// The same filter with another covariance update formula (default: the Joseph form,
+    /// multiplied out).
+    pub fn with_update_form(mut self, form: estimator_core::UpdateForm) -> Self {
+        self.filter = self.filter.with_update_form(form);
+        self
     }
 
     /// One sample: the mean angular rate over the interval (rad/s), then the specific force
@@ -60,24 +69,24 @@ impl Ahrs {
     /// failed step (see [`ErrorStateFilter`]).
     pub fn step(
         &mut self,
-        gyro: &Vector3<f64>,
-        accel: &Vector3<f64>,
-        mag: &Vector3<f64>,
+        gyro: &Vector3<T>,
+        accel: &Vector3<T>,
+        mag: &Vector3<T>,
     ) -> Result<(), FilterError> {
         let u = AhrsInput { gyro: *gyro, abar: self.filter.state().acc };
         self.filter.predict(&self.model, &u, self.dt)?;
-        let z = SVector::<f64, 6>::new(accel.x, accel.y, accel.z, mag.x, mag.y, mag.z);
+        let z = SVector::<T, 6>::new(accel.x, accel.y, accel.z, mag.x, mag.y, mag.z);
         self.filter.update(&self.meas, &z, &self.r)?;
         Ok(())
     }
 
     /// The current state.
-    pub fn state(&self) -> &AhrsState {
+    pub fn state(&self) -> &AhrsState<T> {
         self.filter.state()
     }
 
     /// The filter (covariance, time, …).
-    pub fn filter(&self) -> &ErrorStateFilter<AhrsState> {
+    pub fn filter(&self) -> &ErrorStateFilter<AhrsState<T>, FixedNoise, StaticCov, T> {
         &self.filter
     }
 }
@@ -181,12 +190,13 @@ impl<'a> Recording<'a> {
         self.samples.is_empty()
     }
 
-    /// Sample `k`, scaled to SI units: `(gyro, accel, mag)`. `None` past the end.
-    pub fn sample(&self, k: usize) -> Option<[Vector3<f64>; 3]> {
+    /// Sample `k`, scaled to SI units (count × LSB in `f64`, then rounded to `T`):
+    /// `(gyro, accel, mag)`. `None` past the end.
+    pub fn sample<T: Real>(&self, k: usize) -> Option<[Vector3<T>; 3]> {
         let s = self.samples.get(k * Self::SAMPLE..(k + 1) * Self::SAMPLE)?;
         let c = |i: usize| i16::from_le_bytes([s[2 * i], s[2 * i + 1]]) as f64;
         let v = |first: usize, lsb: f64| {
-            Vector3::new(c(first) * lsb, c(first + 1) * lsb, c(first + 2) * lsb)
+            Vector3::new(c(first) * lsb, c(first + 1) * lsb, c(first + 2) * lsb).map(T::lit)
         };
         Some([v(0, self.lsb[0]), v(3, self.lsb[1]), v(6, self.lsb[2])])
     }
