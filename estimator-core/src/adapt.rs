@@ -334,3 +334,52 @@ impl<T: FilterScalar> NoiseStrategy<T> for FixedNoise {
     {
     }
 }
+
+/// Rejects a measurement whose NIS (with the nominal `S`) exceeds a fixed threshold; the
+/// filter is otherwise the standard one. The threshold is the caller's χ² quantile for the
+/// measurement's dimension (e.g. 16.81: 6 degrees of freedom at 99 %), so the gate needs
+/// neither statrs nor the heap: the outlier gate of a `no_std` filter, over any scalar
+/// (`adaptive`'s `ChiSquareGate` computes its quantiles, and needs `std`).
+///
+/// ```
+/// use estimator_core::linear::LinearMeasurement;
+/// use estimator_core::{ErrorStateFilter, NisGate, Verdict};
+/// use nalgebra::{Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
+///
+/// let gate = NisGate { threshold: 6.63 }; // χ²(1) at 99 %
+/// let mut f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), gate).unwrap();
+/// let h = LinearMeasurement::<1, 2>::new(Matrix1x2::new(1.0, 0.0));
+/// assert_eq!(f.update(&h, &Vector1::new(0.5), &Matrix1::new(1.0)).unwrap().verdict, Verdict::Accepted);
+/// assert_eq!(f.update(&h, &Vector1::new(50.0), &Matrix1::new(1.0)).unwrap().verdict, Verdict::Rejected);
+/// ```
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NisGate {
+    /// Largest NIS accepted.
+    pub threshold: f64,
+}
+
+impl NisGate {
+    /// `"nis-gate"` (the strategy serves every scalar, so this spares callers naming one).
+    pub fn name(&self) -> &'static str {
+        "nis-gate"
+    }
+}
+
+impl<T: FilterScalar> NoiseStrategy<T> for NisGate {
+    fn name(&self) -> &'static str {
+        "nis-gate"
+    }
+
+    #[inline]
+    fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M, T>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        // (a NaN NIS is refused too)
+        if a.nis.is_nan() || a.nis > self.threshold {
+            a.verdict = Verdict::Rejected;
+            a.reason = "NIS above the gate";
+        }
+    }
+}

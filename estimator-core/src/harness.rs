@@ -13,6 +13,9 @@
 //! let sensor = LinearMeasurement::<1, 2>::new(Matrix1x2::new(1.0, 0.0));
 //! check_measurement_model(&sensor, &Vector2::new(1.0, 2.0), 1e-7).unwrap();
 //! ```
+//!
+//! Over any scalar: the `_in` functions take the model's scalar `T` and the default
+//! tolerances scale with its ε ([`jacobian_tolerance`], [`agreement_tolerance`]).
 
 use core::fmt;
 
@@ -22,7 +25,20 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix};
 use manifolds::{numdiff, DimAlloc, Manifold, Tangent};
 
 use crate::dims::{FilterAlloc, StateDim};
+use crate::scalar::FilterScalar;
 use crate::traits::{MeasurementModel, ProcessModel};
+
+/// The relative tolerance of an analytic Jacobian against central differences for models
+/// over the scalar `T`: 1e-6 in `f64` as the law harness's, `100 ε^(2/3)` (2.4e-3) in `f32`.
+pub fn jacobian_tolerance<T: FilterScalar>() -> f64 {
+    manifolds::testing::LawTolerance::for_scalar::<T>().jacobian
+}
+
+/// The relative agreement required between a model's combined calls (`step`,
+/// `linearize`, `step_covariance`) and its separate ones: 1e-9 in `f64`, `100 ε` in `f32`.
+pub fn agreement_tolerance<T: FilterScalar>() -> f64 {
+    STEP_AGREEMENT.max(100.0 * T::EPS_F64)
+}
 
 /// An analytic Jacobian that disagrees with its numerical reference.
 #[derive(Clone, Debug)]
@@ -73,21 +89,21 @@ impl fmt::Display for JacobianMismatch {
 impl std::error::Error for JacobianMismatch {}
 
 /// Compare two matrices with a tolerance relative to `max(1, max|numeric|)`.
-pub fn compare<R: DimName, C: DimName>(
+pub fn compare<T: FilterScalar, R: DimName, C: DimName>(
     what: &'static str,
-    analytic: &OMatrix<f64, R, C>,
-    numeric: &OMatrix<f64, R, C>,
+    analytic: &OMatrix<T, R, C>,
+    numeric: &OMatrix<T, R, C>,
     rel_tol: f64,
 ) -> Result<(), JacobianMismatch>
 where
     DefaultAllocator: Allocator<R, C>,
 {
-    let scale = numeric.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+    let scale = numeric.iter().fold(1.0_f64, |m, v| m.max(v.to_f64().abs()));
     let tolerance = rel_tol * scale;
     let mut worst = (0.0_f64, (0, 0));
     for c in 0..C::DIM {
         for r in 0..R::DIM {
-            let d = (analytic[(r, c)] - numeric[(r, c)]).abs();
+            let d = (analytic[(r, c)].to_f64() - numeric[(r, c)].to_f64()).abs();
             // A NaN entry counts as an infinite difference.
             let d = if d.is_nan() { f64::INFINITY } else { d };
             if d > worst.0 {
@@ -104,7 +120,7 @@ where
             max_error: worst.0,
             tolerance,
             at,
-            values: (analytic[at], numeric[at]),
+            values: (analytic[at].to_f64(), numeric[at].to_f64()),
             step_spread: None,
         })
     }
@@ -113,21 +129,21 @@ where
 /// [`compare`] against a numerical Jacobian at step `h`; on a mismatch, the same at `10 h`
 /// tells a wrong analytic Jacobian (both steps agree with each other) from an unreliable
 /// numerical one (they do not: [`JacobianMismatch::step_spread`]).
-fn compare_two_steps<R: DimName, C: DimName>(
+fn compare_two_steps<T: FilterScalar, R: DimName, C: DimName>(
     what: &'static str,
-    analytic: &OMatrix<f64, R, C>,
-    numeric: impl Fn(f64) -> OMatrix<f64, R, C>,
+    analytic: &OMatrix<T, R, C>,
+    numeric: impl Fn(T) -> OMatrix<T, R, C>,
     h: f64,
     rel_tol: f64,
 ) -> Result<(), JacobianMismatch>
 where
     DefaultAllocator: Allocator<R, C>,
 {
-    let fine = numeric(h);
+    let fine = numeric(T::lit(h));
     let Err(mut e) = compare(what, analytic, &fine, rel_tol) else {
         return Ok(());
     };
-    let coarse = numeric(10.0 * h);
+    let coarse = numeric(T::lit(10.0 * h));
     if let Err(spread) = compare(what, &coarse, &fine, rel_tol) {
         e.step_spread = Some(spread.max_error);
     }
@@ -163,10 +179,27 @@ pub fn check_process_model_with_step<PM: ProcessModel>(
 where
     DefaultAllocator: DimAlloc<StateDim<PM::State>>,
 {
+    check_process_model_in::<f64, PM>(model, x, u, dt, rel_tol, step)
+}
+
+/// [`check_process_model_with_step`] for a model over the scalar `T` (e.g. `f32`, with
+/// step [`T::DIFF_STEP`](manifolds::Real::DIFF_STEP) and [`jacobian_tolerance`]); the
+/// combined calls agree to [`agreement_tolerance`].
+pub fn check_process_model_in<T: FilterScalar, PM: ProcessModel<T>>(
+    model: &PM,
+    x: &PM::State,
+    u: &PM::Input,
+    dt: T,
+    rel_tol: f64,
+    step: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: DimAlloc<StateDim<PM::State, T>>,
+{
     let jac = model.jacobians(x, u, dt);
     let numeric = |h| numdiff::jacobian_between(x, |xp| model.propagate(xp, u, dt), h);
     compare_two_steps("process transition Φ", &jac.Phi, numeric, step, rel_tol)?;
-    check_combined_calls(model, x, u, dt)
+    check_combined_calls_in::<T, PM>(model, x, u, dt)
 }
 
 /// The part of [`check_process_model`] that holds for every model, also one whose `Φ` is
@@ -183,6 +216,20 @@ pub fn check_combined_calls<PM: ProcessModel>(
 where
     DefaultAllocator: DimAlloc<StateDim<PM::State>>,
 {
+    check_combined_calls_in::<f64, PM>(model, x, u, dt)
+}
+
+/// [`check_combined_calls`] for a model over the scalar `T`, to [`agreement_tolerance`].
+pub fn check_combined_calls_in<T: FilterScalar, PM: ProcessModel<T>>(
+    model: &PM,
+    x: &PM::State,
+    u: &PM::Input,
+    dt: T,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: DimAlloc<StateDim<PM::State, T>>,
+{
+    let agree = agreement_tolerance::<T>();
     let jac = model.jacobians(x, u, dt);
     // the Q_d a fused step folds in unseen by the filter must be a covariance
     if let Err(e) = crate::linalg::check_process_noise("the model", &jac.Q) {
@@ -204,25 +251,28 @@ where
     let x_next = model.propagate(x, u, dt);
     let (x_step, jac_step) = model.step(x, u, dt);
     let gap = x_step.ominus(&x_next);
-    compare("step: state vs propagate", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
-    compare("step: Φ vs jacobians", &jac_step.Phi, &jac.Phi, STEP_AGREEMENT)?;
-    compare("step: Q vs jacobians", &jac_step.Q, &jac.Q, STEP_AGREEMENT)?;
+    compare("step: state vs propagate", &gap, &gap.map(|_| T::zero()), agree)?;
+    compare("step: Φ vs jacobians", &jac_step.Phi, &jac.Phi, agree)?;
+    compare("step: Q vs jacobians", &jac_step.Q, &jac.Q, agree)?;
     // `propagate_covariance` and `step_covariance` (structured overrides) must give the
     // dense Φ P Φᵀ + Q, for a P with every entry non-zero.
-    type Square<PM> =
-        OMatrix<f64, StateDim<<PM as ProcessModel>::State>, StateDim<<PM as ProcessModel>::State>>;
-    let a = Square::<PM>::from_fn(|r, c| ((r * 7 + c * 3) % 11) as f64 * 0.1 - 0.5);
-    let P = &a * a.transpose() + Square::<PM>::identity();
+    type Square<PM, T> = OMatrix<
+        T,
+        StateDim<<PM as ProcessModel<T>>::State, T>,
+        StateDim<<PM as ProcessModel<T>>::State, T>,
+    >;
+    let a = Square::<PM, T>::from_fn(|r, c| T::lit(((r * 7 + c * 3) % 11) as f64 * 0.1 - 0.5));
+    let P = &a * a.transpose() + Square::<PM, T>::identity();
     let dense = &jac.Phi * &P * jac.Phi.transpose() + &jac.Q;
-    let mut out = P.clone() * f64::NAN;
+    let mut out = P.clone() * T::lit(f64::NAN);
     model.propagate_covariance(&P, &jac, &mut out);
-    let sym = |m: &Square<PM>| (m + m.transpose()) * 0.5;
-    compare("propagate_covariance vs Φ P Φᵀ + Q", &sym(&out), &dense, STEP_AGREEMENT)?;
-    let mut fused = P.clone() * f64::NAN;
+    let sym = |m: &Square<PM, T>| (m + m.transpose()) * T::lit(0.5);
+    compare("propagate_covariance vs Φ P Φᵀ + Q", &sym(&out), &dense, agree)?;
+    let mut fused = P.clone() * T::lit(f64::NAN);
     let x_fused = model.step_covariance(x, u, dt, &P, &mut fused);
     let gap = x_fused.ominus(&x_next);
-    compare("step_covariance: state vs propagate", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
-    compare("step_covariance vs Φ P Φᵀ + Q", &sym(&fused), &dense, STEP_AGREEMENT)?;
+    compare("step_covariance: state vs propagate", &gap, &gap.map(|_| T::zero()), agree)?;
+    compare("step_covariance vs Φ P Φᵀ + Q", &sym(&fused), &dense, agree)?;
     if PM::SYMMETRIC_PROPAGATION {
         // the flag promises exact symmetry: the filter skips symmetrising
         compare("propagate_covariance symmetric", &out, &out.transpose(), 0.0)?;
@@ -259,21 +309,37 @@ pub fn check_measurement_model_with_step<MM: MeasurementModel>(
 where
     DefaultAllocator: FilterAlloc<StateDim<MM::State>, StateDim<MM::Measurement>>,
 {
+    check_measurement_model_in::<f64, MM>(model, x, rel_tol, step)
+}
+
+/// [`check_measurement_model_with_step`] for a model over the scalar `T` (e.g. `f32`, with
+/// step [`T::DIFF_STEP`](manifolds::Real::DIFF_STEP) and [`jacobian_tolerance`]); the
+/// combined calls agree to [`agreement_tolerance`].
+pub fn check_measurement_model_in<T: FilterScalar, MM: MeasurementModel<T>>(
+    model: &MM,
+    x: &MM::State,
+    rel_tol: f64,
+    step: f64,
+) -> Result<(), JacobianMismatch>
+where
+    DefaultAllocator: FilterAlloc<StateDim<MM::State, T>, StateDim<MM::Measurement, T>>,
+{
+    let agree = agreement_tolerance::<T>();
     let analytic = model.jacobian(x).H;
     let numeric = |h| numdiff::jacobian_between(x, |xp| model.predict(xp), h);
     compare_two_steps("measurement Jacobian H", &analytic, numeric, step, rel_tol)?;
     // `linearize` (often an override sharing work) must agree with the two separate calls.
     let (z_hat, jac) = model.linearize(x);
     let gap = z_hat.ominus(&model.predict(x));
-    compare("linearize: h(x) vs predict", &gap, &gap.map(|_| 0.0), STEP_AGREEMENT)?;
-    compare("linearize: H vs jacobian", &jac.H, &analytic, STEP_AGREEMENT)?;
+    compare("linearize: h(x) vs predict", &gap, &gap.map(|_| T::zero()), agree)?;
+    compare("linearize: H vs jacobian", &jac.H, &analytic, agree)?;
     // `innovation` (the filter's call) must agree with `linearize` and `residual`, at a
     // measurement a little away from the prediction.
-    let offset = Tangent::<MM::Measurement>::from_fn(|i, _| 1e-3 * (i as f64 + 1.0));
+    let offset = Tangent::<MM::Measurement, T>::from_fn(|i, _| T::lit(1e-3 * (i as f64 + 1.0)));
     let z = z_hat.oplus(&offset);
     let (r, jac) = model.innovation(x, &z);
-    compare("innovation: r vs residual", &r, &model.residual(&z, &z_hat), STEP_AGREEMENT)?;
-    compare("innovation: H vs jacobian", &jac.H, &analytic, STEP_AGREEMENT)
+    compare("innovation: r vs residual", &r, &model.residual(&z, &z_hat), agree)?;
+    compare("innovation: H vs jacobian", &jac.H, &analytic, agree)
 }
 
 /// Numerical Jacobian of any map between manifolds, `∂(f(x ⊕ ε) ⊖ f(x))/∂ε`, for

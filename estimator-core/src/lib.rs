@@ -85,8 +85,8 @@ pub mod traits;
 pub mod unscented;
 
 pub use adapt::{
-    Adaptation, CovView, Factors, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust,
-    Verdict,
+    Adaptation, CovView, Factors, FixedNoise, NisGate, NoiseStrategy, PostUpdate, PriorScaling,
+    QAdjust, Verdict,
 };
 #[cfg(feature = "faer")]
 pub use backend::FaerCov;

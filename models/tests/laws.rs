@@ -66,6 +66,48 @@ fn ahrs_models_pass_the_jacobian_harness() {
     check_measurement_model(&m, &x, 1e-7).unwrap();
 }
 
+/// The same models in single precision, with the harness's `f32` step and tolerances
+/// (`jacobian_tolerance::<f32>()` 2.4e-3, agreement `100 ε`): the Jacobians hold in `f32`.
+#[test]
+fn ahrs_models_pass_the_jacobian_harness_in_f32() {
+    use estimator_core::harness::{
+        check_measurement_model_in, check_process_model_in, jacobian_tolerance,
+    };
+    let errors = SensorErrors::default();
+    let x = AhrsState::<f32> {
+        att: So3::from_euler(0.3, -0.2, 2.5),
+        bg: Vector3::new(0.01, -0.02, 0.005),
+        acc: Vector3::new(0.5, 1.2, -0.3),
+    };
+    let (tol, step) = (jacobian_tolerance::<f32>(), 1e-3);
+    for v in Variant::ALL {
+        let u = AhrsInput { gyro: Vector3::new(0.1f32, -0.3, 0.25), abar: x.acc };
+        check_process_model_in::<f32, _>(&v.model(&errors, 100.0), &x, &u, 0.01, tol, step)
+            .unwrap();
+    }
+    let m = AhrsMeasurement::<f32> {
+        g_n: Vector3::new(0.0, 0.0, 9.80665),
+        m_n: Vector3::new(0.5, 0.0, 0.866),
+    };
+    check_measurement_model_in::<f32, _>(&m, &x, tol, step).unwrap();
+    // and a wrong Jacobian is caught at that tolerance: H with its attitude block negated
+    struct Wrong(AhrsMeasurement<f32>);
+    impl estimator_core::MeasurementModel<f32> for Wrong {
+        type State = AhrsState<f32>;
+        type Measurement = nalgebra::SVector<f32, 6>;
+        fn predict(&self, x: &AhrsState<f32>) -> Self::Measurement {
+            self.0.predict(x)
+        }
+        fn jacobian(&self, x: &AhrsState<f32>) -> estimator_core::JacobiansOf<Self, f32> {
+            let mut j = self.0.jacobian(x);
+            let neg = -j.H.fixed_view::<3, 3>(0, 0);
+            j.H.fixed_view_mut::<3, 3>(0, 0).copy_from(&neg);
+            j
+        }
+    }
+    assert!(check_measurement_model_in::<f32, _>(&Wrong(m), &x, tol, step).is_err());
+}
+
 #[test]
 fn singer_noise_two_paths_agree() {
     // Van Loan's matrix exponential against Singer's closed form where the latter is
