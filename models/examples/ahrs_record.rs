@@ -16,7 +16,11 @@ fn main() {
     let n = (60.0 * flight.rate) as usize;
     let recorded = &samples[..n];
     let bytes = flight.recording(&errors, recorded, [2e-5, 1e-3, 5e-5]);
-    if let Err(e) = std::fs::write(&path, &bytes) {
+    // written beside the target, then renamed over it: a failed write leaves an earlier
+    // recording as it was
+    let tmp = format!("{path}.partial");
+    if let Err(e) = std::fs::write(&tmp, &bytes).and_then(|()| std::fs::rename(&tmp, &path)) {
+        let _ = std::fs::remove_file(&tmp);
         eprintln!("ahrs_record: cannot write {path}: {e}");
         std::process::exit(1);
     }

@@ -45,9 +45,11 @@ fn replay<T: FilterScalar>(rec: &Recording<'_>) -> Vec<(usize, [f64; 3])> {
 fn read_lines(file: &str) -> Vec<(usize, [f64; 3])> {
     let text = std::fs::read_to_string(file).unwrap_or_else(|e| fail(format!("{file}: {e}")));
     text.lines()
-        .filter_map(|l| l.strip_prefix("att "))
-        .map(|l| {
-            let bad = || -> ! { fail(format!("{file}: bad line `att {l}`")) };
+        .enumerate()
+        .filter_map(|(i, l)| l.strip_prefix("att ").map(|l| (i + 1, l)))
+        .map(|(line, l)| {
+            let bad =
+                || -> ! { fail(format!("{file}:{line}: not `att k roll pitch yaw`: `att {l}`")) };
             let v: Vec<&str> = l.split_whitespace().collect();
             let num = |i: usize| -> f64 {
                 v.get(i).and_then(|s| s.parse().ok()).unwrap_or_else(|| bad())

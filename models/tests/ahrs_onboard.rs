@@ -56,8 +56,10 @@ fn recording_refuses_foreign_and_truncated_bytes() {
     assert_eq!(Recording::parse(&bytes).unwrap().len(), 10);
 }
 
-/// The driver and the experiment's own loop are two paths to the same numbers: the same
-/// attitude errors at every sample, bit for bit.
+/// The firmware's and the replay's set-up (`Ahrs::new` with `cs_maekf_model`) is the
+/// experiment's CS-MAEKF with the paper's settings (`Variant::CsMaekf`, `Start::Paper`,
+/// which runs through `Ahrs::from_filter`): the same attitude errors at every sample, bit
+/// for bit.
 #[test]
 fn driver_matches_the_experiment_loop_exactly() {
     let (flight, errors, samples) = flight_samples(2000);

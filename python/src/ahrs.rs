@@ -6,8 +6,8 @@ use estimator_core::ErrorStateFilter;
 use manifolds::So3;
 use models::ahrs::experiment::Variant;
 use models::ahrs::sim::{LoiteringFlight, SensorErrors};
-use models::ahrs::{AhrsInput, AhrsMeasurement, AhrsState};
-use nalgebra::{SMatrix, SVector, Vector3};
+use models::ahrs::{Ahrs, AhrsMeasurement, AhrsState};
+use nalgebra::{SMatrix, Vector3};
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -85,24 +85,22 @@ fn ahrs<'py>(
             bg: Vector3::zeros(),
             acc: Vector3::zeros(),
         };
-        let mut f = ErrorStateFilter::new(x0, SMatrix::<f64, 9, 9>::identity() * p0, strategy)
+        let f = ErrorStateFilter::new(x0, SMatrix::<f64, 9, 9>::identity() * p0, strategy)
             .map_err(|e| e.to_string())?;
-        let R = SMatrix::<f64, 6, 6>::identity() * r;
-        let dt = 1.0 / rate;
+        let mut ahrs = Ahrs::from_filter(f, model, meas, r, rate);
         let (mut att, mut drift, mut acc) = (Vec::new(), Vec::new(), Vec::new());
         let (mut sigma, mut nis, mut verdict) = (Vec::new(), Vec::new(), Vec::new());
         for k in 0..n {
-            let u = AhrsInput { gyro: row(&gyro, k), abar: f.state().acc };
-            f.predict(&model, &u, dt).map_err(|e| format!("sample {k}: prediction: {e}"))?;
-            let (a, m) = (row(&accel, k), row(&mag, k));
-            let z = SVector::<f64, 6>::new(a.x, a.y, a.z, m.x, m.y, m.z);
-            let report = f.update(&meas, &z, &R).map_err(|e| format!("sample {k}: update: {e}"))?;
-            let x = f.state();
+            ahrs.predict(&row(&gyro, k)).map_err(|e| format!("sample {k}: prediction: {e}"))?;
+            let report = ahrs
+                .update(&row(&accel, k), &row(&mag, k))
+                .map_err(|e| format!("sample {k}: update: {e}"))?;
+            let x = ahrs.state();
             let (roll, pitch, yaw) = x.att.euler();
             att.extend([roll, pitch, yaw]);
             drift.extend(x.bg.iter());
             acc.extend(x.acc.iter());
-            sigma.extend(f.sigma().iter());
+            sigma.extend(ahrs.filter().sigma().iter());
             nis.push(report.nis);
             verdict.push(report.verdict.as_str());
         }

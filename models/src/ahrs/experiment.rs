@@ -10,10 +10,10 @@
 
 use estimator_core::{ErrorStateFilter, FilterError, FixedNoise};
 use manifolds::So3;
-use nalgebra::{SMatrix, SVector, Vector3};
+use nalgebra::{SMatrix, Vector3};
 
 use super::sim::{LoiteringFlight, Sample, SensorErrors};
-use super::{AccelModel, AhrsInput, AhrsMeasurement, AhrsModel, AhrsState, AhrsTuning};
+use super::{AccelModel, Ahrs, AhrsMeasurement, AhrsModel, AhrsState, AhrsTuning};
 
 /// The three filters of the paper.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -131,16 +131,13 @@ pub fn run_from(
         Start::KnownAcceleration => flight.body_acceleration(0.0),
     };
     let x0 = AhrsState { att: flight.attitude(0.0), bg: Vector3::zeros(), acc };
-    let mut f = ErrorStateFilter::new(x0, SMatrix::<f64, 9, 9>::identity() * 0.01, FixedNoise)?;
-    let r = SMatrix::<f64, 6, 6>::identity() * 0.02;
-    let dt = 1.0 / flight.rate;
+    let p0 = SMatrix::<f64, 9, 9>::identity() * super::onboard::P0;
+    let filter = ErrorStateFilter::new(x0, p0, FixedNoise)?;
+    let mut ahrs = Ahrs::from_filter(filter, model.clone(), meas, super::onboard::R, flight.rate);
     let (mut max, mut sq) = ([0.0_f64; 3], [0.0_f64; 3]);
     for s in samples {
-        let u = AhrsInput { gyro: s.gyro, abar: f.state().acc };
-        f.predict(model, &u, dt)?;
-        let z = SVector::<f64, 6>::from_iterator(s.accel.iter().chain(s.mag.iter()).copied());
-        f.update(&meas, &z, &r)?;
-        let e = euler_error(&f.state().att, &s.att);
+        ahrs.step(&s.gyro, &s.accel, &s.mag)?;
+        let e = euler_error(&ahrs.state().att, &s.att);
         each(s.t, e);
         for k in 0..3 {
             max[k] = max[k].max(e[k].abs());
@@ -212,7 +209,6 @@ pub fn f32_against_f64(
     form: estimator_core::UpdateForm,
     check_every: usize,
 ) -> Result<PrecisionDifference, FilterError> {
-    use super::Ahrs;
     use manifolds::Manifold;
     let meas = AhrsMeasurement { g_n: flight.g_n, m_n: flight.m_n };
     let meas32 =

@@ -4,9 +4,11 @@
 //! (`firmware/`, run under QEMU) and the host replay (`cargo run -p models --example
 //! ahrs_replay`) share them, so the two runs differ only in the machine.
 
-use estimator_core::{ErrorStateFilter, FilterError, FilterScalar, FixedNoise, StaticCov};
+use estimator_core::{
+    ErrorStateFilter, FilterError, FilterScalar, FixedNoise, NoiseStrategy, StaticCov, UpdateReport,
+};
 use manifolds::{Real, So3};
-use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
+use nalgebra::{Const, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use super::{AccelModel, AhrsInput, AhrsMeasurement, AhrsModel, AhrsState, AhrsTuning};
 use crate::cs::CsVariance;
@@ -32,10 +34,12 @@ pub fn cs_maekf_model(gyro_noise: f64, rate: f64) -> AhrsModel {
 
 /// An AHRS filter driven sample by sample: predict with the gyro, update with the
 /// accelerometer and magnetometer; over the scalar `T` (`f64` unless named, `Ahrs<f32>` on
-/// a single-precision FPU).
+/// a single-precision FPU) with the noise strategy `A` ([`FixedNoise`] unless named). The
+/// experiment, the Python binding, the host replay and the firmware all run the AHRS
+/// through it.
 #[derive(Clone, Debug)]
-pub struct Ahrs<T: FilterScalar = f64> {
-    filter: ErrorStateFilter<AhrsState<T>, FixedNoise, StaticCov, T>,
+pub struct Ahrs<T: FilterScalar = f64, A: NoiseStrategy<T> = FixedNoise> {
+    filter: ErrorStateFilter<AhrsState<T>, A, StaticCov, T>,
     model: AhrsModel,
     meas: AhrsMeasurement<T>,
     r: SMatrix<T, 6, 6>,
@@ -43,7 +47,8 @@ pub struct Ahrs<T: FilterScalar = f64> {
 }
 
 impl<T: FilterScalar> Ahrs<T> {
-    /// A filter at attitude `att0` with the paper's settings, sampling at `rate` Hz.
+    /// A filter at attitude `att0` with the paper's settings ([`P0`], [`R`], drift and
+    /// acceleration zero), sampling at `rate` Hz.
     pub fn new(
         model: AhrsModel,
         meas: AhrsMeasurement<T>,
@@ -53,8 +58,22 @@ impl<T: FilterScalar> Ahrs<T> {
         let x0 = AhrsState { att: att0, bg: Vector3::zeros(), acc: Vector3::zeros() };
         let p0 = SMatrix::<T, 9, 9>::identity() * T::lit(P0);
         let filter = ErrorStateFilter::new(x0, p0, FixedNoise)?;
-        let r = SMatrix::<T, 6, 6>::identity() * T::lit(R);
-        Ok(Self { filter, model, meas, r, dt: T::lit(1.0 / rate) })
+        Ok(Self::from_filter(filter, model, meas, T::lit(R), rate))
+    }
+}
+
+impl<T: FilterScalar, A: NoiseStrategy<T>> Ahrs<T, A> {
+    /// Around a filter the caller set up (its start, `P₀` and strategy), with measurement
+    /// noise `r·I₆`, sampling at `rate` Hz.
+    pub fn from_filter(
+        filter: ErrorStateFilter<AhrsState<T>, A, StaticCov, T>,
+        model: AhrsModel,
+        meas: AhrsMeasurement<T>,
+        r: T,
+        rate: f64,
+    ) -> Self {
+        let r = SMatrix::<T, 6, 6>::identity() * r;
+        Self { filter, model, meas, r, dt: T::lit(1.0 / rate) }
     }
 
     /// The same filter with another covariance update formula (default: the Joseph form,
@@ -64,20 +83,35 @@ impl<T: FilterScalar> Ahrs<T> {
         self
     }
 
-    /// One sample: the mean angular rate over the interval (rad/s), then the specific force
-    /// (m/s²) and the magnetic field at its end. On `Err` the filter is unchanged by the
-    /// failed step (see [`ErrorStateFilter`]).
+    /// The prediction over one sample interval with the mean angular rate `gyro` (rad/s);
+    /// the current acceleration estimate is the CS model's `ā`. On `Err` the filter is
+    /// unchanged.
+    pub fn predict(&mut self, gyro: &Vector3<T>) -> Result<(), FilterError> {
+        let u = AhrsInput { gyro: *gyro, abar: self.filter.state().acc };
+        self.filter.predict(&self.model, &u, self.dt)
+    }
+
+    /// The update with the specific force `accel` (m/s²) and the magnetic field `mag` at
+    /// the interval's end. On `Err` the filter is unchanged.
+    pub fn update(
+        &mut self,
+        accel: &Vector3<T>,
+        mag: &Vector3<T>,
+    ) -> Result<UpdateReport<Const<6>, T>, FilterError> {
+        let z = SVector::<T, 6>::new(accel.x, accel.y, accel.z, mag.x, mag.y, mag.z);
+        self.filter.update(&self.meas, &z, &self.r)
+    }
+
+    /// One sample: [`predict`](Self::predict) then [`update`](Self::update). On `Err` from
+    /// the update the prediction stays done.
     pub fn step(
         &mut self,
         gyro: &Vector3<T>,
         accel: &Vector3<T>,
         mag: &Vector3<T>,
-    ) -> Result<(), FilterError> {
-        let u = AhrsInput { gyro: *gyro, abar: self.filter.state().acc };
-        self.filter.predict(&self.model, &u, self.dt)?;
-        let z = SVector::<T, 6>::new(accel.x, accel.y, accel.z, mag.x, mag.y, mag.z);
-        self.filter.update(&self.meas, &z, &self.r)?;
-        Ok(())
+    ) -> Result<UpdateReport<Const<6>, T>, FilterError> {
+        self.predict(gyro)?;
+        self.update(accel, mag)
     }
 
     /// The current state.
@@ -86,7 +120,7 @@ impl<T: FilterScalar> Ahrs<T> {
     }
 
     /// The filter (covariance, time, …).
-    pub fn filter(&self) -> &ErrorStateFilter<AhrsState<T>, FixedNoise, StaticCov, T> {
+    pub fn filter(&self) -> &ErrorStateFilter<AhrsState<T>, A, StaticCov, T> {
         &self.filter
     }
 }
