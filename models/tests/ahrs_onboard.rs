@@ -53,6 +53,10 @@ fn recording_refuses_foreign_and_truncated_bytes() {
     assert_eq!(Recording::parse(b"not a recording").unwrap_err(), RecordingError::NotARecording);
     assert_eq!(Recording::parse(&bytes[..20]).unwrap_err(), RecordingError::Truncated);
     assert_eq!(Recording::parse(&bytes[..bytes.len() - 1]).unwrap_err(), RecordingError::Truncated);
+    // a corrupt sample count (u32::MAX) is refused, not trusted
+    let mut huge = bytes.clone();
+    huge[8 + 8 * 15..8 + 8 * 15 + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert_eq!(Recording::parse(&huge).unwrap_err(), RecordingError::Truncated);
     assert_eq!(Recording::parse(&bytes).unwrap().len(), 10);
 }
 

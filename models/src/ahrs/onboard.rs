@@ -193,8 +193,11 @@ impl<'a> Recording<'a> {
         let mut nb = [0u8; 4];
         nb.copy_from_slice(&bytes[Self::HEADER - 4..Self::HEADER]);
         let n = u32::from_le_bytes(nb) as usize;
-        let samples = bytes
-            .get(Self::HEADER..Self::HEADER + n * Self::SAMPLE)
+        // (checked: a corrupt count must not overflow a 32-bit microcontroller's usize)
+        let samples = n
+            .checked_mul(Self::SAMPLE)
+            .and_then(|len| len.checked_add(Self::HEADER))
+            .and_then(|end| bytes.get(Self::HEADER..end))
             .ok_or(RecordingError::Truncated)?;
         let q = Quaternion::new(f(8), f(9), f(10), f(11));
         Ok(Self {
