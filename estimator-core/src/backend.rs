@@ -223,6 +223,55 @@ where
     Ok((x_next, jac))
 }
 
+/// The static back-end's prediction ([`CovBackend::predict`] of [`StaticCov`]), with the
+/// transition's transpose `Φᵀ` written into `phi_t` when asked (a smoother's replay: the
+/// same `x⁺` and `P⁺` bit for bit, and the `Φ` of the step).
+#[allow(clippy::too_many_arguments, non_snake_case)]
+pub(crate) fn static_predict<T: FilterScalar, PM: ProcessModel<T>, N: DimName>(
+    model: &PM,
+    x: &PM::State,
+    u: &PM::Input,
+    dt: T,
+    P: &Cov<N, T>,
+    lambda: T,
+    q: &QAdjust<N, T>,
+    out: &mut Cov<N, T>,
+    phi_t: Option<&mut Cov<N, T>>,
+) -> Result<PM::State, FilterError>
+where
+    PM::State: Manifold<T, Dim = N>,
+    DefaultAllocator: DimAlloc<N>,
+{
+    let scaled;
+    let P = if lambda == T::one() {
+        P
+    } else {
+        // λ Φ P Φᵀ = Φ (λ P) Φᵀ
+        scaled = P * lambda;
+        &scaled
+    };
+    let x_next = match (q, phi_t) {
+        (QAdjust::Keep | QAdjust::Model, None) if PM::FUSED_STEP_COVARIANCE => {
+            model.step_covariance(x, u, dt, P, out)
+        }
+        (QAdjust::Keep | QAdjust::Model, Some(phi_t)) if PM::FUSED_STEP_COVARIANCE => {
+            model.step_covariance_adjoint(x, u, dt, P, out, phi_t)
+        }
+        (q, phi_t) => {
+            let (x_next, jac) = adjusted_step(model, q, x, u, dt)?;
+            model.propagate_covariance(P, &jac, out);
+            if let Some(phi_t) = phi_t {
+                jac.Phi.transpose_to(phi_t);
+            }
+            x_next
+        }
+    };
+    if !PM::SYMMETRIC_PROPAGATION {
+        symmetrize(out);
+    }
+    Ok(x_next)
+}
+
 /// The default: a stack-allocated nalgebra matrix.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -267,28 +316,7 @@ where
     where
         PM::State: Manifold<T, Dim = N>,
     {
-        let scaled;
-        let P = if lambda == T::one() {
-            P
-        } else {
-            // λ Φ P Φᵀ = Φ (λ P) Φᵀ
-            scaled = P * lambda;
-            &scaled
-        };
-        let x_next = match q {
-            QAdjust::Keep | QAdjust::Model if PM::FUSED_STEP_COVARIANCE => {
-                model.step_covariance(x, u, dt, P, out)
-            }
-            q => {
-                let (x_next, jac) = adjusted_step(model, q, x, u, dt)?;
-                model.propagate_covariance(P, &jac, out);
-                x_next
-            }
-        };
-        if !PM::SYMMETRIC_PROPAGATION {
-            symmetrize(out);
-        }
-        Ok(x_next)
+        static_predict(model, x, u, dt, P, lambda, q, out, None)
     }
 
     fn propagate(

@@ -278,6 +278,22 @@ where
         compare("propagate_covariance symmetric", &out, &out.transpose(), 0.0)?;
         compare("step_covariance symmetric", &fused, &fused.transpose(), 0.0)?;
     }
+    // a smoother's replay: `step_covariance_adjoint` must predict as `step_covariance`
+    // does (the covariance bit for bit) and hand over Φᵀ; `adjoint_sandwich` must be Φᵀ Λ Φ, exactly
+    // symmetric
+    let mut replayed = P.clone() * T::lit(f64::NAN);
+    let mut phi_t = P.clone() * T::lit(f64::NAN);
+    let x_adj = model.step_covariance_adjoint(x, u, dt, &P, &mut replayed, &mut phi_t);
+    let gap = x_adj.ominus(&x_fused);
+    // (⊖ of two equal states may give rounding noise, not exactly zero, on SO(3))
+    compare("step_covariance_adjoint: state", &gap, &gap.map(|_| T::zero()), agree)?;
+    compare("step_covariance_adjoint: covariance", &replayed, &fused, 0.0)?;
+    compare("step_covariance_adjoint: Φᵀ vs jacobians", &phi_t.transpose(), &jac.Phi, agree)?;
+    let mut adjoint = P.clone() * T::lit(f64::NAN);
+    model.adjoint_sandwich(&phi_t, &P, &mut adjoint);
+    let dense = jac.Phi.transpose() * &P * &jac.Phi;
+    compare("adjoint_sandwich vs Φᵀ Λ Φ", &adjoint, &dense, agree)?;
+    compare("adjoint_sandwich symmetric", &adjoint, &adjoint.transpose(), 0.0)?;
     Ok(())
 }
 

@@ -40,6 +40,20 @@
 //! noise adjustment) or the segment is full. Steps are *marked* when their end is an
 //! output epoch; the backward pass returns the smoothed state and variances there.
 //!
+//! What keeps the second pass close to the cost of the first:
+//! - the replay takes each step's `Φᵀ` from the model's fused prediction
+//!   ([`ProcessModel::step_covariance_adjoint`]) and the recursion's `Φᵀ Λ Φ` from the
+//!   model's structured product ([`ProcessModel::adjoint_sandwich`]; the INS model runs
+//!   its prediction kernel on the transposed pattern);
+//! - a segment closed for length, not by an update, is *continued*: `λ` and `Λ` go through
+//!   its boundary as they are, without the smoothed covariance and the Cholesky factor an
+//!   update boundary needs;
+//! - `P Λ` and the variances are formed only at marked steps, the variances as one pass
+//!   over whole columns;
+//! - an input that repeats the step before's (an IMU input carries the previous sample)
+//!   is stored once ([`Spill::spill_after`]), and closed segments are written and read
+//!   back about a megabyte at a time.
+//!
 //! What the smoother does not see: an update's prior scaling (a strategy's `λ_P`) — the
 //! segment's end uses the propagated `Pₙ`, not the scaled prior the update used. For
 //! fixed noise, an adaptive `R` or an adapted `Q` the recursion is exact.
@@ -52,7 +66,7 @@ use nalgebra::{DefaultAllocator, DimName, OVector, SVector};
 use manifolds::{DimAlloc, Manifold};
 
 use crate::adapt::{NoiseStrategy, QAdjust};
-use crate::backend::{CovBackend, StaticCov};
+use crate::backend::{static_predict, CovBackend};
 use crate::dims::Cov;
 use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
@@ -70,6 +84,21 @@ pub trait Spill: Sized {
     fn spill(&self, out: &mut [f64]);
     /// Read it back from `v` (`v.len() == LEN`).
     fn unspill(v: &[f64]) -> Self;
+    /// How many numbers [`spill_after`](Self::spill_after) writes (`≤ LEN`).
+    const AFTER_LEN: usize = Self::LEN;
+    /// Write the value, which follows `before` (the previous step's input), in
+    /// [`AFTER_LEN`](Self::AFTER_LEN) numbers when `before` and those numbers rebuild it
+    /// exactly; `false` (nothing written) otherwise. An IMU input that repeats the
+    /// previous sample stores only the new one. The default never shortens.
+    fn spill_after(&self, before: &Self, out: &mut [f64]) -> bool {
+        let _ = (before, out);
+        false
+    }
+    /// Rebuild a value from what [`spill_after`](Self::spill_after) wrote.
+    fn unspill_after(v: &[f64], before: &Self) -> Self {
+        let _ = before;
+        Self::unspill(v)
+    }
 }
 
 impl<const D: usize> Spill for SVector<f64, D> {
@@ -198,9 +227,11 @@ where
     pub var: OVector<f64, X::Dim>,
 }
 
-/// Header numbers before the state: steps, start time, fading, noise-adjustment tag.
-const HEAD: usize = 4;
-/// Numbers per step before the input: end time, interval, mark.
+/// Header numbers before the state: steps, start time, fading, noise-adjustment tag,
+/// and whether the segment continues the one before it (no update between them).
+const HEAD: usize = 5;
+/// Numbers per step before the input: end time, interval, flags (bit 0: marked; bit 1:
+/// the input is stored after the step before it, [`Spill::spill_after`]).
 const STEP: usize = 3;
 
 /// The segment-wise fixed-interval smoother (see the [module](self) documentation).
@@ -216,7 +247,11 @@ pub struct SegmentSmoother<X, U, S = std::fs::File> {
     /// The open segment (header and steps so far), written when it closes.
     open: Vec<f64>,
     open_steps: usize,
+    /// The input of the open segment's last step (the next one may be stored after it).
+    last_input: Option<U>,
     last_epoch: Option<u64>,
+    /// The next segment continues the last one (it was closed for length, not an update).
+    continues: bool,
     bytes: Vec<u8>,
     /// The first storage error of the forward pass (recording stops there).
     error: Option<std::io::Error>,
@@ -247,7 +282,9 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
             max_steps: max_steps.max(1),
             open: Vec::new(),
             open_steps: 0,
+            last_input: None,
             last_epoch: None,
+            continues: false,
             bytes: Vec::new(),
             error: None,
             _types: PhantomData,
@@ -259,7 +296,8 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
         self.offsets.len() - 1
     }
 
-    /// Bytes written to the storage so far.
+    /// Bytes recorded so far (the last megabyte or so may not be written to the storage
+    /// yet: see [`finish_recording`](Self::finish_recording)).
     pub fn stored_bytes(&self) -> u64 {
         *self.offsets.last().unwrap_or(&0)
     }
@@ -279,7 +317,7 @@ where
 impl<X, U, S> SegmentSmoother<X, U, S>
 where
     X: Manifold + Spill,
-    U: Spill,
+    U: Spill + Clone,
     S: Read + Write + Seek,
     DefaultAllocator: DimAlloc<X::Dim>,
 {
@@ -288,22 +326,30 @@ where
             return;
         }
         self.open[0] = self.open_steps as f64;
-        self.bytes.clear();
+        let start = self.bytes.len();
         for v in &self.open {
             self.bytes.extend_from_slice(&v.to_le_bytes());
         }
         self.open.clear();
         self.open_steps = 0;
-        if self.error.is_some() {
-            return;
+        self.last_input = None;
+        let end = self.stored_bytes() + (self.bytes.len() - start) as u64;
+        self.offsets.push(end);
+        // closed segments go to the storage about a megabyte at a time (one write per
+        // segment made a system call per update)
+        if self.bytes.len() >= WRITE_BYTES {
+            self.write_pending();
         }
-        match self.store.write_all(&self.bytes) {
-            Ok(()) => {
-                let end = self.stored_bytes() + self.bytes.len() as u64;
-                self.offsets.push(end);
+    }
+
+    /// Write the closed segments not written yet.
+    fn write_pending(&mut self) {
+        if self.error.is_none() {
+            if let Err(e) = self.store.write_all(&self.bytes) {
+                self.error = Some(e);
             }
-            Err(e) => self.error = Some(e),
         }
+        self.bytes.clear();
     }
 
     fn start<A: NoiseStrategy, B: CovBackend<X::Dim>>(&mut self, f: &ErrorStateFilter<X, A, B>) {
@@ -311,7 +357,8 @@ where
         let q = f.process_noise_adjustment();
         let (tag, len) = q_len(q);
         let o = &mut self.open;
-        o.extend_from_slice(&[0.0, f.time(), f.strategy().prediction_fading(), tag]);
+        let continues = f64::from(u8::from(self.continues));
+        o.extend_from_slice(&[0.0, f.time(), f.strategy().prediction_fading(), tag, continues]);
         match q {
             QAdjust::Scale(s) => o.push(*s),
             QAdjust::AddRate(m) => o.extend_from_slice(m.as_slice()),
@@ -330,6 +377,7 @@ where
     /// End the forward pass: the storage error that stopped recording, if any.
     pub fn finish_recording(&mut self) -> std::io::Result<()> {
         self.close();
+        self.write_pending();
         match self.error.take() {
             Some(e) => Err(e),
             None => self.store.flush(),
@@ -353,10 +401,11 @@ where
         self.finish_recording()?;
         let mut back = Backward::start(filter);
         let mut seg = Replayed::default();
-        let mut store = Store { store: &mut self.store, offsets: &self.offsets, bytes: Vec::new() };
+        let mut store =
+            Store { store: &mut self.store, offsets: &self.offsets, bytes: Vec::new(), at: 0 };
         for k in (0..self.offsets.len() - 1).rev() {
             store.replay(k, model, &mut seg)?;
-            back.segment(&seg)?;
+            back.segment(&seg, model)?;
             sink(&back.rows)?;
         }
         Ok(())
@@ -383,7 +432,8 @@ where
         self.finish_recording()?;
         let mut back = Backward::start(filter);
         let segments = self.offsets.len() - 1;
-        let mut store = Store { store: &mut self.store, offsets: &self.offsets, bytes: Vec::new() };
+        let mut store =
+            Store { store: &mut self.store, offsets: &self.offsets, bytes: Vec::new(), at: 0 };
         std::thread::scope(|scope| -> Result<(), SmootherError> {
             // replayed segments one way in batches of about `BATCH_STEPS` steps (a thread
             // wake-up per segment costs more than a short segment's work), their emptied
@@ -419,7 +469,7 @@ where
             for batch in rx {
                 let batch = batch?;
                 for seg in &batch {
-                    back.segment(seg)?;
+                    back.segment(seg, model)?;
                     sink(&back.rows)?;
                 }
                 let _ = back_tx.send(batch);
@@ -429,14 +479,22 @@ where
     }
 }
 
-/// Steps per batch between the threads of [`SegmentSmoother::smooth_threaded`].
-const BATCH_STEPS: usize = 2048;
+/// Bytes of closed segments held before one write to the storage, and read back at a
+/// time by the backward pass.
+const WRITE_BYTES: usize = 1 << 20;
 
-/// The storage and the segment offsets, for reading segments back.
+/// Steps per batch between the threads of [`SegmentSmoother::smooth_threaded`].
+const BATCH_STEPS: usize = 256;
+
+/// The storage and the segment offsets, for reading segments back: a window of about
+/// [`WRITE_BYTES`] that ends at the segment asked for (the backward pass reads the
+/// segments last to first, so one read serves many).
 struct Store<'a, S> {
     store: &'a mut S,
     offsets: &'a [u64],
     bytes: Vec<u8>,
+    /// Where in the storage `bytes` starts.
+    at: u64,
 }
 
 /// One segment replayed: its states, covariances and transitions, step by step.
@@ -447,10 +505,12 @@ where
     /// `x̂ᵢ` and `Pᵢ` for `i = 0..=n` (`0`: the segment's start).
     xs: Vec<X>,
     ps: Vec<Cov<X::Dim>>,
-    /// `Φᵢ`, `i < n`.
-    phis: Vec<Cov<X::Dim>>,
+    /// `Φᵢᵀ`, `i < n`.
+    phi_ts: Vec<Cov<X::Dim>>,
     /// End time, interval, mark and input of each step.
     steps: Vec<(f64, f64, bool, U)>,
+    /// The segment continues the one before it (no update at its start).
+    continues: bool,
     values: Vec<f64>,
 }
 
@@ -462,8 +522,9 @@ where
         Self {
             xs: Vec::new(),
             ps: Vec::new(),
-            phis: Vec::new(),
+            phi_ts: Vec::new(),
             steps: Vec::new(),
+            continues: false,
             values: Vec::new(),
         }
     }
@@ -485,12 +546,19 @@ impl<S: Read + Seek> Store<'_, S> {
     {
         let n = X::Dim::DIM;
         let (from, to) = (self.offsets[k], self.offsets[k + 1]);
-        self.store.seek(SeekFrom::Start(from))?;
-        self.bytes.resize((to - from) as usize, 0);
-        self.store.read_exact(&mut self.bytes)?;
+        let held = self.at..self.at + self.bytes.len() as u64;
+        if !(held.contains(&from) && to <= held.end) {
+            // the window that ends with this segment
+            let start = from.min(to.saturating_sub(WRITE_BYTES as u64));
+            self.store.seek(SeekFrom::Start(start))?;
+            self.bytes.resize((to - start) as usize, 0);
+            self.store.read_exact(&mut self.bytes)?;
+            self.at = start;
+        }
+        let bytes = &self.bytes[(from - self.at) as usize..(to - self.at) as usize];
         let values = &mut seg.values;
         values.clear();
-        values.extend(self.bytes.chunks_exact(8).map(|b| {
+        values.extend(bytes.chunks_exact(8).map(|b| {
             let mut a = [0u8; 8];
             a.copy_from_slice(b);
             f64::from_le_bytes(a)
@@ -501,6 +569,11 @@ impl<S: Read + Seek> Store<'_, S> {
             return Err(corrupt("segment header"));
         }
         let (count, fading, tag) = (v[0] as usize, v[2], v[3]);
+        seg.continues = match v[4] {
+            0.0 => false,
+            1.0 => true,
+            _ => return Err(corrupt("segment continuation flag")),
+        };
         let (q, qn) = match tag as u8 {
             0 => (QAdjust::Keep, 0),
             1 => (QAdjust::Scale(*v.get(HEAD).ok_or(corrupt("noise scale"))?), 1),
@@ -512,7 +585,7 @@ impl<S: Read + Seek> Store<'_, S> {
         };
         let mut at = HEAD + qn;
         let tri = n * (n + 1) / 2;
-        if v.len() != at + X::LEN + tri + count * (STEP + U::LEN) || count == 0 {
+        if v.len() < at + X::LEN + tri + count * (STEP + U::AFTER_LEN.min(U::LEN)) || count == 0 {
             return Err(corrupt("segment length"));
         }
         seg.xs.clear();
@@ -522,7 +595,7 @@ impl<S: Read + Seek> Store<'_, S> {
         // the covariances and transitions are written in place (a segment's buffers are
         // reused: they grow to the longest segment once, then are only overwritten)
         seg.ps.resize(count + 1, Cov::<X::Dim>::zeros());
-        seg.phis.resize(count, Cov::<X::Dim>::zeros());
+        seg.phi_ts.resize(count, Cov::<X::Dim>::zeros());
         let p0 = &mut seg.ps[0];
         for c in 0..n {
             for r in 0..=c {
@@ -532,32 +605,60 @@ impl<S: Read + Seek> Store<'_, S> {
             }
         }
         for _ in 0..count {
-            let u = U::unspill(&v[at + STEP..at + STEP + U::LEN]);
-            seg.steps.push((v[at], v[at + 1], v[at + 2] != 0.0, u));
-            at += STEP + U::LEN;
+            let flags = *v.get(at + 2).ok_or(corrupt("segment length"))?;
+            let (mark, after) = match flags {
+                0.0 => (false, false),
+                1.0 => (true, false),
+                2.0 => (false, true),
+                3.0 => (true, true),
+                _ => return Err(corrupt("step flags")),
+            };
+            let len = if after { U::AFTER_LEN } else { U::LEN };
+            let payload = v.get(at + STEP..at + STEP + len).ok_or(corrupt("segment length"))?;
+            let u = match (after, seg.steps.last()) {
+                (true, Some((.., before))) => U::unspill_after(payload, before),
+                (true, None) => return Err(corrupt("first step stored after another")),
+                (false, _) => U::unspill(payload),
+            };
+            seg.steps.push((v[at], v[at + 1], mark, u));
+            at += STEP + len;
         }
-        // replay, by the static back-end's path (the model's fused product where it has
-        // one), with the segment's fading and noise adjustment; Φ on the side
-        let mut backend = StaticCov;
+        if at != v.len() {
+            return Err(corrupt("segment length"));
+        }
+        // replay by the static back-end's path (the model's fused product where it has
+        // one), with the segment's fading and noise adjustment, Φᵀ on the side
         for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
             let x = &seg.xs[k];
-            seg.phis[k] = model.transition(x, u, *dt);
             let (done, next) = seg.ps.split_at_mut(k + 1);
-            let x_next = backend.predict(model, x, u, *dt, &done[k], fading, &q, &mut next[0])?;
+            let phi_t = Some(&mut seg.phi_ts[k]);
+            let x_next =
+                static_predict(model, x, u, *dt, &done[k], fading, &q, &mut next[0], phi_t)?;
             seg.xs.push(x_next);
         }
         Ok(())
     }
 }
 
-/// The backward recursion: the smoothed estimate at the start of the segment after the
-/// current one, and the rows of the last segment done.
+/// What the backward recursion carries from one segment into the one before it.
+enum Carried<X: Manifold>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    /// The smoothed estimate at the start of the later segment (an update lies between).
+    Smoothed { x: X, p: Cov<X::Dim> },
+    /// `λ` and `Λ` at the start of the later segment, which continues this one: they go on
+    /// through the boundary unchanged.
+    Adjoint { lambda: OVector<f64, X::Dim>, big: Cov<X::Dim> },
+}
+
+/// The backward recursion: what it carries into the segment before, and the rows of the
+/// last segment done.
 struct Backward<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
-    x_s: X,
-    p_s: Cov<X::Dim>,
+    carried: Carried<X>,
     rows: Vec<SmoothedRow<X>>,
 }
 
@@ -566,63 +667,83 @@ where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     fn start<A: NoiseStrategy, B: CovBackend<X::Dim>>(filter: &ErrorStateFilter<X, A, B>) -> Self {
-        Self {
-            x_s: filter.state().clone(),
-            p_s: filter.covariance().into_owned(),
-            rows: Vec::new(),
-        }
+        let carried =
+            Carried::Smoothed { x: filter.state().clone(), p: filter.covariance().into_owned() };
+        Self { carried, rows: Vec::new() }
     }
 
     /// Smooth through one replayed segment (rows in time order in `self.rows`).
-    fn segment<U>(&mut self, seg: &Replayed<X, U>) -> Result<(), SmootherError> {
-        let (xs, ps, phis) = (&seg.xs, &seg.ps, &seg.phis);
+    fn segment<U, PM>(&mut self, seg: &Replayed<X, U>, model: &PM) -> Result<(), SmootherError>
+    where
+        PM: ProcessModel<State = X, Input = U>,
+    {
+        let (xs, ps, phi_ts) = (&seg.xs, &seg.ps, &seg.phi_ts);
         let count = seg.steps.len();
-        // the segment's end: Pˢ into the frame of the prior x̂ₙ (Σ), then
-        // λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
-        let d = self.x_s.ominus(&xs[count]);
-        reframe(&xs[count], &d, &mut self.p_s, Reframe::Into)?;
-        let chol = cholesky("smoother: predicted covariance Pₙ", ps[count].clone())?;
-        let mut lambda = chol.solve(&d);
-        // Pₙ⁻¹ Σ
-        let m = chol.solve(&self.p_s);
         // Λ in one of two buffers, the next one written into the other (no swap: swapping
         // two covariances copies three of them)
-        let mut bigs = [chol.inverse() - chol.solve(&m.transpose()), Cov::<X::Dim>::zeros()];
-        symmetrize(&mut bigs[0]);
+        let (mut lambda, first) = match &mut self.carried {
+            Carried::Adjoint { lambda, big } => (lambda.clone(), big.clone()),
+            Carried::Smoothed { x, p } => {
+                // the segment's end: Pˢ into the frame of the prior x̂ₙ (Σ), then
+                // λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
+                let d = x.ominus(&xs[count]);
+                reframe(&xs[count], &d, p, Reframe::Into)?;
+                let chol = cholesky("smoother: predicted covariance Pₙ", ps[count].clone())?;
+                let inv = inverse_from_cholesky(&chol);
+                let mut lambda = OVector::<f64, X::Dim>::zeros();
+                kernels::mat_mul(&inv, &d, &mut lambda);
+                // Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
+                let (mut m, mut big) = (Cov::<X::Dim>::zeros(), Cov::<X::Dim>::zeros());
+                kernels::mat_mul(&inv, &*p, &mut m);
+                kernels::mat_mul(&m, &inv, &mut big);
+                let mut big = inv - big;
+                symmetrize(&mut big);
+                (lambda, big)
+            }
+        };
+        let mut bigs = [first, Cov::<X::Dim>::zeros()];
         let mut cur = 0;
         self.rows.clear();
-        let (mut pl, mut phi_t) = (Cov::<X::Dim>::zeros(), Cov::<X::Dim>::zeros());
-        let zero = Cov::<X::Dim>::zeros();
+        let mut pl = Cov::<X::Dim>::zeros();
+        let mut delta = OVector::<f64, X::Dim>::zeros();
         for k in (0..=count).rev() {
             let (x, p) = (&xs[k], &ps[k]);
-            kernels::mat_mul(p, &bigs[cur], &mut pl); // Pᵢ Λᵢ
             if k == 0 {
-                let delta = p * &lambda;
-                let x_s = x.oplus(&delta);
-                let mut p_s = p - &pl * p;
-                symmetrize(&mut p_s);
-                reframe(x, &delta, &mut p_s, Reframe::OutOf)?;
-                if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
-                    return Err(
-                        FilterError::NonFinite { what: "smoothed state or covariance" }.into()
-                    );
-                }
-                self.x_s = x_s;
-                self.p_s = p_s;
+                self.carried = if seg.continues {
+                    Carried::Adjoint { lambda, big: bigs[cur].clone() }
+                } else {
+                    kernels::mat_mul(p, &bigs[cur], &mut pl); // Pᵢ Λᵢ
+                    kernels::mat_mul(p, &lambda, &mut delta);
+                    let x_s = x.oplus(&delta);
+                    let mut plp = Cov::<X::Dim>::zeros();
+                    kernels::mat_mul(&pl, p, &mut plp);
+                    let mut p_s = p - plp;
+                    symmetrize(&mut p_s);
+                    reframe(x, &delta, &mut p_s, Reframe::OutOf)?;
+                    if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
+                        return Err(FilterError::NonFinite {
+                            what: "smoothed state or covariance",
+                        }
+                        .into());
+                    }
+                    Carried::Smoothed { x: x_s, p: p_s }
+                };
                 break;
             }
             let (t, _, mark, _) = &seg.steps[k - 1];
             if *mark {
-                let delta = p * &lambda;
+                kernels::mat_mul(p, &bigs[cur], &mut pl); // Pᵢ Λᵢ
+                kernels::mat_mul(p, &lambda, &mut delta);
                 let var = variances_out_of(x, &delta, p, &pl);
                 self.rows.push(SmoothedRow { time: *t, x: x.oplus(&delta), var });
             }
-            phis[k - 1].transpose_to(&mut phi_t);
-            lambda = &phi_t * &lambda;
+            let phi_t = &phi_ts[k - 1];
+            kernels::mat_mul(phi_t, &lambda, &mut delta);
+            core::mem::swap(&mut lambda, &mut delta);
             // Λ ← Φᵀ Λ Φ (exactly symmetric)
             let [a, b] = &mut bigs;
             let (from, to) = if cur == 0 { (a, b) } else { (b, a) };
-            kernels::dense_sandwich(&phi_t, from, &zero, to);
+            model.adjoint_sandwich(phi_t, from, to);
             cur = 1 - cur;
         }
         self.rows.reverse();
@@ -636,7 +757,7 @@ where
 impl<X, U, S> StepRecorder<X, U> for SegmentSmoother<X, U, S>
 where
     X: Manifold + Spill,
-    U: Spill,
+    U: Spill + Clone,
     S: Read + Write + Seek,
     DefaultAllocator: DimAlloc<X::Dim>,
 {
@@ -648,25 +769,38 @@ where
         mark: bool,
     ) {
         let epoch = filter.epoch();
-        if self.last_epoch != Some(epoch) || self.open_steps >= self.max_steps {
+        let updated = self.last_epoch != Some(epoch);
+        if updated || self.open_steps >= self.max_steps {
             self.close();
+            self.continues = !updated;
             self.last_epoch = Some(epoch);
         }
         if self.open_steps == 0 {
             self.start(filter);
         }
         let end = filter.time() + dt;
-        self.open.extend_from_slice(&[end, dt, f64::from(u8::from(mark))]);
         let at = self.open.len();
-        self.open.resize(at + U::LEN, 0.0);
-        u.spill(&mut self.open[at..]);
+        self.open.extend_from_slice(&[end, dt, f64::from(u8::from(mark))]);
+        let payload = at + STEP;
+        self.open.resize(payload + U::AFTER_LEN, 0.0);
+        let after = match &self.last_input {
+            Some(before) => u.spill_after(before, &mut self.open[payload..]),
+            None => false,
+        };
+        if after {
+            self.open[at + 2] += 2.0;
+        } else {
+            self.open.resize(payload + U::LEN, 0.0);
+            u.spill(&mut self.open[payload..]);
+        }
+        self.last_input = Some(u.clone());
         self.open_steps += 1;
     }
 }
 
-/// The diagonal of `G S Gᵀ` for `S = P − (PΛ) P` and `G = G(x, δ)`: the smoothed
+/// The diagonal of `G S Gᵀ` for `S = P − P Λ P` and `G = G(x, δ)`: the smoothed
 /// variances in the frame of `x ⊕ δ`, from the entries of `S` that the reset blocks touch
-/// (`S` is not formed; outside the blocks the variance is `S`'s diagonal).
+/// (`S` is not formed; outside the blocks the variance is `S`'s diagonal). `pl = P Λ`.
 fn variances_out_of<X: Manifold>(
     x: &X,
     delta: &manifolds::Tangent<X>,
@@ -676,10 +810,34 @@ fn variances_out_of<X: Manifold>(
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
+    let n = X::Dim::DIM;
+    // diag(P Λ P)[i] = Σ_k (PΛ)[i, k] P[k, i] = Σ_k (PΛ)[i, k] P[i, k]: whole columns of
+    // both, all rows at once (a row-by-row dot product waits on each addition)
+    let mut var = OVector::<f64, X::Dim>::zeros();
+    let (ps, pls) = (p.as_slice(), pl.as_slice());
+    for k in 0..n {
+        let (pc, plc) = (&ps[k * n..(k + 1) * n], &pls[k * n..(k + 1) * n]);
+        for (v, (a, b)) in var.iter_mut().zip(plc.iter().zip(pc)) {
+            *v += a * b;
+        }
+    }
+    for (i, v) in var.iter_mut().enumerate() {
+        *v = ps[i * n + i] - *v;
+    }
     let s = |r: usize, c: usize| p[(r, c)] - pl.row(r).dot(&p.column(c).transpose());
-    let mut var = OVector::<f64, X::Dim>::from_fn(|i, _| s(i, i));
     x.reset_blocks(delta, &mut |o, b| {
         let d = b.nrows();
+        // the block of S once (up to 6 × 6 on the stack), then its image through G
+        const MAX: usize = 6;
+        let mut block = [[0.0f64; MAX]; MAX];
+        if d <= MAX {
+            for (j, row) in block.iter_mut().enumerate().take(d) {
+                for (l, e) in row.iter_mut().enumerate().take(d) {
+                    *e = s(o + j, o + l);
+                }
+            }
+        }
+        let entry = |j: usize, l: usize| if d <= MAX { block[j][l] } else { s(o + j, o + l) };
         for i in 0..d {
             let mut v = 0.0;
             for j in 0..d {
@@ -690,7 +848,7 @@ where
                 for l in 0..d {
                     let gil = b[(i, l)];
                     if gil != 0.0 {
-                        v += gij * gil * s(o + j, o + l);
+                        v += gij * gil * entry(j, l);
                     }
                 }
             }
@@ -698,4 +856,41 @@ where
         }
     });
     var
+}
+
+/// `A⁻¹` of a symmetric positive-definite `A = L Lᵀ` from its Cholesky factor, exactly
+/// symmetric: `W = L⁻¹` by forward substitution, then the lower triangle of `Wᵀ W`,
+/// mirrored (about `N³/3` multiply-adds in plain loops over columns; nalgebra's
+/// `Cholesky::inverse` solves against the identity column by column, several times
+/// slower at the smoother's sizes).
+fn inverse_from_cholesky<N: DimName>(chol: &nalgebra::Cholesky<f64, N>) -> Cov<N>
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    let n = N::DIM;
+    let l = chol.l_dirty();
+    // W = L⁻¹, lower triangular, column by column: W[j, j] = 1/L[j, j],
+    // W[i, j] = −(Σ_{j ≤ k < i} L[i, k] W[k, j]) / L[i, i]
+    let mut w = Cov::<N>::zeros();
+    for j in 0..n {
+        w[(j, j)] = 1.0 / l[(j, j)];
+        for i in j + 1..n {
+            let mut v = 0.0;
+            for k in j..i {
+                v += l[(i, k)] * w[(k, j)];
+            }
+            w[(i, j)] = -v / l[(i, i)];
+        }
+    }
+    // A⁻¹[i, j] = Σ_{k ≥ i} W[k, i] W[k, j] for i ≥ j
+    let mut inv = Cov::<N>::zeros();
+    for j in 0..n {
+        for i in j..n {
+            let (ci, cj) = (w.column(i), w.column(j));
+            let v = ci.rows_range(i..).dot(&cj.rows_range(i..));
+            inv[(i, j)] = v;
+            inv[(j, i)] = v;
+        }
+    }
+    inv
 }

@@ -142,6 +142,38 @@ where
         self.propagate_covariance(P, &jac, out);
         x_next
     }
+
+    /// [`step_covariance`](Self::step_covariance) that also writes the transition's
+    /// transpose `Φᵀ` into `phi_t`: what a smoother's replay needs of each step. The
+    /// default is [`transition`](Self::transition) then `step_covariance`; a model whose
+    /// fused step forms `Φ` anyway (the INS model) hands it over instead. The prediction
+    /// must be bit for bit that of `step_covariance` (the harness checks it).
+    #[allow(non_snake_case)]
+    fn step_covariance_adjoint(
+        &self,
+        x: &Self::State,
+        u: &Self::Input,
+        dt: T,
+        P: &Cov<StateDim<Self::State, T>, T>,
+        out: &mut Cov<StateDim<Self::State, T>, T>,
+        phi_t: &mut Cov<StateDim<Self::State, T>, T>,
+    ) -> Self::State {
+        self.transition(x, u, dt).transpose_to(phi_t);
+        self.step_covariance(x, u, dt, P, out)
+    }
+
+    /// `out ← Φᵀ Λ Φ` for a symmetric `Λ`, given `Φᵀ` (`phi_t`): the adjoint step of a
+    /// smoother's backward pass. The result must be exactly symmetric. The dense default
+    /// costs about `1.5 N³` multiply-adds; override it to exploit the sparsity of `Φ` (the
+    /// INS model does).
+    fn adjoint_sandwich(
+        &self,
+        phi_t: &Cov<StateDim<Self::State, T>, T>,
+        lambda: &Cov<StateDim<Self::State, T>, T>,
+        out: &mut Cov<StateDim<Self::State, T>, T>,
+    ) {
+        T::dense_sandwich(phi_t, lambda, &Cov::<StateDim<Self::State, T>, T>::zeros(), out);
+    }
 }
 
 /// The [`ProcessJacobians`] of a process model (over the scalar `T`).

@@ -135,6 +135,8 @@ fn the_segments_see_the_adapted_noise_and_the_refusals() {
 struct Small {
     inner: Cursor<Vec<u8>>,
     room: usize,
+    /// A number written over the stored bytes at this byte offset when they are read back.
+    poke: Option<(usize, f64)>,
 }
 
 impl std::io::Write for Small {
@@ -151,7 +153,16 @@ impl std::io::Write for Small {
 
 impl std::io::Read for Small {
     fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
-        self.inner.read(b)
+        let start = self.inner.position() as usize;
+        let n = self.inner.read(b)?;
+        if let Some((at, v)) = self.poke {
+            for (i, byte) in v.to_le_bytes().into_iter().enumerate() {
+                if (start..start + n).contains(&(at + i)) {
+                    b[at + i - start] = byte;
+                }
+            }
+        }
+        Ok(n)
     }
 }
 
@@ -168,7 +179,8 @@ fn a_storage_failure_is_reported_by_the_recording_and_the_smoothing() {
     let run = |room: usize| {
         let mut f =
             ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
-        let mut seg = SegmentSmoother::new(Small { inner: Cursor::new(Vec::new()), room }, 4);
+        let mut seg =
+            SegmentSmoother::new(Small { inner: Cursor::new(Vec::new()), room, poke: None }, 4);
         for z in &c.z {
             seg.before_predict(&f, &(), c.dt, true);
             f.predict(&c.process, &(), c.dt).unwrap();
@@ -194,4 +206,37 @@ fn a_storage_failure_is_reported_by_the_recording_and_the_smoothing() {
         other => panic!("expected a storage error, got {other:?}"),
     }
     assert_eq!(rows, 0, "no row from a partial recording");
+}
+
+/// A storage that reads back other numbers than were written where the layout has flags
+/// (the continuation flag of the first segment, the flags of its first step) is refused
+/// as corrupt, not smoothed into wrong numbers.
+#[test]
+fn corrupt_flags_in_the_storage_are_refused() {
+    let c = case();
+    let sensor = LinearMeasurement::new(c.H);
+    let run = |poke: Option<(usize, f64)>| {
+        let mut f =
+            ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
+        let storage = Small { inner: Cursor::new(Vec::new()), room: usize::MAX, poke };
+        let mut seg = SegmentSmoother::new(storage, 4);
+        for z in &c.z {
+            seg.before_predict(&f, &(), c.dt, true);
+            f.predict(&c.process, &(), c.dt).unwrap();
+            if let Some(z) = z {
+                f.update(&sensor, &Vector1::new(*z), &c.R).unwrap();
+            }
+        }
+        seg.smooth(&f, &c.process, |_| Ok(()))
+    };
+    assert!(run(None).is_ok());
+    // a segment: 5 header numbers (steps, time, fading, noise tag, continuation), the
+    // state (2), the covariance's triangle (3), then per step: end, interval, flags, input
+    let (continuation, first_flags) = (4 * 8, (5 + 2 + 3 + 2) * 8);
+    for (at, value) in [(continuation, 0.5), (first_flags, 7.0), (first_flags, 2.0)] {
+        match run(Some((at, value))) {
+            Err(estimator_core::SmootherError::Corrupt(_)) => {}
+            other => panic!("{value} at byte {at}: expected a corrupt storage, got {other:?}"),
+        }
+    }
 }

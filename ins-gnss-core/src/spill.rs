@@ -96,6 +96,28 @@ impl Spill for ImuInput {
             cur: get_sample(&v[1 + SAMPLE..]),
         }
     }
+    /// An input whose previous sample is the step before's current one: that sample only
+    /// (the smoother's records of a run hold each IMU sample once).
+    const AFTER_LEN: usize = SAMPLE;
+    fn spill_after(&self, before: &Self, out: &mut [f64]) -> bool {
+        // bit for bit (a NaN-free sample equal by value is the same bits but ±0)
+        let same = |a: &ImuSample, b: &ImuSample| {
+            let (mut x, mut y) = ([0.0; SAMPLE], [0.0; SAMPLE]);
+            put_sample(&mut x, a);
+            put_sample(&mut y, b);
+            x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits())
+        };
+        match &self.prev {
+            Some(p) if same(p, &before.cur) => {
+                put_sample(out, &self.cur);
+                true
+            }
+            _ => false,
+        }
+    }
+    fn unspill_after(v: &[f64], before: &Self) -> Self {
+        ImuInput { prev: Some(before.cur), cur: get_sample(v) }
+    }
 }
 
 #[cfg(test)]
@@ -133,5 +155,38 @@ mod tests {
         round_trip(&ImuInput { prev: None, cur: s });
         let with_odo = ImuSample { odometer: Some(0.0), ..s };
         round_trip(&ImuInput { prev: Some(s), cur: with_odo });
+    }
+
+    /// An input that repeats the step before's sample is stored as its new sample alone
+    /// and comes back exactly; one that does not (another previous sample, none, an
+    /// odometer flag or a signed zero that differs) is not shortened.
+    #[test]
+    fn inputs_after_the_step_before_are_stored_once() {
+        let s = ImuSample::from_increments(
+            10.01,
+            0.01,
+            Vector3::new(1e-3, 2e-3, 3e-3),
+            Vector3::new(0.1, 0.0, -0.098),
+        );
+        let next = ImuSample { t: 10.02, dtheta: Vector3::new(2e-3, 0.0, -1e-3), ..s };
+        let before = ImuInput { prev: None, cur: s };
+        let after = ImuInput { prev: Some(s), cur: next };
+        let mut v = vec![f64::NAN; ImuInput::AFTER_LEN];
+        assert!(after.spill_after(&before, &mut v));
+        assert!(v.iter().all(|v| !v.is_nan()), "every slot written");
+        assert_eq!(ImuInput::unspill_after(&v, &before), after);
+        const { assert!(ImuInput::AFTER_LEN < ImuInput::LEN) };
+        let others = [
+            ImuInput { prev: None, cur: next },
+            ImuInput { prev: Some(next), cur: next },
+            ImuInput { prev: Some(ImuSample { odometer: Some(0.0), ..s }), cur: next },
+            ImuInput {
+                prev: Some(ImuSample { dvel: Vector3::new(0.1, -0.0, -0.098), ..s }),
+                cur: next,
+            },
+        ];
+        for other in others {
+            assert!(!other.spill_after(&before, &mut v), "{other:?}");
+        }
     }
 }

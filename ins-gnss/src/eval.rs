@@ -464,21 +464,33 @@ pub fn evaluate_with(
     skip: f64,
     windows: &[(f64, f64)],
 ) -> Result<Evaluation, LineError> {
-    let mut res = NavReader::open(result)?;
-    let mut refs = reference_reader(truth, columns)?;
-    let positions_only = match columns {
-        Some(c) => c.positions_only(),
-        None => reference_columns(truth)? == 4,
-    };
-    let mut ev = if positions_only {
-        evaluate_at_reference(|| res.next_record(), || refs.next_record(), skip, windows)?
-    } else {
-        evaluate_at_result(|| res.next_record(), || refs.next_record(), skip, windows)?
-    };
-    if let Some(sigma) = sigma_file(result) {
-        ev.nees = Some(nees_with(result, &sigma, truth, columns, skip)?);
-    }
-    Ok(ev)
+    // The NEES pass (the σ file beside the result) reads the files a second time: on a
+    // thread of its own, beside the error statistics (a day at 100 Hz is 2 GB of text per
+    // pass).
+    let sigma = sigma_file(result);
+    std::thread::scope(|scope| {
+        let nees = sigma
+            .as_ref()
+            .map(|sigma| scope.spawn(move || nees_with(result, sigma, truth, columns, skip)));
+        let errors = || -> Result<Evaluation, LineError> {
+            let mut res = NavReader::open(result)?;
+            let mut refs = reference_reader(truth, columns)?;
+            let positions_only = match columns {
+                Some(c) => c.positions_only(),
+                None => reference_columns(truth)? == 4,
+            };
+            if positions_only {
+                evaluate_at_reference(|| res.next_record(), || refs.next_record(), skip, windows)
+            } else {
+                evaluate_at_result(|| res.next_record(), || refs.next_record(), skip, windows)
+            }
+        };
+        let ev = errors();
+        let nees = nees.map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)));
+        let mut ev = ev?;
+        ev.nees = nees.transpose()?;
+        Ok(ev)
+    })
 }
 
 fn reference_columns(path: &Path) -> Result<usize, LineError> {

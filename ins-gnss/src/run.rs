@@ -29,8 +29,8 @@ use estimator_core::DimAlloc;
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
 use ins_gnss_core::imu::{DEG_PER_H, MGAL};
-use ins_gnss_core::io::fixed::push_row;
-use ins_gnss_core::io::formats::{create_partial, partial_path, publish, write_nav};
+use ins_gnss_core::io::fixed::{push_exact, push_exact_row, push_row};
+use ins_gnss_core::io::formats::{create_partial, partial_path, publish, push_nav};
 use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use ins_gnss_core::model::{ImuInput, InsModel};
 use ins_gnss_core::navigator::{NavError, NavState, Navigator};
@@ -546,6 +546,8 @@ struct Outputs {
     pos: std::io::BufWriter<std::fs::File>,
     /// Time of the last `nav.pos` epoch (the end of a run can repeat it).
     pos_last_t: Option<f64>,
+    /// A row's text before it is written (reused).
+    line: Vec<u8>,
 }
 
 /// A write to the output `name` in `dir` (its `.partial` file) failed.
@@ -557,14 +559,21 @@ fn partial_error(dir: &Path, name: &str, e: std::io::Error) -> RunError {
 struct NavFile {
     w: std::io::BufWriter<std::fs::File>,
     path: PathBuf,
+    /// A batch's text (reused).
+    text: Vec<u8>,
 }
 
 impl NavSink for NavFile {
     fn rows(&mut self, batch: &[(f64, InsState)]) -> Result<(), RunError> {
+        // the batch's text in one buffer, one write
+        let mut text = core::mem::take(&mut self.text);
+        text.clear();
         for (t, x) in batch {
-            write_nav(&mut self.w, &nav_record(*t, x)).map_err(|e| self.err(e))?;
+            push_nav(&mut text, &nav_record(*t, x));
         }
-        Ok(())
+        let written = self.w.write_all(&text).map_err(|e| self.err(e));
+        self.text = text;
+        written
     }
 
     fn finish(&mut self) -> Result<(), RunError> {
@@ -590,7 +599,11 @@ impl Outputs {
             let p = dir.join(name);
             create_partial(&p).map_err(|e| out(partial_path(&p), e))
         };
-        let nav = NavFile { w: open("nav.txt")?, path: partial_path(&dir.join("nav.txt")) };
+        let nav = NavFile {
+            w: open("nav.txt")?,
+            path: partial_path(&dir.join("nav.txt")),
+            text: Vec::new(),
+        };
         let mut o = Outputs {
             dir: dir.to_path_buf(),
             std: open("std.txt")?,
@@ -598,6 +611,7 @@ impl Outputs {
             updates: open("updates.csv")?,
             pos: open("nav.pos")?,
             pos_last_t: None,
+            line: Vec::with_capacity(256),
         };
         ins_gnss_core::io::rtklib::write_header(
             &mut o.pos,
@@ -657,9 +671,9 @@ impl Outputs {
     {
         let x = nav.nav_state();
         let (row, n) = sigma_row(t, nav.sigma().as_slice());
-        let mut line = Vec::with_capacity(200);
-        push_row(&mut line, &row[..n]);
-        self.std.write_all(&line)?;
+        self.line.clear();
+        push_row(&mut self.line, &row[..n]);
+        self.std.write_all(&self.line)?;
         // nav.pos: the position and velocity with their NED covariance blocks (error
         // states 6–8 and 3–5); Q 1 after a GNSS update, 5 (no GNSS) otherwise
         if self.pos_last_t == Some(t) {
@@ -670,21 +684,16 @@ impl Outputs {
         let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
         let (pos_cov, vel_cov) = (block(6), block(3));
         let q = if gnss_fix { 1 } else { 5 };
-        ins_gnss_core::io::rtklib::write_epoch(
-            &mut self.pos,
-            0.0,
-            t,
-            &x.pos,
-            &pos_cov,
-            Some((&x.vel, &vel_cov)),
-            q,
-        )?;
+        // (these files were written by `format!`; `push_epoch` and `push_exact_row` write
+        // the same bytes, faster)
+        self.line.clear();
+        let vel = Some((&x.vel, &vel_cov));
+        ins_gnss_core::io::rtklib::push_epoch(&mut self.line, 0.0, t, &x.pos, &pos_cov, vel, q);
+        self.pos.write_all(&self.line)?;
         let (row, n) = imu_error_row(t, x, nav.state().scale_factors());
-        for (i, (v, decimals)) in row[..n].iter().enumerate() {
-            let space = if i == 0 { "" } else { " " };
-            write!(self.imu_err, "{space}{v:.decimals$}")?;
-        }
-        writeln!(self.imu_err)
+        self.line.clear();
+        push_exact_row(&mut self.line, &row[..n]);
+        self.imu_err.write_all(&self.line)
     }
 }
 
@@ -714,22 +723,20 @@ impl Sink for Outputs {
     }
 
     fn update(&mut self, u: &UpdateSummary) -> Result<(), RunError> {
-        writeln!(
-            self.updates,
-            "{:.6},{},{},{:.6},{:.6},{},\"{}\",{:.6},{:.6},{:.6},{}",
-            u.time,
-            u.stream.name(),
-            u.dim,
-            u.nis,
-            u.nis_adapted,
-            u.verdict.as_str(),
-            u.reason,
-            u.factors.dom,
-            u.factors.lambda_p,
-            u.factors.lambda_r,
-            u8::from(u.prior_scaling_fallback)
-        )
-        .map_err(|e| self.err("updates.csv", e))
+        let l = &mut self.line;
+        l.clear();
+        push_exact(l, u.time, 0, 6);
+        let _ = write!(l, ",{},{},", u.stream.name(), u.dim);
+        push_exact(l, u.nis, 0, 6);
+        l.push(b',');
+        push_exact(l, u.nis_adapted, 0, 6);
+        let _ = write!(l, ",{},\"{}\",", u.verdict.as_str(), u.reason);
+        for v in [u.factors.dom, u.factors.lambda_p, u.factors.lambda_r] {
+            push_exact(l, v, 0, 6);
+            l.push(b',');
+        }
+        let _ = writeln!(l, "{}", u8::from(u.prior_scaling_fallback));
+        self.updates.write_all(l).map_err(|e| self.err("updates.csv", e))
     }
 
     fn nav_done(&mut self, _nav: NavFile) {}
@@ -1104,9 +1111,8 @@ where
 /// gate ([`Config::strategy`]).
 pub type RunStrategy = GrossErrorGate<PerStream<AnyStrategy>>;
 
-/// The smoother's scratch files in the output directory (removed when the run ends).
+/// The smoother's scratch file in the output directory (removed when the run ends).
 const SMOOTHER_STATES: &str = "smoother-segments.tmp";
-const SMOOTHER_ROWS: &str = "smoother-rows.tmp";
 
 /// Predictions per smoother segment at most (the backward pass holds one segment: three
 /// `N × N` matrices per prediction, 0.7 MB with 15 states).
@@ -1119,10 +1125,12 @@ type Recorder<S, T = std::fs::File> = estimator_core::SegmentSmoother<S, ImuInpu
 /// of a smoothed navego run).
 const POS_SMOOTHED_RATE: f64 = 10.0;
 
-/// The backward pass: `nav_smoothed.txt` and `std_smoothed.txt` (as `.partial`, in the
-/// formats of `nav.txt` and `std.txt`, at every IMU epoch). The smoother hands the
-/// segments last to first; their text goes to a scratch file, which is then copied out
-/// segment by segment in time order. Returns the number of rows.
+/// The backward pass: `nav_smoothed.txt`, `std_smoothed.txt` and `nav_smoothed.pos` (as
+/// `.partial`, in the formats of `nav.txt`, `std.txt` and `nav.pos`, at every IMU epoch;
+/// the `.pos` at most at 10 Hz). The smoother hands the segments last to first: each
+/// batch's text is appended to its file with its bytes reversed, so each file ends up as
+/// its final text backwards, which is then turned around in place ([`reverse_file`]): no
+/// scratch file, the disk never holds more than the outputs. Returns the number of rows.
 fn write_smoothed<S: RunState>(
     recorder: Recorder<S>,
     nav: &Navigator<RunStrategy, S>,
@@ -1132,43 +1140,63 @@ where
     estimator_core::Cov<S::Dim>: Send,
     DefaultAllocator: DimAlloc<S::Dim>,
 {
-    use std::io::{Read, Seek, SeekFrom};
-    let scratch = dir.join(SMOOTHER_ROWS);
+    let names = Outputs::SMOOTHED.map(|name| partial_path(&dir.join(name)));
+    let result = write_smoothed_into(recorder, nav, &names);
+    if result.is_err() {
+        // half-written, backwards: of no use to anyone
+        for path in &names {
+            let _ = std::fs::remove_file(path);
+        }
+    }
+    result
+}
+
+fn write_smoothed_into<S: RunState>(
+    recorder: Recorder<S>,
+    nav: &Navigator<RunStrategy, S>,
+    names: &[PathBuf; 3],
+) -> Result<usize, RunError>
+where
+    estimator_core::Cov<S::Dim>: Send,
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
     let io = |path: &Path| {
         let path = path.to_path_buf();
         move |e: std::io::Error| RunError::Output { path: path.clone(), message: e.to_string() }
     };
-    let file = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(&scratch)
-        .map_err(io(&scratch))?;
+    let open = |path: &PathBuf| {
+        std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)
+            .map_err(io(path))
+    };
+    let files = [open(&names[0])?, open(&names[1])?, open(&names[2])?];
     // The rows are formatted and written by a second thread while the backward pass runs.
     // (time, state, σ of the error states, as many as the state has)
     type Row = (f64, InsState, [f64; 21]);
     let n = S::Dim::DIM.min(21);
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
-    let writer = std::thread::spawn(move || -> std::io::Result<_> {
-        let mut rows_file = std::io::BufWriter::with_capacity(1 << 16, file);
-        // (offset, bytes of nav rows, of std rows, of .pos rows) of each segment's text
-        let mut chunks: Vec<(u64, usize, usize, usize)> = Vec::new();
-        let (mut at, mut count) = (0u64, 0usize);
-        let (mut nav_text, mut std_text, mut pos_text) = (Vec::new(), Vec::new(), Vec::new());
+    let writer = std::thread::spawn(move || -> Result<_, (usize, std::io::Error)> {
+        let mut out = files.map(|f| std::io::BufWriter::with_capacity(1 << 16, f));
+        let mut count = 0usize;
+        let mut text: [Vec<u8>; 3] = Default::default();
         let var = |s: &[f64]| -> nalgebra::Matrix3<f64> {
             let z = 0.0;
             nalgebra::Matrix3::new(s[0] * s[0], z, z, z, s[1] * s[1], z, z, z, s[2] * s[2])
         };
         for rows in rx {
+            let [nav_text, std_text, pos_text] = &mut text;
             nav_text.clear();
             std_text.clear();
             pos_text.clear();
             let mut bin = f64::NAN;
             for (t, x, sigma) in &rows {
-                write_nav(&mut nav_text, &nav_record(*t, x))?;
+                push_nav(nav_text, &nav_record(*t, x));
                 let (row, len) = sigma_row(*t, &sigma[..n]);
-                push_row(&mut std_text, &row[..len]);
+                push_row(std_text, &row[..len]);
                 // nav_smoothed.pos at most at 10 Hz (the first row of each 0.1 s); the
                 // smoother keeps the variances only: the covariances are written as 0
                 let here = (t * POS_SMOOTHED_RATE + 1e-6).floor();
@@ -1177,38 +1205,41 @@ where
                 }
                 bin = here;
                 let vel_var = var(&sigma[3..6]);
-                ins_gnss_core::io::rtklib::write_epoch(
-                    &mut pos_text,
-                    0.0,
-                    *t,
-                    &x.pos,
-                    &var(&sigma[6..9]),
-                    Some((&x.vel, &vel_var)),
-                    1,
-                )?;
+                let vel = Some((&x.vel, &vel_var));
+                let pos_var = var(&sigma[6..9]);
+                ins_gnss_core::io::rtklib::push_epoch(pos_text, 0.0, *t, &x.pos, &pos_var, vel, 1);
             }
-            rows_file.write_all(&nav_text)?;
-            rows_file.write_all(&std_text)?;
-            rows_file.write_all(&pos_text)?;
-            chunks.push((at, nav_text.len(), std_text.len(), pos_text.len()));
-            at += (nav_text.len() + std_text.len() + pos_text.len()) as u64;
+            for (i, (w, t)) in out.iter_mut().zip(text.iter_mut()).enumerate() {
+                t.reverse();
+                w.write_all(t).map_err(|e| (i, e))?;
+            }
             count += rows.len();
         }
-        Ok((rows_file.into_inner().map_err(|e| e.into_error())?, chunks, count))
+        // the .pos header goes first: last, backwards
+        let mut header = Vec::new();
+        let program = concat!("ins-gnss ", env!("CARGO_PKG_VERSION"), ", smoothed");
+        ins_gnss_core::io::rtklib::write_header(&mut header, program, true).map_err(|e| (2, e))?;
+        header.reverse();
+        out[2].write_all(&header).map_err(|e| (2, e))?;
+        let mut files = Vec::new();
+        for (i, w) in out.into_iter().enumerate() {
+            files.push(w.into_inner().map_err(|e| (i, e.into_error()))?);
+        }
+        Ok((files, count))
     });
-    // segments arrive last to first: a batch of them is sent in time order, as one chunk
-    let mut pending: Vec<Vec<Row>> = Vec::new();
-    let mut pending_rows = 0;
-    let send = |pending: &mut Vec<Vec<Row>>| {
-        let rows: Vec<Row> = pending.drain(..).rev().flatten().collect();
+    // segments arrive last to first: their rows are gathered backwards, and a batch of
+    // them is turned around and sent as one chunk, in time order
+    const BATCH_ROWS: usize = 4096;
+    let mut pending: Vec<Row> = Vec::with_capacity(BATCH_ROWS + SMOOTHER_SEGMENT);
+    let send = |pending: &mut Vec<Row>| {
+        pending.reverse();
+        let rows = core::mem::replace(pending, Vec::with_capacity(BATCH_ROWS + SMOOTHER_SEGMENT));
         tx.send(rows).map_err(|_| std::io::Error::other("the row writer stopped"))
     };
     let smoothed =
         recorder.smooth_threaded(nav.filter(), nav.model(), |rows: &[SmoothedRow<S>]| {
-            pending.push(rows.iter().map(smoothed_row).collect());
-            pending_rows += rows.len();
-            if pending_rows >= 4096 {
-                pending_rows = 0;
+            pending.extend(rows.iter().rev().map(smoothed_row));
+            if pending.len() >= BATCH_ROWS {
                 send(&mut pending)?;
             }
             Ok(())
@@ -1218,36 +1249,59 @@ where
     let written = writer
         .join()
         .map_err(|_| RunError::NoData("the smoother's writer thread panicked".into()))?;
+    let dir = names[0].parent().unwrap_or(Path::new("."));
     smoothed.map_err(|e| RunError::Output {
         path: dir.join(SMOOTHER_STATES),
         message: e.to_string(),
     })?;
-    let (mut file, chunks, count) = written.map_err(io(&scratch))?;
-    let nav_path = dir.join("nav_smoothed.txt");
-    let std_path = dir.join("std_smoothed.txt");
-    let pos_path = dir.join("nav_smoothed.pos");
-    let mut nav_out = create_partial(&nav_path).map_err(io(&partial_path(&nav_path)))?;
-    let mut std_out = create_partial(&std_path).map_err(io(&partial_path(&std_path)))?;
-    let mut pos_out = create_partial(&pos_path).map_err(io(&partial_path(&pos_path)))?;
-    ins_gnss_core::io::rtklib::write_header(
-        &mut pos_out,
-        concat!("ins-gnss ", env!("CARGO_PKG_VERSION"), ", smoothed"),
-        true,
-    )
-    .map_err(io(&partial_path(&pos_path)))?;
-    let mut buf = Vec::new();
-    for &(offset, n, s, p) in chunks.iter().rev() {
-        buf.resize(n + s + p, 0);
-        file.seek(SeekFrom::Start(offset)).map_err(io(&scratch))?;
-        file.read_exact(&mut buf).map_err(io(&scratch))?;
-        nav_out.write_all(&buf[..n]).map_err(io(&partial_path(&nav_path)))?;
-        std_out.write_all(&buf[n..n + s]).map_err(io(&partial_path(&std_path)))?;
-        pos_out.write_all(&buf[n + s..]).map_err(io(&partial_path(&pos_path)))?;
+    let (files, count) = written.map_err(|(i, e)| io(&names[i])(e))?;
+    // the three files turned around side by side (a day at 100 Hz is 2.5 GB of text)
+    let flipped: Vec<std::io::Result<()>> = std::thread::scope(|scope| {
+        let handles: Vec<_> =
+            files.into_iter().map(|mut f| scope.spawn(move || reverse_file(&mut f))).collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    for (i, result) in flipped.into_iter().enumerate() {
+        result.map_err(io(&names[i]))?;
     }
-    nav_out.flush().map_err(io(&partial_path(&nav_path)))?;
-    std_out.flush().map_err(io(&partial_path(&std_path)))?;
-    pos_out.flush().map_err(io(&partial_path(&pos_path)))?;
     Ok(count)
+}
+
+/// Reverse the bytes of `file` in place: blocks from both ends swapped and reversed,
+/// moving inwards (one read and one write of every byte, 3 MB of memory).
+fn reverse_file(file: &mut std::fs::File) -> std::io::Result<()> {
+    use std::io::{Read, Seek, SeekFrom};
+    const BLOCK: u64 = 1 << 20;
+    let (mut lo, mut hi) = (0u64, file.seek(SeekFrom::End(0))?);
+    // (`a` holds the middle too, up to two blocks)
+    let (mut a, mut b) = (vec![0u8; 2 * BLOCK as usize], vec![0u8; BLOCK as usize]);
+    let at = |file: &mut std::fs::File, pos: u64, buf: &mut [u8], write: bool| {
+        file.seek(SeekFrom::Start(pos))?;
+        if write {
+            file.write_all(buf)
+        } else {
+            file.read_exact(buf)
+        }
+    };
+    while hi - lo >= 2 * BLOCK {
+        let a = &mut a[..BLOCK as usize];
+        at(file, lo, a, false)?;
+        at(file, hi - BLOCK, &mut b, false)?;
+        a.reverse();
+        b.reverse();
+        at(file, lo, &mut b, true)?;
+        at(file, hi - BLOCK, a, true)?;
+        lo += BLOCK;
+        hi -= BLOCK;
+    }
+    let mid = &mut a[..(hi - lo) as usize];
+    at(file, lo, mid, false)?;
+    mid.reverse();
+    at(file, lo, mid, true)?;
+    file.flush()
 }
 
 /// Longest time between two rows of `std.txt` and `imu_errors.txt`, s (they are written
@@ -1271,11 +1325,9 @@ pub fn run(
     progress: Option<Progress<'_>>,
 ) -> Result<RunSummary, RunError> {
     let result = run_with(config, strategy, &Inputs::Files, progress, || Outputs::create(out_dir));
-    // once the outputs were created, the smoother's scratch files go whatever happened
+    // once the outputs were created, the smoother's scratch file goes whatever happened
     if !matches!(result, Err((_, false))) {
-        for name in [SMOOTHER_STATES, SMOOTHER_ROWS] {
-            let _ = std::fs::remove_file(out_dir.join(name));
-        }
+        let _ = std::fs::remove_file(out_dir.join(SMOOTHER_STATES));
     }
     match result {
         Err((error, false)) => Err(error),
@@ -1940,4 +1992,29 @@ where
     summary.stationary_time = nav.stationary_time();
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `reverse_file` turns files of every length around, blocks and middle included.
+    #[test]
+    fn files_are_reversed_in_place() {
+        let dir = std::env::temp_dir().join(format!("ins-gnss-reverse-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("f");
+        let block = 1usize << 20;
+        for len in [0, 1, 2, 1000, 2 * block - 1, 2 * block, 2 * block + 1, 5 * block + 3] {
+            let bytes: Vec<u8> = (0..len).map(|i| (i * 7 + i / 251) as u8).collect();
+            std::fs::write(&path, &bytes).unwrap();
+            let mut file = std::fs::OpenOptions::new().read(true).write(true).open(&path).unwrap();
+            reverse_file(&mut file).unwrap();
+            drop(file);
+            let back = std::fs::read(&path).unwrap();
+            let expected: Vec<u8> = bytes.iter().rev().copied().collect();
+            assert!(back == expected, "length {len}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -59,8 +59,55 @@ fn mat_mul_body<R: DimName, K: DimName, C: DimName, const FMA: bool>(
 {
     let (r, k) = (R::DIM, K::DIM);
     let (a, b) = (a.as_slice(), b.as_slice());
-    for (j, col) in out.as_mut_slice().chunks_exact_mut(r).enumerate() {
+    let mut cols = out.as_mut_slice().chunks_exact_mut(r).enumerate();
+    if (9..=16).contains(&r) {
+        // two output columns at a time: eight independent sums instead of four, so the
+        // multiply-adds are not waiting on each other's latency (the same sums, in the same
+        // order, as one column at a time)
+        while let (Some((j, c0)), Some((_, c1))) = (cols.next(), cols.next()) {
+            two_columns::<FMA>(a, r, k, [&b[j * k..], &b[(j + 1) * k..]], [c0, c1]);
+        }
+        // (an odd last column was consumed by the loop's first `next`)
+        if C::DIM % 2 == 1 {
+            let j = C::DIM - 1;
+            let col = &mut out.as_mut_slice()[j * r..(j + 1) * r];
+            lincomb::<1, FMA>([(a, &b[j * k..])], r, k, 1, 0, None, col);
+        }
+        return;
+    }
+    for (j, col) in cols {
         lincomb::<1, FMA>([(a, &b[j * k..])], r, k, 1, 0, None, col);
+    }
+}
+
+/// Two columns of `A B` for an `n × k` `A` with 9 to 16 rows: rows `0..8` and `n − 8..n`
+/// (overlapping) of each, as [`Combination::run`] does for one column, all 32 sums in
+/// registers.
+#[inline(always)]
+fn two_columns<const FMA: bool>(
+    a: &[f64],
+    n: usize,
+    k: usize,
+    coefs: [&[f64]; 2],
+    out: [&mut [f64]; 2],
+) {
+    let starts = [0, n - 8];
+    let mut acc = [[[0.0f64; 8]; 2]; 2];
+    for kk in 0..k {
+        let col = &a[kk * n..(kk + 1) * n];
+        let c = [coefs[0][kk], coefs[1][kk]];
+        for (b, &r) in starts.iter().enumerate() {
+            let seg = &col[r..r + 8];
+            for t in 0..8 {
+                acc[0][b][t] = madd::<FMA>(seg[t], c[0], acc[0][b][t]);
+                acc[1][b][t] = madd::<FMA>(seg[t], c[1], acc[1][b][t]);
+            }
+        }
+    }
+    for (o, a) in out.into_iter().zip(&acc) {
+        for (b, &r) in starts.iter().enumerate() {
+            o[r..r + 8].copy_from_slice(&a[b]);
+        }
     }
 }
 

@@ -45,12 +45,61 @@ const ROOM: usize = 24;
 /// of the text, or `None` when the value needs the standard formatter.
 #[inline]
 fn fixed_into(buf: &mut [u8; ROOM], value: f64, d: usize) -> Option<usize> {
-    let scaled = (value * POW10[d] as f64).round();
+    let scaled = round(value * POW10[d] as f64);
     if !scaled.is_finite() || scaled.abs() >= 9.0e18 {
         return None;
     }
+    digits_into(buf, value, scaled, d, false)
+}
+
+/// [`fixed_into`] that writes exactly the bytes of `format!("{value:.d$}")`: the product
+/// `value · 10^d` is within half an ulp of the exact one, so rounding it to an integer
+/// gives the correctly rounded decimal unless it lies within a few ulps of a half-integer
+/// (the standard formatter also rounds exact ties to even); those values, about one in
+/// 10¹⁴ of arbitrary ones, go to the standard formatter (`None`).
+#[inline]
+fn exact_into(buf: &mut [u8; ROOM], value: f64, d: usize) -> Option<usize> {
+    let raw = value * POW10[d] as f64;
+    if !raw.is_finite() || raw.abs() >= 9.0e18 {
+        return None;
+    }
+    // (for |raw| < 2⁵³ the fraction is computed exactly)
+    let a = raw.abs();
+    let tie_distance = ((a - a as u64 as f64) - 0.5).abs();
+    if tie_distance <= 4.0 * f64::EPSILON * a.max(1.0) {
+        return None;
+    }
+    // (the standard formatter keeps the sign of a negative value that rounds to zero)
+    digits_into(buf, value, round(raw), d, true)
+}
+
+/// `x.round()` (half away from zero) without the library call that `f64::round` is on
+/// x86-64 without SSE4.1: the truncation is an integer conversion, exact below 9·10¹⁸,
+/// and so is the fraction below 2⁵³ (above it every `f64` is an integer).
+#[inline(always)]
+fn round(x: f64) -> f64 {
+    let a = x.abs();
+    if a.is_nan() || a >= 9.0e18 {
+        return x.round();
+    }
+    let t = a as u64 as f64;
+    let r = if a - t >= 0.5 { t + 1.0 } else { t };
+    r.copysign(x)
+}
+
+/// The digits of the integer `scaled = round(value · 10^d)` with the point `d` digits from
+/// the right, right-aligned in `buf`; the start of the text. A negative value that rounds
+/// to zero is written with its sign when `signed_zero`.
+#[inline]
+fn digits_into(
+    buf: &mut [u8; ROOM],
+    value: f64,
+    scaled: f64,
+    d: usize,
+    signed_zero: bool,
+) -> Option<usize> {
     let mut n = scaled.abs() as u64;
-    let negative = value.is_sign_negative() && n != 0;
+    let negative = value.is_sign_negative() && (n != 0 || signed_zero);
     let mut at = ROOM;
     let pair = |buf: &mut [u8; ROOM], at: &mut usize, r: u64| {
         *at -= 2;
@@ -102,6 +151,36 @@ pub fn push_fixed(out: &mut Vec<u8>, value: f64, decimals: usize) {
             let _ = write!(out, "{value:.d$}");
         }
     }
+}
+
+/// Append `value` with `decimals` (≤ 15) digits after the point, right-aligned in
+/// `width` characters (padded with spaces), exactly as `format!("{value:width$.decimals$}")`
+/// writes it.
+pub fn push_exact(out: &mut Vec<u8>, value: f64, width: usize, decimals: usize) {
+    let d = decimals.min(15);
+    let mut buf = [0u8; ROOM];
+    match exact_into(&mut buf, value, d) {
+        Some(at) => {
+            let text = &buf[at..];
+            out.extend(std::iter::repeat_n(b' ', width.saturating_sub(text.len())));
+            out.extend_from_slice(text);
+        }
+        None => {
+            let _ = write!(out, "{value:width$.decimals$}");
+        }
+    }
+}
+
+/// Append space-separated values and a newline, each exactly as `format!("{v:.d$}")`
+/// writes it ([`push_exact`] without padding).
+pub fn push_exact_row(out: &mut Vec<u8>, values: &[(f64, usize)]) {
+    for (i, (v, d)) in values.iter().enumerate() {
+        if i > 0 {
+            out.push(b' ');
+        }
+        push_exact(out, *v, 0, *d);
+    }
+    out.push(b'\n');
 }
 
 /// Values a row builds on the stack before one copy into `out`.
@@ -240,6 +319,57 @@ mod tests {
         }
         expected.push(b'\n');
         assert_eq!(odd, expected);
+    }
+
+    proptest::proptest! {
+        /// The exact formatter writes the standard formatter's bytes, padding included.
+        #[test]
+        fn exact_formatter_writes_the_standard_bytes(
+            mantissa in -1e7f64..1e7,
+            exponent in -12i32..12,
+            d in 0usize..16,
+            width in 0usize..24,
+        ) {
+            let v = mantissa * 10f64.powi(exponent);
+            let mut a = Vec::new();
+            push_exact(&mut a, v, width, d);
+            proptest::prop_assert_eq!(String::from_utf8(a).unwrap(), format!("{v:width$.d$}"));
+        }
+
+        /// Values at and next to the half-way points of their last digit, where rounding
+        /// the scaled product can go the other way.
+        #[test]
+        fn exact_formatter_at_ties(k in -10_000_000i64..10_000_000, d in 0usize..9, ulps in -3i64..4) {
+            let tie = (k as f64 + 0.5) / 10f64.powi(d as i32);
+            let v = f64::from_bits((tie.to_bits() as i64 + ulps) as u64);
+            let mut a = Vec::new();
+            push_exact(&mut a, v, 0, d);
+            proptest::prop_assert_eq!(String::from_utf8(a).unwrap(), format!("{v:.d$}"));
+        }
+    }
+
+    proptest::proptest! {
+        /// The formatters' rounding is `f64::round`, bit for bit.
+        #[test]
+        fn rounding_is_the_standard_one(bits in proptest::num::u64::ANY, k in -4i64..5) {
+            let x = f64::from_bits(bits);
+            let near_half = (k as f64 + 0.5) * 10f64.powi((bits % 19) as i32);
+            for v in [x, near_half, f64::from_bits(near_half.to_bits().wrapping_add(1))] {
+                let (a, b) = (round(v), v.round());
+                proptest::prop_assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{}", v);
+            }
+        }
+    }
+
+    #[test]
+    fn exact_rows_and_special_values() {
+        let mut row = Vec::new();
+        push_exact_row(&mut row, &[(0.125, 2), (-0.5, 0), (2.5, 0), (f64::NAN, 3), (1e30, 1)]);
+        let expected = format!("{:.2} {:.0} {:.0} {:.3} {:.1}\n", 0.125, -0.5, 2.5, f64::NAN, 1e30);
+        assert_eq!(String::from_utf8(row).unwrap(), expected);
+        let mut padded = Vec::new();
+        push_exact(&mut padded, -3.25, 11, 4);
+        assert_eq!(String::from_utf8(padded).unwrap(), format!("{:11.4}", -3.25));
     }
 
     #[test]

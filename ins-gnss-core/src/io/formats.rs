@@ -994,11 +994,17 @@ impl<R: BufRead> NavReader<R> {
 /// Writes the 11-column navigation format (lat/lon to 1e-10°, h to 0.1 mm, velocity to
 /// 0.01 mm/s, attitude to 1e-8°).
 pub fn write_nav<W: Write>(w: &mut W, r: &NavRecord) -> std::io::Result<()> {
+    let mut line = Vec::with_capacity(160);
+    push_nav(&mut line, r);
+    w.write_all(&line)
+}
+
+/// [`write_nav`] appended to `out` (no allocation when `out` has room: the writers of a
+/// run keep one buffer).
+pub fn push_nav(out: &mut Vec<u8>, r: &NavRecord) {
     const DECIMALS: [usize; 11] = [0, 6, 10, 10, 4, 5, 5, 5, 8, 8, 8];
     let v = r.values();
-    let mut line = Vec::with_capacity(160);
-    super::fixed::push_row(&mut line, &core::array::from_fn::<_, 11, _>(|i| (v[i], DECIMALS[i])));
-    w.write_all(&line)
+    super::fixed::push_row(out, &core::array::from_fn::<_, 11, _>(|i| (v[i], DECIMALS[i])));
 }
 
 /// Writes one GNSS epoch in the 7- or 13-column format.

@@ -461,59 +461,60 @@ fn sqvar(c: f64) -> f64 {
     }
 }
 
-/// Writes one epoch: GPS `week` and seconds of week `t`, the position, its NED covariance,
-/// and the velocity (NED) with its covariance. `Q` is written as 1 when the epoch is a
-/// GNSS fix's and 5 otherwise (an inertial solution, no GNSS that epoch); `ns` as 0.
+/// Appends one epoch to `out`: GPS `week` and seconds of week `t`, the position, its NED
+/// covariance, and the velocity (NED) with its covariance. `Q` is written as 1 when the
+/// epoch is a GNSS fix's and 5 otherwise (an inertial solution, no GNSS that epoch); `ns`
+/// as 0. The numbers are written by [`push_exact`](super::fixed::push_exact): the bytes
+/// `format!` wrote before (tested), faster.
 #[allow(clippy::too_many_arguments)]
-pub fn write_epoch<W: Write>(
-    w: &mut W,
+pub fn push_epoch(
+    out: &mut Vec<u8>,
     week: f64,
     t: f64,
     pos: &GeoPos,
     pos_cov: &Matrix3<f64>,
     vel: Option<(&Vector3<f64>, &Matrix3<f64>)>,
     q: u8,
-) -> std::io::Result<()> {
+) {
+    // each value after a space, right-aligned in its width (wider values overflow it)
+    let field = |out: &mut Vec<u8>, v: f64, width: usize, decimals: usize| {
+        out.push(b' ');
+        super::fixed::push_exact(out, v, width, decimals);
+    };
     let d = 180.0 / core::f64::consts::PI;
     // NED → NEU
     let f = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
     let c = f * pos_cov * f;
-    write!(
-        w,
-        "{:4} {:11.4} {:16.11} {:16.11} {:12.6} {:3} {:3} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:6.2} {:6.1}",
-        week as i64,
-        t,
-        pos.lat * d,
-        pos.lon * d,
-        pos.h,
-        q,
-        0,
-        c[(0, 0)].sqrt(),
-        c[(1, 1)].sqrt(),
-        c[(2, 2)].sqrt(),
-        sqvar(c[(0, 1)]),
-        sqvar(c[(1, 2)]),
-        sqvar(c[(2, 0)]),
-        0.0,
-        0.0
-    )?;
-    if let Some((v, vc)) = vel {
-        let c = f * vc * f;
-        write!(
-            w,
-            " {:11.6} {:11.6} {:11.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6}",
-            v.x,
-            v.y,
-            -v.z,
+    let _ = write!(out, "{:4}", week as i64);
+    field(out, t, 11, 4);
+    field(out, pos.lat * d, 16, 11);
+    field(out, pos.lon * d, 16, 11);
+    field(out, pos.h, 12, 6);
+    let _ = write!(out, " {:3} {:3}", q, 0);
+    let sd = |c: &Matrix3<f64>| {
+        [
             c[(0, 0)].sqrt(),
             c[(1, 1)].sqrt(),
             c[(2, 2)].sqrt(),
             sqvar(c[(0, 1)]),
             sqvar(c[(1, 2)]),
-            sqvar(c[(2, 0)])
-        )?;
+            sqvar(c[(2, 0)]),
+        ]
+    };
+    for v in sd(&c) {
+        field(out, v, 9, 6);
     }
-    writeln!(w)
+    field(out, 0.0, 6, 2);
+    field(out, 0.0, 6, 1);
+    if let Some((v, vc)) = vel {
+        for x in [v.x, v.y, -v.z] {
+            field(out, x, 11, 6);
+        }
+        for x in sd(&(f * vc * f)) {
+            field(out, x, 9, 6);
+        }
+    }
+    out.push(b'\n');
 }
 
 /// ECEF of a geodetic position (for writers and tests).
@@ -524,6 +525,65 @@ pub fn to_ecef(p: &GeoPos) -> Vector3<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The epoch as `write!` wrote it before [`push_epoch`]: the bytes must not change.
+    fn formatted(
+        t: f64,
+        pos: &GeoPos,
+        pc: &Matrix3<f64>,
+        vel: Option<(&Vector3<f64>, &Matrix3<f64>)>,
+        q: u8,
+    ) -> String {
+        let d = 180.0 / core::f64::consts::PI;
+        let f = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
+        let c = f * pc * f;
+        let mut s = format!(
+            "{:4} {:11.4} {:16.11} {:16.11} {:12.6} {:3} {:3} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:6.2} {:6.1}",
+            0, t, pos.lat * d, pos.lon * d, pos.h, q, 0, c[(0, 0)].sqrt(), c[(1, 1)].sqrt(),
+            c[(2, 2)].sqrt(), sqvar(c[(0, 1)]), sqvar(c[(1, 2)]), sqvar(c[(2, 0)]), 0.0, 0.0
+        );
+        if let Some((v, vc)) = vel {
+            let c = f * vc * f;
+            s += &format!(
+                " {:11.6} {:11.6} {:11.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6}",
+                v.x,
+                v.y,
+                -v.z,
+                c[(0, 0)].sqrt(),
+                c[(1, 1)].sqrt(),
+                c[(2, 2)].sqrt(),
+                sqvar(c[(0, 1)]),
+                sqvar(c[(1, 2)]),
+                sqvar(c[(2, 0)])
+            );
+        }
+        s + "\n"
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn push_epoch_writes_what_format_wrote(
+            t in 0.0f64..700_000.0,
+            lat in -1.5f64..1.5,
+            lon in -3.1f64..3.1,
+            h in -500.0f64..1e5,
+            var in proptest::collection::vec(1e-9f64..1e6, 6),
+            cross in -0.9f64..0.9,
+            v in proptest::collection::vec(-1e3f64..1e3, 3),
+            q in 1u8..7,
+            with_vel in proptest::bool::ANY,
+        ) {
+            let pos = GeoPos { lat, lon, h };
+            let pc = Matrix3::new(var[0], cross * (var[0] * var[1]).sqrt(), 0.0,
+                cross * (var[0] * var[1]).sqrt(), var[1], 0.0, 0.0, 0.0, var[2]);
+            let vc = Matrix3::from_diagonal(&Vector3::new(var[3], var[4], var[5]));
+            let vel = Vector3::new(v[0], v[1], v[2]);
+            let vel = with_vel.then_some((&vel, &vc));
+            let mut out = Vec::new();
+            push_epoch(&mut out, 0.0, t, &pos, &pc, vel, q);
+            proptest::prop_assert_eq!(String::from_utf8(out).unwrap(), formatted(t, &pos, &pc, vel, q));
+        }
+    }
 
     #[test]
     fn the_calendar_round_trips_and_knows_the_gps_epoch() {

@@ -90,20 +90,92 @@ macro_rules! fill_columns {
     }};
 }
 
-/// `out ← Φ M Φᵀ` for `M` (symmetric) in padded columns: `Aᵀ = M Φᵀ` over the non-zeros
-/// of `Φ`'s rows (90 of 225), then `R = Φ Aᵀ` over the non-zero rows of `Φ`'s columns,
-/// lower triangle only, mirrored, so the result is exactly symmetric. About 670
-/// four-wide multiply-adds.
+/// The non-zero pattern of a transition in padded columns: `Φ` itself (the prediction)
+/// or `Ψ = Φᵀ` (a smoother's adjoint step `Φᵀ Λ Φ = Ψ Λ Ψᵀ`).
+trait Pattern {
+    /// `Σ_k A[:, k] m[k]` from row `LO` down, over the non-zero rows of `A`'s columns.
+    fn combination<const FMA: bool, const LO: usize>(a: &Cols16, m: &[f64; 16]) -> [f64; 16];
+    /// `Σ_k M[:, k] A[j, k]`, column `j` of `M Aᵀ`, over the non-zeros of `A`'s row `j`.
+    fn times_row<const FMA: bool>(m: &Cols16, a: &Cols16, j: usize) -> [f64; 16];
+}
+
+/// The INS `Φ`.
+struct Phi;
+
+impl Pattern for Phi {
+    #[inline(always)]
+    fn combination<const FMA: bool, const LO: usize>(a: &Cols16, m: &[f64; 16]) -> [f64; 16] {
+        phi_combination::<FMA, LO>(a, m)
+    }
+    #[inline(always)]
+    fn times_row<const FMA: bool>(m: &Cols16, a: &Cols16, j: usize) -> [f64; 16] {
+        times_row::<FMA>(m, a, j)
+    }
+}
+
+/// `Ψ = Φᵀ` for the INS `Φ`: column `k` of `Ψ` is row `k` of `Φ` (θ: θ v p and one b_g
+/// row; v: θ v p b_a; p: v p; bias: the diagonal), row `j` of `Ψ` is column `j` of `Φ`
+/// (θ: θ v; v and p: θ v p; b_g: one θ and the diagonal; b_a: v and the diagonal).
+struct PhiTransposed;
+
+impl Pattern for PhiTransposed {
+    #[inline(always)]
+    fn combination<const FMA: bool, const LO: usize>(a: &Cols16, m: &[f64; 16]) -> [f64; 16] {
+        let mut acc = [0.0_f64; 16];
+        for k in 0..3 {
+            axpy::<FMA, LO>(&mut acc, &a[k], m[k], 0, 12);
+        }
+        for k in 3..6 {
+            axpy::<FMA, LO>(&mut acc, &a[k], m[k], 0, 16);
+        }
+        for k in 6..9 {
+            axpy::<FMA, LO>(&mut acc, &a[k], m[k], 0, 12);
+        }
+        for k in 9..12 {
+            axpy::<FMA, LO>(&mut acc, &a[k], m[k], 8, 12);
+        }
+        for k in 12..15 {
+            axpy::<FMA, LO>(&mut acc, &a[k], m[k], 12, 16);
+        }
+        acc
+    }
+    #[inline(always)]
+    fn times_row<const FMA: bool>(m: &Cols16, a: &Cols16, j: usize) -> [f64; 16] {
+        let mut acc = [0.0_f64; 16];
+        let (first, second) = match j / 3 {
+            0 => ((0, 6), (0, 0)),
+            1 | 2 => ((0, 9), (0, 0)),
+            3 => ((j - 9, j - 8), (j, j + 1)),
+            _ => ((3, 6), (j, j + 1)),
+        };
+        for (lo, hi) in [first, second] {
+            for k in lo..hi {
+                axpy::<FMA, 0>(&mut acc, &m[k], a[k][j], 0, 16);
+            }
+        }
+        acc
+    }
+}
+
+/// `out ← A M Aᵀ` for `M` (symmetric) in padded columns and `A` of pattern `P`:
+/// `Bᵀ = M Aᵀ` over the non-zeros of `A`'s rows (90 of 225 for the INS `Φ`), then
+/// `R = A Bᵀ` over the non-zero rows of `A`'s columns, lower triangle only, mirrored, so
+/// the result is exactly symmetric. About 670 four-wide multiply-adds.
 #[inline(always)]
-fn sandwich_body<const FMA: bool, A: Addend>(phi: &Cols16, m: &Cols16, add: &A, out: &mut Cols) {
+fn sandwich_body<const FMA: bool, P: Pattern, A: Addend>(
+    a: &Cols16,
+    m: &Cols16,
+    add: &A,
+    out: &mut Cols,
+) {
     let mut buf = core::mem::MaybeUninit::<Cols16>::uninit();
-    let at = fill_columns!(buf, |j| times_row::<FMA>(m, phi, j));
+    let bt = fill_columns!(buf, |j| P::times_row::<FMA>(m, a, j));
     let mut buf = core::mem::MaybeUninit::<Cols16>::uninit();
     let r = fill_columns!(buf, |j| match j {
-        0..=3 => phi_combination::<FMA, 0>(phi, &at[j]),
-        4..=7 => phi_combination::<FMA, 4>(phi, &at[j]),
-        8..=11 => phi_combination::<FMA, 8>(phi, &at[j]),
-        _ => phi_combination::<FMA, 12>(phi, &at[j]),
+        0..=3 => P::combination::<FMA, 0>(a, &bt[j]),
+        4..=7 => P::combination::<FMA, 4>(a, &bt[j]),
+        8..=11 => P::combination::<FMA, 8>(a, &bt[j]),
+        _ => P::combination::<FMA, 12>(a, &bt[j]),
     });
     mirror_blocks(r, add, out);
 }
@@ -207,7 +279,7 @@ fma_kernel! {
 
 #[inline(always)]
 fn sandwich_padded_kernel<const FMA: bool>(phi: &Cols16, m: &Cols16, e: &HalfNoise, out: &mut M15) {
-    sandwich_body::<FMA, _>(phi, m, e, &mut out.data.0);
+    sandwich_body::<FMA, Phi, _>(phi, m, e, &mut out.data.0);
 }
 
 /// A matrix as padded columns.
@@ -251,5 +323,28 @@ fma_kernel! {
 
 #[inline(always)]
 fn phi_sandwich_kernel<const FMA: bool>(phi: &M15, m: &M15, q: &M15, out: &mut M15) {
-    sandwich_body::<FMA, _>(&padded(phi), &padded(m), q, &mut out.data.0);
+    sandwich_body::<FMA, Phi, _>(&padded(phi), &padded(m), q, &mut out.data.0);
+}
+
+/// Nothing added to a sandwich.
+struct Zero;
+
+impl Addend for Zero {
+    #[inline(always)]
+    fn segment(&self, _: usize, _: usize) -> [f64; 4] {
+        [0.0; 4]
+    }
+}
+
+fma_kernel! {
+    /// `out ← Φᵀ Λ Φ` for the INS `Φ`, given `Φᵀ` (`phi_t`), and a symmetric `Λ`: the
+    /// smoother's adjoint step over the non-zeros of `Φ` only (the prediction's kernel on
+    /// the transposed pattern), exactly symmetric.
+    pub fn adjoint_sandwich_into(phi_t: &M15, lambda: &M15, out: &mut M15) =
+        adjoint_sandwich_kernel / adjoint_sandwich_avx2 / adjoint_sandwich_portable
+}
+
+#[inline(always)]
+fn adjoint_sandwich_kernel<const FMA: bool>(phi_t: &M15, lambda: &M15, out: &mut M15) {
+    sandwich_body::<FMA, PhiTransposed, _>(&padded(phi_t), &padded(lambda), &Zero, &mut out.data.0);
 }

@@ -50,7 +50,7 @@ mod kernel;
 mod noise;
 
 use error_blocks::ErrorBlocks;
-pub use kernel::{phi_sandwich, phi_sandwich_into, phi_times};
+pub use kernel::{adjoint_sandwich_into, phi_sandwich, phi_sandwich_into, phi_times};
 pub use kernel::{phi_sandwich_avx2, phi_sandwich_portable, phi_times_avx2, phi_times_portable};
 use kernel::{sandwich_padded, Cols, Cols16};
 use noise::HalfNoise;
@@ -313,6 +313,43 @@ impl InsModel {
     }
 }
 
+impl InsModel {
+    /// The whole epoch without forming `Φ` or `Q_d` as dense matrices: the non-zero
+    /// blocks of `F` go straight into `Φ`'s padded columns, and the trapezoid's noise is
+    /// folded in as `out ← Φ (P + E) Φᵀ + E` with the block-diagonal `E = D dt/2`; `Φᵀ`
+    /// copied into `phi_t` when asked (a smoother's replay).
+    #[allow(non_snake_case)]
+    #[inline(always)]
+    fn fused_step(
+        &self,
+        x: &InsState,
+        u: &ImuInput,
+        P: &Cov<Const<15>>,
+        out: &mut Cov<Const<15>>,
+        phi_t: Option<&mut Cov<Const<15>>>,
+    ) -> InsState {
+        let (inc, c, earth) = Self::shared(x, u);
+        let b = self.transition_blocks(x, &inc, &c, &earth);
+        let phi = b.phi(inc.dt);
+        let e = self.half_noise(&c, inc.dt);
+        let m = e.added_to(P);
+        // The mechanization between writing Φ and P + E and reading them lets the stores
+        // drain before the kernel loads whole columns.
+        let next = self.propagate_with(x, &inc, &c, &earth);
+        sandwich_padded(&phi, &m, &e, out);
+        if let Some(phi_t) = phi_t {
+            // Φᵀ[(r, c)] = Φ[(c, r)] = phi[r][c]: column c of Φᵀ is row c of Φ
+            let dst = &mut phi_t.data.0;
+            for (r, col) in phi.iter().enumerate() {
+                for (c, v) in col[..15].iter().enumerate() {
+                    dst[c][r] = *v;
+                }
+            }
+        }
+        next
+    }
+}
+
 impl ProcessModel for InsModel {
     type State = InsState;
     type Input = ImuInput;
@@ -366,9 +403,8 @@ impl ProcessModel for InsModel {
         phi_sandwich_into(&jac.Phi, P, &jac.Q, out);
     }
 
-    /// The whole epoch without forming `Φ` or `Q_d` as dense matrices: the non-zero
-    /// blocks of `F` go straight into `Φ`'s padded columns, and the trapezoid's noise is
-    /// folded in as `out ← Φ (P + E) Φᵀ + E` with the block-diagonal `E = D dt/2`.
+    /// The whole epoch without forming `Φ` or `Q_d` as dense matrices
+    /// ([`fused_step`](InsModel::fused_step)).
     fn step_covariance(
         &self,
         x: &InsState,
@@ -377,15 +413,29 @@ impl ProcessModel for InsModel {
         P: &Cov<Const<15>>,
         out: &mut Cov<Const<15>>,
     ) -> InsState {
-        let (inc, c, earth) = Self::shared(x, u);
-        let b = self.transition_blocks(x, &inc, &c, &earth);
-        let phi = b.phi(inc.dt);
-        let e = self.half_noise(&c, inc.dt);
-        let m = e.added_to(P);
-        // The mechanization between writing Φ and P + E and reading them lets the stores
-        // drain before the kernel loads whole columns.
-        let next = self.propagate_with(x, &inc, &c, &earth);
-        sandwich_padded(&phi, &m, &e, out);
-        next
+        self.fused_step(x, u, P, out, None)
+    }
+
+    /// The fused step, `Φᵀ` copied out of the columns it already formed.
+    fn step_covariance_adjoint(
+        &self,
+        x: &InsState,
+        u: &ImuInput,
+        _dt: f64,
+        P: &Cov<Const<15>>,
+        out: &mut Cov<Const<15>>,
+        phi_t: &mut Cov<Const<15>>,
+    ) -> InsState {
+        self.fused_step(x, u, P, out, Some(phi_t))
+    }
+
+    /// `Φᵀ Λ Φ` over the non-zero blocks of `Φ` (the prediction's kernel, transposed).
+    fn adjoint_sandwich(
+        &self,
+        phi_t: &Cov<Const<15>>,
+        lambda: &Cov<Const<15>>,
+        out: &mut Cov<Const<15>>,
+    ) {
+        adjoint_sandwich_into(phi_t, lambda, out);
     }
 }
