@@ -4,7 +4,9 @@
 //! - one 15-state INS epoch (mechanization + covariance propagation), dense vs structured;
 //! - one GNSS position+velocity update of the INS filter;
 //! - a whole run of the simulator's 10-minute drive at 200 Hz (IMU epochs per second);
-//! - text in and out: the IMU reader and the navigation writer, in MB/s.
+//! - text in and out: the IMU reader and the navigation writer, in MB/s;
+//! - the segment smoother on 8,000 INS epochs: the recorded forward pass, the backward
+//!   pass (replay and adjoint recursion), and the adjoint product `Φᵀ Λ Φ`.
 //!
 //! Run: `cargo bench --bench filters` (add a filter, e.g. `-- ins_epoch`, to run a part).
 //! The 240-state static matrices are large, so the benches run on a thread with a 256 MiB
@@ -19,7 +21,7 @@ use criterion::{BatchSize, BenchmarkId, Criterion, Throughput};
 use estimator::estimator_core::linear::{LinearMeasurement, LinearProcess};
 use estimator::estimator_core::{
     CovBackend, DynamicCov, ErrorStateFilter, FaerCov, FixedNoise, NoObserver, ProcessJacobians,
-    ProcessModel, StaticCov, UpdateForm,
+    ProcessModel, SegmentSmoother, StaticCov, StepRecorder, UpdateForm,
 };
 use estimator::ins_gnss::model::ImuInput;
 use estimator::ins_gnss::{
@@ -266,6 +268,78 @@ fn whole_run(c: &mut Criterion) {
     g.finish();
 }
 
+/// The segment smoother on the 40 s of [`ins_setup`] at 200 Hz (8,000 epochs, no update:
+/// segments of 128 steps, continued): the forward pass recording into memory, the
+/// backward pass from that recording (one thread, and the replay on a second), and the
+/// adjoint product alone, structured against dense.
+fn smoother(c: &mut Criterion) {
+    type Recorder = SegmentSmoother<InsState, ImuInput, std::io::Cursor<Vec<u8>>>;
+    let d = ins_setup();
+    let record = || {
+        let mut f = ErrorStateFilter::new(d.states[0].clone(), d.P, FixedNoise).unwrap();
+        let mut seg = Recorder::new(std::io::Cursor::new(Vec::new()), 128);
+        for u in &d.inputs {
+            seg.before_predict(&f, u, 0.005, true);
+            f.predict(&d.model, u, 0.005).unwrap();
+        }
+        (f, seg)
+    };
+    let mut g = c.benchmark_group("smoother");
+    g.throughput(Throughput::Elements(d.inputs.len() as u64));
+    g.sample_size(10);
+    g.bench_function("forward_recorded_8000_epochs", |b| b.iter(|| black_box(record().0.time())));
+    g.bench_function("backward_8000_epochs", |b| {
+        b.iter_batched(
+            record,
+            |(f, seg)| {
+                let mut rows = 0;
+                seg.smooth(&f, &d.model, |r| {
+                    rows += r.len();
+                    Ok(())
+                })
+                .unwrap();
+                rows
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    g.bench_function("backward_threaded_8000_epochs", |b| {
+        b.iter_batched(
+            record,
+            |(f, seg)| {
+                let mut rows = 0;
+                seg.smooth_threaded(&f, &d.model, |r| {
+                    rows += r.len();
+                    Ok(())
+                })
+                .unwrap();
+                rows
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    g.finish();
+    let mut g = c.benchmark_group("adjoint_sandwich");
+    let phi_t = d.model.transition(&d.states[0], &d.inputs[0], 0.005).transpose();
+    let lambda = SMatrix::<f64, 15, 15>::from_fn(|i, j| 1.0 / (1.0 + i as f64 + j as f64));
+    let mut out = SMatrix::<f64, 15, 15>::zeros();
+    g.bench_function("structured", |b| {
+        b.iter(|| d.model.adjoint_sandwich(black_box(&phi_t), black_box(&lambda), &mut out))
+    });
+    let zero = SMatrix::<f64, 15, 15>::zeros();
+    g.bench_function("dense", |b| {
+        b.iter(|| {
+            estimator::estimator_core::FilterScalar::dense_sandwich(
+                black_box(&phi_t),
+                black_box(&lambda),
+                &zero,
+                &mut out,
+            )
+        })
+    });
+    g.finish();
+}
+
 /// Text in and out at the speed of the parser and formatter: 20,000 IMU lines (KF-GINS
 /// increments, 7 columns) read from memory, 20,000 navigation rows written to memory.
 fn text_io(c: &mut Criterion) {
@@ -349,6 +423,7 @@ fn main() {
                 .configure_from_args();
             ins(&mut c);
             text_io(&mut c);
+            smoother(&mut c);
             whole_run(&mut c);
             dims(&mut c);
             c.final_summary();
