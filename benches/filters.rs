@@ -288,36 +288,29 @@ fn smoother(c: &mut Criterion) {
     g.throughput(Throughput::Elements(d.inputs.len() as u64));
     g.sample_size(10);
     g.bench_function("forward_recorded_8000_epochs", |b| b.iter(|| black_box(record().0.time())));
-    g.bench_function("backward_8000_epochs", |b| {
-        b.iter_batched(
-            record,
-            |(f, seg)| {
-                let mut rows = 0;
-                seg.smooth(&f, &d.model, |r| {
-                    rows += r.len();
-                    Ok(())
-                })
-                .unwrap();
-                rows
-            },
-            BatchSize::LargeInput,
-        )
-    });
-    g.bench_function("backward_threaded_8000_epochs", |b| {
-        b.iter_batched(
-            record,
-            |(f, seg)| {
-                let mut rows = 0;
-                seg.smooth_threaded(&f, &d.model, |r| {
-                    rows += r.len();
-                    Ok(())
-                })
-                .unwrap();
-                rows
-            },
-            BatchSize::LargeInput,
-        )
-    });
+    for (name, threaded) in
+        [("backward_8000_epochs", false), ("backward_threaded_8000_epochs", true)]
+    {
+        g.bench_function(name, |b| {
+            b.iter_batched(
+                record,
+                |(f, seg)| {
+                    let mut rows = 0;
+                    let sink = |r: &[_]| {
+                        rows += r.len();
+                        Ok(())
+                    };
+                    if threaded {
+                        seg.smooth_threaded(&f, &d.model, sink).unwrap();
+                    } else {
+                        seg.smooth(&f, &d.model, sink).unwrap();
+                    }
+                    rows
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    }
     g.finish();
     let mut g = c.benchmark_group("adjoint_sandwich");
     let phi_t = d.model.transition(&d.states[0], &d.inputs[0], 0.005).transpose();
