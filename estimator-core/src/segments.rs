@@ -585,7 +585,11 @@ impl<S: Read + Seek> Store<'_, S> {
         };
         let mut at = HEAD + qn;
         let tri = n * (n + 1) / 2;
-        if v.len() < at + X::LEN + tri + count * (STEP + U::AFTER_LEN.min(U::LEN)) || count == 0 {
+        // (a corrupt count must not overflow the bound it is checked against)
+        let least = count
+            .checked_mul(STEP + U::AFTER_LEN.min(U::LEN))
+            .and_then(|steps| steps.checked_add(at + X::LEN + tri));
+        if least.is_none_or(|least| v.len() < least) || count == 0 {
             return Err(corrupt("segment length"));
         }
         seg.xs.clear();

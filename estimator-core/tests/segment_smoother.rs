@@ -209,8 +209,8 @@ fn a_storage_failure_is_reported_by_the_recording_and_the_smoothing() {
 }
 
 /// A storage that reads back other numbers than were written where the layout has flags
-/// (the continuation flag of the first segment, the flags of its first step) is refused
-/// as corrupt, not smoothed into wrong numbers.
+/// (the continuation flag of the first segment, the flags of its first step) or a step
+/// count is refused as corrupt, not smoothed into wrong numbers.
 #[test]
 fn corrupt_flags_in_the_storage_are_refused() {
     let c = case();
@@ -233,7 +233,9 @@ fn corrupt_flags_in_the_storage_are_refused() {
     // a segment: 5 header numbers (steps, time, fading, noise tag, continuation), the
     // state (2), the covariance's triangle (3), then per step: end, interval, flags, input
     let (continuation, first_flags) = (4 * 8, (5 + 2 + 3 + 2) * 8);
-    for (at, value) in [(continuation, 0.5), (first_flags, 7.0), (first_flags, 2.0)] {
+    // and a step count (the first number) too large for memory: refused, no overflow
+    let cases = [(continuation, 0.5), (first_flags, 7.0), (first_flags, 2.0), (0, 1e300)];
+    for (at, value) in cases {
         match run(Some((at, value))) {
             Err(estimator_core::SmootherError::Corrupt(_)) => {}
             other => panic!("{value} at byte {at}: expected a corrupt storage, got {other:?}"),

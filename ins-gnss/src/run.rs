@@ -566,14 +566,12 @@ struct NavFile {
 impl NavSink for NavFile {
     fn rows(&mut self, batch: &[(f64, InsState)]) -> Result<(), RunError> {
         // the batch's text in one buffer, one write
-        let mut text = core::mem::take(&mut self.text);
-        text.clear();
+        self.text.clear();
         for (t, x) in batch {
-            push_nav(&mut text, &nav_record(*t, x));
+            push_nav(&mut self.text, &nav_record(*t, x));
         }
-        let written = self.w.write_all(&text).map_err(|e| self.err(e));
-        self.text = text;
-        written
+        let written = self.w.write_all(&self.text);
+        written.map_err(|e| self.err(e))
     }
 
     fn finish(&mut self) -> Result<(), RunError> {

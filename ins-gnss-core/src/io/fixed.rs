@@ -65,12 +65,15 @@ fn exact_into(buf: &mut [u8; ROOM], value: f64, d: usize) -> Option<usize> {
     }
     // (for |raw| < 2⁵³ the fraction is computed exactly)
     let a = raw.abs();
-    let tie_distance = ((a - a as u64 as f64) - 0.5).abs();
-    if tie_distance <= 4.0 * f64::EPSILON * a.max(1.0) {
+    let whole = a as u64 as f64;
+    let fraction = a - whole;
+    if (fraction - 0.5).abs() <= 4.0 * f64::EPSILON * a.max(1.0) {
         return None;
     }
-    // (the standard formatter keeps the sign of a negative value that rounds to zero)
-    digits_into(buf, value, round(raw), d, true)
+    // rounded half away from zero, as `round` does (no tie gets here); the standard
+    // formatter keeps the sign of a negative value that rounds to zero
+    let scaled = if fraction > 0.5 { whole + 1.0 } else { whole };
+    digits_into(buf, value, scaled, d, true)
 }
 
 /// `x.round()` (half away from zero) without the library call that `f64::round` is on
