@@ -1476,18 +1476,22 @@ impl ImuFeed {
         let (tx, batches) = std::sync::mpsc::sync_channel::<ImuBatch>(4);
         let reader = std::thread::spawn(move || {
             let mut batch = Vec::with_capacity(BATCH);
-            let (mut tee, config) = tee.unzip();
+            // the checks' samples go in one message when their span ends (or the data
+            // does): one wake-up of the checks' thread instead of one per sample
+            let mut tee = tee.map(|(to, config)| (to, config, Vec::new()));
             let mut t_end = f64::NAN;
             loop {
                 match imu.next_sample() {
                     Ok(Some(s)) => {
-                        if let (Some(to), Some(config)) = (&tee, &config) {
+                        if let Some((_, config, span)) = &mut tee {
                             if t_end.is_nan() {
                                 t_end = start_span(config, s.t).1;
                             }
-                            let _ = to.send(s);
+                            span.push(s);
                             if s.t > t_end {
-                                tee = None;
+                                if let Some((to, _, span)) = tee.take() {
+                                    let _ = to.send(span);
+                                }
                             }
                         }
                         batch.push((s, imu.line()));
@@ -1510,6 +1514,9 @@ impl ImuFeed {
                     }
                 }
             }
+            if let Some((to, _, span)) = tee {
+                let _ = to.send(span);
+            }
             imu.skipped
         });
         Self { batches, reader }
@@ -1523,8 +1530,8 @@ impl ImuFeed {
     }
 }
 
-/// The IMU samples [`Checks`] look at, one by one (the channel closes after the last).
-type Tee = std::sync::mpsc::Sender<ImuSample>;
+/// The IMU samples [`Checks`] look at, in one message (none if the reader stopped early).
+type Tee = std::sync::mpsc::Sender<Vec<ImuSample>>;
 
 /// [`crate::start::prepare`] run beside the filter when it only checks (the initial state
 /// and noise are given): on the IMU samples the reader tees to it and the GNSS epochs of
@@ -1535,12 +1542,12 @@ impl Checks {
     fn spawn(
         config: &Config,
         inputs: &Inputs,
-        imu: std::sync::mpsc::Receiver<ImuSample>,
+        imu: std::sync::mpsc::Receiver<Vec<ImuSample>>,
     ) -> Result<Self, RunError> {
         let mut gnss = open_gnss(config, inputs)?;
         let config = config.clone();
         Ok(Self(std::thread::spawn(move || {
-            let samples: Vec<ImuSample> = imu.iter().collect();
+            let samples = imu.recv().unwrap_or_default();
             let Some(first) = samples.first() else {
                 return Ok(());
             };

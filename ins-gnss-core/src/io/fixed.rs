@@ -294,6 +294,28 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        /// A row writes the same bytes as its values one by one through the reference.
+        #[test]
+        fn rows_write_the_reference_bytes(
+            values in proptest::collection::vec((-1e7f64..1e7, -12i32..12, 0usize..16), 0..40),
+        ) {
+            let values: Vec<(f64, usize)> =
+                values.iter().map(|(m, e, d)| (m * 10f64.powi(*e), *d)).collect();
+            let mut row = Vec::new();
+            push_row(&mut row, &values);
+            let mut one = Vec::new();
+            for (i, (v, d)) in values.iter().enumerate() {
+                if i > 0 {
+                    one.push(b' ');
+                }
+                reference(&mut one, *v, *d);
+            }
+            one.push(b'\n');
+            proptest::prop_assert_eq!(row, one);
+        }
+    }
+
     #[test]
     fn rows_equal_their_values_one_by_one() {
         let values: Vec<(f64, usize)> =

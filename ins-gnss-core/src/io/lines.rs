@@ -288,17 +288,37 @@ impl<R: BufRead> NumericLines<R> {
         if self.rows.is_some() {
             return self.next_row();
         }
+        // the common case: a data line whole in the reader's buffer is read where it is
+        // (copying each line out first cost as much as finding its end)
+        if self.select.is_none() && self.line > 0 {
+            let (inner, values) = (&mut self.inner, &mut self.values);
+            if let Ok(buffered) = inner.fill_buf() {
+                if let Some(end) = memchr::memchr(b'\n', buffered) {
+                    let line = &buffered[..=end];
+                    let data = line
+                        .iter()
+                        .find(|b| !b.is_ascii_whitespace())
+                        .is_some_and(|b| *b != b'#' && *b != b'%');
+                    if data {
+                        values.clear();
+                        let read = parse_line(line, values);
+                        inner.consume(end + 1);
+                        self.line += 1;
+                        return match read {
+                            Ok(()) => Ok(Some(&self.values)),
+                            Err(kind) => Err(self.error(kind)),
+                        };
+                    }
+                }
+            }
+        }
         if !self.advance()? {
             return Ok(None);
         }
         let values = &mut self.values;
         values.clear();
-        let mut failure = None;
-        let fields = self
-            .buf
-            .split(|b| b.is_ascii_whitespace() || *b == b',' || *b == b';')
-            .filter(|s| !s.is_empty());
         if let Some(slots) = &self.select {
+            let fields = self.buf.split(|b| is_separator(*b)).filter(|s| !s.is_empty());
             // the selected fields only, each into its slot (no allocation per line)
             values.resize(self.selected, f64::NAN);
             let mut found = 0;
@@ -322,26 +342,9 @@ impl<R: BufRead> NumericLines<R> {
             }
             return Ok(Some(&self.values));
         }
-        for (i, bytes) in fields.enumerate() {
-            match parse_field(bytes) {
-                Some(v) if v.is_finite() => values.push(v),
-                Some(_) => {
-                    failure = Some(LineErrorKind::NonFinite { column: i + 1 });
-                    break;
-                }
-                None => {
-                    let text = match std::str::from_utf8(bytes) {
-                        Ok(field) => field.chars().take(40).collect(),
-                        Err(_) => "(not UTF-8 text)".into(),
-                    };
-                    failure = Some(LineErrorKind::NotNumeric { column: i + 1, text });
-                    break;
-                }
-            }
-        }
-        match failure {
-            Some(kind) => Err(self.error(kind)),
-            None => Ok(Some(&self.values)),
+        match parse_line(&self.buf, values) {
+            Err(kind) => Err(self.error(kind)),
+            Ok(()) => Ok(Some(&self.values)),
         }
     }
 
@@ -382,9 +385,127 @@ fn parse_field(bytes: &[u8]) -> Option<f64> {
     fast_float2::parse::<f64, _>(bytes).ok()
 }
 
+/// A field separator: white space, `,` or `;`.
+#[inline(always)]
+fn is_separator(b: u8) -> bool {
+    b.is_ascii_whitespace() || b == b',' || b == b';'
+}
+
+/// The numbers of a line, appended to `values`: every field (a run of bytes between
+/// separators) must be a finite number as [`parse_field`] reads it. One pass over the
+/// bytes: each number is read where its field starts and must end at a separator (a
+/// split into fields first, then a parse of each, read every byte twice).
+fn parse_line(line: &[u8], values: &mut Vec<f64>) -> Result<(), LineErrorKind> {
+    let mut at = 0;
+    let mut column = 0;
+    loop {
+        while at < line.len() && is_separator(line[at]) {
+            at += 1;
+        }
+        if at == line.len() {
+            return Ok(());
+        }
+        column += 1;
+        let rest = &line[at..];
+        match fast_float2::parse_partial::<f64, _>(rest) {
+            Ok((v, n)) if n > 0 && rest.get(n).is_none_or(|b| is_separator(*b)) => {
+                if !v.is_finite() {
+                    return Err(LineErrorKind::NonFinite { column });
+                }
+                values.push(v);
+                at += n;
+            }
+            _ => {
+                let end = rest.iter().position(|b| is_separator(*b)).unwrap_or(rest.len());
+                let text = match std::str::from_utf8(&rest[..end]) {
+                    Ok(field) => field.chars().take(40).collect(),
+                    Err(_) => "(not UTF-8 text)".into(),
+                };
+                return Err(LineErrorKind::NotNumeric { column, text });
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::parse_field;
+    use super::{parse_field, parse_line, LineErrorKind};
+
+    /// The line split into fields first, then each field parsed (the reader before
+    /// [`parse_line`]).
+    fn split_then_parse(line: &[u8]) -> Result<Vec<f64>, LineErrorKind> {
+        let mut values = Vec::new();
+        let fields = line
+            .split(|b| b.is_ascii_whitespace() || *b == b',' || *b == b';')
+            .filter(|s| !s.is_empty());
+        for (i, bytes) in fields.enumerate() {
+            match parse_field(bytes) {
+                Some(v) if v.is_finite() => values.push(v),
+                Some(_) => return Err(LineErrorKind::NonFinite { column: i + 1 }),
+                None => {
+                    let text = match std::str::from_utf8(bytes) {
+                        Ok(field) => field.chars().take(40).collect(),
+                        Err(_) => "(not UTF-8 text)".into(),
+                    };
+                    return Err(LineErrorKind::NotNumeric { column: i + 1, text });
+                }
+            }
+        }
+        Ok(values)
+    }
+
+    fn one_pass(line: &[u8]) -> Result<Vec<f64>, LineErrorKind> {
+        let mut values = Vec::new();
+        parse_line(line, &mut values).map(|()| values)
+    }
+
+    fn bits(r: Result<Vec<f64>, LineErrorKind>) -> Result<Vec<u64>, LineErrorKind> {
+        r.map(|v| v.iter().map(|x| x.to_bits()).collect())
+    }
+
+    #[test]
+    fn one_pass_reads_lines_as_split_then_parse() {
+        for line in [
+            "1 2 3\n",
+            "  456300.005 -1.5e-05,2.25;3 \r\n",
+            "1e5e 2",
+            "1.5-2 3",
+            "inf 1",
+            "1 nan",
+            "infx",
+            ". 1",
+            "1,,2;;3\t\t4",
+            "",
+            "   \n",
+            "+1 -.5 1. 0x10",
+            "1\u{00e9}",
+            "\u{0c}1\u{0b}2",
+        ] {
+            assert_eq!(
+                bits(one_pass(line.as_bytes())),
+                bits(split_then_parse(line.as_bytes())),
+                "{line:?}"
+            );
+        }
+        let bad = [b'1', b' ', 0xff, 0xfe, b'\n'];
+        assert_eq!(bits(one_pass(&bad)), bits(split_then_parse(&bad)));
+    }
+
+    proptest::proptest! {
+        /// Lines of numbers, separators and stray characters read the same either way.
+        #[test]
+        fn one_pass_agrees_with_split_then_parse(
+            line in "[-+0-9.eEinfatyx ,;\t\r\n]{0,60}",
+            numbers in proptest::collection::vec(proptest::num::f64::ANY, 0..8),
+        ) {
+            let (a, b) = (one_pass(line.as_bytes()), split_then_parse(line.as_bytes()));
+            proptest::prop_assert_eq!(bits(a), bits(b), "{:?}", line);
+            let text: Vec<String> = numbers.iter().map(|v| format!("{v:e}")).collect();
+            let line = text.join(" , ");
+            let (a, b) = (one_pass(line.as_bytes()), split_then_parse(line.as_bytes()));
+            proptest::prop_assert_eq!(bits(a), bits(b), "{:?}", line);
+        }
+    }
 
     /// `str::parse`'s verdict on a field: the value's bits, or a refusal.
     fn std_parse(bytes: &[u8]) -> Option<u64> {
