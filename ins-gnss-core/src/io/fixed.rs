@@ -279,6 +279,19 @@ mod tests {
         }
     }
 
+    /// A row through the reference: the values one by one, spaces between, a newline.
+    fn reference_row(values: &[(f64, usize)]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for (i, (v, d)) in values.iter().enumerate() {
+            if i > 0 {
+                out.push(b' ');
+            }
+            reference(&mut out, *v, *d);
+        }
+        out.push(b'\n');
+        out
+    }
+
     proptest::proptest! {
         #[test]
         fn writes_the_same_bytes_as_the_itoa_formatter(
@@ -304,15 +317,7 @@ mod tests {
                 values.iter().map(|(m, e, d)| (m * 10f64.powi(*e), *d)).collect();
             let mut row = Vec::new();
             push_row(&mut row, &values);
-            let mut one = Vec::new();
-            for (i, (v, d)) in values.iter().enumerate() {
-                if i > 0 {
-                    one.push(b' ');
-                }
-                reference(&mut one, *v, *d);
-            }
-            one.push(b'\n');
-            proptest::prop_assert_eq!(row, one);
+            proptest::prop_assert_eq!(row, reference_row(&values));
         }
     }
 
@@ -323,27 +328,13 @@ mod tests {
         for n in [0, 1, 5, 22, 32, 33, 40] {
             let mut row = Vec::new();
             push_row(&mut row, &values[..n]);
-            let mut one = Vec::new();
-            for (i, (v, d)) in values[..n].iter().enumerate() {
-                if i > 0 {
-                    one.push(b' ');
-                }
-                reference(&mut one, *v, *d);
-            }
-            one.push(b'\n');
+            let one = reference_row(&values[..n]);
             assert_eq!(String::from_utf8(row).unwrap(), String::from_utf8(one).unwrap(), "{n}");
         }
-        let mut odd = Vec::new();
-        push_row(&mut odd, &[(1.5, 2), (f64::NAN, 3), (1e30, 1), (-0.25, 1)]);
-        let mut expected = Vec::new();
-        for (i, (v, d)) in [(1.5, 2), (f64::NAN, 3), (1e30, 1), (-0.25, 1)].iter().enumerate() {
-            if i > 0 {
-                expected.push(b' ');
-            }
-            reference(&mut expected, *v, *d);
-        }
-        expected.push(b'\n');
-        assert_eq!(odd, expected);
+        let odd = [(1.5, 2), (f64::NAN, 3), (1e30, 1), (-0.25, 1)];
+        let mut row = Vec::new();
+        push_row(&mut row, &odd);
+        assert_eq!(row, reference_row(&odd));
     }
 
     proptest::proptest! {

@@ -271,9 +271,8 @@ impl<R: BufRead> NumericLines<R> {
                 // a UTF-8 byte-order mark (editors on Windows write one): not data
                 self.buf.drain(..3);
             }
-            match self.buf.iter().find(|b| !b.is_ascii_whitespace()) {
-                None | Some(b'#') | Some(b'%') => continue,
-                Some(_) => return Ok(true),
+            if is_data(&self.buf) {
+                return Ok(true);
             }
         }
     }
@@ -295,11 +294,7 @@ impl<R: BufRead> NumericLines<R> {
             if let Ok(buffered) = inner.fill_buf() {
                 if let Some(end) = memchr::memchr(b'\n', buffered) {
                     let line = &buffered[..=end];
-                    let data = line
-                        .iter()
-                        .find(|b| !b.is_ascii_whitespace())
-                        .is_some_and(|b| *b != b'#' && *b != b'%');
-                    if data {
+                    if is_data(line) {
                         values.clear();
                         let read = parse_line(line, values);
                         inner.consume(end + 1);
@@ -383,6 +378,11 @@ impl<R: BufRead> NumericLines<R> {
 #[inline]
 fn parse_field(bytes: &[u8]) -> Option<f64> {
     fast_float2::parse::<f64, _>(bytes).ok()
+}
+
+/// Whether a line holds data: not blank, not a comment (`#`, `%`).
+fn is_data(line: &[u8]) -> bool {
+    line.iter().find(|b| !b.is_ascii_whitespace()).is_some_and(|b| *b != b'#' && *b != b'%')
 }
 
 /// A field separator: white space, `,` or `;`.
