@@ -190,6 +190,14 @@ where
         self
     }
 
+    /// Set the filter clock to `t` seconds: a caller whose inputs carry their own time
+    /// stamps keeps the clock on them (a prediction adds its interval, which need not
+    /// start where the clock stands: the first IMU interval of a run may begin before the
+    /// start time).
+    pub fn set_time(&mut self, t: f64) {
+        self.time = t;
+    }
+
     /// The nominal state.
     pub fn state(&self) -> &X {
         &self.x

@@ -5,15 +5,16 @@
 //! [`RtsSmoother`](crate::RtsSmoother) keeps `(x̂⁺, P⁺, Φ, x̂⁻, P⁻)` of every prediction in
 //! memory: about 3 `N × N` matrices per step, 17 GB for a day of 100 Hz IMU data with 15
 //! states. [`SegmentSmoother`] keeps, per segment, the posterior `(x̂⁺, P⁺)` it starts from,
-//! the strategy's prediction fading and process-noise adjustment (constant within a
-//! segment: strategies change them only at updates) and the inputs `(u, dt)` of its steps —
-//! one covariance per update instead of three per step — in its storage, and in memory
-//! only the start offset of each segment.
+//! the covariance `Pₙ` it ends with when an update follows (given by
+//! [`StepRecorder::before_update`]), the strategy's prediction fading and process-noise
+//! adjustment (constant within a segment: strategies change them only at updates) and the
+//! inputs `(u, dt)` of its steps — two covariances per update instead of three per step —
+//! in its storage, and in memory only the start offset of each segment.
 //!
-//! The backward pass reads the segments last to first. It replays each one from its
-//! `(x̂⁺, P⁺)` with the model (the forward pass's `x̂ᵢ`, `Pᵢ`, `Φᵢ` on the static back-end) and runs the
-//! RTS recursion through it in its adjoint form (Bryson & Frazier; Bierman 1977 §X),
-//! which needs no inverse inside a segment:
+//! The backward pass reads the segments last to first. It replays each one's nominal
+//! states and transitions `Φᵢ` with the model (no covariance) and runs the RTS recursion
+//! through it in its adjoint form (Bryson & Frazier; Bierman 1977 §X), which needs no
+//! inverse inside a segment and no covariance between its ends:
 //!
 //! ```text
 //! at the segment's end n (the prior of the next segment's first update), with
@@ -21,35 +22,41 @@
 //!   λₙ = Pₙ⁻¹ d,           Λₙ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
 //! backwards through the steps:
 //!   λᵢ = Φᵢᵀ λᵢ₊₁,          Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ
-//!   x̂ˢᵢ = x̂ᵢ ⊕ Pᵢ λᵢ,        Pˢᵢ = Pᵢ − Pᵢ Λᵢ Pᵢ
+//! at the start, and forwards through the steps (the smoothed corrections δᵢ = Pᵢ λᵢ):
+//!   δ₀ = P₀ λ₀,            δᵢ₊₁ = α Φᵢ δᵢ + Q̃ᵢ λᵢ₊₁,      x̂ˢᵢ = x̂ᵢ ⊕ δᵢ
+//!   Pˢ₀ = P₀ − P₀ Λ₀ P₀    (and Pˢₙ = Pₙ − Pₙ Λₙ Pₙ where the variances are asked)
 //! ```
 //!
 //! which is the RTS gain `Cᵢ = Pᵢ Φᵢᵀ Pᵢ₊₁⁻¹` applied step by step (`δᵢ = Cᵢ δᵢ₊₁`
-//! with `δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁`). The frames are those of [`RtsSmoother`](crate::RtsSmoother)
-//! (see its module): inside a segment there is no update, so the smoothed error stays in
-//! the frames of the replayed nominals; `Pˢ` is taken into the prior's frame at the
-//! segment's end and out to the smoothed estimate's (`G(x̂ᵢ, δᵢ) Pˢᵢ G(x̂ᵢ, δᵢ)ᵀ`) where it
-//! is reported. At a segment's start `Pˢ` is formed whole; in between only the reported
-//! variances, from the entries of `Pᵢ Λᵢ Pᵢ` that the diagonal and the reset blocks need.
-//! Both smoothers give the same numbers, on a vector space (`tests/segment_smoother.rs`)
-//! and on SO(3) × R³ (`tests/smoother_manifold.rs`), to 1e-9.
+//! with `δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁`); the forward sweep is `Pᵢ₊₁ λᵢ₊₁` expanded with the
+//! prediction `Pᵢ₊₁ = Φᵢ (α Pᵢ) Φᵢᵀ + Q̃ᵢ` (`α` the fading, `Q̃ᵢ` the adjusted `Q_d`, whose
+//! product with a vector the model gives: [`ProcessModel::noise_times`]), so the
+//! covariances inside a segment are never formed. The frames are those of
+//! [`RtsSmoother`](crate::RtsSmoother) (see its module): inside a segment there is no
+//! update, so the smoothed error stays in the frames of the replayed nominals; `Pˢ` is
+//! taken into the prior's frame at the segment's end and out to the smoothed estimate's
+//! (`G(x̂ᵢ, δᵢ) Pˢᵢ G(x̂ᵢ, δᵢ)ᵀ`) where it is reported. Both smoothers give the same
+//! numbers, on a vector space (`tests/segment_smoother.rs`) and on SO(3) × R³
+//! (`tests/smoother_manifold.rs`), to 1e-9.
 //!
 //! The forward pass records through [`StepRecorder::before_predict`], called with the
-//! filter before each prediction; a new segment starts whenever the filter's update
-//! counter moved (an update, accepted or refused, may change `x̂`, `P`, the fading and the
-//! noise adjustment) or the segment is full. Steps are *marked* when their end is an
-//! output epoch; the backward pass returns the smoothed state and variances there.
+//! filter before each prediction, and [`StepRecorder::before_update`], before each update;
+//! a new segment starts whenever the filter's update counter moved (an update, accepted or
+//! refused, may change `x̂`, `P`, the fading and the noise adjustment), the segment is full,
+//! or its last step asked for variances. Steps are *marked* when their end is an output
+//! epoch; the backward pass returns the smoothed state there, and the smoothed variances
+//! where [`StepRecorder::mark_variances`] asked for them (such a step ends its segment, so
+//! its covariance is stored). A segment whose end covariance was not given (an update
+//! without `before_update`) is replayed with its covariance, as the filter predicted it.
 //!
 //! What keeps the second pass close to the cost of the first:
-//! - the replay takes each step's `Φᵀ` from the model's fused prediction
-//!   ([`ProcessModel::step_covariance_adjoint`]) and the recursion's `Φᵀ Λ Φ` from the
-//!   model's structured product ([`ProcessModel::adjoint_sandwich`]; the INS model runs
-//!   its prediction kernel on the transposed pattern);
+//! - the replay forms each step's nominal and `Φᵀ` only
+//!   ([`ProcessModel::step_transition`]); the recursion's `Φᵀ Λ Φ` is the model's
+//!   structured product ([`ProcessModel::adjoint_sandwich`]; the INS model runs its
+//!   prediction kernel on the transposed pattern), the rest products with vectors;
 //! - a segment closed for length, not by an update, is *continued*: `λ` and `Λ` go through
 //!   its boundary as they are, without the smoothed covariance and the Cholesky factor an
 //!   update boundary needs;
-//! - `P Λ` and the variances are formed only at marked steps, the variances as one pass
-//!   over whole columns;
 //! - an input that repeats the step before's (an IMU input carries the previous sample)
 //!   is stored once ([`Spill::spill_after`]), and closed segments are written and read
 //!   back about a megabyte at a time.
@@ -71,7 +78,7 @@ use crate::dims::Cov;
 use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
 use crate::kernels;
-use crate::linalg::{cholesky, symmetrize};
+use crate::linalg::cholesky;
 use crate::smoother::{reframe, Reframe};
 use crate::traits::ProcessModel;
 
@@ -178,6 +185,21 @@ where
         dt: f64,
         mark: bool,
     );
+
+    /// Called with the filter just before an update (or the first of several at one
+    /// time): a recorder that stores the covariance a stretch of predictions ends with
+    /// takes it here. Without this call the backward pass rebuilds that covariance by
+    /// replaying the stretch. Default: nothing.
+    fn before_update<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) {
+        let _ = filter;
+    }
+
+    /// The end of the last recorded prediction is an epoch at which the smoothed
+    /// variances are wanted too (the prediction is marked as well). Default: nothing.
+    fn mark_variances(&mut self) {}
 }
 
 impl<X: Manifold, U> StepRecorder<X, U> for ()
@@ -211,6 +233,23 @@ where
             r.before_predict(filter, u, dt, mark);
         }
     }
+
+    #[inline]
+    fn before_update<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) {
+        if let Some(r) = self {
+            r.before_update(filter);
+        }
+    }
+
+    #[inline]
+    fn mark_variances(&mut self) {
+        if let Some(r) = self {
+            r.mark_variances();
+        }
+    }
 }
 
 /// A smoothed output epoch.
@@ -223,16 +262,31 @@ where
     pub time: f64,
     /// The smoothed state.
     pub x: X,
-    /// The smoothed variances (diagonal of `Pˢ`).
-    pub var: OVector<f64, X::Dim>,
+    /// The smoothed variances (diagonal of `Pˢ`), at the epochs that asked for them
+    /// ([`StepRecorder::mark_variances`]).
+    pub var: Option<OVector<f64, X::Dim>>,
 }
 
 /// Header numbers before the state: steps, start time, fading, noise-adjustment tag,
-/// and whether the segment continues the one before it (no update between them).
-const HEAD: usize = 5;
-/// Numbers per step before the input: end time, interval, flags (bit 0: marked; bit 1:
-/// the input is stored after the step before it, [`Spill::spill_after`]).
+/// whether the segment continues the one before it (no update between them), and what
+/// its end holds ([`END_OPEN`], [`END_PRIOR`], [`END_REPLAY`]).
+const HEAD: usize = 6;
+/// Numbers per step before the input: end time, interval, flags ([`MARKED`],
+/// [`AFTER`], [`VARIANCES`]).
 const STEP: usize = 3;
+/// Step flag: the step ends at an output epoch.
+const MARKED: u8 = 1;
+/// Step flag: the input is stored after the step before it ([`Spill::spill_after`]).
+const AFTER: u8 = 2;
+/// Step flag: the output epoch wants the smoothed variances too (the segment ends there).
+const VARIANCES: u8 = 4;
+/// Segment end: the next segment continues this one (its start covariance is this end's).
+const END_OPEN: f64 = 0.0;
+/// Segment end: an update follows; the covariance before it is stored after the steps.
+const END_PRIOR: f64 = 1.0;
+/// Segment end: an update follows and its prior covariance was not recorded: the
+/// backward pass replays the covariance through the segment.
+const END_REPLAY: f64 = 2.0;
 
 /// The segment-wise fixed-interval smoother (see the [module](self) documentation).
 ///
@@ -252,6 +306,14 @@ pub struct SegmentSmoother<X, U, S = std::fs::File> {
     last_epoch: Option<u64>,
     /// The next segment continues the last one (it was closed for length, not an update).
     continues: bool,
+    /// The covariance before the first update after the open segment's last step (upper
+    /// triangle by columns), when [`before_update`](StepRecorder::before_update) took it.
+    prior: Vec<f64>,
+    prior_taken: bool,
+    /// The last step asked for variances: the segment closes after it.
+    close_next: bool,
+    /// Where the open segment's last step's flags are.
+    last_flags: usize,
     bytes: Vec<u8>,
     /// The first storage error of the forward pass (recording stops there).
     error: Option<std::io::Error>,
@@ -285,6 +347,10 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
             last_input: None,
             last_epoch: None,
             continues: false,
+            prior: Vec::new(),
+            prior_taken: false,
+            close_next: false,
+            last_flags: 0,
             bytes: Vec::new(),
             error: None,
             _types: PhantomData,
@@ -321,11 +387,22 @@ where
     S: Read + Write + Seek,
     DefaultAllocator: DimAlloc<X::Dim>,
 {
-    fn close(&mut self) {
+    /// Close the open segment; `updated`: an update (or the end of the run) follows it,
+    /// so its end covariance is stored if it was taken.
+    fn close(&mut self, updated: bool) {
         if self.open_steps == 0 {
             return;
         }
         self.open[0] = self.open_steps as f64;
+        self.open[5] = match (updated, self.prior_taken) {
+            (false, _) => END_OPEN,
+            (true, true) => {
+                self.open.extend_from_slice(&self.prior);
+                END_PRIOR
+            }
+            (true, false) => END_REPLAY,
+        };
+        self.prior_taken = false;
         let start = self.bytes.len();
         for v in &self.open {
             self.bytes.extend_from_slice(&v.to_le_bytes());
@@ -353,12 +430,12 @@ where
     }
 
     fn start<A: NoiseStrategy, B: CovBackend<X::Dim>>(&mut self, f: &ErrorStateFilter<X, A, B>) {
-        let n = X::Dim::DIM;
         let q = f.process_noise_adjustment();
         let (tag, len) = q_len(q);
         let o = &mut self.open;
         let continues = f64::from(u8::from(self.continues));
-        o.extend_from_slice(&[0.0, f.time(), f.strategy().prediction_fading(), tag, continues]);
+        let start = [0.0, f.time(), f.strategy().prediction_fading(), tag, continues, END_OPEN];
+        o.extend_from_slice(&start);
         match q {
             QAdjust::Scale(s) => o.push(*s),
             QAdjust::AddRate(m) => o.extend_from_slice(m.as_slice()),
@@ -368,15 +445,22 @@ where
         let at = o.len();
         o.resize(at + X::LEN, 0.0);
         f.state().spill(&mut o[at..]);
-        let p = f.covariance();
-        for c in 0..n {
-            o.extend_from_slice(&p.as_slice()[c * n..c * n + c + 1]);
+        push_upper(o, &f.covariance());
+    }
+
+    /// The last segment ends at the filter's final state: without an update after its
+    /// last step, the filter's covariance is that end's.
+    fn end_with<A: NoiseStrategy, B: CovBackend<X::Dim>>(&mut self, f: &ErrorStateFilter<X, A, B>) {
+        if self.open_steps > 0 && self.last_epoch == Some(f.epoch()) && !self.prior_taken {
+            self.prior.clear();
+            push_upper(&mut self.prior, &f.covariance());
+            self.prior_taken = true;
         }
     }
 
     /// End the forward pass: the storage error that stopped recording, if any.
     pub fn finish_recording(&mut self) -> std::io::Result<()> {
-        self.close();
+        self.close(true);
         self.write_pending();
         match self.error.take() {
             Some(e) => Err(e),
@@ -398,6 +482,7 @@ where
         B: CovBackend<X::Dim>,
         PM: ProcessModel<State = X, Input = U>,
     {
+        self.end_with(filter);
         self.finish_recording()?;
         let mut back = Backward::start(filter);
         let mut seg = Replayed::default();
@@ -429,6 +514,7 @@ where
         S: Send,
         Cov<X::Dim>: Send,
     {
+        self.end_with(filter);
         self.finish_recording()?;
         let mut back = Backward::start(filter);
         let segments = self.offsets.len() - 1;
@@ -497,20 +583,28 @@ struct Store<'a, S> {
     at: u64,
 }
 
-/// One segment replayed: its states, covariances and transitions, step by step.
+/// One segment replayed: its nominal states and transitions, step by step, and the
+/// covariances at its ends.
 struct Replayed<X: Manifold, U>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
-    /// `x̂ᵢ` and `Pᵢ` for `i = 0..=n` (`0`: the segment's start).
+    /// `x̂ᵢ` for `i = 0..=n` (`0`: the segment's start).
     xs: Vec<X>,
+    /// `P₀` first; `Pᵢ` for every `i` when the segment was replayed with its covariance
+    /// ([`END_REPLAY`]).
     ps: Vec<Cov<X::Dim>>,
+    /// `Pₙ`, the covariance before the update that follows the segment, when one does.
+    p_end: Option<Cov<X::Dim>>,
     /// `Φᵢᵀ`, `i < n`.
     phi_ts: Vec<Cov<X::Dim>>,
-    /// End time, interval, mark and input of each step.
-    steps: Vec<(f64, f64, bool, U)>,
+    /// End time, interval, flags and input of each step.
+    steps: Vec<(f64, f64, u8, U)>,
     /// The segment continues the one before it (no update at its start).
     continues: bool,
+    /// The prediction fading and noise adjustment of the segment's steps.
+    fading: f64,
+    q: QAdjust<X::Dim>,
     values: Vec<f64>,
 }
 
@@ -522,10 +616,39 @@ where
         Self {
             xs: Vec::new(),
             ps: Vec::new(),
+            p_end: None,
             phi_ts: Vec::new(),
             steps: Vec::new(),
             continues: false,
+            fading: 1.0,
+            q: QAdjust::Keep,
             values: Vec::new(),
+        }
+    }
+}
+
+/// The upper triangle of `p`, column by column, appended to `out`.
+fn push_upper<N: DimName>(out: &mut Vec<f64>, p: &Cov<N>)
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    let n = N::DIM;
+    for c in 0..n {
+        out.extend_from_slice(&p.as_slice()[c * n..c * n + c + 1]);
+    }
+}
+
+/// A covariance from its upper triangle (as [`push_upper`] wrote it) at the start of `v`.
+fn read_upper<N: DimName>(v: &[f64], p: &mut Cov<N>)
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    let mut at = 0;
+    for c in 0..N::DIM {
+        for r in 0..=c {
+            p[(r, c)] = v[at];
+            p[(c, r)] = v[at];
+            at += 1;
         }
     }
 }
@@ -568,12 +691,16 @@ impl<S: Read + Seek> Store<'_, S> {
         if v.len() < HEAD {
             return Err(corrupt("segment header"));
         }
-        let (count, fading, tag) = (v[0] as usize, v[2], v[3]);
+        let (count, tag, end) = (v[0] as usize, v[3], v[5]);
+        seg.fading = v[2];
         seg.continues = match v[4] {
             0.0 => false,
             1.0 => true,
             _ => return Err(corrupt("segment continuation flag")),
         };
+        if ![END_OPEN, END_PRIOR, END_REPLAY].contains(&end) {
+            return Err(corrupt("segment end"));
+        }
         let (q, qn) = match tag as u8 {
             0 => (QAdjust::Keep, 0),
             1 => (QAdjust::Scale(*v.get(HEAD).ok_or(corrupt("noise scale"))?), 1),
@@ -583,6 +710,7 @@ impl<S: Read + Seek> Store<'_, S> {
             }
             _ => return Err(corrupt("noise adjustment tag")),
         };
+        seg.q = q;
         let mut at = HEAD + qn;
         let tri = n * (n + 1) / 2;
         // (a corrupt count must not overflow the bound it is checked against)
@@ -598,25 +726,18 @@ impl<S: Read + Seek> Store<'_, S> {
         at += X::LEN;
         // the covariances and transitions are written in place (a segment's buffers are
         // reused: they grow to the longest segment once, then are only overwritten)
-        seg.ps.resize(count + 1, Cov::<X::Dim>::zeros());
+        let replay = end == END_REPLAY;
+        seg.ps.resize(if replay { count + 1 } else { 1 }, Cov::<X::Dim>::zeros());
         seg.phi_ts.resize(count, Cov::<X::Dim>::zeros());
-        let p0 = &mut seg.ps[0];
-        for c in 0..n {
-            for r in 0..=c {
-                p0[(r, c)] = v[at];
-                p0[(c, r)] = v[at];
-                at += 1;
-            }
-        }
+        read_upper(&v[at..], &mut seg.ps[0]);
+        at += tri;
         for _ in 0..count {
             let flags = *v.get(at + 2).ok_or(corrupt("segment length"))?;
-            let (mark, after) = match flags {
-                0.0 => (false, false),
-                1.0 => (true, false),
-                2.0 => (false, true),
-                3.0 => (true, true),
-                _ => return Err(corrupt("step flags")),
-            };
+            if !((0.0..8.0).contains(&flags) && flags.fract() == 0.0) {
+                return Err(corrupt("step flags"));
+            }
+            let flags = flags as u8;
+            let after = flags & AFTER != 0;
             let len = if after { U::AFTER_LEN } else { U::LEN };
             let payload = v.get(at + STEP..at + STEP + len).ok_or(corrupt("segment length"))?;
             let u = match (after, seg.steps.last()) {
@@ -624,21 +745,50 @@ impl<S: Read + Seek> Store<'_, S> {
                 (true, None) => return Err(corrupt("first step stored after another")),
                 (false, _) => U::unspill(payload),
             };
-            seg.steps.push((v[at], v[at + 1], mark, u));
+            seg.steps.push((v[at], v[at + 1], flags, u));
             at += STEP + len;
+        }
+        if end == END_PRIOR {
+            let stored = v.get(at..at + tri).ok_or(corrupt("segment end covariance"))?;
+            let p = seg.p_end.get_or_insert_with(Cov::<X::Dim>::zeros);
+            read_upper(stored, p);
+            at += tri;
         }
         if at != v.len() {
             return Err(corrupt("segment length"));
         }
-        // replay by the static back-end's path (the model's fused product where it has
-        // one), with the segment's fading and noise adjustment, Φᵀ on the side
-        for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
-            let x = &seg.xs[k];
-            let (done, next) = seg.ps.split_at_mut(k + 1);
-            let phi_t = Some(&mut seg.phi_ts[k]);
-            let x_next =
-                static_predict(model, x, u, *dt, &done[k], fading, &q, &mut next[0], phi_t)?;
-            seg.xs.push(x_next);
+        if replay {
+            // the covariance is not stored at the end: replayed by the static back-end's
+            // path (the model's fused product where it has one), with the segment's fading
+            // and noise adjustment, Φᵀ on the side
+            for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
+                let x = &seg.xs[k];
+                let (done, next) = seg.ps.split_at_mut(k + 1);
+                let phi_t = Some(&mut seg.phi_ts[k]);
+                let x_next = static_predict(
+                    model,
+                    x,
+                    u,
+                    *dt,
+                    &done[k],
+                    seg.fading,
+                    &seg.q,
+                    &mut next[0],
+                    phi_t,
+                )?;
+                seg.xs.push(x_next);
+            }
+            let p = seg.p_end.get_or_insert_with(Cov::<X::Dim>::zeros);
+            p.copy_from(&seg.ps[count]);
+        } else {
+            // the nominal states and the transitions only
+            for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
+                let x_next = model.step_transition(&seg.xs[k], u, *dt, &mut seg.phi_ts[k]);
+                seg.xs.push(x_next);
+            }
+            if end == END_OPEN {
+                seg.p_end = None;
+            }
         }
         Ok(())
     }
@@ -652,8 +802,8 @@ where
     /// The smoothed estimate at the start of the later segment (an update lies between).
     Smoothed { x: X, p: Cov<X::Dim> },
     /// `λ` and `Λ` at the start of the later segment, which continues this one: they go on
-    /// through the boundary unchanged.
-    Adjoint { lambda: OVector<f64, X::Dim>, big: Cov<X::Dim> },
+    /// through the boundary unchanged; `p` is the covariance there (this segment's end's).
+    Adjoint { lambda: OVector<f64, X::Dim>, big: Cov<X::Dim>, p: Cov<X::Dim> },
 }
 
 /// The backward recursion: what it carries into the segment before, and the rows of the
@@ -664,6 +814,8 @@ where
 {
     carried: Carried<X>,
     rows: Vec<SmoothedRow<X>>,
+    /// `λᵢ` of the segment being smoothed.
+    lambdas: Vec<OVector<f64, X::Dim>>,
 }
 
 impl<X: Manifold> Backward<X>
@@ -673,7 +825,7 @@ where
     fn start<A: NoiseStrategy, B: CovBackend<X::Dim>>(filter: &ErrorStateFilter<X, A, B>) -> Self {
         let carried =
             Carried::Smoothed { x: filter.state().clone(), p: filter.covariance().into_owned() };
-        Self { carried, rows: Vec::new() }
+        Self { carried, rows: Vec::new(), lambdas: Vec::new() }
     }
 
     /// Smooth through one replayed segment (rows in time order in `self.rows`).
@@ -681,77 +833,108 @@ where
     where
         PM: ProcessModel<State = X, Input = U>,
     {
-        let (xs, ps, phi_ts) = (&seg.xs, &seg.ps, &seg.phi_ts);
+        let (xs, phi_ts) = (&seg.xs, &seg.phi_ts);
         let count = seg.steps.len();
-        // Λ in one of two buffers, the next one written into the other (no swap: swapping
-        // two covariances copies three of them)
-        let (mut lambda, first) = match &mut self.carried {
-            Carried::Adjoint { lambda, big } => (lambda.clone(), big.clone()),
+        let end_flags = seg.steps[count - 1].2;
+        let zero = OVector::<f64, X::Dim>::zeros();
+        self.lambdas.resize(count + 1, zero.clone());
+        // the segment's end: λₙ, Λₙ, and its row's state and variances
+        let (big, end_x, end_var) = match &mut self.carried {
+            Carried::Adjoint { lambda, big, p } => {
+                self.lambdas[count].copy_from(lambda);
+                let mut delta = zero.clone();
+                kernels::mat_mul(&*p, &*lambda, &mut delta);
+                let var = (end_flags & VARIANCES != 0).then(|| {
+                    let mut pl = Cov::<X::Dim>::zeros();
+                    kernels::mat_mul(&*p, &*big, &mut pl); // Pₙ Λₙ
+                    variances_out_of(&xs[count], &delta, p, &pl)
+                });
+                (big.clone(), xs[count].oplus(&delta), var)
+            }
             Carried::Smoothed { x, p } => {
-                // the segment's end: Pˢ into the frame of the prior x̂ₙ (Σ), then
-                // λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
+                // the later segment's smoothed start is this end's smoothed value (its
+                // variances those of Pˢ, in the frame of x̂ˢ); then Pˢ into the frame of
+                // the prior x̂ₙ (Σ), and λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
+                let var = (end_flags & VARIANCES != 0).then(|| p.diagonal());
+                let p_n = seg.p_end.as_ref().ok_or(SmootherError::Corrupt("segment end"))?;
                 let d = x.ominus(&xs[count]);
                 reframe(&xs[count], &d, p, Reframe::Into)?;
-                let chol = cholesky("smoother: predicted covariance Pₙ", ps[count].clone())?;
+                let chol = cholesky("smoother: predicted covariance Pₙ", p_n.clone())?;
                 let inv = inverse_from_cholesky(&chol);
-                let mut lambda = OVector::<f64, X::Dim>::zeros();
-                kernels::mat_mul(&inv, &d, &mut lambda);
-                // Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
-                let (mut m, mut big) = (Cov::<X::Dim>::zeros(), Cov::<X::Dim>::zeros());
-                kernels::mat_mul(&inv, &*p, &mut m);
-                kernels::mat_mul(&m, &inv, &mut big);
-                let mut big = inv - big;
-                symmetrize(&mut big);
-                (lambda, big)
+                kernels::mat_mul(&inv, &d, &mut self.lambdas[count]);
+                // −(Pₙ⁻¹ Σ Pₙ⁻¹ − Pₙ⁻¹) as one sandwich (Pₙ⁻¹ is symmetric), exactly symmetric
+                let mut big = Cov::<X::Dim>::zeros();
+                kernels::dense_sandwich(&inv, &*p, &(-&inv), &mut big);
+                big.neg_mut();
+                (big, x.clone(), var)
             }
         };
-        let mut bigs = [first, Cov::<X::Dim>::zeros()];
+        // backwards: λᵢ = Φᵢᵀ λᵢ₊₁ and Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ, Λ in one of two buffers, the
+        // next one written into the other (no swap: swapping two covariances copies three)
+        let mut bigs = [big, Cov::<X::Dim>::zeros()];
         let mut cur = 0;
-        self.rows.clear();
-        let mut pl = Cov::<X::Dim>::zeros();
-        let mut delta = OVector::<f64, X::Dim>::zeros();
-        for k in (0..=count).rev() {
-            let (x, p) = (&xs[k], &ps[k]);
-            if k == 0 {
-                self.carried = if seg.continues {
-                    Carried::Adjoint { lambda, big: bigs[cur].clone() }
-                } else {
-                    kernels::mat_mul(p, &bigs[cur], &mut pl); // Pᵢ Λᵢ
-                    kernels::mat_mul(p, &lambda, &mut delta);
-                    let x_s = x.oplus(&delta);
-                    let mut plp = Cov::<X::Dim>::zeros();
-                    kernels::mat_mul(&pl, p, &mut plp);
-                    let mut p_s = p - plp;
-                    symmetrize(&mut p_s);
-                    reframe(x, &delta, &mut p_s, Reframe::OutOf)?;
-                    if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
-                        return Err(FilterError::NonFinite {
-                            what: "smoothed state or covariance",
-                        }
-                        .into());
-                    }
-                    Carried::Smoothed { x: x_s, p: p_s }
-                };
-                break;
-            }
-            let (t, _, mark, _) = &seg.steps[k - 1];
-            if *mark {
-                kernels::mat_mul(p, &bigs[cur], &mut pl); // Pᵢ Λᵢ
-                kernels::mat_mul(p, &lambda, &mut delta);
-                let var = variances_out_of(x, &delta, p, &pl);
-                self.rows.push(SmoothedRow { time: *t, x: x.oplus(&delta), var });
-            }
-            let phi_t = &phi_ts[k - 1];
-            kernels::mat_mul(phi_t, &lambda, &mut delta);
-            core::mem::swap(&mut lambda, &mut delta);
-            // Λ ← Φᵀ Λ Φ (exactly symmetric)
+        for k in (0..count).rev() {
+            let (done, later) = self.lambdas.split_at_mut(k + 1);
+            kernels::mat_mul(&phi_ts[k], &later[0], &mut done[k]);
             let [a, b] = &mut bigs;
             let (from, to) = if cur == 0 { (a, b) } else { (b, a) };
-            model.adjoint_sandwich(phi_t, from, to);
+            model.adjoint_sandwich(&phi_ts[k], from, to);
             cur = 1 - cur;
         }
-        self.rows.reverse();
-        if self.rows.iter().any(|r| !r.x.is_finite() || r.var.iter().any(|v| !v.is_finite())) {
+        // the start: δ₀ = P₀ λ₀, and what goes into the segment before
+        let (x0, p0) = (&xs[0], &seg.ps[0]);
+        let mut mu = zero.clone();
+        kernels::mat_mul(p0, &self.lambdas[0], &mut mu);
+        self.carried = if seg.continues {
+            let (lambda, big) = (self.lambdas[0].clone(), bigs[cur].clone());
+            Carried::Adjoint { lambda, big, p: p0.clone() }
+        } else {
+            // Pˢ₀ = −(P₀ Λ₀ P₀ − P₀) as one sandwich, exactly symmetric
+            let mut p_s = Cov::<X::Dim>::zeros();
+            kernels::dense_sandwich(p0, &bigs[cur], &(-p0), &mut p_s);
+            p_s.neg_mut();
+            reframe(x0, &mu, &mut p_s, Reframe::OutOf)?;
+            let x_s = x0.oplus(&mu);
+            if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
+                return Err(FilterError::NonFinite { what: "smoothed state or covariance" }.into());
+            }
+            Carried::Smoothed { x: x_s, p: p_s }
+        };
+        // forwards: δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁ = α Φᵢ δᵢ + Q̃ᵢ λᵢ₊₁ (Pᵢ₊₁ = Φᵢ (α Pᵢ) Φᵢᵀ + Q̃ᵢ, and
+        // Pᵢ Φᵢᵀ λᵢ₊₁ = Pᵢ λᵢ = δᵢ), the marked steps' states x̂ᵢ ⊕ δᵢ
+        self.rows.clear();
+        let (mut phi_mu, mut q_lambda, mut extra) = (zero.clone(), zero.clone(), zero);
+        for (k, (t, dt, flags, u)) in seg.steps.iter().enumerate().take(count - 1) {
+            if flags & VARIANCES != 0 {
+                return Err(SmootherError::Corrupt("variances asked inside a segment"));
+            }
+            let next = &self.lambdas[k + 1];
+            phi_ts[k].tr_mul_to(&mu, &mut phi_mu);
+            let here = &self.lambdas[k]; // Φᵢᵀ λᵢ₊₁
+            model.noise_times(&xs[k], u, *dt, &phi_ts[k], next, here, &mut q_lambda);
+            match &seg.q {
+                QAdjust::Keep | QAdjust::Model => {}
+                QAdjust::Scale(s) => q_lambda *= *s,
+                QAdjust::AddRate(rate) => {
+                    rate.mul_to(next, &mut extra);
+                    q_lambda.axpy(*dt, &extra, 1.0);
+                }
+            }
+            for ((m, a), b) in mu.iter_mut().zip(phi_mu.iter()).zip(q_lambda.iter()) {
+                *m = seg.fading * a + b;
+            }
+            if flags & MARKED != 0 {
+                self.rows.push(SmoothedRow { time: *t, x: xs[k + 1].oplus(&mu), var: None });
+            }
+        }
+        if end_flags & MARKED != 0 {
+            let time = seg.steps[count - 1].0;
+            self.rows.push(SmoothedRow { time, x: end_x, var: end_var });
+        }
+        let finite = |r: &SmoothedRow<X>| {
+            r.x.is_finite() && r.var.as_ref().is_none_or(|v| v.iter().all(|v| v.is_finite()))
+        };
+        if !self.rows.iter().all(finite) {
             return Err(FilterError::NonFinite { what: "smoothed state or variance" }.into());
         }
         Ok(())
@@ -774,17 +957,21 @@ where
     ) {
         let epoch = filter.epoch();
         let updated = self.last_epoch != Some(epoch);
-        if updated || self.open_steps >= self.max_steps {
-            self.close();
+        if updated || self.open_steps >= self.max_steps || self.close_next {
+            self.close(updated);
             self.continues = !updated;
             self.last_epoch = Some(epoch);
         }
+        // (a covariance taken before an update that did not come is stale now)
+        self.prior_taken = false;
+        self.close_next = false;
         if self.open_steps == 0 {
             self.start(filter);
         }
         let end = filter.time() + dt;
         let at = self.open.len();
-        self.open.extend_from_slice(&[end, dt, f64::from(u8::from(mark))]);
+        self.open.extend_from_slice(&[end, dt, f64::from(if mark { MARKED } else { 0 })]);
+        self.last_flags = at + 2;
         let payload = at + STEP;
         self.open.resize(payload + U::AFTER_LEN, 0.0);
         let after = match &self.last_input {
@@ -792,13 +979,32 @@ where
             None => false,
         };
         if after {
-            self.open[at + 2] += 2.0;
+            self.open[at + 2] += f64::from(AFTER);
         } else {
             self.open.resize(payload + U::LEN, 0.0);
             u.spill(&mut self.open[payload..]);
         }
         self.last_input = Some(u.clone());
         self.open_steps += 1;
+    }
+
+    fn before_update<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) {
+        if self.open_steps > 0 && !self.prior_taken {
+            self.prior.clear();
+            push_upper(&mut self.prior, &filter.covariance());
+            self.prior_taken = true;
+        }
+    }
+
+    fn mark_variances(&mut self) {
+        if self.open_steps > 0 {
+            let flags = &mut self.open[self.last_flags];
+            *flags = f64::from(*flags as u8 | MARKED | VARIANCES);
+            self.close_next = true;
+        }
     }
 }
 

@@ -1,7 +1,7 @@
 //! The model traits: what a user implements to put a system into the filter.
 
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, DimName, OMatrix};
+use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
 use manifolds::{DimAlloc, Manifold, Tangent};
 
@@ -160,6 +160,42 @@ where
     ) -> Self::State {
         self.transition(x, u, dt).transpose_to(phi_t);
         self.step_covariance(x, u, dt, P, out)
+    }
+
+    /// The nominal step and the transition's transpose `Φᵀ` (written into `phi_t`), without
+    /// a covariance: what a smoother's replay needs of a step whose covariance it does not
+    /// propagate. The default is [`transition`](Self::transition) then
+    /// [`propagate`](Self::propagate); override it when they share work (the harness
+    /// checks it against `step`).
+    fn step_transition(
+        &self,
+        x: &Self::State,
+        u: &Self::Input,
+        dt: T,
+        phi_t: &mut Cov<StateDim<Self::State, T>, T>,
+    ) -> Self::State {
+        self.transition(x, u, dt).transpose_to(phi_t);
+        self.propagate(x, u, dt)
+    }
+
+    /// `out ← Q_d v` for the step from `x` over `dt` whose transition's transpose is
+    /// `phi_t`, given `phi_t_v = Φᵀ v` too (a smoother's forward sweep of the smoothed
+    /// mean, which has both). The default forms `Q_d` ([`jacobians`](Self::jacobians));
+    /// override it when `Q_d` has a structure that makes the product cheap (the INS model:
+    /// `Q_d = Φ E Φᵀ + E` with a block-diagonal `E`).
+    #[allow(clippy::too_many_arguments)]
+    fn noise_times(
+        &self,
+        x: &Self::State,
+        u: &Self::Input,
+        dt: T,
+        phi_t: &Cov<StateDim<Self::State, T>, T>,
+        v: &OVector<T, StateDim<Self::State, T>>,
+        phi_t_v: &OVector<T, StateDim<Self::State, T>>,
+        out: &mut OVector<T, StateDim<Self::State, T>>,
+    ) {
+        let _ = (phi_t, phi_t_v);
+        self.jacobians(x, u, dt).Q.mul_to(v, out);
     }
 
     /// `out ← Φᵀ Λ Φ` for a symmetric `Λ`, given `Φᵀ` (`phi_t`): the adjoint step of a

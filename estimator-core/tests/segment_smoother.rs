@@ -1,7 +1,9 @@
 //! The segment-wise smoother (storage + replay + adjoint recursion) against the
 //! step-by-step RTS smoother and the batch least-squares solution: same means and
 //! variances on a linear-Gaussian problem to 1e-9, whatever the segment length, with
-//! refused updates and an adapted process noise in the forward pass.
+//! refused updates and an adapted process noise in the forward pass, with the
+//! covariances before the updates recorded or replayed, and the variances asked at every
+//! step, at some or at none.
 
 #![allow(non_snake_case)]
 
@@ -14,7 +16,8 @@ use estimator_core::{
 };
 use nalgebra::{Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
 
-/// Refuses every measurement whose NIS is above 4 and, after update 7, doubles `Q`.
+/// Refuses every measurement whose NIS is above 4; after update 7 doubles `Q`, after
+/// update 25 adds `0.01 I` per second to it.
 #[derive(Clone, Debug, Default)]
 struct Quirky;
 
@@ -28,6 +31,9 @@ impl NoiseStrategy for Quirky {
         }
         if a.epoch == 7 {
             a.q = QAdjust::Scale(2.0);
+        }
+        if a.epoch == 25 {
+            a.q = QAdjust::AddRate(nalgebra::OMatrix::<f64, N, N>::identity() * 0.01);
         }
     }
 }
@@ -66,19 +72,40 @@ fn case() -> Case {
 /// its number of segments.
 type Both = (Vec<estimator_core::Smoothed<Vector2<f64>>>, Vec<SmoothedRow<Vector2<f64>>>, usize);
 
+/// How the forward pass tells the segment smoother.
+#[derive(Clone, Copy, Debug)]
+struct Recording {
+    max_steps: usize,
+    /// The covariance before each update is recorded (`before_update`), or replayed.
+    priors: bool,
+    /// Variances asked every this many steps (0: never).
+    variances_every: usize,
+}
+
 /// The forward pass feeding both smoothers.
 fn both<A: NoiseStrategy>(c: &Case, strategy: A, max_steps: usize) -> Both {
+    let how = Recording { max_steps, priors: true, variances_every: 1 };
+    both_recorded(c, strategy, how)
+}
+
+fn both_recorded<A: NoiseStrategy>(c: &Case, strategy: A, how: Recording) -> Both {
     let sensor = LinearMeasurement::new(c.H);
     let mut f =
         ErrorStateFilter::new(Vector2::new(0.5, -0.2), Matrix2::new(4.0, 0.5, 0.5, 1.0), strategy)
             .unwrap();
     let mut rts = RtsSmoother::new();
-    let mut seg = SegmentSmoother::new(Cursor::new(Vec::new()), max_steps);
-    for z in &c.z {
+    let mut seg = SegmentSmoother::new(Cursor::new(Vec::new()), how.max_steps);
+    for (k, z) in c.z.iter().enumerate() {
         seg.before_predict(&f, &(), c.dt, true);
         rts.predict(&mut f, &c.process, &(), c.dt).unwrap();
         if let Some(z) = z {
+            if how.priors {
+                seg.before_update(&f);
+            }
             f.update(&sensor, &Vector1::new(*z), &c.R).unwrap();
+        }
+        if how.variances_every > 0 && (k + 1) % how.variances_every == 0 {
+            seg.mark_variances();
         }
     }
     let segments = {
@@ -99,22 +126,33 @@ fn both<A: NoiseStrategy>(c: &Case, strategy: A, max_steps: usize) -> Both {
 fn segments_replayed_from_storage_give_the_step_by_step_smoother() {
     let c = case();
     for max_steps in [1, 3, 1000] {
-        let (rts, rows, segments) = both(&c, Quirky, max_steps);
-        assert!(segments > 10, "{segments} segments");
-        // rts has the start too; rows are the step ends
-        assert_eq!(rows.len(), rts.len() - 1);
-        for (r, s) in rows.iter().zip(&rts[1..]) {
-            assert!((r.time - s.time).abs() < 1e-12);
-            for i in 0..2 {
-                let scale = s.x.abs().max().max(1.0);
-                assert!((r.x[i] - s.x[i]).abs() < 1e-9 * scale, "{max_steps}: {} vs {}", r.x, s.x);
-                let v = s.p[(i, i)];
-                assert!(
-                    (r.var[i] - v).abs() < 1e-9 * v.max(1e-3),
-                    "{}: {} vs {v}",
-                    r.time,
-                    r.var[i]
-                );
+        for priors in [true, false] {
+            for variances_every in [1, 3, 0] {
+                let how = Recording { max_steps, priors, variances_every };
+                let (rts, rows, segments) = both_recorded(&c, Quirky, how);
+                assert!(segments > 10, "{segments} segments");
+                // rts has the start too; rows are the step ends
+                assert_eq!(rows.len(), rts.len() - 1);
+                for (k, (r, s)) in rows.iter().zip(&rts[1..]).enumerate() {
+                    assert!((r.time - s.time).abs() < 1e-12);
+                    let asked = variances_every > 0 && (k + 1) % variances_every == 0;
+                    assert_eq!(r.var.is_some(), asked, "{how:?}: step {k}");
+                    for i in 0..2 {
+                        let scale = s.x.abs().max().max(1.0);
+                        let dx = (r.x[i] - s.x[i]).abs();
+                        assert!(dx < 1e-9 * scale, "{how:?}: {} vs {}", r.x, s.x);
+                        let v = s.p[(i, i)];
+                        if let Some(var) = &r.var {
+                            let dv = (var[i] - v).abs();
+                            assert!(
+                                dv < 1e-9 * v.max(1e-3),
+                                "{how:?} {}: {} vs {v}",
+                                r.time,
+                                var[i]
+                            );
+                        }
+                    }
+                }
             }
         }
     }
@@ -230,11 +268,18 @@ fn corrupt_flags_in_the_storage_are_refused() {
         seg.smooth(&f, &c.process, |_| Ok(()))
     };
     assert!(run(None).is_ok());
-    // a segment: 5 header numbers (steps, time, fading, noise tag, continuation), the
+    // a segment: 6 header numbers (steps, time, fading, noise tag, continuation, end), the
     // state (2), the covariance's triangle (3), then per step: end, interval, flags, input
-    let (continuation, first_flags) = (4 * 8, (5 + 2 + 3 + 2) * 8);
+    let (continuation, end, first_flags) = (4 * 8, 5 * 8, (6 + 2 + 3 + 2) * 8);
     // and a step count (the first number) too large for memory: refused, no overflow
-    let cases = [(continuation, 0.5), (first_flags, 7.0), (first_flags, 2.0), (0, 1e300)];
+    let cases = [
+        (continuation, 0.5),
+        (end, 3.0),
+        (first_flags, 8.0),
+        (first_flags, 1.5),
+        (first_flags, 2.0),
+        (0, 1e300),
+    ];
     for (at, value) in cases {
         match run(Some((at, value))) {
             Err(estimator_core::SmootherError::Corrupt(_)) => {}

@@ -481,6 +481,7 @@ where
                 self.propagate(&rest, recorder, true)?;
                 rest.dt = 0.0;
             }
+            recorder.before_update(&self.filter);
             out.push(self.update(g, observer)?);
         }
         if rest.dt > 0.0 {
@@ -488,18 +489,19 @@ where
         }
         self.time = imu.t;
         if self.vehicle.aiding.any() {
-            self.aid(imu, observer, out)?;
+            self.aid(imu, observer, out, recorder)?;
         }
         Ok(())
     }
 
     /// The vehicle aiding at the end of an IMU sample: ZUPT (and ZARU) while the detector
     /// says the vehicle stands, otherwise NHC.
-    fn aid<O: Observer>(
+    fn aid<O: Observer, R: StepRecorder<S, ImuInput>>(
         &mut self,
         imu: &ImuSample,
         observer: &mut O,
         out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
     ) -> Result<(), NavError> {
         let t = imu.t;
         let err = |source| NavError::Measurement { t, source };
@@ -526,6 +528,7 @@ where
                 v.last_odometer = t;
                 let z = nalgebra::Vector1::new(reading / k);
                 let r = nalgebra::Matrix1::new(o.std * o.std);
+                recorder.before_update(&self.filter);
                 let report =
                     S::update::<A, Odometer, O>(&mut self.filter, &model, &z, &r, observer);
                 out.push(report.map_err(err)?);
@@ -548,6 +551,7 @@ where
             if t - v.last_zupt >= z.interval - TIME_EPSILON {
                 v.last_zupt = t;
                 let r = Matrix3::identity() * z.velocity_std.powi(2);
+                recorder.before_update(&self.filter);
                 let report = S::update::<A, Zupt, O>(
                     &mut self.filter,
                     &Zupt,
@@ -565,6 +569,7 @@ where
                     let arw = S::imu_noise(&self.model).arw;
                     let r = diag3(&arw.map(|a| a * a / window + rate_std * rate_std));
                     let mean = d.mean_rate();
+                    recorder.before_update(&self.filter);
                     let report =
                         S::update::<A, Zaru, O>(&mut self.filter, &Zaru, &mean, &r, observer);
                     out.push(report.map_err(err)?);
@@ -578,6 +583,7 @@ where
                 let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
                 let r = diag2(&n.std.component_mul(&n.std));
                 let z = nalgebra::Vector2::zeros();
+                recorder.before_update(&self.filter);
                 let report = S::update::<A, Nhc, O>(&mut self.filter, &model, &z, &r, observer);
                 out.push(report.map_err(err)?);
             }
@@ -595,10 +601,15 @@ where
             return Ok(());
         }
         let input = ImuInput { prev: self.prev, cur: *s };
+        // the clock on the samples' time stamps: the interval's start before (the first
+        // sample's interval may begin before the start time), its end after (updates and
+        // smoothed rows are reported at the filter's time)
+        self.filter.set_time(s.t - s.dt);
         recorder.before_predict(&self.filter, &input, s.dt, mark);
         self.filter
             .predict(&self.model, &input, s.dt)
             .map_err(|source| NavError::Filter { t: s.t, source })?;
+        self.filter.set_time(s.t);
         self.prev = Some(*s);
         self.rate = s.rate();
         self.time = s.t;

@@ -174,6 +174,67 @@ impl ProcessModel for InsModel21 {
         }
         (self.next(x, u, nav), ProcessJacobians { Phi, Q })
     }
+
+    /// `Φᵀ` of [`step`](ProcessModel::step) from the 15-state model's, without `Q_d`.
+    fn step_transition(
+        &self,
+        x: &InsState21,
+        u: &ImuInput,
+        dt: f64,
+        phi_t: &mut M21,
+    ) -> InsState21 {
+        let v = Self::scale_corrected(x, u);
+        let mut t15 = SMatrix::<f64, 15, 15>::zeros();
+        let nav = self.base.step_transition(&x.nav, &v, dt, &mut t15);
+        let h = v.cur.dt;
+        let (w, f) = if h > 0.0 {
+            (v.cur.dtheta / h - x.nav.bg, v.cur.dvel / h - x.nav.ba)
+        } else {
+            (Vector3::zeros(), Vector3::zeros())
+        };
+        // Φᵀ[(c, r)] = Φ[(r, c)]; the scale columns of Φ are its bias columns times w, f
+        phi_t.fill(0.0);
+        phi_t.fixed_view_mut::<15, 15>(0, 0).copy_from(&t15);
+        let decay = self.decay(h);
+        for k in 0..3 {
+            for r in 0..9 {
+                phi_t[(15 + k, r)] = t15[(9 + k, r)] * w[k];
+                phi_t[(18 + k, r)] = t15[(12 + k, r)] * f[k];
+            }
+            phi_t[(15 + k, 15 + k)] = decay;
+            phi_t[(18 + k, 18 + k)] = decay;
+        }
+        self.next(x, u, nav)
+    }
+
+    /// `Q_d v`: the 15-state model's product on the navigation block, the scale
+    /// factors' diagonal noise on the rest.
+    fn noise_times(
+        &self,
+        x: &InsState21,
+        u: &ImuInput,
+        dt: f64,
+        phi_t: &M21,
+        v: &nalgebra::SVector<f64, 21>,
+        phi_t_v: &nalgebra::SVector<f64, 21>,
+        out: &mut nalgebra::SVector<f64, 21>,
+    ) {
+        // the navigation block of Φᵀ v is the 15-state one's: Φ's scale columns only add
+        // rows 15..21 to Φᵀ v
+        let t15: SMatrix<f64, 15, 15> = phi_t.fixed_view::<15, 15>(0, 0).into_owned();
+        let v15: nalgebra::SVector<f64, 15> = v.fixed_rows::<15>(0).into_owned();
+        let w15: nalgebra::SVector<f64, 15> = phi_t_v.fixed_rows::<15>(0).into_owned();
+        let mut o15 = nalgebra::SVector::<f64, 15>::zeros();
+        let corrected = Self::scale_corrected(x, u);
+        self.base.noise_times(&x.nav, &corrected, dt, &t15, &v15, &w15, &mut o15);
+        out.fixed_rows_mut::<15>(0).copy_from(&o15);
+        let h = corrected.cur.dt;
+        let (qg, qa) = self.psd();
+        for k in 0..3 {
+            out[15 + k] = qg[k] * h * v[15 + k];
+            out[18 + k] = qa[k] * h * v[18 + k];
+        }
+    }
 }
 
 /// A measurement model of the 15-state filter applied to the 21-state one: the same

@@ -876,8 +876,10 @@ impl Sink for Results {
                 for r in rows {
                     let (t, x, sigma) = smoothed_row(r);
                     navs.push(nav_values(t, &x));
-                    let (row, len) = sigma_row(t, &sigma[..n]);
-                    stds.extend(row[..len].iter().map(|v| v.0));
+                    if let Some(sigma) = sigma {
+                        let (row, len) = sigma_row(t, &sigma[..n]);
+                        stds.extend(row[..len].iter().map(|v| v.0));
+                    }
                 }
                 segments.push((navs, stds));
                 Ok(())
@@ -896,14 +898,17 @@ impl Sink for Results {
 
 /// A smoothed row: time, navigation state, and the σ of the error states (as many as the
 /// state has).
-fn smoothed_row<S: RunState>(r: &SmoothedRow<S>) -> (f64, InsState, [f64; 21])
+fn smoothed_row<S: RunState>(r: &SmoothedRow<S>) -> (f64, InsState, Option<[f64; 21]>)
 where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
-    let mut sigma = [0.0; 21];
-    for (s, v) in sigma.iter_mut().zip(r.var.iter()) {
-        *s = v.max(0.0).sqrt();
-    }
+    let sigma = r.var.as_ref().map(|var| {
+        let mut sigma = [0.0; 21];
+        for (s, v) in sigma.iter_mut().zip(var.iter()) {
+            *s = v.max(0.0).sqrt();
+        }
+        sigma
+    });
     (r.time, r.x.nav().clone(), sigma)
 }
 
@@ -1119,13 +1124,9 @@ const SMOOTHER_SEGMENT: usize = 128;
 /// The recorder of a run that smooths: the segment smoother on a scratch file.
 type Recorder<S, T = std::fs::File> = estimator_core::SegmentSmoother<S, ImuInput, T>;
 
-/// Rows per second of `nav_smoothed.pos` at most (its text at every IMU epoch cost 15 %
-/// of a smoothed navego run).
-const POS_SMOOTHED_RATE: f64 = 10.0;
-
 /// The backward pass: `nav_smoothed.txt`, `std_smoothed.txt` and `nav_smoothed.pos` (as
-/// `.partial`, in the formats of `nav.txt`, `std.txt` and `nav.pos`, at every IMU epoch;
-/// the `.pos` at most at 10 Hz). The smoother hands the segments last to first: each
+/// `.partial`, in the formats of `nav.txt`, `std.txt` and `nav.pos`: the first at every
+/// IMU epoch, the others at the epochs of `std.txt`). The smoother hands the segments last to first: each
 /// batch's text is appended to its file with its bytes reversed, so each file ends up as
 /// its final text backwards, which is then turned around in place ([`reverse_file`]): no
 /// scratch file, the disk never holds more than the outputs. Returns the number of rows.
@@ -1173,8 +1174,8 @@ where
     };
     let files = [open(&names[0])?, open(&names[1])?, open(&names[2])?];
     // The rows are formatted and written by a second thread while the backward pass runs.
-    // (time, state, σ of the error states, as many as the state has)
-    type Row = (f64, InsState, [f64; 21]);
+    // (time, state, σ of the error states, as many as the state has, where asked)
+    type Row = (f64, InsState, Option<[f64; 21]>);
     let n = S::Dim::DIM.min(21);
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
     let writer = std::thread::spawn(move || -> Result<_, (usize, std::io::Error)> {
@@ -1190,18 +1191,12 @@ where
             nav_text.clear();
             std_text.clear();
             pos_text.clear();
-            let mut bin = f64::NAN;
             for (t, x, sigma) in &rows {
                 push_nav(nav_text, &nav_record(*t, x));
+                let Some(sigma) = sigma else { continue };
                 let (row, len) = sigma_row(*t, &sigma[..n]);
                 push_row(std_text, &row[..len]);
-                // nav_smoothed.pos at most at 10 Hz (the first row of each 0.1 s); the
-                // smoother keeps the variances only: the covariances are written as 0
-                let here = (t * POS_SMOOTHED_RATE + 1e-6).floor();
-                if here == bin {
-                    continue;
-                }
-                bin = here;
+                // the smoother keeps the variances only: the .pos covariances are written as 0
                 let vel_var = var(&sigma[3..6]);
                 let vel = Some((&x.vel, &vel_var));
                 let pos_var = var(&sigma[6..9]);
@@ -1820,6 +1815,8 @@ where
                                 && u.verdict != estimator_core::Verdict::Rejected
                         });
                         out.epoch(sample.t, &nav, fix)?;
+                        // the smoothed σ at the same epochs
+                        estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
                         last_std = sample.t;
                     }
                     summary.span.1 = sample.t;
@@ -1853,6 +1850,7 @@ where
     summary.finish_streams();
     check_gnss_overlap(&summary, &gnss_path)?;
     out.epoch(summary.span.1, &nav, false)?;
+    estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
     out.flush()?;
     summary.gnss_skipped = gnss.skipped;
     summary.stationary_time = nav.stationary_time();

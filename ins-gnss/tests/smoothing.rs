@@ -8,7 +8,7 @@ mod common;
 
 use std::io::Cursor;
 
-use estimator_core::{FixedNoise, NoObserver, SegmentSmoother, SmoothedRow};
+use estimator_core::{FixedNoise, NoObserver, SegmentSmoother, SmoothedRow, StepRecorder};
 use ins_gnss_core::{GnssConfig, ImuInput, InsModel, InsState, Navigator};
 use ins_gnss_sim::simulate_from;
 use manifolds::Manifold;
@@ -34,6 +34,7 @@ fn run(setup: &common::Setup, seed: u64) -> Seed {
     let mut nav = Navigator::new(&init, InsModel::wgs84(errors.noise), FixedNoise, cfg).unwrap();
     let mut recorder = SegmentSmoother::<InsState, ImuInput, _>::new(Cursor::new(Vec::new()), 64);
     let mut out = Vec::new();
+    let mut asked = Vec::new();
     let (mut worst_f, mut norm_f, mut count) = (0.0f64, 0.0, 0.0);
     let whole = |t: f64| (t - t.round()).abs() < 1e-9 && t > 30.0;
     let in_outage = |t: f64| t >= OUTAGE.0 && t < OUTAGE.1;
@@ -44,7 +45,10 @@ fn run(setup: &common::Setup, seed: u64) -> Seed {
         if in_outage(s.t) {
             worst_f = worst_f.max(e[6].hypot(e[7]));
         }
+        asked.push(whole(s.t));
         if whole(s.t) {
+            // the smoothed variances at the same epochs
+            recorder.mark_variances();
             let sigma = nav.sigma();
             norm_f += (0..9)
                 .filter(|i| !(3..6).contains(i))
@@ -69,9 +73,10 @@ fn run(setup: &common::Setup, seed: u64) -> Seed {
         if in_outage(r.time) {
             worst_s = worst_s.max(e[6].hypot(e[7]));
         }
-        if whole(r.time) {
+        assert_eq!(r.var.is_some(), asked[k], "variances at {}", r.time);
+        if let Some(var) = &r.var {
             norm_s +=
-                (0..9).filter(|i| !(3..6).contains(i)).map(|i| e[i] * e[i] / r.var[i]).sum::<f64>();
+                (0..9).filter(|i| !(3..6).contains(i)).map(|i| e[i] * e[i] / var[i]).sum::<f64>();
         }
     }
     Seed {

@@ -338,15 +338,21 @@ impl InsModel {
         let next = self.propagate_with(x, &inc, &c, &earth);
         sandwich_padded(&phi, &m, &e, out);
         if let Some(phi_t) = phi_t {
-            // Φᵀ[(r, c)] = Φ[(c, r)] = phi[r][c]: column c of Φᵀ is row c of Φ
-            let dst = &mut phi_t.data.0;
-            for (r, col) in phi.iter().enumerate() {
-                for (c, v) in col[..15].iter().enumerate() {
-                    dst[c][r] = *v;
-                }
-            }
+            copy_transposed(&phi, phi_t);
         }
         next
+    }
+}
+
+/// `Φᵀ` from the padded columns of `Φ`: `Φᵀ[(r, c)] = Φ[(c, r)] = phi[r][c]` (column `c` of
+/// `Φᵀ` is row `c` of `Φ`).
+#[inline(always)]
+fn copy_transposed(phi: &Cols16, phi_t: &mut Cov<Const<15>>) {
+    let dst = &mut phi_t.data.0;
+    for (r, col) in phi.iter().enumerate() {
+        for (c, v) in col[..15].iter().enumerate() {
+            dst[c][r] = *v;
+        }
     }
 }
 
@@ -427,6 +433,42 @@ impl ProcessModel for InsModel {
         phi_t: &mut Cov<Const<15>>,
     ) -> InsState {
         self.fused_step(x, u, P, out, Some(phi_t))
+    }
+
+    /// Mechanization and `Φᵀ` sharing the corrected increments, `R̂` and the Earth
+    /// functions, without the covariance kernel.
+    fn step_transition(
+        &self,
+        x: &InsState,
+        u: &ImuInput,
+        _dt: f64,
+        phi_t: &mut Cov<Const<15>>,
+    ) -> InsState {
+        let (inc, c, earth) = Self::shared(x, u);
+        let phi = self.transition_blocks(x, &inc, &c, &earth).phi(inc.dt);
+        copy_transposed(&phi, phi_t);
+        self.propagate_with(x, &inc, &c, &earth)
+    }
+
+    /// `Q_d v = Φ (E (Φᵀ v)) + E v`: one product with `Φ` and two with the
+    /// block-diagonal `E` (`Q_d` is never formed).
+    fn noise_times(
+        &self,
+        x: &InsState,
+        u: &ImuInput,
+        _dt: f64,
+        phi_t: &Cov<Const<15>>,
+        v: &nalgebra::SVector<f64, 15>,
+        phi_t_v: &nalgebra::SVector<f64, 15>,
+        out: &mut nalgebra::SVector<f64, 15>,
+    ) {
+        let e = self.half_noise(&x.att.matrix(), u.cur.dt);
+        let ew = nalgebra::SVector::<f64, 15>::from(e.times(phi_t_v.as_slice()));
+        phi_t.tr_mul_to(&ew, out);
+        let ev = e.times(v.as_slice());
+        for (o, a) in out.iter_mut().zip(ev) {
+            *o += a;
+        }
     }
 
     /// `Φᵀ Λ Φ` over the non-zero blocks of `Φ` (the prediction's kernel, transposed).

@@ -48,6 +48,18 @@ impl HalfNoise {
         col
     }
 
+    /// `E v`: the diagonal blocks as they are, the velocity block as a 3 × 3 product.
+    pub(super) fn times(&self, v: &[f64]) -> [f64; 15] {
+        let mut out = [0.0; 15];
+        for i in 0..3 {
+            out[i] = self.th[i] * v[i];
+            out[3 + i] = self.v[(i, 0)] * v[3] + self.v[(i, 1)] * v[4] + self.v[(i, 2)] * v[5];
+            out[9 + i] = self.bg[i] * v[9 + i];
+            out[12 + i] = self.ba[i] * v[12 + i];
+        }
+        out
+    }
+
     pub(super) fn dense(&self) -> M15 {
         M15::from_fn(|r, c| self.entry(r, c).unwrap_or(0.0))
     }
