@@ -124,8 +124,8 @@ class Navigation:
         imu_errors: estimated IMU biases (and scale factors) at the same epochs.
         updates: one row per update (``updates.csv``): time, stream, dim, nis,
             nis_adapted, decision, reason, dom, lambda_p, lambda_r, scaling_fallback.
-        smoothed, smoothed_std: the smoother's ``nav`` and ``std`` (``None`` unless
-            ``smooth=True``).
+        smoothed, smoothed_std: the smoother's ``nav`` (every IMU epoch) and ``std``
+            (at the epochs of ``std``; ``None`` unless ``smooth=True``).
         summary: the run's summary (counts, span, mean NIS and its band, the lines the
             program prints, and the warning of an accepted inconsistent run).
     """
