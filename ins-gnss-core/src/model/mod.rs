@@ -345,13 +345,24 @@ impl InsModel {
 }
 
 /// `Φᵀ` from the padded columns of `Φ`: `Φᵀ[(r, c)] = Φ[(c, r)] = phi[r][c]` (column `c` of
-/// `Φᵀ` is row `c` of `Φ`).
+/// `Φᵀ` is row `c` of `Φ`). In 4 × 4 blocks read four values at a time, as the columns
+/// were just written (reading them value by value waited on those wide stores).
 #[inline(always)]
 fn copy_transposed(phi: &Cols16, phi_t: &mut Cov<Const<15>>) {
     let dst = &mut phi_t.data.0;
-    for (r, col) in phi.iter().enumerate() {
-        for (c, v) in col[..15].iter().enumerate() {
-            dst[c][r] = *v;
+    for r0 in (0..15).step_by(4) {
+        let rows = (15 - r0).min(4);
+        for c0 in (0..16).step_by(4) {
+            let mut a = [[0.0f64; 4]; 4];
+            for (i, ai) in a.iter_mut().enumerate().take(rows) {
+                ai.copy_from_slice(&phi[r0 + i][c0..c0 + 4]);
+            }
+            for j in 0..(15 - c0).min(4) {
+                let col = &mut dst[c0 + j];
+                for (i, ai) in a.iter().enumerate().take(rows) {
+                    col[r0 + i] = ai[j];
+                }
+            }
         }
     }
 }
