@@ -451,10 +451,8 @@ where
     /// The last segment ends at the filter's final state: without an update after its
     /// last step, the filter's covariance is that end's.
     fn end_with<A: NoiseStrategy, B: CovBackend<X::Dim>>(&mut self, f: &ErrorStateFilter<X, A, B>) {
-        if self.open_steps > 0 && self.last_epoch == Some(f.epoch()) && !self.prior_taken {
-            self.prior.clear();
-            push_upper(&mut self.prior, &f.covariance());
-            self.prior_taken = true;
+        if self.last_epoch == Some(f.epoch()) {
+            StepRecorder::<X, U>::before_update(self, f);
         }
     }
 

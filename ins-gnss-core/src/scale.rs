@@ -120,6 +120,19 @@ impl InsModel21 {
         }
     }
 
+    /// What the scale columns and rows of `Φ` are made of, for the step of the
+    /// scale-corrected input `v`: the bias-corrected rate and specific force (the scale
+    /// columns are the bias columns times them) and the scale factors' decay.
+    fn scale_terms(&self, x: &InsState21, v: &ImuInput) -> (Vector3<f64>, Vector3<f64>, f64) {
+        let h = v.cur.dt;
+        let (w, f) = if h > 0.0 {
+            (v.cur.dtheta / h - x.nav.bg, v.cur.dvel / h - x.nav.ba)
+        } else {
+            (Vector3::zeros(), Vector3::zeros())
+        };
+        (w, f, self.decay(h))
+    }
+
     fn next(&self, x: &InsState21, u: &ImuInput, nav: InsState) -> InsState21 {
         let k = self.decay(u.cur.dt);
         InsState21 { nav, sg: x.sg * k, sa: x.sa * k }
@@ -148,12 +161,7 @@ impl ProcessModel for InsModel21 {
         let v = Self::scale_corrected(x, u);
         let (nav, j15) = self.base.step(&x.nav, &v, dt);
         let h = v.cur.dt;
-        // the bias-corrected rate and specific force of the step
-        let (w, f) = if h > 0.0 {
-            (v.cur.dtheta / h - x.nav.bg, v.cur.dvel / h - x.nav.ba)
-        } else {
-            (Vector3::zeros(), Vector3::zeros())
-        };
+        let (w, f, decay) = self.scale_terms(x, &v);
         let mut Phi = M21::zeros();
         Phi.fixed_view_mut::<15, 15>(0, 0).copy_from(&j15.Phi);
         for k in 0..3 {
@@ -162,7 +170,6 @@ impl ProcessModel for InsModel21 {
                 Phi[(r, 18 + k)] = j15.Phi[(r, 12 + k)] * f[k];
             }
         }
-        let decay = self.decay(h);
         let (qg, qa) = self.psd();
         let mut Q = M21::zeros();
         Q.fixed_view_mut::<15, 15>(0, 0).copy_from(&j15.Q);
@@ -186,16 +193,10 @@ impl ProcessModel for InsModel21 {
         let v = Self::scale_corrected(x, u);
         let mut t15 = SMatrix::<f64, 15, 15>::zeros();
         let nav = self.base.step_transition(&x.nav, &v, dt, &mut t15);
-        let h = v.cur.dt;
-        let (w, f) = if h > 0.0 {
-            (v.cur.dtheta / h - x.nav.bg, v.cur.dvel / h - x.nav.ba)
-        } else {
-            (Vector3::zeros(), Vector3::zeros())
-        };
-        // Φᵀ[(c, r)] = Φ[(r, c)]; the scale columns of Φ are its bias columns times w, f
+        let (w, f, decay) = self.scale_terms(x, &v);
+        // Φᵀ[(c, r)] = Φ[(r, c)]: step's Φ, transposed
         phi_t.fill(0.0);
         phi_t.fixed_view_mut::<15, 15>(0, 0).copy_from(&t15);
-        let decay = self.decay(h);
         for k in 0..3 {
             for r in 0..9 {
                 phi_t[(15 + k, r)] = t15[(9 + k, r)] * w[k];
@@ -225,10 +226,11 @@ impl ProcessModel for InsModel21 {
         let v15: nalgebra::SVector<f64, 15> = v.fixed_rows::<15>(0).into_owned();
         let w15: nalgebra::SVector<f64, 15> = phi_t_v.fixed_rows::<15>(0).into_owned();
         let mut o15 = nalgebra::SVector::<f64, 15>::zeros();
-        let corrected = Self::scale_corrected(x, u);
-        self.base.noise_times(&x.nav, &corrected, dt, &t15, &v15, &w15, &mut o15);
+        // (the 15-state noise depends on the attitude and the interval, which the scale
+        // correction of the increments leaves as they are)
+        self.base.noise_times(&x.nav, u, dt, &t15, &v15, &w15, &mut o15);
         out.fixed_rows_mut::<15>(0).copy_from(&o15);
-        let h = corrected.cur.dt;
+        let h = u.cur.dt;
         let (qg, qa) = self.psd();
         for k in 0..3 {
             out[15 + k] = qg[k] * h * v[15 + k];

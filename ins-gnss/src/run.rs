@@ -1126,10 +1126,11 @@ type Recorder<S, T = std::fs::File> = estimator_core::SegmentSmoother<S, ImuInpu
 
 /// The backward pass: `nav_smoothed.txt`, `std_smoothed.txt` and `nav_smoothed.pos` (as
 /// `.partial`, in the formats of `nav.txt`, `std.txt` and `nav.pos`: the first at every
-/// IMU epoch, the others at the epochs of `std.txt`). The smoother hands the segments last to first: each
-/// batch's text is appended to its file with its bytes reversed, so each file ends up as
-/// its final text backwards, which is then turned around in place ([`reverse_file`]): no
-/// scratch file, the disk never holds more than the outputs. Returns the number of rows.
+/// IMU epoch, the others at the epochs of `std.txt`). The smoother hands the segments
+/// last to first: each batch's text is appended to its file with its bytes reversed, so
+/// each file ends up as its final text backwards, which is then turned around in place
+/// ([`reverse_file`]): no scratch file, the disk never holds more than the outputs.
+/// Returns the number of rows.
 fn write_smoothed<S: RunState>(
     recorder: Recorder<S>,
     nav: &Navigator<RunStrategy, S>,
