@@ -58,8 +58,11 @@
 //!   its boundary as they are, without the smoothed covariance and the Cholesky factor an
 //!   update boundary needs;
 //! - an input that repeats the step before's (an IMU input carries the previous sample)
-//!   is stored once ([`Spill::spill_after`]), and closed segments are written and read
-//!   back about a megabyte at a time.
+//!   is stored once, and only what the step before does not give
+//!   ([`Spill::spill_after`]: a steady-rate IMU sample is its six increments); a step
+//!   whose end time and interval are its input's ([`Spill::stamp`]) is stored without
+//!   them; closed segments are written and read back about a megabyte at a time, as the
+//!   numbers they are (no conversion).
 //!
 //! What the smoother does not see: an update's prior scaling (a strategy's `λ_P`) — the
 //! segment's end uses the propagated `Pₙ`, not the scaled prior the update used. For
@@ -91,22 +94,38 @@ pub trait Spill: Sized {
     fn spill(&self, out: &mut [f64]);
     /// Read it back from `v` (`v.len() == LEN`).
     fn unspill(v: &[f64]) -> Self;
-    /// How many numbers [`spill_after`](Self::spill_after) writes (`≤ LEN`).
+    /// The most numbers [`spill_after`](Self::spill_after) writes (`≤ LEN`).
     const AFTER_LEN: usize = Self::LEN;
-    /// Write the value, which follows `before` (the previous step's input), in
-    /// [`AFTER_LEN`](Self::AFTER_LEN) numbers when `before` and those numbers rebuild it
-    /// exactly; `false` (nothing written) otherwise. An IMU input that repeats the
-    /// previous sample stores only the new one. The default never shortens.
-    fn spill_after(&self, before: &Self, out: &mut [f64]) -> bool {
+    /// Write the value, which follows `before` (the previous step's input), in fewer
+    /// numbers when `before` and those numbers rebuild it exactly: returns the *form* of
+    /// what was written (below [`AFTER_FORMS`]; [`after_len`](Self::after_len) numbers),
+    /// or `None` (nothing written). An IMU input that repeats the previous sample stores
+    /// only the new one, and of it only what the previous one does not give. The default
+    /// never shortens.
+    fn spill_after(&self, before: &Self, out: &mut [f64]) -> Option<u8> {
         let _ = (before, out);
-        false
+        None
     }
-    /// Rebuild a value from what [`spill_after`](Self::spill_after) wrote.
-    fn unspill_after(v: &[f64], before: &Self) -> Self {
-        let _ = before;
+    /// How many numbers [`spill_after`](Self::spill_after) writes in `form`.
+    fn after_len(form: u8) -> usize {
+        let _ = form;
+        Self::AFTER_LEN
+    }
+    /// Rebuild a value from what [`spill_after`](Self::spill_after) wrote in `form`.
+    fn unspill_after(v: &[f64], form: u8, before: &Self) -> Self {
+        let _ = (before, form);
         Self::unspill(v)
     }
+    /// The end time and the interval of the step this input drives, when the input
+    /// carries them: a step whose own are the same bits is stored without them. Default:
+    /// `None`.
+    fn stamp(&self) -> Option<(f64, f64)> {
+        None
+    }
 }
+
+/// Forms of [`Spill::spill_after`] (they share a step's flags with the smoother's own).
+pub const AFTER_FORMS: u8 = 16;
 
 impl<const D: usize> Spill for SVector<f64, D> {
     const LEN: usize = D;
@@ -271,15 +290,21 @@ where
 /// whether the segment continues the one before it (no update between them), and what
 /// its end holds ([`END_OPEN`], [`END_PRIOR`], [`END_REPLAY`]).
 const HEAD: usize = 6;
-/// Numbers per step before the input: end time, interval, flags ([`MARKED`],
-/// [`AFTER`], [`VARIANCES`]).
-const STEP: usize = 3;
+// A step is stored as its flags ([`MARKED`], [`AFTER`], [`VARIANCES`], [`STAMPED`], and
+// the input's form over [`FORM_SHIFT`]), its end time and interval unless [`STAMPED`], and
+// its input ([`Spill::spill`], or [`Spill::spill_after`] when [`AFTER`]).
+
 /// Step flag: the step ends at an output epoch.
 const MARKED: u8 = 1;
 /// Step flag: the input is stored after the step before it ([`Spill::spill_after`]).
 const AFTER: u8 = 2;
 /// Step flag: the output epoch wants the smoothed variances too (the segment ends there).
 const VARIANCES: u8 = 4;
+/// Step flag: the step's end time and interval are its input's ([`Spill::stamp`]) and are
+/// not stored.
+const STAMPED: u8 = 8;
+/// The input's form ([`Spill::spill_after`]) is the flags over this.
+const FORM_SHIFT: u32 = 4;
 /// Segment end: the next segment continues this one (its start covariance is this end's).
 const END_OPEN: f64 = 0.0;
 /// Segment end: an update follows; the covariance before it is stored after the steps.
@@ -314,7 +339,9 @@ pub struct SegmentSmoother<X, U, S = std::fs::File> {
     close_next: bool,
     /// Where the open segment's last step's flags are.
     last_flags: usize,
-    bytes: Vec<u8>,
+    /// Closed segments not written yet (written as their bytes in the machine's order: the
+    /// storage is read back by the same process).
+    pending: Vec<f64>,
     /// The first storage error of the forward pass (recording stops there).
     error: Option<std::io::Error>,
     _types: PhantomData<fn(X, U)>,
@@ -351,7 +378,7 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
             prior_taken: false,
             close_next: false,
             last_flags: 0,
-            bytes: Vec::new(),
+            pending: Vec::new(),
             error: None,
             _types: PhantomData,
         }
@@ -403,18 +430,16 @@ where
             (true, false) => END_REPLAY,
         };
         self.prior_taken = false;
-        let start = self.bytes.len();
-        for v in &self.open {
-            self.bytes.extend_from_slice(&v.to_le_bytes());
-        }
+        let start = self.pending.len();
+        self.pending.extend_from_slice(&self.open);
         self.open.clear();
         self.open_steps = 0;
         self.last_input = None;
-        let end = self.stored_bytes() + (self.bytes.len() - start) as u64;
+        let end = self.stored_bytes() + (8 * (self.pending.len() - start)) as u64;
         self.offsets.push(end);
         // closed segments go to the storage about a megabyte at a time (one write per
         // segment made a system call per update)
-        if self.bytes.len() >= WRITE_BYTES {
+        if 8 * self.pending.len() >= WRITE_BYTES {
             self.write_pending();
         }
     }
@@ -422,11 +447,11 @@ where
     /// Write the closed segments not written yet.
     fn write_pending(&mut self) {
         if self.error.is_none() {
-            if let Err(e) = self.store.write_all(&self.bytes) {
+            if let Err(e) = self.store.write_all(bytemuck::cast_slice(&self.pending)) {
                 self.error = Some(e);
             }
         }
-        self.bytes.clear();
+        self.pending.clear();
     }
 
     fn start<A: NoiseStrategy, B: CovBackend<X::Dim>>(&mut self, f: &ErrorStateFilter<X, A, B>) {
@@ -485,7 +510,7 @@ where
         let mut back = Backward::start(filter);
         let mut seg = Replayed::default();
         let mut store =
-            Store { store: &mut self.store, offsets: &self.offsets, bytes: Vec::new(), at: 0 };
+            Store { store: &mut self.store, offsets: &self.offsets, window: Vec::new(), at: 0 };
         for k in (0..self.offsets.len() - 1).rev() {
             store.replay(k, model, &mut seg)?;
             back.segment(&seg, model)?;
@@ -517,7 +542,7 @@ where
         let mut back = Backward::start(filter);
         let segments = self.offsets.len() - 1;
         let mut store =
-            Store { store: &mut self.store, offsets: &self.offsets, bytes: Vec::new(), at: 0 };
+            Store { store: &mut self.store, offsets: &self.offsets, window: Vec::new(), at: 0 };
         std::thread::scope(|scope| -> Result<(), SmootherError> {
             // replayed segments one way in batches of about `BATCH_STEPS` steps (a thread
             // wake-up per segment costs more than a short segment's work), their emptied
@@ -576,8 +601,9 @@ const BATCH_STEPS: usize = 256;
 struct Store<'a, S> {
     store: &'a mut S,
     offsets: &'a [u64],
-    bytes: Vec<u8>,
-    /// Where in the storage `bytes` starts.
+    /// The numbers read (the storage's bytes read into them in place).
+    window: Vec<f64>,
+    /// Where in the storage `window` starts, bytes.
     at: u64,
 }
 
@@ -603,7 +629,6 @@ where
     /// The prediction fading and noise adjustment of the segment's steps.
     fading: f64,
     q: QAdjust<X::Dim>,
-    values: Vec<f64>,
 }
 
 impl<X: Manifold, U> Default for Replayed<X, U>
@@ -620,7 +645,6 @@ where
             continues: false,
             fading: 1.0,
             q: QAdjust::Keep,
-            values: Vec::new(),
         }
     }
 }
@@ -667,24 +691,16 @@ impl<S: Read + Seek> Store<'_, S> {
     {
         let n = X::Dim::DIM;
         let (from, to) = (self.offsets[k], self.offsets[k + 1]);
-        let held = self.at..self.at + self.bytes.len() as u64;
+        let held = self.at..self.at + 8 * self.window.len() as u64;
         if !(held.contains(&from) && to <= held.end) {
-            // the window that ends with this segment
+            // the window that ends with this segment (offsets are whole numbers of f64)
             let start = from.min(to.saturating_sub(WRITE_BYTES as u64));
             self.store.seek(SeekFrom::Start(start))?;
-            self.bytes.resize((to - start) as usize, 0);
-            self.store.read_exact(&mut self.bytes)?;
+            self.window.resize(((to - start) / 8) as usize, 0.0);
+            self.store.read_exact(bytemuck::cast_slice_mut(&mut self.window))?;
             self.at = start;
         }
-        let bytes = &self.bytes[(from - self.at) as usize..(to - self.at) as usize];
-        let values = &mut seg.values;
-        values.clear();
-        values.extend(bytes.chunks_exact(8).map(|b| {
-            let mut a = [0u8; 8];
-            a.copy_from_slice(b);
-            f64::from_le_bytes(a)
-        }));
-        let v = &values[..];
+        let v = &self.window[((from - self.at) / 8) as usize..((to - self.at) / 8) as usize];
         let corrupt = SmootherError::Corrupt;
         if v.len() < HEAD {
             return Err(corrupt("segment header"));
@@ -711,10 +727,9 @@ impl<S: Read + Seek> Store<'_, S> {
         seg.q = q;
         let mut at = HEAD + qn;
         let tri = n * (n + 1) / 2;
-        // (a corrupt count must not overflow the bound it is checked against)
-        let least = count
-            .checked_mul(STEP + U::AFTER_LEN.min(U::LEN))
-            .and_then(|steps| steps.checked_add(at + X::LEN + tri));
+        // (a corrupt count must not overflow the bound it is checked against; a step is
+        // at least its flags)
+        let least = at.checked_add(X::LEN + tri).and_then(|head| head.checked_add(count));
         if least.is_none_or(|least| v.len() < least) || count == 0 {
             return Err(corrupt("segment length"));
         }
@@ -730,21 +745,36 @@ impl<S: Read + Seek> Store<'_, S> {
         read_upper(&v[at..], &mut seg.ps[0]);
         at += tri;
         for _ in 0..count {
-            let flags = *v.get(at + 2).ok_or(corrupt("segment length"))?;
-            if !((0.0..8.0).contains(&flags) && flags.fract() == 0.0) {
+            let flags = *v.get(at).ok_or(corrupt("segment length"))?;
+            if !((0.0..256.0).contains(&flags) && flags.fract() == 0.0) {
                 return Err(corrupt("step flags"));
             }
             let flags = flags as u8;
-            let after = flags & AFTER != 0;
-            let len = if after { U::AFTER_LEN } else { U::LEN };
-            let payload = v.get(at + STEP..at + STEP + len).ok_or(corrupt("segment length"))?;
+            let (after, stamped) = (flags & AFTER != 0, flags & STAMPED != 0);
+            let form = flags >> FORM_SHIFT;
+            if form != 0 && !after {
+                return Err(corrupt("step flags"));
+            }
+            let mut times = None;
+            at += 1;
+            if !stamped {
+                let t = v.get(at..at + 2).ok_or(corrupt("segment length"))?;
+                times = Some((t[0], t[1]));
+                at += 2;
+            }
+            let len = if after { U::after_len(form).min(U::AFTER_LEN) } else { U::LEN };
+            let payload = v.get(at..at + len).ok_or(corrupt("segment length"))?;
             let u = match (after, seg.steps.last()) {
-                (true, Some((.., before))) => U::unspill_after(payload, before),
+                (true, Some((.., before))) => U::unspill_after(payload, form, before),
                 (true, None) => return Err(corrupt("first step stored after another")),
                 (false, _) => U::unspill(payload),
             };
-            seg.steps.push((v[at], v[at + 1], flags, u));
-            at += STEP + len;
+            let (end, dt) = match times.or_else(|| u.stamp()) {
+                Some(times) => times,
+                None => return Err(corrupt("step without its times")),
+            };
+            seg.steps.push((end, dt, flags & (MARKED | VARIANCES), u));
+            at += len;
         }
         if end == END_PRIOR {
             let stored = v.get(at..at + tri).ok_or(corrupt("segment end covariance"))?;
@@ -968,20 +998,34 @@ where
         }
         let end = filter.time() + dt;
         let at = self.open.len();
-        self.open.extend_from_slice(&[end, dt, f64::from(if mark { MARKED } else { 0 })]);
-        self.last_flags = at + 2;
-        let payload = at + STEP;
-        self.open.resize(payload + U::AFTER_LEN, 0.0);
-        let after = match &self.last_input {
-            Some(before) => u.spill_after(before, &mut self.open[payload..]),
-            None => false,
-        };
-        if after {
-            self.open[at + 2] += f64::from(AFTER);
+        let stamped = u
+            .stamp()
+            .is_some_and(|(t, d)| t.to_bits() == end.to_bits() && d.to_bits() == dt.to_bits());
+        let mut flags = if mark { MARKED } else { 0 };
+        if stamped {
+            flags |= STAMPED;
+            self.open.push(0.0);
         } else {
-            self.open.resize(payload + U::LEN, 0.0);
-            u.spill(&mut self.open[payload..]);
+            self.open.extend_from_slice(&[0.0, end, dt]);
         }
+        self.last_flags = at;
+        let payload = self.open.len();
+        self.open.resize(payload + U::AFTER_LEN, 0.0);
+        let form = match &self.last_input {
+            Some(before) => u.spill_after(before, &mut self.open[payload..]),
+            None => None,
+        };
+        match form {
+            Some(form) if form < AFTER_FORMS => {
+                flags |= AFTER | (form << FORM_SHIFT);
+                self.open.truncate(payload + U::after_len(form));
+            }
+            _ => {
+                self.open.resize(payload + U::LEN, 0.0);
+                u.spill(&mut self.open[payload..]);
+            }
+        }
+        self.open[at] = f64::from(flags);
         self.last_input = Some(u.clone());
         self.open_steps += 1;
     }

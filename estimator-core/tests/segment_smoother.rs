@@ -269,21 +269,167 @@ fn corrupt_flags_in_the_storage_are_refused() {
     };
     assert!(run(None).is_ok());
     // a segment: 6 header numbers (steps, time, fading, noise tag, continuation, end), the
-    // state (2), the covariance's triangle (3), then per step: end, interval, flags, input
-    let (continuation, end, first_flags) = (4 * 8, 5 * 8, (6 + 2 + 3 + 2) * 8);
-    // and a step count (the first number) too large for memory: refused, no overflow
+    // state (2), the covariance's triangle (3), then per step: flags, end, interval, input
+    let (continuation, end, first_flags) = (4 * 8, 5 * 8, (6 + 2 + 3) * 8);
+    // flags: out of range, not whole, stored after a step before the first, without the
+    // end time and interval on an input that does not carry them, an input form without
+    // an input stored after the one before; and a step count (the first number) too large
+    // for memory: refused, no overflow
     let cases = [
         (continuation, 0.5),
         (end, 3.0),
-        (first_flags, 8.0),
+        (first_flags, 256.0),
         (first_flags, 1.5),
         (first_flags, 2.0),
+        (first_flags, 8.0),
+        (first_flags, 16.0),
         (0, 1e300),
     ];
     for (at, value) in cases {
         match run(Some((at, value))) {
             Err(estimator_core::SmootherError::Corrupt(_)) => {}
             other => panic!("{value} at byte {at}: expected a corrupt storage, got {other:?}"),
+        }
+    }
+}
+
+/// A commanded acceleration over an interval, with the interval's end time: an input that
+/// carries its step's times ([`Spill::stamp`]) and is stored after the one before in a
+/// shorter form when it can ([`Spill::spill_after`]).
+#[derive(Clone, Debug, PartialEq)]
+struct Push {
+    t: f64,
+    dt: f64,
+    a: f64,
+}
+
+/// Forms: the interval is the one before's; the time is the one before's plus the interval.
+const SAME_DT: u8 = 1;
+const NEXT_T: u8 = 2;
+
+impl estimator_core::Spill for Push {
+    const LEN: usize = 3;
+    fn spill(&self, out: &mut [f64]) {
+        out.copy_from_slice(&[self.t, self.dt, self.a]);
+    }
+    fn unspill(v: &[f64]) -> Self {
+        Push { t: v[0], dt: v[1], a: v[2] }
+    }
+    fn spill_after(&self, before: &Self, out: &mut [f64]) -> Option<u8> {
+        let mut form = 0;
+        let mut at = 0;
+        if self.dt.to_bits() == before.dt.to_bits() {
+            form |= SAME_DT;
+        } else {
+            out[at] = self.dt;
+            at += 1;
+        }
+        if (before.t + self.dt).to_bits() == self.t.to_bits() {
+            form |= NEXT_T;
+        } else {
+            out[at] = self.t;
+            at += 1;
+        }
+        out[at] = self.a;
+        Some(form)
+    }
+    fn after_len(form: u8) -> usize {
+        1 + usize::from(form & SAME_DT == 0) + usize::from(form & NEXT_T == 0)
+    }
+    fn unspill_after(v: &[f64], form: u8, before: &Self) -> Self {
+        let mut at = 0;
+        let dt = if form & SAME_DT != 0 {
+            before.dt
+        } else {
+            at += 1;
+            v[0]
+        };
+        let t = if form & NEXT_T != 0 {
+            before.t + dt
+        } else {
+            at += 1;
+            v[at - 1]
+        };
+        Push { t, dt, a: v[at] }
+    }
+    fn stamp(&self) -> Option<(f64, f64)> {
+        Some((self.t, self.dt))
+    }
+}
+
+/// Position and velocity driven by [`Push`].
+struct Pushed;
+
+impl estimator_core::ProcessModel for Pushed {
+    type State = Vector2<f64>;
+    type Input = Push;
+    fn propagate(&self, x: &Vector2<f64>, u: &Push, dt: f64) -> Vector2<f64> {
+        Vector2::new(x[0] + dt * x[1] + 0.5 * dt * dt * u.a, x[1] + dt * u.a)
+    }
+    fn jacobians(
+        &self,
+        _: &Vector2<f64>,
+        _: &Push,
+        dt: f64,
+    ) -> estimator_core::ProcessJacobians<nalgebra::U2> {
+        let q = Matrix2::new(dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt) * 0.05;
+        estimator_core::ProcessJacobians { Phi: Matrix2::new(1.0, dt, 0.0, 1.0), Q: q }
+    }
+}
+
+/// Inputs stored in their short forms, and steps stored without the times their inputs
+/// carry, replay to the step-by-step smoother's estimates; a step whose own times differ
+/// from its input's (the filter clock off the stamps) keeps its own.
+#[test]
+fn inputs_with_their_own_times_and_short_forms_replay_exactly() {
+    let sensor = LinearMeasurement::new(Matrix1x2::new(1.0, 0.0));
+    let R = Matrix1::new(0.4);
+    let mut f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
+    let mut rts = RtsSmoother::new();
+    let mut seg = SegmentSmoother::new(Cursor::new(Vec::new()), 16);
+    let mut t = 0.0;
+    let mut times = Vec::new();
+    for k in 0..120 {
+        // a steady interval with a few irregular ones, and a time stamp off the sum
+        let dt = if k % 17 == 5 { 0.37 } else { 0.25 };
+        t = if k % 23 == 11 { t + dt + 1e-9 } else { t + dt };
+        let u = Push { t, dt, a: (k as f64 * 0.3).sin() };
+        // the filter's clock on the stamps, except on a few steps
+        let start = if k % 31 == 7 { t - dt + 1e-7 } else { t - dt };
+        f.set_time(start);
+        seg.before_predict(&f, &u, dt, true);
+        rts.predict(&mut f, &Pushed, &u, dt).unwrap();
+        times.push(start + dt);
+        if k % 4 == 3 {
+            seg.before_update(&f);
+            f.update(&sensor, &Vector1::new((t * 0.4).sin() * 3.0), &R).unwrap();
+        }
+        if k % 5 == 0 {
+            seg.mark_variances();
+        }
+    }
+    seg.finish_recording().unwrap();
+    // a segment's head (at most 14 numbers), its first step in full (at most 6), every
+    // other step in at most 3 numbers (flags, input in a short form): 6 in full
+    let bound = 8 * (seg.segments() * (14 + 6) + 3 * 120);
+    assert!(seg.stored_bytes() as usize <= bound, "{} bytes stored", seg.stored_bytes());
+    let mut chunks = Vec::new();
+    seg.smooth(&f, &Pushed, |rows| {
+        chunks.push(rows.to_vec());
+        Ok(())
+    })
+    .unwrap();
+    let rows: Vec<_> = chunks.into_iter().rev().flatten().collect();
+    let expected = rts.smooth(&f).unwrap();
+    assert_eq!(rows.len(), times.len());
+    for (k, (r, s)) in rows.iter().zip(&expected[1..]).enumerate() {
+        assert_eq!(r.time.to_bits(), times[k].to_bits(), "step {k}");
+        let scale = s.x.abs().max().max(1.0);
+        assert!((r.x - s.x).abs().max() < 1e-9 * scale, "step {k}: {} vs {}", r.x, s.x);
+        if let Some(var) = &r.var {
+            for i in 0..2 {
+                assert!((var[i] - s.p[(i, i)]).abs() < 1e-9 * s.p[(i, i)].max(1e-3));
+            }
         }
     }
 }

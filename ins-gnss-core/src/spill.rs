@@ -96,29 +96,77 @@ impl Spill for ImuInput {
             cur: get_sample(&v[1 + SAMPLE..]),
         }
     }
-    /// An input whose previous sample is the step before's current one: that sample only
-    /// (the smoother's records of a run hold each IMU sample once).
+    /// An input whose previous sample is the step before's current one: that sample only,
+    /// and of it only what the step before's does not give (the time when it is that
+    /// sample's time plus the interval, the interval when it is the same, the odometer
+    /// when there is none): 6 to 10 numbers, so that the smoother's records of a run hold
+    /// each IMU sample once and the increments of a steady-rate log alone.
     const AFTER_LEN: usize = SAMPLE;
-    fn spill_after(&self, before: &Self, out: &mut [f64]) -> bool {
+    fn spill_after(&self, before: &Self, out: &mut [f64]) -> Option<u8> {
+        let prev = self.prev.as_ref()?;
         // bit for bit (a NaN-free sample equal by value is the same bits but ±0)
-        let same = |a: &ImuSample, b: &ImuSample| {
-            let (mut x, mut y) = ([0.0; SAMPLE], [0.0; SAMPLE]);
-            put_sample(&mut x, a);
-            put_sample(&mut y, b);
-            x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits())
-        };
-        match &self.prev {
-            Some(p) if same(p, &before.cur) => {
-                put_sample(out, &self.cur);
-                true
-            }
-            _ => false,
+        let (mut x, mut y) = ([0.0; SAMPLE], [0.0; SAMPLE]);
+        put_sample(&mut x, prev);
+        put_sample(&mut y, &before.cur);
+        if !x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()) {
+            return None;
         }
+        let (s, last) = (&self.cur, &before.cur);
+        let same_dt = s.dt.to_bits() == last.dt.to_bits();
+        let next_t = (last.t + s.dt).to_bits() == s.t.to_bits();
+        let mut form = 0;
+        let mut at = 0;
+        let mut put = |v: &[f64]| {
+            out[at..at + v.len()].copy_from_slice(v);
+            at += v.len();
+        };
+        if same_dt {
+            form |= SAME_DT;
+        } else {
+            put(&[s.dt]);
+        }
+        if next_t {
+            form |= NEXT_T;
+        } else {
+            put(&[s.t]);
+        }
+        put(s.dtheta.as_slice());
+        put(s.dvel.as_slice());
+        match s.odometer {
+            None => form |= NO_ODOMETER,
+            Some(v) => put(&[v]),
+        }
+        Some(form)
     }
-    fn unspill_after(v: &[f64], before: &Self) -> Self {
-        ImuInput { prev: Some(before.cur), cur: get_sample(v) }
+    fn after_len(form: u8) -> usize {
+        let absent = |bit: u8| usize::from(form & bit == 0);
+        6 + absent(SAME_DT) + absent(NEXT_T) + absent(NO_ODOMETER)
+    }
+    fn unspill_after(v: &[f64], form: u8, before: &Self) -> Self {
+        let last = &before.cur;
+        let mut at = 0;
+        let mut take = |n: usize| {
+            at += n;
+            &v[at - n..at]
+        };
+        let dt = if form & SAME_DT != 0 { last.dt } else { take(1)[0] };
+        let t = if form & NEXT_T != 0 { last.t + dt } else { take(1)[0] };
+        let dtheta = get3(take(3));
+        let dvel = get3(take(3));
+        let odometer = (form & NO_ODOMETER == 0).then(|| take(1)[0]);
+        ImuInput { prev: Some(*last), cur: ImuSample { t, dt, dtheta, dvel, odometer } }
+    }
+    /// The step ends at the sample's time, after its interval.
+    fn stamp(&self) -> Option<(f64, f64)> {
+        Some((self.cur.t, self.cur.dt))
     }
 }
+
+/// Forms of an IMU input stored after the one before ([`Spill::spill_after`]): the interval
+/// is the one before's, the time is the one before's plus the interval, no odometer.
+const SAME_DT: u8 = 1;
+const NEXT_T: u8 = 2;
+const NO_ODOMETER: u8 = 4;
 
 #[cfg(test)]
 mod tests {
@@ -157,9 +205,10 @@ mod tests {
         round_trip(&ImuInput { prev: Some(s), cur: with_odo });
     }
 
-    /// An input that repeats the step before's sample is stored as its new sample alone
-    /// and comes back exactly; one that does not (another previous sample, none, an
-    /// odometer flag or a signed zero that differs) is not shortened.
+    /// An input that repeats the step before's sample is stored as its new sample alone,
+    /// less what the step before gives, and comes back exactly in every form; one that
+    /// does not (another previous sample, none, an odometer flag or a signed zero that
+    /// differs) is not shortened.
     #[test]
     fn inputs_after_the_step_before_are_stored_once() {
         let s = ImuSample::from_increments(
@@ -168,14 +217,30 @@ mod tests {
             Vector3::new(1e-3, 2e-3, 3e-3),
             Vector3::new(0.1, 0.0, -0.098),
         );
-        let next = ImuSample { t: 10.02, dtheta: Vector3::new(2e-3, 0.0, -1e-3), ..s };
         let before = ImuInput { prev: None, cur: s };
-        let after = ImuInput { prev: Some(s), cur: next };
-        let mut v = vec![f64::NAN; ImuInput::AFTER_LEN];
-        assert!(after.spill_after(&before, &mut v));
-        assert!(v.iter().all(|v| !v.is_nan()), "every slot written");
-        assert_eq!(ImuInput::unspill_after(&v, &before), after);
+        let steady = ImuSample { t: 10.01 + 0.01, dtheta: Vector3::new(2e-3, 0.0, -1e-3), ..s };
+        // (form, numbers): the steady sample gives only its increments
+        let cases = [
+            (steady, SAME_DT | NEXT_T | NO_ODOMETER, 6),
+            (ImuSample { odometer: Some(0.0), ..steady }, SAME_DT | NEXT_T, 7),
+            (ImuSample { t: 10.03, ..steady }, SAME_DT | NO_ODOMETER, 7),
+            (ImuSample { dt: 0.02, t: 10.01 + 0.02, ..steady }, NEXT_T | NO_ODOMETER, 7),
+            (ImuSample { dt: 0.02, t: 10.04, odometer: Some(-1.5), ..steady }, 0, 9),
+        ];
+        for (next, form, len) in cases {
+            let after = ImuInput { prev: Some(s), cur: next };
+            let mut v = vec![f64::NAN; ImuInput::AFTER_LEN];
+            assert_eq!(after.spill_after(&before, &mut v), Some(form), "{next:?}");
+            assert_eq!(ImuInput::after_len(form), len);
+            assert!(v[..len].iter().all(|v| !v.is_nan()), "every slot written");
+            assert!(v[len..].iter().all(|v| v.is_nan()), "nothing past the form's length");
+            let back = ImuInput::unspill_after(&v[..len], form, &before);
+            assert_eq!(back, after);
+            assert_eq!(back.cur.t.to_bits(), next.t.to_bits());
+            assert_eq!(back.stamp(), Some((next.t, next.dt)));
+        }
         const { assert!(ImuInput::AFTER_LEN < ImuInput::LEN) };
+        let next = steady;
         let others = [
             ImuInput { prev: None, cur: next },
             ImuInput { prev: Some(next), cur: next },
@@ -185,8 +250,9 @@ mod tests {
                 cur: next,
             },
         ];
+        let mut v = vec![f64::NAN; ImuInput::AFTER_LEN];
         for other in others {
-            assert!(!other.spill_after(&before, &mut v), "{other:?}");
+            assert_eq!(other.spill_after(&before, &mut v), None, "{other:?}");
         }
     }
 }
