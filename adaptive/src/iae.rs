@@ -17,7 +17,7 @@ use crate::window::{project_noise, trace_ratio, InnovationWindow, NoiseBounds};
 /// ```
 ///
 /// `R̂_k` is not positive definite in general (the known weakness of IAE); it is
-/// projected back with [`project_noise`] (full matrix when `R̂ − floor·R₀` is PD, otherwise
+/// projected back with `project_noise` (full matrix when `R̂ − floor·R₀` is PD, otherwise
 /// the diagonal clamped to `[floor, ceiling]·R₀`). Until the window holds `warmup`
 /// innovations the nominal `R` is used (start-up: fewer samples than N are used as they
 /// come once `warmup` is reached).

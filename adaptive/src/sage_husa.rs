@@ -12,7 +12,7 @@ use crate::window::{project_noise, trace_ratio, NoiseBounds};
 /// ```
 ///
 /// with `R_{−1}` the nominal `R` of the stream's first update and `k` counting that
-/// stream's updates from 0. Each `R_k` is clamped with [`project_noise`] between
+/// stream's updates from 0. Each `R_k` is clamped with `project_noise` between
 /// `floor·R₀` and `ceiling·R₀` on the diagonal (`R₀` the current nominal `R`), which keeps
 /// it symmetric positive definite whatever the innovations.
 ///

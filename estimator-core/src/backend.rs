@@ -118,10 +118,10 @@ where
 
     /// The whole prediction of the filter: returns `x⁺ = f(x, u, dt)` and writes
     /// `out ← λ Φ P Φᵀ + Q_d`, `Q_d` adjusted as the strategy asked (`q`), exactly
-    /// symmetric. `Q_d` is checked ([`check_process_noise`]) wherever it is formed; on
+    /// symmetric. `Q_d` is checked (`check_process_noise`) wherever it is formed; on
     /// `Err` nothing but `out` may have changed.
     ///
-    /// Default: the model's `Φ` and `Q_d` ([`adjusted_step`]) and
+    /// Default: the model's `Φ` and `Q_d` (`adjusted_step`) and
     /// [`propagate`](Self::propagate). The static back-end overrides it with the model's
     /// structured [`ProcessModel::step_covariance`].
     #[allow(clippy::too_many_arguments)]
@@ -192,7 +192,7 @@ where
     /// `P ← G P Gᵀ` in place (the reset), `G` being the identity but for the square
     /// `block` at rows and columns `offset..` (one of the state's
     /// [`reset_blocks`](manifolds::Manifold::reset_blocks)); `O(d² N)` for a `d × d` block
-    /// (see [`block_reset_in_place`](crate::kernels::block_reset_in_place)).
+    /// (see `block_reset_in_place`).
     fn reset_block(&mut self, P: &mut Self::Cov, offset: usize, block: DMatrixView<'_, T>);
 
     /// `Err(NonFinite)` when any entry is NaN or infinite.

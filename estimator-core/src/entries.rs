@@ -2,7 +2,7 @@
 //! `P⁻` and the block reset.
 
 /// Column access to a square column-major matrix, so the block reset
-/// ([`block_reset_in_place`]) is written once for every back-end.
+/// (`block_reset_in_place`) is written once for every back-end.
 pub trait Entries<T: Copy = f64> {
     /// Column `c`, contiguous.
     fn col(&self, c: usize) -> &[T];

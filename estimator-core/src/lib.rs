@@ -24,7 +24,7 @@
 //!
 //! # Features
 //!
-//! - `faer` (opt-in): the [`FaerCov`] back-end on faer's products. Without it the
+//! - `faer` (opt-in): the `FaerCov` back-end on faer's products. Without it the
 //!   crate depends on nalgebra and statrs only.
 //! - `std` (default): everything below the error-state filter itself. Without it the crate
 //!   is `no_std` with no allocator: [`ErrorStateFilter`] on [`StaticCov`] with

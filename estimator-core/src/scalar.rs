@@ -13,7 +13,11 @@ use manifolds::{DimAlloc, Real};
 
 use crate::dims::FilterAlloc;
 
-/// A scalar the filter runs on: `f64` or `f32`. See the [module](self).
+/// A scalar the filter runs on: `f64` (the default of every type) or `f32`: the real
+/// numbers of [`manifolds::Real`] with the handful of products the filter runs at every
+/// step. `f64` runs the crate's column kernels (AVX2/FMA when the CPU has them); `f32` runs
+/// plain loops over nalgebra's storage, which need neither the heap nor the standard
+/// library (a microcontroller's single-precision FPU).
 pub trait FilterScalar: Real {
     /// True when any value is NaN or infinite.
     fn non_finite_in(values: &[Self]) -> bool;

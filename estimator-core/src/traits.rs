@@ -37,7 +37,7 @@ where
 ///
 /// Contract: stateless (evaluating it never mutates it); `Phi` is the Jacobian of
 /// `f(x ⊕ δ) ⊖ f(x)` at `δ = 0` (right perturbation, see [`manifolds::Manifold`]);
-/// [`check_process_model`](crate::harness::check_process_model) verifies it against
+/// `check_process_model` verifies it against
 /// central differences.
 ///
 /// ```
@@ -103,12 +103,12 @@ where
     /// True when [`step_covariance`](Self::step_covariance) is overridden to propagate
     /// without forming `Φ` and `Q_d` (the INS model). The static back-end then calls it and
     /// cannot check `Q_d`: the model is responsible for its noise, and
-    /// [`check_combined_calls`](crate::harness::check_combined_calls) (feature `testing`)
+    /// `check_combined_calls` (feature `testing`)
     /// checks its `Q_d` and compares the fused step with the dense one. Default false: the
-    /// back-ends form `Q_d` and check it ([`check_process_noise`](crate::linalg::check_process_noise)) at every prediction.
+    /// back-ends form `Q_d` and check it (`check_process_noise`) at every prediction.
     const FUSED_STEP_COVARIANCE: bool = false;
 
-    /// `out ← Φ P Φᵀ + Q`. The dense default ([`crate::kernels::dense_sandwich`]) costs
+    /// `out ← Φ P Φᵀ + Q`. The dense default (`crate::kernels::dense_sandwich`) costs
     /// about `1.5 N³` multiply-adds; override it to exploit the sparsity of Φ (the INS
     /// model does). `out` need not be symmetric on return; the filter symmetrises it.
     #[allow(non_snake_case)]
@@ -227,7 +227,7 @@ pub type JacobiansOf<MM, T = f64> = MeasurementJacobians<
 ///
 /// The residual is `r = z ⊖ h(x̂)` (so a bearing that crosses ±π gives a small residual,
 /// not 2π). Contract: stateless; `H = ∂(h(x ⊕ δ) ⊖ h(x))/∂δ` at `δ = 0`, checked by
-/// [`check_measurement_model`](crate::harness::check_measurement_model).
+/// `check_measurement_model`.
 pub trait MeasurementModel<T: FilterScalar = f64>
 where
     DefaultAllocator: FilterAlloc<StateDim<Self::State, T>, StateDim<Self::Measurement, T>>,

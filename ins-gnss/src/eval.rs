@@ -339,7 +339,7 @@ pub struct RefReader {
 impl RefReader {
     /// Open a reference file; with `columns`, a log with a header read through its map
     /// (11 fields, NaN where the log has no velocity or attitude: see
-    /// [`TruthColumns`](crate::columns::TruthColumns)).
+    /// [`TruthColumns`]).
     pub fn open(path: &Path, columns: Option<&ColumnMap>) -> Result<Self, LineError> {
         let mut lines =
             ins_gnss_core::io::NumericLines::new(ins_gnss_core::io::formats::open(path)?, path);

@@ -1,13 +1,13 @@
 //! Python bindings, the extension module `estimator._native`. The package `estimator`
 //! (`python/estimator/__init__.py`) wraps it: DataFrames in and out, column names, units.
 //!
-//! - [`navigate`]: the INS/GNSS navigator and its smoother, the same run as
+//! - `navigate`: the INS/GNSS navigator and its smoother, the same run as
 //!   `ins-gnss run` (its options, start, checks, verdicts and numbers), on the files of a
 //!   configuration or on arrays, its results in memory; no file is written.
-//! - [`evaluate`]: a navigation result against a truth file, as `ins-gnss eval`.
-//! - [`filter`]: the generic error-state Kalman filter and RTS smoother on Euclidean
+//! - `evaluate`: a navigation result against a truth file, as `ins-gnss eval`.
+//! - `filter`: the generic error-state Kalman filter and RTS smoother on Euclidean
 //!   states, with every adaptive strategy by name, and the kinematic models' matrices.
-//! - [`ahrs`]: the AHRS of the third paper (conventional, modified, CS-MAEKF) on sensor
+//! - `ahrs`: the AHRS of the third paper (conventional, modified, CS-MAEKF) on sensor
 //!   arrays, and its simulated flight.
 //!
 //! The runs release the GIL. Every failure is an `EstimatorError` carrying the program's

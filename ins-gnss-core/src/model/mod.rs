@@ -421,7 +421,7 @@ impl ProcessModel for InsModel {
     }
 
     /// The whole epoch without forming `Φ` or `Q_d` as dense matrices
-    /// ([`fused_step`](InsModel::fused_step)).
+    /// (`fused_step`).
     fn step_covariance(
         &self,
         x: &InsState,
