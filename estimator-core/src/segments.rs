@@ -830,8 +830,14 @@ where
     /// The smoothed estimate at the start of the later segment (an update lies between).
     Smoothed { x: X, p: Cov<X::Dim> },
     /// `λ` and `Λ` at the start of the later segment, which continues this one: they go on
-    /// through the boundary unchanged; `p` is the covariance there (this segment's end's).
-    Adjoint { lambda: OVector<f64, X::Dim>, big: Cov<X::Dim>, p: Cov<X::Dim> },
+    /// through the boundary unchanged; `p` is the covariance there (this segment's end's)
+    /// and `delta = p λ` the later segment's smoothed correction there.
+    Adjoint {
+        lambda: OVector<f64, X::Dim>,
+        big: Cov<X::Dim>,
+        p: Cov<X::Dim>,
+        delta: OVector<f64, X::Dim>,
+    },
 }
 
 /// The backward recursion: what it carries into the segment before, and the rows of the
@@ -868,16 +874,14 @@ where
         self.lambdas.resize(count + 1, zero.clone());
         // the segment's end: λₙ, Λₙ, and its row's state and variances
         let (big, end_x, end_var) = match &mut self.carried {
-            Carried::Adjoint { lambda, big, p } => {
+            Carried::Adjoint { lambda, big, p, delta } => {
                 self.lambdas[count].copy_from(lambda);
-                let mut delta = zero.clone();
-                kernels::mat_mul(&*p, &*lambda, &mut delta);
                 let var = (end_flags & VARIANCES != 0).then(|| {
                     let mut pl = Cov::<X::Dim>::zeros();
                     kernels::mat_mul(&*p, &*big, &mut pl); // Pₙ Λₙ
-                    variances_out_of(&xs[count], &delta, p, &pl)
+                    variances_out_of(&xs[count], delta, p, &pl)
                 });
-                (big.clone(), xs[count].oplus(&delta), var)
+                (big.clone(), xs[count].oplus(delta), var)
             }
             Carried::Smoothed { x, p } => {
                 // the later segment's smoothed start is this end's smoothed value (its
@@ -915,7 +919,7 @@ where
         kernels::mat_mul(p0, &self.lambdas[0], &mut mu);
         self.carried = if seg.continues {
             let (lambda, big) = (self.lambdas[0].clone(), bigs[cur].clone());
-            Carried::Adjoint { lambda, big, p: p0.clone() }
+            Carried::Adjoint { lambda, big, p: p0.clone(), delta: mu.clone() }
         } else {
             // Pˢ₀ = −(P₀ Λ₀ P₀ − P₀) as one sandwich, exactly symmetric
             let mut p_s = Cov::<X::Dim>::zeros();

@@ -99,9 +99,9 @@ impl Spill for ImuInput {
     /// An input whose previous sample is the step before's current one: that sample only,
     /// and of it only what the step before's does not give (the time when it is that
     /// sample's time plus the interval, the interval when it is the same, the odometer
-    /// when there is none): 6 to 10 numbers, so that the smoother's records of a run hold
+    /// when there is none): 6 to 9 numbers, so that the smoother's records of a run hold
     /// each IMU sample once and the increments of a steady-rate log alone.
-    const AFTER_LEN: usize = SAMPLE;
+    const AFTER_LEN: usize = 9;
     fn spill_after(&self, before: &Self, out: &mut [f64]) -> Option<u8> {
         let prev = self.prev.as_ref()?;
         // bit for bit (a NaN-free sample equal by value is the same bits but ±0)
@@ -240,6 +240,8 @@ mod tests {
             assert_eq!(back.stamp(), Some((next.t, next.dt)));
         }
         const { assert!(ImuInput::AFTER_LEN < ImuInput::LEN) };
+        // the longest form is the most there is room for
+        assert_eq!((0..8).map(ImuInput::after_len).max(), Some(ImuInput::AFTER_LEN));
         let next = steady;
         let others = [
             ImuInput { prev: None, cur: next },
