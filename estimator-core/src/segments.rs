@@ -57,6 +57,8 @@
 //! - a segment closed for length, not by an update, is *continued*: `λ` and `Λ` go through
 //!   its boundary as they are, without the smoothed covariance and the Cholesky factor an
 //!   update boundary needs;
+//! - at an update boundary, `Pₙ⁻¹` is formed by the replay's thread with the segment, not
+//!   by the recursion's (the longer of the two);
 //! - an input that repeats the step before's (an IMU input carries the previous sample)
 //!   is stored once, and only what the step before does not give
 //!   ([`Spill::spill_after`]: a steady-rate IMU sample is its six increments); a step
@@ -620,6 +622,9 @@ where
     ps: Vec<Cov<X::Dim>>,
     /// `Pₙ`, the covariance before the update that follows the segment, when one does.
     p_end: Option<Cov<X::Dim>>,
+    /// `Pₙ⁻¹` beside `Pₙ` (formed by the replay, which has a core to spare, not by the
+    /// recursion, which is the backward pass's longest thread), or why it has none.
+    p_end_inv: Result<Cov<X::Dim>, FilterError>,
     /// `Φᵢᵀ`, `i < n`.
     phi_ts: Vec<Cov<X::Dim>>,
     /// End time, interval, flags and input of each step.
@@ -640,6 +645,7 @@ where
             xs: Vec::new(),
             ps: Vec::new(),
             p_end: None,
+            p_end_inv: Err(FilterError::NonFinite { what: "segment end" }),
             phi_ts: Vec::new(),
             steps: Vec::new(),
             continues: false,
@@ -818,35 +824,46 @@ impl<S: Read + Seek> Store<'_, S> {
                 seg.p_end = None;
             }
         }
+        seg.p_end_inv = match &seg.p_end {
+            Some(p) => cholesky("smoother: predicted covariance Pₙ", p.clone())
+                .map(|chol| inverse_from_cholesky(&chol)),
+            None => Err(FilterError::NonFinite { what: "segment end" }),
+        };
         Ok(())
     }
 }
 
-/// What the backward recursion carries from one segment into the one before it.
+/// What the backward recursion carries from one segment into the one before it, besides
+/// the covariance [`Backward::carried_p`] (and `Λ`, left in [`Backward::bigs`]).
 enum Carried<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
-    /// The smoothed estimate at the start of the later segment (an update lies between).
-    Smoothed { x: X, p: Cov<X::Dim> },
+    /// The smoothed estimate at the start of the later segment (an update lies between);
+    /// the covariance is its `Pˢ`.
+    Smoothed { x: X },
     /// `λ` and `Λ` at the start of the later segment, which continues this one: they go on
-    /// through the boundary unchanged; `p` is the covariance there (this segment's end's)
-    /// and `delta = p λ` the later segment's smoothed correction there.
-    Adjoint {
-        lambda: OVector<f64, X::Dim>,
-        big: Cov<X::Dim>,
-        p: Cov<X::Dim>,
-        delta: OVector<f64, X::Dim>,
-    },
+    /// through the boundary unchanged; the covariance is the one there (this segment's
+    /// end's) and `delta = P λ` the later segment's smoothed correction there.
+    Adjoint { lambda: OVector<f64, X::Dim>, delta: OVector<f64, X::Dim> },
 }
 
 /// The backward recursion: what it carries into the segment before, and the rows of the
-/// last segment done.
+/// last segment done. The covariances are kept in buffers of their own, written in place
+/// (moving and zeroing them as values cost 8 % of the recursion's time on the day).
 struct Backward<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     carried: Carried<X>,
+    /// The covariance that goes with `carried`.
+    carried_p: Cov<X::Dim>,
+    /// `Λ`, in one of the two (`bigs[cur]`), the next one written into the other; after a
+    /// segment, `bigs[cur]` is `Λ₀`, the later segment's `Λ` for a continued one.
+    bigs: [Cov<X::Dim>; 2],
+    cur: usize,
+    /// `Pₙ Λₙ` where a continued segment's end wants variances.
+    pl: Cov<X::Dim>,
     rows: Vec<SmoothedRow<X>>,
     /// `λᵢ` of the segment being smoothed.
     lambdas: Vec<OVector<f64, X::Dim>>,
@@ -857,9 +874,15 @@ where
     DefaultAllocator: DimAlloc<X::Dim>,
 {
     fn start<A: NoiseStrategy, B: CovBackend<X::Dim>>(filter: &ErrorStateFilter<X, A, B>) -> Self {
-        let carried =
-            Carried::Smoothed { x: filter.state().clone(), p: filter.covariance().into_owned() };
-        Self { carried, rows: Vec::new(), lambdas: Vec::new() }
+        Self {
+            carried: Carried::Smoothed { x: filter.state().clone() },
+            carried_p: filter.covariance().into_owned(),
+            bigs: [Cov::<X::Dim>::zeros(), Cov::<X::Dim>::zeros()],
+            cur: 0,
+            pl: Cov::<X::Dim>::zeros(),
+            rows: Vec::new(),
+            lambdas: Vec::new(),
+        }
     }
 
     /// Smooth through one replayed segment (rows in time order in `self.rows`).
@@ -872,65 +895,66 @@ where
         let end_flags = seg.steps[count - 1].2;
         let zero = OVector::<f64, X::Dim>::zeros();
         self.lambdas.resize(count + 1, zero.clone());
-        // the segment's end: λₙ, Λₙ, and its row's state and variances
-        let (big, end_x, end_var) = match &mut self.carried {
-            Carried::Adjoint { lambda, big, p, delta } => {
+        // the segment's end: λₙ, Λₙ (into `bigs[cur]`), and its row's state and variances
+        let p = &mut self.carried_p;
+        let (end_x, end_var) = match &self.carried {
+            Carried::Adjoint { lambda, delta } => {
+                // (Λₙ is the later segment's Λ₀, left in `bigs[cur]`)
                 self.lambdas[count].copy_from(lambda);
                 let var = (end_flags & VARIANCES != 0).then(|| {
-                    let mut pl = Cov::<X::Dim>::zeros();
-                    kernels::mat_mul(&*p, &*big, &mut pl); // Pₙ Λₙ
-                    variances_out_of(&xs[count], delta, p, &pl)
+                    kernels::mat_mul(&*p, &self.bigs[self.cur], &mut self.pl); // Pₙ Λₙ
+                    variances_out_of(&xs[count], delta, p, &self.pl)
                 });
-                (big.clone(), xs[count].oplus(delta), var)
+                (xs[count].oplus(delta), var)
             }
-            Carried::Smoothed { x, p } => {
+            Carried::Smoothed { x } => {
                 // the later segment's smoothed start is this end's smoothed value (its
                 // variances those of Pˢ, in the frame of x̂ˢ); then Pˢ into the frame of
                 // the prior x̂ₙ (Σ), and λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
                 let var = (end_flags & VARIANCES != 0).then(|| p.diagonal());
-                let p_n = seg.p_end.as_ref().ok_or(SmootherError::Corrupt("segment end"))?;
+                if seg.p_end.is_none() {
+                    return Err(SmootherError::Corrupt("segment end"));
+                }
                 let d = x.ominus(&xs[count]);
                 reframe(&xs[count], &d, p, Reframe::Into)?;
-                let chol = cholesky("smoother: predicted covariance Pₙ", p_n.clone())?;
-                let inv = inverse_from_cholesky(&chol);
-                kernels::mat_mul(&inv, &d, &mut self.lambdas[count]);
+                let inv = seg.p_end_inv.as_ref().map_err(|e| e.clone())?;
+                kernels::mat_mul(inv, &d, &mut self.lambdas[count]);
                 // −(Pₙ⁻¹ Σ Pₙ⁻¹ − Pₙ⁻¹) as one sandwich (Pₙ⁻¹ is symmetric), exactly symmetric
-                let mut big = Cov::<X::Dim>::zeros();
-                kernels::dense_sandwich(&inv, &*p, &(-&inv), &mut big);
-                big.neg_mut();
-                (big, x.clone(), var)
+                let big = &mut self.bigs[self.cur];
+                kernels::dense_sandwich(inv, &*p, &negated(inv), big);
+                negate(big);
+                (x.clone(), var)
             }
         };
         // backwards: λᵢ = Φᵢᵀ λᵢ₊₁ and Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ, Λ in one of two buffers, the
         // next one written into the other (no swap: swapping two covariances copies three)
-        let mut bigs = [big, Cov::<X::Dim>::zeros()];
-        let mut cur = 0;
         for k in (0..count).rev() {
             let (done, later) = self.lambdas.split_at_mut(k + 1);
             kernels::mat_mul(&phi_ts[k], &later[0], &mut done[k]);
-            let [a, b] = &mut bigs;
-            let (from, to) = if cur == 0 { (a, b) } else { (b, a) };
+            let [a, b] = &mut self.bigs;
+            let (from, to) = if self.cur == 0 { (a, b) } else { (b, a) };
             model.adjoint_sandwich(&phi_ts[k], from, to);
-            cur = 1 - cur;
+            self.cur = 1 - self.cur;
         }
-        // the start: δ₀ = P₀ λ₀, and what goes into the segment before
+        // the start: δ₀ = P₀ λ₀, and what goes into the segment before (Λ₀ stays in
+        // `bigs[cur]`)
         let (x0, p0) = (&xs[0], &seg.ps[0]);
         let mut mu = zero.clone();
         kernels::mat_mul(p0, &self.lambdas[0], &mut mu);
+        let p = &mut self.carried_p;
         self.carried = if seg.continues {
-            let (lambda, big) = (self.lambdas[0].clone(), bigs[cur].clone());
-            Carried::Adjoint { lambda, big, p: p0.clone(), delta: mu.clone() }
+            p.copy_from(p0);
+            Carried::Adjoint { lambda: self.lambdas[0].clone(), delta: mu.clone() }
         } else {
             // Pˢ₀ = −(P₀ Λ₀ P₀ − P₀) as one sandwich, exactly symmetric
-            let mut p_s = Cov::<X::Dim>::zeros();
-            kernels::dense_sandwich(p0, &bigs[cur], &(-p0), &mut p_s);
-            p_s.neg_mut();
-            reframe(x0, &mu, &mut p_s, Reframe::OutOf)?;
+            kernels::dense_sandwich(p0, &self.bigs[self.cur], &negated(p0), p);
+            negate(p);
+            reframe(x0, &mu, p, Reframe::OutOf)?;
             let x_s = x0.oplus(&mu);
-            if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
+            if !x_s.is_finite() || p.iter().any(|v| !v.is_finite()) {
                 return Err(FilterError::NonFinite { what: "smoothed state or covariance" }.into());
             }
-            Carried::Smoothed { x: x_s, p: p_s }
+            Carried::Smoothed { x: x_s }
         };
         // forwards: δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁ = α Φᵢ δᵢ + Q̃ᵢ λᵢ₊₁ (Pᵢ₊₁ = Φᵢ (α Pᵢ) Φᵢᵀ + Q̃ᵢ, and
         // Pᵢ Φᵢᵀ λᵢ₊₁ = Pᵢ λᵢ = δᵢ), the marked steps' states x̂ᵢ ⊕ δᵢ
@@ -1112,6 +1136,28 @@ where
         }
     });
     var
+}
+
+/// `m ← −m`, over the matrix's slice (nalgebra's `neg_mut` and `-m` went element by
+/// element through a strided iterator, a byte's sign flip at a time: 5 % of the
+/// recursion's samples on the day).
+fn negate<N: DimName>(m: &mut Cov<N>)
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    for v in m.as_mut_slice() {
+        *v = -*v;
+    }
+}
+
+/// `−m` (see [`negate`]).
+fn negated<N: DimName>(m: &Cov<N>) -> Cov<N>
+where
+    DefaultAllocator: DimAlloc<N>,
+{
+    let mut out = m.clone();
+    negate(&mut out);
+    out
 }
 
 /// `A⁻¹` of a symmetric positive-definite `A = L Lᵀ` from its Cholesky factor, exactly
