@@ -547,39 +547,42 @@ where
             Store { store: &mut self.store, offsets: &self.offsets, window: Vec::new(), at: 0 };
         std::thread::scope(|scope| -> Result<(), SmootherError> {
             // replayed segments one way in batches of about `BATCH_STEPS` steps (a thread
-            // wake-up per segment costs more than a short segment's work), their emptied
-            // buffers back for reuse
-            type Batch<X, U> = Vec<Replayed<X, U>>;
+            // wake-up per segment costs more than a short segment's work), the batches back
+            // for reuse; a batch is replayed into in place, its first `used` segments
+            // filled (a segment moved by value copies its covariances, several kilobytes)
+            type Batch<X, U> = (Vec<Replayed<X, U>>, usize);
             let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Batch<X, U>, _>>(2);
-            let (back_tx, back_rx) = std::sync::mpsc::channel::<Batch<X, U>>();
+            let (back_tx, back_rx) = std::sync::mpsc::channel::<Vec<Replayed<X, U>>>();
             scope.spawn(move || {
-                let mut spare: Batch<X, U> = Vec::new();
-                let mut batch: Batch<X, U> = Vec::new();
-                let mut steps = 0;
+                let mut batch: Vec<Replayed<X, U>> = Vec::new();
+                let (mut used, mut steps) = (0, 0);
                 for k in (0..segments).rev() {
-                    if spare.is_empty() {
+                    if used == 0 {
                         if let Ok(b) = back_rx.try_recv() {
-                            spare = b;
+                            batch = b;
                         }
                     }
-                    let mut seg = spare.pop().unwrap_or_default();
-                    if let Err(e) = store.replay(k, model, &mut seg) {
+                    if used == batch.len() {
+                        batch.push(Replayed::default());
+                    }
+                    let seg = &mut batch[used];
+                    if let Err(e) = store.replay(k, model, seg) {
                         let _ = tx.send(Err(e));
                         return;
                     }
                     steps += seg.steps.len();
-                    batch.push(seg);
+                    used += 1;
                     if steps >= BATCH_STEPS || k == 0 {
-                        steps = 0;
-                        if tx.send(Ok(core::mem::take(&mut batch))).is_err() {
+                        if tx.send(Ok((core::mem::take(&mut batch), used))).is_err() {
                             return;
                         }
+                        (used, steps) = (0, 0);
                     }
                 }
             });
             for batch in rx {
-                let batch = batch?;
-                for seg in &batch {
+                let (batch, used) = batch?;
+                for seg in &batch[..used] {
                     back.segment(seg, model)?;
                     sink(&back.rows)?;
                 }
@@ -951,7 +954,7 @@ where
             negate(p);
             reframe(x0, &mu, p, Reframe::OutOf)?;
             let x_s = x0.oplus(&mu);
-            if !x_s.is_finite() || p.iter().any(|v| !v.is_finite()) {
+            if !x_s.is_finite() || kernels::non_finite_in(p.as_slice()) {
                 return Err(FilterError::NonFinite { what: "smoothed state or covariance" }.into());
             }
             Carried::Smoothed { x: x_s }
@@ -988,7 +991,7 @@ where
             self.rows.push(SmoothedRow { time, x: end_x, var: end_var });
         }
         let finite = |r: &SmoothedRow<X>| {
-            r.x.is_finite() && r.var.as_ref().is_none_or(|v| v.iter().all(|v| v.is_finite()))
+            r.x.is_finite() && r.var.as_ref().is_none_or(|v| !kernels::non_finite_in(v.as_slice()))
         };
         if !self.rows.iter().all(finite) {
             return Err(FilterError::NonFinite { what: "smoothed state or variance" }.into());

@@ -205,7 +205,7 @@ where
         let mut p_s = &s.p_post + &c * (&p - &s.p_prior) * c.transpose();
         symmetrize(&mut p_s);
         reframe(&s.x_post, &delta, &mut p_s, Reframe::OutOf)?;
-        if !x_s.is_finite() || p_s.iter().any(|v| !v.is_finite()) {
+        if !x_s.is_finite() || crate::kernels::non_finite_in(p_s.as_slice()) {
             return Err(FilterError::NonFinite { what: "smoothed state or covariance" });
         }
         x = x_s;
@@ -394,7 +394,7 @@ where
             None => singular = true,
         },
     });
-    if singular || p.iter().any(|v| !v.is_finite()) {
+    if singular || crate::kernels::non_finite_in(p.as_slice()) {
         return Err(FilterError::NonFinite { what: "smoother: reset Jacobian G or its inverse" });
     }
     Ok(())
