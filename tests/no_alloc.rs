@@ -3,11 +3,14 @@
 //! updates every 20 epochs) after start-up.
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 
-use estimator::estimator_core::FixedNoise;
-use estimator::estimator_core::NoObserver;
+use estimator::adaptive::AnyStrategy;
+use estimator::estimator_core::{FixedNoise, NoObserver, NoiseStrategy};
 use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, Navigator};
+use ins_gnss::config::{Config, ConfigKind};
 use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
 use nalgebra::Vector3;
 
@@ -35,8 +38,13 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-#[test]
-fn ins_epochs_do_not_allocate() {
+/// Heap allocations over 10,000 INS epochs with `strategy` after 100 epochs of start-up,
+/// and the number of updates in them.
+fn allocations_over_10000_epochs<A: NoiseStrategy>(strategy: A) -> (usize, usize) {
+    // one measurement at a time (the tests of this file run on parallel threads, and the
+    // count is the process's)
+    static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs[..8]).unwrap();
     let gnss = GnssSim {
@@ -60,28 +68,61 @@ fn ins_epochs_do_not_allocate() {
     let init = InitialState { time: t0.t, state: t0.state.clone(), std };
     let cfg = GnssConfig { lever_arm: gnss.lever_arm, ..GnssConfig::default() };
     let mut nav =
-        Navigator::new(&init, InsModel::wgs84(scenarios::mems_imu().noise), FixedNoise, cfg)
-            .unwrap();
+        Navigator::new(&init, InsModel::wgs84(scenarios::mems_imu().noise), strategy, cfg).unwrap();
     let mut out = Vec::with_capacity(16);
     let mut observer = NoObserver;
     let mut updates = 0;
     let mut replay = data.replay();
-    let mut step = |nav: &mut Navigator| {
+    let mut step = |nav: &mut Navigator<A>, count: bool| {
         let (s, gnss) = replay.next().expect("enough samples");
         out.clear();
         nav.process_into(s, gnss, &mut observer, &mut out).unwrap();
-        updates += out.len();
+        if count {
+            updates += out.len();
+        }
     };
-    // Start-up: the first 100 epochs (first GNSS updates, feature detection caches).
+    // Start-up: the first 100 epochs (first GNSS updates, feature detection caches, the
+    // strategy's per-stream state).
     for _ in 0..100 {
-        step(&mut nav);
+        step(&mut nav, false);
     }
     let before = ALLOCATIONS.load(Ordering::Relaxed);
     for _ in 100..10_100 {
-        step(&mut nav);
+        step(&mut nav, true);
     }
-    let after = ALLOCATIONS.load(Ordering::Relaxed);
-    assert_eq!(after - before, 0, "heap allocations during 10,000 epochs");
+    (ALLOCATIONS.load(Ordering::Relaxed) - before, updates)
+}
+
+#[test]
+fn ins_epochs_do_not_allocate() {
+    let (allocations, updates) = allocations_over_10000_epochs(FixedNoise);
+    assert_eq!(allocations, 0, "heap allocations during 10,000 epochs");
     // The run did real work: GNSS updates happened.
+    assert!(updates > 400);
+}
+
+/// The program's default strategy (`ins-gnss run` without `--strategy`: fixed noise on
+/// every stream behind the gross-error gate that adapts before it refuses) does not
+/// allocate either: the filter keeps the copy of the strategy it restores on a failed
+/// update, and refills it in place.
+#[test]
+fn epochs_with_the_programs_default_strategy_do_not_allocate() {
+    let text = r#"
+        [data]
+        imu = "IMU.txt"
+        gnss = "GNSS.txt"
+        imu_rate = 200.0
+
+        [imu_noise]
+        arw = [0.3, 0.3, 0.3]
+        vrw = [0.029, 0.029, 0.029]
+        gyro_bias_std = [6.5, 6.5, 6.5]
+        accel_bias_std = [98.0665, 98.0665, 98.0665]
+        corr_time = 0.027778
+    "#;
+    let config = Config::parse(text, ConfigKind::Toml, Path::new(".")).unwrap();
+    let strategy = config.strategy(config.filter.strategy.parse::<AnyStrategy>().unwrap());
+    let (allocations, updates) = allocations_over_10000_epochs(strategy.unwrap());
+    assert_eq!(allocations, 0, "heap allocations during 10,000 epochs");
     assert!(updates > 400);
 }

@@ -289,8 +289,18 @@ const MIN_WINDOW: usize = 3;
 
 /// The scale tests per measurement dimension and window size, computed once.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 struct ScaleTests(Vec<Option<ScaleTest>>);
+
+impl Clone for ScaleTests {
+    fn clone(&self) -> Self {
+        Self(self.0.clone())
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.0.clone_from(&source.0);
+    }
+}
 
 impl ScaleTests {
     fn get(&mut self, m: usize, n: usize) -> ScaleTest {
@@ -362,7 +372,7 @@ impl ScaleTests {
 /// assert_eq!(f.state()[0], 0.0);
 /// ```
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct GrossErrorGate<A> {
     /// The strategy behind the gate.
     pub inner: A,
@@ -384,6 +394,49 @@ pub struct GrossErrorGate<A> {
     same_way_pairs: PairCounts,
     /// The last update was decided by the gate, not by `inner`.
     bypassed: bool,
+}
+
+/// `clone_from` refills the per-stream state and the caches in place: the filter copies
+/// its strategy before every update (to put it back if the update fails), and a derived
+/// `Clone` allocated their vectors anew each time.
+impl<A: Clone> Clone for GrossErrorGate<A> {
+    fn clone(&self) -> Self {
+        Self {
+            inner: self.inner.clone(),
+            probability: self.probability,
+            readmit_after: self.readmit_after,
+            mode: self.mode,
+            streams: self.streams.clone(),
+            thresholds: self.thresholds.clone(),
+            scale_tests: self.scale_tests.clone(),
+            same_way_pairs: self.same_way_pairs.clone(),
+            bypassed: self.bypassed,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        // (every field named: a new one is a compile error here, not a field left stale)
+        let Self {
+            inner,
+            probability,
+            readmit_after,
+            mode,
+            streams,
+            thresholds,
+            scale_tests,
+            same_way_pairs,
+            bypassed,
+        } = source;
+        self.inner.clone_from(inner);
+        self.probability = *probability;
+        self.readmit_after = *readmit_after;
+        self.mode = *mode;
+        self.streams.clone_from(streams);
+        self.thresholds.clone_from(thresholds);
+        self.scale_tests.clone_from(scale_tests);
+        self.same_way_pairs.clone_from(same_way_pairs);
+        self.bypassed = *bypassed;
+    }
 }
 
 impl<A: NoiseStrategy> GrossErrorGate<A> {

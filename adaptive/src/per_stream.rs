@@ -83,10 +83,22 @@ impl<A: NoiseStrategy, B: NoiseStrategy> NoiseStrategy for Route<A, B> {
 /// assert_eq!(s.strategy_of(StreamId::named("compass")).name(), "fixed");
 /// ```
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct PerStream<A> {
     default: A,
     streams: Vec<(StreamId, A)>,
+}
+
+/// `clone_from` refills the strategies in place (see [`GrossErrorGate`](crate::GrossErrorGate)'s).
+impl<A: Clone> Clone for PerStream<A> {
+    fn clone(&self) -> Self {
+        Self { default: self.default.clone(), streams: self.streams.clone() }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.default.clone_from(&source.default);
+        self.streams.clone_from(&source.streams);
+    }
 }
 
 impl<A: NoiseStrategy> PerStream<A> {

@@ -126,6 +126,12 @@ pub struct ErrorStateFilter<
     /// `Q_Σ`, the process noise accumulated since the previous update, kept only for a
     /// strategy that [tracks](NoiseStrategy::tracks_process_noise) it.
     q_sum: Option<B::Cov>,
+    /// The strategy as it was before the last update's `adapt`, put back when the update
+    /// fails after it. Kept from one update to the next and refilled in place
+    /// ([`Clone::clone_from`]): a fresh copy per update allocated whatever the strategy
+    /// holds on the heap (the program's default strategy, its per-stream windows).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    saved: Option<A>,
 }
 
 #[allow(non_snake_case)]
@@ -169,6 +175,7 @@ where
             epoch: 0,
             q_adjust: QAdjust::Keep,
             q_sum: None,
+            saved: None,
         })
     }
 
@@ -467,8 +474,12 @@ where
             q: QAdjust::Keep,
         };
         // The strategy's windows change in `adapt`; a failure after it restores them, so that
-        // `Err` leaves the strategy unchanged too (a clone of a zero-sized strategy is free).
-        let saved = self.strategy.clone();
+        // `Err` leaves the strategy unchanged too (a copy of a zero-sized strategy is free;
+        // the copy is refilled in place, see `saved`).
+        match &mut self.saved {
+            Some(saved) => saved.clone_from(&self.strategy),
+            None => self.saved = Some(self.strategy.clone()),
+        }
         self.strategy.adapt(&mut a);
         // The outputs are copied out field by field: moving the whole `Adaptation`, or its
         // `q` by value, copies a whole covariance (the `AddRate` variant's room) each time,
@@ -605,7 +616,9 @@ where
         let (x_new, K) = match applied {
             Ok(v) => v,
             Err(e) => {
-                self.strategy = saved;
+                if let Some(saved) = &mut self.saved {
+                    core::mem::swap(&mut self.strategy, saved);
+                }
                 return Err(e);
             }
         };

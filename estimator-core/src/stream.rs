@@ -88,10 +88,23 @@ pub fn short_type_name<T: ?Sized>() -> &'static str {
 /// Per-stream state of a strategy: a small vector searched linearly (a filter has a
 /// handful of streams). Allocates only when a new stream first appears (feature `std`).
 #[cfg(feature = "std")]
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct StreamMap<T> {
     entries: Vec<(StreamId, T)>,
+}
+
+/// `clone_from` refills the entries in place (the filter copies its strategy before every
+/// update; a derived `Clone` would allocate a new vector each time).
+#[cfg(feature = "std")]
+impl<T: Clone> Clone for StreamMap<T> {
+    fn clone(&self) -> Self {
+        Self { entries: self.entries.clone() }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.entries.clone_from(&source.entries);
+    }
 }
 
 #[cfg(feature = "std")]
