@@ -64,7 +64,9 @@
 //!   ([`Spill::spill_after`]: a steady-rate IMU sample is its six increments); a step
 //!   whose end time and interval are its input's ([`Spill::stamp`]) is stored without
 //!   them; closed segments are written and read back about a megabyte at a time, as the
-//!   numbers they are (no conversion).
+//!   numbers they are (no conversion), and a storage file is cut behind the reads (what
+//!   the backward pass has used is dropped from the page cache before it is written back
+//!   to the disk, if it was not yet).
 //!
 //! What the smoother does not see: an update's prior scaling (a strategy's `λ_P`) — the
 //! segment's end uses the propagated `Pₙ`, not the scaled prior the update used. For
@@ -346,6 +348,9 @@ pub struct SegmentSmoother<X, U, S = std::fs::File> {
     pending: Vec<f64>,
     /// The first storage error of the forward pass (recording stops there).
     error: Option<std::io::Error>,
+    /// The storage file again ([`on_file`](Self::on_file)): the backward pass cuts off
+    /// what it has read ([`Store::shrink`]).
+    shrink: Option<std::fs::File>,
     _types: PhantomData<fn(X, U)>,
 }
 
@@ -358,7 +363,8 @@ impl<X, U> SegmentSmoother<X, U, std::fs::File> {
             .create(true)
             .truncate(true)
             .open(path)?;
-        Ok(Self::new(file, max_steps))
+        let shrink = file.try_clone()?;
+        Ok(Self { shrink: Some(shrink), ..Self::new(file, max_steps) })
     }
 }
 
@@ -382,6 +388,7 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
             last_flags: 0,
             pending: Vec::new(),
             error: None,
+            shrink: None,
             _types: PhantomData,
         }
     }
@@ -511,8 +518,13 @@ where
         self.finish_recording()?;
         let mut back = Backward::start(filter);
         let mut seg = Replayed::default();
-        let mut store =
-            Store { store: &mut self.store, offsets: &self.offsets, window: Vec::new(), at: 0 };
+        let mut store = Store {
+            store: &mut self.store,
+            offsets: &self.offsets,
+            window: Vec::new(),
+            at: 0,
+            shrink: self.shrink.as_ref(),
+        };
         for k in (0..self.offsets.len() - 1).rev() {
             store.replay(k, model, &mut seg)?;
             back.segment(&seg, model)?;
@@ -543,8 +555,13 @@ where
         self.finish_recording()?;
         let mut back = Backward::start(filter);
         let segments = self.offsets.len() - 1;
-        let mut store =
-            Store { store: &mut self.store, offsets: &self.offsets, window: Vec::new(), at: 0 };
+        let mut store = Store {
+            store: &mut self.store,
+            offsets: &self.offsets,
+            window: Vec::new(),
+            at: 0,
+            shrink: self.shrink.as_ref(),
+        };
         std::thread::scope(|scope| -> Result<(), SmootherError> {
             // replayed segments one way in batches of about `BATCH_STEPS` steps (a thread
             // wake-up per segment costs more than a short segment's work), the batches back
@@ -610,6 +627,11 @@ struct Store<'a, S> {
     window: Vec<f64>,
     /// Where in the storage `window` starts, bytes.
     at: u64,
+    /// The storage file, cut off after each window read: what the backward pass has used it
+    /// never reads again, and a scratch file's pages dropped before they are written back
+    /// are never written to the disk (the day's 2.7 GB would be, while the smoothed
+    /// outputs are being written).
+    shrink: Option<&'a std::fs::File>,
 }
 
 /// One segment replayed: its nominal states and transitions, step by step, and the
@@ -708,6 +730,12 @@ impl<S: Read + Seek> Store<'_, S> {
             self.window.resize(((to - start) / 8) as usize, 0.0);
             self.store.read_exact(bytemuck::cast_slice_mut(&mut self.window))?;
             self.at = start;
+            if let Some(file) = self.shrink {
+                // everything after this window belongs to later segments, done (the window
+                // itself may start inside an earlier segment, read again with the next
+                // window); an optimisation: a file that cannot be cut is read as it is
+                let _ = file.set_len(to);
+            }
         }
         let v = &self.window[((from - self.at) / 8) as usize..((to - self.at) / 8) as usize];
         let corrupt = SmootherError::Corrupt;

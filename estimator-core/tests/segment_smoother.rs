@@ -433,3 +433,71 @@ fn inputs_with_their_own_times_and_short_forms_replay_exactly() {
         }
     }
 }
+
+/// A long forward pass of the linear case (30,000 steps, an update every second step)
+/// recorded into `seg` and smoothed on one thread or two: the rows in time order and the
+/// bytes recorded.
+fn long_run<S: std::io::Read + std::io::Write + std::io::Seek + Send>(
+    mut seg: SegmentSmoother<Vector2<f64>, (), S>,
+    threaded: bool,
+) -> (Vec<SmoothedRow<Vector2<f64>>>, u64) {
+    let dt = 0.01;
+    let process = LinearProcess {
+        F: Matrix2::new(1.0, dt, 0.0, 1.0),
+        Q: Matrix2::new(dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt) * 0.05,
+    };
+    let sensor = LinearMeasurement::new(Matrix1x2::new(1.0, 0.0));
+    let (P0, R) = (Matrix2::new(4.0, 0.5, 0.5, 1.0), Matrix1::new(0.4));
+    let mut f = ErrorStateFilter::new(Vector2::new(0.5, -0.2), P0, FixedNoise).unwrap();
+    for k in 0..30_000 {
+        seg.before_predict(&f, &(), dt, true);
+        f.predict(&process, &(), dt).unwrap();
+        if k % 2 == 1 {
+            seg.before_update(&f);
+            let t = (k + 1) as f64 * dt;
+            f.update(&sensor, &Vector1::new(0.3 * t + (t * 0.7).sin()), &R).unwrap();
+        }
+        if k % 10 == 9 {
+            seg.mark_variances();
+        }
+    }
+    let mut chunks = Vec::new();
+    let sink = |rows: &[SmoothedRow<Vector2<f64>>]| {
+        chunks.push(rows.to_vec());
+        Ok(())
+    };
+    seg.finish_recording().unwrap();
+    let stored = seg.stored_bytes();
+    if threaded {
+        seg.smooth_threaded(&f, &process, sink).unwrap();
+    } else {
+        seg.smooth(&f, &process, sink).unwrap();
+    }
+    (chunks.into_iter().rev().flatten().collect(), stored)
+}
+
+/// A file's storage is read back about a megabyte at a time and cut behind each read:
+/// across the windows of a run several megabytes long (segments straddle their edges)
+/// the rows are those of the same run kept in memory, bit for bit, on one thread and on
+/// two, and the file is left shorter than it was written.
+#[test]
+fn a_long_run_on_file_is_read_back_window_by_window_and_cut_behind() {
+    let (expected, stored) = long_run(SegmentSmoother::new(Cursor::new(Vec::new()), 64), false);
+    assert!(stored > 2 << 20, "{stored} bytes: too few windows");
+    assert_eq!(expected.len(), 30_000);
+    for threaded in [false, true] {
+        let path = std::env::temp_dir()
+            .join(format!("segment-smoother-{}-{threaded}.tmp", std::process::id()));
+        let (rows, on_file) = long_run(SegmentSmoother::on_file(&path, 64).unwrap(), threaded);
+        let left = std::fs::metadata(&path).unwrap().len();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(on_file, stored);
+        assert!(left <= 1 << 20, "{left} of {stored} bytes left in the file");
+        assert_eq!(rows.len(), expected.len());
+        for (r, e) in rows.iter().zip(&expected) {
+            assert_eq!(r.time.to_bits(), e.time.to_bits());
+            assert_eq!(r.x, e.x, "threaded {threaded}: at {}", r.time);
+            assert_eq!(r.var, e.var, "threaded {threaded}: at {}", r.time);
+        }
+    }
+}
