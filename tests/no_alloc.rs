@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-use estimator::adaptive::AnyStrategy;
+use estimator::adaptive::{AnyStrategy, STRATEGY_NAMES};
 use estimator::estimator_core::{FixedNoise, NoObserver, NoiseStrategy};
 use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, Navigator};
 use ins_gnss::config::{Config, ConfigKind};
@@ -101,12 +101,12 @@ fn ins_epochs_do_not_allocate() {
     assert!(updates > 400);
 }
 
-/// The program's default strategy (`ins-gnss run` without `--strategy`: fixed noise on
-/// every stream behind the gross-error gate that adapts before it refuses) does not
+/// The program's strategies (`ins-gnss run --strategy NAME`, each on every stream behind
+/// the gross-error gate that adapts before it refuses; the default is `fixed`) do not
 /// allocate either: the filter keeps the copy of the strategy it restores on a failed
-/// update, and refills it in place.
+/// update and refills it in place, window vectors included.
 #[test]
-fn epochs_with_the_programs_default_strategy_do_not_allocate() {
+fn epochs_with_every_strategy_of_the_program_do_not_allocate() {
     let text = r#"
         [data]
         imu = "IMU.txt"
@@ -121,8 +121,11 @@ fn epochs_with_the_programs_default_strategy_do_not_allocate() {
         corr_time = 0.027778
     "#;
     let config = Config::parse(text, ConfigKind::Toml, Path::new(".")).unwrap();
-    let strategy = config.strategy(config.filter.strategy.parse::<AnyStrategy>().unwrap());
-    let (allocations, updates) = allocations_over_10000_epochs(strategy.unwrap());
-    assert_eq!(allocations, 0, "heap allocations during 10,000 epochs");
-    assert!(updates > 400);
+    assert_eq!(config.filter.strategy, "fixed");
+    for name in STRATEGY_NAMES {
+        let strategy = config.strategy(name.parse::<AnyStrategy>().unwrap()).unwrap();
+        let (allocations, updates) = allocations_over_10000_epochs(strategy);
+        assert_eq!(allocations, 0, "{name}: heap allocations during 10,000 epochs");
+        assert!(updates > 400, "{name}: {updates} updates");
+    }
 }

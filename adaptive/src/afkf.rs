@@ -71,7 +71,7 @@ pub enum FadingAt {
 /// *Automatica* 30(8), 1333–1338 (1994); the trace form as used in paper `fused-iae-afkf`
 /// (section 3). Fading memory: Y. Bar-Shalom et al. (2001) §11.7; R. Labbe, FilterPy.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Afkf {
     /// Estimator of `Ĉ`. Default `Window(20)`.
     pub estimate: MismatchEstimate,
@@ -95,11 +95,43 @@ pub struct Afkf {
     last_lambda: f64,
 }
 
+clone_in_place!(Afkf {
+    estimate,
+    lambda_max,
+    fixed_lambda,
+    apply_at,
+    xia,
+    scaling,
+    streams,
+    last_lambda
+});
+
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 enum AfkfStream {
     Window(InnovationWindow),
     Recursive { v: Vec<f64>, started: bool },
+}
+
+/// (`clone_from` in place: see `clone_in_place!`)
+impl Clone for AfkfStream {
+    fn clone(&self) -> Self {
+        match self {
+            Self::Window(w) => Self::Window(w.clone()),
+            Self::Recursive { v, started } => Self::Recursive { v: v.clone(), started: *started },
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        match (self, source) {
+            (Self::Window(w), Self::Window(s)) => w.clone_from(s),
+            (Self::Recursive { v, started }, Self::Recursive { v: sv, started: ss }) => {
+                v.clone_from(sv);
+                *started = *ss;
+            }
+            (this, source) => *this = source.clone(),
+        }
+    }
 }
 
 impl Default for Afkf {

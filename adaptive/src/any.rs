@@ -13,7 +13,7 @@ use crate::{
 /// Any of the crate's strategies, chosen at run time. Static dispatch by `match`; a filter
 /// typed `ErrorStateFilter<X, AnyStrategy>` can run every strategy.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub enum AnyStrategy {
     /// [`FixedNoise`].
     Fixed(FixedNoise),
@@ -29,6 +29,36 @@ pub enum AnyStrategy {
     SageHusa(SageHusa),
     /// [`ChiSquareGate`].
     ChiSquareGate(ChiSquareGate),
+}
+
+/// `clone_from` refills the strategy in place when both are the same kind (see
+/// `clone_in_place!`).
+impl Clone for AnyStrategy {
+    fn clone(&self) -> Self {
+        match self {
+            AnyStrategy::Fixed(s) => AnyStrategy::Fixed(*s),
+            AnyStrategy::Iae(s) => AnyStrategy::Iae(s.clone()),
+            AnyStrategy::Afkf(s) => AnyStrategy::Afkf(s.clone()),
+            AnyStrategy::Fused(s) => AnyStrategy::Fused(s.clone()),
+            AnyStrategy::Iakf(s) => AnyStrategy::Iakf(s.clone()),
+            AnyStrategy::SageHusa(s) => AnyStrategy::SageHusa(s.clone()),
+            AnyStrategy::ChiSquareGate(s) => AnyStrategy::ChiSquareGate(s.clone()),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        use AnyStrategy as S;
+        match (self, source) {
+            (S::Fixed(a), S::Fixed(b)) => a.clone_from(b),
+            (S::Iae(a), S::Iae(b)) => a.clone_from(b),
+            (S::Afkf(a), S::Afkf(b)) => a.clone_from(b),
+            (S::Fused(a), S::Fused(b)) => a.clone_from(b),
+            (S::Iakf(a), S::Iakf(b)) => a.clone_from(b),
+            (S::SageHusa(a), S::SageHusa(b)) => a.clone_from(b),
+            (S::ChiSquareGate(a), S::ChiSquareGate(b)) => a.clone_from(b),
+            (this, source) => *this = source.clone(),
+        }
+    }
 }
 
 /// The names [`AnyStrategy::from_str`] accepts.

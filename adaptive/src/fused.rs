@@ -48,7 +48,7 @@ use crate::window::InnovationWindow;
 /// Paper `fused-iae-afkf` (fused IAE + AFKF for MEMS-INS/GNSS), sections 3–4: windows
 /// N_P = 20 and N_R = 30.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct FusedDualWindow {
     /// Process-loop window N_P. Default 20.
     pub n_p: usize,
@@ -73,6 +73,20 @@ pub struct FusedDualWindow {
     pub refused_in_windows: bool,
     streams: StreamMap<FusedStream>,
 }
+
+clone_in_place!(FusedDualWindow {
+    n_p,
+    n_r,
+    gross_error_dom,
+    max_consecutive_rejections,
+    lambda_r_bounds,
+    lambda_p_max,
+    scaling,
+    r_reading,
+    gross_test,
+    refused_in_windows,
+    streams
+});
 
 /// Which `R` the fused filter's measurement loop scales (the paper's eq. 29 is read two
 /// ways; see [`FusedDualWindow`]).
@@ -103,7 +117,7 @@ pub enum GrossTest {
 }
 
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 struct FusedStream {
     w_p: InnovationWindow,
     w_r: InnovationWindow,
@@ -112,6 +126,8 @@ struct FusedStream {
     /// `R₀` by a scalar).
     r_factor: f64,
 }
+
+clone_in_place!(FusedStream { w_p, w_r, rejections, r_factor });
 
 impl Default for FusedDualWindow {
     fn default() -> Self {

@@ -37,7 +37,7 @@ use crate::window::{project_noise, trace_ratio, InnovationWindow, NoiseBounds};
 /// A. H. Mohamed and K. P. Schwarz, "Adaptive Kalman filtering for INS/GPS", *Journal of
 /// Geodesy* 73, 193–203 (1999); window N = 20 as in paper `fused-iae-afkf`.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Iae {
     /// Window length N (innovations). Default 20.
     pub window: usize,
@@ -50,14 +50,18 @@ pub struct Iae {
     streams: StreamMap<IaeStream>,
 }
 
+clone_in_place!(Iae { window, warmup, adapt_q, bounds, streams });
+
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 struct IaeStream {
     window: InnovationWindow,
     last_time: Option<f64>,
     /// `ceiling · tr(R₀)` from the latest update: cap on `tr(Ĉ)` for `Q̂`.
     c_cap: f64,
 }
+
+clone_in_place!(IaeStream { window, last_time, c_cap });
 
 impl Default for Iae {
     fn default() -> Self {

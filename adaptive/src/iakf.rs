@@ -55,7 +55,7 @@ pub enum Inflation {
 /// Paper `iakf-chi-square` (χ²-test-based innovation-adaptive KF for INS/GPS), section 3,
 /// eq. 17–19; α = 0.05.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Iakf {
     /// Significance α of the gate (0.05 → 95 % quantile). Default 0.05.
     pub alpha: f64,
@@ -68,13 +68,17 @@ pub struct Iakf {
     streams: StreamMap<IakfStream>,
 }
 
+clone_in_place!(Iakf { alpha, inflation, max_consecutive, ceiling, streams });
+
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 struct IakfStream {
     mean: RunningMean,
     gate: f64,
     consecutive: u32,
 }
+
+clone_in_place!(IakfStream { mean, gate, consecutive });
 
 impl Default for Iakf {
     fn default() -> Self {

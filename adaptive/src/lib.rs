@@ -35,6 +35,26 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+/// `Clone` for a struct, field by field, with a `clone_from` that refills each field in
+/// place. The filter copies its strategy before every update (to put it back if the update
+/// fails) with `clone_from`; a derived `Clone`'s `clone_from` makes a new copy, allocating
+/// every vector of the strategy's windows anew. Every field is named: one left out is a
+/// compile error.
+macro_rules! clone_in_place {
+    ($t:ident { $($f:ident),* $(,)? }) => {
+        impl Clone for $t {
+            fn clone(&self) -> Self {
+                Self { $($f: self.$f.clone()),* }
+            }
+
+            fn clone_from(&mut self, source: &Self) {
+                let Self { $($f),* } = source;
+                $(self.$f.clone_from($f);)*
+            }
+        }
+    };
+}
+
 mod afkf;
 mod any;
 mod fused;

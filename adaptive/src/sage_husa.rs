@@ -24,7 +24,7 @@ use crate::window::{project_noise, trace_ratio, NoiseBounds};
 /// Joint Automatic Control Conference*, 760–769 (1969); forgetting form as used as the
 /// AKF baseline in paper `iakf-chi-square` (b ∈ [0.95, 0.995]).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct SageHusa {
     /// Forgetting factor b. Default 0.98.
     pub b: f64,
@@ -33,12 +33,16 @@ pub struct SageHusa {
     streams: StreamMap<SageHusaStream>,
 }
 
+clone_in_place!(SageHusa { b, bounds, streams });
+
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 struct SageHusaStream {
     k: u32,
     r: Vec<f64>,
 }
+
+clone_in_place!(SageHusaStream { k, r });
 
 impl Default for SageHusa {
     fn default() -> Self {

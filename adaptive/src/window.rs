@@ -10,7 +10,7 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 /// The last `capacity` innovations of one stream (fewer at start-up: statistics use what
 /// there is, and report how many).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct InnovationWindow {
     capacity: usize,
     dim: usize,
@@ -18,6 +18,8 @@ pub struct InnovationWindow {
     len: usize,
     next: usize,
 }
+
+clone_in_place!(InnovationWindow { capacity, dim, buf, len, next });
 
 impl InnovationWindow {
     /// A window of `capacity ≥ 1` innovations of dimension `dim`.
@@ -98,11 +100,13 @@ impl InnovationWindow {
 
 /// Running mean of every innovation of a stream so far, `r̄_k = (1/k) Σ_{i≤k} r_i`.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct RunningMean {
     count: u64,
     mean: Vec<f64>,
 }
+
+clone_in_place!(RunningMean { count, mean });
 
 impl RunningMean {
     /// Empty mean of dimension `dim`.

@@ -113,7 +113,7 @@ pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecor
 #[cfg(feature = "std")]
 pub use smoother::{FixedLagSmoother, Lag, RtsSmoother, RtsStep, Smoothed};
 #[cfg(feature = "std")]
-pub use stream::StreamMap;
+pub use stream::{clone_entries_from, StreamMap};
 pub use stream::{short_type_name, StreamId};
 pub use traits::{
     Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,

@@ -103,8 +103,22 @@ impl<T: Clone> Clone for StreamMap<T> {
     }
 
     fn clone_from(&mut self, source: &Self) {
-        self.entries.clone_from(&source.entries);
+        clone_entries_from(&mut self.entries, &source.entries);
     }
+}
+
+/// `dst ← src` for `(id, value)` entries, each value refilled in place with its own
+/// `clone_from` (a tuple's `clone_from` makes a new copy of its parts), the vector's
+/// room kept.
+#[cfg(feature = "std")]
+pub fn clone_entries_from<K: Copy, T: Clone>(dst: &mut Vec<(K, T)>, src: &[(K, T)]) {
+    dst.truncate(src.len());
+    for ((k, v), (sk, sv)) in dst.iter_mut().zip(src) {
+        *k = *sk;
+        v.clone_from(sv);
+    }
+    let have = dst.len();
+    dst.extend_from_slice(&src[have..]);
 }
 
 #[cfg(feature = "std")]
