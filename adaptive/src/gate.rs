@@ -396,48 +396,18 @@ pub struct GrossErrorGate<A> {
     bypassed: bool,
 }
 
-/// `clone_from` refills the per-stream state and the caches in place: the filter copies
-/// its strategy before every update (to put it back if the update fails), and a derived
-/// `Clone` allocated their vectors anew each time.
-impl<A: Clone> Clone for GrossErrorGate<A> {
-    fn clone(&self) -> Self {
-        Self {
-            inner: self.inner.clone(),
-            probability: self.probability,
-            readmit_after: self.readmit_after,
-            mode: self.mode,
-            streams: self.streams.clone(),
-            thresholds: self.thresholds.clone(),
-            scale_tests: self.scale_tests.clone(),
-            same_way_pairs: self.same_way_pairs.clone(),
-            bypassed: self.bypassed,
-        }
-    }
-
-    fn clone_from(&mut self, source: &Self) {
-        // (every field named: a new one is a compile error here, not a field left stale)
-        let Self {
-            inner,
-            probability,
-            readmit_after,
-            mode,
-            streams,
-            thresholds,
-            scale_tests,
-            same_way_pairs,
-            bypassed,
-        } = source;
-        self.inner.clone_from(inner);
-        self.probability = *probability;
-        self.readmit_after = *readmit_after;
-        self.mode = *mode;
-        self.streams.clone_from(streams);
-        self.thresholds.clone_from(thresholds);
-        self.scale_tests.clone_from(scale_tests);
-        self.same_way_pairs.clone_from(same_way_pairs);
-        self.bypassed = *bypassed;
-    }
-}
+// (`clone_from` refills the per-stream state and the caches in place)
+clone_in_place!(GrossErrorGate<A> {
+    inner,
+    probability,
+    readmit_after,
+    mode,
+    streams,
+    thresholds,
+    scale_tests,
+    same_way_pairs,
+    bypassed,
+});
 
 impl<A: NoiseStrategy> GrossErrorGate<A> {
     /// `inner` behind a gate at `χ²_{1−probability}(m)`, re-admitting after

@@ -39,10 +39,10 @@
 /// place. The filter copies its strategy before every update (to put it back if the update
 /// fails) with `clone_from`; a derived `Clone`'s `clone_from` makes a new copy, allocating
 /// every vector of the strategy's windows anew. Every field is named: one left out is a
-/// compile error.
+/// compile error. A type with one type parameter names it (`Gate<A> { … }`).
 macro_rules! clone_in_place {
-    ($t:ident { $($f:ident),* $(,)? }) => {
-        impl Clone for $t {
+    ($t:ident $(<$g:ident>)? { $($f:ident),* $(,)? }) => {
+        impl$(<$g: Clone>)? Clone for $t$(<$g>)? {
             fn clone(&self) -> Self {
                 Self { $($f: self.$f.clone()),* }
             }

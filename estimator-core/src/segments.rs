@@ -490,6 +490,24 @@ where
         }
     }
 
+    /// End the recording and set up the backward pass: the recursion from the filter's
+    /// final posterior, and the reader of the storage.
+    fn backward<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) -> Result<(Backward<X>, Store<'_, S>), SmootherError> {
+        self.end_with(filter);
+        self.finish_recording()?;
+        let store = Store {
+            store: &mut self.store,
+            offsets: &self.offsets,
+            window: Vec::new(),
+            at: 0,
+            shrink: self.shrink.as_ref(),
+        };
+        Ok((Backward::start(filter), store))
+    }
+
     /// End the forward pass: the storage error that stopped recording, if any.
     pub fn finish_recording(&mut self) -> std::io::Result<()> {
         self.close(true);
@@ -514,18 +532,9 @@ where
         B: CovBackend<X::Dim>,
         PM: ProcessModel<State = X, Input = U>,
     {
-        self.end_with(filter);
-        self.finish_recording()?;
-        let mut back = Backward::start(filter);
+        let (mut back, mut store) = self.backward(filter)?;
         let mut seg = Replayed::default();
-        let mut store = Store {
-            store: &mut self.store,
-            offsets: &self.offsets,
-            window: Vec::new(),
-            at: 0,
-            shrink: self.shrink.as_ref(),
-        };
-        for k in (0..self.offsets.len() - 1).rev() {
+        for k in (0..store.offsets.len() - 1).rev() {
             store.replay(k, model, &mut seg)?;
             back.segment(&seg, model)?;
             sink(&back.rows)?;
@@ -551,17 +560,8 @@ where
         S: Send,
         Cov<X::Dim>: Send,
     {
-        self.end_with(filter);
-        self.finish_recording()?;
-        let mut back = Backward::start(filter);
-        let segments = self.offsets.len() - 1;
-        let mut store = Store {
-            store: &mut self.store,
-            offsets: &self.offsets,
-            window: Vec::new(),
-            at: 0,
-            shrink: self.shrink.as_ref(),
-        };
+        let (mut back, mut store) = self.backward(filter)?;
+        let segments = store.offsets.len() - 1;
         std::thread::scope(|scope| -> Result<(), SmootherError> {
             // replayed segments one way in batches of about `BATCH_STEPS` steps (a thread
             // wake-up per segment costs more than a short segment's work), the batches back
@@ -645,11 +645,10 @@ where
     /// `P₀` first; `Pᵢ` for every `i` when the segment was replayed with its covariance
     /// ([`END_REPLAY`]).
     ps: Vec<Cov<X::Dim>>,
-    /// `Pₙ`, the covariance before the update that follows the segment, when one does.
-    p_end: Option<Cov<X::Dim>>,
-    /// `Pₙ⁻¹` beside `Pₙ` (formed by the replay, which has a core to spare, not by the
-    /// recursion, which is the backward pass's longest thread), or why it has none.
-    p_end_inv: Result<Cov<X::Dim>, FilterError>,
+    /// `Pₙ⁻¹` for `Pₙ` the covariance before the update that follows the segment, when one
+    /// does (or why `Pₙ` has no inverse); formed by the replay, which has a core to spare,
+    /// not by the recursion, which is the backward pass's longest thread.
+    p_end_inv: Option<Result<Cov<X::Dim>, FilterError>>,
     /// `Φᵢᵀ`, `i < n`.
     phi_ts: Vec<Cov<X::Dim>>,
     /// End time, interval, flags and input of each step.
@@ -669,8 +668,7 @@ where
         Self {
             xs: Vec::new(),
             ps: Vec::new(),
-            p_end: None,
-            p_end_inv: Err(FilterError::NonFinite { what: "segment end" }),
+            p_end_inv: None,
             phi_ts: Vec::new(),
             steps: Vec::new(),
             continues: false,
@@ -813,10 +811,12 @@ impl<S: Read + Seek> Store<'_, S> {
             seg.steps.push((end, dt, flags & (MARKED | VARIANCES), u));
             at += len;
         }
+        let mut p_end = None;
         if end == END_PRIOR {
             let stored = v.get(at..at + tri).ok_or(corrupt("segment end covariance"))?;
-            let p = seg.p_end.get_or_insert_with(Cov::<X::Dim>::zeros);
-            read_upper(stored, p);
+            let mut p = Cov::<X::Dim>::zeros();
+            read_upper(stored, &mut p);
+            p_end = Some(p);
             at += tri;
         }
         if at != v.len() {
@@ -843,23 +843,18 @@ impl<S: Read + Seek> Store<'_, S> {
                 )?;
                 seg.xs.push(x_next);
             }
-            let p = seg.p_end.get_or_insert_with(Cov::<X::Dim>::zeros);
-            p.copy_from(&seg.ps[count]);
+            p_end = Some(seg.ps[count].clone());
         } else {
             // the nominal states and the transitions only
             for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
                 let x_next = model.step_transition(&seg.xs[k], u, *dt, &mut seg.phi_ts[k]);
                 seg.xs.push(x_next);
             }
-            if end == END_OPEN {
-                seg.p_end = None;
-            }
         }
-        seg.p_end_inv = match &seg.p_end {
-            Some(p) => cholesky("smoother: predicted covariance Pₙ", p.clone())
-                .map(|chol| inverse_from_cholesky(&chol)),
-            None => Err(FilterError::NonFinite { what: "segment end" }),
-        };
+        seg.p_end_inv = p_end.map(|p| {
+            cholesky("smoother: predicted covariance Pₙ", p)
+                .map(|chol| inverse_from_cholesky(&chol))
+        });
         Ok(())
     }
 }
@@ -943,12 +938,10 @@ where
                 // variances those of Pˢ, in the frame of x̂ˢ); then Pˢ into the frame of
                 // the prior x̂ₙ (Σ), and λ = Pₙ⁻¹ d, Λ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
                 let var = (end_flags & VARIANCES != 0).then(|| p.diagonal());
-                if seg.p_end.is_none() {
-                    return Err(SmootherError::Corrupt("segment end"));
-                }
+                let inv = seg.p_end_inv.as_ref().ok_or(SmootherError::Corrupt("segment end"))?;
                 let d = x.ominus(&xs[count]);
                 reframe(&xs[count], &d, p, Reframe::Into)?;
-                let inv = seg.p_end_inv.as_ref().map_err(|e| e.clone())?;
+                let inv = inv.as_ref().map_err(|e| e.clone())?;
                 kernels::mat_mul(inv, &d, &mut self.lambdas[count]);
                 // −(Pₙ⁻¹ Σ Pₙ⁻¹ − Pₙ⁻¹) as one sandwich (Pₙ⁻¹ is symmetric), exactly symmetric
                 let big = &mut self.bigs[self.cur];
