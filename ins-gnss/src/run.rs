@@ -490,8 +490,9 @@ impl RunSummary {
 pub type Progress<'a> = &'a mut dyn FnMut(f64);
 
 /// Where a run's results go: files in a directory ([`Outputs`], the program) or memory
-/// ([`Results`], the bindings). The filter thread writes the σ, IMU-error and update rows;
-/// the navigation rows go to [`Sink::Nav`] on the writer thread.
+/// ([`Results`], the bindings). The filter thread hands over the σ, IMU-error and update
+/// rows ([`Outputs`] formats and writes them on a thread of its own); the navigation rows
+/// go to [`Sink::Nav`] on the writer thread.
 trait Sink {
     /// What takes the navigation rows, on the writer thread.
     type Nav: NavSink;
@@ -536,9 +537,48 @@ trait NavSink: Send {
     fn finish(&mut self) -> Result<(), RunError>;
 }
 
-/// The output files written by the filter thread (`nav.txt`, [`NavFile`], goes to the
-/// writer thread).
+/// The output files of the forward pass other than `nav.txt` ([`NavFile`]): `std.txt`,
+/// `imu_errors.txt`, `nav.pos` and `updates.csv`. The filter thread only copies each row's
+/// numbers ([`Row`]); a thread of their own formats and writes them ([`EpochFiles`]). With
+/// an update at every car-aiding epoch (10 Hz) that text was an eighth of the filter
+/// thread's time.
 struct Outputs {
+    dir: PathBuf,
+    /// Rows not sent yet.
+    rows: Vec<Row>,
+    /// To the files' thread (`None` once it has been told to finish).
+    tx: Option<std::sync::mpsc::SyncSender<Vec<Row>>>,
+    thread: Option<std::thread::JoinHandle<Result<(), RunError>>>,
+}
+
+/// Rows the filter thread hands to the files' thread at a time.
+const ROWS_BATCH: usize = 256;
+
+/// One row's numbers, formatted on the files' thread.
+#[allow(clippy::large_enum_variant)] // (most rows are epochs: boxing them would allocate each)
+enum Row {
+    /// `std.txt`, `nav.pos` and `imu_errors.txt` at an epoch.
+    Epoch(EpochRow),
+    /// `updates.csv`.
+    Update(UpdateSummary),
+}
+
+/// What [`EpochFiles::write_epoch`] writes at an epoch.
+struct EpochRow {
+    t: f64,
+    /// A GNSS update was used at `t`.
+    gnss_fix: bool,
+    /// The error states' 1σ, `sigma[..n]`.
+    sigma: [f64; 21],
+    n: usize,
+    x: InsState,
+    pos_cov: nalgebra::Matrix3<f64>,
+    vel_cov: nalgebra::Matrix3<f64>,
+    scale: Option<(Vector3<f64>, Vector3<f64>)>,
+}
+
+/// The files of [`Outputs`], on their own thread.
+struct EpochFiles {
     dir: PathBuf,
     std: std::io::BufWriter<std::fs::File>,
     imu_err: std::io::BufWriter<std::fs::File>,
@@ -586,7 +626,8 @@ impl NavFile {
 }
 
 impl Outputs {
-    /// Create the output directory and files; returns the outputs and `nav.txt`.
+    /// Create the output directory and files and start the files' thread; returns the
+    /// outputs and `nav.txt`.
     fn create(dir: &Path) -> Result<(Self, NavFile), RunError> {
         let out =
             |path: PathBuf, e: std::io::Error| RunError::Output { path, message: e.to_string() };
@@ -602,7 +643,7 @@ impl Outputs {
             path: partial_path(&dir.join("nav.txt")),
             text: Vec::new(),
         };
-        let mut o = Outputs {
+        let mut files = EpochFiles {
             dir: dir.to_path_buf(),
             std: open("std.txt")?,
             imu_err: open("imu_errors.txt")?,
@@ -612,21 +653,62 @@ impl Outputs {
             line: Vec::with_capacity(256),
         };
         ins_gnss_core::io::rtklib::write_header(
-            &mut o.pos,
+            &mut files.pos,
             concat!("ins-gnss ", env!("CARGO_PKG_VERSION")),
             true,
         )
         .map_err(|e| out(dir.join("nav.pos"), e))?;
         writeln!(
-            o.updates,
+            files.updates,
             "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r,scaling_fallback"
         )
         .map_err(|e| out(dir.join("updates.csv"), e))?;
-        Ok((o, nav))
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(4);
+        let thread = std::thread::spawn(move || -> Result<(), RunError> {
+            for batch in rx {
+                for row in &batch {
+                    files.write(row)?;
+                }
+            }
+            files.flush()
+        });
+        let outputs = Outputs {
+            dir: dir.to_path_buf(),
+            rows: Vec::with_capacity(ROWS_BATCH),
+            tx: Some(tx),
+            thread: Some(thread),
+        };
+        Ok((outputs, nav))
     }
 
-    fn err(&self, name: &str, e: std::io::Error) -> RunError {
-        partial_error(&self.dir, name, e)
+    /// Queue a row; a full batch goes to the files' thread. A failed write there stops
+    /// the thread, and its error comes back here.
+    fn push(&mut self, row: Row) -> Result<(), RunError> {
+        self.rows.push(row);
+        if self.rows.len() < ROWS_BATCH {
+            return Ok(());
+        }
+        let batch = std::mem::replace(&mut self.rows, Vec::with_capacity(ROWS_BATCH));
+        match &self.tx {
+            Some(tx) if tx.send(batch).is_ok() => Ok(()),
+            _ => self.finish(),
+        }
+    }
+
+    /// Send the rows left, let the files' thread finish and flush, and return its error,
+    /// if any.
+    fn finish(&mut self) -> Result<(), RunError> {
+        if let Some(tx) = self.tx.take() {
+            // (a thread that stopped early has its error: a failed send is that case)
+            let _ = tx.send(std::mem::take(&mut self.rows));
+        }
+        match self.thread.take() {
+            Some(thread) => thread.join().map_err(|_| RunError::Output {
+                path: self.dir.clone(),
+                message: "the output files' thread panicked".into(),
+            })?,
+            None => Ok(()),
+        }
     }
 
     /// The names of the outputs.
@@ -656,42 +738,88 @@ impl Outputs {
         }
         Ok(())
     }
+}
+
+impl Drop for Outputs {
+    /// A run that failed: what was queued is still written (the `.partial` files keep the
+    /// rows up to the failure), and the thread is waited for.
+    fn drop(&mut self) {
+        let _ = self.finish();
+    }
+}
+
+impl EpochFiles {
+    fn write(&mut self, row: &Row) -> Result<(), RunError> {
+        match row {
+            Row::Epoch(e) => self.write_epoch(e),
+            Row::Update(u) => self.write_update(u),
+        }
+    }
+
+    fn err(&self, name: &str, e: std::io::Error) -> RunError {
+        partial_error(&self.dir, name, e)
+    }
 
     /// `std.txt`, `imu_errors.txt` and `nav.pos` at `t`.
-    fn write_epoch<S: RunState>(
-        &mut self,
-        t: f64,
-        nav: &Navigator<RunStrategy, S>,
-        gnss_fix: bool,
-    ) -> std::io::Result<()>
-    where
-        DefaultAllocator: DimAlloc<S::Dim>,
-    {
-        let x = nav.nav_state();
-        let (row, n) = sigma_row(t, nav.sigma().as_slice());
+    fn write_epoch(&mut self, e: &EpochRow) -> Result<(), RunError> {
+        let (row, n) = sigma_row(e.t, &e.sigma[..e.n]);
         self.line.clear();
         push_row(&mut self.line, &row[..n]);
-        self.std.write_all(&self.line)?;
+        self.std.write_all(&self.line).map_err(|err| self.err("std.txt", err))?;
         // nav.pos: the position and velocity with their NED covariance blocks (error
         // states 6–8 and 3–5); Q 1 after a GNSS update, 5 (no GNSS) otherwise
-        if self.pos_last_t == Some(t) {
+        if self.pos_last_t == Some(e.t) {
             return Ok(());
         }
-        self.pos_last_t = Some(t);
-        let p = nav.covariance();
-        let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
-        let (pos_cov, vel_cov) = (block(6), block(3));
-        let q = if gnss_fix { 1 } else { 5 };
+        self.pos_last_t = Some(e.t);
+        let q = if e.gnss_fix { 1 } else { 5 };
         // (these files were written by `format!`; `push_epoch` and `push_exact_row` write
         // the same bytes, faster)
         self.line.clear();
-        let vel = Some((&x.vel, &vel_cov));
-        ins_gnss_core::io::rtklib::push_epoch(&mut self.line, 0.0, t, &x.pos, &pos_cov, vel, q);
-        self.pos.write_all(&self.line)?;
-        let (row, n) = imu_error_row(t, x, nav.state().scale_factors());
+        let vel = Some((&e.x.vel, &e.vel_cov));
+        ins_gnss_core::io::rtklib::push_epoch(
+            &mut self.line,
+            0.0,
+            e.t,
+            &e.x.pos,
+            &e.pos_cov,
+            vel,
+            q,
+        );
+        self.pos.write_all(&self.line).map_err(|err| self.err("nav.pos", err))?;
+        let (row, n) = imu_error_row(e.t, &e.x, e.scale);
         self.line.clear();
         push_exact_row(&mut self.line, &row[..n]);
-        self.imu_err.write_all(&self.line)
+        self.imu_err.write_all(&self.line).map_err(|err| self.err("imu_errors.txt", err))
+    }
+
+    fn write_update(&mut self, u: &UpdateSummary) -> Result<(), RunError> {
+        let l = &mut self.line;
+        l.clear();
+        push_exact(l, u.time, 0, 6);
+        let _ = write!(l, ",{},{},", u.stream.name(), u.dim);
+        push_exact(l, u.nis, 0, 6);
+        l.push(b',');
+        push_exact(l, u.nis_adapted, 0, 6);
+        let _ = write!(l, ",{},\"{}\",", u.verdict.as_str(), u.reason);
+        for v in [u.factors.dom, u.factors.lambda_p, u.factors.lambda_r] {
+            push_exact(l, v, 0, 6);
+            l.push(b',');
+        }
+        let _ = writeln!(l, "{}", u8::from(u.prior_scaling_fallback));
+        self.updates.write_all(&self.line).map_err(|e| self.err("updates.csv", e))
+    }
+
+    fn flush(&mut self) -> Result<(), RunError> {
+        for (w, name) in [
+            (&mut self.pos, "nav.pos"),
+            (&mut self.std, "std.txt"),
+            (&mut self.imu_err, "imu_errors.txt"),
+            (&mut self.updates, "updates.csv"),
+        ] {
+            w.flush().map_err(|e| partial_error(&self.dir, name, e))?;
+        }
+        Ok(())
     }
 }
 
@@ -717,38 +845,32 @@ impl Sink for Outputs {
     where
         DefaultAllocator: DimAlloc<S::Dim>,
     {
-        self.write_epoch(t, nav, gnss_fix).map_err(|e| self.err("std.txt", e))
+        let s = nav.sigma();
+        let mut sigma = [0.0; 21];
+        let n = s.len().min(21);
+        sigma[..n].copy_from_slice(&s.as_slice()[..n]);
+        let p = nav.covariance();
+        let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
+        self.push(Row::Epoch(EpochRow {
+            t,
+            gnss_fix,
+            sigma,
+            n,
+            x: nav.nav_state().clone(),
+            pos_cov: block(6),
+            vel_cov: block(3),
+            scale: nav.state().scale_factors(),
+        }))
     }
 
     fn update(&mut self, u: &UpdateSummary) -> Result<(), RunError> {
-        let l = &mut self.line;
-        l.clear();
-        push_exact(l, u.time, 0, 6);
-        let _ = write!(l, ",{},{},", u.stream.name(), u.dim);
-        push_exact(l, u.nis, 0, 6);
-        l.push(b',');
-        push_exact(l, u.nis_adapted, 0, 6);
-        let _ = write!(l, ",{},\"{}\",", u.verdict.as_str(), u.reason);
-        for v in [u.factors.dom, u.factors.lambda_p, u.factors.lambda_r] {
-            push_exact(l, v, 0, 6);
-            l.push(b',');
-        }
-        let _ = writeln!(l, "{}", u8::from(u.prior_scaling_fallback));
-        self.updates.write_all(l).map_err(|e| self.err("updates.csv", e))
+        self.push(Row::Update(*u))
     }
 
     fn nav_done(&mut self, _nav: NavFile) {}
 
     fn flush(&mut self) -> Result<(), RunError> {
-        for (w, name) in [
-            (&mut self.pos, "nav.pos"),
-            (&mut self.std, "std.txt"),
-            (&mut self.imu_err, "imu_errors.txt"),
-            (&mut self.updates, "updates.csv"),
-        ] {
-            w.flush().map_err(|e| partial_error(&self.dir, name, e))?;
-        }
-        Ok(())
+        self.finish()
     }
 
     fn smoothed<S: RunState>(
@@ -1244,11 +1366,13 @@ where
         .join()
         .map_err(|_| RunError::NoData("the smoother's writer thread panicked".into()))?;
     let dir = names[0].parent().unwrap_or(Path::new("."));
+    // a failed write stops the writer and then the backward pass ("the row writer
+    // stopped"): the write's error is the cause, and is reported first
+    let (files, count) = written.map_err(|(i, e)| io(&names[i])(e))?;
     smoothed.map_err(|e| RunError::Output {
         path: dir.join(SMOOTHER_STATES),
         message: e.to_string(),
     })?;
-    let (files, count) = written.map_err(|(i, e)| io(&names[i])(e))?;
     // the three files turned around side by side (a day at 100 Hz is 2.5 GB of text)
     let flipped: Vec<std::io::Result<()>> = std::thread::scope(|scope| {
         let handles: Vec<_> =
@@ -1308,10 +1432,10 @@ const BATCH: usize = 1024;
 /// Run `config` with `strategy`, writing into `out_dir`. `progress` (if any) is called
 /// with the current time every 2,000 IMU epochs.
 ///
-/// The run is a three-stage pipeline over bounded channels: a reader thread parses the
-/// IMU file, this thread runs the filter, a writer thread formats and writes `nav.txt`.
-/// Memory is bounded by the channels (a few batches of 1,024 samples), whatever the
-/// length of the dataset.
+/// The run is a pipeline over bounded channels: a reader thread parses the IMU file, this
+/// thread runs the filter, a writer thread formats and writes `nav.txt`, and another the
+/// σ, IMU-error, `nav.pos` and update rows. Memory is bounded by the channels (a few
+/// batches of 1,024 samples and 256 rows), whatever the length of the dataset.
 pub fn run(
     config: &Config,
     strategy: AnyStrategy,

@@ -549,6 +549,30 @@ fn cases(base: &Base) -> Vec<Case> {
         &["a-file/out"],
         base.out.clone(),
     );
+    // a full disk under each output (its `.partial` file is `/dev/full`): the write or the
+    // flush that fails names the file, wherever it is written (the filter thread, the
+    // `nav.txt` writer, the σ and update rows' thread, the smoother's writer), and the
+    // earlier results in that directory survive
+    let forward = ["nav.txt", "std.txt", "imu_errors.txt", "updates.csv", "nav.pos"];
+    let smoothed = ["nav_smoothed.txt", "std_smoothed.txt", "nav_smoothed.pos"];
+    for (name, smooth) in
+        forward.iter().map(|n| (n, false)).chain(smoothed.iter().map(|n| (n, true)))
+    {
+        let dir = base.dir.join("cases").join(format!("full-{name}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        for earlier in std::fs::read_dir(&base.out).unwrap() {
+            let earlier = earlier.unwrap().path();
+            std::fs::copy(&earlier, dir.join(earlier.file_name().unwrap())).unwrap();
+        }
+        let partial = format!("{name}.partial");
+        std::os::unix::fs::symlink("/dev/full", dir.join(&partial)).unwrap();
+        let mut args = vec!["run".into(), good.clone(), "--out".into()];
+        args.extend([dir.display().to_string(), "--quiet".into()]);
+        if smooth {
+            args.push("--smooth".into());
+        }
+        s.push(&format!("full-disk-{name}"), args, &[&partial, "No space left"], dir);
+    }
     // eval against a truth that does not overlap the result
     let shifted = base.dir.join("cases/truth-shifted.nav");
     let text: Vec<String> = std::fs::read_to_string(&truth)

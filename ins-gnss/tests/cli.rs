@@ -167,6 +167,60 @@ fn kf_gins_yaml_as_it_is_on_navego() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A disk that fills up under any output of a long run (its `.partial` file is
+/// `/dev/full`), forward or smoothed: the run fails naming that file and the cause, and
+/// the earlier results in the directory are untouched. On navego the writers fail in the
+/// middle of their pass, not at its end (a failed smoothed writer stopped the backward
+/// pass, which was reported instead as "the row writer stopped" on the scratch file).
+#[test]
+fn a_full_disk_under_any_output_is_named_and_earlier_results_survive() {
+    let data = sample_data("navego");
+    let config = data.join("kf-gins-ADIS16488.yaml");
+    let earlier = temp("full-earlier");
+    run_quiet(&config, &earlier, &["--smooth"]);
+    let files = |dir: &Path| -> Vec<(String, Vec<u8>)> {
+        let mut v: Vec<_> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.is_file() && p.extension().is_none_or(|e| e != "partial"))
+            .map(|p| {
+                (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap())
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = files(&earlier);
+    assert_eq!(before.len(), 8, "{:?}", before.iter().map(|f| &f.0).collect::<Vec<_>>());
+    for (name, _) in &before {
+        let dir = temp(&format!("full-{name}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (n, bytes) in &before {
+            std::fs::write(dir.join(n), bytes).unwrap();
+        }
+        let partial = format!("{name}.partial");
+        std::os::unix::fs::symlink("/dev/full", dir.join(&partial)).unwrap();
+        let out = bin()
+            .arg("run")
+            .arg(&config)
+            .args(["--smooth", "--quiet", "--out"])
+            .arg(&dir)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {stderr}");
+        assert!(
+            stderr.contains(&partial)
+                && stderr.contains("No space left")
+                && !stderr.contains("panicked"),
+            "{name}: {stderr}"
+        );
+        assert!(files(&dir) == before, "{name}: the earlier results changed");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    std::fs::remove_dir_all(&earlier).unwrap();
+}
+
 /// The outage score (RMS over the ten 15 s outages of the maximum horizontal error against
 /// the RTK-fixed positions) of the forward and, if any, smoothed results in `dir`.
 fn outage_score(d: &Path, dir: &Path) -> serde_json::Value {
