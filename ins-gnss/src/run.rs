@@ -689,10 +689,16 @@ impl Outputs {
             return Ok(());
         }
         let batch = std::mem::replace(&mut self.rows, Vec::with_capacity(ROWS_BATCH));
-        match &self.tx {
-            Some(tx) if tx.send(batch).is_ok() => Ok(()),
-            _ => self.finish(),
+        if self.tx.as_ref().is_some_and(|tx| tx.send(batch).is_ok()) {
+            return Ok(());
         }
+        // the thread stopped on a failed write (its error), or was told to finish before
+        // this row (never silently dropped)
+        self.finish()?;
+        Err(RunError::Output {
+            path: self.dir.clone(),
+            message: "a row came after the output files were closed".into(),
+        })
     }
 
     /// Send the rows left, let the files' thread finish and flush, and return its error,
