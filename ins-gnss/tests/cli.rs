@@ -23,9 +23,9 @@ fn sample_data(name: &str) -> PathBuf {
     sample_data::dir(env!("CARGO_MANIFEST_DIR"), name)
 }
 
-/// `ins-gnss run CONFIG --out DIR --quiet [EXTRA…]`, asserting success.
-fn run_quiet(config: &Path, out_dir: &Path, extra: &[&str]) {
-    let out = bin()
+/// `ins-gnss run CONFIG --out DIR --quiet [EXTRA…]`: its exit status and output.
+fn run_output(config: &Path, out_dir: &Path, extra: &[&str]) -> std::process::Output {
+    bin()
         .arg("run")
         .arg(config)
         .arg("--out")
@@ -33,7 +33,12 @@ fn run_quiet(config: &Path, out_dir: &Path, extra: &[&str]) {
         .arg("--quiet")
         .args(extra)
         .output()
-        .unwrap();
+        .unwrap()
+}
+
+/// [`run_output`], asserting success.
+fn run_quiet(config: &Path, out_dir: &Path, extra: &[&str]) {
+    let out = run_output(config, out_dir, extra);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
 
@@ -200,13 +205,7 @@ fn a_full_disk_under_any_output_is_named_and_earlier_results_survive() {
         }
         let partial = format!("{name}.partial");
         std::os::unix::fs::symlink("/dev/full", dir.join(&partial)).unwrap();
-        let out = bin()
-            .arg("run")
-            .arg(&config)
-            .args(["--smooth", "--quiet", "--out"])
-            .arg(&dir)
-            .output()
-            .unwrap();
+        let out = run_output(&config, &dir, &["--smooth"]);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{name}: {stderr}");
         assert!(
@@ -891,13 +890,7 @@ fn a_newcomers_mistakes_are_refused_early_and_named() {
     let o = dir.join("o-report");
     run_quiet(&dir.join("config.toml"), &o, &["--report", "--accept-inconsistent"]);
     assert!(o.join("report.html").is_file() && o.join("errors_position.svg").is_file());
-    let out = bin()
-        .arg("run")
-        .arg(&no_truth)
-        .args(["--quiet", "--accept-inconsistent", "--out"])
-        .arg(&o)
-        .output()
-        .unwrap();
+    let out = run_output(&no_truth, &o, &["--accept-inconsistent"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(!o.join("report.html").exists() && !o.join("errors_position.svg").exists());
