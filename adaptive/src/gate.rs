@@ -80,6 +80,32 @@ const SAME_WAY_COS: f64 = 0.9;
 /// window's mean cosine falls below it.
 const WHITE_COS: f64 = 0.5;
 
+/// How close successive whitened innovations must lie for the direction test to take
+/// them for one state error: `|wᵢ − wᵢ₋₁|² ≤ (AGREE_FRACTION |wᵢ|)² + AGREE_NOISE m`. A
+/// state error moves little between two fixes, so its innovations differ by the fixes'
+/// noise (a difference of two white innovations has `E|Δ|² = 2m`) and by its own slow
+/// change; gross errors of one size at random bearings (1 km at any bearing on a 5 m fix:
+/// `|w|` ≈ 200) pass the cosine test one pair in seven in the plane, and this one one in
+/// thirteen.
+const AGREE_FRACTION: f64 = 0.25;
+/// See [`AGREE_FRACTION`].
+const AGREE_NOISE: f64 = 8.0;
+
+/// The fewest successive pairs that must agree ([`AGREE_FRACTION`]) before a stream's
+/// state is doubted, whatever the dimension: eight innovations beyond the gate in a row,
+/// each close to the one before. A state error shows in every fix, so it passes as soon
+/// as it is large; gross errors at random bearings pass one pair in thirteen, seven in a
+/// row about once in 10⁸ (with four pairs, one seed in ten of navego with half of its
+/// fixes 1 km off was pulled away, `benches/campaign.py`).
+const MIN_AGREE_PAIRS: usize = 7;
+
+/// How far beyond the gate (at the scale a window's lower quartile shows) an innovation
+/// must be to be left out of the scale test as a gross error: 1 km on a 5 m fix is about
+/// 1,000 gates away; RTK fixes with 5× their σ at most 5 (the simulated drive of
+/// `the_default_gate_adapts_before_it_refuses`, whose matching a factor of 1 delayed from
+/// the 4th to the 8th fix: 0.330 → 1.115 m).
+const GROSS_BEYOND: f64 = 10.0;
+
 /// Upper bound on the `R` factor (σ × 100).
 pub const MAX_R_FACTOR: f64 = 1e4;
 
@@ -91,6 +117,9 @@ struct GateStream {
     nis: [f64; GATE_WINDOW],
     /// Cosines between successive whitened innovations (ring).
     cos: [f64; GATE_WINDOW],
+    /// Whether successive whitened innovations lie close ([`AGREE_FRACTION`]; ring, as
+    /// `cos`).
+    agree: [bool; GATE_WINDOW],
     filled: usize,
     cos_filled: usize,
     head: usize,
@@ -109,6 +138,7 @@ impl GateStream {
             refusals: 0,
             nis: [0.0; GATE_WINDOW],
             cos: [0.0; GATE_WINDOW],
+            agree: [false; GATE_WINDOW],
             filled: 0,
             cos_filled: 0,
             head: 0,
@@ -133,9 +163,13 @@ impl GateStream {
                     let na = w.iter().map(|a| a * a).sum::<f64>().sqrt();
                     let nb = prev.iter().map(|a| a * a).sum::<f64>().sqrt();
                     self.cos[i] = if na > 0.0 && nb > 0.0 { dot / (na * nb) } else { 0.0 };
+                    let d2: f64 = w.iter().zip(prev).map(|(a, b)| (a - b) * (a - b)).sum();
+                    self.agree[i] =
+                        d2 <= (AGREE_FRACTION * na).powi(2) + AGREE_NOISE * w.len() as f64;
                     self.cos_filled = (self.cos_filled + 1).min(GATE_WINDOW);
                 } else {
                     self.cos[i] = 0.0;
+                    self.agree[i] = false;
                 }
                 self.white[..w.len()].copy_from_slice(w);
                 self.has_white = true;
@@ -158,6 +192,13 @@ impl GateStream {
             .fold(f64::INFINITY, f64::min)
     }
 
+    /// Whether each of the last `pairs` pairs lies close (false until there are that
+    /// many).
+    fn agree(&self, pairs: usize) -> bool {
+        self.cos_filled >= pairs
+            && (1..=pairs).all(|j| self.agree[(self.head + GATE_WINDOW - j) % GATE_WINDOW])
+    }
+
     /// Mean cosine of the window's pairs (0 when there is none).
     fn mean_cos(&self) -> f64 {
         if self.cos_filled == 0 {
@@ -172,6 +213,11 @@ impl GateStream {
     fn all_beyond(&self, k: usize, gate: f64) -> bool {
         self.filled >= k
             && (1..=k).all(|j| self.nis[(self.head + GATE_WINDOW - j) % GATE_WINDOW] > gate)
+    }
+
+    /// How many NIS of the window are at most `level`.
+    fn count_below(&self, level: f64) -> usize {
+        self.nis[..self.filled].iter().filter(|&&x| x <= level).count()
     }
 
     /// The smallest NIS of the window.
@@ -203,6 +249,11 @@ struct ScaleTest {
     reference: f64,
     /// `χ²_{1e-3}(m)`.
     floor: f64,
+    /// The lower quartile's rank (`max(1, n/4)`) and its median-unbiased quantile: the
+    /// scale a window shows whatever gross errors hold its upper half.
+    low_k: usize,
+    /// See [`low_k`](Self::low_k).
+    low_reference: f64,
 }
 
 impl ScaleTest {
@@ -230,11 +281,14 @@ impl ScaleTest {
             }
         }
         let m = m as f64;
+        let low_k = (n / 4).max(1);
         Self {
             k,
             detect: chi2_quantile(hi, m),
             reference: chi2_quantile((k as f64 - 0.3) / (n as f64 + 0.4), m),
             floor: chi2_quantile(SCALE_FALSE_ALARM, m),
+            low_k,
+            low_reference: chi2_quantile((low_k as f64 - 0.3) / (n as f64 + 0.4), m),
         }
     }
 }
@@ -478,18 +532,39 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
             st.push(a.nis, white);
             // a wrong state: entered when the last pairs all keep their direction and were
             // all beyond the gate, kept until the window's innovations look white again
+            // (the pairs must also lie close: gross errors of one size at random bearings
+            // keep their direction by chance, never their place)
             st.doubting = if st.doubting {
                 st.mean_cos() > WHITE_COS
             } else {
                 let pairs = self.same_way_pairs.get(m);
-                st.same_way(pairs) > SAME_WAY_COS && st.all_beyond(pairs + 1, gate)
+                let close = pairs.max(MIN_AGREE_PAIRS);
+                st.same_way(pairs) > SAME_WAY_COS
+                    && st.agree(close)
+                    && st.all_beyond(close + 1, gate)
             };
-            same_way = st.doubting;
+            // while doubted, an innovation beyond the gate is used only when it lies close
+            // to the one before (a gross error among the state's innovations is refused)
+            same_way = st.doubting && st.agree(1);
             let n = st.filled;
             // noise is white: a window whose innovations keep their direction on the whole
             // is a state error, whatever its size
-            if n >= MIN_WINDOW && !same_way && st.mean_cos() < WHITE_COS {
-                let test = self.scale_tests.get(m, n);
+            // the window less its gross errors: those far beyond the gate even at the
+            // scale its lower quartile shows (a noisy stream keeps its window; a good one
+            // among gross errors keeps its good fixes, whose median then stays where it
+            // belongs instead of on the largest of them). "Far": GROSS_BEYOND × the gate,
+            // as a window's lower quartile of three or four innovations may sit well
+            // below the stream's scale
+            let kept = if n >= MIN_WINDOW {
+                let full = self.scale_tests.get(m, n);
+                let low = (st.order_statistic(full.low_k) / full.low_reference).max(1.0);
+                st.count_below(GROSS_BEYOND * gate * low)
+            } else {
+                0
+            };
+            if kept >= MIN_WINDOW && !st.doubting && st.mean_cos() < WHITE_COS {
+                let test = self.scale_tests.get(m, kept);
+                // (the k-th smallest of the kept is the window's k-th smallest)
                 let x = st.order_statistic(test.k);
                 let s = x / test.reference;
                 // switched on by the test, off when the window looks consistent again
@@ -524,7 +599,9 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
             doubt_prior(a, gate, "gate: innovations keep their direction, the state is doubted");
             return;
         }
-        if st.refusals < self.readmit_after {
+        // (re-admitted only when it lies close to the refused innovation before it, as a
+        // state error's do: a stream of gross errors never is)
+        if st.refusals < self.readmit_after || (adapt && !st.agree(1)) {
             st.refusals += 1;
             a.verdict = Verdict::Rejected;
             a.reason = "gate: NIS beyond the χ² gate";

@@ -221,10 +221,53 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
             b.0.set_position(((t - b.1) * 1000.0).max(0.0) as u64);
         }
     };
-    let summary = run_config(&cfg, strategy(&name)?, &out_dir, Some(&mut tick))?;
+    // an earlier result in the output directory that was not judged untrustworthy is
+    // replaced only by a result that is not either: its files are kept aside (hard links)
+    // while the run writes in place, and put back if the run is judged untrustworthy,
+    // whose outputs then go beside them
+    let earlier_trusted =
+        out_dir.join("nav.txt").is_file() && !out_dir.join(UNTRUSTED_MARK).exists();
+    let kept = if earlier_trusted { Some(keep_aside(&out_dir)?) } else { None };
+    let result = run_config(&cfg, strategy(&name)?, &out_dir, Some(&mut tick));
     if let Some(b) = bar {
         b.0.finish_and_clear();
     }
+    let mut summary = match result {
+        Ok(s) => s,
+        Err(e) => {
+            if let Some(k) = &kept {
+                let _ = std::fs::remove_dir_all(k);
+            }
+            return Err(e.into());
+        }
+    };
+    let mut verdict = crate::health::assess(&summary, &cfg);
+    let untrusted = verdict.is_err() && !o.accept_inconsistent;
+    let out_dir = match kept {
+        Some(k) if untrusted => {
+            let beside = sibling(&out_dir, "-untrusted");
+            put_back(&k, &out_dir, &beside)?;
+            if let Err(u) = &mut verdict {
+                u.beside = Some((beside.clone(), out_dir.clone()));
+            }
+            beside
+        }
+        Some(k) => {
+            std::fs::remove_dir_all(&k).map_err(|e| format!("{}: {e}", k.display()))?;
+            out_dir
+        }
+        None => out_dir,
+    };
+    let mark = out_dir.join(UNTRUSTED_MARK);
+    match &verdict {
+        Err(u) if untrusted => std::fs::write(&mark, format!("{u}\n"))
+            .map_err(|e| format!("{}: {e}", mark.display()))?,
+        _ if mark.exists() => {
+            std::fs::remove_file(&mark).map_err(|e| format!("{}: {e}", mark.display()))?
+        }
+        _ => {}
+    }
+    summary.out_dir = out_dir.clone();
     print_summary(&summary);
     let truth = truth.map(Path::to_path_buf).or_else(|| cfg.data.truth.clone());
     let plots = plots || (o.report && truth.is_some());
@@ -264,7 +307,7 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         out!("report: {}", page.display());
     }
     remove_stale(&out_dir, o.report, &figures)?;
-    match crate::health::assess(&summary, &cfg) {
+    match verdict {
         Err(u) if o.accept_inconsistent => {
             out!("warning (--accept-inconsistent): {u}");
             Ok(())
@@ -272,6 +315,89 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         Err(u) => Err(Box::new(u)),
         Ok(()) => Ok(()),
     }
+}
+
+/// The file a run judged untrustworthy leaves in its output directory (its diagnosis):
+/// a later run may replace that result whatever its own verdict, where it replaces a
+/// result without the file only with one that is not judged untrustworthy either.
+pub const UNTRUSTED_MARK: &str = "UNTRUSTED.txt";
+
+/// `dir` with `suffix` added to its last component (a directory beside it).
+fn sibling(dir: &Path, suffix: &str) -> PathBuf {
+    let name = dir.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    dir.with_file_name(format!("{name}{suffix}"))
+}
+
+/// The files of `dir` kept aside in a directory beside it (a hard link each, a copy where
+/// links cannot be made): the run's outputs replace the files in `dir` by renames, which
+/// leave the kept ones as they were.
+fn keep_aside(dir: &Path) -> Result<PathBuf, CliError> {
+    let kept = sibling(dir, ".kept");
+    if kept.exists() {
+        std::fs::remove_dir_all(&kept).map_err(|e| format!("{}: {e}", kept.display()))?;
+    }
+    std::fs::create_dir_all(&kept).map_err(|e| format!("{}: {e}", kept.display()))?;
+    for entry in std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))? {
+        let path = entry.map_err(|e| format!("{}: {e}", dir.display()))?.path();
+        let name = path.file_name().unwrap_or_default();
+        if !path.is_file() || path.extension().is_some_and(|e| e == "partial") {
+            continue;
+        }
+        let to = kept.join(name);
+        if std::fs::hard_link(&path, &to).is_err() {
+            std::fs::copy(&path, &to).map_err(|e| format!("{}: {e}", to.display()))?;
+        }
+    }
+    Ok(kept)
+}
+
+/// Whether two paths hold the same file (the same inode on Unix; the same length and
+/// modification time elsewhere).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => {
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::MetadataExt;
+                x.ino() == y.ino() && x.dev() == y.dev()
+            }
+            #[cfg(not(unix))]
+            {
+                x.len() == y.len() && x.modified().ok() == y.modified().ok()
+            }
+        }
+        _ => false,
+    }
+}
+
+/// An untrusted run over a trusted result: the files the run wrote in `dir` move to
+/// `beside` (an earlier one there is replaced), and the kept ones go back into `dir`.
+fn put_back(kept: &Path, dir: &Path, beside: &Path) -> Result<(), CliError> {
+    let err = |p: &Path, e: std::io::Error| format!("{}: {e}", p.display());
+    if beside.exists() {
+        std::fs::remove_dir_all(beside).map_err(|e| err(beside, e))?;
+    }
+    std::fs::create_dir_all(beside).map_err(|e| err(beside, e))?;
+    for entry in std::fs::read_dir(dir).map_err(|e| err(dir, e))? {
+        let path = entry.map_err(|e| err(dir, e))?.path();
+        let name = path.file_name().unwrap_or_default();
+        if path.is_file() && !same_file(&path, &kept.join(name)) {
+            let to = beside.join(name);
+            std::fs::rename(&path, &to).map_err(|e| err(&to, e))?;
+        }
+    }
+    for entry in std::fs::read_dir(kept).map_err(|e| err(kept, e))? {
+        let path = entry.map_err(|e| err(kept, e))?.path();
+        let to = dir.join(path.file_name().unwrap_or_default());
+        // (a rename onto another link of the same file does nothing)
+        if same_file(&path, &to) {
+            std::fs::remove_file(&path).map_err(|e| err(&path, e))?;
+        } else {
+            std::fs::rename(&path, &to).map_err(|e| err(&to, e))?;
+        }
+    }
+    std::fs::remove_dir(kept).map_err(|e| err(kept, e))?;
+    Ok(())
 }
 
 /// Removes a report and plots an earlier run left in `dir` that this run did not write

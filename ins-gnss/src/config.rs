@@ -422,8 +422,9 @@ pub struct AlignSection {
     /// Shortest static start used for levelling and gyro biases, s. Default 5.
     #[serde(default = "default_min_static")]
     pub min_static: f64,
-    /// Longest span of data (from the start) the in-motion alignment may use, s.
-    /// Default 120.
+    /// Longest span of data the in-motion alignment may use, s, counted from the end of
+    /// a static start (of up to [`crate::start::STATIC_ALLOWANCE`] s), else from the
+    /// start. Default 120.
     #[serde(default = "default_align_time")]
     pub max_time: f64,
     /// The alignment stops once its heading 1σ is below this, deg. Default 1.
@@ -639,6 +640,9 @@ impl From<GateModeName> for adaptive::GateMode {
         }
     }
 }
+
+/// The longest `gnss.lever_arm` accepted, m: beyond it the value is refused as a unit slip.
+pub const MAX_LEVER_ARM: f64 = 50.0;
 
 fn default_gate_probability() -> f64 {
     1e-6
@@ -1128,9 +1132,14 @@ impl Config {
                 .into());
         }
         finite("gnss.lever_arm", &self.gnss.lever_arm)?;
-        if self.gnss.lever_arm.iter().any(|v| v.abs() > 100.0) {
+        // (plausibility before the run: a lever arm in cm or mm given in m ran to a wrong
+        // result that no innovation test could tell, the antenna's offset turning with
+        // the vehicle being taken up by the attitude)
+        let lever = self.gnss.lever_arm.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if lever > MAX_LEVER_ARM {
             return Err(format!(
-                "`gnss.lever_arm` {:?} m: a component beyond the 100 m limit",
+                "`gnss.lever_arm` {:?} m is {lever:.1} m long, beyond the {MAX_LEVER_ARM} m \
+                 of any vehicle's antenna from its IMU: a value in cm or mm given in m?",
                 self.gnss.lever_arm
             ));
         }

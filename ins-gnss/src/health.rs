@@ -5,15 +5,29 @@
 //! "Far" is defined by the χ² distribution: for a consistent filter each update's NIS
 //! exceeds the median of its χ² distribution with probability ½, whatever its dimension,
 //! so the number of updates above it is binomial(n, ½); a fraction outside the two-sided
-//! 1e-6 band of that binomial is far ([`StreamStats::above_median_band`]). The statistic
-//! counts rather than sums, so a few gross errors refused by the gate do not trip it.
+//! 1e-6 band of that binomial is far ([`StreamStats::above_median_band`]).
+//!
+//! The data's quality and the run's consistency are kept apart: the fixes the gate
+//! refused as gross errors are counted (their share is reported, and more than half
+//! refused is a problem: nothing then tells which half is right), but only the updates
+//! used are judged for consistency. A log with a tenth of its fixes 1 km off whose
+//! result is as good as the clean one is not flagged; when such a run is flagged for
+//! another reason, the gross errors are named among the causes.
 
 use crate::config::Config;
 use crate::run::{RunSummary, StreamStats, OUTAGE};
 use nalgebra::Vector3;
 
-/// Streams below this many updates are not judged (the band needs a sample).
+/// Streams below this many updates used are not judged (the band needs a sample).
 const MIN_EPOCHS: usize = 30;
+
+/// The share of a stream's epochs refused as gross errors beyond which they are named
+/// among the causes of a flagged run.
+const GROSS_SHARE: f64 = 0.2;
+
+/// A lever arm longer than this (m) is named among the causes of a flagged run: a value
+/// meant in cm or mm given in m, or the axes of another frame.
+const LONG_LEVER_ARM: f64 = 10.0;
 
 /// A run whose result is quietly wrong: what is wrong and the likeliest causes.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,11 +36,23 @@ pub struct Unhealthy {
     pub problems: Vec<String>,
     /// The likeliest causes found, one line each (may be empty).
     pub diagnosis: Vec<String>,
+    /// Where the outputs went when an earlier, trusted result was in the output
+    /// directory (it is kept; these go beside it), else `None` (written in place).
+    pub beside: Option<(std::path::PathBuf, std::path::PathBuf)>,
 }
 
 impl core::fmt::Display for Unhealthy {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        writeln!(f, "the run's result cannot be trusted (its outputs are written):")?;
+        match &self.beside {
+            Some((written, kept)) => writeln!(
+                f,
+                "the run's result cannot be trusted (its outputs are written to {}; the \
+                 earlier result in {} is kept):",
+                written.display(),
+                kept.display()
+            )?,
+            None => writeln!(f, "the run's result cannot be trusted (its outputs are written):")?,
+        }
         for p in &self.problems {
             writeln!(f, "  - {p}")?;
         }
@@ -53,7 +79,7 @@ fn stream_problems(s: &StreamStats) -> Vec<String> {
             s.stream, s.refused, s.epochs
         ));
     }
-    if s.epochs >= MIN_EPOCHS {
+    if s.used() >= MIN_EPOCHS {
         let (f, (lo, hi)) = s.above_median_band();
         if f < lo || f > hi {
             out.push(format!(
@@ -129,15 +155,26 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
                 s.stream, s.refused_after_outage, s.refused
             ));
         }
+        if s.refused_share() > GROSS_SHARE {
+            diagnosis.push(format!(
+                "{}: {} of {} epochs ({:.1} %) were refused as gross errors: the stream itself \
+                 holds gross errors (multipath, jamming, a receiver's bad fixes), or the \
+                 filter was wrong when they came",
+                s.stream,
+                s.refused,
+                s.epochs,
+                100.0 * s.refused_share()
+            ));
+        }
         let factor = s.median_ratio.max(0.0).sqrt();
-        if factor > 2.0 && s.epochs >= MIN_EPOCHS {
+        if factor > 2.0 && s.used() >= MIN_EPOCHS {
             diagnosis.push(format!(
                 "{}: the typical innovation is {factor:.1}× its σ (the median NIS against its \
                  χ² median): the receiver's σ (`gnss.position_std`) or the IMU noise \
                  (`[imu_noise]`) is too small by about that factor",
                 s.stream
             ));
-        } else if factor < 0.5 && s.epochs >= MIN_EPOCHS {
+        } else if factor < 0.5 && s.used() >= MIN_EPOCHS {
             diagnosis.push(format!(
                 "{}: the typical innovation is {factor:.2}× its σ: the noise settings are \
                  pessimistic by about that factor",
@@ -145,5 +182,13 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
             ));
         }
     }
-    Err(Unhealthy { problems, diagnosis })
+    let lever = Vector3::from(config.gnss.lever_arm).norm();
+    if lever > LONG_LEVER_ARM {
+        diagnosis.push(format!(
+            "`gnss.lever_arm` = {:?} is {lever:.1} m long: a value in cm or mm given in m, \
+             or the antenna's offset in another frame than the IMU's (forward, right, down)",
+            config.gnss.lever_arm
+        ));
+    }
+    Err(Unhealthy { problems, diagnosis, beside: None })
 }

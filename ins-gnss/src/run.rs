@@ -176,8 +176,9 @@ pub struct RunSummary {
 /// A GNSS gap longer than this (s) is an outage for [`StreamStats::refused_after_outage`].
 pub const OUTAGE: f64 = 5.0;
 
-/// One measurement stream's innovations over the run: all of them (accepted, inflated and
-/// refused), with the nominal `S` (before any adaptation).
+/// One measurement stream's innovations over the run, with the nominal `S` (before any
+/// adaptation): how many were refused as gross errors (the data's quality), and the
+/// statistics of the others, used accepted or inflated (the run's consistency).
 #[derive(Clone, Debug)]
 pub struct StreamStats {
     /// The stream.
@@ -186,17 +187,17 @@ pub struct StreamStats {
     pub gnss: bool,
     /// Updates.
     pub epochs: usize,
-    /// Refused updates.
+    /// Refused updates (gross errors: the data's quality, not the run's consistency).
     pub refused: usize,
-    /// Sum of the NIS (nominal `S`) and of the dimensions.
+    /// Sum of the NIS (nominal `S`) and of the dimensions, over the updates used.
     pub nis_sum: f64,
     /// See [`nis_sum`](Self::nis_sum).
     pub dof: usize,
-    /// Updates whose NIS exceeds the median of its χ² distribution (half of them for a
-    /// consistent filter, whatever a few gross errors do).
+    /// Updates used whose NIS exceeds the median of its χ² distribution (half of them
+    /// for a consistent filter).
     pub above_median: usize,
-    /// The median over the updates of NIS / (χ² median): the factor² by which `S` is too
-    /// small (about 1 when consistent), from the sorted ratios at the end of the run.
+    /// The median over the updates used of NIS / (χ² median): the factor² by which `S` is
+    /// too small (about 1 when consistent), from the sorted ratios at the end of the run.
     pub median_ratio: f64,
     /// Refusals from a gap of more than [`OUTAGE`] s in the stream until its next
     /// accepted update.
@@ -229,13 +230,23 @@ impl StreamStats {
     /// probability of 1e-6 for a consistent filter (binomial with p = ½, normal
     /// approximation): outside it, the innovations are far from their distribution.
     pub fn above_median_band(&self) -> (f64, (f64, f64)) {
-        let n = self.epochs.max(1) as f64;
+        let n = self.used().max(1) as f64;
         // the standard normal quantile of 1 − 0.5e-6
         let half = 4.8916 * 0.5 / n.sqrt();
         (self.above_median as f64 / n, (0.5 - half, 0.5 + half))
     }
 
-    /// Consistent by the mean NIS of all innovations.
+    /// Updates used (accepted or inflated): the ones the consistency is judged on.
+    pub fn used(&self) -> usize {
+        self.epochs - self.refused
+    }
+
+    /// The share of the stream's epochs refused as gross errors.
+    pub fn refused_share(&self) -> f64 {
+        self.refused as f64 / self.epochs.max(1) as f64
+    }
+
+    /// Consistent by the mean NIS of the innovations used.
     pub fn consistent(&self) -> bool {
         let (m, (lo, hi)) = self.mean_nis();
         m >= lo && m <= hi
@@ -246,12 +257,14 @@ impl StreamStats {
         let (m, (lo, hi)) = self.mean_nis();
         let (f, (flo, fhi)) = self.above_median_band();
         let head = format!(
-            "consistency of {}: mean NIS per degree of freedom {m:.3} over all {} updates \
-             ({} refused), 99 % band [{lo:.3}, {hi:.3}]; {:.1} % above their χ² median \
-             (band [{:.1}, {:.1}] %)",
+            "consistency of {}: mean NIS per degree of freedom {m:.3} over the {} updates \
+             used ({} of {} refused as gross errors, {:.1} %), 99 % band [{lo:.3}, {hi:.3}]; \
+             {:.1} % above their χ² median (band [{:.1}, {:.1}] %)",
             self.stream,
-            self.epochs,
+            self.used(),
             self.refused,
+            self.epochs,
+            100.0 * self.refused_share(),
             100.0 * f,
             100.0 * flo,
             100.0 * fhi
@@ -302,10 +315,12 @@ impl StreamStats {
         }
         self.last_t = u.time;
         self.epochs += 1;
-        self.nis_sum += u.nis;
-        self.dof += u.dim;
-        self.above_median += usize::from(u.nis > median);
-        self.ratios.push((u.nis / median) as f32);
+        if u.verdict != Verdict::Rejected {
+            self.nis_sum += u.nis;
+            self.dof += u.dim;
+            self.above_median += usize::from(u.nis > median);
+            self.ratios.push((u.nis / median) as f32);
+        }
         match u.verdict {
             Verdict::Rejected => {
                 self.refused += 1;
@@ -1793,10 +1808,12 @@ impl Prefix {
 }
 
 /// The run's start time (the configured one, or the first IMU sample's `first_t`) and the
-/// end of the data [`crate::start::prepare`] looks at (`align.max_time` later).
+/// end of the data [`crate::start::prepare`] looks at (`align.max_time` later, and a
+/// static start's [`crate::start::STATIC_ALLOWANCE`]: the alignment's span counts from
+/// the motion's start).
 fn start_span(config: &Config, first_t: f64) -> (f64, f64) {
     let t0 = config.data.start_time.unwrap_or(first_t);
-    (t0, t0 + config.align.max_time)
+    (t0, t0 + config.align.max_time + crate::start::STATIC_ALLOWANCE)
 }
 
 /// [`crate::start::prepare`] (or its part `look` calls for) on a prefix.

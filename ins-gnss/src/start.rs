@@ -39,6 +39,12 @@ pub const DEFAULT_GYRO_BIAS_STD: f64 = 100.0;
 /// the axes 1.6–27× above KF-GINS's generic figures.
 pub const FLOOR_FACTOR: f64 = 1.5;
 
+/// The longest static start (s) after which `align.max_time` still counts: the start's
+/// data are read up to `align.max_time` + this after the start, so that a vehicle that
+/// stands still for up to ten minutes before it drives (an alignment practice) aligns on
+/// its first minutes of motion.
+pub const STATIC_ALLOWANCE: f64 = 600.0;
+
 /// The χ² gain (in units of the fit's χ² per degree of freedom) by which a mirror image
 /// must beat the best rotation before a left-handed frame is refused.
 const MIRROR_DECISIVE: f64 = 100.0;
@@ -94,6 +100,11 @@ pub fn prepare(
     } else {
         config.init.gyro_bias_std.map_or(DEFAULT_GYRO_BIAS_STD, |v| v[2]) * DEG_PER_H
     };
+    // `align.max_time` counts from the motion's start: a vehicle that stands still for
+    // minutes before it drives (an alignment practice) is aligned on its first minutes of
+    // motion, the static span included
+    let max_time =
+        if is_static { a.max_time + still.duration().min(STATIC_ALLOWANCE) } else { a.max_time };
     let fit = |scale: f64| {
         align_in_motion(
             imu,
@@ -102,14 +113,14 @@ pub fn prepare(
             &(bias0 * scale),
             scale,
             &lever,
-            a.max_time,
+            max_time,
             a.heading_std.to_radians(),
             bias_std,
         )
     };
     let motion = if need_init || a.checks { fit(1.0) } else { None };
     if a.checks {
-        let turns = turn_ratio(imu, gnss, t0, t0 + a.max_time);
+        let turns = turn_ratio(imu, gnss, t0, t0 + max_time);
         if let Some(m) = &motion {
             // the fit stops once the heading is known, which may be before the first
             // turn, and its span is chosen for the heading: a mirror image shows only
@@ -117,11 +128,8 @@ pub fn prepare(
             // and only when the course turned (the early fit of navego's ADIS16405, a
             // straight drive with a large gyro bias, looked like one)
             let turned = turns.is_some_and(|t| t.turned > 30f64.to_radians());
-            let whole = if turned {
-                fit_span(imu, gnss, t0, &bias0, &lever, t0 + a.max_time)
-            } else {
-                None
-            };
+            let whole =
+                if turned { fit_span(imu, gnss, t0, &bias0, &lever, t0 + max_time) } else { None };
             check_motion(&config, m, whole.as_ref(), &fit)?;
         }
         if let Some(t) = turns {
@@ -178,7 +186,7 @@ pub fn prepare(
         noise_floor(&mut config, &mut report, &still);
     }
     if need_init {
-        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), t0)?;
+        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), gnss, t0)?;
     }
     Ok(Start { config, report })
 }
@@ -436,16 +444,26 @@ fn check_motion(
     }
     // only a gross misfit that another unit removes: vibration, a gyro bias or a
     // straight drive leave a few σ that "no rotation at all" can fit as well (seen on
-    // the simulated car with vibration: 3.3σ declared, 1.0σ at 1/57)
-    if m.residual > 10.0 {
+    // the simulated car with vibration: 3.3σ declared, 1.0σ at 1/57). The fits leave
+    // gross errors of the fixes out, so a misfit is also a fit that explains fewer than
+    // half of its fixes, and another unit is decisive only when it explains at least as
+    // large a share of them
+    let share = |f: &MotionFit| f.fixes as f64 / (f.fixes + f.rejected).max(1) as f64;
+    if m.residual > 10.0 || share(m) < 0.5 {
         let deg = core::f64::consts::PI / 180.0;
         for factor in [1.0 / deg, deg] {
             if let Some(alt) = fit(factor) {
-                if alt.residual < m.residual / 5.0 {
+                let fits = alt.residual < m.residual / 5.0 && share(&alt) >= share(m);
+                let explains = share(&alt) > 0.8 && share(m) < 0.5 && alt.residual < 3.0;
+                if fits || explains {
                     let why = format!(
-                        "the IMU's motion fits the GNSS track with residuals of {:.1}σ as \
-                         declared and {:.1}σ with the rates {factor:.4}× larger",
-                        m.residual, alt.residual
+                        "the IMU's motion fits the GNSS track with residuals of {:.1}σ on \
+                         {:.0} % of the fixes as declared and {:.1}σ on {:.0} % with the rates \
+                         {factor:.4}× larger",
+                        m.residual,
+                        100.0 * share(m),
+                        alt.residual,
+                        100.0 * share(&alt)
                     );
                     return Err(gyro_unit_error(config, factor, &why));
                 }
@@ -495,6 +513,7 @@ fn fill_init(
     still: &StaticStart,
     is_static: bool,
     motion: Option<&MotionFit>,
+    gnss: &[GnssEpoch],
     t0: f64,
 ) -> Result<(), String> {
     let i = config.init.clone();
@@ -567,19 +586,39 @@ fn fill_init(
         ));
     }
     if i.position.is_none() {
-        let (lat, lon, h) = m.pos.tuple();
+        // a fix (not a gross error), back to the start, not the fit's own p₀, whose
+        // vertical takes up an accelerometer bias: on a static start the span's first fix
+        // (the static test found every fix of the span within 3σ of the first), else the
+        // first fix the fit used
+        let lever = Vector3::from(config.gnss.lever_arm);
+        let still_fix = gnss.iter().find(|e| e.t > t0 && e.t <= still.span.1);
+        let (pos, std, at) = match still_fix.filter(|_| is_static) {
+            Some(e) => {
+                let offset = m.att.rotate(&lever);
+                let (lat, lon, h) =
+                    ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
+                (ins_gnss_core::position::GeoPos::new(lat, lon, h), e.pos_std, e.t)
+            }
+            None => {
+                let (pos, std) = m.position_from_first_fix(&lever);
+                (pos, std, m.t_a + m.first_fix.0)
+            }
+        };
+        let (lat, lon, h) = pos.tuple();
         config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
         if i.position_std.is_none() {
-            // the fit's σ (floored at 1 cm)
-            config.init.position_std = Some(m.pos_std.map(|v| v.max(0.01)).into());
+            // floored at 1 cm
+            config.init.position_std = Some(std.map(|v| v.max(0.01)).into());
         }
         let s = config.init.position_std.unwrap_or_default();
         report.push(format!(
-            "init: position {:.8}°, {:.8}°, {:.3} m from the first GNSS fixes ({span}, lever \
-             arm applied), σ {} m",
+            "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (the first \
+             of the static start, else the first the alignment used; {span}; lever arm \
+             applied), σ {} m",
             lat.to_degrees(),
             lon.to_degrees(),
             h,
+            at,
             fmt3(s, 3)
         ));
     }

@@ -336,10 +336,84 @@ fn a_typo_in_the_initial_position_exits_non_zero_with_the_distance() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// The verdict counts every innovation, refused ones included, before adaptation: the
+/// A run judged untrustworthy (exit status 3) never replaces an earlier result that was
+/// not: the earlier files stay byte for byte, the new outputs go to `…-untrusted` beside
+/// them with the diagnosis in `UNTRUSTED.txt`, and the message says where each is. A
+/// later good run replaces the earlier result as before.
+#[test]
+fn an_untrusted_run_leaves_the_earlier_result_and_writes_beside_it() {
+    let dir = temp("beside");
+    simulate("drive.toml", &dir);
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let out = dir.join("o");
+    run_quiet(&dir.join("config.toml"), &out, &[]);
+    let read = |d: &Path| -> Vec<(String, Vec<u8>)> {
+        let mut v: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .map(|p| {
+                (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap())
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = read(&out);
+    assert!(before.iter().any(|(n, _)| n == "nav.txt"));
+    // a 0.01° typo in the initial latitude: exit status 3
+    let lat = config.lines().skip_while(|l| !l.starts_with("position = [")).nth(1).unwrap();
+    let v: f64 = lat.trim().trim_end_matches(',').parse().unwrap();
+    std::fs::write(dir.join("typo.toml"), config.replacen(lat, &format!("    {},", v + 0.01), 1))
+        .unwrap();
+    let o = run_output(&dir.join("typo.toml"), &out, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(read(&out) == before, "the earlier result changed");
+    let beside = dir.join("o-untrusted");
+    assert!(err.contains(&format!("written to {}", beside.display())), "{err}");
+    assert!(err.contains(&format!("the earlier result in {} is kept", out.display())), "{err}");
+    let new = read(&beside);
+    let names: Vec<&str> = new.iter().map(|(n, _)| n.as_str()).collect();
+    assert!(names.contains(&"nav.txt") && names.contains(&"UNTRUSTED.txt"), "{names:?}");
+    let nav =
+        |files: &[(String, Vec<u8>)]| files.iter().find(|(n, _)| n == "nav.txt").unwrap().1.clone();
+    assert!(nav(&new) != nav(&before));
+    assert!(!dir.join("o.kept").exists(), "the kept copies are cleaned up");
+    // a good run after it replaces the earlier result
+    run_quiet(&dir.join("config.toml"), &out, &["--nhc"]);
+    assert!(nav(&read(&out)) != nav(&before), "a trusted run replaces a trusted result");
+    assert!(!out.join("UNTRUSTED.txt").exists());
+    // a 100 m lever arm (a cm slip) is refused before the run, naming the key
+    let mut lever = String::new();
+    let (mut in_lever, mut done) = (false, false);
+    for line in config.lines() {
+        if line.starts_with("lever_arm = [") && lever.contains("[gnss]") && !done {
+            done = true;
+            lever += "lever_arm = [0.0, -5.0, 100.0]\n";
+            in_lever = !line.contains(']');
+            continue;
+        }
+        if in_lever {
+            in_lever = !line.contains(']');
+            continue;
+        }
+        lever += line;
+        lever += "\n";
+    }
+    assert!(lever.contains("lever_arm = [0.0, -5.0, 100.0]"), "{lever}");
+    std::fs::write(dir.join("lever.toml"), lever).unwrap();
+    let o = run_output(&dir.join("lever.toml"), &dir.join("lever"), &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("`gnss.lever_arm`") && err.contains("100.1 m long"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The verdict counts the innovations used (accepted or inflated; the refused ones are
+/// the data's quality, counted apart) with their nominal `S`, before adaptation: the
 /// simulated drive's interference window (GNSS noise 6× its reported σ for 15 s, which
-/// the gate partly refuses) makes it "NOT consistent"; it once read "consistent" from the
-/// accepted updates alone.
+/// the gate partly refuses and partly uses with `R` matched) makes it "NOT consistent";
+/// it once read "consistent" from the plainly accepted updates alone.
 #[test]
 fn the_interference_window_reads_not_consistent() {
     let dir = temp("verdict");
@@ -732,10 +806,13 @@ fn the_default_gate_adapts_before_it_refuses() {
     let h90 = [("attitude_error = [0.3, -0.3, 1.5]", "attitude_error = [0.3, -0.3, 90.0]")];
     let h = drive_variant(&dir, "h90", &h90, &["adapt", "refuse", "open"]);
     eprintln!("heading 90° off: adapt {:.3} m, refuse {:.3} m, open {:.3} m", h[0], h[1], h[2]);
-    assert!(h[0] < 0.05 * h[1], "adapt {} vs refuse {}", h[0], h[1]);
-    // still short of the open gate (docs/results.md: 3.8 m against 1.58 m); a guard
-    // against losing more
-    assert!(h[0] < 2.6 * h[2], "adapt {} vs the open gate {}", h[0], h[2]);
+    // (0.05 until the doubt waited for eight innovations: 3.8 m, now 7.5 m; see below)
+    assert!(h[0] < 0.08 * h[1], "adapt {} vs refuse {}", h[0], h[1]);
+    // still short of the open gate, and further since the doubt waits for eight
+    // innovations beyond the gate, each close to the one before (3.8 → 7.5 m against
+    // 1.58 m open; docs/results.md: with four, one seed in ten of navego with half of its
+    // fixes 1 km off was pulled 280 m away); a guard against losing more
+    assert!(h[0] < 5.5 * h[2], "adapt {} vs the open gate {}", h[0], h[2]);
     // 20 % of the fixes 30σ off: refused as before, within 10 %
     let outliers = [(
         "start = 50.0\nend = 65.0\nkind = \"interference\"\nfactor = 6.0",

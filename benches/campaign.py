@@ -1,0 +1,306 @@
+#!/usr/bin/env python3
+"""Campaigns of the program's automatic decisions: real logs x corruption patterns x seeds.
+
+Each run takes a shipped data set, corrupts its GNSS file by seed (gross errors of a given
+size at random bearings on a share of the fixes, from the first fix or after a delay),
+runs `ins-gnss run` on it exactly as a user would (no `--no-gate`, no
+`--accept-inconsistent`), and evaluates the result against the truth. The table counts,
+per cell: runs refused before they start (exit 1), runs flagged untrustworthy (exit 3),
+runs beyond the error bound, and the confusion matrix flagged/not flagged against
+wrong/right (wrong: horizontal RMS beyond the bound).
+
+    python3 benches/campaign.py --bin target/release/ins-gnss --seeds 50 \
+        --rates 0,2,5,10,20,50 --starts 0,60 --configs yaml,noinit --csv /tmp/c.csv
+    python3 benches/campaign.py --walk --seeds 50     # the self-start in a small yard
+
+Every run's row goes to the CSV (config, rate, start, seed, exit status, horizontal RMS,
+refused share, the first line of the error); the table is printed as Markdown.
+Needs only Python's standard library and the `zstd` command.
+"""
+
+import argparse
+import concurrent.futures as cf
+import csv
+import json
+import math
+import os
+import random
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+NAVEGO = os.path.join(ROOT, "data", "navego")
+EARTH = 6378137.0
+
+# The configurations as shipped: KF-GINS's YAML with its own initial state, and the TOML
+# with no [init] (the start found from the data).
+CONFIGS = {
+    "yaml": "kf-gins-ADIS16488.yaml",
+    "noinit": "noinit.toml",
+}
+
+
+def unpack(src, dst):
+    if not os.path.exists(dst):
+        subprocess.run(["zstd", "-dqf", src, "-o", dst], check=True)
+
+
+def corrupt(lines, rate, start, size, seed):
+    """The GNSS lines with `rate` (0-1) of the fixes after `start` s moved `size` m at a
+    random bearing, and how many were moved."""
+    rng = random.Random(seed)
+    out, moved, t0 = [], 0, None
+    for line in lines:
+        f = line.split()
+        if len(f) < 4 or line.lstrip().startswith("#"):
+            out.append(line)
+            continue
+        t = float(f[0])
+        t0 = t if t0 is None else t0
+        u, b = rng.random(), rng.random() * 2.0 * math.pi
+        if t >= t0 + start and u < rate:
+            lat = math.radians(float(f[1]))
+            f[1] = "%.10f" % (float(f[1]) + math.degrees(size * math.cos(b) / EARTH))
+            f[2] = "%.10f" % (
+                float(f[2]) + math.degrees(size * math.sin(b) / (EARTH * math.cos(lat)))
+            )
+            moved += 1
+        out.append(" ".join(f) + "\n")
+    return out, moved
+
+
+def write_config(kind, work, gnss, imu):
+    src = os.path.join(NAVEGO, CONFIGS[kind])
+    text = open(src).read()
+    if kind == "yaml":
+        text = re.sub(r'imupath:.*', 'imupath: "%s"' % imu, text)
+        text = re.sub(r'gnsspath:.*', 'gnsspath: "%s"' % gnss, text)
+        text = re.sub(r'outputpath:.*', 'outputpath: "out"', text)
+        path = os.path.join(work, "run.yaml")
+    else:
+        text = re.sub(r'(?m)^imu = .*', 'imu = "%s"' % imu, text)
+        text = re.sub(r'(?m)^gnss = .*', 'gnss = "%s"' % gnss, text)
+        path = os.path.join(work, "run.toml")
+    open(path, "w").write(text)
+    return path
+
+
+def one(job):
+    (binary, kind, rate, start, size, seed, cache, extra) = job
+    work = tempfile.mkdtemp(prefix="campaign-")
+    try:
+        lines = open(os.path.join(cache, "GNSS-POS")).readlines()
+        bad, moved = corrupt(lines, rate / 100.0, start, size, seed)
+        gnss = os.path.join(work, "gnss.txt")
+        open(gnss, "w").writelines(bad)
+        cfg = write_config(kind, work, gnss, os.path.join(cache, "IMU-ADIS16488"))
+        out = os.path.join(work, "out")
+        p = subprocess.run(
+            [binary, "run", cfg, "--out", out, "--quiet"] + extra,
+            capture_output=True,
+            text=True,
+        )
+        row = {
+            "config": kind,
+            "rate": rate,
+            "start": start,
+            "size": size,
+            "seed": seed,
+            "moved": moved,
+            "exit": p.returncode,
+            "horiz_rms": float("nan"),
+            "refused_share": float("nan"),
+            "error": "",
+        }
+        m = re.search(r"(\d+) GNSS epochs: (\d+) accepted, (\d+) inflated, (\d+) rejected", p.stdout)
+        if m:
+            row["refused_share"] = int(m.group(4)) / max(1, int(m.group(1)))
+        if p.returncode != 0:
+            err = [l for l in p.stderr.splitlines() if l.strip()]
+            row["error"] = " | ".join(err[:3])[:400]
+        nav = os.path.join(out, "nav.txt")
+        if os.path.exists(nav):
+            e = subprocess.run(
+                [binary, "eval", nav, os.path.join(cache, "truth.nav"), "--json"],
+                capture_output=True,
+                text=True,
+            )
+            if e.returncode == 0:
+                row["horiz_rms"] = json.loads(e.stdout)["overall"]["horizontal"]["rms"]
+        return row
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def table(rows, bound):
+    cells = {}
+    for r in rows:
+        cells.setdefault((r["config"], r["rate"], r["start"]), []).append(r)
+    print(
+        "| config | outliers %% | from s | runs | refused (exit 1) | flagged (exit 3) | "
+        "beyond %g m | flagged & wrong | flagged & right | unflagged & wrong | median m | max m |"
+        % bound
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for key in sorted(cells):
+        rs = cells[key]
+        n = len(rs)
+        refused = sum(r["exit"] not in (0, 3) for r in rs)
+        flagged = [r for r in rs if r["exit"] == 3]
+        err = [r["horiz_rms"] for r in rs if not math.isnan(r["horiz_rms"])]
+        wrong = lambda r: math.isnan(r["horiz_rms"]) or r["horiz_rms"] > bound
+        ran = [r for r in rs if r["exit"] in (0, 3)]
+        fw = sum(1 for r in ran if r["exit"] == 3 and wrong(r))
+        fr = sum(1 for r in ran if r["exit"] == 3 and not wrong(r))
+        uw = sum(1 for r in ran if r["exit"] == 0 and wrong(r))
+        beyond = sum(1 for r in ran if wrong(r))
+        err.sort()
+        med = err[len(err) // 2] if err else float("nan")
+        mx = err[-1] if err else float("nan")
+        print(
+            "| %s | %g | %g | %d | %d | %d | %d | %d | %d | %d | %.2f | %.2f |"
+            % (key[0], key[1], key[2], n, refused, len(flagged), beyond, fw, fr, uw, med, mx)
+        )
+
+
+def strip_init(text):
+    out, skip = [], False
+    for line in text.splitlines():
+        if line.startswith("["):
+            skip = line.strip() == "[init]"
+        if not skip:
+            out.append(line)
+    return "\n".join(out) + "\n"
+
+
+def walk_one(job):
+    """One seed of `scenarios/walk.toml` (with or without GNSS velocity): the run given the
+    simulator's initial state and the run with no `[init]`; their outage scores (largest
+    horizontal error inside the outage window) and the self-start's heading error and σ."""
+    (binary, seed, velocity) = job
+    work = tempfile.mkdtemp(prefix="walk-")
+    try:
+        text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "walk.toml")).read()
+        text = re.sub(r"(?m)^seed = .*", "seed = %d" % seed, text)
+        if not velocity:
+            text = re.sub(r"(?m)^velocity_std = .*remove for a 7-column.*\n", "", text)
+        open(os.path.join(work, "s.toml"), "w").write(text)
+        d = os.path.join(work, "d")
+        subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
+                       check=True, capture_output=True)
+        cfg = open(os.path.join(d, "config.toml")).read()
+        open(os.path.join(d, "noinit.toml"), "w").write(strip_init(cfg))
+        truth = os.path.join(d, "truth.nav")
+        yaw0 = float(open(truth).readline().split()[10])
+        row = {"seed": seed, "velocity": velocity}
+        for name in ("config", "noinit"):
+            out = os.path.join(work, "o_" + name)
+            p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--out", out, "--quiet"],
+                               capture_output=True, text=True)
+            row[name + "_exit"] = p.returncode
+            row[name + "_score"] = float("nan")
+            if name == "noinit":
+                m = re.search(r"heading (-?[\d.]+)° from the in-motion alignment \([^)]*\), σ ([\d.]+)°", p.stdout)
+                err = float("nan")
+                if m:
+                    err = (float(m.group(1)) - yaw0 + 180.0) % 360.0 - 180.0
+                row["heading_err"] = err
+                row["heading_std"] = float(m.group(2)) if m else float("nan")
+                row["error"] = " | ".join(l for l in p.stderr.splitlines() if l.strip())[:300]
+            if os.path.exists(os.path.join(out, "nav.txt")):
+                e = subprocess.run([binary, "eval", os.path.join(out, "nav.txt"), truth, "--json",
+                                    "--window", "80,90"], capture_output=True, text=True)
+                if e.returncode == 0:
+                    row[name + "_score"] = json.loads(e.stdout)["windows"][0]["horizontal"]["max"]
+        return row
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def walk(binary, seeds, first, jobs, csv_path):
+    todo = [(binary, first + s, v) for v in (True, False) for s in range(seeds)]
+    with cf.ThreadPoolExecutor(jobs) as ex:
+        rows = list(ex.map(walk_one, todo))
+    if csv_path:
+        with open(csv_path, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=sorted({k for r in rows for k in r}))
+            w.writeheader()
+            w.writerows(rows)
+    print("| GNSS | seeds | started (no `[init]`) | heading within 3σ | score within 20 % of given | "
+          "median score found / given m | largest heading error / its σ |")
+    print("|---|---|---|---|---|---|---|")
+    for v in (True, False):
+        rs = [r for r in rows if r["velocity"] == v]
+        started = [r for r in rs if r["noinit_exit"] in (0, 3) and not math.isnan(r["noinit_score"])]
+        within = [r for r in started if abs(r["heading_err"]) <= 3 * r["heading_std"]]
+        close = [r for r in started if r["noinit_score"] <= 1.2 * r["config_score"]]
+        med = lambda xs: sorted(xs)[len(xs) // 2] if xs else float("nan")
+        worst = max(started, key=lambda r: abs(r["heading_err"]) / r["heading_std"], default=None)
+        print("| %s | %d | %d | %d | %d | %.3f / %.3f | %s |" % (
+            "position + velocity" if v else "position only", len(rs), len(started), len(within),
+            len(close), med([r["noinit_score"] for r in started]),
+            med([r["config_score"] for r in rs if not math.isnan(r["config_score"])]),
+            "%.2f° / %.2f°" % (worst["heading_err"], worst["heading_std"]) if worst else "-"))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release", "ins-gnss"))
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--first-seed", type=int, default=1000)
+    ap.add_argument("--rates", default="0,2,5,10,20,50")
+    ap.add_argument("--starts", default="0,60")
+    ap.add_argument("--size", type=float, default=1000.0)
+    ap.add_argument("--configs", default="yaml,noinit")
+    ap.add_argument("--bound", type=float, default=5.0, help="horizontal RMS bound, m")
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 2)
+    ap.add_argument("--csv")
+    ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "campaign-navego"))
+    ap.add_argument("extra", nargs="*", help="more arguments for `ins-gnss run` (after --)")
+    ap.add_argument("--table", help="print the table of an earlier run's CSV and stop")
+    ap.add_argument("--walk", action="store_true",
+                    help="the self-start campaign instead: scenarios/walk.toml by seed, with and "
+                         "without GNSS velocity, no [init] against the given state")
+    a = ap.parse_args()
+    if a.walk:
+        walk(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv)
+        return
+    if a.table:
+        rows = list(csv.DictReader(open(a.table)))
+        for r in rows:
+            for k in ("rate", "start", "horiz_rms", "refused_share"):
+                r[k] = float(r[k])
+            r["exit"] = int(r["exit"])
+        table(rows, a.bound)
+        return
+    os.makedirs(a.cache, exist_ok=True)
+    unpack(os.path.join(NAVEGO, "GNSS-POS.txt.zst"), os.path.join(a.cache, "GNSS-POS"))
+    unpack(os.path.join(NAVEGO, "IMU-ADIS16488.txt.zst"), os.path.join(a.cache, "IMU-ADIS16488"))
+    unpack(os.path.join(NAVEGO, "truth.nav.zst"), os.path.join(a.cache, "truth.nav"))
+    rates = [float(x) for x in a.rates.split(",")]
+    starts = [float(x) for x in a.starts.split(",")]
+    jobs = []
+    for kind in a.configs.split(","):
+        for rate in rates:
+            for start in starts if rate > 0 else starts[:1]:
+                for s in range(a.seeds):
+                    jobs.append((os.path.abspath(a.bin), kind, rate, start, a.size, a.first_seed + s, a.cache, a.extra))
+    rows = []
+    with cf.ThreadPoolExecutor(a.jobs) as ex:
+        for k, r in enumerate(ex.map(one, jobs)):
+            rows.append(r)
+            if (k + 1) % 20 == 0:
+                print("%d/%d runs" % (k + 1, len(jobs)), file=sys.stderr)
+    if a.csv:
+        with open(a.csv, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+            w.writeheader()
+            w.writerows(rows)
+    table(rows, a.bound)
+
+
+if __name__ == "__main__":
+    main()
