@@ -351,10 +351,10 @@ const MIN_TRAVEL: f64 = 30.0;
 /// (a long span averages the fixes' noise but lets an unknown bias drift). `None` when
 /// fewer than 8 fixes fall in the span or the motion cannot tell the attitude.
 ///
-/// Gross errors among the fixes do not move the fit (see [`robust_solve`]): when the
-/// least-squares fit leaves a fix beyond [`GROSS`] times the fixes' robust scale, the fit
-/// is found again by consensus over samples of six fixes spread over the span, and the
-/// fixes it does not explain are left out ([`MotionFit::rejected`]).
+/// Gross errors among the fixes do not move the fit: when the least-squares fit misfits
+/// (RMS beyond [`MISFIT`], or a fix beyond [`GROSS`] times the fixes' robust scale), the
+/// fit is found again by consensus over samples of six fixes spread over the span, and
+/// the fixes it does not explain are left out ([`MotionFit::rejected`]).
 #[allow(clippy::too_many_arguments)]
 pub fn align_in_motion(
     imu: &[ImuSample],
