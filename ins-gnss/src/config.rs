@@ -86,6 +86,11 @@ pub struct DataSection {
     /// longer gap is an error naming the lines on both sides.
     #[serde(default = "default_max_bridge")]
     pub max_bridge: f64,
+    /// Seconds added to every IMU time stamp, so that the IMU and the GNSS share one
+    /// clock (an IMU stamped 0.3 s late: `-0.3`). Default 0. The start's checks compare
+    /// the gyro's turns with the GNSS course and name a clear offset with this key.
+    #[serde(default)]
+    pub imu_time_offset: f64,
     /// A truth file for evaluation (11 columns, 4-column positions, or a log with a
     /// header read through `truth_columns`), optional.
     #[serde(default)]
@@ -1027,6 +1032,7 @@ impl Config {
             ));
         }
         finite("data.max_bridge", &[d.max_bridge])?;
+        finite("data.imu_time_offset", &[d.imu_time_offset])?;
         if d.max_bridge < d.max_gap {
             return Err(format!(
                 "`data.max_bridge` ({}) must be at least `data.max_gap` ({}) (IMU intervals)",
@@ -1645,6 +1651,7 @@ mod kf_gins {
                 bad_lines: PolicyName::Error,
                 max_gap: default_max_gap(),
                 max_bridge: default_max_bridge(),
+                imu_time_offset: 0.0,
                 truth: None,
                 imu_columns: None,
                 gnss_columns: None,

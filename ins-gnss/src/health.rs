@@ -7,6 +7,9 @@
 //! so the number of updates above it is binomial(n, ½); a fraction outside the two-sided
 //! 1e-6 band of that binomial is far ([`StreamStats::above_median_band`]).
 //!
+//! A stream far from its distribution makes the run untrustworthy only when its typical
+//! innovation is also more than 1.5× its σ, or less than 1/1.5 of it.
+//!
 //! The data's quality and the run's consistency are kept apart: the fixes the gate
 //! refused as gross errors are counted (their share is reported, and more than half
 //! refused is a problem: nothing then tells which half is right), but only the updates
@@ -20,6 +23,11 @@ use nalgebra::Vector3;
 
 /// Streams below this many updates used are not judged (the band needs a sample).
 const MIN_EPOCHS: usize = 30;
+
+/// How far from 1 the typical innovation (in units of its σ: the square root of the median
+/// NIS over the χ² median) must be, either way, before a stream far from its distribution
+/// makes the run untrustworthy.
+const MATERIAL_FACTOR: f64 = 1.5;
 
 /// The share of a stream's epochs refused as gross errors beyond which they are named
 /// among the causes of a flagged run.
@@ -81,10 +89,17 @@ fn stream_problems(s: &StreamStats) -> Vec<String> {
     }
     if s.used() >= MIN_EPOCHS {
         let (f, (lo, hi)) = s.above_median_band();
-        if f < lo || f > hi {
+        // far from the distribution, and by a factor that matters: a log of thousands of
+        // fixes tells a typical innovation 0.87× its σ from 1× beyond any doubt
+        // (drive-0708 `aided.toml`, 4.65 m, whose refused tail had hidden it), which is
+        // no reason to distrust its result
+        let factor = s.median_ratio.max(0.0).sqrt();
+        let material = !(1.0 / MATERIAL_FACTOR..=MATERIAL_FACTOR).contains(&factor);
+        if (f < lo || f > hi) && material {
             out.push(format!(
-                "{}: {:.1} % of the innovations lie above their χ² median, where a consistent \
-                 filter has 50 % (outside [{:.1}, {:.1}] %, probability 1e-6)",
+                "{}: {:.1} % of the innovations used lie above their χ² median, where a \
+                 consistent filter has 50 % (outside [{:.1}, {:.1}] %, probability 1e-6), the \
+                 typical one {factor:.2}× its σ",
                 s.stream,
                 100.0 * f,
                 100.0 * lo,

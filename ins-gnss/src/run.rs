@@ -1125,7 +1125,8 @@ fn open_inputs(
             ImuReader::from_rows(imu.clone(), *imu_width, name, format, rate, gap, policy)
         }
     }
-    .with_max_bridge(config.data.max_bridge);
+    .with_max_bridge(config.data.max_bridge)
+    .with_time_offset(config.data.imu_time_offset);
     if let Some(c) = &config.data.imu_columns {
         array_refuses(inputs, "data.imu_columns")?;
         let rates = config.imu_format() == ins_gnss_core::io::ImuFormat::Rates;

@@ -552,6 +552,7 @@ impl Scenario {
                 bad_lines: Default::default(),
                 max_gap: 5.0,
                 max_bridge: ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE,
+                imu_time_offset: 0.0,
                 truth: Some("truth.nav".into()),
                 imu_columns: None,
                 gnss_columns: None,

@@ -149,6 +149,53 @@ fn a_car_that_stands_five_minutes_before_it_drives_starts_from_the_data() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// An IMU stamped 0.3 s and 5 s late against the GNSS (simulated drive, one 90° turn):
+/// the start names `data.imu_time_offset` with the value that fits, within 20 ms; on
+/// time, no alarm; with the named value applied, the run starts.
+#[test]
+fn an_imu_stamped_late_is_named_with_its_offset() {
+    let dir = temp("late");
+    simulate("drive.toml", &dir, |s| s);
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let imu = std::fs::read_to_string(dir.join("IMU.txt")).unwrap();
+    let (ok, _, err) = run(&dir.join("config.toml"), &dir.join("on-time"));
+    assert!(ok, "on time: {err}");
+    assert!(!err.contains("imu_time_offset"), "{err}");
+    for late in [0.3, 5.0] {
+        let shifted: String = imu
+            .lines()
+            .map(|l| {
+                let mut f: Vec<String> = l.split_whitespace().map(str::to_string).collect();
+                if let Some(t) = f.first().and_then(|t| t.parse::<f64>().ok()) {
+                    f[0] = format!("{:.6}", t + late);
+                }
+                f.join(" ") + "\n"
+            })
+            .collect();
+        let name = format!("IMU-late-{late}.txt");
+        std::fs::write(dir.join(&name), shifted).unwrap();
+        let cfg = config.replacen("imu = \"IMU.txt\"", &format!("imu = \"{name}\""), 1);
+        assert!(cfg.contains(&name));
+        std::fs::write(dir.join("late.toml"), &cfg).unwrap();
+        let (ok, _, err) = run(&dir.join("late.toml"), &dir.join("late"));
+        assert!(!ok, "{late} s late ran");
+        let value: f64 = err
+            .split("set `data.imu_time_offset = ")
+            .nth(1)
+            .and_then(|v| v.split('`').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{late} s late: {err}"));
+        assert!((value + late).abs() <= 0.02, "{late} s late: {value}");
+        // with the value applied it starts
+        let fixed = cfg.replace("imu_time_offset = 0.0", &format!("imu_time_offset = {value}"));
+        assert!(fixed.contains(&format!("imu_time_offset = {value}")), "{fixed}");
+        std::fs::write(dir.join("fixed.toml"), fixed).unwrap();
+        let (ok, _, err) = run(&dir.join("fixed.toml"), &dir.join("fixed"));
+        assert!(ok, "{late} s late with {value} applied: {err}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A handheld walk inside a 16 × 15 m yard (`scenarios/walk.toml`: 1.2 m/s from the first
 /// sample, squares both ways, 180° turns, stops; RTK fixes at 4 Hz, with and without
 /// velocity) starts with no `[init]`: the alignment counts the metres walked along its

@@ -217,6 +217,8 @@ pub struct ImuReader<R: BufRead> {
     columns: Mapping,
     /// Sensor-to-body rotation applied to every sample as it is read.
     mounting: Option<nalgebra::Matrix3<f64>>,
+    /// Seconds added to every sample's time ([`ImuReader::with_time_offset`]).
+    time_offset: f64,
 }
 
 /// A reader's column map, before and after its header is read, and the mapped values.
@@ -327,6 +329,7 @@ impl<R: BufRead> ImuReader<R> {
             records: 0,
             columns: Mapping::None,
             mounting: None,
+            time_offset: 0.0,
         }
     }
 
@@ -356,8 +359,24 @@ impl<R: BufRead> ImuReader<R> {
         self
     }
 
+    /// Add `offset` seconds to every sample's time as it is read (an IMU whose clock runs
+    /// behind or ahead of the GNSS's; the file's own times are checked as they are).
+    pub fn with_time_offset(mut self, offset: f64) -> Self {
+        self.time_offset = offset;
+        self
+    }
+
     /// The next sample, `Ok(None)` at the end.
     pub fn next_sample(&mut self) -> Result<Option<ImuSample>, LineError> {
+        let s = self.next_sample_as_stamped()?;
+        if self.time_offset == 0.0 {
+            return Ok(s);
+        }
+        Ok(s.map(|s| ImuSample { t: s.t + self.time_offset, ..s }))
+    }
+
+    /// The next sample with the file's time.
+    fn next_sample_as_stamped(&mut self) -> Result<Option<ImuSample>, LineError> {
         if !self.header_done {
             // Rates: the first data line is a header naming the seven columns (a line of
             // numbers, `1e-3` included, is data, not a header).
