@@ -84,44 +84,26 @@ fn run(config: &str, rate: f64, start: f64, seed: u64, work: &Path) -> Outcome {
     let gnss_path = dir.join("gnss.txt");
     std::fs::write(&gnss_path, gnss).unwrap();
     let imu = sample_data::file(&d, "IMU-ADIS16488.txt");
-    let cfg = match config {
-        "yaml" => {
-            let text = std::fs::read_to_string(d.join("kf-gins-ADIS16488.yaml")).unwrap();
-            let text: Vec<String> = text
-                .lines()
-                .map(|l| {
-                    if l.starts_with("imupath:") {
-                        format!("imupath: \"{}\"", imu.display())
-                    } else if l.starts_with("gnsspath:") {
-                        format!("gnsspath: \"{}\"", gnss_path.display())
-                    } else {
-                        l.to_string()
-                    }
-                })
-                .collect();
-            let p = dir.join("run.yaml");
-            std::fs::write(&p, text.join("\n")).unwrap();
-            p
-        }
-        _ => {
-            let text = std::fs::read_to_string(d.join("noinit.toml")).unwrap();
-            let text: Vec<String> = text
-                .lines()
-                .map(|l| {
-                    if l.starts_with("imu = ") {
-                        format!("imu = \"{}\"", imu.display())
-                    } else if l.starts_with("gnss = ") {
-                        format!("gnss = \"{}\"", gnss_path.display())
-                    } else {
-                        l.to_string()
-                    }
-                })
-                .collect();
-            let p = dir.join("run.toml");
-            std::fs::write(&p, text.join("\n")).unwrap();
-            p
-        }
+    // the shipped configuration with its two input paths pointed at the run's files
+    let (source, name, imu_key, gnss_key) = match config {
+        "yaml" => ("kf-gins-ADIS16488.yaml", "run.yaml", "imupath: ", "gnsspath: "),
+        _ => ("noinit.toml", "run.toml", "imu = ", "gnss = "),
     };
+    let text: Vec<String> = std::fs::read_to_string(d.join(source))
+        .unwrap()
+        .lines()
+        .map(|l| {
+            if l.starts_with(imu_key) {
+                format!("{imu_key}\"{}\"", imu.display())
+            } else if l.starts_with(gnss_key) {
+                format!("{gnss_key}\"{}\"", gnss_path.display())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    let cfg = dir.join(name);
+    std::fs::write(&cfg, text.join("\n")).unwrap();
     let out_dir = dir.join("out");
     let o = bin().arg("run").arg(&cfg).arg("--out").arg(&out_dir).arg("--quiet").output().unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout).to_string();
