@@ -703,12 +703,13 @@ impl MotionFit {
 
 /// A fix's residual beyond this many times the fixes' robust scale (and at least this
 /// many σ) is a gross error to the in-motion fit: the norm of a 3-D residual in units of
-/// its σ exceeds 8 with probability 1e-13, so a clean log's fit is never touched.
+/// its σ exceeds 8 with probability 1e-13, so no fit the model explains is touched for it.
 pub const GROSS: f64 = 8.0;
 
 /// The RMS residual (in units of the fixes' σ) beyond which the least-squares in-motion
-/// fit is not kept as it is but found again by consensus: a clean log fits at 1–2σ
-/// (navego 1.4σ), one with gross errors among its fixes at tens.
+/// fit is not kept as it is but found again by consensus: navego fits at 1.4σ, and with
+/// gross errors among its fixes at tens; drive-0708's centimetre RTK fixes, which the
+/// model misfits beyond 4σ, go to the consensus too (54 of 287 fixes left out there).
 pub const MISFIT: f64 = 4.0;
 
 /// Samples of six fixes tried by the consensus fit: a sample of fixes half of which are
@@ -750,8 +751,8 @@ fn sums_of<'a>(fixes: impl IntoIterator<Item = &'a Fix>) -> Sums {
 
 /// The in-motion fit with gross errors left out. The least-squares fit ([`solve`]) is
 /// kept when its RMS residual is at most [`MISFIT`] and it leaves no fix beyond
-/// [`GROSS`] × the robust scale of its residuals (a clean log: the same fit as before). Otherwise a consensus: samples of six fixes, one
-/// from each sixth of the span, each solved in closed form (Wahba's problem), are scored
+/// [`GROSS`] × the robust scale of its residuals (navego: the same fit as before).
+/// Otherwise a consensus: samples of six fixes, one from each sixth of the span, each solved in closed form (Wahba's problem), are scored
 /// by the 35 % quantile of all fixes' residuals (a least-quantile criterion, which holds
 /// with up to 65 % of the fixes wrong where a least-median one breaks at 50 %); the fixes
 /// within [`GROSS`] × the best sample's robust scale are fitted again, and those within it
