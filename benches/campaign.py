@@ -12,6 +12,7 @@ wrong/right (wrong: horizontal RMS beyond the bound).
     python3 benches/campaign.py --bin target/release/ins-gnss --seeds 50 \
         --rates 0,2,5,10,20,50 --starts 0,60 --configs yaml,noinit --csv /tmp/c.csv
     python3 benches/campaign.py --walk --seeds 50     # the self-start in a small yard
+    python3 benches/campaign.py --rover --seeds 20    # a slow rover, true and 100x-low IMU noise
 
 Every run's row goes to the CSV (config, rate, start, seed, exit status, horizontal RMS,
 refused share, the first line of the error); the table is printed as Markdown.
@@ -246,6 +247,89 @@ def walk(binary, seeds, first, jobs, csv_path):
             "%.2f° / %.2f°" % (worst["heading_err"], worst["heading_std"]) if worst else "-"))
 
 
+def scale_noise(text, factor):
+    """`[imu_noise]` ARW and VRW divided by `factor` (a peer's "optimised" settings)."""
+    def one(m):
+        vals = [float(x) / factor for x in m.group(2).replace("\n", " ").split(",") if x.strip()]
+        return m.group(1) + ", ".join("%g" % v for v in vals) + m.group(3)
+    for key in ("arw", "vrw"):
+        text = re.sub(r"(?s)(\n%s = \[)([^\]]*)(\])" % key, one, text)
+    return text
+
+
+def rover_one(job):
+    """One seed of `scenarios/rover.toml`, no `[init]`: with the true IMU noise and with
+    ARW and VRW declared `low`× smaller; forward and smoothed horizontal RMS, the
+    self-start's heading error and σ, the exit status and the diagnosis."""
+    (binary, seed, low) = job
+    work = tempfile.mkdtemp(prefix="rover-")
+    try:
+        text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "rover.toml")).read()
+        text = re.sub(r"(?m)^seed = .*", "seed = %d" % seed, text)
+        open(os.path.join(work, "s.toml"), "w").write(text)
+        d = os.path.join(work, "d")
+        subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
+                       check=True, capture_output=True)
+        cfg = strip_init(open(os.path.join(d, "config.toml")).read())
+        open(os.path.join(d, "true.toml"), "w").write(cfg)
+        open(os.path.join(d, "low.toml"), "w").write(scale_noise(cfg, low))
+        truth = os.path.join(d, "truth.nav")
+        yaw0 = float(open(truth).readline().split()[10])
+        row = {"seed": seed}
+        for name in ("true", "low"):
+            out = os.path.join(work, "o_" + name)
+            p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--out", out,
+                                "--quiet", "--smooth"], capture_output=True, text=True)
+            row[name + "_exit"] = p.returncode
+            m = re.search(r"heading (-?[\d.]+)° from the in-motion alignment \([^)]*\), σ ([\d.]+)°", p.stdout)
+            row[name + "_heading_err"] = (float(m.group(1)) - yaw0 + 180.0) % 360.0 - 180.0 if m else float("nan")
+            row[name + "_heading_std"] = float(m.group(2)) if m else float("nan")
+            row[name + "_message"] = " | ".join(l for l in (p.stderr + p.stdout).splitlines()
+                                                if "cause" in l or l.startswith("  - ") or l.startswith("error"))[:400]
+            for part in ("forward", "smoothed"):
+                row["%s_%s" % (name, part)] = float("nan")
+            if os.path.exists(os.path.join(out, "nav.txt")):
+                e = subprocess.run([binary, "eval", out, truth, "--json"], capture_output=True, text=True)
+                if e.returncode == 0:
+                    j = json.loads(e.stdout)
+                    for part in ("forward", "smoothed"):
+                        if part in j:
+                            row["%s_%s" % (name, part)] = j[part]["overall"]["horizontal"]["rms"]
+        return row
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def rover(binary, seeds, first, jobs, low, csv_path):
+    todo = [(binary, first + s, low) for s in range(seeds)]
+    with cf.ThreadPoolExecutor(jobs) as ex:
+        rows = list(ex.map(rover_one, todo))
+    if csv_path:
+        with open(csv_path, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=sorted({k for r in rows for k in r}))
+            w.writeheader()
+            w.writerows(rows)
+    med = lambda xs: sorted(xs)[len(xs) // 2] if xs else float("nan")
+    print("| IMU noise declared | seeds | started | exit 3 | heading within 3σ | median forward / "
+          "smoothed m | smoothed worse than forward |")
+    print("|---|---|---|---|---|---|---|")
+    for name in ("true", "low"):
+        st = [r for r in rows if not math.isnan(r[name + "_forward"])]
+        within = [r for r in st if abs(r[name + "_heading_err"]) <= 3 * r[name + "_heading_std"]]
+        worse = [r for r in st if r[name + "_smoothed"] > r[name + "_forward"]]
+        print("| %s | %d | %d | %d | %d | %.3f / %.3f | %d |" % (
+            "as simulated" if name == "true" else "ARW, VRW %g× too small" % low, len(rows), len(st),
+            sum(r[name + "_exit"] == 3 for r in rows), len(within),
+            med([r[name + "_forward"] for r in st]), med([r[name + "_smoothed"] for r in st]), len(worse)))
+    ratio = [r["low_forward"] / r["true_forward"] for r in rows
+             if not math.isnan(r["low_forward"]) and not math.isnan(r["true_forward"])]
+    ratio_s = [r["low_smoothed"] / r["true_smoothed"] for r in rows
+               if not math.isnan(r["low_smoothed"]) and not math.isnan(r["true_smoothed"])]
+    print("\nlow / true, forward: median %.2f, max %.2f; smoothed: median %.2f, max %.2f (%d seeds both ran)"
+          % (med(ratio), max(ratio, default=float("nan")), med(ratio_s), max(ratio_s, default=float("nan")),
+             len(ratio)))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release", "ins-gnss"))
@@ -261,10 +345,17 @@ def main():
     ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "campaign-navego"))
     ap.add_argument("extra", nargs="*", help="more arguments for `ins-gnss run` (after --)")
     ap.add_argument("--table", help="print the table of an earlier run's CSV and stop")
+    ap.add_argument("--rover", action="store_true",
+                    help="the slow-rover campaign instead: scenarios/rover.toml by seed, no `[init]`, "
+                         "with the true IMU noise and with ARW and VRW declared --low times smaller")
+    ap.add_argument("--low", type=float, default=100.0)
     ap.add_argument("--walk", action="store_true",
                     help="the self-start campaign instead: scenarios/walk.toml by seed, with and "
                          "without GNSS velocity, no [init] against the given state")
     a = ap.parse_args()
+    if a.rover:
+        rover(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.low, a.csv)
+        return
     if a.walk:
         walk(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv)
         return

@@ -76,6 +76,47 @@ impl StaticStart {
     }
 }
 
+/// The χ² (2 degrees of freedom) beyond which the fixes' horizontal drift is motion, not
+/// noise: a probability of 1e-6 (−2 ln 1e-6) for fixes as noisy as their σ says.
+const DRIFT_CHI2: f64 = 27.63;
+
+/// The drift speed (m/s) below which fixes are never taken for motion: real fixes wander
+/// by more than their σ says (multipath, a single point's slow errors), and a vehicle
+/// that creeps slower than this is not started on by the static test's velocity 0 anyway
+/// (its 0.02 m/s σ aside, the fit then has its first fixes).
+const DRIFT_SPEED: f64 = 0.1;
+
+/// Whether the GNSS fixes after `t0` up to `tb` drift: the horizontal velocity of a
+/// straight-line least-squares fit to them, significant by [`DRIFT_CHI2`] against its σ
+/// from the fixes' own σ, and faster than [`DRIFT_SPEED`]. Fixes 5 m apart in σ do not
+/// move beyond 3σ of the first for 100 s at 0.42 m/s (a slow rover), and a window that
+/// long is no static start; their line tells the motion within about 40 s.
+fn drifting(gnss: &[GnssEpoch], t0: f64, tb: f64) -> bool {
+    let span: Vec<&GnssEpoch> =
+        gnss.iter().filter(|e| e.t > t0 - 1e-9 && e.t <= tb + 1e-9).collect();
+    let Some(first) = span.first() else { return false };
+    if span.len() < 5 {
+        return false;
+    }
+    let n = span.len() as f64;
+    let t_mean = span.iter().map(|e| e.t).sum::<f64>() / n;
+    let stt: f64 = span.iter().map(|e| (e.t - t_mean).powi(2)).sum();
+    if stt <= 0.0 {
+        return false;
+    }
+    let mut slope = [0.0; 2];
+    let mut var = [0.0; 2];
+    for e in &span {
+        let d = geodetic_to_local_ned(first.pos.tuple(), e.pos.tuple());
+        for k in 0..2 {
+            slope[k] += (e.t - t_mean) * d[k] / stt;
+            var[k] += e.pos_std[k].powi(2) / n;
+        }
+    }
+    let chi2 = (0..2).map(|k| slope[k].powi(2) / (var[k] / stt).max(1e-12)).sum::<f64>();
+    chi2 > DRIFT_CHI2 && slope[0].hypot(slope[1]) > DRIFT_SPEED
+}
+
 /// Window statistics for [`detect_static`].
 #[derive(Clone, Copy, Debug)]
 struct Window {
@@ -112,7 +153,9 @@ impl Window {
 /// within what the first window's noise explains plus 0.1 deg/s and 0.05 m/s²) while the
 /// specific force stays near gravity (|f| within 0.5 m/s² of normal gravity at the first
 /// fix, or of 9.8 without one) and the GNSS fixes of the span show no motion (speed below
-/// 0.3 m/s, positions within 3σ + 0.3 m of the first). A vibrating vehicle (engine
+/// 0.3 m/s, positions within 3σ + 0.3 m of the first). When the fixes of a span whose IMU
+/// never changed drift ([`drifting`]), nothing was static: a constant velocity from the
+/// first sample looks like rest to the IMU. A vibrating vehicle (engine
 /// running) is static too: the test is relative to the first window. Returns a span of
 /// zero samples when the first window already moves.
 pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
@@ -195,6 +238,12 @@ pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> Stat
     for w in &windows {
         if !still(w, ta) {
             break;
+        }
+        // the IMU unchanged since the first window while the fixes drift: a constant
+        // velocity from the first sample (a rover moving off before the log began), which
+        // the IMU cannot tell from rest; no part of the span was static
+        if drifting(gnss, t0, w.t1) {
+            return none(t0);
         }
         n_windows += 1;
         ta = w.t1;

@@ -45,6 +45,10 @@ pub const FLOOR_FACTOR: f64 = 1.5;
 /// its first minutes of motion.
 pub const STATIC_ALLOWANCE: f64 = 600.0;
 
+/// The largest heading σ (rad) the self-start accepts: the error-state filter's
+/// linearisation holds to about this.
+const MAX_HEADING_STD: f64 = 20.0 * core::f64::consts::PI / 180.0;
+
 /// The χ² gain (in units of the fit's χ² per degree of freedom) by which a mirror image
 /// must beat the best rotation before a left-handed frame is refused.
 const MIRROR_DECISIVE: f64 = 100.0;
@@ -612,7 +616,7 @@ fn fill_init(
         // the heading's σ: the fit's (the vertical gyro bias's drift included), at
         // least 0.25°
         let yaw_std = m.att_std.z.hypot(0.25f64.to_radians());
-        if yaw_std > 20f64.to_radians() {
+        if yaw_std > MAX_HEADING_STD {
             return Err(format!(
                 "the in-motion alignment finds the heading only to ±{:.0}° ({span}): too \
                  little motion; give `init.attitude` (and `init.attitude_std`), or a longer \
