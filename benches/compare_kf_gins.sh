@@ -1,30 +1,75 @@
 #!/usr/bin/env bash
-# Whole-run comparison with your own KF-GINS build (not part of CI).
+# Whole-run comparison with KF-GINS on the same machine (not part of CI).
 #
-#   benches/compare_kf_gins.sh PATH/TO/KF-GINS CONFIG.yaml [PAIRS] [-- extra ins-gnss args]
+#   benches/compare_kf_gins.sh [KF-GINS] CONFIG.yaml [PAIRS] [-- extra ins-gnss args]
 #
-# Builds ins-gnss in release, then runs KF-GINS (`KF-GINS CONFIG.yaml`) and
+# KF-GINS defaults to ../shared/bin/kf-gins (built -O3 -DNDEBUG; see its README). The
+# script builds ins-gnss in release, then copies the YAML's inputs into a scratch folder as
+# plain text (KF-GINS reads neither .zst nor .gz; ins-gnss reads the same plain files, so
+# both parse the same bytes), writes a copy of the YAML whose `imupath`, `gnsspath` and
+# `outputpath` point there, and runs, from that folder, `kf-gins CONFIG.yaml` and
 # `ins-gnss run CONFIG.yaml --quiet --accept-inconsistent --out DIR` alternately PAIRS
-# times (default 8), file to file, and prints the median wall and CPU (user + sys) time
-# of each and their ratios. Build KF-GINS as its README says, with -O3 -DNDEBUG
-# (e.g. cmake -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS="-O3 -DNDEBUG"). Both read the
-# same YAML; KF-GINS writes where its `outputpath` says, ins-gnss into a temporary
-# directory. Give plain-text inputs for a fair comparison (KF-GINS does not read .zst).
+# times (default 10), file to file. It prints the median wall and CPU (user + sys) time of
+# each and their ratios. A run of either program that fails, or a KF-GINS run that writes
+# no navigation file, stops the script with its output and a non-zero status.
 set -euo pipefail
-kf=${1:?KF-GINS binary}; cfg=${2:?KF-GINS YAML}; pairs=${3:-8}
-shift $(( $# < 3 ? $# : 3 ))
+root=$(cd "$(dirname "$0")/.." && pwd)
+if [ $# -ge 1 ] && [[ "$1" != *.yaml && "$1" != *.yml ]]; then
+  kf=$1; shift
+else
+  kf=$root/../shared/bin/kf-gins
+fi
+cfg=${1:?KF-GINS YAML}; shift
+pairs=10
+if [ $# -ge 1 ] && [ "$1" != "--" ]; then pairs=$1; shift; fi
 [ "${1:-}" = "--" ] && shift
-cd "$(dirname "$0")/.."
-cargo build --release -p ins-gnss >/dev/null
-ours=target/release/ins-gnss
-out=$(mktemp -d); log=$(mktemp)
-trap 'rm -rf "$out" "$log"' EXIT
+kf=$(cd "$(dirname "$kf")" && pwd)/$(basename "$kf")
+[ -x "$kf" ] || { echo "compare_kf_gins: no KF-GINS executable at $kf" >&2; exit 1; }
+cfg_dir=$(cd "$(dirname "$cfg")" && pwd)
+(cd "$root" && cargo build --release --quiet -p ins-gnss)
+ours=$root/target/release/ins-gnss
+
+work=$(mktemp -d); log=$work/times
+trap 'rm -rf "$work"' EXIT
+# the YAML's inputs as plain text, and a copy of the YAML that reads them
+value() { sed -n "s/^$1:[[:space:]]*\"\{0,1\}\([^\"#]*\)\"\{0,1\}.*/\1/p" "$cfg" | sed 's/[[:space:]]*$//' | head -1; }
+plain() {
+  local src=$cfg_dir/$1 dst=$work/$2
+  case "$src" in
+    *.zst) zstd -dqc "$src" >"$dst" ;;
+    *.gz) gzip -dc "$src" >"$dst" ;;
+    *.xz) xz -dc "$src" >"$dst" ;;
+    *) cp "$src" "$dst" ;;
+  esac
+}
+imu=$(value imupath); gnss=$(value gnsspath)
+[ -n "$imu" ] && [ -n "$gnss" ] || { echo "compare_kf_gins: $cfg has no imupath or gnsspath" >&2; exit 1; }
+plain "$imu" imu.txt
+plain "$gnss" gnss.txt
+mkdir -p "$work/kf-out"
+sed -e 's|^imupath:.*|imupath: "imu.txt"|' -e 's|^gnsspath:.*|gnsspath: "gnss.txt"|' \
+    -e 's|^outputpath:.*|outputpath: "kf-out"|' "$cfg" >"$work/config.yaml"
+cd "$work"
+run() {
+  # run NAME COMMAND...: time it, stop the script with its output when it fails
+  local name=$1; shift
+  if ! /usr/bin/time -f "$name %e %U %S" -a -o "$log" "$@" >"$work/$name.out" 2>&1; then
+    echo "compare_kf_gins: $name failed: $*" >&2
+    tail -20 "$work/$name.out" >&2
+    exit 1
+  fi
+}
 for _ in $(seq "$pairs"); do
-  /usr/bin/time -f "kf-gins %e %U %S" "$kf" "$cfg" >/dev/null 2>>"$log" || true
-  /usr/bin/time -f "ins-gnss %e %U %S" "$ours" run "$cfg" --quiet --accept-inconsistent \
-    --out "$out" "$@" >/dev/null 2>>"$log" || true
+  rm -f kf-out/*
+  run kf-gins "$kf" config.yaml
+  [ -s kf-out/KF_GINS_Navresult.nav ] || ls kf-out/*.nav >/dev/null 2>&1 || {
+    echo "compare_kf_gins: KF-GINS wrote no navigation file into kf-out/" >&2
+    tail -20 "$work/kf-gins.out" >&2
+    exit 1
+  }
+  run ins-gnss "$ours" run config.yaml --quiet --accept-inconsistent --out "$work/ours" "$@"
 done
-grep -E '^(kf-gins|ins-gnss) ' "$log" | awk '
+awk '
   { wall[$1] = wall[$1] " " $2; cpu[$1] = cpu[$1] " " ($3 + $4) }
   function median(s,   a, n, i, j, t) {
     n = split(s, a, " ")
@@ -34,7 +79,7 @@ grep -E '^(kf-gins|ins-gnss) ' "$log" | awk '
   END {
     kw = median(wall["kf-gins"]); kc = median(cpu["kf-gins"])
     ow = median(wall["ins-gnss"]); oc = median(cpu["ins-gnss"])
-    printf "KF-GINS : wall %.3f s, CPU %.3f s\n", kw, kc
-    printf "ins-gnss: wall %.3f s, CPU %.3f s\n", ow, oc
+    printf "KF-GINS : wall %.3f s, CPU %.3f s (median of %d)\n", kw, kc, split(wall["kf-gins"], x, " ")
+    printf "ins-gnss: wall %.3f s, CPU %.3f s (median of %d)\n", ow, oc, split(wall["ins-gnss"], x, " ")
     if (ow > 0 && oc > 0) printf "ratio   : %.1fx wall, %.1fx CPU\n", kw / ow, kc / oc
-  }'
+  }' "$log"
