@@ -261,7 +261,7 @@ def rover_one(job):
     """One seed of `scenarios/rover.toml`, no `[init]`: with the true IMU noise and with
     ARW and VRW declared `low`× smaller; forward and smoothed horizontal RMS, the
     self-start's heading error and σ, the exit status and the diagnosis."""
-    (binary, seed, low) = job
+    (binary, seed, low, keep_init) = job
     work = tempfile.mkdtemp(prefix="rover-")
     try:
         text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "rover.toml")).read()
@@ -270,12 +270,13 @@ def rover_one(job):
         d = os.path.join(work, "d")
         subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
                        check=True, capture_output=True)
-        cfg = strip_init(open(os.path.join(d, "config.toml")).read())
+        cfg = open(os.path.join(d, "config.toml")).read()
+        cfg = cfg if keep_init else strip_init(cfg)
         open(os.path.join(d, "true.toml"), "w").write(cfg)
         open(os.path.join(d, "low.toml"), "w").write(scale_noise(cfg, low))
         truth = os.path.join(d, "truth.nav")
         yaw0 = float(open(truth).readline().split()[10])
-        row = {"seed": seed}
+        row = {"seed": seed, "init": keep_init}
         for name in ("true", "low"):
             out = os.path.join(work, "o_" + name)
             p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--out", out,
@@ -300,8 +301,8 @@ def rover_one(job):
         shutil.rmtree(work, ignore_errors=True)
 
 
-def rover(binary, seeds, first, jobs, low, csv_path):
-    todo = [(binary, first + s, low) for s in range(seeds)]
+def rover(binary, seeds, first, jobs, low, keep_init, csv_path):
+    todo = [(binary, first + s, low, keep_init) for s in range(seeds)]
     with cf.ThreadPoolExecutor(jobs) as ex:
         rows = list(ex.map(rover_one, todo))
     if csv_path:
@@ -317,9 +318,10 @@ def rover(binary, seeds, first, jobs, low, csv_path):
         st = [r for r in rows if not math.isnan(r[name + "_forward"])]
         within = [r for r in st if abs(r[name + "_heading_err"]) <= 3 * r[name + "_heading_std"]]
         worse = [r for r in st if r[name + "_smoothed"] > r[name + "_forward"]]
-        print("| %s | %d | %d | %d | %d | %.3f / %.3f | %d |" % (
-            "as simulated" if name == "true" else "ARW, VRW %g× too small" % low, len(rows), len(st),
-            sum(r[name + "_exit"] == 3 for r in rows), len(within),
+        print("| %s | %d | %d | %d | %s | %.3f / %.3f | %d |" % (
+            ("as simulated" if name == "true" else "ARW, VRW %g× too small" % low) + (", `[init]` given" if rows and rows[0].get("init") else ""),
+            len(rows), len(st),
+            sum(r[name + "_exit"] == 3 for r in rows), "n/a" if rows and rows[0]["init"] else len(within),
             med([r[name + "_forward"] for r in st]), med([r[name + "_smoothed"] for r in st]), len(worse)))
     ratio = [r["low_forward"] / r["true_forward"] for r in rows
              if not math.isnan(r["low_forward"]) and not math.isnan(r["true_forward"])]
@@ -349,12 +351,14 @@ def main():
                     help="the slow-rover campaign instead: scenarios/rover.toml by seed, no `[init]`, "
                          "with the true IMU noise and with ARW and VRW declared --low times smaller")
     ap.add_argument("--low", type=float, default=100.0)
+    ap.add_argument("--init", action="store_true",
+                    help="--rover: keep the simulator's `[init]` (the noise's effect alone)")
     ap.add_argument("--walk", action="store_true",
                     help="the self-start campaign instead: scenarios/walk.toml by seed, with and "
                          "without GNSS velocity, no [init] against the given state")
     a = ap.parse_args()
     if a.rover:
-        rover(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.low, a.csv)
+        rover(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.low, a.init, a.csv)
         return
     if a.walk:
         walk(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv)
