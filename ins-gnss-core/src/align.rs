@@ -26,7 +26,7 @@
 //! mounting, and 57.3 or 1/57.3 when a unit is wrong.
 
 use manifolds::So3;
-use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 use crate::earth::{earth_rate_ned, geodetic_to_local_ned, local_ned_to_geodetic, normal_gravity};
 use crate::gnss::GnssEpoch;
@@ -104,17 +104,15 @@ fn drifting(gnss: &[GnssEpoch], t0: f64, tb: f64) -> bool {
     if stt <= 0.0 {
         return false;
     }
-    let mut slope = [0.0; 2];
-    let mut var = [0.0; 2];
+    // (north, east): the slope of the line and the fixes' mean variance
+    let (mut slope, mut var) = (Vector2::zeros(), Vector2::zeros());
     for e in &span {
         let d = geodetic_to_local_ned(first.pos.tuple(), e.pos.tuple());
-        for k in 0..2 {
-            slope[k] += (e.t - t_mean) * d[k] / stt;
-            var[k] += e.pos_std[k].powi(2) / n;
-        }
+        slope += d.xy() * ((e.t - t_mean) / stt);
+        var += e.pos_std.xy().map(|s| s * s / n);
     }
-    let chi2 = (0..2).map(|k| slope[k].powi(2) / (var[k] / stt).max(1e-12)).sum::<f64>();
-    chi2 > DRIFT_CHI2 && slope[0].hypot(slope[1]) > DRIFT_SPEED
+    let chi2 = slope.component_mul(&slope).component_div(&(var / stt).map(|v| v.max(1e-12))).sum();
+    chi2 > DRIFT_CHI2 && slope.norm() > DRIFT_SPEED
 }
 
 /// Window statistics for [`detect_static`].
@@ -154,7 +152,8 @@ impl Window {
 /// specific force stays near gravity (|f| within 0.5 m/s² of normal gravity at the first
 /// fix, or of 9.8 without one) and the GNSS fixes of the span show no motion (speed below
 /// 0.3 m/s, positions within 3σ + 0.3 m of the first). When the fixes of a span whose IMU
-/// never changed drift ([`drifting`]), nothing was static: a constant velocity from the
+/// never changed drift (a straight line fitted to them moves faster than 0.1 m/s, beyond
+/// what their σ explains at a probability of 1e-6), nothing was static: a constant velocity from the
 /// first sample looks like rest to the IMU. A vibrating vehicle (engine
 /// running) is static too: the test is relative to the first window. Returns a span of
 /// zero samples when the first window already moves.
