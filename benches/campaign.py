@@ -167,6 +167,10 @@ def table(rows, bound):
         )
 
 
+# the self-start's heading and its σ in the run's summary
+HEADING = r"heading (-?[\d.]+)° from the in-motion alignment \([^)]*\), σ ([\d.]+)°"
+
+
 def strip_init(text):
     out, skip = [], False
     for line in text.splitlines():
@@ -204,7 +208,7 @@ def walk_one(job):
             row[name + "_exit"] = p.returncode
             row[name + "_score"] = float("nan")
             if name == "noinit":
-                m = re.search(r"heading (-?[\d.]+)° from the in-motion alignment \([^)]*\), σ ([\d.]+)°", p.stdout)
+                m = re.search(HEADING, p.stdout)
                 err = float("nan")
                 if m:
                     err = (float(m.group(1)) - yaw0 + 180.0) % 360.0 - 180.0
@@ -221,15 +225,21 @@ def walk_one(job):
         shutil.rmtree(work, ignore_errors=True)
 
 
-def walk(binary, seeds, first, jobs, csv_path):
-    todo = [(binary, first + s, v) for v in (True, False) for s in range(seeds)]
+def run_seeds(one_seed, todo, jobs, csv_path):
+    """Run `one_seed` over `todo` on `jobs` threads; write every row to `csv_path` if given."""
     with cf.ThreadPoolExecutor(jobs) as ex:
-        rows = list(ex.map(walk_one, todo))
+        rows = list(ex.map(one_seed, todo))
     if csv_path:
         with open(csv_path, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=sorted({k for r in rows for k in r}))
             w.writeheader()
             w.writerows(rows)
+    return rows
+
+
+def walk(binary, seeds, first, jobs, csv_path):
+    todo = [(binary, first + s, v) for v in (True, False) for s in range(seeds)]
+    rows = run_seeds(walk_one, todo, jobs, csv_path)
     print("| GNSS | seeds | started (no `[init]`) | heading within 3σ | score within 20 % of given | "
           "median score found / given m | largest heading error / its σ |")
     print("|---|---|---|---|---|---|---|")
@@ -282,7 +292,7 @@ def rover_one(job):
             p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--out", out,
                                 "--quiet", "--smooth"], capture_output=True, text=True)
             row[name + "_exit"] = p.returncode
-            m = re.search(r"heading (-?[\d.]+)° from the in-motion alignment \([^)]*\), σ ([\d.]+)°", p.stdout)
+            m = re.search(HEADING, p.stdout)
             row[name + "_heading_err"] = (float(m.group(1)) - yaw0 + 180.0) % 360.0 - 180.0 if m else float("nan")
             row[name + "_heading_std"] = float(m.group(2)) if m else float("nan")
             row[name + "_message"] = " | ".join(l for l in (p.stderr + p.stdout).splitlines()
@@ -303,13 +313,7 @@ def rover_one(job):
 
 def rover(binary, seeds, first, jobs, low, keep_init, csv_path):
     todo = [(binary, first + s, low, keep_init) for s in range(seeds)]
-    with cf.ThreadPoolExecutor(jobs) as ex:
-        rows = list(ex.map(rover_one, todo))
-    if csv_path:
-        with open(csv_path, "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=sorted({k for r in rows for k in r}))
-            w.writeheader()
-            w.writerows(rows)
+    rows = run_seeds(rover_one, todo, jobs, csv_path)
     med = lambda xs: sorted(xs)[len(xs) // 2] if xs else float("nan")
     print("| IMU noise declared | seeds | started | exit 3 | heading within 3σ | median forward / "
           "smoothed m | smoothed worse than forward |")
