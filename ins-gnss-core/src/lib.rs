@@ -19,6 +19,7 @@
 //! | [`spill`] | the states and IMU inputs as exact rows of numbers for the smoother's storage |
 //! | [`align`] | initialisation from the data: the static start (levelling, gyro biases, noise), the in-motion alignment |
 //! | [`init`] | static coarse alignment, heading from the GNSS track |
+//! | [`raw`] | raw GNSS: RINEX observations and ephemerides, satellite and atmosphere models, single point |
 //! | [`io`] | streaming readers and writers of the KF-GINS formats, errors with file and line |
 //!
 //! Error state `[δθ, δv, δp, δb_g, δb_a]`: right (body-frame) attitude error, NED velocity
@@ -36,6 +37,7 @@ pub mod mechanization;
 pub mod model;
 pub mod navigator;
 pub mod position;
+pub mod raw;
 pub mod scale;
 pub mod spill;
 pub mod state;

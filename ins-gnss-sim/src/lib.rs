@@ -6,6 +6,7 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+pub mod raw;
 pub mod scenarios;
 pub mod sensors;
 pub mod trajectory;

@@ -13,6 +13,7 @@
 //! | [`report`] | `report.html`: a run's summary, tables, plots and configuration in one file |
 //! | [`start`] | before the run: the data checked against the declared units and axes, the initial state found from them |
 //! | [`scenario`] | scenario files for `simulate`, and Monte Carlo over seeds |
+//! | [`spp`] | `spp`: single-point positions of a RINEX file, written as `.pos`, compared with another solution |
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
@@ -26,4 +27,5 @@ pub mod plot;
 pub mod report;
 pub mod run;
 pub mod scenario;
+pub mod spp;
 pub mod start;

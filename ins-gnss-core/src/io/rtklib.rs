@@ -422,8 +422,23 @@ fn parse_time(system: TimeSystem, a: &str, b: &str) -> Result<f64, LineErrorKind
 /// Writes the header of a `.pos` file in RTKLIB's layout (LLH in degrees, GPST as week
 /// and seconds of week, σ and covariances, and the velocity with its σ when `velocity`).
 pub fn write_header<W: Write>(w: &mut W, program: &str, velocity: bool) -> std::io::Result<()> {
+    write_header_mode(
+        w,
+        program,
+        "INS/GNSS (the filter's state at the GNSS antenna's IMU origin)",
+        velocity,
+    )
+}
+
+/// [`write_header`] with the `pos mode` line's text given.
+pub fn write_header_mode<W: Write>(
+    w: &mut W,
+    program: &str,
+    mode: &str,
+    velocity: bool,
+) -> std::io::Result<()> {
     writeln!(w, "% program   : {program}")?;
-    writeln!(w, "% pos mode  : INS/GNSS (the filter's state at the GNSS antenna's IMU origin)")?;
+    writeln!(w, "% pos mode  : {mode}")?;
     writeln!(w, "% (lat/lon/height=WGS84/ellipsoidal,Q=1:fix,2:float,3:sbas,4:dgps,5:single,6:ppp,ns=# of satellites)")?;
     write!(
         w,
@@ -476,6 +491,21 @@ pub fn push_epoch(
     vel: Option<(&Vector3<f64>, &Matrix3<f64>)>,
     q: u8,
 ) {
+    push_epoch_ns(out, week, t, pos, pos_cov, vel, q, 0);
+}
+
+/// [`push_epoch`] with the number of satellites `ns` written.
+#[allow(clippy::too_many_arguments)]
+pub fn push_epoch_ns(
+    out: &mut Vec<u8>,
+    week: f64,
+    t: f64,
+    pos: &GeoPos,
+    pos_cov: &Matrix3<f64>,
+    vel: Option<(&Vector3<f64>, &Matrix3<f64>)>,
+    q: u8,
+    ns: usize,
+) {
     // each value after a space, right-aligned in its width (wider values overflow it)
     let field = |out: &mut Vec<u8>, v: f64, width: usize, decimals: usize| {
         out.push(b' ');
@@ -490,7 +520,7 @@ pub fn push_epoch(
     field(out, pos.lat * d, 16, 11);
     field(out, pos.lon * d, 16, 11);
     field(out, pos.h, 12, 6);
-    let _ = write!(out, " {:3} {:3}", q, 0);
+    let _ = write!(out, " {:3} {:3}", q, ns);
     let sd = |c: &Matrix3<f64>| {
         [
             c[(0, 0)].sqrt(),

@@ -113,6 +113,33 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Single-point positions of a RINEX observation file from broadcast ephemerides,
+    /// written as an RTKLIB `.pos`.
+    Spp {
+        /// RINEX observation file (2.xx or 3.xx; `.gz`/`.zst`/`.xz` read as they are).
+        obs: PathBuf,
+        /// RINEX navigation file(s).
+        #[arg(required = true)]
+        nav: Vec<PathBuf>,
+        /// Output `.pos` file.
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+        /// Ionosphere: off, klobuchar, iono-free.
+        #[arg(long, default_value = "klobuchar", value_parser = ins_gnss::spp::parse_iono)]
+        iono: ins_gnss_core::raw::spp::Ionosphere,
+        /// Troposphere: off, saastamoinen.
+        #[arg(long, default_value = "saastamoinen", value_parser = ins_gnss::spp::parse_tropo)]
+        tropo: ins_gnss_core::raw::spp::Troposphere,
+        /// Elevation mask, degrees.
+        #[arg(long, default_value_t = 15.0)]
+        mask: f64,
+        /// Satellites RAIM may exclude per epoch (0: none).
+        #[arg(long, default_value_t = 2)]
+        raim: usize,
+        /// Compare with another solution of the same file (an RTKLIB `.pos`, GPST).
+        #[arg(long)]
+        against: Option<PathBuf>,
+    },
     /// Run several strategies on one dataset and print one table.
     Compare {
         /// Configuration file.
@@ -184,6 +211,17 @@ fn main() -> ExitCode {
             cli::eval(&result, &truth, skip, &windows, json, config.as_deref())
         }
         Some(Command::Simulate { scenario, out }) => cli::simulate(&scenario, &out),
+        Some(Command::Spp { obs, nav, out, iono, tropo, mask, raim, against }) => {
+            let opt = ins_gnss_core::raw::SppOptions {
+                ionosphere: iono,
+                troposphere: tropo,
+                elevation_mask: mask.to_radians(),
+                max_exclusions: raim,
+                ..Default::default()
+            };
+            let navs: Vec<&std::path::Path> = nav.iter().map(PathBuf::as_path).collect();
+            ins_gnss::spp::run(&obs, &navs, out.as_deref(), &opt, against.as_deref())
+        }
         Some(Command::Compare { config, strategies, truth, skip, out }) => {
             cli::compare(&config, &strategies, truth.as_deref(), skip, out.as_deref())
         }

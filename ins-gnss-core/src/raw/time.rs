@@ -1,0 +1,186 @@
+//! GNSS time: a GPS week and seconds of week, and the satellite identifiers.
+
+use crate::io::rtklib::days_from_civil;
+use core::fmt;
+
+/// Days from 1970-01-01 to the GPS epoch, 1980-01-06.
+const GPS_EPOCH_DAYS: i64 = 3657;
+/// Seconds in a week.
+pub const WEEK: f64 = 604_800.0;
+/// BeiDou time (BDT) is GPS time − 14 s; its week 0 starts at GPS week 1356.
+pub const BDT_MINUS_GPST: f64 = -14.0;
+/// GPS week of BDT week 0.
+pub const BDT_WEEK_OFFSET: i32 = 1356;
+
+/// A GPS-time instant: week and seconds of week (kept apart so that differences keep
+/// nanoseconds).
+#[derive(Clone, Copy, Debug, PartialEq, PartialOrd)]
+pub struct GpsTime {
+    /// Week since 1980-01-06.
+    pub week: i32,
+    /// Seconds of week, `[0, 604800)`.
+    pub tow: f64,
+}
+
+impl GpsTime {
+    /// From a week and seconds of week that may lie outside `[0, 604800)`.
+    pub fn new(week: i32, tow: f64) -> Self {
+        let shift = (tow / WEEK).floor();
+        Self { week: week + shift as i32, tow: tow - shift * WEEK }
+    }
+
+    /// From a calendar date and time on GPS time's own scale (as RINEX writes them).
+    pub fn from_calendar(y: i64, mo: i64, d: i64, h: i64, mi: i64, s: f64) -> Self {
+        let days = days_from_civil(y, mo, d) - GPS_EPOCH_DAYS;
+        let week = days.div_euclid(7);
+        let tow = days.rem_euclid(7) as f64 * 86_400.0 + (h * 3600 + mi * 60) as f64 + s;
+        Self::new(week as i32, tow)
+    }
+
+    /// `self − other`, s.
+    pub fn diff(&self, other: &GpsTime) -> f64 {
+        (self.week - other.week) as f64 * WEEK + (self.tow - other.tow)
+    }
+
+    /// `self + dt`.
+    pub fn add(&self, dt: f64) -> Self {
+        Self::new(self.week, self.tow + dt)
+    }
+
+    /// Calendar date and time `(y, m, d, h, min, s)` on GPS time's scale.
+    pub fn calendar(&self) -> (i64, i64, i64, i64, i64, f64) {
+        let day = (self.tow / 86_400.0).floor();
+        let sod = self.tow - day * 86_400.0;
+        let (y, m, d) =
+            crate::io::rtklib::civil_from_days(GPS_EPOCH_DAYS + self.week as i64 * 7 + day as i64);
+        let h = (sod / 3600.0).floor();
+        let mi = ((sod - h * 3600.0) / 60.0).floor();
+        (y, m, d, h as i64, mi as i64, sod - h * 3600.0 - mi * 60.0)
+    }
+}
+
+impl fmt::Display for GpsTime {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (y, m, d, h, mi, s) = self.calendar();
+        write!(f, "{y:04}/{m:02}/{d:02} {h:02}:{mi:02}:{s:06.3} GPST")
+    }
+}
+
+/// A satellite system.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum System {
+    /// GPS.
+    Gps,
+    /// GLONASS (read, not used by the models here).
+    Glonass,
+    /// Galileo.
+    Galileo,
+    /// BeiDou.
+    BeiDou,
+    /// QZSS (GPS-like orbits).
+    Qzss,
+    /// SBAS (read, not used).
+    Sbas,
+    /// NavIC/IRNSS (read, not used).
+    Irnss,
+}
+
+impl System {
+    /// From the RINEX letter.
+    pub fn from_letter(c: char) -> Option<Self> {
+        Some(match c {
+            'G' | ' ' => Self::Gps,
+            'R' => Self::Glonass,
+            'E' => Self::Galileo,
+            'C' => Self::BeiDou,
+            'J' => Self::Qzss,
+            'S' => Self::Sbas,
+            'I' => Self::Irnss,
+            _ => return None,
+        })
+    }
+
+    /// The RINEX letter.
+    pub fn letter(self) -> char {
+        match self {
+            Self::Gps => 'G',
+            Self::Glonass => 'R',
+            Self::Galileo => 'E',
+            Self::BeiDou => 'C',
+            Self::Qzss => 'J',
+            Self::Sbas => 'S',
+            Self::Irnss => 'I',
+        }
+    }
+
+    /// Whether its broadcast orbit is Keplerian (the model of [`super::ephemeris`]).
+    pub fn keplerian(self) -> bool {
+        matches!(self, Self::Gps | Self::Galileo | Self::BeiDou | Self::Qzss)
+    }
+}
+
+/// A satellite: system and number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Sat {
+    /// System.
+    pub sys: System,
+    /// PRN (slot for GLONASS).
+    pub prn: u8,
+}
+
+impl Sat {
+    /// Parses `G05`, `G 5`, ` 5` (RINEX 2: GPS), `E11`.
+    pub fn parse(s: &str) -> Option<Self> {
+        let mut c = s.chars();
+        let first = c.next()?;
+        let (sys, rest) = if first.is_ascii_digit() {
+            (System::Gps, s)
+        } else {
+            (System::from_letter(first)?, c.as_str())
+        };
+        let prn: u8 = rest.trim().parse().ok()?;
+        (prn > 0).then_some(Self { sys, prn })
+    }
+
+    /// BeiDou geostationary satellites (PRN 1–5 and 59–63), whose orbit is rotated.
+    pub fn beidou_geo(&self) -> bool {
+        self.sys == System::BeiDou && (self.prn <= 5 || self.prn >= 59)
+    }
+}
+
+impl fmt::Display for Sat {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}{:02}", self.sys.letter(), self.prn)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn calendar_round_trip_and_known_week() {
+        // 2005-04-02 00:00:00 GPST is week 1316, 518400 s (RTKLIB's header of the shipped run)
+        let t = GpsTime::from_calendar(2005, 4, 2, 0, 0, 0.0);
+        assert_eq!(t.week, 1316);
+        assert_eq!(t.tow, 518_400.0);
+        let (y, m, d, h, mi, s) = t.add(3723.5).calendar();
+        assert_eq!((y, m, d, h, mi), (2005, 4, 2, 1, 2));
+        assert!((s - 3.5).abs() < 1e-9);
+        // across the week's end
+        let u = t.add(100_000.0);
+        assert_eq!(u.week, 1317);
+        assert!((u.diff(&t) - 100_000.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn satellites_parse_both_rinex_spellings() {
+        assert_eq!(Sat::parse("G05"), Some(Sat { sys: System::Gps, prn: 5 }));
+        assert_eq!(Sat::parse("G 5"), Some(Sat { sys: System::Gps, prn: 5 }));
+        assert_eq!(Sat::parse(" 5"), Some(Sat { sys: System::Gps, prn: 5 }));
+        assert_eq!(Sat::parse("E11").unwrap().to_string(), "E11");
+        assert!(Sat::parse("C03").unwrap().beidou_geo());
+        assert_eq!(Sat::parse("X01"), None);
+        assert_eq!(Sat::parse("G00"), None);
+    }
+}

@@ -1,0 +1,339 @@
+//! Raw GNSS observations of a simulated trajectory: pseudorange, carrier phase, Doppler
+//! and C/N0 per satellite on two frequencies, from the satellites of a real navigation
+//! file, with a receiver clock, the atmosphere, noise, multipath outliers, cycle slips and
+//! sky masks (an urban canyon that leaves the highest few satellites, a tunnel that leaves
+//! none).
+//!
+//! The observation model is the one [`ins_gnss_core::raw::spp`] inverts:
+//! `P = ρ + c·dt_r − c·dt_s + I + T + e_eph + e_code + ε` with `ρ` the geometric range from
+//! the satellite at its transmission time to the antenna at the true reception time, with
+//! the Sagnac term; the phase has `−I`, an integer ambiguity per arc and its own noise.
+//! The errors are drawn from the single-point solution's error budget by default
+//! ([`RawSim::spp_budget`]), so that its covariance can be checked (NEES) on this data.
+
+use crate::trajectory::Trajectory;
+use ins_gnss_core::earth::{ecef_to_geodetic, geodetic_to_ecef};
+use ins_gnss_core::raw::atmosphere::{saastamoinen, Klobuchar};
+use ins_gnss_core::raw::ephemeris::{Ephemerides, C, OMEGA_E};
+use ins_gnss_core::raw::obs::frequency;
+use ins_gnss_core::raw::spp::azel;
+use ins_gnss_core::raw::{GpsTime, ObsEpoch, Sat, SatObs, Signal};
+use nalgebra::Vector3;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use std::collections::BTreeMap;
+
+/// A sky mask over a time window (trajectory time, s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyMask {
+    /// Start, s.
+    pub start: f64,
+    /// End, s.
+    pub end: f64,
+    /// Satellites left: the `keep` highest (an urban canyon); 0 is a tunnel.
+    pub keep: usize,
+}
+
+/// Settings of the raw-observation simulator.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawSim {
+    /// GPS time of the trajectory's start.
+    pub start: GpsTime,
+    /// Observation rate, Hz.
+    pub rate_hz: f64,
+    /// Satellites below this elevation are not tracked, rad.
+    pub elevation_mask: f64,
+    /// Antenna lever arm (FRD), m.
+    pub lever_arm: Vector3<f64>,
+    /// Code noise `σ² = a² + b²/sin²(el)`: `(a, b)`, m.
+    pub code_noise: (f64, f64),
+    /// Carrier-phase noise, m.
+    pub phase_std: f64,
+    /// Doppler noise, m/s.
+    pub doppler_std: f64,
+    /// Receiver clock at the start: bias (m) and drift (m/s).
+    pub clock: (f64, f64),
+    /// Random-walk density of the clock drift, m/s/√s.
+    pub clock_drift_noise: f64,
+    /// σ of a constant range error per satellite and run (orbit and clock), m.
+    pub ephemeris_std: f64,
+    /// σ of a constant code bias per satellite and run, m.
+    pub code_bias_std: f64,
+    /// The true ionosphere is the broadcast model times `1 + δ`, `δ ~ N(0, σ²)` per
+    /// satellite and run.
+    pub iono_error: f64,
+    /// The true troposphere is Saastamoinen's plus `N(0, (k/(sin el + 0.1))²)` with this `k`,
+    /// per satellite and run, m.
+    pub tropo_error: f64,
+    /// Probability per satellite and epoch of a multipath outlier on the code, and its
+    /// size range (m, either sign).
+    pub outliers: (f64, (f64, f64)),
+    /// Probability per satellite and epoch of a cycle slip (loss-of-lock flag set).
+    pub slip_probability: f64,
+    /// Sky masks.
+    pub masks: Vec<SkyMask>,
+}
+
+impl RawSim {
+    /// A receiver whose errors are drawn from the budget [`ins_gnss_core::raw::spp`]
+    /// assumes with its default options: URA 2.4 m, 0.3 m code bias, half the Klobuchar
+    /// delay, 0.3/(sin el + 0.1) m of troposphere, code noise 0.3 m ⊕ 0.3 m/sin el; 1 Hz,
+    /// 10° mask, no outliers, slips or masks.
+    pub fn spp_budget(start: GpsTime) -> Self {
+        Self {
+            start,
+            rate_hz: 1.0,
+            elevation_mask: 10f64.to_radians(),
+            lever_arm: Vector3::zeros(),
+            code_noise: (0.3, 0.3),
+            phase_std: 0.003,
+            doppler_std: 0.05,
+            clock: (3.0e4, 0.5),
+            clock_drift_noise: 0.01,
+            ephemeris_std: 2.4,
+            code_bias_std: 0.3,
+            iono_error: 0.5,
+            tropo_error: 0.3,
+            outliers: (0.0, (20.0, 100.0)),
+            slip_probability: 0.0,
+            masks: Vec::new(),
+        }
+    }
+}
+
+/// What the simulator knows that a receiver does not, per epoch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawTruth {
+    /// Trajectory time of the epoch, s.
+    pub t: f64,
+    /// True antenna position (ECEF), m.
+    pub antenna: Vector3<f64>,
+    /// True antenna velocity (ECEF), m/s.
+    pub antenna_vel: Vector3<f64>,
+    /// Receiver clock bias (m) and drift (m/s).
+    pub clock: (f64, f64),
+}
+
+/// Per satellite and run: the constant errors and the phase arc.
+struct Track {
+    eph_bias: f64,
+    code_bias: f64,
+    iono_factor: f64,
+    tropo_bias: f64,
+    ambiguity: [f64; 2],
+}
+
+/// Simulates observations at `sim.rate_hz` over the trajectory: the epochs (receiver time
+/// stamps = true time + clock bias / c, exactly as a receiver's) and the truth of each.
+/// Deterministic for a seed.
+pub fn simulate_raw(
+    traj: &Trajectory,
+    eph: &Ephemerides,
+    klobuchar: &Klobuchar,
+    sim: &RawSim,
+    seed: u64,
+) -> (Vec<ObsEpoch>, Vec<RawTruth>) {
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x0072_6177_5f6f_6273);
+    let n01 = Normal::new(0.0, 1.0).expect("unit normal");
+    let mut tracks: BTreeMap<Sat, Track> = BTreeMap::new();
+    let sats: Vec<Sat> = {
+        let mut s: Vec<Sat> = eph.records().iter().map(|e| e.sat).collect();
+        s.dedup();
+        s
+    };
+    let t0 = traj.start_time();
+    let step = 1.0 / sim.rate_hz;
+    let n = ((traj.end_time() - t0) / step + 1e-9).floor() as usize;
+    let (mut bias, mut drift) = sim.clock;
+    let mut epochs = Vec::with_capacity(n + 1);
+    let mut truth = Vec::with_capacity(n + 1);
+    for j in 0..=n {
+        let t = t0 + j as f64 * step;
+        if j > 0 {
+            drift += sim.clock_drift_noise * step.sqrt() * n01.sample(&mut rng);
+            bias += drift * step;
+        }
+        let gps = sim.start.add(t - t0);
+        let k = traj.at(t);
+        let lever_n = k.att.rotate(&sim.lever_arm);
+        let ant = manifolds::Manifold::oplus(&k.pos, &lever_n);
+        let rr = geodetic_to_ecef(ant.lat, ant.lon, ant.h);
+        let c_en = ins_gnss_core::earth::ecef_to_ned_rotation(ant.lat, ant.lon).transpose();
+        let w_in = ins_gnss_core::earth::earth_rate_ned(k.pos.lat)
+            + ins_gnss_core::earth::transport_rate(k.pos.lat, k.pos.h, &k.vel);
+        let v_ant_n = k.vel + k.att.rotate(&k.w_ib_b.cross(&sim.lever_arm)) - w_in.cross(&lever_n);
+        let vr = c_en * v_ant_n;
+        let (lat, lon, h) = ecef_to_geodetic(&rr);
+        let mut visible: Vec<(f64, SatObs)> = Vec::new();
+        for &sat in &sats {
+            let Some(e) = eph.select(sat, &gps) else { continue };
+            // transmission time: iterate on the geometric range
+            let mut tau = 0.075;
+            let mut st = e.state(&gps.add(-tau));
+            for _ in 0..4 {
+                let r = (st.pos - rr).norm() + OMEGA_E * (st.pos.x * rr.y - st.pos.y * rr.x) / C;
+                tau = r / C;
+                st = e.state(&gps.add(-tau));
+            }
+            let d = st.pos - rr;
+            let u = d / d.norm();
+            let (az, el) = azel(lat, lon, &u);
+            if el < sim.elevation_mask {
+                tracks.remove(&sat);
+                continue;
+            }
+            let range = tau * C;
+            let tr = tracks.entry(sat).or_insert_with(|| Track {
+                eph_bias: sim.ephemeris_std * n01.sample(&mut rng),
+                code_bias: sim.code_bias_std * n01.sample(&mut rng),
+                iono_factor: 1.0 + sim.iono_error * n01.sample(&mut rng),
+                tropo_bias: n01.sample(&mut rng),
+                ambiguity: [
+                    rng.random_range(-1e6..1e6f64).round(),
+                    rng.random_range(-1e6..1e6f64).round(),
+                ],
+            });
+            let iono_l1 = klobuchar.delay(lat, lon, az, el, gps.tow) * tr.iono_factor;
+            let tropo =
+                saastamoinen(lat, h, el) + sim.tropo_error / (el.sin() + 0.1) * tr.tropo_bias;
+            // range rate with the Sagnac term's rate
+            let rate = u.dot(&(st.vel - vr))
+                + OMEGA_E / C
+                    * (st.vel.y * rr.x + st.pos.y * vr.x - st.vel.x * rr.y - st.pos.x * vr.y);
+            let (a, b) = sim.code_noise;
+            let sin_el = el.sin().max(0.05);
+            let code_sigma = (a * a + (b / sin_el).powi(2)).sqrt();
+            let outlier = if sim.outliers.0 > 0.0 && rng.random::<f64>() < sim.outliers.0 {
+                let (lo, hi) = sim.outliers.1;
+                rng.random_range(lo..hi) * if rng.random::<bool>() { 1.0 } else { -1.0 }
+            } else {
+                0.0
+            };
+            let mut signals = [Signal::default(); 2];
+            for (slot, s) in signals.iter_mut().enumerate() {
+                let f = frequency(sat.sys, slot);
+                let lambda = C / f;
+                let iono = iono_l1 * (frequency(sat.sys, 0) / f).powi(2);
+                // the broadcast clock's group delay belongs to the first frequency's code
+                let tgd = if slot == 0 {
+                    0.0
+                } else {
+                    e.group_delay() * C * ((frequency(sat.sys, 0) / f).powi(2) - 1.0)
+                };
+                let geometric = range + bias - C * st.clock + tropo + tr.eph_bias;
+                s.code = Some(
+                    geometric
+                        + iono
+                        + tgd
+                        + tr.code_bias
+                        + outlier
+                        + code_sigma * n01.sample(&mut rng),
+                );
+                let mut lli = 0;
+                if sim.slip_probability > 0.0 && rng.random::<f64>() < sim.slip_probability {
+                    tr.ambiguity[slot] += rng.random_range(1..50) as f64
+                        * if rng.random::<bool>() { 1.0 } else { -1.0 };
+                    lli = 1;
+                }
+                s.phase = Some(
+                    (geometric - iono + sim.phase_std * n01.sample(&mut rng)) / lambda
+                        + tr.ambiguity[slot],
+                );
+                s.lli = lli;
+                s.doppler = Some(
+                    -(rate + drift - C * st.drift + sim.doppler_std * n01.sample(&mut rng))
+                        / lambda,
+                );
+                s.cn0 = Some(30.0 + 20.0 * sin_el - 3.0 * slot as f64);
+            }
+            visible.push((el, SatObs { sat, signals }));
+        }
+        // sky masks: the highest `keep` satellites
+        let t_rel = t;
+        if let Some(m) =
+            sim.masks.iter().filter(|m| t_rel >= m.start && t_rel < m.end).map(|m| m.keep).min()
+        {
+            visible.sort_by(|a, b| b.0.total_cmp(&a.0));
+            for (_, o) in visible.iter().skip(m) {
+                tracks.remove(&o.sat);
+            }
+            visible.truncate(m);
+            visible.sort_by_key(|v| v.1.sat);
+        }
+        truth.push(RawTruth { t, antenna: rr, antenna_vel: vr, clock: (bias, drift) });
+        if visible.is_empty() {
+            continue;
+        }
+        epochs.push(ObsEpoch {
+            // the receiver stamps its own time: true time + clock bias
+            time: gps.add(bias / C),
+            flag: 0,
+            sats: visible.into_iter().map(|v| v.1).collect(),
+            line: j,
+        });
+    }
+    (epochs, truth)
+}
+
+/// Writes epochs as a RINEX 3.04 observation file (GPS, Galileo, BeiDou, QZSS; two
+/// frequencies: code, phase, Doppler, C/N0 each).
+pub fn write_rinex_obs<W: std::io::Write>(
+    w: &mut W,
+    epochs: &[ObsEpoch],
+    approx: Option<&Vector3<f64>>,
+) -> std::io::Result<()> {
+    let line = |w: &mut W, body: String, label: &str| writeln!(w, "{body:<60}{label}");
+    line(
+        w,
+        format!("{:>9.2}{:11}{:<20}{:<20}", 3.04, "", "OBSERVATION DATA", "M: Mixed"),
+        "RINEX VERSION / TYPE",
+    )?;
+    line(w, format!("{:<20}{:<20}{:<20}", "ins-gnss-sim", "", ""), "PGM / RUN BY / DATE")?;
+    line(w, "SIM".into(), "MARKER NAME")?;
+    let p = approx.copied().unwrap_or_else(Vector3::zeros);
+    line(w, format!("{:14.4}{:14.4}{:14.4}", p.x, p.y, p.z), "APPROX POSITION XYZ")?;
+    let types = |sys: char, b1: &str, b2: &str| {
+        let t: Vec<String> = ["C", "L", "D", "S"]
+            .iter()
+            .flat_map(|k| [format!("{k}{b1}"), format!("{k}{b2}")])
+            .collect();
+        format!("{sys}  {:>3} {}", t.len(), t.join(" "))
+    };
+    for (sys, b1, b2) in
+        [('G', "1C", "2W"), ('E', "1C", "5Q"), ('C', "2I", "6I"), ('J', "1C", "2L")]
+    {
+        line(w, types(sys, b1, b2), "SYS / # / OBS TYPES")?;
+    }
+    if let Some(first) = epochs.first() {
+        let (y, m, d, h, mi, s) = first.time.calendar();
+        line(w, format!("{y:>6}{m:>6}{d:>6}{h:>6}{mi:>6}{s:>13.7}     GPS"), "TIME OF FIRST OBS")?;
+    }
+    line(w, String::new(), "END OF HEADER")?;
+    for e in epochs {
+        let (y, m, d, h, mi, s) = e.time.calendar();
+        writeln!(w, "> {y:04} {m:02} {d:02} {h:02} {mi:02}{s:11.7}  {}{:3}", e.flag, e.sats.len())?;
+        for o in &e.sats {
+            write!(w, "{}", o.sat)?;
+            // order of the header: C1 C2 L1 L2 D1 D2 S1 S2
+            let pick = |k: usize, s: &Signal| match k {
+                0 => s.code,
+                1 => s.phase,
+                2 => s.doppler,
+                _ => s.cn0,
+            };
+            for k in 0..4 {
+                for s in &o.signals {
+                    match pick(k, s) {
+                        Some(v) if k == 1 && s.lli != 0 => write!(w, "{v:14.3}{}", s.lli)?,
+                        Some(v) => write!(w, "{v:14.3} ")?,
+                        None => write!(w, "{:15}", "")?,
+                    }
+                    write!(w, " ")?;
+                }
+            }
+            writeln!(w)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,255 @@
+//! `ins-gnss spp`: the single-point solution of a RINEX observation file, written as an
+//! RTKLIB `.pos`, and its comparison with another solution of the same file.
+
+use crate::cli::CliError;
+use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
+use ins_gnss_core::io::formats::{create_partial, publish};
+use ins_gnss_core::io::rtklib::{
+    parse_line, push_epoch_ns, write_header_mode, PosHeader, QualityFactors,
+};
+use ins_gnss_core::raw::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
+use ins_gnss_core::raw::{read_nav, NavData, ObsReader, Spp};
+use ins_gnss_core::GeoPos;
+use nalgebra::{Matrix3, Vector3};
+use std::collections::BTreeMap;
+use std::io::{BufRead, Write};
+use std::path::Path;
+
+/// What a single-point run found.
+#[derive(Clone, Debug, Default)]
+pub struct SppRun {
+    /// Epochs read.
+    pub epochs: usize,
+    /// The solutions.
+    pub solutions: Vec<Spp>,
+    /// Epochs without a solution, by reason.
+    pub failures: BTreeMap<String, usize>,
+    /// Satellites excluded by RAIM, in all.
+    pub excluded: usize,
+}
+
+/// Solves every epoch of `obs` with the ephemerides of `navs` (merged).
+pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun, CliError> {
+    let mut nav = NavData::default();
+    let mut records = Vec::new();
+    for n in navs {
+        let d = read_nav(n)?;
+        records.extend(d.ephemerides.records().iter().cloned());
+        nav.klobuchar = nav.klobuchar.or(d.klobuchar);
+        nav.unused += d.unused;
+    }
+    if records.is_empty() {
+        return Err(
+            format!("{}: no GPS, Galileo, BeiDou or QZSS ephemeris", navs[0].display()).into()
+        );
+    }
+    nav.ephemerides = ins_gnss_core::raw::Ephemerides::new(records);
+    let mut reader = ObsReader::open(obs)?;
+    let mut run = SppRun::default();
+    let mut prior: Option<Vector3<f64>> = reader.header.approx_position;
+    while let Some(epoch) = reader.next_epoch()? {
+        run.epochs += 1;
+        match single_point(&epoch, &nav.ephemerides, nav.klobuchar.as_ref(), opt, prior.as_ref()) {
+            Ok(s) => {
+                prior = Some(s.pos);
+                run.excluded += s.excluded.len();
+                run.solutions.push(s);
+            }
+            Err(f) => {
+                let key = match f {
+                    SppFailure::TooFewSatellites { .. } => "too few satellites",
+                    SppFailure::NoConvergence => "no convergence",
+                    SppFailure::Singular => "degenerate geometry",
+                    SppFailure::Gdop(_) => "GDOP",
+                    SppFailure::Residuals { .. } => "residuals fail the χ² check",
+                };
+                *run.failures.entry(key.to_string()).or_default() += 1;
+            }
+        }
+    }
+    Ok(run)
+}
+
+/// Writes the solutions as an RTKLIB `.pos` (GPST week and seconds, LLH, NEU σ), atomically.
+pub fn write_pos(path: &Path, run: &SppRun, opt: &SppOptions) -> Result<(), CliError> {
+    let mut w = create_partial(path)?;
+    let mode = format!(
+        "single point (ionosphere {:?}, troposphere {:?}, elevation mask {:.0}°)",
+        opt.ionosphere,
+        opt.troposphere,
+        opt.elevation_mask.to_degrees()
+    );
+    write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
+    let mut line = Vec::with_capacity(200);
+    for s in &run.solutions {
+        let (lat, lon, h) = ecef_to_geodetic(&s.pos);
+        let c = ecef_to_ned_rotation(lat, lon);
+        let cov = c * s.cov * c.transpose();
+        line.clear();
+        let t = s.solution_time();
+        push_epoch_ns(
+            &mut line,
+            t.week as f64,
+            t.tow,
+            &GeoPos { lat, lon, h },
+            &cov,
+            None,
+            5,
+            s.used.len(),
+        );
+        w.write_all(&line)?;
+    }
+    w.flush()?;
+    drop(w);
+    publish(path)?;
+    Ok(())
+}
+
+/// Reads an RTKLIB `.pos` (GPST) as `(GPS week seconds, ECEF)`; epochs of `Q = 0` are left out.
+pub fn read_pos(path: &Path) -> Result<Vec<(f64, Vector3<f64>)>, CliError> {
+    let f = ins_gnss_core::io::formats::open(path)?;
+    let mut header: Option<PosHeader> = None;
+    let mut out = Vec::new();
+    for (k, line) in f.lines().enumerate() {
+        let line = line?;
+        if line.trim_start().starts_with('%') {
+            if let Some(h) = PosHeader::parse(&line) {
+                header = Some(h);
+            }
+            continue;
+        }
+        if line.trim().is_empty() {
+            continue;
+        }
+        let h = header.as_ref().ok_or_else(|| {
+            format!("{}:{}: data before the `%  GPST …` header", path.display(), k + 1)
+        })?;
+        if let Some(e) = parse_line(h, &line, &QualityFactors::default())
+            .map_err(|e| format!("{}:{}: {e:?}", path.display(), k + 1))?
+        {
+            out.push((e.t, ins_gnss_core::io::rtklib::to_ecef(&e.pos)));
+        }
+    }
+    Ok(out)
+}
+
+/// Horizontal and vertical scatter (RMS about the mean, m) of ECEF points, in the local
+/// frame at their mean; and the mean.
+pub fn scatter(points: &[Vector3<f64>]) -> (f64, f64, Vector3<f64>) {
+    if points.is_empty() {
+        return (f64::NAN, f64::NAN, Vector3::zeros());
+    }
+    let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let (lat, lon, _) = ecef_to_geodetic(&mean);
+    let c: Matrix3<f64> = ecef_to_ned_rotation(lat, lon);
+    let (mut hh, mut vv) = (0.0, 0.0);
+    for p in points {
+        let d = c * (p - mean);
+        hh += d.x * d.x + d.y * d.y;
+        vv += d.z * d.z;
+    }
+    let n = points.len() as f64;
+    ((hh / n).sqrt(), (vv / n).sqrt(), mean)
+}
+
+/// Differences of two solutions at their common epochs: count, 3D RMS, mean NED offset
+/// (ours − theirs).
+pub fn compare(
+    ours: &[(f64, Vector3<f64>)],
+    theirs: &[(f64, Vector3<f64>)],
+) -> (usize, f64, Vector3<f64>) {
+    let mut n = 0;
+    let mut ss = 0.0;
+    let mut mean = Vector3::zeros();
+    let mut j = 0;
+    for (t, p) in ours {
+        while j < theirs.len() && theirs[j].0 < t - 1e-3 {
+            j += 1;
+        }
+        if j < theirs.len() && (theirs[j].0 - t).abs() <= 1e-3 {
+            let d = p - theirs[j].1;
+            let (lat, lon, _) = ecef_to_geodetic(p);
+            mean += ecef_to_ned_rotation(lat, lon) * d;
+            ss += d.norm_squared();
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return (0, f64::NAN, Vector3::zeros());
+    }
+    (n, (ss / n as f64).sqrt(), mean / n as f64)
+}
+
+/// Parses `--iono`.
+pub fn parse_iono(s: &str) -> Result<Ionosphere, String> {
+    match s {
+        "off" => Ok(Ionosphere::Off),
+        "klobuchar" | "brdc" => Ok(Ionosphere::Klobuchar),
+        "iono-free" | "if" => Ok(Ionosphere::IonoFree),
+        _ => Err(format!("`{s}`: off, klobuchar or iono-free")),
+    }
+}
+
+/// Parses `--tropo`.
+pub fn parse_tropo(s: &str) -> Result<Troposphere, String> {
+    match s {
+        "off" => Ok(Troposphere::Off),
+        "saastamoinen" | "saas" => Ok(Troposphere::Saastamoinen),
+        _ => Err(format!("`{s}`: off or saastamoinen")),
+    }
+}
+
+/// `ins-gnss spp`: solve, write, print a summary (and the comparison with `against`).
+pub fn run(
+    obs: &Path,
+    navs: &[&Path],
+    out: Option<&Path>,
+    opt: &SppOptions,
+    against: Option<&Path>,
+) -> Result<(), CliError> {
+    let run = solve_file(obs, navs, opt)?;
+    let pts: Vec<Vector3<f64>> = run.solutions.iter().map(|s| s.pos).collect();
+    let (hs, vs, mean) = scatter(&pts);
+    let (lat, lon, h) = ecef_to_geodetic(&mean);
+    println!(
+        "{}: {} of {} epochs solved ({}), {} RAIM exclusions",
+        obs.display(),
+        run.solutions.len(),
+        run.epochs,
+        if run.failures.is_empty() {
+            "no failures".to_string()
+        } else {
+            run.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", ")
+        },
+        run.excluded
+    );
+    println!(
+        "mean {:.9}° {:.9}° {:.3} m; scatter about it: horizontal {:.3} m, vertical {:.3} m (RMS)",
+        lat.to_degrees(),
+        lon.to_degrees(),
+        h,
+        hs,
+        vs
+    );
+    if let Some(out) = out {
+        write_pos(out, &run, opt)?;
+        println!("wrote {}", out.display());
+    }
+    if let Some(a) = against {
+        let theirs = read_pos(a)?;
+        let ours: Vec<(f64, Vector3<f64>)> =
+            run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
+        let (n, rms, d) = compare(&ours, &theirs);
+        let tp: Vec<Vector3<f64>> = theirs.iter().map(|p| p.1).collect();
+        let (ths, tvs, _) = scatter(&tp);
+        println!(
+            "against {} ({} epochs): {n} common, 3D RMS difference {rms:.3} m, mean offset N {:.3} E {:.3} D {:.3} m; its scatter: horizontal {ths:.3} m, vertical {tvs:.3} m",
+            a.display(),
+            theirs.len(),
+            d.x,
+            d.y,
+            d.z
+        );
+    }
+    Ok(())
+}
