@@ -17,8 +17,12 @@ use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
 use crate::imu::ImuNoise;
 use crate::imu::ImuSample;
 use crate::model::{ImuInput, InsModel, M15};
+use crate::raw::atmosphere::Klobuchar;
+use crate::raw::spp::{azel, corrections, Prepared, SppOptions};
+use crate::raw::GpsTime;
 use crate::scale::{InsModel21, InsState21, On21, M21};
 use crate::state::InsState;
+use crate::tight::{InsModelTc, InsStateTc, OnTc, Pseudorange, RangeRate, M20};
 use crate::vehicle::{
     mounting_matrix, Nhc, Odometer, OdometerScale, StationaryDetector, VehicleAiding, Zaru, Zupt,
 };
@@ -108,6 +112,7 @@ where
         MM: MeasurementModel<State = InsState>,
         O: Observer,
         DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<21>, StateDim<MM::Measurement>>;
 }
 
@@ -134,6 +139,7 @@ impl NavState for InsState {
         MM: MeasurementModel<State = InsState>,
         O: Observer,
         DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
     {
         filter.update_observed(model, z, r, observer).map(|r| r.summary())
@@ -163,9 +169,40 @@ impl NavState for InsState21 {
         MM: MeasurementModel<State = InsState>,
         O: Observer,
         DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
     {
         filter.update_observed(&On21(model), z, r, observer).map(|r| r.summary())
+    }
+}
+
+impl NavState for InsStateTc {
+    type Model = InsModelTc;
+
+    fn nav(&self) -> &InsState {
+        &self.nav
+    }
+
+    fn imu_noise(model: &InsModelTc) -> &ImuNoise {
+        &model.base.noise
+    }
+
+    fn update<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsState>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
+    {
+        filter.update_observed(&OnTc(model), z, r, observer).map(|r| r.summary())
     }
 }
 
@@ -453,6 +490,41 @@ where
         out: &mut Vec<UpdateSummary>,
         recorder: &mut R,
     ) -> Result<(), NavError> {
+        self.process_events(
+            imu,
+            gnss,
+            |g| g.t,
+            observer,
+            out,
+            recorder,
+            |nav, g, obs, out, rec| {
+                rec.before_update(&nav.filter);
+                out.push(nav.update(g, obs)?);
+                Ok(())
+            },
+        )
+    }
+
+    /// One IMU sample with the measurement events whose time (`time`) falls in its
+    /// interval, each applied by `apply` at its exact time (the interval split there),
+    /// then the vehicle aiding at the sample's end.
+    #[allow(clippy::too_many_arguments)]
+    fn process_events<O: Observer, R: StepRecorder<S, ImuInput>, E>(
+        &mut self,
+        imu: &ImuSample,
+        events: &[E],
+        time: impl Fn(&E) -> f64,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+        mut apply: impl FnMut(
+            &mut Self,
+            &E,
+            &mut O,
+            &mut Vec<UpdateSummary>,
+            &mut R,
+        ) -> Result<(), NavError>,
+    ) -> Result<(), NavError> {
         if !(imu.t.is_finite() && imu.dt.is_finite() && imu.dt > 0.0) {
             return Err(NavError::BadSample {
                 t: imu.t,
@@ -466,23 +538,23 @@ where
             return Err(NavError::TimeWentBackwards { t: imu.t, now: self.time });
         }
         let mut rest = *imu;
-        for g in gnss {
-            if g.t < self.time - TIME_EPSILON {
-                return Err(NavError::TimeWentBackwards { t: g.t, now: self.time });
+        for g in events {
+            let gt = time(g);
+            if gt < self.time - TIME_EPSILON {
+                return Err(NavError::TimeWentBackwards { t: gt, now: self.time });
             }
-            if g.t > imu.t + TIME_EPSILON {
+            if gt > imu.t + TIME_EPSILON {
                 break;
             }
-            if g.t < rest.t - TIME_EPSILON && g.t > self.time + TIME_EPSILON {
-                let (first, second) = rest.split(g.t);
+            if gt < rest.t - TIME_EPSILON && gt > self.time + TIME_EPSILON {
+                let (first, second) = rest.split(gt);
                 self.propagate(&first, recorder, false)?;
                 rest = second;
-            } else if g.t >= rest.t - TIME_EPSILON {
+            } else if gt >= rest.t - TIME_EPSILON {
                 self.propagate(&rest, recorder, true)?;
                 rest.dt = 0.0;
             }
-            recorder.before_update(&self.filter);
-            out.push(self.update(g, observer)?);
+            apply(self, g, observer, out, recorder)?;
         }
         if rest.dt > 0.0 {
             self.propagate(&rest, recorder, true)?;
@@ -650,6 +722,164 @@ where
                     .map_err(err)
             }
         }
+    }
+}
+
+/// One epoch of raw observations for the tightly coupled navigator: the satellites at
+/// their transmission times ([`crate::raw::spp::prepare`]) and the epoch's time on the
+/// navigator's clock.
+#[derive(Clone, Debug)]
+pub struct RawEpoch {
+    /// Time on the navigator's (the IMU's) clock, s.
+    pub t: f64,
+    /// The receiver's GPS time stamp (for the ionosphere's local time).
+    pub time: GpsTime,
+    /// The satellites.
+    pub sats: Vec<Prepared>,
+}
+
+/// How raw observations are used.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TightConfig {
+    /// Elevation mask, models and code weighting (the single point's options).
+    pub models: SppOptions,
+    /// The broadcast ionosphere.
+    pub klobuchar: Klobuchar,
+    /// Use the Dopplers (range rates) as well as the codes.
+    pub use_doppler: bool,
+}
+
+/// The receiver clock at the start of a tightly coupled run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClockInit {
+    /// Bias `c·dt` (m) and drift `c·ḋt` (m/s), e.g. from a single point.
+    pub clock: (f64, f64),
+    /// Their 1σ.
+    pub std: (f64, f64),
+    /// 1σ of the inter-system biases, m.
+    pub isb_std: f64,
+}
+
+impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
+    /// A tightly coupled navigator at `init` with the receiver clock of `clock`.
+    pub fn new_tight(
+        init: &InitialState,
+        clock: &ClockInit,
+        model: InsModelTc,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let x = InsStateTc {
+            nav: init.state.clone(),
+            clock: manifolds::R2::new(clock.clock.0, clock.clock.1),
+            isb: Vector3::zeros(),
+        };
+        let mut p = M20::zeros();
+        let p15: M15 = init.std.covariance();
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p15);
+        p[(15, 15)] = clock.std.0.powi(2);
+        p[(16, 16)] = clock.std.1.powi(2);
+        for k in 17..20 {
+            p[(k, k)] = clock.isb_std.powi(2);
+        }
+        Self::from_parts(x, p, init.time, model, strategy, gnss)
+    }
+
+    /// One IMU sample with the raw epochs of its interval (sorted): each satellite's
+    /// pseudorange (and range rate) is an update of its own stream, at the epoch's time.
+    pub fn process_raw<O: Observer>(
+        &mut self,
+        imu: &ImuSample,
+        raw: &[RawEpoch],
+        cfg: &TightConfig,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+    ) -> Result<(), NavError> {
+        self.process_raw_recorded(imu, raw, cfg, observer, out, &mut ())
+    }
+
+    /// [`process_raw`](Self::process_raw) telling `recorder` of every prediction and
+    /// update (a smoother).
+    pub fn process_raw_recorded<O: Observer, R: StepRecorder<InsStateTc, ImuInput>>(
+        &mut self,
+        imu: &ImuSample,
+        raw: &[RawEpoch],
+        cfg: &TightConfig,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        self.process_events(
+            imu,
+            raw,
+            |e| e.t,
+            observer,
+            out,
+            recorder,
+            |nav, e, obs, out, rec| nav.update_raw(e, cfg, obs, out, rec),
+        )
+    }
+
+    /// The satellites of one epoch, one update each (now: the epoch's time is the
+    /// navigator's).
+    fn update_raw<O: Observer, R: StepRecorder<InsStateTc, ImuInput>>(
+        &mut self,
+        e: &RawEpoch,
+        cfg: &TightConfig,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        let err = |source| NavError::Measurement { t: e.t, source };
+        self.vehicle.last_gnss = e.t;
+        let lever = self.gnss.lever_arm;
+        for s in &e.sats {
+            // the geometry at the state as it stands (earlier satellites of the epoch moved it)
+            let x = &self.filter.state().nav;
+            let ant = manifolds::Manifold::oplus(&x.pos, &(x.att.matrix() * lever));
+            let r_a = crate::earth::geodetic_to_ecef(ant.lat, ant.lon, ant.h);
+            let d = s.state.pos - r_a;
+            let (az, el) = azel(ant.lat, ant.lon, &(d / d.norm()));
+            if el < cfg.models.elevation_mask {
+                continue;
+            }
+            let (corr, var) = corrections(
+                &cfg.models,
+                &cfg.klobuchar,
+                (ant.lat, ant.lon, ant.h),
+                (az, el),
+                e.time.tow,
+                s,
+            );
+            let model = Pseudorange { sat: s, corrections: corr, lever_arm: lever };
+            recorder.before_update(&self.filter);
+            let report = self
+                .filter
+                .update_observed(
+                    &model,
+                    &nalgebra::Vector1::new(s.range),
+                    &nalgebra::Matrix1::new(var),
+                    observer,
+                )
+                .map_err(err)?;
+            out.push(report.summary());
+            if let (true, Some(rate)) = (cfg.use_doppler, s.range_rate) {
+                let model = RangeRate { sat: s, lever_arm: lever, gyro_rate: self.rate };
+                let v = cfg.models.doppler_std.powi(2);
+                recorder.before_update(&self.filter);
+                let report = self
+                    .filter
+                    .update_observed(
+                        &model,
+                        &nalgebra::Vector1::new(rate),
+                        &nalgebra::Matrix1::new(v),
+                        observer,
+                    )
+                    .map_err(err)?;
+                out.push(report.summary());
+            }
+        }
+        Ok(())
     }
 }
 

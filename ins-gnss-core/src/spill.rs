@@ -10,6 +10,7 @@ use crate::model::ImuInput;
 use crate::position::GeoPos;
 use crate::scale::InsState21;
 use crate::state::InsState;
+use crate::tight::InsStateTc;
 
 fn put3(out: &mut [f64], v: &Vector3<f64>) {
     out[..3].copy_from_slice(v.as_slice());
@@ -54,6 +55,26 @@ impl Spill for InsState21 {
     fn unspill(v: &[f64]) -> Self {
         let n = InsState::LEN;
         InsState21 { nav: InsState::unspill(&v[..n]), sg: get3(&v[n..]), sa: get3(&v[n + 3..]) }
+    }
+}
+
+impl Spill for InsStateTc {
+    /// The 15-state row, the clock bias and drift, the inter-system biases.
+    const LEN: usize = InsState::LEN + 5;
+    fn spill(&self, out: &mut [f64]) {
+        let n = InsState::LEN;
+        self.nav.spill(&mut out[..n]);
+        out[n] = self.clock[0];
+        out[n + 1] = self.clock[1];
+        put3(&mut out[n + 2..], &self.isb);
+    }
+    fn unspill(v: &[f64]) -> Self {
+        let n = InsState::LEN;
+        InsStateTc {
+            nav: InsState::unspill(&v[..n]),
+            clock: manifolds::R2::new(v[n], v[n + 1]),
+            isb: get3(&v[n + 2..]),
+        }
     }
 }
 

@@ -73,13 +73,17 @@ pub struct RawSim {
     pub slip_probability: f64,
     /// Sky masks.
     pub masks: Vec<SkyMask>,
+    /// Draw the per-satellite errors (orbit, code bias, ionosphere, troposphere) afresh at
+    /// every epoch instead of once per satellite and run: white errors, the model a filter
+    /// that treats each epoch's code as independent assumes (for consistency checks).
+    pub white_errors: bool,
 }
 
 impl RawSim {
     /// A receiver whose errors are drawn from the budget [`ins_gnss_core::raw::spp`]
     /// assumes with its default options: URA 2.4 m, 0.3 m code bias, half the Klobuchar
-    /// delay, 0.3/(sin el + 0.1) m of troposphere, code noise 0.3 m ⊕ 0.3 m/sin el; 1 Hz,
-    /// 10° mask, no outliers, slips or masks.
+    /// delay, 0.3/(sin el + 0.1) m of troposphere, code noise 0.3 m ⊕ 0.3 m/sin el,
+    /// Doppler 0.1 m/s; 1 Hz, 10° mask, no outliers, slips or masks.
     pub fn spp_budget(start: GpsTime) -> Self {
         Self {
             start,
@@ -88,7 +92,7 @@ impl RawSim {
             lever_arm: Vector3::zeros(),
             code_noise: (0.3, 0.3),
             phase_std: 0.003,
-            doppler_std: 0.05,
+            doppler_std: 0.1,
             clock: (3.0e4, 0.5),
             clock_drift_noise: 0.01,
             ephemeris_std: 2.4,
@@ -98,6 +102,7 @@ impl RawSim {
             outliers: (0.0, (20.0, 100.0)),
             slip_probability: 0.0,
             masks: Vec::new(),
+            white_errors: false,
         }
     }
 }
@@ -135,6 +140,9 @@ pub fn simulate_raw(
     seed: u64,
 ) -> (Vec<ObsEpoch>, Vec<RawTruth>) {
     let mut rng = StdRng::seed_from_u64(seed ^ 0x0072_6177_5f6f_6273);
+    // outliers and slips on streams of their own: a run with them differs from the clean
+    // run of the same seed by them alone
+    let mut rng_faults = StdRng::seed_from_u64(seed ^ 0x0066_6175_6c74_7321);
     let n01 = Normal::new(0.0, 1.0).expect("unit normal");
     let mut tracks: BTreeMap<Sat, Track> = BTreeMap::new();
     let sats: Vec<Sat> = {
@@ -184,6 +192,14 @@ pub fn simulate_raw(
                 continue;
             }
             let range = tau * C;
+            if sim.white_errors {
+                if let Some(old) = tracks.get_mut(&sat) {
+                    old.eph_bias = sim.ephemeris_std * n01.sample(&mut rng);
+                    old.code_bias = sim.code_bias_std * n01.sample(&mut rng);
+                    old.iono_factor = 1.0 + sim.iono_error * n01.sample(&mut rng);
+                    old.tropo_bias = n01.sample(&mut rng);
+                }
+            }
             let tr = tracks.entry(sat).or_insert_with(|| Track {
                 eph_bias: sim.ephemeris_std * n01.sample(&mut rng),
                 code_bias: sim.code_bias_std * n01.sample(&mut rng),
@@ -204,9 +220,10 @@ pub fn simulate_raw(
             let (a, b) = sim.code_noise;
             let sin_el = el.sin().max(0.05);
             let code_sigma = (a * a + (b / sin_el).powi(2)).sqrt();
-            let outlier = if sim.outliers.0 > 0.0 && rng.random::<f64>() < sim.outliers.0 {
+            let outlier = if sim.outliers.0 > 0.0 && rng_faults.random::<f64>() < sim.outliers.0 {
                 let (lo, hi) = sim.outliers.1;
-                rng.random_range(lo..hi) * if rng.random::<bool>() { 1.0 } else { -1.0 }
+                rng_faults.random_range(lo..hi)
+                    * if rng_faults.random::<bool>() { 1.0 } else { -1.0 }
             } else {
                 0.0
             };

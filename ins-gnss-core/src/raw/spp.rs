@@ -345,6 +345,52 @@ pub fn solve_prepared(
     })
 }
 
+/// A code's variance apart from the atmosphere's: elevation (and C/N0) weighting, the
+/// broadcast orbit and clock, the code bias (m²).
+pub fn code_variance(opt: &SppOptions, el: f64, s: &Prepared) -> f64 {
+    let (a, b) = opt.elevation_weight;
+    let sin_el = el.sin().max(0.05);
+    let mut noise = a * a + (b / sin_el).powi(2);
+    if opt.ionosphere == Ionosphere::IonoFree {
+        // the combination's noise: (γ² + 1)/(γ − 1)² ≈ 9 times a code's (RTKLIB's factor)
+        noise *= 9.0;
+    }
+    if let (Some(c), Some(cn0)) = (opt.cn0_weight, s.cn0) {
+        noise += c * 10f64.powf(-cn0 / 10.0);
+    }
+    noise + s.state.variance + 0.09
+}
+
+/// The atmospheric corrections `I + T` (m) of a code at the receiver `(lat, lon, h)` for a
+/// satellite at `(az, el)` at GPS seconds of week `tow`, and the code's whole variance
+/// (m²): [`code_variance`] plus the models' residual errors (5 m of ionosphere and 3 m of
+/// troposphere when not corrected; half the Klobuchar delay and 0.3/(sin el + 0.1) m
+/// when corrected). Used by the single point and the tightly coupled filter alike.
+pub fn corrections(
+    opt: &SppOptions,
+    kb: &Klobuchar,
+    (lat, lon, h): (f64, f64, f64),
+    (az, el): (f64, f64),
+    tow: f64,
+    s: &Prepared,
+) -> (f64, f64) {
+    let (iono, var_iono) = match opt.ionosphere {
+        Ionosphere::Off => (0.0, 25.0),
+        Ionosphere::IonoFree => (0.0, 0.0),
+        Ionosphere::Klobuchar => {
+            let d = kb.delay(lat, lon, az, el, tow) * s.iono_scale;
+            (d, (0.5 * d).powi(2))
+        }
+    };
+    let (tropo, var_tropo) = match opt.troposphere {
+        Troposphere::Off => (0.0, 9.0),
+        Troposphere::Saastamoinen => {
+            (saastamoinen(lat, h, el), (0.3 / (el.sin().max(0.05) + 0.1)).powi(2))
+        }
+    };
+    (iono + tropo, code_variance(opt, el, s) + var_iono + var_tropo)
+}
+
 fn check(f: &Fit, opt: &SppOptions) -> Option<SppFailure> {
     let dof = f.used.len() - f.x.len();
     if dof > 0 && f.chi2 > chi2_quantile(1.0 - opt.alpha, dof as f64) {
@@ -374,7 +420,6 @@ fn least_squares(
     if let Some(p) = prior {
         x.fixed_rows_mut::<3>(0).copy_from(p);
     }
-    let (a, b) = opt.elevation_weight;
     for _ in 0..10 {
         let rr = Vector3::new(x[0], x[1], x[2]);
         let known = rr.norm() > 6.0e6;
@@ -389,33 +434,17 @@ fn least_squares(
             if known && el < opt.elevation_mask {
                 continue;
             }
-            let sin_el = el.sin().max(0.05);
-            let (iono, var_iono) = match opt.ionosphere {
-                Ionosphere::Off => (0.0, 25.0),
-                Ionosphere::IonoFree => (0.0, 0.0),
-                Ionosphere::Klobuchar if known => {
-                    let d = kb.delay(lat, lon, az, el, time.tow) * s.iono_scale;
-                    (d, (0.5 * d).powi(2))
-                }
-                Ionosphere::Klobuchar => (0.0, 25.0),
-            };
-            let (tropo, var_tropo) = match opt.troposphere {
-                Troposphere::Off => (0.0, 9.0),
-                Troposphere::Saastamoinen if known => {
-                    (saastamoinen(lat, h, el), (0.3 / (sin_el + 0.1)).powi(2))
-                }
-                Troposphere::Saastamoinen => (0.0, 9.0),
+            let (corr, var) = if known {
+                corrections(opt, kb, (lat, lon, h), (az, el), time.tow, s)
+            } else {
+                // no position yet: no atmosphere, its whole budget in the variance
+                let mut var = code_variance(opt, el, s);
+                var += if opt.ionosphere == Ionosphere::IonoFree { 0.0 } else { 25.0 };
+                var += 9.0;
+                (0.0, var)
             };
             let k = systems.iter().position(|y| *y == s.sat.sys).unwrap_or(0);
-            let v = s.range - (r + x[3 + k] - C * s.state.clock + iono + tropo);
-            let mut var =
-                a * a + (b / sin_el).powi(2) + s.state.variance + 0.09 + var_iono + var_tropo;
-            if opt.ionosphere == Ionosphere::IonoFree {
-                var += 8.0 * (a * a + (b / sin_el).powi(2));
-            }
-            if let (Some(c), Some(cn0)) = (opt.cn0_weight, s.cn0) {
-                var += c * 10f64.powf(-cn0 / 10.0);
-            }
+            let v = s.range - (r + x[3 + k] - C * s.state.clock + corr);
             let mut hrow = DVector::zeros(nx);
             hrow.fixed_rows_mut::<3>(0).copy_from(&(-e));
             hrow[3 + k] = 1.0;
