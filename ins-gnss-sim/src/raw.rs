@@ -354,3 +354,105 @@ pub fn write_rinex_obs<W: std::io::Write>(
     }
     Ok(())
 }
+
+/// One UBX packet: sync, class, id, length, payload, Fletcher checksum.
+fn ubx_packet(out: &mut Vec<u8>, class: u8, id: u8, payload: &[u8]) {
+    let start = out.len();
+    out.extend_from_slice(&[0xb5, 0x62, class, id]);
+    out.extend_from_slice(&(payload.len() as u16).to_le_bytes());
+    out.extend_from_slice(payload);
+    let (mut a, mut b) = (0u8, 0u8);
+    for byte in &out[start + 2..] {
+        a = a.wrapping_add(*byte);
+        b = b.wrapping_add(a);
+    }
+    out.extend_from_slice(&[a, b]);
+}
+
+/// Writes epochs as a u-blox log: an RXM-RAWX (version 1) per epoch, and for each GPS
+/// satellite the RXM-SFRBX subframes 1–3 of its broadcast record
+/// ([`ins_gnss_core::raw::lnav::encode`]) before its first observation and whenever the
+/// record in use changes, with the broadcast ionosphere (subframe 4 page 18) first. Signals: GPS L1 C/A (sigId 0) and L2 CL (sigId 3); `leap`: GPS −
+/// UTC, s.
+pub fn write_ubx(
+    epochs: &[ObsEpoch],
+    eph: &Ephemerides,
+    klobuchar: Option<&Klobuchar>,
+    leap: i8,
+) -> Vec<u8> {
+    let mut out = Vec::new();
+    // the ionosphere (subframe 4, page 18) once, from the first satellite
+    if let (Some(k), Some(e)) = (klobuchar, epochs.first()) {
+        if let Some(o) = e.sats.iter().find(|o| o.sat.sys == ins_gnss_core::raw::System::Gps) {
+            let mut p = vec![0u8, o.sat.prn, 0, 0, 10, 0, 2, 0];
+            for w in ins_gnss_core::raw::lnav::encode_ionosphere(k, e.time.tow) {
+                p.extend_from_slice(&w.to_le_bytes());
+            }
+            ubx_packet(&mut out, 0x02, 0x13, &p);
+        }
+    }
+    let mut sent: BTreeMap<Sat, (i32, f64)> = BTreeMap::new();
+    let mut lock: BTreeMap<(Sat, usize), (GpsTime, GpsTime)> = BTreeMap::new();
+    for e in epochs {
+        for o in &e.sats {
+            if o.sat.sys != ins_gnss_core::raw::System::Gps {
+                continue;
+            }
+            let Some(r) = eph.select(o.sat, &e.time) else { continue };
+            if sent.get(&o.sat) == Some(&(r.iode, r.toe.tow)) {
+                continue;
+            }
+            sent.insert(o.sat, (r.iode, r.toe.tow));
+            for sf in ins_gnss_core::raw::lnav::encode(r, e.time.tow) {
+                let mut p = vec![0u8, o.sat.prn, 0, 0, 10, 0, 2, 0];
+                for w in sf {
+                    p.extend_from_slice(&w.to_le_bytes());
+                }
+                ubx_packet(&mut out, 0x02, 0x13, &p);
+            }
+        }
+        let mut p = Vec::with_capacity(16 + 64 * e.sats.len());
+        p.extend_from_slice(&e.time.tow.to_le_bytes());
+        p.extend_from_slice(&(e.time.week as u16).to_le_bytes());
+        let meas: Vec<(Sat, usize, &Signal)> = e
+            .sats
+            .iter()
+            .flat_map(|o| {
+                o.signals
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, s)| s.code.is_some())
+                    .map(move |(k, s)| (o.sat, k, s))
+            })
+            .collect();
+        p.extend_from_slice(&[leap as u8, meas.len() as u8, 1, 1, 0, 0]);
+        for (sat, k, s) in meas {
+            let (gnss_id, sig_id) = match (sat.sys, k) {
+                (ins_gnss_core::raw::System::Gps, 0) => (0u8, 0u8),
+                (ins_gnss_core::raw::System::Gps, _) => (0, 3),
+                (ins_gnss_core::raw::System::Galileo, 0) => (2, 1),
+                (ins_gnss_core::raw::System::Galileo, _) => (2, 3),
+                (ins_gnss_core::raw::System::BeiDou, _) => (3, 0),
+                (ins_gnss_core::raw::System::Qzss, 0) => (5, 0),
+                (_, _) => (5, 4),
+            };
+            // lock time: from the arc's start (a slip, or the satellite back after a gap)
+            let entry = lock.entry((sat, k)).or_insert((e.time, e.time));
+            if s.lli & 1 != 0 || e.time.diff(&entry.1) > 1.5 {
+                entry.0 = e.time;
+            }
+            entry.1 = e.time;
+            let lock_ms = (e.time.diff(&entry.0) * 1000.0).clamp(0.0, 64_500.0) as u16;
+            p.extend_from_slice(&s.code.unwrap_or(0.0).to_le_bytes());
+            p.extend_from_slice(&s.phase.unwrap_or(0.0).to_le_bytes());
+            p.extend_from_slice(&(s.doppler.unwrap_or(0.0) as f32).to_le_bytes());
+            let cn0 = s.cn0.unwrap_or(0.0).round().clamp(0.0, 255.0) as u8;
+            let trk = 1 | if s.phase.is_some() { 2 | 4 } else { 0 };
+            p.extend_from_slice(&[gnss_id, sat.prn, sig_id, 0]);
+            p.extend_from_slice(&lock_ms.to_le_bytes());
+            p.extend_from_slice(&[cn0, 5, 2, 4, trk, 0]);
+        }
+        ubx_packet(&mut out, 0x02, 0x15, &p);
+    }
+    out
+}

@@ -2,13 +2,22 @@
 //! RTKLIB `.pos`, and its comparison with another solution of the same file.
 
 use crate::cli::CliError;
+
+/// `println!` that never panics on a closed standard output.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::io::formats::{create_partial, publish};
 use ins_gnss_core::io::rtklib::{
     parse_line, push_epoch_ns, write_header_mode, PosHeader, QualityFactors,
 };
 use ins_gnss_core::raw::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
-use ins_gnss_core::raw::{read_nav, NavData, ObsReader, Spp};
+use ins_gnss_core::raw::ubx::read_ubx;
+use ins_gnss_core::raw::{read_nav, NavData, ObsEpoch, ObsReader, Spp};
 use ins_gnss_core::GeoPos;
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
@@ -28,7 +37,8 @@ pub struct SppRun {
     pub excluded: usize,
 }
 
-/// Solves every epoch of `obs` with the ephemerides of `navs` (merged).
+/// Solves every epoch of `obs` — a RINEX observation file, or a u-blox log (`.ubx`, with
+/// its GPS ephemerides from RXM-SFRBX) — with the ephemerides of `navs` (merged).
 pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun, CliError> {
     let mut nav = NavData::default();
     let mut records = Vec::new();
@@ -38,16 +48,34 @@ pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun
         nav.klobuchar = nav.klobuchar.or(d.klobuchar);
         nav.unused += d.unused;
     }
+    let is_ubx = obs
+        .file_name()
+        .and_then(|n| n.to_str())
+        .is_some_and(|n| n.to_ascii_lowercase().contains(".ubx"));
+    let mut epochs: Box<dyn Iterator<Item = Result<ObsEpoch, CliError>>> = if is_ubx {
+        let log = read_ubx(obs)?;
+        records.extend(log.ephemerides.records().iter().cloned());
+        nav.klobuchar = nav.klobuchar.or(log.klobuchar);
+        Box::new(log.epochs.into_iter().map(Ok))
+    } else {
+        let reader = ObsReader::open(obs)?;
+        Box::new(reader.map(|e| e.map_err(CliError::from)))
+    };
     if records.is_empty() {
-        return Err(
-            format!("{}: no GPS, Galileo, BeiDou or QZSS ephemeris", navs[0].display()).into()
-        );
+        let what =
+            navs.first().map_or_else(|| obs.display().to_string(), |n| n.display().to_string());
+        return Err(format!(
+            "{what}: no GPS, Galileo, BeiDou or QZSS ephemeris (give a RINEX navigation file)"
+        )
+        .into());
     }
     nav.ephemerides = ins_gnss_core::raw::Ephemerides::new(records);
-    let mut reader = ObsReader::open(obs)?;
     let mut run = SppRun::default();
-    let mut prior: Option<Vector3<f64>> = reader.header.approx_position;
-    while let Some(epoch) = reader.next_epoch()? {
+    let mut prior: Option<Vector3<f64>> = None;
+    while let Some(epoch) = epochs.next().transpose()? {
+        if run.epochs == 0 {
+            refuse_far_records(&nav.ephemerides, &epoch, navs)?;
+        }
         run.epochs += 1;
         match single_point(&epoch, &nav.ephemerides, nav.klobuchar.as_ref(), opt, prior.as_ref()) {
             Ok(s) => {
@@ -68,6 +96,34 @@ pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun
         }
     }
     Ok(run)
+}
+
+/// Refuses navigation records none of which is within a week of the first epoch: no
+/// epoch could be solved, and the likely cause is a 10-bit GPS week resolved against
+/// another date (`convbin` resolves it against today's).
+fn refuse_far_records(
+    eph: &ins_gnss_core::raw::Ephemerides,
+    first: &ObsEpoch,
+    navs: &[&Path],
+) -> Result<(), CliError> {
+    let near = eph.records().iter().any(|r| r.toe.diff(&first.time).abs() < 604_800.0);
+    if near {
+        return Ok(());
+    }
+    let (lo, hi) = eph
+        .records()
+        .iter()
+        .fold((i32::MAX, i32::MIN), |(a, b), r| (a.min(r.toe.week), b.max(r.toe.week)));
+    let names: Vec<String> = navs.iter().map(|p| p.display().to_string()).collect();
+    Err(format!(
+        "{}: the ephemerides are of GPS weeks {lo}–{hi}, the observations of week {} ({}): \
+         none is within a week of them (a 10-bit week resolved against another date — \
+         convbin resolves it against today's — or the wrong navigation file)",
+        names.join(", "),
+        first.time.week,
+        first.time
+    )
+    .into())
 }
 
 /// Writes the solutions as an RTKLIB `.pos` (GPST week and seconds, LLH, NEU σ), atomically.
@@ -211,7 +267,7 @@ pub fn run(
     let pts: Vec<Vector3<f64>> = run.solutions.iter().map(|s| s.pos).collect();
     let (hs, vs, mean) = scatter(&pts);
     let (lat, lon, h) = ecef_to_geodetic(&mean);
-    println!(
+    out!(
         "{}: {} of {} epochs solved ({}), {} RAIM exclusions",
         obs.display(),
         run.solutions.len(),
@@ -223,7 +279,7 @@ pub fn run(
         },
         run.excluded
     );
-    println!(
+    out!(
         "mean {:.9}° {:.9}° {:.3} m; scatter about it: horizontal {:.3} m, vertical {:.3} m (RMS)",
         lat.to_degrees(),
         lon.to_degrees(),
@@ -233,7 +289,7 @@ pub fn run(
     );
     if let Some(out) = out {
         write_pos(out, &run, opt)?;
-        println!("wrote {}", out.display());
+        out!("wrote {}", out.display());
     }
     if let Some(a) = against {
         let theirs = read_pos(a)?;
@@ -242,7 +298,7 @@ pub fn run(
         let (n, rms, d) = compare(&ours, &theirs);
         let tp: Vec<Vector3<f64>> = theirs.iter().map(|p| p.1).collect();
         let (ths, tvs, _) = scatter(&tp);
-        println!(
+        out!(
             "against {} ({} epochs): {n} common, 3D RMS difference {rms:.3} m, mean offset N {:.3} E {:.3} D {:.3} m; its scatter: horizontal {ths:.3} m, vertical {tvs:.3} m",
             a.display(),
             theirs.len(),

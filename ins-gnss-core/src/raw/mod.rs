@@ -12,10 +12,12 @@
 
 pub mod atmosphere;
 pub mod ephemeris;
+pub mod lnav;
 pub mod obs;
 pub mod rinex;
 pub mod spp;
 pub mod time;
+pub mod ubx;
 
 pub use ephemeris::{Ephemerides, Ephemeris, SatState};
 pub use obs::{ObsEpoch, SatObs, Signal};

@@ -116,10 +116,10 @@ enum Command {
     /// Single-point positions of a RINEX observation file from broadcast ephemerides,
     /// written as an RTKLIB `.pos`.
     Spp {
-        /// RINEX observation file (2.xx or 3.xx; `.gz`/`.zst`/`.xz` read as they are).
+        /// RINEX observation file (2.xx or 3.xx), or a u-blox log (`.ubx`: RXM-RAWX and
+        /// RXM-SFRBX); `.gz`/`.zst`/`.xz` read as they are.
         obs: PathBuf,
-        /// RINEX navigation file(s).
-        #[arg(required = true)]
+        /// RINEX navigation file(s) (optional for a u-blox log with GPS subframes).
         nav: Vec<PathBuf>,
         /// Output `.pos` file.
         #[arg(long, short)]

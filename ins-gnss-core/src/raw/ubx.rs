@@ -1,0 +1,161 @@
+//! u-blox UBX logs: RXM-RAWX observations and RXM-SFRBX navigation subframes, read with
+//! the `ublox` crate (MIT; 10 crates with its dependencies). GPS subframes 1–3 become
+//! ephemerides, and subframe 4 page 18 the broadcast ionosphere, through [`super::lnav`]; Galileo and BeiDou navigation messages are not
+//! decoded yet (their observations are read; give a RINEX navigation file for them).
+//!
+//! Chosen by measurement against the alternatives: the `ublox` crate decodes RAWX and
+//! SFRBX packets (checksums checked) but not the GPS frames' ephemerides unless built with
+//! `gnss-protos` 0.0.2 (MPL-2.0), whose frame encoder is a stub (`GpsQzssFrame::encode`
+//! loops until it panics), so the simulator's logs could not be made with it; the LNAV
+//! fields are a table here, checked against RTKLIB's `convbin` on the same log.
+
+use super::lnav::{self, Subframe};
+use super::obs::{ObsEpoch, SatObs, Signal};
+use super::time::{GpsTime, Sat, System};
+use super::{Ephemerides, Ephemeris, RawError};
+use std::collections::BTreeMap;
+use std::path::Path;
+use ublox::{proto23::PacketRef, Parser, UbxPacket};
+
+/// What a UBX log holds.
+#[derive(Clone, Debug, Default)]
+pub struct UbxLog {
+    /// RXM-RAWX epochs.
+    pub epochs: Vec<ObsEpoch>,
+    /// GPS ephemerides from RXM-SFRBX.
+    pub ephemerides: Ephemerides,
+    /// The broadcast ionosphere (GPS subframe 4, page 18), when the log has it.
+    pub klobuchar: Option<super::atmosphere::Klobuchar>,
+    /// Packets with a bad checksum or length, left out.
+    pub bad_packets: usize,
+    /// Other packets (read past).
+    pub other_packets: usize,
+}
+
+/// The u-blox GNSS id of a system.
+fn system(gnss_id: u8) -> Option<System> {
+    Some(match gnss_id {
+        0 => System::Gps,
+        1 => System::Sbas,
+        2 => System::Galileo,
+        3 => System::BeiDou,
+        5 => System::Qzss,
+        6 => System::Glonass,
+        7 => System::Irnss,
+        _ => return None,
+    })
+}
+
+/// The slot of a u-blox signal id: GPS/QZSS L1C/A 0 → first, L2 CL/CM 3/4 (QZSS 4/5) →
+/// second; Galileo E1 C/B 0/1 → first, E5a I/Q 3/4 → second; BeiDou B1I 0/1 → first.
+fn slot(sys: System, sig_id: u8) -> Option<usize> {
+    match (sys, sig_id) {
+        (System::Gps | System::Qzss | System::Galileo | System::BeiDou, 0) => Some(0),
+        (System::Galileo | System::BeiDou, 1) => Some(0),
+        (System::Gps, 3 | 4) | (System::Qzss, 4 | 5) | (System::Galileo, 3 | 4) => Some(1),
+        _ => None,
+    }
+}
+
+/// Reads a UBX log (plain, or `.gz`/`.zst`/`.xz`).
+pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
+    let err = |m: String| RawError { path: path.to_path_buf(), line: 0, message: m };
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(
+        &mut crate::io::formats::open(path).map_err(|e| err(e.to_string()))?,
+        &mut bytes,
+    )
+    .map_err(|e| err(e.to_string()))?;
+    let mut log = UbxLog::default();
+    // subframes 1–3 per satellite, and the last lock times (a drop is a slip)
+    let mut frames: BTreeMap<u8, [Option<Subframe>; 3]> = BTreeMap::new();
+    let mut complete: Vec<(u8, [Subframe; 3], Option<GpsTime>)> = Vec::new();
+    let mut lock: BTreeMap<(Sat, usize), u16> = BTreeMap::new();
+    let mut last_time: Option<GpsTime> = None;
+    let mut parser = Parser::default();
+    let mut it = parser.consume_ubx(&bytes);
+    while let Some(p) = it.next() {
+        let p = match p {
+            Ok(UbxPacket::Proto23(p)) => p,
+            Err(_) => {
+                log.bad_packets += 1;
+                continue;
+            }
+        };
+        match p {
+            PacketRef::RxmRawx(r) => {
+                let time = GpsTime::new(i32::from(r.week()), r.rcv_tow());
+                let mut sats: Vec<SatObs> = Vec::new();
+                for m in r.measurements() {
+                    let Some(sys) = system(m.gnss_id()) else { continue };
+                    let Some(k) = slot(sys, m.reserved2()) else { continue };
+                    if !sys.keplerian() || m.sv_id() == 0 {
+                        continue;
+                    }
+                    let sat = Sat { sys, prn: m.sv_id() };
+                    let trk = m.trk_stat().bits();
+                    let i = match sats.iter().position(|s| s.sat == sat) {
+                        Some(i) => i,
+                        None => {
+                            sats.push(SatObs { sat, signals: [Signal::default(); 2] });
+                            sats.len() - 1
+                        }
+                    };
+                    let s = &mut sats[i].signals[k];
+                    s.code = (trk & 1 != 0).then_some(m.pr_mes());
+                    s.phase = (trk & 2 != 0).then_some(m.cp_mes());
+                    s.doppler = Some(f64::from(m.do_mes()));
+                    s.cn0 = Some(f64::from(m.cno()));
+                    // a lock time of 0 (a new arc) or one that dropped: a slip, as RTKLIB
+                    // reads it; half cycle unresolved: bit 1, as RINEX
+                    let lt = m.lock_time();
+                    let slipped =
+                        lock.insert((sat, k), lt).is_some_and(|before| lt < before) || lt == 0;
+                    s.lli = u8::from(slipped) | if trk & 4 == 0 && trk & 2 != 0 { 2 } else { 0 };
+                }
+                last_time = Some(time);
+                log.epochs.push(ObsEpoch { time, flag: 0, sats, line: 0 });
+            }
+            PacketRef::RxmSfrbx(f) => {
+                if f.gnss_id() != 0 {
+                    continue;
+                }
+                let words: Vec<u32> = f.dwrd().collect();
+                let Ok(sf) = <[u32; 10]>::try_from(words.as_slice()) else { continue };
+                if let Some(k) = lnav::decode_ionosphere(&sf) {
+                    log.klobuchar = Some(k);
+                    continue;
+                }
+                let Some(id @ 1..=3) = lnav::subframe_id(&sf) else { continue };
+                let set = frames.entry(f.sv_id()).or_default();
+                set[usize::from(id) - 1] = Some(sf);
+                if let [Some(a), Some(b), Some(c)] = *set {
+                    // decoded once a RAWX time resolves the week (subframes often come first)
+                    complete.push((f.sv_id(), [a, b, c], last_time));
+                }
+            }
+            _ => log.other_packets += 1,
+        }
+    }
+    let mut records: Vec<Ephemeris> = Vec::new();
+    let first_time = log.epochs.first().map(|e| e.time);
+    for (prn, sf, near) in complete {
+        let Some(near) = near.or(first_time) else { continue };
+        if let Some(e) = lnav::decode(prn, &sf, &near) {
+            if !records.iter().any(|r| r.sat == e.sat && r.iode == e.iode && r.toe == e.toe) {
+                records.push(e);
+            }
+        }
+    }
+    if log.epochs.is_empty() && records.is_empty() {
+        return Err(err(format!(
+            "no RXM-RAWX or RXM-SFRBX packet ({} bad, {} other)",
+            log.bad_packets, log.other_packets
+        )));
+    }
+    for (k, e) in log.epochs.iter_mut().enumerate() {
+        e.line = k + 1;
+    }
+    log.ephemerides = Ephemerides::new(records);
+    Ok(log)
+}

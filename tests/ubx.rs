@@ -1,0 +1,146 @@
+//! u-blox logs: the simulated RXM-RAWX/RXM-SFRBX log of `data/ubx-sim/` read directly
+//! gives the same observations and ephemerides as RTKLIB's `convbin` conversion of it to
+//! RINEX (read by this crate's RINEX readers), and the observations the simulator wrote.
+
+use ins_gnss_core::raw::ubx::read_ubx;
+use ins_gnss_core::raw::{read_nav, GpsTime, ObsReader};
+use ins_gnss_sim::raw::{simulate_raw, RawSim};
+use ins_gnss_sim::{scenarios, Trajectory};
+use std::path::{Path, PathBuf};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)
+}
+
+#[test]
+fn a_ubx_log_reads_as_its_convbin_rinex() {
+    let log = read_ubx(&data("ubx-sim/sim.ubx.zst")).unwrap();
+    assert_eq!(log.bad_packets, 0);
+    let rinex: Vec<_> =
+        ObsReader::open(&data("ubx-sim/sim.obs.zst")).unwrap().map(Result::unwrap).collect();
+    assert_eq!(log.epochs.len(), 201);
+    assert_eq!(rinex.len(), log.epochs.len());
+    let (mut values, mut slips) = (0, 0);
+    for (u, r) in log.epochs.iter().zip(&rinex) {
+        // convbin writes the time to 1e-7 s
+        assert!(u.time.diff(&r.time).abs() < 1e-7, "{} vs {}", u.time, r.time);
+        assert_eq!(u.sats.len(), r.sats.len(), "{}", u.time);
+        for (a, b) in u.sats.iter().zip(&r.sats) {
+            assert_eq!(a.sat, b.sat);
+            for (x, y) in a.signals.iter().zip(&b.signals) {
+                for (p, q, tol) in [
+                    (x.code, y.code, 1e-3),
+                    (x.phase, y.phase, 1e-3),
+                    (x.doppler, y.doppler, 1e-3),
+                    (x.cn0, y.cn0, 1e-3),
+                ] {
+                    let (p, q) = (p.unwrap(), q.unwrap());
+                    // RINEX keeps 3 decimals
+                    assert!((p - q).abs() <= tol, "{} {}: {p} vs {q}", u.time, a.sat);
+                    values += 1;
+                }
+                assert_eq!(x.lli & 1, y.lli & 1, "{} {}: slip flags", u.time, a.sat);
+                slips += usize::from(x.lli & 1);
+            }
+        }
+    }
+    assert_eq!(values, 16_080);
+    assert!(slips > 0);
+
+    // the ephemerides: every field as convbin decoded it (RINEX's 12 digits); convbin
+    // resolves the 10-bit week against today's date (2340 instead of 1316): the weeks
+    // differ by two rollovers, the seconds of week agree
+    let nav = read_nav(&data("ubx-sim/sim.nav.zst")).unwrap();
+    // the ionosphere of subframe 4 page 18 as convbin wrote it (`GPSA`, `GPSB`)
+    let (k, kc) = (log.klobuchar.unwrap(), nav.klobuchar.unwrap());
+    for (x, y) in k.alpha.iter().chain(&k.beta).zip(kc.alpha.iter().chain(&kc.beta)) {
+        // (RINEX writes 4 digits)
+        assert!((x - y).abs() <= 1e-3 * y.abs(), "{x} vs {y}");
+    }
+    let ours = log.ephemerides.records();
+    assert_eq!(ours.len(), nav.ephemerides.records().len());
+    assert_eq!(ours.len(), 10);
+    for (a, b) in ours.iter().zip(nav.ephemerides.records()) {
+        assert_eq!(a.sat, b.sat);
+        assert_eq!(a.toe.week + 1024, b.toe.week);
+        assert_eq!((a.toe.tow, a.toc.tow), (b.toe.tow, b.toc.tow));
+        assert_eq!((a.iode, a.iodc, a.health), (b.iode, b.iodc, b.health));
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-11 * x.abs().max(1e-20) + 1e-300;
+        let pairs = [
+            (a.af[0], b.af[0]),
+            (a.af[1], b.af[1]),
+            (a.sqrt_a, b.sqrt_a),
+            (a.e, b.e),
+            (a.i0, b.i0),
+            (a.omega0, b.omega0),
+            (a.omega, b.omega),
+            (a.m0, b.m0),
+            (a.delta_n, b.delta_n),
+            (a.omega_dot, b.omega_dot),
+            (a.idot, b.idot),
+            (a.tgd[0], b.tgd[0]),
+            (a.accuracy, b.accuracy),
+        ];
+        for (k, (x, y)) in pairs.iter().enumerate() {
+            assert!(close(*x, *y), "{} field {k}: {x} vs {y}", a.sat);
+        }
+        for (x, y) in a.harmonics.iter().zip(&b.harmonics) {
+            assert!(close(*x, *y), "{}: {x} vs {y}", a.sat);
+        }
+    }
+}
+
+/// The log's observations are the simulator's, bit for bit (codes and phases are f64 in
+/// RXM-RAWX; the Doppler f32, C/N0 whole dB-Hz), and its ephemerides the navigation file's
+/// records at the LNAV message's resolution.
+#[test]
+fn a_ubx_log_holds_what_the_simulator_wrote() {
+    let nav = read_nav(&data("rinex-rtklib/07590920.05n.zst")).unwrap();
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs[..10]).unwrap();
+    let sim = RawSim {
+        slip_probability: 0.002,
+        ..RawSim::spp_budget(GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0))
+    };
+    let (epochs, _) = simulate_raw(&traj, &nav.ephemerides, &nav.klobuchar.unwrap(), &sim, 2005);
+    let log = read_ubx(&data("ubx-sim/sim.ubx.zst")).unwrap();
+    assert_eq!(log.epochs.len(), epochs.len());
+    for (u, s) in log.epochs.iter().zip(&epochs) {
+        assert_eq!(u.time, s.time);
+        for (a, b) in u.sats.iter().zip(&s.sats) {
+            assert_eq!(a.sat, b.sat);
+            for (x, y) in a.signals.iter().zip(&b.signals) {
+                assert_eq!(x.code, y.code);
+                assert_eq!(x.phase, y.phase);
+                assert!((x.doppler.unwrap() - y.doppler.unwrap()).abs() < 1e-3);
+                assert!((x.cn0.unwrap() - y.cn0.unwrap()).abs() <= 0.5);
+                // the simulator flags the slips; the log also each arc's first epoch (lock 0)
+                if y.lli & 1 != 0 {
+                    assert_eq!(x.lli & 1, 1);
+                }
+            }
+        }
+    }
+    assert_eq!(log.ephemerides.records().len(), 10);
+    // the ionosphere at the message's resolution (α₀ 2⁻³⁰ s … β₃ 2¹⁶ s)
+    let (k, kn) = (log.klobuchar.unwrap(), nav.klobuchar.unwrap());
+    assert!((k.alpha[0] - kn.alpha[0]).abs() <= 2f64.powi(-31));
+    assert!((k.beta[3] - kn.beta[3]).abs() <= 2f64.powi(15));
+    for e in log.ephemerides.records() {
+        let r = nav
+            .ephemerides
+            .records()
+            .iter()
+            .find(|r| r.sat == e.sat && r.iode == e.iode && r.toe == e.toe)
+            .unwrap();
+        assert_eq!((e.toc, e.iodc, e.health), (r.toc, r.iodc, r.health));
+        // within half a unit of the message's last bit (the record came from such a message)
+        assert!((e.sqrt_a - r.sqrt_a).abs() <= 2f64.powi(-20));
+        assert!((e.e - r.e).abs() <= 2f64.powi(-34));
+        assert!((e.af[0] - r.af[0]).abs() <= 2f64.powi(-32));
+        assert!((e.m0 - r.m0).abs() <= 2f64.powi(-32) * core::f64::consts::PI);
+        // the same satellite position to a millimetre an hour from toe
+        let t = e.toe.add(3600.0);
+        assert!((e.state(&t).pos - r.state(&t).pos).norm() < 1e-3);
+    }
+}
