@@ -10,15 +10,6 @@ use crate::config::Config;
 use crate::eval::{evaluate, evaluate_with, Evaluation, Stats};
 use crate::run::{run as run_config, RunSummary};
 
-/// `println!` that never panics: a closed standard output (`ins-gnss eval … | head`) ends
-/// the output quietly instead of aborting the program.
-macro_rules! out {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
-    }};
-}
-
 /// Any error of a subcommand, as text for the user.
 pub type CliError = Box<dyn std::error::Error>;
 

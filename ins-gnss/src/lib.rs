@@ -17,6 +17,16 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+/// `println!` that never panics: a closed standard output (`ins-gnss eval … | head`) ends
+/// the output quietly instead of aborting the program. (Defined before the modules, so
+/// that every one of them can use it.)
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod checks;
 pub mod cli;
 pub mod columns;

@@ -3,13 +3,6 @@
 
 use crate::cli::CliError;
 
-/// `println!` that never panics on a closed standard output.
-macro_rules! out {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
-    }};
-}
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::io::formats::{create_partial, publish};
 use ins_gnss_core::io::rtklib::{
