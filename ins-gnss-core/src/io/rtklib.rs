@@ -75,7 +75,7 @@ pub fn civil_from_days(z: i64) -> (i64, i64, i64) {
 }
 
 /// Days from 1970-01-01 to the GPS epoch, 1980-01-06.
-const GPS_EPOCH_DAYS: i64 = 3657;
+pub(crate) const GPS_EPOCH_DAYS: i64 = 3657;
 
 /// GPS − UTC (s) at a UTC instant given as seconds since 1970-01-01 (UTC, no leap
 /// seconds counted, as Unix time).

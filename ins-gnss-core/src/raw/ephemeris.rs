@@ -93,6 +93,12 @@ const URA: [f64; 15] = [
     6144.0,
 ];
 
+/// The URA index of an accuracy (m): the first index whose bound it does not exceed, 15
+/// beyond the table (or for a NaN).
+pub fn ura_index(accuracy: f64) -> usize {
+    URA.iter().position(|u| accuracy <= *u).unwrap_or(15)
+}
+
 impl Ephemeris {
     fn constants(&self) -> (f64, f64) {
         match self.sat.sys {
@@ -121,7 +127,7 @@ impl Ephemeris {
             System::Galileo if self.accuracy > 0.0 => self.accuracy,
             System::Galileo => 6144.0,
             _ if self.accuracy.is_nan() => 6144.0,
-            _ => *URA.iter().find(|u| self.accuracy <= **u).unwrap_or(&6144.0),
+            _ => URA.get(ura_index(self.accuracy)).copied().unwrap_or(6144.0),
         };
         a * a
     }

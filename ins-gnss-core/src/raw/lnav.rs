@@ -10,17 +10,12 @@
 //! readers of RXM-SFRBX do; a record is taken when the preamble is there and the three
 //! subframes agree on their issue of data.
 
-use super::ephemeris::Ephemeris;
+use super::ephemeris::{ura_index, Ephemeris};
 use super::time::{GpsTime, Sat, System, WEEK};
 
 /// The ICD's π for semicircles (IS-GPS-200 §20.3.3.4.3.1 states it to 14 digits).
 #[allow(clippy::approx_constant)]
 const SC: f64 = 3.1415926535898;
-/// The ICD's URA index bounds (m).
-const URA: [f64; 15] = [
-    2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0, 3072.0,
-    6144.0,
-];
 
 /// A field: pieces `(word 1–10, first data bit 1–24, width)` most significant first,
 /// signed (two's complement), and the scale of one unit.
@@ -146,8 +141,7 @@ pub fn encode(e: &Ephemeris, tow: f64) -> [Subframe; 3] {
     }
     let [s1, s2, s3] = &mut out;
     write(s1, &WN, (e.toe.week % 1024) as f64);
-    let ura = URA.iter().position(|u| e.accuracy <= *u).unwrap_or(15);
-    write(s1, &URA_INDEX, ura as f64);
+    write(s1, &URA_INDEX, ura_index(e.accuracy) as f64);
     write(s1, &HEALTH, e.health as f64);
     write(s1, &IODC, e.iodc as f64);
     write(s1, &TGD, e.tgd[0]);

@@ -1,10 +1,7 @@
 //! GNSS time: a GPS week and seconds of week, and the satellite identifiers.
 
-use crate::io::rtklib::days_from_civil;
+use crate::io::rtklib::{days_from_civil, GPS_EPOCH_DAYS};
 use core::fmt;
-
-/// Days from 1970-01-01 to the GPS epoch, 1980-01-06.
-const GPS_EPOCH_DAYS: i64 = 3657;
 /// Seconds in a week.
 pub const WEEK: f64 = 604_800.0;
 /// BeiDou time (BDT) is GPS time − 14 s; its week 0 starts at GPS week 1356.
