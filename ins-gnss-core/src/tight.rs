@@ -34,8 +34,8 @@ use nalgebra::{
 
 use crate::earth::{ecef_to_ned_rotation, geodetic_to_ecef, LocalEarth};
 use crate::model::{ImuInput, InsModel};
-use crate::raw::ephemeris::{C, OMEGA_E};
-use crate::raw::spp::Prepared;
+use crate::raw::ephemeris::C;
+use crate::raw::spp::{geometry, range_rate, Prepared};
 use crate::raw::{Sat, System};
 use crate::state::InsState;
 
@@ -273,9 +273,7 @@ impl Antenna {
 
     /// Range with the Sagnac term and the unit vector antenna → satellite (ECEF).
     fn range(&self, rs: &Vector3<f64>) -> (f64, Vector3<f64>) {
-        let d = rs - self.r;
-        let n = d.norm();
-        (n + OMEGA_E * (rs.x * self.r.y - rs.y * self.r.x) / C, d / n)
+        geometry(rs, &self.r)
     }
 }
 
@@ -362,10 +360,7 @@ impl MeasurementModel for RangeRate<'_> {
         let wl = w.cross(&self.lever_arm);
         let v_a_n = n.vel + a.c_nb * wl - w_in.cross(&a.lever_n);
         let vr = a.c_ne.transpose() * v_a_n;
-        let (rs, vs) = (&self.sat.state.pos, &self.sat.state.vel);
-        let rr = &a.r;
-        let rate = u.dot(&(vs - vr))
-            + OMEGA_E / C * (vs.y * rr.x + rs.y * vr.x - vs.x * rr.y - rs.x * vr.y);
+        let rate = range_rate(&self.sat.state.pos, &self.sat.state.vel, &a.r, &vr, &u);
         let z = rate + x.clock[1] - C * self.sat.state.drift;
         let u_n = a.c_ne * u;
         let mut H = SMatrix::<f64, 1, 20>::zeros();

@@ -14,9 +14,9 @@
 use crate::trajectory::Trajectory;
 use ins_gnss_core::earth::{ecef_to_geodetic, geodetic_to_ecef};
 use ins_gnss_core::raw::atmosphere::{saastamoinen, Klobuchar};
-use ins_gnss_core::raw::ephemeris::{Ephemerides, C, OMEGA_E};
+use ins_gnss_core::raw::ephemeris::{Ephemerides, C};
 use ins_gnss_core::raw::obs::frequency;
-use ins_gnss_core::raw::spp::azel;
+use ins_gnss_core::raw::spp::{azel, geometry, range_rate};
 use ins_gnss_core::raw::{GpsTime, ObsEpoch, Sat, SatObs, Signal};
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
@@ -180,12 +180,10 @@ pub fn simulate_raw(
             let mut tau = 0.075;
             let mut st = e.state(&gps.add(-tau));
             for _ in 0..4 {
-                let r = (st.pos - rr).norm() + OMEGA_E * (st.pos.x * rr.y - st.pos.y * rr.x) / C;
-                tau = r / C;
+                tau = geometry(&st.pos, &rr).0 / C;
                 st = e.state(&gps.add(-tau));
             }
-            let d = st.pos - rr;
-            let u = d / d.norm();
+            let (_, u) = geometry(&st.pos, &rr);
             let (az, el) = azel(lat, lon, &u);
             if el < sim.elevation_mask {
                 tracks.remove(&sat);
@@ -214,9 +212,7 @@ pub fn simulate_raw(
             let tropo =
                 saastamoinen(lat, h, el) + sim.tropo_error / (el.sin() + 0.1) * tr.tropo_bias;
             // range rate with the Sagnac term's rate
-            let rate = u.dot(&(st.vel - vr))
-                + OMEGA_E / C
-                    * (st.vel.y * rr.x + st.pos.y * vr.x - st.vel.x * rr.y - st.pos.x * vr.y);
+            let rate = range_rate(&st.pos, &st.vel, &rr, &vr, &u);
             let (a, b) = sim.code_noise;
             let sin_el = el.sin().max(0.05);
             let code_sigma = (a * a + (b / sin_el).powi(2)).sqrt();

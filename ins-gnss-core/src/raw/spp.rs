@@ -240,11 +240,26 @@ pub fn prepare(epoch: &ObsEpoch, eph: &Ephemerides, opt: &SppOptions) -> (Vec<Pr
     (out, dropped)
 }
 
-/// Geometric range with the Sagnac term, and the unit vector receiver → satellite.
-fn geometry(rs: &Vector3<f64>, rr: &Vector3<f64>) -> (f64, Vector3<f64>) {
+/// Geometric range from a receiver at `rr` to a satellite at `rs` (ECEF) with the Sagnac
+/// term for the Earth's rotation during the signal's travel, and the unit vector
+/// receiver → satellite: the range of the single point, the tightly coupled filter and
+/// the simulator alike.
+pub fn geometry(rs: &Vector3<f64>, rr: &Vector3<f64>) -> (f64, Vector3<f64>) {
     let d = rs - rr;
     let r = d.norm();
     (r + OMEGA_E * (rs.x * rr.y - rs.y * rr.x) / C, d / r)
+}
+
+/// The rate of [`geometry`]'s range for satellite and receiver velocities `vs`, `vr`
+/// (ECEF), with the unit vector `u` it gave.
+pub fn range_rate(
+    rs: &Vector3<f64>,
+    vs: &Vector3<f64>,
+    rr: &Vector3<f64>,
+    vr: &Vector3<f64>,
+    u: &Vector3<f64>,
+) -> f64 {
+    u.dot(&(vs - vr)) + OMEGA_E / C * (vs.y * rr.x + rs.y * vr.x - vs.x * rr.y - rs.x * vr.y)
 }
 
 /// Azimuth and elevation (rad) of the unit vector `e` (ECEF) at geodetic `(lat, lon)`.
@@ -502,9 +517,7 @@ fn doppler_velocity(
         let vr = Vector3::new(x[0], x[1], x[2]);
         for s in &with {
             let (_, e) = geometry(&s.state.pos, rr);
-            let (ps, vs) = (&s.state.pos, &s.state.vel);
-            let rate = e.dot(&(vs - vr))
-                + OMEGA_E / C * (vs.y * rr.x + ps.y * vr.x - vs.x * rr.y - ps.x * vr.y);
+            let rate = range_rate(&s.state.pos, &s.state.vel, rr, &vr, &e);
             let v = s.range_rate? - (rate + x[3] - C * s.state.drift);
             let h = Vector4::new(-e.x, -e.y, -e.z, 1.0);
             n += h * h.transpose() * w;
