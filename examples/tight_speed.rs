@@ -8,12 +8,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use estimator_core::{FixedNoise, NoObserver};
-use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::navigator::{ClockInit, RawEpoch, TightConfig};
 use ins_gnss_core::raw::spp::{prepare, single_point, SppOptions};
 use ins_gnss_core::raw::{read_nav, GpsTime};
 use ins_gnss_core::tight::{ClockNoise, InsModelTc};
-use ins_gnss_core::{GeoPos, GnssConfig, GnssEpoch, InitialState, InitialStd, InsModel, Navigator};
+use ins_gnss_core::{GnssConfig, GnssEpoch, InitialState, InitialStd, InsModel, Navigator};
 use ins_gnss_sim::raw::{simulate_raw, RawSim};
 use ins_gnss_sim::{scenarios, simulate, GnssSim, Segment, Trajectory};
 use nalgebra::Vector3;
@@ -60,16 +59,9 @@ fn main() {
         .iter()
         .filter_map(|e| {
             let s = single_point(e, &nav.ephemerides, Some(&kb), &opt, None).ok()?;
-            let (lat, lon, h) = ecef_to_geodetic(&s.pos);
-            let c = ecef_to_ned_rotation(lat, lon);
-            let cov = c * s.cov * c.transpose();
-            let mut g = GnssEpoch::new(
-                time_of(e),
-                GeoPos { lat, lon, h },
-                cov.diagonal().map(f64::sqrt),
-                None,
-            );
-            g.pos_cov = Some(cov);
+            // positions only (the timed loose run uses no velocity)
+            let mut g = s.fix(time_of(e));
+            (g.vel, g.vel_cov) = (None, None);
             Some(g)
         })
         .collect();

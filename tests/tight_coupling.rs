@@ -7,7 +7,6 @@ use adaptive::GrossErrorGate;
 use estimator_core::{
     FixedNoise, Manifold, NoObserver, NoiseStrategy, SegmentSmoother, StepRecorder,
 };
-use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::navigator::{ClockInit, RawEpoch, TightConfig};
 use ins_gnss_core::raw::spp::{prepare, single_point, Ionosphere, SppOptions};
 use ins_gnss_core::raw::{read_nav, GpsTime, NavData, ObsEpoch};
@@ -196,29 +195,9 @@ fn run_loose_opt(c: &Case, opt: &SppOptions) -> Track {
         .epochs
         .iter()
         .filter_map(|e| {
-            let s = single_point(e, &nav.ephemerides, Some(&kb), &opt, None).ok()?;
-            let (lat, lon, h) = ecef_to_geodetic(&s.pos);
-            let c_ne = ecef_to_ned_rotation(lat, lon);
-            let cov = c_ne * s.cov * c_ne.transpose();
-            let std = Vector3::new(cov[(0, 0)].sqrt(), cov[(1, 1)].sqrt(), cov[(2, 2)].sqrt());
             // the Dopplers' velocity too, as a receiver's fix carries it
-            let vel = s.velocity.map(|(v, vc)| {
-                let vc = c_ne * vc * c_ne.transpose();
-                (
-                    c_ne * v,
-                    Vector3::new(vc[(0, 0)].sqrt(), vc[(1, 1)].sqrt(), vc[(2, 2)].sqrt()),
-                    vc,
-                )
-            });
-            let mut g = GnssEpoch::new(
-                epoch_time(e, &c.data),
-                GeoPos { lat, lon, h },
-                std,
-                vel.map(|v| (v.0, v.1)),
-            );
-            g.pos_cov = Some(cov);
-            g.vel_cov = vel.map(|v| v.2);
-            Some(g)
+            let s = single_point(e, &nav.ephemerides, Some(&kb), &opt, None).ok()?;
+            Some(s.fix(epoch_time(e, &c.data)))
         })
         .collect();
     let cfg = GnssConfig { lever_arm: LEVER, ..GnssConfig::default() };

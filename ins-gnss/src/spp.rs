@@ -11,7 +11,6 @@ use ins_gnss_core::io::rtklib::{
 use ins_gnss_core::raw::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
 use ins_gnss_core::raw::ubx::read_ubx;
 use ins_gnss_core::raw::{read_nav, NavData, ObsEpoch, ObsReader, Spp};
-use ins_gnss_core::GeoPos;
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
 use std::io::{BufRead, Write};
@@ -131,17 +130,15 @@ pub fn write_pos(path: &Path, run: &SppRun, opt: &SppOptions) -> Result<(), CliE
     write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
     let mut line = Vec::with_capacity(200);
     for s in &run.solutions {
-        let (lat, lon, h) = ecef_to_geodetic(&s.pos);
-        let c = ecef_to_ned_rotation(lat, lon);
-        let cov = c * s.cov * c.transpose();
+        let fix = s.fix(0.0);
         line.clear();
         let t = s.solution_time();
         push_epoch_ns(
             &mut line,
             t.week as f64,
             t.tow,
-            &GeoPos { lat, lon, h },
-            &cov,
+            &fix.pos,
+            &fix.position_covariance(),
             None,
             5,
             s.used.len(),
