@@ -114,19 +114,7 @@ struct InsDrive {
 fn ins_setup() -> InsDrive {
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs[..4]).unwrap();
-    let data = simulate(
-        &traj,
-        200.0,
-        &scenarios::mems_imu(),
-        &GnssSim {
-            rate_hz: 0.0,
-            pos_sigma: Vector3::zeros(),
-            vel_sigma: None,
-            lever_arm: Vector3::zeros(),
-            windows: vec![],
-        },
-        1,
-    );
+    let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &GnssSim::none(), 1);
     let range = 100..8100;
     InsDrive {
         states: range.clone().map(|k| data.truth[k].state.clone()).collect(),

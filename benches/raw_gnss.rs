@@ -49,13 +49,7 @@ fn tight(c: &mut Criterion) {
     let nav = read_nav(&data("rinex-rtklib/07590920.05n.zst")).unwrap();
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs[..6]).unwrap();
-    let none = GnssSim {
-        rate_hz: 0.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: Vector3::zeros(),
-        windows: vec![],
-    };
+    let none = GnssSim::none();
     let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &none, 1);
     let t_gps = ins_gnss_core::raw::GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0);
     let (epochs, _) = simulate_raw(

@@ -33,13 +33,7 @@ fn main() {
     let used: f64 = segs.iter().map(|s| s.duration).sum();
     segs.push(Segment::straight(437.0 - used));
     let traj = Trajectory::new(start, &segs).unwrap();
-    let none = GnssSim {
-        rate_hz: 0.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: Vector3::zeros(),
-        windows: vec![],
-    };
+    let none = GnssSim::none();
     let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &none, 1);
     let t_gps = GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0);
     let sim = RawSim { rate_hz: 5.0, ..RawSim::spp_budget(t_gps) };

@@ -38,13 +38,7 @@ struct Case {
 fn case(sim: &RawSim, seed: u64) -> Case {
     let (s, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(s, &segs).unwrap();
-    let none = GnssSim {
-        rate_hz: 0.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: LEVER,
-        windows: vec![],
-    };
+    let none = GnssSim::none();
     let data = simulate(&traj, 100.0, &scenarios::mems_imu(), &none, seed);
     let nav = nav();
     let sim = RawSim { lever_arm: LEVER, ..sim.clone() };

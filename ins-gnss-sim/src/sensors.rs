@@ -205,6 +205,17 @@ pub struct GnssSim {
 }
 
 impl GnssSim {
+    /// No GNSS at all (rate 0): an IMU-only dataset.
+    pub fn none() -> Self {
+        Self {
+            rate_hz: 0.0,
+            pos_sigma: Vector3::zeros(),
+            vel_sigma: None,
+            lever_arm: Vector3::zeros(),
+            windows: Vec::new(),
+        }
+    }
+
     /// Noise factor and outlier setting at `t`; `None` during an outage.
     pub fn conditions(&self, t: f64) -> Option<(f64, Option<(f64, f64)>)> {
         let mut factor = 1.0;

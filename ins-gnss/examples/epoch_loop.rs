@@ -16,13 +16,7 @@ use nalgebra::{SMatrix, SVector, Vector3};
 fn main() {
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs[..4]).unwrap();
-    let none = GnssSim {
-        rate_hz: 0.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: Vector3::zeros(),
-        windows: vec![],
-    };
+    let none = GnssSim::none();
     let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &none, 1);
     let model = InsModel::wgs84(scenarios::mems_imu().noise);
     let p = SMatrix::<f64, 15, 15>::from_fn(|i, j| if i == j { 1e-2 } else { 1e-5 });

@@ -10,22 +10,12 @@ use ins_gnss_sim::{scenarios, simulate, GnssSim, ImuErrors, Trajectory};
 use manifolds::Manifold;
 use nalgebra::Vector3;
 
-fn no_gnss() -> GnssSim {
-    GnssSim {
-        rate_hz: 0.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: Vector3::zeros(),
-        windows: vec![],
-    }
-}
-
 /// Run the mechanization from the true start over every sample; return the largest
 /// horizontal and vertical position errors and the largest attitude error (rad).
 fn drift(mech: Mechanization, rate: f64) -> (f64, f64, f64, f64) {
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs).unwrap();
-    let data = simulate(&traj, rate, &ImuErrors::none(), &no_gnss(), 0);
+    let data = simulate(&traj, rate, &ImuErrors::none(), &GnssSim::none(), 0);
     let t0 = &data.truth[0].state;
     let mut nav = Nav { att: t0.att, vel: t0.vel, pos: t0.pos };
     let mut prev: Option<ImuSample> = None;

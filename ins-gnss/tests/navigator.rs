@@ -85,19 +85,7 @@ fn static_coarse_alignment_recovers_roll_pitch_and_gyro_bias() {
     let traj = Trajectory::new(start, &[Segment::stop(60.0)]).unwrap();
     let mut errors = scenarios::mems_imu();
     errors.accel_turn_on = Vector3::zeros(); // roll/pitch absorb accelerometer biases
-    let data = ins_gnss_sim::simulate(
-        &traj,
-        100.0,
-        &errors,
-        &GnssSim {
-            rate_hz: 0.0,
-            pos_sigma: Vector3::zeros(),
-            vel_sigma: None,
-            lever_arm: Vector3::zeros(),
-            windows: vec![],
-        },
-        3,
-    );
+    let data = ins_gnss_sim::simulate(&traj, 100.0, &errors, &GnssSim::none(), 3);
     let n = data.imu.len() as f64;
     let f = data.imu.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>() / n;
     let w = data.imu.iter().map(|s| s.rate()).sum::<Vector3<f64>>() / n;
