@@ -6,12 +6,19 @@
 //! propagated over the rest of the interval (no snapping to the nearest IMU epoch).
 
 use core::fmt;
+use core::marker::PhantomData;
 
 use estimator_core::{
-    Cov, DimAlloc, ErrorStateFilter, FilterAlloc, FilterError, FixedNoise, Manifold,
-    MeasurementModel, NoiseStrategy, Observer, StateDim, StepRecorder, UpdateSummary,
+    Cov, DimAlloc, ErrorStateFilter, FilterAlloc, FilterError, FixedNoise, JacobiansOf, Manifold,
+    MeasurementJacobians, MeasurementModel, NoiseStrategy, Observer, StateDim, StepRecorder,
+    StreamId, UpdateSummary,
 };
-use nalgebra::{Const, DefaultAllocator, Matrix3, OVector, SMatrix, Vector3};
+use manifolds::Tangent;
+use nalgebra::allocator::Allocator;
+use nalgebra::{
+    Const, DefaultAllocator, DimName, Matrix, Matrix3, OMatrix, OVector, RawStorage, SMatrix,
+    Vector3,
+};
 
 use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
 use crate::imu::ImuNoise;
@@ -20,9 +27,9 @@ use crate::model::{ImuInput, InsModel, M15};
 use crate::raw::atmosphere::Klobuchar;
 use crate::raw::spp::{azel, corrections, Prepared, SppOptions};
 use crate::raw::GpsTime;
-use crate::scale::{InsModel21, InsState21, On21, M21};
+use crate::scale::{InsModel21, InsState21, M21};
 use crate::state::InsState;
-use crate::tight::{InsModelTc, InsStateTc, OnTc, Pseudorange, RangeRate, M20};
+use crate::tight::{InsModelTc, InsStateTc, Pseudorange, RangeRate, M20};
 use crate::vehicle::{
     mounting_matrix, Nhc, Odometer, OdometerScale, StationaryDetector, VehicleAiding, Zaru, Zupt,
 };
@@ -116,6 +123,74 @@ where
             + FilterAlloc<Const<21>, StateDim<MM::Measurement>>;
 }
 
+/// A measurement model of the 15-state navigation state applied to a larger navigation
+/// state `S` whose error state begins with those 15 (the 21-state [`InsState21`], the
+/// tightly coupled [`InsStateTc`]): the same prediction from [`NavState::nav`], `H`
+/// padded with zero columns for the other states.
+#[derive(Debug)]
+pub struct OnNav<'a, S, M> {
+    model: &'a M,
+    _state: PhantomData<fn() -> S>,
+}
+
+impl<'a, S, M> OnNav<'a, S, M> {
+    /// `model` on the state `S`.
+    pub fn new(model: &'a M) -> Self {
+        Self { model, _state: PhantomData }
+    }
+}
+
+impl<S, M> Clone for OnNav<'_, S, M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<S, M> Copy for OnNav<'_, S, M> {}
+
+/// `h` with zero columns appended up to `C`.
+fn pad<R: DimName, C: DimName, St: RawStorage<f64, R, Const<15>>>(
+    h: &Matrix<f64, R, Const<15>, St>,
+) -> OMatrix<f64, R, C>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    OMatrix::<f64, R, C>::from_fn(|r, c| if c < 15 { h[(r, c)] } else { 0.0 })
+}
+
+impl<S, M> MeasurementModel for OnNav<'_, S, M>
+where
+    S: NavState,
+    M: MeasurementModel<State = InsState>,
+    DefaultAllocator: DimAlloc<S::Dim>
+        + FilterAlloc<Const<15>, StateDim<M::Measurement>>
+        + FilterAlloc<S::Dim, StateDim<M::Measurement>>,
+{
+    type State = S;
+    type Measurement = M::Measurement;
+
+    fn predict(&self, x: &S) -> M::Measurement {
+        self.model.predict(x.nav())
+    }
+
+    fn jacobian(&self, x: &S) -> JacobiansOf<Self> {
+        MeasurementJacobians { H: pad(&self.model.jacobian(x.nav()).H) }
+    }
+
+    fn innovation(
+        &self,
+        x: &S,
+        z: &M::Measurement,
+    ) -> (Tangent<M::Measurement>, JacobiansOf<Self>) {
+        let (r, j) = self.model.innovation(x.nav(), z);
+        (r, MeasurementJacobians { H: pad(&j.H) })
+    }
+
+    fn stream(&self) -> StreamId {
+        self.model.stream()
+    }
+}
+
 impl NavState for InsState {
     type Model = InsModel;
 
@@ -172,7 +247,7 @@ impl NavState for InsState21 {
             + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
     {
-        filter.update_observed(&On21(model), z, r, observer).map(|r| r.summary())
+        filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
     }
 }
 
@@ -202,7 +277,7 @@ impl NavState for InsStateTc {
             + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
     {
-        filter.update_observed(&OnTc(model), z, r, observer).map(|r| r.summary())
+        filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
     }
 }
 

@@ -14,15 +14,12 @@
 //! ```
 //!
 //! Error state `[δθ, δv, δp, δb_g, δb_a, δs_g, δs_a]` (21). Measurement models of the
-//! 15-state filter apply through [`On21`] (their `H` padded with zeros).
+//! 15-state filter apply through [`OnNav`](crate::navigator::OnNav) (their `H` padded
+//! with zeros).
 
-use estimator_core::{
-    FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
-    ProcessModel, StateDim, StreamId,
-};
-use manifolds::{composite_state, Tangent, R3};
-use nalgebra::allocator::Allocator;
-use nalgebra::{Const, DefaultAllocator, DimName, Matrix, OMatrix, RawStorage, SMatrix, Vector3};
+use estimator_core::{ProcessJacobians, ProcessModel};
+use manifolds::{composite_state, R3};
+use nalgebra::{Const, SMatrix, Vector3};
 
 use crate::imu::{BiasModel, ImuSample};
 use crate::model::{ImuInput, InsModel};
@@ -236,51 +233,5 @@ impl ProcessModel for InsModel21 {
             out[15 + k] = qg[k] * h * v[15 + k];
             out[18 + k] = qa[k] * h * v[18 + k];
         }
-    }
-}
-
-/// A measurement model of the 15-state filter applied to the 21-state one: the same
-/// prediction from the navigation part, `H` padded with zero columns for the scale
-/// factors.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct On21<'a, M>(pub &'a M);
-
-fn pad<R: DimName, S: RawStorage<f64, R, Const<15>>>(
-    h: &Matrix<f64, R, Const<15>, S>,
-) -> OMatrix<f64, R, Const<21>>
-where
-    DefaultAllocator: Allocator<R, Const<21>>,
-{
-    OMatrix::<f64, R, Const<21>>::from_fn(|r, c| if c < 15 { h[(r, c)] } else { 0.0 })
-}
-
-impl<M> MeasurementModel for On21<'_, M>
-where
-    M: MeasurementModel<State = InsState>,
-    DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
-        + FilterAlloc<Const<21>, StateDim<M::Measurement>>,
-{
-    type State = InsState21;
-    type Measurement = M::Measurement;
-
-    fn predict(&self, x: &InsState21) -> M::Measurement {
-        self.0.predict(&x.nav)
-    }
-
-    fn jacobian(&self, x: &InsState21) -> JacobiansOf<Self> {
-        MeasurementJacobians { H: pad(&self.0.jacobian(&x.nav).H) }
-    }
-
-    fn innovation(
-        &self,
-        x: &InsState21,
-        z: &M::Measurement,
-    ) -> (Tangent<M::Measurement>, JacobiansOf<Self>) {
-        let (r, j) = self.0.innovation(&x.nav, z);
-        (r, MeasurementJacobians { H: pad(&j.H) })
-    }
-
-    fn stream(&self) -> StreamId {
-        self.0.stream()
     }
 }

@@ -22,15 +22,10 @@ use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
 
 use estimator_core::{
-    FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
-    ProcessModel, StateDim, StreamId,
+    JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessModel, StreamId,
 };
-use manifolds::{composite_state, hat, Manifold, Tangent, R2, R3};
-use nalgebra::allocator::Allocator;
-use nalgebra::{
-    Const, DefaultAllocator, DimName, Matrix, Matrix3, OMatrix, RawStorage, SMatrix, SVector,
-    Vector1, Vector3,
-};
+use manifolds::{composite_state, hat, Manifold, R2, R3};
+use nalgebra::{Const, Matrix3, SMatrix, SVector, Vector1, Vector3};
 
 use crate::earth::{ecef_to_ned_rotation, geodetic_to_ecef, LocalEarth};
 use crate::model::{ImuInput, InsModel};
@@ -188,50 +183,6 @@ impl ProcessModel for InsModelTc {
     }
 
     const FUSED_STEP_COVARIANCE: bool = true;
-}
-
-/// A measurement model of the 15-state filter on the tightly coupled state (`H` padded).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct OnTc<'a, M>(pub &'a M);
-
-fn pad<R: DimName, S: RawStorage<f64, R, Const<15>>>(
-    h: &Matrix<f64, R, Const<15>, S>,
-) -> OMatrix<f64, R, Const<20>>
-where
-    DefaultAllocator: Allocator<R, Const<20>>,
-{
-    OMatrix::<f64, R, Const<20>>::from_fn(|r, c| if c < 15 { h[(r, c)] } else { 0.0 })
-}
-
-impl<M> MeasurementModel for OnTc<'_, M>
-where
-    M: MeasurementModel<State = InsState>,
-    DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
-        + FilterAlloc<Const<20>, StateDim<M::Measurement>>,
-{
-    type State = InsStateTc;
-    type Measurement = M::Measurement;
-
-    fn predict(&self, x: &InsStateTc) -> M::Measurement {
-        self.0.predict(&x.nav)
-    }
-
-    fn jacobian(&self, x: &InsStateTc) -> JacobiansOf<Self> {
-        MeasurementJacobians { H: pad(&self.0.jacobian(&x.nav).H) }
-    }
-
-    fn innovation(
-        &self,
-        x: &InsStateTc,
-        z: &M::Measurement,
-    ) -> (Tangent<M::Measurement>, JacobiansOf<Self>) {
-        let (r, j) = self.0.innovation(&x.nav, z);
-        (r, MeasurementJacobians { H: pad(&j.H) })
-    }
-
-    fn stream(&self) -> StreamId {
-        self.0.stream()
-    }
 }
 
 /// The stream of a satellite's pseudoranges (`"pr G05"`) or range rates (`"rr G05"`):
