@@ -4,16 +4,14 @@
 use crate::cli::CliError;
 
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
-use ins_gnss_core::io::formats::{create_partial, publish};
-use ins_gnss_core::io::rtklib::{
-    parse_line, push_epoch_ns, write_header_mode, PosHeader, QualityFactors,
-};
+use ins_gnss_core::io::formats::{create_partial, publish, BadLinePolicy, GnssFormat, GnssReader};
+use ins_gnss_core::io::rtklib::{push_epoch_ns, write_header_mode};
 use ins_gnss_core::raw::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
 use ins_gnss_core::raw::ubx::read_ubx;
 use ins_gnss_core::raw::{read_nav, NavData, ObsEpoch, ObsReader, Spp};
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
-use std::io::{BufRead, Write};
+use std::io::Write;
 use std::path::Path;
 
 /// What a single-point run found.
@@ -151,30 +149,14 @@ pub fn write_pos(path: &Path, run: &SppRun, opt: &SppOptions) -> Result<(), CliE
     Ok(())
 }
 
-/// Reads an RTKLIB `.pos` (GPST) as `(GPS week seconds, ECEF)`; epochs of `Q = 0` are left out.
+/// Reads an RTKLIB `.pos` as `(GPS seconds of week, ECEF)` through the library's GNSS
+/// reader (any of RTKLIB's layouts and time systems; epochs of `Q = 0` are left out;
+/// errors name the file and line).
 pub fn read_pos(path: &Path) -> Result<Vec<(f64, Vector3<f64>)>, CliError> {
-    let f = ins_gnss_core::io::formats::open(path)?;
-    let mut header: Option<PosHeader> = None;
+    let mut r = GnssReader::open(path, BadLinePolicy::Error)?.with_format(GnssFormat::Rtklib);
     let mut out = Vec::new();
-    for (k, line) in f.lines().enumerate() {
-        let line = line?;
-        if line.trim_start().starts_with('%') {
-            if let Some(h) = PosHeader::parse(&line) {
-                header = Some(h);
-            }
-            continue;
-        }
-        if line.trim().is_empty() {
-            continue;
-        }
-        let h = header.as_ref().ok_or_else(|| {
-            format!("{}:{}: data before the `%  GPST …` header", path.display(), k + 1)
-        })?;
-        if let Some(e) = parse_line(h, &line, &QualityFactors::default())
-            .map_err(|e| format!("{}:{}: {e:?}", path.display(), k + 1))?
-        {
-            out.push((e.t, ins_gnss_core::io::rtklib::to_ecef(&e.pos)));
-        }
+    while let Some(e) = r.next_epoch()? {
+        out.push((e.t, ins_gnss_core::io::rtklib::to_ecef(&e.pos)));
     }
     Ok(out)
 }
