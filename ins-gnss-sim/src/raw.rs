@@ -122,11 +122,28 @@ pub struct RawTruth {
 
 /// Per satellite and run: the constant errors and the phase arc.
 struct Track {
+    errors: SatErrors,
+    ambiguity: [f64; 2],
+}
+
+/// A satellite's range errors: orbit and clock (m), code bias (m), the ionosphere's factor
+/// and the troposphere's error in units of its σ.
+struct SatErrors {
     eph_bias: f64,
     code_bias: f64,
     iono_factor: f64,
     tropo_bias: f64,
-    ambiguity: [f64; 2],
+}
+
+impl SatErrors {
+    fn draw(sim: &RawSim, n01: &Normal<f64>, rng: &mut StdRng) -> Self {
+        Self {
+            eph_bias: sim.ephemeris_std * n01.sample(rng),
+            code_bias: sim.code_bias_std * n01.sample(rng),
+            iono_factor: 1.0 + sim.iono_error * n01.sample(rng),
+            tropo_bias: n01.sample(rng),
+        }
+    }
 }
 
 /// Simulates observations at `sim.rate_hz` over the trajectory: the epochs (receiver time
@@ -192,25 +209,19 @@ pub fn simulate_raw(
             let range = tau * C;
             if sim.white_errors {
                 if let Some(old) = tracks.get_mut(&sat) {
-                    old.eph_bias = sim.ephemeris_std * n01.sample(&mut rng);
-                    old.code_bias = sim.code_bias_std * n01.sample(&mut rng);
-                    old.iono_factor = 1.0 + sim.iono_error * n01.sample(&mut rng);
-                    old.tropo_bias = n01.sample(&mut rng);
+                    old.errors = SatErrors::draw(sim, &n01, &mut rng);
                 }
             }
             let tr = tracks.entry(sat).or_insert_with(|| Track {
-                eph_bias: sim.ephemeris_std * n01.sample(&mut rng),
-                code_bias: sim.code_bias_std * n01.sample(&mut rng),
-                iono_factor: 1.0 + sim.iono_error * n01.sample(&mut rng),
-                tropo_bias: n01.sample(&mut rng),
+                errors: SatErrors::draw(sim, &n01, &mut rng),
                 ambiguity: [
                     rng.random_range(-1e6..1e6f64).round(),
                     rng.random_range(-1e6..1e6f64).round(),
                 ],
             });
-            let iono_l1 = klobuchar.delay(lat, lon, az, el, gps.tow) * tr.iono_factor;
-            let tropo =
-                saastamoinen(lat, h, el) + sim.tropo_error / (el.sin() + 0.1) * tr.tropo_bias;
+            let iono_l1 = klobuchar.delay(lat, lon, az, el, gps.tow) * tr.errors.iono_factor;
+            let tropo = saastamoinen(lat, h, el)
+                + sim.tropo_error / (el.sin() + 0.1) * tr.errors.tropo_bias;
             // range rate with the Sagnac term's rate
             let rate = range_rate(&st.pos, &st.vel, &rr, &vr, &u);
             let (a, b) = sim.code_noise;
@@ -234,12 +245,12 @@ pub fn simulate_raw(
                 } else {
                     e.group_delay() * C * ((frequency(sat.sys, 0) / f).powi(2) - 1.0)
                 };
-                let geometric = range + bias - C * st.clock + tropo + tr.eph_bias;
+                let geometric = range + bias - C * st.clock + tropo + tr.errors.eph_bias;
                 s.code = Some(
                     geometric
                         + iono
                         + tgd
-                        + tr.code_bias
+                        + tr.errors.code_bias
                         + outlier
                         + code_sigma * n01.sample(&mut rng),
                 );
