@@ -144,3 +144,37 @@ fn a_ubx_log_holds_what_the_simulator_wrote() {
         assert!((e.state(&t).pos - r.state(&t).pos).norm() < 1e-3);
     }
 }
+
+/// A measurement that is not finite in a log (a corrupt receiver record) is read as
+/// missing, not as a number: the epoch's other satellites still give a single point.
+#[test]
+fn a_non_finite_measurement_is_read_as_missing() {
+    let nav = read_nav(&data("rinex-rtklib/07590920.05n.zst")).unwrap();
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs[..1]).unwrap();
+    let sim = RawSim::spp_budget(GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0));
+    let kb = nav.klobuchar.unwrap();
+    let (mut epochs, _) = simulate_raw(&traj, &nav.ephemerides, &kb, &sim, 1);
+    epochs[3].sats[0].signals[0].code = Some(f64::NAN);
+    epochs[3].sats[1].signals[0].phase = Some(f64::INFINITY);
+    let dir = std::env::temp_dir().join(format!("ubx-nan-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("nan.ubx");
+    std::fs::write(&p, ins_gnss_sim::raw::write_ubx(&epochs, &nav.ephemerides, Some(&kb), 13))
+        .unwrap();
+    let log = read_ubx(&p).unwrap();
+    let e = &log.epochs[3];
+    assert_eq!(e.sats[0].signals[0].code, None);
+    assert_eq!(e.sats[1].signals[0].phase, None);
+    assert!(e.sats[1].signals[0].code.is_some());
+    let opt = ins_gnss_core::raw::SppOptions::default();
+    assert!(ins_gnss_core::raw::single_point(
+        e,
+        &log.ephemerides,
+        log.klobuchar.as_ref(),
+        &opt,
+        None
+    )
+    .is_ok());
+    let _ = std::fs::remove_dir_all(&dir);
+}

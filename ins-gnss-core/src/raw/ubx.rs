@@ -102,9 +102,10 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
                         }
                     };
                     let s = &mut sats[i].signals[k];
-                    s.code = (trk & 1 != 0).then_some(m.pr_mes());
-                    s.phase = (trk & 2 != 0).then_some(m.cp_mes());
-                    s.doppler = Some(f64::from(m.do_mes()));
+                    // (a value that is not finite is no measurement)
+                    s.code = Some(m.pr_mes()).filter(|v| trk & 1 != 0 && v.is_finite());
+                    s.phase = Some(m.cp_mes()).filter(|v| trk & 2 != 0 && v.is_finite());
+                    s.doppler = Some(f64::from(m.do_mes())).filter(|v| v.is_finite());
                     s.cn0 = Some(f64::from(m.cno()));
                     // a lock time of 0 (a new arc) or one that dropped: a slip, as RTKLIB
                     // reads it; half cycle unresolved: bit 1, as RINEX
