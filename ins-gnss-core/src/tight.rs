@@ -268,7 +268,6 @@ impl MeasurementModel for Pseudorange<'_> {
         if let Some(k) = isb_index(self.sat.sat.sys) {
             H[(0, ISB + k)] = 1.0;
         }
-        let _ = a.lever_n;
         (Vector1::new(z), MeasurementJacobians { H })
     }
 

@@ -106,12 +106,13 @@ fn label(line: &str) -> &str {
     line.get(60..).unwrap_or("").trim_end()
 }
 
-/// Reads the lines up to `END OF HEADER`, calling `each` on each with its number.
+/// Reads the lines up to `END OF HEADER`, calling `each` on each (its
+/// error is located at the line).
 fn read_header(
     input: &mut Input,
     path: &Path,
     line_no: &mut usize,
-    mut each: impl FnMut(&str, usize) -> Result<(), String>,
+    mut each: impl FnMut(&str) -> Result<(), String>,
 ) -> Result<(), RawError> {
     let mut line = String::new();
     loop {
@@ -125,7 +126,7 @@ fn read_header(
         if label(l) == "END OF HEADER" {
             return Ok(());
         }
-        each(l, *line_no).map_err(|m| err(path, *line_no, m))?;
+        each(l).map_err(|m| err(path, *line_no, m))?;
     }
 }
 
@@ -153,7 +154,7 @@ impl ObsReader {
         let mut v2_count = 0usize;
         let mut v3_pending: Option<(System, usize)> = None;
         let mut file_sys = ' ';
-        read_header(&mut input, path, &mut line_no, |l, n| {
+        read_header(&mut input, path, &mut line_no, |l| {
             match label(l) {
                 "RINEX VERSION / TYPE" => {
                     let (v, kind, sys) = version_and_type(l)?;
@@ -225,7 +226,6 @@ impl ObsReader {
                 }
                 _ => {}
             }
-            let _ = n;
             Ok(())
         })?;
         if h.version == 0.0 {
@@ -553,7 +553,7 @@ pub fn read_nav(path: &Path) -> Result<NavData, RawError> {
     let mut version = 0.0;
     let mut file_sys = 'G';
     let (mut alpha, mut beta) = (None, None);
-    read_header(&mut input, path, &mut line_no, |l, _| {
+    read_header(&mut input, path, &mut line_no, |l| {
         let d4 = |from: usize| -> Result<[f64; 4], String> {
             let mut c = [0.0; 4];
             for (k, v) in c.iter_mut().enumerate() {

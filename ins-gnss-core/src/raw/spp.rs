@@ -503,7 +503,6 @@ fn least_squares(
         x += &dx;
         if dx.norm() < 1e-4 {
             // the residuals at the solution
-            let rr = Vector3::new(x[0], x[1], x[2]);
             let mut chi2 = 0.0;
             let mut used = Vec::with_capacity(rows.len());
             for (i, hr, v, var, el) in &rows {
@@ -511,7 +510,6 @@ fn least_squares(
                 chi2 += vv * vv / var;
                 used.push((*i, vv, *el));
             }
-            let _ = rr;
             let gdop = g.clone().cholesky().map_or(f64::INFINITY, |c| c.inverse().trace().sqrt());
             return Ok(Fit { x, used, chi2, n_cov: chol.inverse(), gdop, systems });
         }
