@@ -50,3 +50,16 @@ impl core::fmt::Display for RawError {
 }
 
 impl std::error::Error for RawError {}
+
+/// Opens a raw GNSS file (plain, `.gz`, `.zst`, `.xz`) with the readers' error: the file
+/// named once, what went wrong.
+pub(crate) fn open_input(path: &std::path::Path) -> Result<crate::io::formats::Input, RawError> {
+    crate::io::formats::open(path).map_err(|e| RawError {
+        path: path.to_path_buf(),
+        line: 0,
+        message: match e.kind {
+            crate::io::lines::LineErrorKind::Io(m) => format!("cannot read: {m}"),
+            other => format!("{other:?}"),
+        },
+    })
+}

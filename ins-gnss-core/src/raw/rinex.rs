@@ -14,9 +14,10 @@
 use super::atmosphere::Klobuchar;
 use super::ephemeris::{Ephemerides, Ephemeris};
 use super::obs::{slot_of, ObsEpoch, SatObs, Signal};
+use super::open_input;
 use super::time::{GpsTime, Sat, System, BDT_MINUS_GPST, BDT_WEEK_OFFSET};
 use super::RawError;
-use crate::io::formats::{open, Input};
+use crate::io::formats::Input;
 use nalgebra::Vector3;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -140,7 +141,7 @@ fn version_and_type(l: &str) -> Result<(f64, char, char), String> {
 impl ObsReader {
     /// Opens a RINEX observation file (plain or `.gz`/`.zst`/`.xz`) and reads its header.
     pub fn open(path: &Path) -> Result<Self, RawError> {
-        let mut input = open(path).map_err(|e| err(path, 0, e.to_string()))?;
+        let mut input = open_input(path)?;
         let mut line_no = 0;
         let mut h = ObsHeader {
             version: 0.0,
@@ -548,7 +549,7 @@ pub struct NavData {
 
 /// Reads a RINEX 2 (GPS `N`) or 3 (any `N`) navigation file.
 pub fn read_nav(path: &Path) -> Result<NavData, RawError> {
-    let mut input = open(path).map_err(|e| err(path, 0, e.to_string()))?;
+    let mut input = open_input(path)?;
     let mut line_no = 0;
     let mut version = 0.0;
     let mut file_sys = 'G';

@@ -61,11 +61,8 @@ fn slot(sys: System, sig_id: u8) -> Option<usize> {
 pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     let err = |m: String| RawError { path: path.to_path_buf(), line: 0, message: m };
     let mut bytes = Vec::new();
-    std::io::Read::read_to_end(
-        &mut crate::io::formats::open(path).map_err(|e| err(e.to_string()))?,
-        &mut bytes,
-    )
-    .map_err(|e| err(e.to_string()))?;
+    std::io::Read::read_to_end(&mut super::open_input(path)?, &mut bytes)
+        .map_err(|e| err(e.to_string()))?;
     let mut log = UbxLog::default();
     // subframes 1–3 per satellite, and the last lock times (a drop is a slip)
     let mut frames: BTreeMap<u8, [Option<Subframe>; 3]> = BTreeMap::new();
