@@ -110,6 +110,11 @@ pub struct DataSection {
     /// The truth file is a log with a header ([`TruthColumns`]).
     #[serde(default)]
     pub truth_columns: Option<TruthColumns>,
+    /// Broadcast ephemerides for `gnss.coupling = "tight"`: RINEX navigation files
+    /// (merged). A u-blox log brings its own GPS ephemerides; a RINEX observation file
+    /// needs these.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub nav: Vec<PathBuf>,
 }
 
 fn default_output() -> PathBuf {
@@ -552,6 +557,134 @@ pub struct GnssSection {
     /// RTKLIB solutions: σ factor per quality, qualities dropped.
     #[serde(default)]
     pub quality: QualitySection,
+    /// `loose` (default: `data.gnss` holds a receiver's fixes) or `tight` (`data.gnss` is
+    /// a RINEX observation file or a u-blox log, with `data.nav`: each satellite's
+    /// pseudorange and Doppler update the filter).
+    #[serde(default, skip_serializing_if = "Coupling::is_loose")]
+    pub coupling: Coupling,
+    /// Tight coupling's models ([`TightSection`]).
+    #[serde(default, skip_serializing_if = "TightSection::is_default")]
+    pub tight: TightSection,
+}
+
+/// How the GNSS aids the filter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Coupling {
+    /// A receiver's position (and velocity) fixes.
+    #[default]
+    Loose,
+    /// Raw observations: one update per satellite.
+    Tight,
+}
+
+impl Coupling {
+    fn is_loose(&self) -> bool {
+        *self == Coupling::Loose
+    }
+}
+
+/// `[gnss.tight]`: the satellite models of tight coupling (and of the single points the
+/// start's checks and alignment use).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TightSection {
+    /// Elevation mask, degrees. Default 15.
+    #[serde(default = "default_elevation_mask")]
+    pub elevation_mask: f64,
+    /// `klobuchar` (default, the broadcast model), `iono-free` (two frequencies; a
+    /// satellite with one is not used) or `off`.
+    #[serde(default = "default_iono")]
+    pub ionosphere: String,
+    /// `saastamoinen` (default) or `off`.
+    #[serde(default = "default_tropo")]
+    pub troposphere: String,
+    /// Use the Dopplers (range rates) as well as the codes. Default true.
+    #[serde(default = "yes")]
+    pub doppler: bool,
+    /// σ of a Doppler's range rate, m/s. Default 0.1.
+    #[serde(default = "default_doppler_std")]
+    pub doppler_std: f64,
+    /// Random walk of the receiver clock's drift, m/s/√s. Default 0.1 (a TCXO).
+    #[serde(default = "default_clock_drift_noise")]
+    pub clock_drift_noise: f64,
+}
+
+fn default_elevation_mask() -> f64 {
+    15.0
+}
+fn default_iono() -> String {
+    "klobuchar".into()
+}
+fn default_tropo() -> String {
+    "saastamoinen".into()
+}
+fn default_doppler_std() -> f64 {
+    0.1
+}
+fn default_clock_drift_noise() -> f64 {
+    0.1
+}
+
+impl Default for TightSection {
+    fn default() -> Self {
+        Self {
+            elevation_mask: default_elevation_mask(),
+            ionosphere: default_iono(),
+            troposphere: default_tropo(),
+            doppler: true,
+            doppler_std: default_doppler_std(),
+            clock_drift_noise: default_clock_drift_noise(),
+        }
+    }
+}
+
+impl TightSection {
+    fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The single point's options these settings make (`gnss.tight.*` named in errors).
+    pub fn spp_options(&self) -> Result<ins_gnss_core::raw::SppOptions, String> {
+        use ins_gnss_core::raw::spp::{Ionosphere, Troposphere};
+        let ionosphere = match self.ionosphere.as_str() {
+            "off" => Ionosphere::Off,
+            "klobuchar" => Ionosphere::Klobuchar,
+            "iono-free" => Ionosphere::IonoFree,
+            other => {
+                return Err(format!(
+                    "`gnss.tight.ionosphere = \"{other}\"`: klobuchar, iono-free or off"
+                ))
+            }
+        };
+        let troposphere = match self.troposphere.as_str() {
+            "off" => Troposphere::Off,
+            "saastamoinen" => Troposphere::Saastamoinen,
+            other => {
+                return Err(format!("`gnss.tight.troposphere = \"{other}\"`: saastamoinen or off"))
+            }
+        };
+        if !(0.0..90.0).contains(&self.elevation_mask) {
+            return Err(format!(
+                "`gnss.tight.elevation_mask = {}`: degrees in 0…90",
+                self.elevation_mask
+            ));
+        }
+        for (key, v) in
+            [("doppler_std", self.doppler_std), ("clock_drift_noise", self.clock_drift_noise)]
+        {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("`gnss.tight.{key} = {v}`: must be positive"));
+            }
+        }
+        Ok(ins_gnss_core::raw::SppOptions {
+            elevation_mask: self.elevation_mask.to_radians(),
+            ionosphere,
+            troposphere,
+            doppler_std: self.doppler_std,
+            ..Default::default()
+        })
+    }
 }
 
 fn yes() -> bool {
@@ -566,6 +699,8 @@ impl Default for GnssSection {
             position_std: None,
             velocity_std: None,
             quality: QualitySection::default(),
+            coupling: Coupling::Loose,
+            tight: TightSection::default(),
         }
     }
 }
@@ -946,7 +1081,7 @@ impl Config {
                 *p = base.join(&*p);
             }
         }
-        if let Some(t) = cfg.data.truth.as_mut() {
+        for t in cfg.data.truth.iter_mut().chain(cfg.data.nav.iter_mut()) {
             if t.is_relative() {
                 *t = base.join(&*t);
             }
@@ -963,7 +1098,8 @@ impl Config {
             ("data.gnss (gnsspath in a KF-GINS YAML)", Some(&self.data.gnss)),
             ("data.truth", self.data.truth.as_ref()),
         ];
-        for (key, file) in inputs {
+        let navs = self.data.nav.iter().map(|n| ("data.nav", Some(n)));
+        for (key, file) in inputs.into_iter().chain(navs) {
             let Some(file) = file else { continue };
             if !file.is_file() {
                 let what = if file.exists() { "is not a file" } else { "does not exist" };
@@ -979,6 +1115,33 @@ impl Config {
         Ok(())
     }
 
+    /// `gnss.coupling = "tight"` and what it excludes: the 21-state model (not coupled
+    /// tightly yet), column maps and a fixes' format (the raw file names its contents).
+    fn validate_tight(&self) -> Result<(), String> {
+        self.gnss.tight.spp_options()?;
+        if self.gnss.coupling != Coupling::Tight {
+            if !self.data.nav.is_empty() {
+                return Err("`data.nav` is read by tight coupling only: set `gnss.coupling = \
+                            \"tight\"` (with raw observations in `data.gnss`) or remove it"
+                    .into());
+            }
+            return Ok(());
+        }
+        if self.filter.states != 15 {
+            return Err(format!(
+                "`gnss.coupling = \"tight\"` runs on the 15-state model (with the receiver \
+                 clock); `filter.states = {}` is not coupled tightly yet",
+                self.filter.states
+            ));
+        }
+        if self.data.gnss_columns.is_some() || self.data.gnss_format != GnssFormatName::Auto {
+            return Err("`gnss.coupling = \"tight\"` reads `data.gnss` as RINEX observations \
+                        or a u-blox log: remove `data.gnss_columns` and `data.gnss_format`"
+                .into());
+        }
+        Ok(())
+    }
+
     /// Check that every value is finite and physically possible; the message names the
     /// key and the limit. Heights must lie within −1 km…+100 km, lever arms within 100 m,
     /// noise densities and standard deviations must be positive, the start before the
@@ -990,6 +1153,7 @@ impl Config {
             c.map(rates).map_err(|e| format!("`data.imu_columns`: {e}"))?;
         }
         self.gnss.quality.factors()?;
+        self.validate_tight()?;
         if d.gnss_columns.is_some() && d.gnss_format == GnssFormatName::Rtklib {
             return Err("`data.gnss_format = \"rtklib\"` and `data.gnss_columns` exclude each \
                         other: an RTKLIB solution names its columns in its header"
@@ -1657,6 +1821,7 @@ mod kf_gins {
                 gnss_columns: None,
                 gnss_format: Default::default(),
                 truth_columns: None,
+                nav: Vec::new(),
             },
             init: InitSection {
                 position: Some(triple(doc, "initpos")?),

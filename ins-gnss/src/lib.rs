@@ -4,6 +4,7 @@
 //!
 //! | module | what |
 //! |---|---|
+//! | [`aiding`] | the GNSS side of a run: a receiver's fixes, or raw observations with their single points (tight coupling) |
 //! | [`cli`] | the subcommands: `run`, `eval`, `simulate`, `compare`, the demo |
 //! | [`config`] | run configurations: our TOML and KF-GINS YAML, validated, datasheet units |
 //! | [`columns`] | column maps for logs with a header (CSV): names, units, axes, conventions |
@@ -27,6 +28,7 @@ macro_rules! out {
     }};
 }
 
+pub mod aiding;
 mod checks;
 pub mod cli;
 pub mod columns;

@@ -22,8 +22,9 @@ use std::time::Instant;
 
 use adaptive::{AnyStrategy, GrossErrorGate, PerStream};
 use estimator_core::{NoObserver, NoiseStrategy, SmoothedRow, UpdateSummary, Verdict};
-use nalgebra::{DimName, Vector3};
+use nalgebra::Vector3;
 
+use crate::aiding::{AidEpoch, AidReader};
 use crate::config::Config;
 use estimator_core::DimAlloc;
 use ins_gnss_core::gnss::GnssEpoch;
@@ -33,9 +34,10 @@ use ins_gnss_core::io::fixed::{push_exact, push_exact_row, push_row};
 use ins_gnss_core::io::formats::{create_partial, partial_path, publish, push_nav};
 use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use ins_gnss_core::model::{ImuInput, InsModel};
-use ins_gnss_core::navigator::{NavError, NavState, Navigator};
+use ins_gnss_core::navigator::{ClockInit, NavError, NavState, Navigator, RawEpoch, TightConfig};
 use ins_gnss_core::scale::{InsModel21, InsState21};
 use ins_gnss_core::state::InsState;
+use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsStateTc};
 use ins_gnss_core::vehicle::VEHICLE_STREAMS;
 use nalgebra::DefaultAllocator;
 
@@ -65,6 +67,8 @@ pub enum RunError {
         /// The error.
         message: String,
     },
+    /// A raw GNSS file (tight coupling) is malformed or cannot be used.
+    Raw(ins_gnss_core::raw::RawError),
     /// The IMU file ends before the start time or has no sample after it.
     NoData(String),
     /// The data do not match the configuration (units, axes, rate), or the initial state
@@ -92,6 +96,7 @@ impl fmt::Display for RunError {
             RunError::Output { path, message } => {
                 write!(f, "{}: cannot write: {message}", path.display())
             }
+            RunError::Raw(e) => write!(f, "{e}"),
             RunError::NoData(m) => write!(f, "{m}"),
             RunError::Start(m) => write!(f, "{m}"),
             RunError::Incomplete { error, dir } => write!(
@@ -277,6 +282,14 @@ impl StreamStats {
                  (the typical one {:.2}× its σ, the excess in the largest ones), so its \
                  reported σ (std.txt) is too small",
                 self.median_ratio.max(0.0).sqrt()
+            )
+        } else if self.stream.to_string().starts_with("pr ") {
+            // a satellite's pseudoranges (tight coupling): see `health::assess`
+            format!(
+                "{head}: NOT consistent — the innovations are smaller than the filter \
+                 believes: the satellite's errors stay the same from epoch to epoch and the \
+                 position and clock absorb them (the position σ is then too small, not too \
+                 large), or the noise settings are pessimistic"
             )
         } else {
             format!(
@@ -868,7 +881,7 @@ impl Sink for Outputs {
     {
         let s = nav.sigma();
         let mut sigma = [0.0; 21];
-        let n = s.len().min(21);
+        let n = S::SIGMA_COLUMNS;
         sigma[..n].copy_from_slice(&s.as_slice()[..n]);
         let p = nav.covariance();
         let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
@@ -972,7 +985,7 @@ impl Sink for Results {
     where
         DefaultAllocator: DimAlloc<S::Dim>,
     {
-        let (row, n) = sigma_row(t, nav.sigma().as_slice());
+        let (row, n) = sigma_row(t, &nav.sigma().as_slice()[..S::SIGMA_COLUMNS]);
         self.std.extend(row[..n].iter().map(|r| r.0));
         self.std_width = n;
         // (like `imu_errors.txt`: not twice at the same time, which the run's end can
@@ -1009,7 +1022,7 @@ impl Sink for Results {
         estimator_core::Cov<S::Dim>: Send,
         DefaultAllocator: DimAlloc<S::Dim>,
     {
-        let n = S::Dim::DIM.min(21);
+        let n = S::SIGMA_COLUMNS;
         // segments arrive last to first, each in time order
         let mut segments: Vec<(Vec<[f64; 10]>, Vec<f64>)> = Vec::new();
         recorder
@@ -1112,7 +1125,7 @@ type FileReader = ins_gnss_core::io::formats::Input;
 fn open_inputs(
     config: &Config,
     inputs: &Inputs,
-) -> Result<(ImuReader<FileReader>, GnssReader<FileReader>), RunError> {
+) -> Result<(ImuReader<FileReader>, AidReader), RunError> {
     let (format, rate, gap, policy) =
         (config.imu_format(), config.data.imu_rate, config.data.max_gap, config.bad_lines());
     let mut imu = match inputs {
@@ -1135,7 +1148,22 @@ fn open_inputs(
     if let Some(m) = &config.imu.mounting {
         imu = imu.with_mounting(m.matrix().map_err(|e| bad_map("imu.mounting", e))?);
     }
-    Ok((imu, open_gnss(config, inputs)?))
+    Ok((imu, open_aid(config, inputs)?))
+}
+
+/// The configured GNSS input: fixes, or raw observations (tight coupling, files only).
+fn open_aid(config: &Config, inputs: &Inputs) -> Result<AidReader, RunError> {
+    if config.gnss.coupling == crate::config::Coupling::Tight {
+        if let Inputs::Arrays { .. } = inputs {
+            return Err(bad_map(
+                "gnss.coupling",
+                "tight coupling reads raw observations from `data.gnss` and `data.nav` files; \
+                 arrays hold fixes (loose coupling)"
+                    .into(),
+            ));
+        }
+    }
+    AidReader::open(config, || open_gnss(config, inputs))
 }
 
 /// A column map with arrays: it names a file's columns and units, which an array does
@@ -1186,22 +1214,51 @@ pub trait RunState: NavState<Model: Sync> + estimator_core::Spill + Send + 'stat
 where
     DefaultAllocator: DimAlloc<Self::Dim>,
 {
-    /// The navigator at `start`.
+    /// The error states written to `std.txt` (the first ones).
+    const SIGMA_COLUMNS: usize;
+
+    /// The navigator at `start`; `clock`: the receiver clock `c·dt` (m) of the first
+    /// raw epoch's single point (tight coupling).
     fn navigator(
         config: &Config,
         strategy: RunStrategy,
         start: f64,
+        clock: Option<f64>,
     ) -> Result<Navigator<RunStrategy, Self>, NavError>;
 
     /// The scale factors (gyro, accelerometer), when the state has them.
     fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)>;
+
+    /// One IMU sample with the GNSS of its interval: the fixes (loose coupling) or the raw
+    /// epochs with their models (tight).
+    #[allow(clippy::too_many_arguments)]
+    fn process<R: estimator_core::StepRecorder<Self, ImuInput>>(
+        nav: &mut Navigator<RunStrategy, Self>,
+        imu: &ImuSample,
+        fixes: &[GnssEpoch],
+        raw: &[RawEpoch],
+        tight: Option<&TightConfig>,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        let _ = (raw, tight);
+        nav.process_recorded(imu, fixes, &mut NoObserver, out, recorder)
+    }
+
+    /// Whether an update of `stream` is a GNSS fix's (`nav.pos` marks the epoch).
+    fn is_fix(stream: estimator_core::StreamId) -> bool {
+        ins_gnss_core::gnss::GNSS_STREAMS.contains(&stream)
+    }
 }
 
 impl RunState for InsState {
+    const SIGMA_COLUMNS: usize = 15;
+
     fn navigator(
         config: &Config,
         strategy: RunStrategy,
         start: f64,
+        _clock: Option<f64>,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
         Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())
@@ -1213,10 +1270,13 @@ impl RunState for InsState {
 }
 
 impl RunState for InsState21 {
+    const SIGMA_COLUMNS: usize = 21;
+
     fn navigator(
         config: &Config,
         strategy: RunStrategy,
         start: f64,
+        _clock: Option<f64>,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
         let model = InsModel21 { base, scale: config.scale_factor_noise() };
@@ -1229,12 +1289,61 @@ impl RunState for InsState21 {
     }
 }
 
+/// Tight coupling: the 15 states, the receiver clock and the inter-system biases.
+impl RunState for InsStateTc {
+    const SIGMA_COLUMNS: usize = 15;
+
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+        clock: Option<f64>,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let noise = ClockNoise { drift: config.gnss.tight.clock_drift_noise, ..Default::default() };
+        let model = InsModelTc { base, clock: noise };
+        // the single point's clock (its σ a few metres; the drift from the Dopplers that
+        // follow), or, none found before the start, 1 ms
+        let clock = match clock {
+            Some(b) => ClockInit { clock: (b, 0.0), std: (30.0, 100.0), isb_std: 30.0 },
+            None => ClockInit { clock: (0.0, 0.0), std: (3.0e5, 100.0), isb_std: 30.0 },
+        };
+        let init = config.initial_state(start);
+        Navigator::new_tight(&init, &clock, model, strategy, config.gnss_config())
+    }
+
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        None
+    }
+
+    fn process<R: estimator_core::StepRecorder<Self, ImuInput>>(
+        nav: &mut Navigator<RunStrategy, Self>,
+        imu: &ImuSample,
+        _fixes: &[GnssEpoch],
+        raw: &[RawEpoch],
+        tight: Option<&TightConfig>,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        match tight {
+            Some(cfg) => nav.process_raw_recorded(imu, raw, cfg, &mut NoObserver, out, recorder),
+            // (a tight run always has its models: no satellite without them)
+            None => nav.process_recorded(imu, &[], &mut NoObserver, out, recorder),
+        }
+    }
+
+    fn is_fix(stream: estimator_core::StreamId) -> bool {
+        !VEHICLE_STREAMS.contains(&stream)
+    }
+}
+
 /// The navigator at the start time (the configured one, or the first IMU sample's
 /// `first_t`), the run's summary with its span started there, and the end time.
 fn start_navigator<S: RunState>(
     config: &Config,
     strategy: AnyStrategy,
     first_t: f64,
+    clock: Option<f64>,
 ) -> Result<(Navigator<RunStrategy, S>, RunSummary, f64), RunError>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
@@ -1244,7 +1353,8 @@ where
     // the name of the strategy the user chose (the vehicle streams' fixed noise aside)
     let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
     let strategy = config.strategy(strategy).map_err(RunError::Config)?;
-    let nav = S::navigator(config, strategy, start)?.with_vehicle_aiding(config.vehicle_aiding());
+    let nav =
+        S::navigator(config, strategy, start, clock)?.with_vehicle_aiding(config.vehicle_aiding());
     let summary = RunSummary {
         strategy: name.to_string(),
         span: (start, start),
@@ -1321,7 +1431,7 @@ where
     // The rows are formatted and written by a second thread while the backward pass runs.
     // (time, state, σ of the error states, as many as the state has, where asked)
     type Row = (f64, InsState, Option<[f64; 21]>);
-    let n = S::Dim::DIM.min(21);
+    let n = S::SIGMA_COLUMNS;
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
     let writer = std::thread::spawn(move || -> Result<_, (usize, std::io::Error)> {
         let mut out = files.map(|f| std::io::BufWriter::with_capacity(1 << 16, f));
@@ -1544,7 +1654,11 @@ fn run_with<O: Sink>(
     let config = &start.config;
     let names = (inputs.imu_name(config), inputs.gnss_name(config));
     let inputs = ((feed, gnss, prefix, checks), (&mut out, nav));
+    let tight = config.gnss.coupling == crate::config::Coupling::Tight;
     let result = match config.filter.states {
+        _ if tight => {
+            run_into::<InsStateTc, O>(config, strategy, names, progress, inputs.0, inputs.1)
+        }
         21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs.0, inputs.1),
         _ => run_into::<InsState, O>(config, strategy, names, progress, inputs.0, inputs.1),
     };
@@ -1686,7 +1800,7 @@ impl Checks {
         inputs: &Inputs,
         imu: std::sync::mpsc::Receiver<Vec<ImuSample>>,
     ) -> Result<Self, RunError> {
-        let mut gnss = open_gnss(config, inputs)?;
+        let mut gnss = open_aid(config, inputs)?;
         let config = config.clone();
         Ok(Self(std::thread::spawn(move || {
             let samples = imu.recv().unwrap_or_default();
@@ -1695,9 +1809,9 @@ impl Checks {
             };
             let (t0, t_end) = start_span(&config, first.t);
             let mut epochs = Vec::new();
-            while let Some(g) = gnss.next_epoch()? {
-                epochs.push(g);
-                if g.t > t_end {
+            while let Some(a) = gnss.next_epoch()? {
+                epochs.extend(a.fix);
+                if a.t > t_end {
                     break;
                 }
             }
@@ -1726,7 +1840,7 @@ pub struct Prefix {
     /// How many of the batches' samples `prepare` looks at.
     looked_at: usize,
     /// GNSS epochs and their lines.
-    gnss: std::collections::VecDeque<(GnssEpoch, usize)>,
+    gnss: std::collections::VecDeque<(AidEpoch, usize)>,
 }
 
 /// How much of the data's start [`run`] reads before the filter starts.
@@ -1745,7 +1859,7 @@ enum Look {
 fn read_prefix(
     config: &Config,
     imu: &mut ImuFeed,
-    gnss: &mut GnssReader<FileReader>,
+    gnss: &mut AidReader,
     look: Look,
 ) -> Result<Prefix, RunError> {
     let mut p = Prefix { batches: Vec::new(), looked_at: 0, gnss: Default::default() };
@@ -1804,7 +1918,7 @@ impl Prefix {
     /// The IMU samples looked at, and the GNSS epochs.
     fn samples(&self) -> (Vec<ImuSample>, Vec<GnssEpoch>) {
         let imu = self.batches.iter().flatten().take(self.looked_at).map(|(s, _)| *s).collect();
-        (imu, self.gnss.iter().map(|(g, _)| *g).collect())
+        (imu, self.gnss.iter().filter_map(|(g, _)| g.fix).collect())
     }
 }
 
@@ -1838,7 +1952,7 @@ fn run_into<S: RunState, O: Sink>(
     strategy: AnyStrategy,
     names: (PathBuf, PathBuf),
     mut progress: Option<Progress<'_>>,
-    (feed, mut gnss, prefix, mut checks): (ImuFeed, GnssReader<FileReader>, Prefix, Option<Checks>),
+    (feed, mut gnss, prefix, mut checks): (ImuFeed, AidReader, Prefix, Option<Checks>),
     (out, nav_sink): (&mut O, O::Nav),
 ) -> Result<RunSummary, RunError>
 where
@@ -1856,16 +1970,22 @@ where
         .ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?
         .0
         .t;
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t)?;
+    // the receiver clock of the first raw epoch after the start with a single point
+    let t0 = config.data.start_time.unwrap_or(first_t);
+    let clock = first_epochs
+        .iter()
+        .filter(|(a, _)| a.t > t0 + 1e-9)
+        .find_map(|(a, _)| a.raw.as_ref().and_then(|r| r.1));
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t, clock)?;
     let start = summary.span.0;
     let mut recorder = if config.filter.smooth { Some(out.recorder::<S>()?) } else { None };
     let (imu_path, gnss_path) = names;
     // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
     // sample whose prediction did.
-    // `epochs` and `lines`: the batch's GNSS epochs and their lines, in step
-    let locate = |e: NavError, imu_line: usize, epochs: &[GnssEpoch], lines: &[usize]| match &e {
+    // `lines`: the batch's GNSS epochs' times and lines (0: not a text file)
+    let locate = |e: NavError, imu_line: usize, lines: &[(f64, usize)]| match &e {
         NavError::Measurement { t, .. } => {
-            match epochs.iter().zip(lines).find(|(g, _)| (g.t - t).abs() < 1e-6) {
+            match lines.iter().find(|(tg, line)| (tg - t).abs() < 1e-6 && *line > 0) {
                 Some((_, line)) => {
                     RunError::Located { path: gnss_path.clone(), line: *line, error: e }
                 }
@@ -1889,12 +2009,14 @@ where
         });
 
         let result = (|| -> Result<(), RunError> {
-            let mut read_gnss = |gnss: &mut GnssReader<FileReader>, span: &mut (f64, f64)| {
+            let tight = gnss.tight().cloned();
+            let mut read_gnss = |gnss: &mut AidReader, span: &mut (f64, f64)| {
                 let g = match first_epochs.pop_front() {
                     Some(g) => Some(g),
                     None => gnss.next_epoch()?.map(|g| (g, gnss.line())),
                 };
                 if let Some((g, _)) = &g {
+                    let g: &AidEpoch = g;
                     if span.0.is_nan() {
                         span.0 = g.t;
                     }
@@ -1905,7 +2027,8 @@ where
             summary.gnss_span = (f64::NAN, f64::NAN);
             let mut next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
             let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
-            let mut batch_lines: Vec<usize> = Vec::with_capacity(4);
+            let mut raws: Vec<RawEpoch> = Vec::new();
+            let mut batch_lines: Vec<(f64, usize)> = Vec::with_capacity(4);
             let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
             let mut records = Vec::with_capacity(BATCH);
             let mut last_std = f64::NEG_INFINITY;
@@ -1923,27 +2046,31 @@ where
                         break 'outer;
                     }
                     batch.clear();
+                    raws.clear();
                     batch_lines.clear();
-                    while let Some((g, line)) = next_gnss {
-                        if g.t > sample.t + 1e-9 {
-                            break;
-                        }
+                    while next_gnss.as_ref().is_some_and(|(g, _)| g.t <= sample.t + 1e-9) {
+                        let Some((g, line)) = next_gnss.take() else { break };
                         if g.t > start + 1e-9 {
-                            summary.first_fix.get_or_insert(g);
-                            batch.push(g);
-                            batch_lines.push(line);
+                            if let Some(fix) = g.fix {
+                                summary.first_fix.get_or_insert(fix);
+                                batch.push(fix);
+                            }
+                            raws.extend(g.raw.map(|r| r.0));
+                            batch_lines.push((g.t, line));
                         }
                         next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
                     }
                     updates.clear();
-                    nav.process_recorded(
+                    S::process(
+                        &mut nav,
                         &sample,
                         &batch,
-                        &mut NoObserver,
+                        &raws,
+                        tight.as_ref(),
                         &mut updates,
                         &mut recorder,
                     )
-                    .map_err(|e| locate(e, imu_line, &batch, &batch_lines))?;
+                    .map_err(|e| locate(e, imu_line, &batch_lines))?;
                     summary.imu_epochs += 1;
                     records.push((sample.t, nav.nav_state().clone()));
                     if records.len() == BATCH
@@ -1960,8 +2087,7 @@ where
                     // after every update, and once a second without (an outage's σ)
                     if !updates.is_empty() || sample.t >= last_std + STD_EVERY - 1e-9 {
                         let fix = updates.iter().any(|u| {
-                            ins_gnss_core::gnss::GNSS_STREAMS.contains(&u.stream)
-                                && u.verdict != estimator_core::Verdict::Rejected
+                            S::is_fix(u.stream) && u.verdict != estimator_core::Verdict::Rejected
                         });
                         out.epoch(sample.t, &nav, fix)?;
                         // the smoothed σ at the same epochs
@@ -2001,7 +2127,7 @@ where
     out.epoch(summary.span.1, &nav, false)?;
     estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
     out.flush()?;
-    summary.gnss_skipped = gnss.skipped;
+    summary.gnss_skipped = gnss.skipped();
     summary.stationary_time = nav.stationary_time();
     if let Some(recorder) = recorder {
         let backward = Instant::now();
@@ -2059,13 +2185,19 @@ fn time_scale_hint(offset: f64, imu0: f64, gnss0: f64) -> String {
 /// [`run`], for repeated in-memory runs ([`run_slices`]): Monte Carlo over injected
 /// errors, strategy sweeps. Memory grows with the dataset (≈ 64 bytes per IMU sample).
 pub fn load_inputs(config: &Config) -> Result<(Vec<ImuSample>, Vec<GnssEpoch>), RunError> {
+    if config.gnss.coupling == crate::config::Coupling::Tight {
+        return Err(bad_map(
+            "gnss.coupling",
+            "in-memory slices hold fixes (loose coupling); a tight run goes through `run`".into(),
+        ));
+    }
     let (mut imu, mut gnss) = open_inputs(config, &Inputs::Files)?;
     let (mut samples, mut epochs) = (Vec::new(), Vec::new());
     while let Some(s) = imu.next_sample()? {
         samples.push(s);
     }
     while let Some(g) = gnss.next_epoch()? {
-        epochs.push(g);
+        epochs.extend(g.fix);
     }
     Ok((samples, epochs))
 }
@@ -2105,7 +2237,7 @@ where
     let start = crate::start::prepare(config, &imu[..n_imu], &gnss[..n_gnss], t0)
         .map_err(RunError::Start)?;
     let config = &start.config;
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.t)?;
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.t, None)?;
     summary.start = start.report;
     let start = summary.span.0;
     let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);

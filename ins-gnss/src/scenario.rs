@@ -178,6 +178,40 @@ pub struct Scenario {
     pub gnss: GnssSpec,
     /// Initial uncertainty.
     pub init: InitSpec,
+    /// Raw observations (`obs.rnx`) beside the fixes, and a configuration that couples
+    /// them tightly.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raw: Option<RawSpec>,
+}
+
+/// `[raw]`: satellites from a real navigation file, with the receiver the single point
+/// assumes ([`ins_gnss_sim::raw::RawSim::spp_budget`]): URA-sized orbit errors, half the
+/// Klobuchar delay, 0.3 m code bias per satellite, 1 Hz, 10° mask.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSpec {
+    /// RINEX navigation file (relative to the scenario file); copied into the dataset.
+    pub nav: PathBuf,
+    /// GPS week of `start.time`, which is read as GPS seconds of that week (the
+    /// ephemerides must cover the span).
+    pub week: i32,
+    /// Observation rate, Hz. Default 1.
+    #[serde(default = "one")]
+    pub rate: f64,
+    /// Probability per satellite and epoch of a multipath outlier of 20–100 m on the code.
+    #[serde(default)]
+    pub outliers: f64,
+    /// Sky masks: `[start, end, satellites left]` (s from `start.time`; 0 is a tunnel).
+    #[serde(default)]
+    pub masks: Vec<[f64; 3]>,
+    /// Draw the satellites' orbit, code-bias and atmosphere errors afresh at every epoch
+    /// (white, as the filter's model assumes) instead of once per satellite and run.
+    #[serde(default)]
+    pub white_errors: bool,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 fn v3(a: [f64; 3]) -> Vector3<f64> {
@@ -192,7 +226,11 @@ impl Scenario {
     /// Load a scenario file; errors name the file and the key.
     pub fn load(path: &Path) -> Result<Self, String> {
         let text = std::fs::read_to_string(path).map_err(|e| io_err(path, e))?;
-        Self::parse(&text, &path.display().to_string())
+        let mut s = Self::parse(&text, &path.display().to_string())?;
+        if let Some(r) = s.raw.as_mut().filter(|r| r.nav.is_relative()) {
+            r.nav = path.parent().unwrap_or(Path::new(".")).join(&r.nav);
+        }
+        Ok(s)
     }
 
     /// Parse the text of a scenario file and [`validate`](Self::validate) it; errors name
@@ -260,6 +298,21 @@ impl Scenario {
         }
         let g = &self.gnss;
         positive("gnss.rate", &[g.rate])?;
+        if let Some(r) = &self.raw {
+            positive("raw.rate", &[r.rate])?;
+            if !(0.0..=1.0).contains(&r.outliers) {
+                return Err(format!("`raw.outliers` {}: a probability in 0…1", r.outliers));
+            }
+            for (k, m) in r.masks.iter().enumerate() {
+                finite(&format!("raw.masks[{k}]"), m)?;
+                if m[1] <= m[0] || m[2] < 0.0 || m[2].fract() != 0.0 {
+                    return Err(format!(
+                        "`raw.masks[{k}]` {m:?}: [start, end, satellites left] with start < end \
+                         and a whole number of satellites"
+                    ));
+                }
+            }
+        }
         if g.rate > i.rate {
             return Err(format!("`gnss.rate` {} Hz above `imu.rate` {} Hz", g.rate, i.rate));
         }
@@ -374,6 +427,7 @@ impl Scenario {
                 velocity_error: [0.05, -0.05, 0.02],
                 position_error: [1.0, -1.0, 1.5],
             },
+            raw: None,
         }
     }
 
@@ -515,10 +569,60 @@ impl Scenario {
                       # init errors; noise settings match the simulated IMU.\n";
         std::fs::write(partial_path(&paths[3]), format!("{header}{text}"))
             .map_err(|e| io_err(&partial_path(&paths[3]), e))?;
+        let mut paths = paths;
+        if let Some(raw) = &self.raw {
+            paths.extend(self.write_raw(raw, &traj, dir)?);
+        }
         for p in &paths {
             publish(p).map_err(|e| io_err(p, e))?;
         }
         Ok(paths)
+    }
+
+    /// `[raw]`: `obs.rnx` and the navigation file beside it (as `.partial` files).
+    fn write_raw(
+        &self,
+        raw: &RawSpec,
+        traj: &Trajectory,
+        dir: &Path,
+    ) -> Result<[PathBuf; 2], String> {
+        use ins_gnss_sim::raw::{simulate_raw, write_rinex_obs, RawSim, SkyMask};
+        let nav = ins_gnss_core::raw::read_nav(&raw.nav).map_err(|e| e.to_string())?;
+        let klobuchar = nav.klobuchar.unwrap_or_default();
+        let start = ins_gnss_core::raw::GpsTime { week: raw.week, tow: self.start.time };
+        let t0 = self.start.time;
+        let sim = RawSim {
+            rate_hz: raw.rate,
+            lever_arm: v3(self.gnss.lever_arm),
+            outliers: (raw.outliers, (20.0, 100.0)),
+            white_errors: raw.white_errors,
+            masks: raw
+                .masks
+                .iter()
+                .map(|m| SkyMask { start: t0 + m[0], end: t0 + m[1], keep: m[2] as usize })
+                .collect(),
+            ..RawSim::spp_budget(start)
+        };
+        let (epochs, _) = simulate_raw(traj, &nav.ephemerides, &klobuchar, &sim, self.seed);
+        let usable = epochs.iter().filter(|e| e.sats.len() >= 4).count();
+        if usable == 0 {
+            return Err(format!(
+                "`raw.nav` {}: no epoch sees 4 satellites at GPS week {} second {} (the \
+                 ephemerides do not cover `start.time` in `raw.week`)",
+                raw.nav.display(),
+                raw.week,
+                self.start.time
+            ));
+        }
+        let obs = dir.join("obs.rnx");
+        let name = raw.nav.file_name().ok_or("`raw.nav` names no file")?;
+        let nav_copy = dir.join(name);
+        let mut w = create_partial(&obs).map_err(|e| io_err(&partial_path(&obs), e))?;
+        write_rinex_obs(&mut w, &epochs, None)
+            .and_then(|()| w.flush())
+            .map_err(|e| io_err(&partial_path(&obs), e))?;
+        std::fs::copy(&raw.nav, partial_path(&nav_copy)).map_err(|e| io_err(&raw.nav, e))?;
+        Ok([obs, nav_copy])
     }
 
     /// The configuration matching this scenario (paths relative to the dataset).
@@ -543,7 +647,7 @@ impl Scenario {
         Config {
             data: DataSection {
                 imu: "IMU.txt".into(),
-                gnss: "GNSS.txt".into(),
+                gnss: if self.raw.is_some() { "obs.rnx" } else { "GNSS.txt" }.into(),
                 output: "out".into(),
                 imu_rate: i.rate,
                 imu_format: Default::default(),
@@ -558,6 +662,7 @@ impl Scenario {
                 gnss_columns: None,
                 gnss_format: Default::default(),
                 truth_columns: None,
+                nav: self.raw.iter().filter_map(|r| r.nav.file_name().map(PathBuf::from)).collect(),
             },
             init: InitSection {
                 position: Some([x0.pos.lat * d, x0.pos.lon * d, x0.pos.h]),
@@ -592,7 +697,14 @@ impl Scenario {
                 accel_scale_std: [100.0; 3],
                 bias_model: crate::config::BiasModelName::default(),
             },
-            gnss: GnssSection { lever_arm: self.gnss.lever_arm, ..GnssSection::default() },
+            gnss: GnssSection {
+                lever_arm: self.gnss.lever_arm,
+                coupling: match self.raw {
+                    Some(_) => crate::config::Coupling::Tight,
+                    None => crate::config::Coupling::Loose,
+                },
+                ..GnssSection::default()
+            },
             filter: FilterSection::default(),
             imu: Default::default(),
             align: Default::default(),

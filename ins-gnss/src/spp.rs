@@ -7,8 +7,7 @@ use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::io::formats::{create_partial, publish, BadLinePolicy, GnssFormat, GnssReader};
 use ins_gnss_core::io::rtklib::{push_epoch_ns, write_header_mode};
 use ins_gnss_core::raw::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
-use ins_gnss_core::raw::ubx::read_ubx;
-use ins_gnss_core::raw::{read_nav, NavData, ObsEpoch, ObsReader, Spp};
+use ins_gnss_core::raw::Spp;
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -30,42 +29,12 @@ pub struct SppRun {
 /// Solves every epoch of `obs` — a RINEX observation file, or a u-blox log (`.ubx`, with
 /// its GPS ephemerides from RXM-SFRBX) — with the ephemerides of `navs` (merged).
 pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun, CliError> {
-    let mut nav = NavData::default();
-    let mut records = Vec::new();
-    for n in navs {
-        let d = read_nav(n)?;
-        records.extend(d.ephemerides.records().iter().cloned());
-        nav.klobuchar = nav.klobuchar.or(d.klobuchar);
-        nav.unused += d.unused;
-    }
-    let is_ubx = obs
-        .file_name()
-        .and_then(|n| n.to_str())
-        .is_some_and(|n| n.to_ascii_lowercase().contains(".ubx"));
-    let mut epochs: Box<dyn Iterator<Item = Result<ObsEpoch, CliError>>> = if is_ubx {
-        let log = read_ubx(obs)?;
-        records.extend(log.ephemerides.records().iter().cloned());
-        nav.klobuchar = nav.klobuchar.or(log.klobuchar);
-        Box::new(log.epochs.into_iter().map(Ok))
-    } else {
-        let reader = ObsReader::open(obs)?;
-        Box::new(reader.map(|e| e.map_err(CliError::from)))
-    };
-    if records.is_empty() {
-        let what =
-            navs.first().map_or_else(|| obs.display().to_string(), |n| n.display().to_string());
-        return Err(format!(
-            "{what}: no GPS, Galileo, BeiDou or QZSS ephemeris (give a RINEX navigation file)"
-        )
-        .into());
-    }
-    nav.ephemerides = ins_gnss_core::raw::Ephemerides::new(records);
+    let navs: Vec<std::path::PathBuf> = navs.iter().map(|p| p.to_path_buf()).collect();
+    let mut input = crate::aiding::RawInput::open(obs, &navs)?;
     let mut run = SppRun::default();
     let mut prior: Option<Vector3<f64>> = None;
-    while let Some(epoch) = epochs.next().transpose()? {
-        if run.epochs == 0 {
-            refuse_far_records(&nav.ephemerides, &epoch, navs)?;
-        }
+    let nav = &input.nav.clone();
+    while let Some(epoch) = input.next_epoch()? {
         run.epochs += 1;
         match single_point(&epoch, &nav.ephemerides, nav.klobuchar.as_ref(), opt, prior.as_ref()) {
             Ok(s) => {
@@ -86,34 +55,6 @@ pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun
         }
     }
     Ok(run)
-}
-
-/// Refuses navigation records none of which is within a week of the first epoch: no
-/// epoch could be solved, and the likely cause is a 10-bit GPS week resolved against
-/// another date (`convbin` resolves it against today's).
-fn refuse_far_records(
-    eph: &ins_gnss_core::raw::Ephemerides,
-    first: &ObsEpoch,
-    navs: &[&Path],
-) -> Result<(), CliError> {
-    let near = eph.records().iter().any(|r| r.toe.diff(&first.time).abs() < 604_800.0);
-    if near {
-        return Ok(());
-    }
-    let (lo, hi) = eph
-        .records()
-        .iter()
-        .fold((i32::MAX, i32::MIN), |(a, b), r| (a.min(r.toe.week), b.max(r.toe.week)));
-    let names: Vec<String> = navs.iter().map(|p| p.display().to_string()).collect();
-    Err(format!(
-        "{}: the ephemerides are of GPS weeks {lo}–{hi}, the observations of week {} ({}): \
-         none is within a week of them (a 10-bit week resolved against another date — \
-         convbin resolves it against today's — or the wrong navigation file)",
-        names.join(", "),
-        first.time.week,
-        first.time
-    )
-    .into())
 }
 
 /// Writes the solutions as an RTKLIB `.pos` (GPST week and seconds, LLH, NEU σ), atomically.

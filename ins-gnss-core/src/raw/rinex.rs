@@ -292,6 +292,11 @@ impl ObsReader {
         err(&self.path, self.line_no, m)
     }
 
+    /// The 1-based line the last epoch read ended on (0 before any).
+    pub fn line(&self) -> usize {
+        self.line_no
+    }
+
     /// The next epoch, `None` at the end of the file.
     pub fn next_epoch(&mut self) -> Result<Option<ObsEpoch>, RawError> {
         loop {

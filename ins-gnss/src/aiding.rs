@@ -1,0 +1,246 @@
+//! The GNSS side of a run, read epoch by epoch: a receiver's fixes (loose coupling), or
+//! raw observations with their broadcast ephemerides (tight coupling), each raw epoch
+//! with its single point — the fix the start's checks and alignment look at, and the
+//! receiver clock the tight filter starts from.
+
+use crate::config::{Config, Coupling};
+use crate::run::RunError;
+use ins_gnss_core::io::formats::{GnssReader, Input};
+use ins_gnss_core::io::SkipCounts;
+use ins_gnss_core::navigator::{RawEpoch, TightConfig};
+use ins_gnss_core::raw::spp::{prepare, solve_prepared};
+use ins_gnss_core::raw::ubx::read_ubx;
+use ins_gnss_core::raw::{
+    read_nav, Ephemerides, NavData, ObsEpoch, ObsReader, RawError, SppOptions, System,
+};
+use ins_gnss_core::GnssEpoch;
+use nalgebra::Vector3;
+use std::path::{Path, PathBuf};
+
+/// A raw observation file — RINEX, or a u-blox log (`.ubx`, with the GPS ephemerides of
+/// its RXM-SFRBX) — and the ephemerides of its navigation files, merged.
+pub struct RawInput {
+    /// Ephemerides and the broadcast ionosphere.
+    pub nav: NavData,
+    epochs: RawEpochs,
+    path: PathBuf,
+    navs: Vec<PathBuf>,
+    /// Whether the first epoch was checked against the ephemerides' weeks.
+    checked: bool,
+}
+
+enum RawEpochs {
+    Rinex(Box<ObsReader>),
+    Log(std::vec::IntoIter<ObsEpoch>),
+}
+
+impl RawInput {
+    /// Opens `obs` (the file's name says a u-blox log: `.ubx`, compressed or not) with the
+    /// ephemerides of `navs`. No ephemeris at all is refused.
+    pub fn open(obs: &Path, navs: &[PathBuf]) -> Result<Self, RawError> {
+        let mut nav = NavData::default();
+        let mut records = Vec::new();
+        for n in navs {
+            let d = read_nav(n)?;
+            records.extend(d.ephemerides.records().iter().cloned());
+            nav.klobuchar = nav.klobuchar.or(d.klobuchar);
+            nav.unused += d.unused;
+        }
+        let is_ubx = obs
+            .file_name()
+            .and_then(|n| n.to_str())
+            .is_some_and(|n| n.to_ascii_lowercase().contains(".ubx"));
+        let epochs = if is_ubx {
+            let log = read_ubx(obs)?;
+            records.extend(log.ephemerides.records().iter().cloned());
+            nav.klobuchar = nav.klobuchar.or(log.klobuchar);
+            RawEpochs::Log(log.epochs.into_iter())
+        } else {
+            RawEpochs::Rinex(Box::new(ObsReader::open(obs)?))
+        };
+        if records.is_empty() {
+            let what = navs.first().map_or(obs, PathBuf::as_path);
+            return Err(RawError {
+                path: what.to_path_buf(),
+                line: 0,
+                message: "no GPS, Galileo, BeiDou or QZSS ephemeris (give a RINEX navigation \
+                          file)"
+                    .into(),
+            });
+        }
+        nav.ephemerides = Ephemerides::new(records);
+        Ok(Self { nav, epochs, path: obs.to_path_buf(), navs: navs.to_vec(), checked: false })
+    }
+
+    /// The next epoch (`None` at the end). The first is checked against the ephemerides:
+    /// none within a week of it is refused.
+    pub fn next_epoch(&mut self) -> Result<Option<ObsEpoch>, RawError> {
+        let e = match &mut self.epochs {
+            RawEpochs::Rinex(r) => r.next_epoch()?,
+            RawEpochs::Log(l) => l.next(),
+        };
+        if let (Some(e), false) = (&e, self.checked) {
+            self.checked = true;
+            self.refuse_far_records(e)?;
+        }
+        Ok(e)
+    }
+
+    /// The line the last epoch ended on (a RINEX file), 0 for a log.
+    pub fn line(&self) -> usize {
+        match &self.epochs {
+            RawEpochs::Rinex(r) => r.line(),
+            RawEpochs::Log(_) => 0,
+        }
+    }
+
+    /// The observation file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Refuses navigation records none of which is within a week of the first epoch: no
+    /// epoch could be solved, and the likely cause is a 10-bit GPS week resolved against
+    /// another date (`convbin` resolves it against today's).
+    fn refuse_far_records(&self, first: &ObsEpoch) -> Result<(), RawError> {
+        let records = self.nav.ephemerides.records();
+        if records.iter().any(|r| r.toe.diff(&first.time).abs() < 604_800.0) {
+            return Ok(());
+        }
+        let (lo, hi) = records
+            .iter()
+            .fold((i32::MAX, i32::MIN), |(a, b), r| (a.min(r.toe.week), b.max(r.toe.week)));
+        let names: Vec<String> = if self.navs.is_empty() {
+            vec![self.path.display().to_string()]
+        } else {
+            self.navs.iter().map(|p| p.display().to_string()).collect()
+        };
+        Err(RawError {
+            path: self.path.clone(),
+            line: 0,
+            message: format!(
+                "the ephemerides of {} are of GPS weeks {lo}–{hi}, the observations of week {} \
+                 ({}): none is within a week of them (a 10-bit week resolved against another \
+                 date — convbin resolves it against today's — or the wrong navigation file)",
+                names.join(", "),
+                first.time.week,
+                first.time
+            ),
+        })
+    }
+}
+
+/// One GNSS epoch of a run: its time on the IMU's clock, the fix (a receiver's, or the
+/// raw epoch's single point when it has one) and, with tight coupling, the raw epoch.
+#[derive(Clone, Debug)]
+pub struct AidEpoch {
+    /// Time, s (the IMU's clock: GPS seconds of week).
+    pub t: f64,
+    /// The position fix.
+    pub fix: Option<GnssEpoch>,
+    /// The satellites (tight coupling) and the single point's receiver clock `c·dt` (m).
+    pub raw: Option<(RawEpoch, Option<f64>)>,
+}
+
+/// Where a run's GNSS epochs come from.
+pub enum AidReader {
+    /// A receiver's fixes.
+    Fixes(GnssReader<Input>),
+    /// Raw observations.
+    Raw(Box<RawReader>),
+}
+
+/// Raw observations read for tight coupling.
+pub struct RawReader {
+    input: RawInput,
+    tight: TightConfig,
+    /// The last single point (the next one starts there).
+    prior: Option<Vector3<f64>>,
+    /// The first epoch's GPS week: later weeks continue the seconds.
+    week0: Option<i32>,
+}
+
+impl AidReader {
+    /// The configured GNSS input: `fixes` (already open) with loose coupling; the raw
+    /// observations of `data.gnss` and `data.nav` with tight coupling.
+    pub fn open(
+        config: &Config,
+        fixes: impl FnOnce() -> Result<GnssReader<Input>, RunError>,
+    ) -> Result<Self, RunError> {
+        if config.gnss.coupling == Coupling::Loose {
+            return Ok(Self::Fixes(fixes()?));
+        }
+        let input = RawInput::open(&config.data.gnss, &config.data.nav).map_err(RunError::Raw)?;
+        let models = config.gnss.tight.spp_options().map_err(|message| {
+            RunError::Config(crate::config::ConfigError {
+                path: PathBuf::from("gnss.tight"),
+                message,
+            })
+        })?;
+        // without broadcast coefficients, RTKLIB's fallback ones (as the single point)
+        let klobuchar = input.nav.klobuchar.unwrap_or_default();
+        let tight = TightConfig { models, klobuchar, use_doppler: config.gnss.tight.doppler };
+        Ok(Self::Raw(Box::new(RawReader { input, tight, prior: None, week0: None })))
+    }
+
+    /// The next epoch, `None` at the end.
+    pub fn next_epoch(&mut self) -> Result<Option<AidEpoch>, RunError> {
+        match self {
+            AidReader::Fixes(r) => {
+                Ok(r.next_epoch()?.map(|g| AidEpoch { t: g.t, fix: Some(g), raw: None }))
+            }
+            AidReader::Raw(r) => r.next_epoch(),
+        }
+    }
+
+    /// The line the last epoch ended on (0: not a text file).
+    pub fn line(&self) -> usize {
+        match self {
+            AidReader::Fixes(r) => r.line(),
+            AidReader::Raw(r) => r.input.line(),
+        }
+    }
+
+    /// Malformed lines skipped (fixes; raw files refuse them).
+    pub fn skipped(&self) -> SkipCounts {
+        match self {
+            AidReader::Fixes(r) => r.skipped,
+            AidReader::Raw(_) => SkipCounts::default(),
+        }
+    }
+
+    /// The tight filter's satellite models (`None` with loose coupling).
+    pub fn tight(&self) -> Option<&TightConfig> {
+        match self {
+            AidReader::Fixes(_) => None,
+            AidReader::Raw(r) => Some(&r.tight),
+        }
+    }
+}
+
+impl RawReader {
+    fn next_epoch(&mut self) -> Result<Option<AidEpoch>, RunError> {
+        let Some(e) = self.input.next_epoch().map_err(RunError::Raw)? else {
+            return Ok(None);
+        };
+        let week0 = *self.week0.get_or_insert(e.time.week);
+        let t = e.time.tow + f64::from(e.time.week - week0) * 604_800.0;
+        let eph = &self.input.nav.ephemerides;
+        let opt: &SppOptions = &self.tight.models;
+        let (sats, dropped) = prepare(&e, eph, opt);
+        let kb = Some(&self.tight.klobuchar);
+        let spp = solve_prepared(e.time, &sats, dropped, kb, opt, self.prior.as_ref()).ok();
+        if let Some(s) = &spp {
+            self.prior = Some(s.pos);
+        }
+        let clock = spp.as_ref().and_then(|s| {
+            let gps = s.clocks.iter().find(|(sys, _)| *sys == System::Gps);
+            gps.or(s.clocks.first()).map(|c| c.1)
+        });
+        Ok(Some(AidEpoch {
+            t,
+            fix: spp.map(|s| s.fix(t)),
+            raw: Some((RawEpoch { t, time: e.time, sats }, clock)),
+        }))
+    }
+}
