@@ -1,0 +1,128 @@
+//! `[filter]` and `[filter.gate]`: strategy, states, the gross-error gate, smoothing.
+
+use super::*;
+
+/// Filter choices.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterSection {
+    /// Noise strategy name (`fixed`, `iae`, `afkf`, `fused`, `iakf`, `iakf-raw`,
+    /// `sage-husa`). Default `fixed`; `--strategy` overrides it.
+    #[serde(default = "fixed")]
+    pub strategy: String,
+    /// `wgs84` (default) or `flat-earth`.
+    #[serde(default)]
+    pub mechanization: MechanizationName,
+    /// A strategy of its own for some measurement streams, by stream name
+    /// (`gnss-position`, `gnss-position-velocity`): e.g. `{ gnss-position = "fused" }`.
+    /// Streams not named use `strategy`.
+    #[serde(default)]
+    pub streams: std::collections::BTreeMap<String, String>,
+    /// The gross-error gate in front of every strategy.
+    #[serde(default)]
+    pub gate: GateSection,
+    /// Error states: 15 (attitude, velocity, position, biases; default) or 21 (and the
+    /// gyro and accelerometer scale factors, as KF-GINS).
+    #[serde(default = "default_states")]
+    pub states: u32,
+    /// Post-process: after the forward pass, run the fixed-interval smoother and write
+    /// `nav_smoothed.txt` and `std_smoothed.txt` (`--smooth` sets it).
+    #[serde(default)]
+    pub smooth: bool,
+}
+
+pub(crate) fn default_states() -> u32 {
+    15
+}
+
+/// The gross-error gate ([`adaptive::GrossErrorGate`]): refuses an innovation whose NIS
+/// exceeds the χ² quantile at `1 − probability`, whatever the strategy.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GateSection {
+    /// On by default; `false` gives KF-GINS's behaviour (every fix used).
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Probability that a consistent innovation is refused. Default 1e-6.
+    #[serde(default = "default_gate_probability")]
+    pub probability: f64,
+    /// Refusals in a row after which the next gated measurement is admitted with the
+    /// prior inflated (the filter is doubted, not the measurement). Default 20.
+    #[serde(default = "default_readmit")]
+    pub readmit_after: u32,
+    /// `"adapt"` (default): a stream whose innovations are all too large for their noise
+    /// gets its `R` matched to them, and one whose innovations keep their direction gets
+    /// its prior doubted, before anything is refused; `"refuse"`: refuse everything beyond
+    /// the gate (the behaviour before; see [`adaptive::GateMode`]).
+    #[serde(default)]
+    pub mode: GateModeName,
+}
+
+/// `filter.gate.mode`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GateModeName {
+    /// [`adaptive::GateMode::Adapt`].
+    #[default]
+    Adapt,
+    /// [`adaptive::GateMode::Refuse`].
+    Refuse,
+}
+
+impl From<GateModeName> for adaptive::GateMode {
+    fn from(m: GateModeName) -> Self {
+        match m {
+            GateModeName::Adapt => adaptive::GateMode::Adapt,
+            GateModeName::Refuse => adaptive::GateMode::Refuse,
+        }
+    }
+}
+
+/// The longest `gnss.lever_arm` accepted, m: beyond it the value is refused as a unit slip.
+pub const MAX_LEVER_ARM: f64 = 50.0;
+
+pub(crate) fn default_gate_probability() -> f64 {
+    1e-6
+}
+pub(crate) fn default_readmit() -> u32 {
+    20
+}
+
+impl Default for GateSection {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            probability: default_gate_probability(),
+            readmit_after: default_readmit(),
+            mode: GateModeName::default(),
+        }
+    }
+}
+
+pub(crate) fn fixed() -> String {
+    "fixed".into()
+}
+
+impl Default for FilterSection {
+    fn default() -> Self {
+        Self {
+            strategy: fixed(),
+            mechanization: MechanizationName::default(),
+            streams: Default::default(),
+            gate: GateSection::default(),
+            states: default_states(),
+            smooth: false,
+        }
+    }
+}
+
+/// Mechanization names in configs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MechanizationName {
+    /// WGS-84 NED.
+    #[default]
+    Wgs84,
+    /// Flat earth around the initial position.
+    FlatEarth,
+}

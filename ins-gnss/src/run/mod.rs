@@ -1,0 +1,414 @@
+//! One run of the navigator over files, streaming: the IMU and GNSS files are read line
+//! by line, results are written as they are produced, and memory does not grow with the
+//! dataset.
+//!
+//! Outputs (in the output directory):
+//! - `nav.txt`: the 11-column navigation result at every IMU epoch;
+//! - `std.txt`: `t`, 1σ of position N E D (m), velocity N E D (m/s), roll pitch yaw
+//!   (deg), gyro bias x y z (deg/h), accelerometer bias x y z (mGal), with 21 states the
+//!   gyro and accelerometer scale factors (ppm), after every IMU sample with an update,
+//!   at least once a second, and at the end;
+//! - `imu_errors.txt`: `t`, gyro bias x y z (deg/h), accelerometer bias x y z (mGal), with
+//!   21 states the scale factors (ppm), at the same epochs;
+//! - `updates.csv`: one row per update: time, stream name (`gnss-position`,
+//!   `gnss-position-velocity`, `nhc`, `zupt`, `zaru`, `odometer`), dimension, NIS,
+//!   adapted NIS, decision, reason, DOM, λ_P, λ_R, and 1 where a strategy's subspace prior
+//!   scaling fell back to full scaling.
+
+use core::fmt;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use adaptive::{AnyStrategy, GrossErrorGate, PerStream};
+use estimator_core::{NoObserver, NoiseStrategy, SmoothedRow, UpdateSummary, Verdict};
+use nalgebra::Vector3;
+
+use crate::aiding::{AidEpoch, AidReader};
+use crate::config::Config;
+use estimator_core::DimAlloc;
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::imu::ImuSample;
+use ins_gnss_core::imu::{DEG_PER_H, MGAL};
+use ins_gnss_core::io::fixed::{push_exact, push_exact_row, push_row};
+use ins_gnss_core::io::formats::{create_partial, partial_path, publish, push_nav};
+use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
+use ins_gnss_core::model::{ImuInput, InsModel};
+use ins_gnss_core::navigator::{ClockInit, NavError, NavState, Navigator, RawEpoch, TightConfig};
+use ins_gnss_core::scale::{InsModel21, InsState21};
+use ins_gnss_core::state::InsState;
+use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsStateTc};
+use ins_gnss_core::vehicle::VEHICLE_STREAMS;
+use nalgebra::DefaultAllocator;
+
+mod error;
+mod inputs;
+mod memory;
+mod outputs;
+mod rows;
+mod slices;
+mod smoothed;
+mod state;
+mod summary;
+
+pub use error::*;
+pub use inputs::*;
+pub use memory::*;
+pub use outputs::*;
+pub use rows::*;
+pub use slices::*;
+use smoothed::*;
+pub use state::*;
+pub use summary::*;
+
+/// Longest time between two rows of `std.txt` and `imu_errors.txt`, s (they are written
+/// after every update, and at this interval without one).
+const STD_EVERY: f64 = 1.0;
+
+/// Samples or records per message between the pipeline's threads.
+const BATCH: usize = 1024;
+
+/// Run `config` with `strategy`, writing into `out_dir`. `progress` (if any) is called
+/// with the current time every 2,000 IMU epochs.
+///
+/// The run is a pipeline over bounded channels: a reader thread parses the IMU file, this
+/// thread runs the filter, a writer thread formats and writes `nav.txt`, and another the
+/// σ, IMU-error, `nav.pos` and update rows. Memory is bounded by the channels (a few
+/// batches of 1,024 samples and 256 rows), whatever the length of the dataset.
+pub fn run(
+    config: &Config,
+    strategy: AnyStrategy,
+    out_dir: &Path,
+    progress: Option<Progress<'_>>,
+) -> Result<RunSummary, RunError> {
+    let result = run_with(config, strategy, &Inputs::Files, progress, || Outputs::create(out_dir));
+    // once the outputs were created, the smoother's scratch file goes whatever happened
+    if !matches!(result, Err((_, false))) {
+        let _ = std::fs::remove_file(out_dir.join(SMOOTHER_STATES));
+    }
+    match result {
+        Err((error, false)) => Err(error),
+        Ok((mut summary, _)) => {
+            Outputs::publish(out_dir, summary.smoothed.is_some())?;
+            summary.out_dir = out_dir.to_path_buf();
+            Ok(summary)
+        }
+        // refused by the checks, as before a start: nothing of this run is kept
+        Err((error @ RunError::Start(_), true)) => {
+            for name in Outputs::NAMES.iter().chain(&Outputs::SMOOTHED) {
+                let _ = std::fs::remove_file(partial_path(&out_dir.join(name)));
+            }
+            Err(error)
+        }
+        Err((error, true)) => {
+            Err(RunError::Incomplete { error: Box::new(error), dir: out_dir.to_path_buf() })
+        }
+    }
+}
+
+/// [`run`] without output files: the same run (the same start, checks, filter and
+/// smoother, the same numbers) on the configured files or on arrays, its results kept in
+/// memory. With `filter.smooth` the smoother's records are kept in memory too (they grow
+/// with the run, as its scratch file does), so that nothing at all is written.
+pub fn run_in_memory(
+    config: &Config,
+    strategy: AnyStrategy,
+    inputs: &Inputs,
+) -> Result<(RunSummary, Results), RunError> {
+    run_with(config, strategy, inputs, None, || Ok((Results::default(), NavRows::default())))
+        .map_err(|(error, _)| error)
+}
+
+/// [`run`]'s work on any inputs into any sink, created by `create` once the start is
+/// known (a refused start creates nothing). An error says whether the sink was created.
+fn run_with<O: Sink>(
+    config: &Config,
+    strategy: AnyStrategy,
+    inputs: &Inputs,
+    progress: Option<Progress<'_>>,
+    create: impl FnOnce() -> Result<(O, O::Nav), RunError>,
+) -> Result<(RunSummary, O), (RunError, bool)> {
+    let (imu, mut gnss) = open_inputs(config, inputs).map_err(|e| (e, false))?;
+    // With the whole initial state and noise given, the data's first seconds are only
+    // checked (`start::prepare` changes nothing but the noise floor, which needs only the
+    // static start): the checks run beside the filter on a copy of them, and a refusal
+    // stops the run. Otherwise the filter waits for `prepare`.
+    let look = if crate::start::fills(config) {
+        Look::Span
+    } else if crate::start::floors(config) {
+        Look::StaticStart
+    } else {
+        Look::First
+    };
+    let beside = config.align.checks && look != Look::Span;
+    let (mut feed, checks) = if beside {
+        let (tee, prefix) = std::sync::mpsc::channel();
+        let checks = Checks::spawn(config, inputs, prefix).map_err(|e| (e, false))?;
+        (ImuFeed::spawn(imu, Some((tee, config.clone()))), Some(checks))
+    } else {
+        (ImuFeed::spawn(imu, None), None)
+    };
+    let ready = read_prefix(config, &mut feed, &mut gnss, look)
+        .and_then(|prefix| Ok((prepare_start(config, &prefix, look)?, prefix)))
+        .and_then(|(start, prefix)| Ok((start, prefix, create()?)));
+    let (start, prefix, (mut out, nav)) = match ready {
+        Ok(ready) => ready,
+        Err(e) => {
+            let _ = feed.finish();
+            return Err((e, false));
+        }
+    };
+    let config = &start.config;
+    let names = (inputs.imu_name(config), inputs.gnss_name(config));
+    let inputs = ((feed, gnss, prefix, checks), (&mut out, nav));
+    let tight = config.gnss.coupling == crate::config::Coupling::Tight;
+    let result = match config.filter.states {
+        _ if tight => {
+            run_into::<InsStateTc, O>(config, strategy, names, progress, inputs.0, inputs.1)
+        }
+        21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs.0, inputs.1),
+        _ => run_into::<InsState, O>(config, strategy, names, progress, inputs.0, inputs.1),
+    };
+    match result {
+        Ok(mut summary) => {
+            summary.start = start.report;
+            Ok((summary, out))
+        }
+        Err(e) => Err((e, true)),
+    }
+}
+
+/// [`run`] with its inputs open and its outputs created.
+fn run_into<S: RunState, O: Sink>(
+    config: &Config,
+    strategy: AnyStrategy,
+    names: (PathBuf, PathBuf),
+    mut progress: Option<Progress<'_>>,
+    (feed, mut gnss, prefix, mut checks): (ImuFeed, AidReader, Prefix, Option<Checks>),
+    (out, nav_sink): (&mut O, O::Nav),
+) -> Result<RunSummary, RunError>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+    estimator_core::Cov<S::Dim>: Send,
+{
+    let wall = Instant::now();
+
+    // Start: the configured time, or the first IMU sample; samples up to it are skipped.
+    let Prefix { batches: first_batches, gnss: mut first_epochs, .. } = prefix;
+    let first_t = first_batches
+        .iter()
+        .flatten()
+        .next()
+        .ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?
+        .0
+        .t;
+    // the receiver clock of the first raw epoch after the start with a single point
+    let t0 = config.data.start_time.unwrap_or(first_t);
+    let clock = first_epochs
+        .iter()
+        .filter(|(a, _)| a.t > t0 + 1e-9)
+        .find_map(|(a, _)| a.raw.as_ref().and_then(|r| r.1));
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t, clock)?;
+    let start = summary.span.0;
+    let mut recorder = if config.filter.smooth { Some(out.recorder::<S>()?) } else { None };
+    let (imu_path, gnss_path) = names;
+    // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
+    // sample whose prediction did.
+    // `lines`: the batch's GNSS epochs' times and lines (0: not a text file)
+    let locate = |e: NavError, imu_line: usize, lines: &[(f64, usize)]| match &e {
+        NavError::Measurement { t, .. } => {
+            match lines.iter().find(|(tg, line)| (tg - t).abs() < 1e-6 && *line > 0) {
+                Some((_, line)) => {
+                    RunError::Located { path: gnss_path.clone(), line: *line, error: e }
+                }
+                None => RunError::Navigation(e),
+            }
+        }
+        _ => RunError::Located { path: imu_path.clone(), line: imu_line, error: e },
+    };
+
+    std::thread::scope(|scope| -> Result<(), RunError> {
+        // States, not records: the writer thread does the Euler conversion.
+        let (nav_tx, nav_rx) =
+            std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::state::InsState)>>(4);
+        let writer = scope.spawn(move || -> Result<O::Nav, RunError> {
+            let mut w = nav_sink;
+            for batch in nav_rx {
+                w.rows(&batch)?;
+            }
+            w.finish()?;
+            Ok(w)
+        });
+
+        let result = (|| -> Result<(), RunError> {
+            let tight = gnss.tight().cloned();
+            let mut read_gnss = |gnss: &mut AidReader, span: &mut (f64, f64)| {
+                let g = match first_epochs.pop_front() {
+                    Some(g) => Some(g),
+                    None => gnss.next_epoch()?.map(|g| (g, gnss.line())),
+                };
+                if let Some((g, _)) = &g {
+                    let g: &AidEpoch = g;
+                    if span.0.is_nan() {
+                        span.0 = g.t;
+                    }
+                    span.1 = g.t;
+                }
+                Ok::<_, RunError>(g)
+            };
+            summary.gnss_span = (f64::NAN, f64::NAN);
+            let mut next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
+            let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
+            let mut raws: Vec<RawEpoch> = Vec::new();
+            let mut batch_lines: Vec<(f64, usize)> = Vec::with_capacity(4);
+            let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
+            let mut records = Vec::with_capacity(BATCH);
+            let mut last_std = f64::NEG_INFINITY;
+            let messages = first_batches.into_iter().map(Ok).chain(feed.batches.iter());
+            'outer: for message in messages {
+                // a refusal by the checks stops the run
+                if checks.as_ref().is_some_and(Checks::done) {
+                    checks.take().map_or(Ok(()), Checks::join)?;
+                }
+                for (sample, imu_line) in message? {
+                    if sample.t <= start + 1e-9 {
+                        continue;
+                    }
+                    if sample.t > end + 1e-9 {
+                        break 'outer;
+                    }
+                    batch.clear();
+                    raws.clear();
+                    batch_lines.clear();
+                    while next_gnss.as_ref().is_some_and(|(g, _)| g.t <= sample.t + 1e-9) {
+                        let Some((g, line)) = next_gnss.take() else { break };
+                        if g.t > start + 1e-9 {
+                            if let Some(fix) = g.fix {
+                                summary.first_fix.get_or_insert(fix);
+                                batch.push(fix);
+                            }
+                            raws.extend(g.raw.map(|r| r.0));
+                            batch_lines.push((g.t, line));
+                        }
+                        next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
+                    }
+                    updates.clear();
+                    S::process(
+                        &mut nav,
+                        &sample,
+                        &batch,
+                        &raws,
+                        tight.as_ref(),
+                        &mut updates,
+                        &mut recorder,
+                    )
+                    .map_err(|e| locate(e, imu_line, &batch_lines))?;
+                    summary.imu_epochs += 1;
+                    records.push((sample.t, nav.nav_state().clone()));
+                    if records.len() == BATCH
+                        && nav_tx
+                            .send(std::mem::replace(&mut records, Vec::with_capacity(BATCH)))
+                            .is_err()
+                    {
+                        break 'outer;
+                    }
+                    summary.tally(&updates);
+                    for u in &updates {
+                        out.update(u)?;
+                    }
+                    // after every update, and once a second without (an outage's σ)
+                    if !updates.is_empty() || sample.t >= last_std + STD_EVERY - 1e-9 {
+                        let fix = updates.iter().any(|u| {
+                            S::is_fix(u.stream) && u.verdict != estimator_core::Verdict::Rejected
+                        });
+                        out.epoch(sample.t, &nav, fix)?;
+                        // the smoothed σ at the same epochs
+                        estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
+                        last_std = sample.t;
+                    }
+                    summary.span.1 = sample.t;
+                    if summary.imu_epochs.is_multiple_of(2000) {
+                        if let Some(p) = progress.as_mut() {
+                            p(sample.t);
+                        }
+                    }
+                }
+            }
+            let _ = nav_tx.send(records);
+            Ok(())
+        })();
+        drop(nav_tx);
+        let written =
+            writer.join().map_err(|_| RunError::NoData("the writer thread panicked".into()))?;
+        summary.imu_skipped = feed.finish()?;
+        // the checks' verdict first: a refused input explains a failed run
+        checks.take().map_or(Ok(()), Checks::join)?;
+        result?;
+        out.nav_done(written?);
+        Ok(())
+    })?;
+
+    if summary.imu_epochs == 0 {
+        return Err(RunError::NoData(format!(
+            "no IMU sample after the start time {start} s in {}",
+            imu_path.display()
+        )));
+    }
+    summary.finish_streams();
+    check_gnss_overlap(&summary, &gnss_path)?;
+    out.epoch(summary.span.1, &nav, false)?;
+    estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
+    out.flush()?;
+    summary.gnss_skipped = gnss.skipped();
+    summary.stationary_time = nav.stationary_time();
+    if let Some(recorder) = recorder {
+        let backward = Instant::now();
+        let rows = out.smoothed(recorder, &nav)?;
+        summary.smoothed = Some((rows, backward.elapsed().as_secs_f64()));
+    }
+    summary.wall_time = wall.elapsed().as_secs_f64();
+    Ok(summary)
+}
+
+/// A run that used no GNSS epoch although the file has some: the file does not overlap
+/// the IMU span (a pure-INS result nobody asked for), refused.
+fn check_gnss_overlap(summary: &RunSummary, gnss: &Path) -> Result<(), RunError> {
+    let (g0, g1) = summary.gnss_span;
+    if summary.gnss_epochs == 0 && !g0.is_nan() {
+        let (i0, i1) = summary.span;
+        let gap = if g0 > i1 { g0 - i1 } else { i0 - g1.max(g0) };
+        let offset = g0 - i0;
+        let hint = time_scale_hint(offset, i0, g0);
+        // refused like an input that cannot give a result: nothing of it is kept
+        return Err(RunError::Start(format!(
+            "{}: no GNSS epoch falls inside the IMU span {i0:.3}–{i1:.3} s (the file's epochs \
+             read span {g0:.3}–{g1:.3} s, {gap:.3} s {} it); both files are read as seconds on \
+             one scale (the KF-GINS formats: GPS seconds of week; RTKLIB solutions are \
+             converted to it){hint}; check the files' times and `data.start_time`",
+            gnss.display(),
+            if g0 > i1 { "after" } else { "before" },
+        )));
+    }
+    Ok(())
+}
+
+/// What an offset `gnss − imu` (s) between two files' first times suggests about their
+/// time scales.
+fn time_scale_hint(offset: f64, imu0: f64, gnss0: f64) -> String {
+    let week = 604_800.0;
+    let near = |x: f64, v: f64| (x - v).abs() < 0.5;
+    if near(offset.abs(), 18.0) {
+        format!(
+            "; the offset is {offset:+.1} s, GPS − UTC since 2017: one file is in UTC, the other \
+             in GPST"
+        )
+    } else if offset.abs() > 0.5 * week && (offset / week - (offset / week).round()).abs() < 1e-3 {
+        format!("; the offset is {:.0} whole GPS weeks", offset / week)
+    } else if (gnss0 > 1e8) != (imu0 > 1e8) {
+        "; one file's times look like Unix or absolute seconds, the other's like seconds of \
+         week or of the day"
+            .into()
+    } else {
+        String::new()
+    }
+}

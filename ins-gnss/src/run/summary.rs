@@ -1,0 +1,394 @@
+//! What a run did: [`RunSummary`], the per-stream statistics and the consistency verdicts.
+
+use super::*;
+
+/// What a run did.
+#[derive(Clone, Debug, Default)]
+pub struct RunSummary {
+    /// Strategy name.
+    pub strategy: String,
+    /// IMU epochs processed.
+    pub imu_epochs: usize,
+    /// GNSS epochs used (accepted + inflated + rejected).
+    pub gnss_epochs: usize,
+    /// Accepted updates.
+    pub accepted: usize,
+    /// Inflated updates.
+    pub inflated: usize,
+    /// Updates with adapted noise smaller than the nominal.
+    pub deflated: usize,
+    /// Rejected updates.
+    pub rejected: usize,
+    /// IMU lines skipped / gaps bridged.
+    pub imu_skipped: SkipCounts,
+    /// GNSS lines skipped.
+    pub gnss_skipped: SkipCounts,
+    /// First and last processed time, s.
+    pub span: (f64, f64),
+    /// Wall time, s.
+    pub wall_time: f64,
+    /// Output directory.
+    pub out_dir: PathBuf,
+    /// Sum of the NIS of the plainly accepted updates, and of their dimensions (the
+    /// degrees of freedom): `nis_sum / nis_dof` is the mean NIS per degree of freedom,
+    /// 1 for a filter whose uncertainty is consistent with its innovations.
+    pub nis_sum: f64,
+    /// See [`nis_sum`](Self::nis_sum).
+    pub nis_dof: usize,
+    /// Time of the first and last GNSS epoch read, s (NaN when none was).
+    pub gnss_span: (f64, f64),
+    /// Vehicle-aiding updates per stream (NHC, ZUPT, ZARU, odometer): used (accepted or inflated)
+    /// and refused.
+    pub aiding: [AidingCount; 4],
+    /// Time the vehicle was judged standing (detector and filter speed), s (0 without
+    /// ZUPT).
+    pub stationary_time: f64,
+    /// Rows of `nav_smoothed.txt` when the run smoothed (`filter.smooth`), and the wall
+    /// time of the backward pass, s.
+    pub smoothed: Option<(usize, f64)>,
+    /// The IMU noise densities the filter used, SI ([`Config::noise_echo`]).
+    pub noise: String,
+    /// How the parts of the initial state (and the noise) not given were found from the
+    /// data ([`crate::start`]), one line each.
+    pub start: Vec<String>,
+    /// Every stream's innovations, whatever their verdict, in the order first seen.
+    pub streams: Vec<StreamStats>,
+    /// The first GNSS epoch the filter used.
+    pub first_fix: Option<GnssEpoch>,
+}
+
+/// A GNSS gap longer than this (s) is an outage for [`StreamStats::refused_after_outage`].
+pub const OUTAGE: f64 = 5.0;
+
+/// One measurement stream's innovations over the run, with the nominal `S` (before any
+/// adaptation): how many were refused as gross errors (the data's quality), and the
+/// statistics of the others, used accepted or inflated (the run's consistency).
+#[derive(Clone, Debug)]
+pub struct StreamStats {
+    /// The stream.
+    pub stream: estimator_core::StreamId,
+    /// Whether it is a GNSS stream (not vehicle aiding).
+    pub gnss: bool,
+    /// Updates.
+    pub epochs: usize,
+    /// Refused updates (gross errors: the data's quality, not the run's consistency).
+    pub refused: usize,
+    /// Sum of the NIS (nominal `S`) and of the dimensions, over the updates used.
+    pub nis_sum: f64,
+    /// See [`nis_sum`](Self::nis_sum).
+    pub dof: usize,
+    /// Updates used whose NIS exceeds the median of its χ² distribution (half of them
+    /// for a consistent filter).
+    pub above_median: usize,
+    /// The median over the updates used of NIS / (χ² median): the factor² by which `S` is
+    /// too small (about 1 when consistent), from the sorted ratios at the end of the run.
+    pub median_ratio: f64,
+    /// Refusals from a gap of more than [`OUTAGE`] s in the stream until its next
+    /// accepted update.
+    pub refused_after_outage: usize,
+    /// Updates used with `R` inflated (a strategy's or the gate's `R` factor above 1).
+    pub r_inflated: usize,
+    /// The largest `R` factor, and the time of the first and the last inflated update.
+    pub r_factor_max: f64,
+    /// See [`r_factor_max`](Self::r_factor_max).
+    pub r_inflated_span: (f64, f64),
+    /// Updates used with the prior inflated (a strategy's or the gate's factor on `P⁻`
+    /// above 1: a re-admission, or the state doubted).
+    pub prior_inflated: usize,
+    pub(crate) ratios: Vec<f32>,
+    pub(crate) last_t: f64,
+    pub(crate) after_outage: bool,
+    pub(crate) accepted_any: bool,
+}
+
+impl StreamStats {
+    /// The mean NIS per degree of freedom and its two-sided 99 % band for a consistent
+    /// filter (the summed NIS is χ² with the summed degrees of freedom).
+    pub fn mean_nis(&self) -> (f64, (f64, f64)) {
+        let k = self.dof.max(1) as f64;
+        let q = |p| estimator_core::consistency::chi2_quantile(p, k) / k;
+        (self.nis_sum / k, (q(0.005), q(0.995)))
+    }
+
+    /// The fraction of updates above their χ² median and its band at a two-sided
+    /// probability of 1e-6 for a consistent filter (binomial with p = ½, normal
+    /// approximation): outside it, the innovations are far from their distribution.
+    pub fn above_median_band(&self) -> (f64, (f64, f64)) {
+        let n = self.used().max(1) as f64;
+        // the standard normal quantile of 1 − 0.5e-6
+        let half = 4.8916 * 0.5 / n.sqrt();
+        (self.above_median as f64 / n, (0.5 - half, 0.5 + half))
+    }
+
+    /// Updates used (accepted or inflated): the ones the consistency is judged on.
+    pub fn used(&self) -> usize {
+        self.epochs - self.refused
+    }
+
+    /// The share of the stream's epochs refused as gross errors.
+    pub fn refused_share(&self) -> f64 {
+        self.refused as f64 / self.epochs.max(1) as f64
+    }
+
+    /// Consistent by the mean NIS of the innovations used.
+    pub fn consistent(&self) -> bool {
+        let (m, (lo, hi)) = self.mean_nis();
+        m >= lo && m <= hi
+    }
+
+    /// One line for the run summary.
+    pub fn verdict(&self) -> String {
+        let (m, (lo, hi)) = self.mean_nis();
+        let (f, (flo, fhi)) = self.above_median_band();
+        let head = format!(
+            "consistency of {}: mean NIS per degree of freedom {m:.3} over the {} updates \
+             used ({} of {} refused as gross errors, {:.1} %), 99 % band [{lo:.3}, {hi:.3}]; \
+             {:.1} % above their χ² median (band [{:.1}, {:.1}] %)",
+            self.stream,
+            self.used(),
+            self.refused,
+            self.epochs,
+            100.0 * self.refused_share(),
+            100.0 * f,
+            100.0 * flo,
+            100.0 * fhi
+        );
+        if self.consistent() {
+            format!("{head}: consistent")
+        } else if m > hi {
+            format!(
+                "{head}: NOT consistent — the innovations are larger than the filter believes \
+                 (the typical one {:.2}× its σ, the excess in the largest ones), so its \
+                 reported σ (std.txt) is too small",
+                self.median_ratio.max(0.0).sqrt()
+            )
+        } else if self.stream.to_string().starts_with("pr ") {
+            // a satellite's pseudoranges (tight coupling): see `health::assess`
+            format!(
+                "{head}: NOT consistent — the innovations are smaller than the filter \
+                 believes: the satellite's errors stay the same from epoch to epoch and the \
+                 position and clock absorb them (the position σ is then too small, not too \
+                 large), or the noise settings are pessimistic"
+            )
+        } else {
+            format!(
+                "{head}: NOT consistent — the innovations are smaller than the filter \
+                 believes, so its reported σ is too large (noise settings pessimistic)"
+            )
+        }
+    }
+
+    pub(crate) fn new(stream: estimator_core::StreamId) -> Self {
+        Self {
+            stream,
+            gnss: !VEHICLE_STREAMS.contains(&stream),
+            epochs: 0,
+            refused: 0,
+            nis_sum: 0.0,
+            dof: 0,
+            above_median: 0,
+            median_ratio: f64::NAN,
+            refused_after_outage: 0,
+            r_inflated: 0,
+            r_factor_max: 1.0,
+            r_inflated_span: (f64::NAN, f64::NAN),
+            prior_inflated: 0,
+            ratios: Vec::new(),
+            last_t: f64::NAN,
+            after_outage: false,
+            accepted_any: false,
+        }
+    }
+
+    pub(crate) fn add(&mut self, u: &UpdateSummary, median: f64) {
+        // (an outage after accepted updates: refusals from the start are not its doing)
+        if self.last_t.is_finite() && u.time - self.last_t > OUTAGE && self.accepted_any {
+            self.after_outage = true;
+        }
+        self.last_t = u.time;
+        self.epochs += 1;
+        if u.verdict != Verdict::Rejected {
+            self.nis_sum += u.nis;
+            self.dof += u.dim;
+            self.above_median += usize::from(u.nis > median);
+            self.ratios.push((u.nis / median) as f32);
+        }
+        match u.verdict {
+            Verdict::Rejected => {
+                self.refused += 1;
+                self.refused_after_outage += usize::from(self.after_outage);
+            }
+            Verdict::Accepted => {
+                self.after_outage = false;
+                self.accepted_any = true;
+            }
+            Verdict::Inflated | Verdict::Deflated => {}
+        }
+        if u.verdict != Verdict::Rejected {
+            if u.factors.lambda_r > 1.0 {
+                self.r_inflated += 1;
+                self.r_factor_max = self.r_factor_max.max(u.factors.lambda_r);
+                if self.r_inflated_span.0.is_nan() {
+                    self.r_inflated_span.0 = u.time;
+                }
+                self.r_inflated_span.1 = u.time;
+            }
+            self.prior_inflated += usize::from(u.factors.lambda_p > 1.0);
+        }
+    }
+
+    /// How the stream's noise was adapted (`None` when it was not): the updates with `R`
+    /// inflated, the largest factor and when; the updates with the prior inflated.
+    pub fn adaptation(&self) -> Option<String> {
+        if self.r_inflated == 0 && self.prior_inflated == 0 {
+            return None;
+        }
+        let mut parts = Vec::new();
+        if self.r_inflated > 0 {
+            parts.push(format!(
+                "R inflated on {} of {} updates (up to {:.1}×, σ × {:.1}; between {:.1} and \
+                 {:.1} s)",
+                self.r_inflated,
+                self.epochs,
+                self.r_factor_max,
+                self.r_factor_max.sqrt(),
+                self.r_inflated_span.0,
+                self.r_inflated_span.1
+            ));
+        }
+        if self.prior_inflated > 0 {
+            parts.push(format!(
+                "the prior inflated on {} (re-admitted after refusals, or the state doubted)",
+                self.prior_inflated
+            ));
+        }
+        Some(format!("adaptation of {}: {}", self.stream, parts.join("; ")))
+    }
+
+    pub(crate) fn finish(&mut self) {
+        let mut r = std::mem::take(&mut self.ratios);
+        if !r.is_empty() {
+            let k = r.len() / 2;
+            let (_, m, _) = r.select_nth_unstable_by(k, f32::total_cmp);
+            self.median_ratio = f64::from(*m);
+        }
+    }
+}
+
+/// The median of χ² with `k` degrees of freedom (cached for the small `k` of
+/// measurements).
+pub(crate) fn chi2_median(k: usize) -> f64 {
+    static CACHE: std::sync::OnceLock<[f64; 13]> = std::sync::OnceLock::new();
+    let c = CACHE.get_or_init(|| {
+        core::array::from_fn(|k| estimator_core::consistency::chi2_quantile(0.5, k.max(1) as f64))
+    });
+    match c.get(k) {
+        Some(m) => *m,
+        None => estimator_core::consistency::chi2_quantile(0.5, k as f64),
+    }
+}
+
+/// Updates of one vehicle-aiding stream.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AidingCount {
+    /// Accepted or inflated.
+    pub used: usize,
+    /// Rejected (by the gate or the strategy).
+    pub rejected: usize,
+}
+
+/// Whether a run's innovations were consistent with its reported uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Consistency {
+    /// Mean NIS per degree of freedom of the plainly accepted updates.
+    pub mean_nis: f64,
+    /// The two-sided 99 % band of that mean for a consistent filter (χ² with the summed
+    /// degrees of freedom).
+    pub band: (f64, f64),
+    /// Updates counted.
+    pub updates: usize,
+}
+
+impl Consistency {
+    /// Inside the band.
+    pub fn consistent(&self) -> bool {
+        self.mean_nis >= self.band.0 && self.mean_nis <= self.band.1
+    }
+
+    /// One line for the run summary: the verdict, and a warning when not consistent.
+    pub fn verdict(&self) -> String {
+        let head = format!(
+            "consistency: mean NIS per degree of freedom {:.3} over {} accepted updates, 99 % band [{:.3}, {:.3}]",
+            self.mean_nis, self.updates, self.band.0, self.band.1
+        );
+        if self.consistent() {
+            format!("{head}: consistent")
+        } else if self.mean_nis > self.band.1 {
+            format!(
+                "{head}: NOT consistent — the innovations are larger than the filter believes, \
+                 so its reported σ (std.txt) is too small; check the GNSS and IMU noise settings"
+            )
+        } else {
+            format!(
+                "{head}: NOT consistent — the innovations are smaller than the filter believes, \
+                 so its reported σ is too large (noise settings pessimistic)"
+            )
+        }
+    }
+}
+
+impl RunSummary {
+    /// The consistency of the plainly accepted updates' NIS (`None` without any).
+    pub fn consistency(&self) -> Option<Consistency> {
+        if self.nis_dof == 0 {
+            return None;
+        }
+        let k = self.nis_dof as f64;
+        let q = |p| estimator_core::consistency::chi2_quantile(p, k) / k;
+        Some(Consistency {
+            mean_nis: self.nis_sum / k,
+            band: (q(0.005), q(0.995)),
+            updates: self.accepted,
+        })
+    }
+
+    /// Close the streams' statistics at the end of the run.
+    pub(crate) fn finish_streams(&mut self) {
+        for s in &mut self.streams {
+            s.finish();
+        }
+    }
+
+    /// Count the verdicts of one epoch's updates (GNSS and vehicle aiding apart; only
+    /// GNSS updates enter the consistency check).
+    pub(crate) fn tally(&mut self, updates: &[UpdateSummary]) {
+        for u in updates {
+            let i = match self.streams.iter().position(|s| s.stream == u.stream) {
+                Some(i) => i,
+                None => {
+                    self.streams.push(StreamStats::new(u.stream));
+                    self.streams.len() - 1
+                }
+            };
+            self.streams[i].add(u, chi2_median(u.dim));
+            if let Some(k) = VEHICLE_STREAMS.iter().position(|s| *s == u.stream) {
+                match u.verdict {
+                    Verdict::Rejected => self.aiding[k].rejected += 1,
+                    _ => self.aiding[k].used += 1,
+                }
+                continue;
+            }
+            self.gnss_epochs += 1;
+            match u.verdict {
+                Verdict::Accepted => {
+                    self.accepted += 1;
+                    self.nis_sum += u.nis;
+                    self.nis_dof += u.dim;
+                }
+                Verdict::Inflated => self.inflated += 1,
+                Verdict::Deflated => self.deflated += 1,
+                Verdict::Rejected => self.rejected += 1,
+            }
+        }
+    }
+}
