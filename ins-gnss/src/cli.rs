@@ -7,6 +7,7 @@ use std::time::Instant;
 use adaptive::AnyStrategy;
 
 use crate::config::Config;
+pub use crate::config::RunOptions;
 use crate::eval::{evaluate, evaluate_with, Evaluation, Stats};
 use crate::run::{run as run_config, RunSummary};
 
@@ -61,142 +62,16 @@ fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
 
 /// Print a run summary.
 pub fn print_summary(s: &RunSummary) {
-    for line in summary_lines(s) {
+    for line in s.lines() {
         out!("{line}");
     }
-}
-
-/// The lines of a run summary (printed, and in the report).
-pub fn summary_lines(s: &RunSummary) -> Vec<String> {
-    let mut lines = vec![format!(
-        "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {}{} rejected; \
-         skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s{}",
-        s.strategy,
-        s.imu_epochs,
-        s.span.0,
-        s.span.1,
-        s.gnss_epochs,
-        s.accepted,
-        s.inflated,
-        if s.deflated > 0 { format!("{} deflated, ", s.deflated) } else { String::new() },
-        s.rejected,
-        s.imu_skipped.total() - s.imu_skipped.gaps,
-        s.imu_skipped.gaps,
-        s.gnss_skipped.total(),
-        s.wall_time,
-        s.imu_epochs as f64 / s.wall_time.max(1e-9),
-        // (a run in memory has no output directory)
-        if s.out_dir.as_os_str().is_empty() {
-            String::new()
-        } else {
-            format!("; output {}", s.out_dir.display())
-        }
-    )];
-    lines.extend(s.start.iter().cloned());
-    if !s.noise.is_empty() {
-        lines.push(s.noise.clone());
-    }
-    if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
-        let [n, z, r, o] = s.aiding;
-        lines.push(format!(
-            "vehicle aiding: NHC {} used, {} refused; ZUPT {} used, {} refused; ZARU {} used, {} refused; odometer {} used, {} refused; stationary {:.1} s",
-            n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
-        ));
-    }
-    for st in &s.streams {
-        lines.push(st.verdict());
-        lines.extend(st.adaptation());
-    }
-    if let Some((rows, secs)) = s.smoothed {
-        let mut line = format!("smoothed: {rows} epochs in {secs:.2} s (backward pass)");
-        if !s.out_dir.as_os_str().is_empty() {
-            line += &format!(
-                " -> {}, {}",
-                s.out_dir.join("nav_smoothed.txt").display(),
-                s.out_dir.join("std_smoothed.txt").display()
-            );
-        }
-        lines.push(line);
-    }
-    lines
-}
-
-/// Options of `ins-gnss run`.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RunOptions<'a> {
-    /// Strategy name (default: the configuration's).
-    pub strategy: Option<&'a str>,
-    /// Bias model name (default: the configuration's).
-    pub bias_model: Option<&'a str>,
-    /// Output directory (default: the configuration's).
-    pub out: Option<&'a Path>,
-    /// Truth file for an evaluation at the end.
-    pub truth: Option<&'a Path>,
-    /// Seconds skipped by the evaluation.
-    pub skip: f64,
-    /// Show a progress bar.
-    pub progress: bool,
-    /// Write SVG plots.
-    pub plots: bool,
-    /// Open the gross-error gate (KF-GINS's behaviour: every fix used).
-    pub no_gate: bool,
-    /// Turn on NHC (configured settings or defaults).
-    pub nhc: bool,
-    /// Turn on ZUPT/ZARU (configured settings or defaults).
-    pub zupt: bool,
-    /// Turn on the odometer (configured settings or defaults).
-    pub odometer: bool,
-    /// Turn off all vehicle aiding.
-    pub no_vehicle: bool,
-    /// Override `filter.states` (15 or 21).
-    pub states: Option<u32>,
-    /// Smooth the run (sets `filter.smooth`).
-    pub smooth: bool,
-    /// Write `report.html` (with the plots when there is a truth).
-    pub report: bool,
-    /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
-    /// of an error.
-    pub accept_inconsistent: bool,
-}
-
-/// Apply the options of `ins-gnss run` that change the configuration (bias model, gate,
-/// vehicle aiding, states, smoothing) to `cfg`; returns the strategy's name (the option's,
-/// or the configuration's). The Python bindings take the same options through it.
-pub fn configure(cfg: &mut Config, o: &RunOptions<'_>) -> Result<String, CliError> {
-    if let Some(b) = o.bias_model {
-        cfg.imu_noise.bias_model = toml::Value::String(b.to_string()).try_into().map_err(|_| {
-            format!("unknown bias model `{b}`: random-walk, gauss-markov, gauss-markov-held")
-        })?;
-    }
-    if o.no_gate {
-        cfg.filter.gate.enabled = false;
-    }
-    if o.nhc && cfg.vehicle.nhc.is_none() {
-        cfg.vehicle.nhc = Some(Default::default());
-    }
-    if o.zupt && cfg.vehicle.zupt.is_none() {
-        cfg.vehicle.zupt = Some(Default::default());
-    }
-    if o.odometer && cfg.vehicle.odometer.is_none() {
-        cfg.vehicle.odometer = Some(Default::default());
-    }
-    if o.no_vehicle {
-        cfg.vehicle = Default::default();
-    }
-    if let Some(n) = o.states {
-        cfg.filter.states = n;
-    }
-    if o.smooth {
-        cfg.filter.smooth = true;
-    }
-    Ok(o.strategy.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone()))
 }
 
 /// `ins-gnss run`.
 pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     let (out, truth, skip, progress, plots) = (o.out, o.truth, o.skip, o.progress, o.plots);
     let mut cfg = Config::load(config)?;
-    let name = configure(&mut cfg, o)?;
+    let name = cfg.apply_options(o)?;
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
     // refused before the run, not after it
     if plots && truth.is_none() && cfg.data.truth.is_none() {

@@ -6,7 +6,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::cli::summary_lines;
 use crate::config::Config;
 use crate::eval::{Evaluation, Stats};
 use crate::run::RunSummary;
@@ -67,7 +66,7 @@ pub fn write(
     );
     let _ = writeln!(h, "<h1>ins-gnss run: {}</h1>", escape(&summary.strategy));
     h.push_str("<h2>Summary</h2>\n<ul>\n");
-    for line in summary_lines(summary) {
+    for line in summary.lines() {
         let _ = writeln!(h, "<li>{}</li>", escape(&line));
     }
     h.push_str("</ul>\n<h2>Consistency</h2>\n");

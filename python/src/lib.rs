@@ -26,7 +26,7 @@ use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ins_gnss::cli::{configure, summary_lines, RunOptions};
+use ins_gnss::config::RunOptions;
 use ins_gnss::config::{Config, ConfigKind};
 use ins_gnss::run::{run_in_memory, Inputs, RunSummary, GNSS_ARRAY, IMU_ARRAY};
 
@@ -101,7 +101,7 @@ fn summary_dict<'py>(
     d.set_item("nis_band", c.as_ref().map(|c| c.band))?;
     d.set_item("consistent", c.as_ref().map(|c| c.consistent()))?;
     d.set_item("start", s.start.clone())?;
-    d.set_item("lines", summary_lines(s))?;
+    d.set_item("lines", s.lines())?;
     d.set_item("warning", warning)?;
     Ok(d)
 }
@@ -179,7 +179,7 @@ fn navigate<'py>(
         no_vehicle,
         ..Default::default()
     };
-    let name = configure(&mut cfg, &options).map_err(fail)?;
+    let name = cfg.apply_options(&options).map_err(fail)?;
     let chosen = name.parse().map_err(fail)?;
     let (summary, results) =
         py.allow_threads(|| run_in_memory(&cfg, chosen, &inputs)).map_err(fail)?;

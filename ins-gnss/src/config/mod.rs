@@ -32,6 +32,7 @@ mod gnss;
 mod init;
 mod kf_gins;
 mod noise;
+mod options;
 mod validate;
 mod vehicle;
 
@@ -40,6 +41,7 @@ pub use filter::*;
 pub use gnss::*;
 pub use init::*;
 pub use noise::*;
+pub use options::*;
 pub use vehicle::*;
 
 /// Every measurement stream a configuration may name in `filter.streams`.

@@ -392,3 +392,62 @@ impl RunSummary {
         }
     }
 }
+
+impl RunSummary {
+    /// The lines of the summary (printed by the program, in the report, and in the Python
+    /// package's summary).
+    pub fn lines(&self) -> Vec<String> {
+        let s = self;
+        let mut lines = vec![format!(
+        "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {}{} rejected; \
+         skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s{}",
+        s.strategy,
+        s.imu_epochs,
+        s.span.0,
+        s.span.1,
+        s.gnss_epochs,
+        s.accepted,
+        s.inflated,
+        if s.deflated > 0 { format!("{} deflated, ", s.deflated) } else { String::new() },
+        s.rejected,
+        s.imu_skipped.total() - s.imu_skipped.gaps,
+        s.imu_skipped.gaps,
+        s.gnss_skipped.total(),
+        s.wall_time,
+        s.imu_epochs as f64 / s.wall_time.max(1e-9),
+        // (a run in memory has no output directory)
+        if s.out_dir.as_os_str().is_empty() {
+            String::new()
+        } else {
+            format!("; output {}", s.out_dir.display())
+        }
+    )];
+        lines.extend(s.start.iter().cloned());
+        if !s.noise.is_empty() {
+            lines.push(s.noise.clone());
+        }
+        if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
+            let [n, z, r, o] = s.aiding;
+            lines.push(format!(
+            "vehicle aiding: NHC {} used, {} refused; ZUPT {} used, {} refused; ZARU {} used, {} refused; odometer {} used, {} refused; stationary {:.1} s",
+            n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
+        ));
+        }
+        for st in &s.streams {
+            lines.push(st.verdict());
+            lines.extend(st.adaptation());
+        }
+        if let Some((rows, secs)) = s.smoothed {
+            let mut line = format!("smoothed: {rows} epochs in {secs:.2} s (backward pass)");
+            if !s.out_dir.as_os_str().is_empty() {
+                line += &format!(
+                    " -> {}, {}",
+                    s.out_dir.join("nav_smoothed.txt").display(),
+                    s.out_dir.join("std_smoothed.txt").display()
+                );
+            }
+            lines.push(line);
+        }
+        lines
+    }
+}

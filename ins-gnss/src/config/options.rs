@@ -1,0 +1,82 @@
+//! The options of a run (`ins-gnss run`'s flags, the Python package's arguments) and
+//! how they change a configuration.
+
+use super::*;
+
+/// Options of a run as `ins-gnss run` takes them (the Python package takes a part).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunOptions<'a> {
+    /// Strategy name (default: the configuration's).
+    pub strategy: Option<&'a str>,
+    /// Bias model name (default: the configuration's).
+    pub bias_model: Option<&'a str>,
+    /// Output directory (default: the configuration's).
+    pub out: Option<&'a Path>,
+    /// Truth file for an evaluation at the end.
+    pub truth: Option<&'a Path>,
+    /// Seconds skipped by the evaluation.
+    pub skip: f64,
+    /// Show a progress bar.
+    pub progress: bool,
+    /// Write SVG plots.
+    pub plots: bool,
+    /// Open the gross-error gate (KF-GINS's behaviour: every fix used).
+    pub no_gate: bool,
+    /// Turn on NHC (configured settings or defaults).
+    pub nhc: bool,
+    /// Turn on ZUPT/ZARU (configured settings or defaults).
+    pub zupt: bool,
+    /// Turn on the odometer (configured settings or defaults).
+    pub odometer: bool,
+    /// Turn off all vehicle aiding.
+    pub no_vehicle: bool,
+    /// Override `filter.states` (15 or 21).
+    pub states: Option<u32>,
+    /// Smooth the run (sets `filter.smooth`).
+    pub smooth: bool,
+    /// Write `report.html` (with the plots when there is a truth).
+    pub report: bool,
+    /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
+    /// of an error.
+    pub accept_inconsistent: bool,
+}
+
+impl Config {
+    /// Apply the options of a run that change the configuration (bias model, gate,
+    /// vehicle aiding, states, smoothing); returns the strategy's name (the option's, or
+    /// the configuration's). `ins-gnss run` and the Python package take the same options
+    /// through it.
+    pub fn apply_options(&mut self, o: &RunOptions<'_>) -> Result<String, String> {
+        let cfg = self;
+        if let Some(b) = o.bias_model {
+            cfg.imu_noise.bias_model =
+                toml::Value::String(b.to_string()).try_into().map_err(|_| {
+                    format!(
+                        "unknown bias model `{b}`: random-walk, gauss-markov, gauss-markov-held"
+                    )
+                })?;
+        }
+        if o.no_gate {
+            cfg.filter.gate.enabled = false;
+        }
+        if o.nhc && cfg.vehicle.nhc.is_none() {
+            cfg.vehicle.nhc = Some(Default::default());
+        }
+        if o.zupt && cfg.vehicle.zupt.is_none() {
+            cfg.vehicle.zupt = Some(Default::default());
+        }
+        if o.odometer && cfg.vehicle.odometer.is_none() {
+            cfg.vehicle.odometer = Some(Default::default());
+        }
+        if o.no_vehicle {
+            cfg.vehicle = Default::default();
+        }
+        if let Some(n) = o.states {
+            cfg.filter.states = n;
+        }
+        if o.smooth {
+            cfg.filter.smooth = true;
+        }
+        Ok(o.strategy.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone()))
+    }
+}
