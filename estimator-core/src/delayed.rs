@@ -12,6 +12,16 @@
 //! history is refused ([`FilterError::TooLate`]); on any `Err` the filter and the history
 //! are unchanged.
 //!
+//! Any update and any prediction can be kept: [`Replay::update_with_at`] takes a closure
+//! that updates the filter (iterated, unscented, with an observer — whatever it does), and
+//! [`Replay::predict_with`] one that propagates it over a given interval (the sigma-point
+//! prediction), which the history may split at a delayed measurement's time.
+//!
+//! Time stamps are compared within [`STAMP_TOLERANCE`] (relative): the filter's clock sums
+//! its intervals (200 steps of 0.1 s make 20.000000000000014), so a measurement stamped
+//! 20.0 belongs to that epoch — after the updates already applied there, never as a
+//! prediction split into a step of 1e-14 s.
+//!
 //! Cost: a delayed measurement replays the history (its events since the history's start);
 //! every event is also applied a second time when it leaves the history (to move the
 //! history's start on), so a filter in a `Replay` does about twice the work of a bare one,
@@ -34,12 +44,57 @@ use crate::traits::{MeasurementModel, ProcessModel};
 /// An update as the history keeps it.
 type Apply<X, A, B> = Rc<dyn Fn(&mut ErrorStateFilter<X, A, B>) -> Result<(), FilterError>>;
 
+/// A prediction of the caller's as the history keeps it: the filter over an interval.
+type Step<X, A, B> = Rc<dyn Fn(&mut ErrorStateFilter<X, A, B>, f64) -> Result<(), FilterError>>;
+
+/// Two time stamps closer than this, relative to their size (at least 1 s), are the same
+/// epoch.
+pub const STAMP_TOLERANCE: f64 = 1e-9;
+
+/// Whether `a` and `b` are the same epoch ([`STAMP_TOLERANCE`]).
+fn same_epoch(a: f64, b: f64) -> bool {
+    (a - b).abs() <= STAMP_TOLERANCE * a.abs().max(b.abs()).max(1.0)
+}
+
 enum Event<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>, U>
 where
     DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
 {
-    Predict { u: U, dt: f64 },
-    Update { apply: Apply<X, A, B> },
+    /// The model's prediction with input `u`.
+    Predict {
+        u: U,
+        dt: f64,
+    },
+    /// A prediction of the caller's.
+    Step {
+        step: Step<X, A, B>,
+        dt: f64,
+    },
+    Update {
+        apply: Apply<X, A, B>,
+    },
+}
+
+impl<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>, U: Clone> Event<X, A, B, U>
+where
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    /// The interval of a prediction (`None` for an update).
+    fn dt(&self) -> Option<f64> {
+        match self {
+            Event::Predict { dt, .. } | Event::Step { dt, .. } => Some(*dt),
+            Event::Update { .. } => None,
+        }
+    }
+
+    /// The same prediction over `dt` instead.
+    fn with_dt(&self, dt: f64) -> Self {
+        match self {
+            Event::Predict { u, .. } => Event::Predict { u: u.clone(), dt },
+            Event::Step { step, .. } => Event::Step { step: step.clone(), dt },
+            Event::Update { apply } => Event::Update { apply: apply.clone() },
+        }
+    }
 }
 
 impl<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>, U: Clone> Clone for Event<X, A, B, U>
@@ -49,6 +104,7 @@ where
     fn clone(&self) -> Self {
         match self {
             Event::Predict { u, dt } => Event::Predict { u: u.clone(), dt: *dt },
+            Event::Step { step, dt } => Event::Step { step: step.clone(), dt: *dt },
             Event::Update { apply } => Event::Update { apply: apply.clone() },
         }
     }
@@ -91,6 +147,16 @@ where
         &self.filter
     }
 
+    /// The process model.
+    pub fn model(&self) -> &PM {
+        &self.model
+    }
+
+    /// The filter (up to date) and the model back; the history is dropped.
+    pub fn into_inner(self) -> (ErrorStateFilter<X, A, B>, PM) {
+        (self.filter, self.model)
+    }
+
     /// The time at the start of the history: the oldest time a measurement may carry.
     pub fn oldest(&self) -> f64 {
         self.start.time()
@@ -106,6 +172,24 @@ where
     pub fn predict(&mut self, u: &PM::Input, dt: f64) -> Result<(), FilterError> {
         self.filter.predict(&self.model, u, dt)?;
         self.events.push_back(Event::Predict { u: u.clone(), dt });
+        self.trim()
+    }
+
+    /// Predict over `dt` by `step(filter, dt)` — any prediction of the caller's, such as
+    /// the sigma-point one; a replay may run it over parts of `dt` that add up to it. On
+    /// `Err` nothing changes.
+    pub fn predict_with(
+        &mut self,
+        dt: f64,
+        step: impl Fn(&mut ErrorStateFilter<X, A, B>, f64) -> Result<(), FilterError> + 'static,
+    ) -> Result<(), FilterError> {
+        let mut next = self.filter.clone();
+        step(&mut next, dt)?;
+        if !same_epoch(next.time(), self.filter.time() + dt) {
+            return Err(FilterError::InvalidTimeStep { dt: next.time() - self.filter.time() });
+        }
+        self.filter = next;
+        self.events.push_back(Event::Step { step: Rc::new(step), dt });
         self.trim()
     }
 
@@ -125,20 +209,34 @@ where
         DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
         Cov<StateDim<MM::Measurement>>: 'static,
     {
+        self.update_with_at(time, move |f| f.update(&sensor, &z, &R).map(|_| ()))
+    }
+
+    /// Apply `apply` — any update of the filter (plain, iterated, unscented, with an
+    /// observer) — as measured at `time` (at most the filter's time, within
+    /// [`STAMP_TOLERANCE`]): now if `time` is the filter's time, otherwise at its own time
+    /// by replay, after the updates already at that time. On `Err` the filter and the
+    /// history are unchanged.
+    pub fn update_with_at(
+        &mut self,
+        time: f64,
+        apply: impl Fn(&mut ErrorStateFilter<X, A, B>) -> Result<(), FilterError> + 'static,
+    ) -> Result<(), FilterError> {
         let now = self.filter.time();
-        if !time.is_finite() || time > now {
+        if !time.is_finite() || (time > now && !same_epoch(time, now)) {
             return Err(FilterError::InvalidTimeStep { dt: now - time });
         }
-        if time < self.start.time() {
+        if time < self.start.time() && !same_epoch(time, self.start.time()) {
             return Err(FilterError::TooLate {
                 delay: now - time,
                 history: now - self.start.time(),
             });
         }
-        let apply: Apply<X, A, B> =
-            Rc::new(move |f: &mut ErrorStateFilter<X, A, B>| f.update(&sensor, &z, &R).map(|_| ()));
-        if time == now {
-            apply(&mut self.filter)?;
+        let apply: Apply<X, A, B> = Rc::new(apply);
+        if same_epoch(time, now) {
+            let mut next = self.filter.clone();
+            apply(&mut next)?;
+            self.filter = next;
             self.events.push_back(Event::Update { apply });
             return Ok(());
         }
@@ -148,24 +246,22 @@ where
         let mut t = self.start.time();
         let mut placed = false;
         for e in &self.events {
-            if !placed {
-                if let Event::Predict { u, dt } = e {
-                    let end = t + dt;
-                    if time == t {
-                        // at the prediction's start: before it, nothing to split
-                        events.push_back(Event::Update { apply: apply.clone() });
-                        placed = true;
-                    } else if end > time {
-                        let first = time - t;
-                        events.push_back(Event::Predict { u: u.clone(), dt: first });
-                        events.push_back(Event::Update { apply: apply.clone() });
-                        events.push_back(Event::Predict { u: u.clone(), dt: dt - first });
-                        placed = true;
-                        t = end;
-                        continue;
-                    }
+            if let (false, Some(dt)) = (placed, e.dt()) {
+                let end = t + dt;
+                if same_epoch(time, t) {
+                    // at the prediction's start: before it, nothing to split
+                    events.push_back(Event::Update { apply: apply.clone() });
+                    placed = true;
+                } else if end > time && !same_epoch(time, end) {
+                    let first = time - t;
+                    events.push_back(e.with_dt(first));
+                    events.push_back(Event::Update { apply: apply.clone() });
+                    events.push_back(e.with_dt(dt - first));
+                    placed = true;
                     t = end;
+                    continue;
                 }
+                t = end;
             }
             events.push_back(e.clone());
         }
@@ -187,7 +283,7 @@ where
     fn trim(&mut self) -> Result<(), FilterError> {
         let horizon = self.filter.time() - self.history;
         while let Some(e) = self.events.front() {
-            if let Event::Predict { dt, .. } = e {
+            if let Some(dt) = e.dt() {
                 if self.start.time() + dt > horizon {
                     break;
                 }
@@ -213,6 +309,7 @@ where
 {
     match e {
         Event::Predict { u, dt } => f.predict(model, u, *dt),
+        Event::Step { step, dt } => step(f, *dt),
         Event::Update { apply } => apply(f),
     }
 }

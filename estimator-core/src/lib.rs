@@ -94,7 +94,7 @@ pub use backend::{CovBackend, StaticCov, UpdateForm};
 #[cfg(feature = "std")]
 pub use backend::{DenseCov, DynamicCov};
 #[cfg(feature = "std")]
-pub use delayed::Replay;
+pub use delayed::{Replay, STAMP_TOLERANCE};
 #[doc(hidden)]
 pub use entries::Entries;
 pub use error::FilterError;

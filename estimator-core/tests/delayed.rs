@@ -46,7 +46,9 @@ fn delayed_equals_on_time(offset: f64, delay: f64) -> Vector4<f64> {
     let mut next_fix = offset;
     for _ in 0..500 {
         let (t0, t1) = (on_time.time(), on_time.time() + DT);
-        if next_fix > t0 && next_fix < t1 {
+        // (a fix within `STAMP_TOLERANCE` of an epoch belongs to it: 0.5 is the epoch the
+        // clock calls 0.5000000000000002, not a split leaving a step of 2.7e-16 s)
+        if next_fix > t0 + 1e-9 && next_fix < t1 - 1e-9 {
             // the on-time filter splits its step at the fix
             on_time.predict(&process(), &(), next_fix - t0).unwrap();
             on_time.update(&gps(), &truth(next_fix), &R).unwrap();
@@ -127,4 +129,71 @@ fn replay_beats_a_late_fix_applied_as_current() {
     let (a, b) = ((sq_late / n as f64).sqrt(), (sq_naive / n as f64).sqrt());
     println!("position RMS: replayed {a:.3} m, applied as current {b:.3} m");
     assert!(a < 0.7 * b, "{a} {b}");
+}
+
+/// Sigma-point predictions (`predict_with`), iterated and unscented updates
+/// (`update_with_at`) and a fix stamped with its natural time `k · 0.1` — not the filter's
+/// clock, which sums its steps (20.000000000000014 after 200 steps of 0.1 s) — delivered
+/// 0.35 s late: the replayed filter equals, bit for bit, the filter that applied the fix on
+/// time after that epoch's other updates; then the filter comes back out of the replay.
+#[test]
+fn any_update_and_prediction_replay_bit_for_bit_with_natural_stamps() {
+    use estimator_core::SigmaPoints;
+    const STEP: f64 = 0.1;
+    let R = Matrix2::identity() * 0.25;
+    let sp = SigmaPoints::default();
+    let mut late = Replay::new(filter(), process(), 1.0);
+    let mut on_time = filter();
+    let mut pending: Vec<(f64, usize)> = Vec::new();
+    let mut replays_checked = 0;
+    for k in 1..=300usize {
+        late.predict_with(STEP, move |f, dt| f.predict_unscented(&process(), &(), dt, &sp))
+            .unwrap();
+        on_time.predict_unscented(&process(), &(), STEP, &sp).unwrap();
+        let t = on_time.time();
+        assert_eq!(late.filter().time(), t);
+        if k % 5 == 0 {
+            // two updates of other kinds at this epoch, on time in both filters
+            let z = truth(t) + Vector2::new(0.3, -0.2);
+            on_time.update_iterated(&gps(), &z, &R, 5, 1e-12).unwrap();
+            late.update_with_at(t, move |f| {
+                f.update_iterated(&gps(), &z, &R, 5, 1e-12).map(|_| ())
+            })
+            .unwrap();
+            on_time.update_unscented(&gps(), &z, &(R * 4.0), &sp).unwrap();
+            late.update_with_at(t, move |f| {
+                f.update_unscented(&gps(), &z, &(R * 4.0), &sp).map(|_| ())
+            })
+            .unwrap();
+        }
+        if k % 20 == 0 {
+            // the fix of epoch k, applied on time after the epoch's other updates, and
+            // stamped k · 0.1 for the late filter
+            on_time.update(&gps(), &truth(k as f64 * STEP), &R).unwrap();
+            pending.push((k as f64 * STEP, k));
+        }
+        while let Some(&(stamp, _)) = pending.first() {
+            if stamp + 0.35 > t + 1e-9 {
+                break;
+            }
+            late.update_at(gps(), truth(stamp), R, stamp).unwrap();
+            pending.remove(0);
+            assert_eq!(late.filter().state(), on_time.state());
+            assert_eq!(*late.filter().covariance(), *on_time.covariance());
+            replays_checked += 1;
+        }
+    }
+    // the last fix (epoch 300), delivered at once: at the filter's own epoch, by the
+    // tolerance, without a replay
+    let replays = late.replays();
+    for (stamp, _) in pending.drain(..) {
+        late.update_at(gps(), truth(stamp), R, stamp).unwrap();
+    }
+    assert_eq!(late.replays(), replays);
+    assert!(replays_checked >= 14, "{replays_checked}");
+    assert!(late.replays() >= 14);
+    let (f, _model) = late.into_inner();
+    assert_eq!(f.state(), on_time.state());
+    // the filter's clock is not the natural stamp, which is why the tolerance matters
+    assert_ne!(f.time(), 300.0 * STEP);
 }
