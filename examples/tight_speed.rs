@@ -97,7 +97,12 @@ fn main() {
             n.process_into(s, &fixes[a..k], &mut NoObserver, &mut out).unwrap();
         }
         let loose = t.elapsed().as_secs_f64();
-        let cfg = TightConfig { models: opt.clone(), klobuchar: kb, use_doppler: true };
+        let cfg = TightConfig {
+            models: opt.clone(),
+            klobuchar: kb,
+            use_doppler: true,
+            error_floor: false,
+        };
         let t = Instant::now();
         let model = InsModelTc { base: InsModel::wgs84(noise), clock: ClockNoise::default() };
         let mut n =

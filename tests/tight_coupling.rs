@@ -148,7 +148,12 @@ fn run_tight_recorded<A: NoiseStrategy, R: StepRecorder<InsStateTc, ImuInput>>(
     };
     let cfg = GnssConfig { lever_arm: LEVER, ..GnssConfig::default() };
     let mut n = Navigator::new_tight(&init(&c.data), &clock, model, strategy, cfg).unwrap();
-    let tight = TightConfig { models: opt.clone(), klobuchar: kb, use_doppler: doppler };
+    let tight = TightConfig {
+        models: opt.clone(),
+        klobuchar: kb,
+        use_doppler: doppler,
+        error_floor: false,
+    };
     let raw: Vec<RawEpoch> = c
         .epochs
         .iter()

@@ -25,8 +25,9 @@ use crate::imu::ImuNoise;
 use crate::imu::ImuSample;
 use crate::model::{ImuInput, InsModel, M15};
 use crate::raw::atmosphere::Klobuchar;
-use crate::raw::spp::{azel, corrections, Prepared, SppOptions};
+use crate::raw::spp::{azel, code_noise_variance, corrections, Prepared, SppOptions};
 use crate::raw::GpsTime;
+use crate::raw::System;
 use crate::scale::{InsModel21, InsState21, M21};
 use crate::state::InsState;
 use crate::tight::{InsModelTc, InsStateTc, Pseudorange, RangeRate, M20};
@@ -368,6 +369,9 @@ where
     rate: Vector3<f64>,
     time: f64,
     vehicle: VehicleState,
+    /// Tight coupling: the covariance of position (NED) and GPS clock the last raw
+    /// epoch's persisting satellite errors leave a single point ([`satellite_error_floor`]).
+    floor: Option<nalgebra::Matrix4<f64>>,
 }
 
 /// The vehicle aiding's settings and bookkeeping.
@@ -452,6 +456,7 @@ where
             rate: Vector3::zeros(),
             time,
             vehicle: VehicleState::default(),
+            floor: None,
         })
     }
 
@@ -480,6 +485,14 @@ where
     /// The stationary detector, when ZUPT is on.
     pub fn stationary_detector(&self) -> Option<&StationaryDetector> {
         self.vehicle.detector.as_ref()
+    }
+
+    /// Tight coupling with [`TightConfig::error_floor`]: the covariance of position (NED,
+    /// m²) and GPS clock that the last raw epoch's persisting satellite errors leave a
+    /// single point (`None` before one, or when its geometry did not fix them). The
+    /// filter's own covariance does not include it; the σ a run reports does.
+    pub fn satellite_floor(&self) -> Option<&nalgebra::Matrix4<f64>> {
+        self.floor.as_ref()
     }
 
     /// The odometer's calibrated scale (reading / true speed), once calibrated.
@@ -822,6 +835,13 @@ pub struct TightConfig {
     pub klobuchar: Klobuchar,
     /// Use the Dopplers (range rates) as well as the codes.
     pub use_doppler: bool,
+    /// Keep the position's and the receiver clock's covariance at least the one the
+    /// epoch's satellite errors that persist from epoch to epoch (orbit and clock, code
+    /// bias, atmosphere residuals) leave a single point with
+    /// ([`satellite_error_floor`]): the filter absorbs such errors into its position and
+    /// clock and, counting each epoch's code as new information, would otherwise shrink
+    /// their σ below the error they leave.
+    pub error_floor: bool,
 }
 
 /// The receiver clock at the start of a tightly coupled run.
@@ -908,6 +928,9 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         let err = |source| NavError::Measurement { t: e.t, source };
         self.vehicle.last_gnss = e.t;
         let lever = self.gnss.lever_arm;
+        // the persisting errors' normal equations: position (NED), a clock per system
+        let mut normal = nalgebra::SMatrix::<f64, 7, 7>::zeros();
+        let mut used = 0;
         for s in &e.sats {
             // the geometry at the state as it stands (earlier satellites of the epoch moved it)
             let x = &self.filter.state().nav;
@@ -938,6 +961,16 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
                 )
                 .map_err(err)?;
             out.push(report.summary());
+            if report.verdict != estimator_core::Verdict::Rejected {
+                let persisting = var - code_noise_variance(&cfg.models, el, s);
+                let c_ne = crate::earth::ecef_to_ned_rotation(ant.lat, ant.lon);
+                let u = c_ne * (d / d.norm());
+                let mut h = nalgebra::SVector::<f64, 7>::zeros();
+                h.fixed_rows_mut::<3>(0).copy_from(&(-u));
+                h[3 + system_column(s.sat.sys)] = 1.0;
+                normal += h * h.transpose() / persisting.max(1e-6);
+                used += 1;
+            }
             if let (true, Some(rate)) = (cfg.use_doppler, s.range_rate) {
                 let model = RangeRate { sat: s, lever_arm: lever, gyro_rate: self.rate };
                 let v = cfg.models.doppler_std.powi(2);
@@ -954,8 +987,43 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
                 out.push(report.summary());
             }
         }
+        if cfg.error_floor && used >= 4 {
+            if let Some(f) = satellite_error_floor(&normal) {
+                self.floor = Some(f);
+            }
+        }
         Ok(())
     }
+}
+
+/// The column of a system's clock in [`satellite_error_floor`]'s normal equations: GPS
+/// (and any other system) 0, Galileo 1, BeiDou 2, QZSS 3.
+fn system_column(sys: System) -> usize {
+    crate::tight::isb_index(sys).map_or(0, |k| k + 1)
+}
+
+/// The covariance of position (NED) and GPS clock that the persisting satellite errors
+/// leave a single point of the epoch's geometry: the first 4×4 block of the inverse of
+/// the normal equations `Σ h hᵀ / σ²_persisting` (rows of position and a clock per
+/// system; the columns of systems not seen are left out). `None` when the geometry does
+/// not fix them. With errors constant per satellite, a filter that averages epochs cannot
+/// do better than this: it is the σ below which its position and clock must not shrink.
+pub fn satellite_error_floor(
+    normal: &nalgebra::SMatrix<f64, 7, 7>,
+) -> Option<nalgebra::Matrix4<f64>> {
+    // the systems seen keep their clock column; the others are fixed at 0 (unit diagonal)
+    let mut n = *normal;
+    for k in 3..7 {
+        if n[(k, k)] == 0.0 {
+            n[(k, k)] = 1.0;
+        }
+    }
+    if normal[(3, 3)] == 0.0 {
+        // no GPS satellite: the GPS clock is not fixed by this epoch
+        return None;
+    }
+    let inv = n.cholesky()?.inverse();
+    Some(inv.fixed_view::<4, 4>(0, 0).into_owned())
 }
 
 // Outside the navigator's generic impl: there, the where-clause on the state's dimension

@@ -145,7 +145,7 @@ pub struct AidEpoch {
 /// Where a run's GNSS epochs come from.
 pub enum AidReader {
     /// A receiver's fixes.
-    Fixes(GnssReader<Input>),
+    Fixes(Box<GnssReader<Input>>),
     /// Raw observations.
     Raw(Box<RawReader>),
 }
@@ -168,7 +168,7 @@ impl AidReader {
         fixes: impl FnOnce() -> Result<GnssReader<Input>, RunError>,
     ) -> Result<Self, RunError> {
         if config.gnss.coupling == Coupling::Loose {
-            return Ok(Self::Fixes(fixes()?));
+            return Ok(Self::Fixes(Box::new(fixes()?)));
         }
         let input = RawInput::open(&config.data.gnss, &config.data.nav).map_err(RunError::Raw)?;
         let models = config.gnss.tight.spp_options().map_err(|message| {
@@ -179,7 +179,12 @@ impl AidReader {
         })?;
         // without broadcast coefficients, RTKLIB's fallback ones (as the single point)
         let klobuchar = input.nav.klobuchar.unwrap_or_default();
-        let tight = TightConfig { models, klobuchar, use_doppler: config.gnss.tight.doppler };
+        let tight = TightConfig {
+            models,
+            klobuchar,
+            use_doppler: config.gnss.tight.doppler,
+            error_floor: config.gnss.tight.error_floor,
+        };
         Ok(Self::Raw(Box::new(RawReader { input, tight, prior: None, week0: None })))
     }
 

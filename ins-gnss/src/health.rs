@@ -78,8 +78,11 @@ impl core::fmt::Display for Unhealthy {
 
 impl std::error::Error for Unhealthy {}
 
-/// What is wrong with one GNSS stream, if anything.
-fn stream_problems(s: &StreamStats) -> Vec<String> {
+/// What is wrong with one GNSS stream, if anything. `persisting`: the stream's errors
+/// persist from epoch to epoch (a tight run's pseudoranges with `gnss.tight.error_floor`),
+/// so its innovations are not a sample of independent draws and are judged with the other
+/// satellites' ([`pseudorange_problem`]) instead of alone.
+fn stream_problems(s: &StreamStats, persisting: bool) -> Vec<String> {
     let mut out = Vec::new();
     if s.refused * 2 > s.epochs {
         out.push(format!(
@@ -94,7 +97,7 @@ fn stream_problems(s: &StreamStats) -> Vec<String> {
         // (drive-0708 `aided.toml`, 4.65 m, whose refused tail had hidden it), which is
         // no reason to distrust its result
         let factor = s.median_ratio.max(0.0).sqrt();
-        let material = !(1.0 / MATERIAL_FACTOR..=MATERIAL_FACTOR).contains(&factor);
+        let material = !(1.0 / MATERIAL_FACTOR..=MATERIAL_FACTOR).contains(&factor) && !persisting;
         if (f < lo || f > hi) && material {
             out.push(format!(
                 "{}: {:.1} % of the innovations used lie above their χ² median, where a \
@@ -108,6 +111,34 @@ fn stream_problems(s: &StreamStats) -> Vec<String> {
         }
     }
     out
+}
+
+/// A tight run's pseudoranges judged together, when their errors persist from epoch to
+/// epoch: each satellite's typical innovation is then one draw of its persisting error
+/// (less what position and clock absorb), repeated at every epoch, so one satellite 2.8σ
+/// off says little, and a median against the χ² median misreads a constant innovation
+/// (one of exactly 1σ reads 1.48×). The typical satellite's innovation — the root of the
+/// satellites' mean NIS per degree of freedom — above [`MATERIAL_FACTOR`] says the σ of
+/// the pseudoranges is too small.
+fn pseudorange_problem(gnss: &[&StreamStats]) -> Option<String> {
+    let ratios: Vec<f64> = gnss
+        .iter()
+        .filter(|s| is_pseudorange(s) && s.used() >= MIN_EPOCHS)
+        .map(|s| s.mean_nis().0)
+        .collect();
+    if ratios.is_empty() {
+        return None;
+    }
+    let typical = (ratios.iter().sum::<f64>() / ratios.len() as f64).sqrt();
+    (typical > MATERIAL_FACTOR).then(|| {
+        format!(
+            "pseudoranges: the typical satellite's innovation is {typical:.2}× its σ (the root \
+             of the mean NIS over {} satellites): the code σ (`gnss.tight` models: orbit URA, ionosphere, \
+             troposphere) is too small for this receiver, or the lever arm or the time tags \
+             are wrong",
+            ratios.len()
+        )
+    })
 }
 
 /// A satellite's pseudorange stream (tight coupling: `pr G05`).
@@ -146,7 +177,13 @@ fn initial_offset(summary: &RunSummary, config: &Config) -> Option<((f64, f64), 
 /// fix).
 pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
     let gnss: Vec<&StreamStats> = summary.streams.iter().filter(|s| s.gnss).collect();
-    let problems: Vec<String> = gnss.iter().flat_map(|s| stream_problems(s)).collect();
+    let tight = config.gnss.coupling == crate::config::Coupling::Tight;
+    let floor = tight && config.gnss.tight.error_floor;
+    let mut problems: Vec<String> =
+        gnss.iter().flat_map(|s| stream_problems(s, floor && is_pseudorange(s))).collect();
+    if floor {
+        problems.extend(pseudorange_problem(&gnss));
+    }
     if problems.is_empty() {
         return Ok(());
     }
@@ -166,7 +203,6 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
             ));
         }
     }
-    let tight = config.gnss.coupling == crate::config::Coupling::Tight;
     // tight coupling: pseudoranges whose innovations are far below their σ
     let mut absorbed = Vec::new();
     for s in &gnss {
@@ -190,7 +226,9 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
             ));
         }
         let factor = s.median_ratio.max(0.0).sqrt();
-        if factor > 2.0 && s.used() >= MIN_EPOCHS {
+        if floor && is_pseudorange(s) {
+            // judged with the other satellites (`pseudorange_problem`)
+        } else if factor > 2.0 && s.used() >= MIN_EPOCHS {
             diagnosis.push(format!(
                 "{}: the typical innovation is {factor:.1}× its σ (the median NIS against its \
                  χ² median): the receiver's σ (`gnss.position_std`) or the IMU noise \
@@ -218,8 +256,10 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
              to epoch (orbit and clock, ionosphere and troposphere residuals, code biases): \
              the position and clock absorb them, so the innovations are small while the \
              position's error is not; the reported position σ is then too small, not too \
-             large. Dual-frequency iono-free codes (`gnss.tight.ionosphere = \"iono-free\"`) \
-             or precise orbits shrink these errors; a smaller pseudorange σ would make it worse",
+             large. `gnss.tight.error_floor = true` (the default) keeps the reported σ at \
+             least what these errors leave a single point; dual-frequency iono-free codes \
+             (`gnss.tight.ionosphere = \"iono-free\"`) or precise orbits shrink them; a \
+             smaller pseudorange σ would make it worse",
             absorbed.join(", ")
         ));
     }

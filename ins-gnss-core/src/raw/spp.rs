@@ -385,6 +385,13 @@ pub fn solve_prepared(
 /// A code's variance apart from the atmosphere's: elevation (and C/N0) weighting, the
 /// broadcast orbit and clock, the code bias (m²).
 pub fn code_variance(opt: &SppOptions, el: f64, s: &Prepared) -> f64 {
+    code_noise_variance(opt, el, s) + s.state.variance + 0.09
+}
+
+/// The part of [`code_variance`] that is new at every epoch (m²): the elevation (and
+/// C/N0) weighted noise of the code, without the satellite's orbit and clock (URA) and code
+/// bias, which stay the same from one epoch to the next.
+pub fn code_noise_variance(opt: &SppOptions, el: f64, s: &Prepared) -> f64 {
     let (a, b) = opt.elevation_weight;
     let sin_el = el.sin().max(0.05);
     let mut noise = a * a + (b / sin_el).powi(2);
@@ -395,7 +402,7 @@ pub fn code_variance(opt: &SppOptions, el: f64, s: &Prepared) -> f64 {
     if let (Some(c), Some(cn0)) = (opt.cn0_weight, s.cn0) {
         noise += c * 10f64.powf(-cn0 / 10.0);
     }
-    noise + s.state.variance + 0.09
+    noise
 }
 
 /// The atmospheric corrections `I + T` (m) of a code at the receiver `(lat, lon, h)` for a

@@ -72,6 +72,11 @@ pub struct TightSection {
     /// Random walk of the receiver clock's drift, m/s/√s. Default 0.1 (a TCXO).
     #[serde(default = "default_clock_drift_noise")]
     pub clock_drift_noise: f64,
+    /// Keep the position's and clock's σ at least what the satellites' persisting errors
+    /// (orbit, clock, code bias, atmosphere residuals) leave a single point of each epoch
+    /// (`TightConfig::error_floor`). Default true.
+    #[serde(default = "yes")]
+    pub error_floor: bool,
 }
 
 pub(crate) fn default_elevation_mask() -> f64 {
@@ -99,6 +104,7 @@ impl Default for TightSection {
             doppler: true,
             doppler_std: default_doppler_std(),
             clock_drift_noise: default_clock_drift_noise(),
+            error_floor: true,
         }
     }
 }

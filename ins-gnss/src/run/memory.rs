@@ -67,7 +67,11 @@ impl Sink for Results {
     where
         DefaultAllocator: DimAlloc<S::Dim>,
     {
-        let (row, n) = sigma_row(t, &nav.sigma().as_slice()[..S::SIGMA_COLUMNS]);
+        let mut sigma = nav.sigma();
+        if let Some(f) = S::position_floor(nav) {
+            raise_position_sigma(sigma.as_mut_slice(), &f);
+        }
+        let (row, n) = sigma_row(t, &sigma.as_slice()[..S::SIGMA_COLUMNS]);
         self.std.extend(row[..n].iter().map(|r| r.0));
         self.std_width = n;
         // (like `imu_errors.txt`: not twice at the same time, which the run's end can
@@ -99,6 +103,7 @@ impl Sink for Results {
         &mut self,
         recorder: Recorder<S, Self::Store>,
         nav: &Navigator<RunStrategy, S>,
+        floors: &Floors,
     ) -> Result<usize, RunError>
     where
         estimator_core::Cov<S::Dim>: Send,
@@ -112,7 +117,7 @@ impl Sink for Results {
                 let mut navs = Vec::with_capacity(rows.len());
                 let mut stds = Vec::with_capacity(rows.len() * (n + 1));
                 for r in rows {
-                    let (t, x, sigma) = smoothed_row(r);
+                    let (t, x, sigma) = smoothed_row(r, floors);
                     navs.push(nav_values(t, &x));
                     if let Some(sigma) = sigma {
                         let (row, len) = sigma_row(t, &sigma[..n]);

@@ -211,6 +211,8 @@ where
     let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t, clock)?;
     let start = summary.span.0;
     let mut recorder = if config.filter.smooth { Some(out.recorder::<S>()?) } else { None };
+    // (tight coupling, smoothing) the reported position σ floors over time
+    let mut floors = Floors::default();
     let (imu_path, gnss_path) = names;
     // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
     // sample whose prediction did.
@@ -304,6 +306,9 @@ where
                     )
                     .map_err(|e| locate(e, imu_line, &batch_lines))?;
                     summary.imu_epochs += 1;
+                    if let (Some(_), Some(f)) = (&recorder, S::position_floor(&nav)) {
+                        floors.push(sample.t, f);
+                    }
                     records.push((sample.t, nav.nav_state().clone()));
                     if records.len() == BATCH
                         && nav_tx
@@ -363,7 +368,7 @@ where
     summary.stationary_time = nav.stationary_time();
     if let Some(recorder) = recorder {
         let backward = Instant::now();
-        let rows = out.smoothed(recorder, &nav)?;
+        let rows = out.smoothed(recorder, &nav, &floors)?;
         summary.smoothed = Some((rows, backward.elapsed().as_secs_f64()));
     }
     summary.wall_time = wall.elapsed().as_secs_f64();

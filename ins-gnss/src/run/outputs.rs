@@ -39,6 +39,7 @@ pub(crate) trait Sink {
         &mut self,
         recorder: Recorder<S, Self::Store>,
         nav: &Navigator<RunStrategy, S>,
+        floors: &Floors,
     ) -> Result<usize, RunError>
     where
         estimator_core::Cov<S::Dim>: Send,
@@ -373,13 +374,20 @@ impl Sink for Outputs {
         sigma[..n].copy_from_slice(&s.as_slice()[..n]);
         let p = nav.covariance();
         let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
+        let mut pos_cov = block(6);
+        if let Some(f) = S::position_floor(nav) {
+            raise_position_sigma(&mut sigma, &f);
+            for k in 0..3 {
+                pos_cov[(k, k)] = pos_cov[(k, k)].max(f[k]);
+            }
+        }
         self.push(Row::Epoch(EpochRow {
             t,
             gnss_fix,
             sigma,
             n,
             x: nav.nav_state().clone(),
-            pos_cov: block(6),
+            pos_cov,
             vel_cov: block(3),
             scale: nav.state().scale_factors(),
         }))
@@ -399,11 +407,12 @@ impl Sink for Outputs {
         &mut self,
         recorder: Recorder<S, Self::Store>,
         nav: &Navigator<RunStrategy, S>,
+        floors: &Floors,
     ) -> Result<usize, RunError>
     where
         estimator_core::Cov<S::Dim>: Send,
         DefaultAllocator: DimAlloc<S::Dim>,
     {
-        write_smoothed(recorder, nav, &self.dir)
+        write_smoothed(recorder, nav, &self.dir, floors)
     }
 }

@@ -4,7 +4,10 @@ use super::*;
 
 /// A smoothed row: time, navigation state, and the σ of the error states (as many as the
 /// state has).
-pub(crate) fn smoothed_row<S: RunState>(r: &SmoothedRow<S>) -> (f64, InsState, Option<[f64; 21]>)
+pub(crate) fn smoothed_row<S: RunState>(
+    r: &SmoothedRow<S>,
+    floors: &Floors,
+) -> (f64, InsState, Option<[f64; 21]>)
 where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
@@ -13,9 +16,39 @@ where
         for (s, v) in sigma.iter_mut().zip(var.iter()) {
             *s = v.max(0.0).sqrt();
         }
+        if let Some(f) = floors.at(r.time) {
+            raise_position_sigma(&mut sigma, &f);
+        }
         sigma
     });
     (r.time, r.x.nav().clone(), sigma)
+}
+
+/// The position variances (N, E, D; m²) below which a tight run's reported σ does not go
+/// ([`Navigator::satellite_floor`]), from the time each raw epoch set them on.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Floors(Vec<(f64, [f64; 3])>);
+
+impl Floors {
+    /// The floor from `t` on (kept only when it changed).
+    pub(crate) fn push(&mut self, t: f64, f: [f64; 3]) {
+        if self.0.last().is_none_or(|(_, last)| *last != f) {
+            self.0.push((t, f));
+        }
+    }
+
+    /// The floor in force at `t`.
+    pub(crate) fn at(&self, t: f64) -> Option<[f64; 3]> {
+        let i = self.0.partition_point(|(tf, _)| *tf <= t + 1e-9);
+        i.checked_sub(1).map(|i| self.0[i].1)
+    }
+}
+
+/// The position σ (error-state components 6..9) raised to the floor's.
+pub(crate) fn raise_position_sigma(sigma: &mut [f64], floor: &[f64; 3]) {
+    for k in 0..3 {
+        sigma[6 + k] = sigma[6 + k].max(floor[k].max(0.0).sqrt());
+    }
 }
 
 /// The navigation record of a state.

@@ -23,13 +23,14 @@ pub(crate) fn write_smoothed<S: RunState>(
     recorder: Recorder<S>,
     nav: &Navigator<RunStrategy, S>,
     dir: &Path,
+    floors: &Floors,
 ) -> Result<usize, RunError>
 where
     estimator_core::Cov<S::Dim>: Send,
     DefaultAllocator: DimAlloc<S::Dim>,
 {
     let names = Outputs::SMOOTHED.map(|name| partial_path(&dir.join(name)));
-    let result = write_smoothed_into(recorder, nav, &names);
+    let result = write_smoothed_into(recorder, nav, &names, floors);
     if result.is_err() {
         // half-written, backwards: of no use to anyone
         for path in &names {
@@ -43,6 +44,7 @@ pub(crate) fn write_smoothed_into<S: RunState>(
     recorder: Recorder<S>,
     nav: &Navigator<RunStrategy, S>,
     names: &[PathBuf; 3],
+    floors: &Floors,
 ) -> Result<usize, RunError>
 where
     estimator_core::Cov<S::Dim>: Send,
@@ -120,7 +122,7 @@ where
     };
     let smoothed =
         recorder.smooth_threaded(nav.filter(), nav.model(), |rows: &[SmoothedRow<S>]| {
-            pending.extend(rows.iter().rev().map(smoothed_row));
+            pending.extend(rows.iter().rev().map(|r| smoothed_row(r, floors)));
             if pending.len() >= BATCH_ROWS {
                 send(&mut pending)?;
             }

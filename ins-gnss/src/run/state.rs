@@ -43,6 +43,13 @@ where
     fn is_fix(stream: estimator_core::StreamId) -> bool {
         ins_gnss_core::gnss::GNSS_STREAMS.contains(&stream)
     }
+
+    /// The position variances (N, E, D; m²) the reported σ does not go below (tight
+    /// coupling's [`Navigator::satellite_floor`]); `None` for the others.
+    fn position_floor(nav: &Navigator<RunStrategy, Self>) -> Option<[f64; 3]> {
+        let _ = nav;
+        None
+    }
 }
 
 impl RunState for InsState {
@@ -128,6 +135,10 @@ impl RunState for InsStateTc {
 
     fn is_fix(stream: estimator_core::StreamId) -> bool {
         !VEHICLE_STREAMS.contains(&stream)
+    }
+
+    fn position_floor(nav: &Navigator<RunStrategy, Self>) -> Option<[f64; 3]> {
+        nav.satellite_floor().map(|f| [f[(0, 0)], f[(1, 1)], f[(2, 2)]])
     }
 }
 
