@@ -102,6 +102,8 @@ fn main() {
             klobuchar: kb,
             use_doppler: true,
             error_floor: false,
+            carrier: false,
+            phase_std: 0.003,
         };
         let t = Instant::now();
         let model = InsModelTc { base: InsModel::wgs84(noise), clock: ClockNoise::default() };

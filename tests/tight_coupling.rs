@@ -153,6 +153,8 @@ fn run_tight_recorded<A: NoiseStrategy, R: StepRecorder<InsStateTc, ImuInput>>(
         klobuchar: kb,
         use_doppler: doppler,
         error_floor: false,
+        carrier: false,
+        phase_std: 0.003,
     };
     let raw: Vec<RawEpoch> = c
         .epochs

@@ -372,6 +372,21 @@ where
     /// Tight coupling: the covariance of position (NED) and GPS clock the last raw
     /// epoch's persisting satellite errors leave a single point ([`satellite_error_floor`]).
     floor: Option<nalgebra::Matrix4<f64>>,
+    /// Tight coupling: the last raw epoch's carrier phases, for the next one's
+    /// time-differenced updates.
+    carrier: Option<CarrierEpoch>,
+}
+
+/// What the time-differenced carrier phase needs of the last raw epoch.
+#[derive(Clone, Debug)]
+struct CarrierEpoch {
+    /// Time, s.
+    t: f64,
+    /// The antenna (ECEF) after that epoch's updates.
+    anchor: Vector3<f64>,
+    /// Per satellite: its phase (m), position (ECEF) and clock (s) at transmission, and
+    /// the atmosphere's delay of the phase `T − I` (m).
+    sats: Vec<(crate::raw::Sat, f64, Vector3<f64>, f64, f64)>,
 }
 
 /// The vehicle aiding's settings and bookkeeping.
@@ -457,6 +472,7 @@ where
             time,
             vehicle: VehicleState::default(),
             floor: None,
+            carrier: None,
         })
     }
 
@@ -842,7 +858,20 @@ pub struct TightConfig {
     /// clock and, counting each epoch's code as new information, would otherwise shrink
     /// their σ below the error they leave.
     pub error_floor: bool,
+    /// Use the carrier phases differenced in time between consecutive epochs (a velocity
+    /// measurement of millimetres per second; satellites flagged for a slip, or whose
+    /// phase change disagrees with their Doppler by more than [`SLIP_RATE`], are left out).
+    pub carrier: bool,
+    /// σ of a carrier phase, m.
+    pub phase_std: f64,
 }
+
+/// A phase change (m/s over the interval) farther than this from the Doppler's range rate
+/// is a cycle slip the receiver did not flag.
+pub const SLIP_RATE: f64 = 2.0;
+
+/// The longest interval a phase is differenced over, s.
+pub const CARRIER_MAX_GAP: f64 = 2.5;
 
 /// The receiver clock at the start of a tightly coupled run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -928,6 +957,9 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         let err = |source| NavError::Measurement { t: e.t, source };
         self.vehicle.last_gnss = e.t;
         let lever = self.gnss.lever_arm;
+        if cfg.carrier {
+            self.update_carrier(e, cfg, observer, out, recorder)?;
+        }
         // the persisting errors' normal equations: position (NED), a clock per system
         let mut normal = nalgebra::SMatrix::<f64, 7, 7>::zeros();
         let mut used = 0;
@@ -992,8 +1024,145 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
                 self.floor = Some(f);
             }
         }
+        if cfg.carrier {
+            // this epoch's phases, for the next one
+            let x = &self.filter.state().nav;
+            let ant = manifolds::Manifold::oplus(&x.pos, &(x.att.matrix() * lever));
+            let anchor = crate::earth::geodetic_to_ecef(ant.lat, ant.lon, ant.h);
+            let llh = (ant.lat, ant.lon, ant.h);
+            let sats = e
+                .sats
+                .iter()
+                .filter_map(|s| {
+                    let p = s.phase?;
+                    let atm = phase_atmosphere(cfg, llh, &anchor, e.time.tow, s);
+                    Some((s.sat, p, s.state.pos, s.state.clock, atm))
+                })
+                .collect();
+            self.carrier = Some(CarrierEpoch { t: e.t, anchor, sats });
+        }
         Ok(())
     }
+
+    /// The time-differenced carrier phases of epoch `e` against the last epoch's, as
+    /// whitened single differences ([`crate::tight::CarrierRow`]), before the epoch's codes.
+    fn update_carrier<O: Observer, R: StepRecorder<InsStateTc, ImuInput>>(
+        &mut self,
+        e: &RawEpoch,
+        cfg: &TightConfig,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        let Some(prev) = self.carrier.take() else { return Ok(()) };
+        let dt = e.t - prev.t;
+        if !(dt > 0.0 && dt <= CARRIER_MAX_GAP) {
+            return Ok(());
+        }
+        let x = &self.filter.state().nav;
+        let (v0, att0, ba0) = (x.vel, x.att, x.ba);
+        // the interval's displacement error: Δt δv + ½ Δt² C_nb [f^b×] δθ (δv̇ = −C_nb [f^b×] δθ
+        // for the body-frame attitude error), with the last sample's specific force
+        let f_b = self.prev.map_or_else(Vector3::zeros, |p| p.dvel / p.dt.max(1e-9)) - x.ba;
+        let a_acc = x.att.matrix() * (0.5 * dt * dt);
+        let a_att = a_acc * manifolds::hat(&f_b);
+        let ant = manifolds::Manifold::oplus(&x.pos, &(x.att.matrix() * self.gnss.lever_arm));
+        let r_a = crate::earth::geodetic_to_ecef(ant.lat, ant.lon, ant.h);
+        let c_ne = crate::earth::ecef_to_ned_rotation(ant.lat, ant.lon);
+        // per satellite: elevation, the residual of its phase change (m), its line of sight
+        let mut rows: Vec<(f64, f64, Vector3<f64>)> = Vec::with_capacity(e.sats.len());
+        for s in &e.sats {
+            let (Some(phase), false) = (s.phase, s.slip) else { continue };
+            let Some(&(_, p0, pos0, clk0, atm0)) = prev.sats.iter().find(|p| p.0 == s.sat) else {
+                continue;
+            };
+            let (rho, u) = crate::raw::spp::geometry(&s.state.pos, &r_a);
+            let (rho0, _) = crate::raw::spp::geometry(&pos0, &prev.anchor);
+            let (_, el) = azel(ant.lat, ant.lon, &u);
+            if el < cfg.models.elevation_mask {
+                continue;
+            }
+            let change = phase - p0;
+            // a slip the receiver did not flag: the phase's rate far from the Doppler's
+            if let Some(rate) = s.range_rate {
+                if (change / dt - rate).abs() > SLIP_RATE {
+                    continue;
+                }
+            }
+            let sat_clock = crate::raw::ephemeris::C * (s.state.clock - clk0);
+            let atm = phase_atmosphere(cfg, (ant.lat, ant.lon, ant.h), &r_a, e.time.tow, s);
+            rows.push((el, change + sat_clock - (rho - rho0) - (atm - atm0), c_ne * u));
+        }
+        if rows.len() < 2 {
+            return Ok(());
+        }
+        // single differences against the highest satellite: the receiver clock cancels
+        let r = (0..rows.len()).max_by(|&a, &b| rows[a].0.total_cmp(&rows[b].0)).unwrap_or(0);
+        let (_, y_r, u_r) = rows[r];
+        let n = rows.len() - 1;
+        let var = 2.0 * cfg.phase_std.powi(2);
+        // covariance of the differences: var (I + 1 1ᵀ)
+        let cov = nalgebra::DMatrix::from_fn(n, n, |i, j| if i == j { 2.0 * var } else { var });
+        let Some(chol) = cov.cholesky() else { return Ok(()) };
+        let mut y = nalgebra::DVector::zeros(n);
+        let mut h = nalgebra::DMatrix::zeros(n, 9);
+        let others = rows.iter().enumerate().filter(|(k, _)| *k != r).map(|(_, v)| v);
+        for (k, (_, y_i, u_i)) in others.enumerate() {
+            y[k] = y_i - y_r;
+            let du = u_r - u_i;
+            let (hv, ha, hb) = (du * dt, a_att.transpose() * du, a_acc.transpose() * du);
+            for c in 0..3 {
+                h[(k, c)] = hv[c];
+                h[(k, 3 + c)] = ha[c];
+                h[(k, 6 + c)] = hb[c];
+            }
+        }
+        let l = chol.l();
+        let (Some(y), Some(h)) = (l.solve_lower_triangular(&y), l.solve_lower_triangular(&h))
+        else {
+            return Ok(());
+        };
+        let err = |source| NavError::Measurement { t: e.t, source };
+        for k in 0..n {
+            let model = crate::tight::CarrierRow {
+                h: Vector3::new(h[(k, 0)], h[(k, 1)], h[(k, 2)]),
+                h_att: Vector3::new(h[(k, 3)], h[(k, 4)], h[(k, 5)]),
+                h_ba: Vector3::new(h[(k, 6)], h[(k, 7)], h[(k, 8)]),
+                c: 0.0,
+                v0,
+                att0,
+                ba0,
+            };
+            recorder.before_update(&self.filter);
+            let report = self
+                .filter
+                .update_observed(
+                    &model,
+                    &nalgebra::Vector1::new(y[k]),
+                    &nalgebra::Matrix1::new(1.0),
+                    observer,
+                )
+                .map_err(err)?;
+            out.push(report.summary());
+        }
+        Ok(())
+    }
+}
+
+/// The atmosphere's delay of a satellite's carrier phase at the antenna `r` (ECEF, at
+/// geodetic `llh`): `T − I` (the phase is advanced by the ionosphere).
+fn phase_atmosphere(
+    cfg: &TightConfig,
+    llh: (f64, f64, f64),
+    r: &Vector3<f64>,
+    tow: f64,
+    s: &Prepared,
+) -> f64 {
+    let d = s.state.pos - r;
+    let azel = azel(llh.0, llh.1, &(d / d.norm()));
+    let ((iono, _), (tropo, _)) =
+        crate::raw::spp::atmosphere(&cfg.models, &cfg.klobuchar, llh, azel, tow, s);
+    tropo - iono
 }
 
 /// The column of a system's clock in [`satellite_error_floor`]'s normal equations: GPS

@@ -332,3 +332,62 @@ impl MeasurementModel for RangeRate<'_> {
 
 /// The error-state vector type of [`InsStateTc`].
 pub type V20 = SVector<f64, 20>;
+
+/// One row of an epoch's time-differenced carrier phases, whitened: the phases' changes
+/// since the last epoch, differenced against the highest satellite's (the receiver clock
+/// cancels), decorrelated by the Cholesky factor of their covariance, so each row is an
+/// independent scalar of unit variance. Its error is, to first order, that of the
+/// antenna's displacement over the interval, `Δt δv + ½ Δt² C_nb ([f^b×] δθ + δb_a)` (the anchor of
+/// the last epoch being the filter's own position then): `predict(x) = c + hᵀ (v − v₀) +
+/// h_attᵀ (att ⊖ att₀)` around the state the rows were formed at.
+#[derive(Clone, Debug)]
+pub struct CarrierRow {
+    /// The row's sensitivity to the velocity (NED).
+    pub h: Vector3<f64>,
+    /// Its sensitivity to the attitude error (body frame).
+    pub h_att: Vector3<f64>,
+    /// Its sensitivity to the accelerometer bias error.
+    pub h_ba: Vector3<f64>,
+    /// The row's prediction at the state it was formed at.
+    pub c: f64,
+    /// The velocity the rows were formed at.
+    pub v0: Vector3<f64>,
+    /// The attitude the rows were formed at.
+    pub att0: manifolds::So3,
+    /// The accelerometer bias the rows were formed at.
+    pub ba0: Vector3<f64>,
+}
+
+/// The stream of the time-differenced carrier phases.
+pub fn carrier_stream() -> StreamId {
+    StreamId::named("tdcp")
+}
+
+impl MeasurementModel for CarrierRow {
+    type State = InsStateTc;
+    type Measurement = Vector1<f64>;
+
+    fn predict(&self, x: &InsStateTc) -> Vector1<f64> {
+        let d_att = x.nav.att.ominus(&self.att0);
+        Vector1::new(
+            self.c
+                + self.h.dot(&(x.nav.vel - self.v0))
+                + self.h_att.dot(&d_att)
+                + self.h_ba.dot(&(x.nav.ba - self.ba0)),
+        )
+    }
+
+    fn jacobian(&self, _x: &InsStateTc) -> JacobiansOf<Self> {
+        let mut H = SMatrix::<f64, 1, 20>::zeros();
+        for k in 0..3 {
+            H[(0, k)] = self.h_att[k];
+            H[(0, 3 + k)] = self.h[k];
+            H[(0, 12 + k)] = self.h_ba[k];
+        }
+        MeasurementJacobians { H }
+    }
+
+    fn stream(&self) -> StreamId {
+        carrier_stream()
+    }
+}

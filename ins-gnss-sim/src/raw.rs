@@ -71,6 +71,9 @@ pub struct RawSim {
     pub outliers: (f64, (f64, f64)),
     /// Probability per satellite and epoch of a cycle slip (loss-of-lock flag set).
     pub slip_probability: f64,
+    /// Whether the receiver flags its slips (LLI); `false` leaves them for the data to
+    /// reveal.
+    pub flag_slips: bool,
     /// Sky masks.
     pub masks: Vec<SkyMask>,
     /// Draw the per-satellite errors (orbit, code bias, ionosphere, troposphere) afresh at
@@ -101,6 +104,7 @@ impl RawSim {
             tropo_error: 0.3,
             outliers: (0.0, (20.0, 100.0)),
             slip_probability: 0.0,
+            flag_slips: true,
             masks: Vec::new(),
             white_errors: false,
         }
@@ -258,7 +262,7 @@ pub fn simulate_raw(
                 if sim.slip_probability > 0.0 && rng.random::<f64>() < sim.slip_probability {
                     tr.ambiguity[slot] += rng.random_range(1..50) as f64
                         * if rng.random::<bool>() { 1.0 } else { -1.0 };
-                    lli = 1;
+                    lli = u8::from(sim.flag_slips);
                 }
                 s.phase = Some(
                     (geometric - iono + sim.phase_std * n01.sample(&mut rng)) / lambda

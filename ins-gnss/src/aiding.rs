@@ -184,6 +184,8 @@ impl AidReader {
             klobuchar,
             use_doppler: config.gnss.tight.doppler,
             error_floor: config.gnss.tight.error_floor,
+            carrier: config.gnss.tight.carrier,
+            phase_std: config.gnss.tight.phase_std,
         };
         Ok(Self::Raw(Box::new(RawReader { input, tight, prior: None, week0: None })))
     }

@@ -208,6 +208,16 @@ pub struct RawSpec {
     /// (white, as the filter's model assumes) instead of once per satellite and run.
     #[serde(default)]
     pub white_errors: bool,
+    /// Probability per satellite and epoch of a cycle slip of 1–49 cycles.
+    #[serde(default)]
+    pub slips: f64,
+    /// Whether the receiver flags its slips (loss of lock). Default true.
+    #[serde(default = "yes")]
+    pub flag_slips: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn one() -> f64 {
@@ -300,8 +310,10 @@ impl Scenario {
         positive("gnss.rate", &[g.rate])?;
         if let Some(r) = &self.raw {
             positive("raw.rate", &[r.rate])?;
-            if !(0.0..=1.0).contains(&r.outliers) {
-                return Err(format!("`raw.outliers` {}: a probability in 0…1", r.outliers));
+            for (key, p) in [("raw.outliers", r.outliers), ("raw.slips", r.slips)] {
+                if !(0.0..=1.0).contains(&p) {
+                    return Err(format!("`{key}` {p}: a probability in 0…1"));
+                }
             }
             for (k, m) in r.masks.iter().enumerate() {
                 finite(&format!("raw.masks[{k}]"), m)?;
@@ -596,6 +608,8 @@ impl Scenario {
             lever_arm: v3(self.gnss.lever_arm),
             outliers: (raw.outliers, (20.0, 100.0)),
             white_errors: raw.white_errors,
+            slip_probability: raw.slips,
+            flag_slips: raw.flag_slips,
             masks: raw
                 .masks
                 .iter()

@@ -219,6 +219,10 @@ pub struct Prepared {
     pub range_rate: Option<f64>,
     /// C/N0 of the code, dB-Hz.
     pub cn0: Option<f64>,
+    /// The first frequency's carrier phase, m (cycles × wavelength).
+    pub phase: Option<f64>,
+    /// The receiver flagged a possible cycle slip on that phase (LLI bit 0).
+    pub slip: bool,
 }
 
 /// The satellites of an epoch with a usable code and ephemeris, their states at
@@ -257,7 +261,16 @@ pub fn prepare(epoch: &ObsEpoch, eph: &Ephemerides, opt: &SppOptions) -> (Vec<Pr
         let mut state = e.state(&t);
         state.clock += tgd_back;
         let range_rate = s0.doppler.map(|d| -d * C / f1);
-        out.push(Prepared { sat: o.sat, state, range, iono_scale, range_rate, cn0: s0.cn0 });
+        out.push(Prepared {
+            sat: o.sat,
+            state,
+            range,
+            iono_scale,
+            range_rate,
+            cn0: s0.cn0,
+            phase: s0.phase.map(|l| l * C / f1),
+            slip: s0.lli & 1 != 0,
+        });
     }
     (out, dropped)
 }
@@ -413,11 +426,25 @@ pub fn code_noise_variance(opt: &SppOptions, el: f64, s: &Prepared) -> f64 {
 pub fn corrections(
     opt: &SppOptions,
     kb: &Klobuchar,
+    llh: (f64, f64, f64),
+    azel: (f64, f64),
+    tow: f64,
+    s: &Prepared,
+) -> (f64, f64) {
+    let ((iono, var_iono), (tropo, var_tropo)) = atmosphere(opt, kb, llh, azel, tow, s);
+    (iono + tropo, code_variance(opt, azel.1, s) + var_iono + var_tropo)
+}
+
+/// The ionosphere's and the troposphere's delays of a code (m) with their residual
+/// variances (m²), as [`corrections`] adds them (the carrier phase sees `T − I`).
+pub fn atmosphere(
+    opt: &SppOptions,
+    kb: &Klobuchar,
     (lat, lon, h): (f64, f64, f64),
     (az, el): (f64, f64),
     tow: f64,
     s: &Prepared,
-) -> (f64, f64) {
+) -> ((f64, f64), (f64, f64)) {
     let (iono, var_iono) = match opt.ionosphere {
         Ionosphere::Off => (0.0, 25.0),
         Ionosphere::IonoFree => (0.0, 0.0),
@@ -432,7 +459,7 @@ pub fn corrections(
             (saastamoinen(lat, h, el), (0.3 / (el.sin().max(0.05) + 0.1)).powi(2))
         }
     };
-    (iono + tropo, code_variance(opt, el, s) + var_iono + var_tropo)
+    ((iono, var_iono), (tropo, var_tropo))
 }
 
 fn check(f: &Fit, opt: &SppOptions) -> Option<SppFailure> {
