@@ -52,11 +52,18 @@ composite_state! {
 pub type M20 = SMatrix<f64, 20, 20>;
 
 /// Index of the clock bias in the error state.
-pub const CLOCK_BIAS: usize = 15;
+pub const CLOCK_BIAS: usize = InsStateTc::CLOCK.start();
 /// Index of the clock drift.
-pub const CLOCK_DRIFT: usize = 16;
+pub const CLOCK_DRIFT: usize = InsStateTc::CLOCK.start() + 1;
 /// Index of the first inter-system bias.
-pub const ISB: usize = 17;
+pub const ISB: usize = InsStateTc::ISB.start();
+
+// The navigation blocks' offsets inside the tight error state.
+const ATT: usize = InsStateTc::NAV.start() + InsState::ATT.start();
+const VEL: usize = InsStateTc::NAV.start() + InsState::VEL.start();
+const POS: usize = InsStateTc::NAV.start() + InsState::POS.start();
+const BG: usize = InsStateTc::NAV.start() + InsState::BG.start();
+const BA: usize = InsStateTc::NAV.start() + InsState::BA.start();
 
 /// The inter-system bias index of a system (`None` for GPS, the reference).
 pub fn isb_index(sys: System) -> Option<usize> {
@@ -261,8 +268,8 @@ impl MeasurementModel for Pseudorange<'_> {
         let mut H = SMatrix::<f64, 1, 20>::zeros();
         let att = u_n.transpose() * a.c_nb * hat(&self.lever_arm);
         for k in 0..3 {
-            H[(0, k)] = att[(0, k)];
-            H[(0, 6 + k)] = -u_n[k];
+            H[(0, ATT + k)] = att[(0, k)];
+            H[(0, POS + k)] = -u_n[k];
         }
         H[(0, CLOCK_BIAS)] = 1.0;
         if let Some(k) = isb_index(self.sat.sat.sys) {
@@ -317,9 +324,9 @@ impl MeasurementModel for RangeRate<'_> {
         let att = u_n.transpose() * a.c_nb * hat(&wl);
         let bg = -(u_n.transpose() * a.c_nb * hat(&self.lever_arm));
         for k in 0..3 {
-            H[(0, k)] = att[(0, k)];
-            H[(0, 3 + k)] = -u_n[k];
-            H[(0, 9 + k)] = bg[(0, k)];
+            H[(0, ATT + k)] = att[(0, k)];
+            H[(0, VEL + k)] = -u_n[k];
+            H[(0, BG + k)] = bg[(0, k)];
         }
         H[(0, CLOCK_DRIFT)] = 1.0;
         (Vector1::new(z), MeasurementJacobians { H })
@@ -380,9 +387,9 @@ impl MeasurementModel for CarrierRow {
     fn jacobian(&self, _x: &InsStateTc) -> JacobiansOf<Self> {
         let mut H = SMatrix::<f64, 1, 20>::zeros();
         for k in 0..3 {
-            H[(0, k)] = self.h_att[k];
-            H[(0, 3 + k)] = self.h[k];
-            H[(0, 12 + k)] = self.h_ba[k];
+            H[(0, ATT + k)] = self.h_att[k];
+            H[(0, VEL + k)] = self.h[k];
+            H[(0, BA + k)] = self.h_ba[k];
         }
         MeasurementJacobians { H }
     }

@@ -374,7 +374,7 @@ impl Sink for Outputs {
         sigma[..n].copy_from_slice(&s.as_slice()[..n]);
         let p = nav.covariance();
         let block = |i: usize| nalgebra::Matrix3::from_fn(|r, c| p[(i + r, i + c)]);
-        let mut pos_cov = block(6);
+        let mut pos_cov = block(InsState::POS.start());
         if let Some(f) = S::position_floor(nav) {
             raise_position_sigma(&mut sigma, &f);
             for k in 0..3 {
@@ -388,7 +388,7 @@ impl Sink for Outputs {
             n,
             x: nav.nav_state().clone(),
             pos_cov,
-            vel_cov: block(3),
+            vel_cov: block(InsState::VEL.start()),
             scale: nav.state().scale_factors(),
         }))
     }

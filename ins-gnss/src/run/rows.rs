@@ -44,10 +44,10 @@ impl Floors {
     }
 }
 
-/// The position σ (error-state components 6..9) raised to the floor's.
+/// The position σ (the error state's position block) raised to the floor's.
 pub(crate) fn raise_position_sigma(sigma: &mut [f64], floor: &[f64; 3]) {
-    for k in 0..3 {
-        sigma[6 + k] = sigma[6 + k].max(floor[k].max(0.0).sqrt());
+    for (s, f) in sigma[InsState::POS.range()].iter_mut().zip(floor) {
+        *s = s.max(f.max(0.0).sqrt());
     }
 }
 

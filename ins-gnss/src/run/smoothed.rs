@@ -88,9 +88,9 @@ where
                 let (row, len) = sigma_row(*t, &sigma[..n]);
                 push_row(std_text, &row[..len]);
                 // the smoother keeps the variances only: the .pos covariances are written as 0
-                let vel_var = var(&sigma[3..6]);
+                let vel_var = var(&sigma[InsState::VEL.range()]);
                 let vel = Some((&x.vel, &vel_var));
-                let pos_var = var(&sigma[6..9]);
+                let pos_var = var(&sigma[InsState::POS.range()]);
                 ins_gnss_core::io::rtklib::push_epoch(pos_text, 0.0, *t, &x.pos, &pos_var, vel, 1);
             }
             for (i, (w, t)) in out.iter_mut().zip(text.iter_mut()).enumerate() {
