@@ -259,3 +259,89 @@ fn tight_run_carrier_phase() {
     assert!(vel < 0.02, "{vel}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A u-blox log straight into the tight run: `data/ubx-sim/sim.ubx.zst` (RXM-RAWX and
+/// RXM-SFRBX of the first 200 s of the drive, its GPS ephemerides inside, no navigation
+/// file) with an IMU simulated along the same trajectory, no `[init]`: the run starts
+/// itself from the log's single points and its position σ covers its errors.
+#[test]
+fn tight_run_from_a_ubx_log() {
+    let sc = Scenario::parse(UBX_DRIVE, "the UBX log's drive").unwrap();
+    let dir = dataset("ubx", &sc);
+    let mut cfg = Config::load(&dir.join("config.toml")).unwrap();
+    cfg.data.gnss = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/ubx-sim/sim.ubx.zst");
+    cfg.gnss.coupling = Coupling::Tight;
+    cfg.init = Default::default();
+    let s = run(&cfg, "fixed".parse().unwrap(), &dir.join("out"), None).unwrap();
+    assert!(s.start.iter().any(|l| l.contains("heading")), "{:?}", s.start);
+    let ev = eval(&dir.join("out"), "nav.txt");
+    let nees = ev.nees.unwrap().position.mean_per_dof;
+    eprintln!(
+        "UBX log: horizontal RMS {:.2} m, vertical RMS {:.2} m, position NEES/dof {nees:.2}",
+        ev.overall.horizontal.rms, ev.overall.down.rms
+    );
+    assert!(ev.overall.horizontal.rms < 6.0, "{}", ev.overall.horizontal.rms);
+    assert!((0.3..2.0).contains(&nees), "{nees}");
+    ins_gnss::health::assess(&s, &cfg).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The trajectory of `data/ubx-sim/` (`examples/sim_ubx.rs`: `drive_600s`'s first ten
+/// segments from 2005-04-02 03:00 GPST, GPS second 529200 of week 1316) as a scenario.
+const UBX_DRIVE: &str = r#"
+seed = 5
+[start]
+time = 529200.0
+position = [30.5, 114.3, 25.0]
+yaw = 20.0
+[[segment]]
+kind = "stop"
+duration = 20.0
+[[segment]]
+kind = "accelerate"
+duration = 10.0
+accel = 1.5
+[[segment]]
+kind = "straight"
+duration = 40.0
+[[segment]]
+kind = "turn"
+duration = 15.0
+rate = 6.0
+[[segment]]
+kind = "straight"
+duration = 30.0
+[[segment]]
+kind = "accelerate"
+duration = 5.0
+accel = 1.0
+[[segment]]
+kind = "climb"
+duration = 5.0
+rate = 0.6
+[[segment]]
+kind = "straight"
+duration = 40.0
+[[segment]]
+kind = "climb"
+duration = 5.0
+rate = -0.6
+[[segment]]
+kind = "turn"
+duration = 30.0
+rate = -3.0
+[imu]
+rate = 100.0
+arw = 0.3
+vrw = 0.1
+gyro_bias_std = 10.0
+accel_bias_std = 100.0
+corr_time = 1.0
+[gnss]
+rate = 1.0
+position_std = [1.5, 1.5, 3.0]
+[init]
+attitude_std = [1.0, 1.0, 3.0]
+velocity_std = [0.1, 0.1, 0.1]
+position_std = [3.0, 3.0, 5.0]
+"#;
