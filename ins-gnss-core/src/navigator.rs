@@ -30,7 +30,7 @@ use crate::raw::GpsTime;
 use crate::raw::System;
 use crate::scale::{InsModel21, InsState21, M21};
 use crate::state::InsState;
-use crate::tight::{InsModelTc, InsStateTc, Pseudorange, RangeRate, M20};
+use crate::tight::{Antenna, InsModelTc, InsStateTc, Pseudorange, RangeRate, M20};
 use crate::vehicle::{
     mounting_matrix, Nhc, Odometer, OdometerScale, StationaryDetector, VehicleAiding, Zaru, Zupt,
 };
@@ -965,10 +965,9 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         let mut used = 0;
         for s in &e.sats {
             // the geometry at the state as it stands (earlier satellites of the epoch moved it)
-            let x = &self.filter.state().nav;
-            let ant = manifolds::Manifold::oplus(&x.pos, &(x.att.matrix() * lever));
-            let r_a = crate::earth::geodetic_to_ecef(ant.lat, ant.lon, ant.h);
-            let d = s.state.pos - r_a;
+            let a = Antenna::at(&self.filter.state().nav, &lever);
+            let ant = a.pos;
+            let d = s.state.pos - a.r;
             let (az, el) = azel(ant.lat, ant.lon, &(d / d.norm()));
             if el < cfg.models.elevation_mask {
                 continue;
@@ -995,8 +994,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
             out.push(report.summary());
             if report.verdict != estimator_core::Verdict::Rejected {
                 let persisting = var - code_noise_variance(&cfg.models, el, s);
-                let c_ne = crate::earth::ecef_to_ned_rotation(ant.lat, ant.lon);
-                let u = c_ne * (d / d.norm());
+                let u = a.c_ne * (d / d.norm());
                 let mut h = nalgebra::SVector::<f64, 7>::zeros();
                 h.fixed_rows_mut::<3>(0).copy_from(&(-u));
                 h[3 + system_column(s.sat.sys)] = 1.0;
@@ -1026,10 +1024,9 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         }
         if cfg.carrier {
             // this epoch's phases, for the next one
-            let x = &self.filter.state().nav;
-            let ant = manifolds::Manifold::oplus(&x.pos, &(x.att.matrix() * lever));
-            let anchor = crate::earth::geodetic_to_ecef(ant.lat, ant.lon, ant.h);
-            let llh = (ant.lat, ant.lon, ant.h);
+            let a = Antenna::at(&self.filter.state().nav, &lever);
+            let anchor = a.r;
+            let llh = (a.pos.lat, a.pos.lon, a.pos.h);
             let sats = e
                 .sats
                 .iter()
@@ -1066,9 +1063,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         let f_b = self.prev.map_or_else(Vector3::zeros, |p| p.dvel / p.dt.max(1e-9)) - x.ba;
         let a_acc = x.att.matrix() * (0.5 * dt * dt);
         let a_att = a_acc * manifolds::hat(&f_b);
-        let ant = manifolds::Manifold::oplus(&x.pos, &(x.att.matrix() * self.gnss.lever_arm));
-        let r_a = crate::earth::geodetic_to_ecef(ant.lat, ant.lon, ant.h);
-        let c_ne = crate::earth::ecef_to_ned_rotation(ant.lat, ant.lon);
+        let Antenna { pos: ant, r: r_a, c_ne, .. } = Antenna::at(x, &self.gnss.lever_arm);
         // per satellite: elevation, the residual of its phase change (m), its line of sight
         let mut rows: Vec<(f64, f64, Vector3<f64>)> = Vec::with_capacity(e.sats.len());
         for s in &e.sats {

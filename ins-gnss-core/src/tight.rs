@@ -208,22 +208,26 @@ pub fn satellite_stream(sat: Sat, rate: bool) -> StreamId {
     })
 }
 
-/// What both satellite models need of the state: the antenna in ECEF and the NED frame.
-struct Antenna {
-    c_nb: Matrix3<f64>,
-    c_ne: Matrix3<f64>,
-    r: Vector3<f64>,
-    lever_n: Vector3<f64>,
+/// What the satellite models and the navigator's raw epochs need of the state: the
+/// antenna (geodetic and ECEF) and the NED frame there.
+pub(crate) struct Antenna {
+    pub(crate) c_nb: Matrix3<f64>,
+    pub(crate) c_ne: Matrix3<f64>,
+    pub(crate) pos: crate::position::GeoPos,
+    pub(crate) r: Vector3<f64>,
+    pub(crate) lever_n: Vector3<f64>,
 }
 
 impl Antenna {
-    fn at(x: &InsState, lever: &Vector3<f64>) -> Self {
+    /// The antenna of state `x` with lever arm `lever` (FRD).
+    pub(crate) fn at(x: &InsState, lever: &Vector3<f64>) -> Self {
         let c_nb = x.att.matrix();
         let lever_n = c_nb * lever;
         let p = x.pos.oplus(&lever_n);
         Self {
             c_nb,
             c_ne: ecef_to_ned_rotation(p.lat, p.lon),
+            pos: p,
             r: geodetic_to_ecef(p.lat, p.lon, p.h),
             lever_n,
         }

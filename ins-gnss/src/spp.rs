@@ -33,9 +33,9 @@ pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun
     let mut input = crate::aiding::RawInput::open(obs, &navs)?;
     let mut run = SppRun::default();
     let mut prior: Option<Vector3<f64>> = None;
-    let nav = &input.nav.clone();
     while let Some(epoch) = input.next_epoch()? {
         run.epochs += 1;
+        let nav = &input.nav;
         match single_point(&epoch, &nav.ephemerides, nav.klobuchar.as_ref(), opt, prior.as_ref()) {
             Ok(s) => {
                 prior = Some(s.pos);
