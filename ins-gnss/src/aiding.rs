@@ -158,6 +158,9 @@ pub struct RawReader {
     prior: Option<Vector3<f64>>,
     /// The first epoch's GPS week: later weeks continue the seconds.
     week0: Option<i32>,
+    /// Solve each epoch as a single point (the start and the first fix need them; the
+    /// filter does not).
+    single_points: bool,
 }
 
 impl AidReader {
@@ -187,7 +190,8 @@ impl AidReader {
             carrier: config.gnss.tight.carrier,
             phase_std: config.gnss.tight.phase_std,
         };
-        Ok(Self::Raw(Box::new(RawReader { input, tight, prior: None, week0: None })))
+        let reader = RawReader { input, tight, prior: None, week0: None, single_points: true };
+        Ok(Self::Raw(Box::new(reader)))
     }
 
     /// The next epoch, `None` at the end.
@@ -216,6 +220,15 @@ impl AidReader {
         }
     }
 
+    /// From now on, raw epochs come without their single point (`fix` and clock `None`):
+    /// once the run has started and has its first fix, nothing uses them. No effect on
+    /// fixes.
+    pub fn skip_single_points(&mut self) {
+        if let AidReader::Raw(r) = self {
+            r.single_points = false;
+        }
+    }
+
     /// The tight filter's satellite models (`None` with loose coupling).
     pub fn tight(&self) -> Option<&TightConfig> {
         match self {
@@ -236,7 +249,10 @@ impl RawReader {
         let opt: &SppOptions = &self.tight.models;
         let (sats, dropped) = prepare(&e, eph, opt);
         let kb = Some(&self.tight.klobuchar);
-        let spp = solve_prepared(e.time, &sats, dropped, kb, opt, self.prior.as_ref()).ok();
+        let spp = self
+            .single_points
+            .then(|| solve_prepared(e.time, &sats, dropped, kb, opt, self.prior.as_ref()).ok())
+            .flatten();
         if let Some(s) = &spp {
             self.prior = Some(s.pos);
         }

@@ -11,7 +11,8 @@
 //! - `imu_errors.txt`: `t`, gyro bias x y z (deg/h), accelerometer bias x y z (mGal), with
 //!   21 states the scale factors (ppm), at the same epochs;
 //! - `updates.csv`: one row per update: time, stream name (`gnss-position`,
-//!   `gnss-position-velocity`, `nhc`, `zupt`, `zaru`, `odometer`), dimension, NIS,
+//!   `gnss-position-velocity`, `nhc`, `zupt`, `zaru`, `odometer`; with tight coupling a
+//!   satellite's `pr G05`, `rr G05`, and `tdcp`), dimension, NIS,
 //!   adapted NIS, decision, reason, DOM, λ_P, λ_R, and 1 where a strategy's subspace prior
 //!   scaling fell back to full scaling.
 
@@ -287,6 +288,9 @@ where
                         if g.t > start + 1e-9 {
                             if let Some(fix) = g.fix {
                                 summary.first_fix.get_or_insert(fix);
+                                // (raw epochs: their single points served the start and
+                                // this first fix; the filter takes the satellites)
+                                gnss.skip_single_points();
                                 batch.push(fix);
                             }
                             raws.extend(g.raw.map(|r| r.0));
