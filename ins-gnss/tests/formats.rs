@@ -253,7 +253,7 @@ fn missing_file_and_config_errors_name_what() {
     assert!(msg.contains("data.imu_rate"), "{msg}");
     // An unknown strategy.
     let msg =
-        write("strategy.toml", &example.replace("strategy = \"fixed\"", "strategy = \"magic\""));
+        write("strategy.toml", &example.replace("# strategy = \"fixed\"", "strategy = \"magic\""));
     assert!(msg.contains("magic") && msg.contains("sage-husa"), "{msg}");
     // KF-GINS YAML with a key missing.
     let msg = write(

@@ -140,6 +140,17 @@ enum Command {
         #[arg(long)]
         against: Option<PathBuf>,
     },
+    /// Print every configuration key: a complete commented configuration (default), or
+    /// the Markdown reference with units, defaults and examples. Both are generated from
+    /// the configuration types.
+    Config {
+        /// A complete commented configuration file (TOML).
+        #[arg(long, conflicts_with = "reference")]
+        example: bool,
+        /// The reference in Markdown (`docs/configuration.md`).
+        #[arg(long)]
+        reference: bool,
+    },
     /// Run several strategies on one dataset and print one table.
     Compare {
         /// Configuration file.
@@ -221,6 +232,14 @@ fn main() -> ExitCode {
             };
             let navs: Vec<&std::path::Path> = nav.iter().map(PathBuf::as_path).collect();
             ins_gnss::spp::run(&obs, &navs, out.as_deref(), &opt, against.as_deref())
+        }
+        Some(Command::Config { example: _, reference }) => {
+            let text = if reference {
+                ins_gnss::config::reference::reference()
+            } else {
+                ins_gnss::config::reference::example()
+            };
+            text.map(|t| print!("{t}")).map_err(Into::into)
         }
         Some(Command::Compare { config, strategies, truth, skip, out }) => {
             cli::compare(&config, &strategies, truth.as_deref(), skip, out.as_deref())
