@@ -25,3 +25,18 @@ pub use models;
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 mod readme {}
+
+/// Every Rust block of the guide's chapters (`docs/guide/`), compiled and run as doctests.
+#[cfg(doctest)]
+mod guide {
+    #[doc = include_str!("../docs/guide/install.md")]
+    mod install {}
+    #[doc = include_str!("../docs/guide/program.md")]
+    mod program {}
+    #[doc = include_str!("../docs/guide/python.md")]
+    mod python {}
+    #[doc = include_str!("../docs/guide/library.md")]
+    mod library {}
+    #[doc = include_str!("../docs/guide/microcontroller.md")]
+    mod microcontroller {}
+}

@@ -1,4 +1,4 @@
-//! "Add a strategy" (README): a user's own noise strategy, its state kept per stream,
+//! "Add a strategy" (docs/guide/library.md): a user's own noise strategy, its state kept per stream,
 //! combined with a built-in one on another stream, run and checked through the public API.
 
 use estimator::adaptive::{FusedDualWindow, Route};

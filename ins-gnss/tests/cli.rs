@@ -240,7 +240,7 @@ fn outage_score(d: &Path, dir: &Path) -> serde_json::Value {
 fn drive_0708_outage_score_with_a_position_only_reference() {
     // The KF-GINS authors' outage score on their YAML as shipped, default settings (no
     // --no-gate): the static start shows the IMU 1.6–27× noisier than the YAML's generic
-    // figures, and the noise floor raises them (README "defaults").
+    // figures, and the noise floor raises them (docs/guide/program.md "defaults").
     let d = sample_data("drive-0708");
     let dir = temp("d0708");
     run_quiet(&d.join("kf-gins-outage15.yaml"), &dir, &["--smooth"]);

@@ -81,7 +81,7 @@ fn kf_gins_bias_behaviour_reproduces_its_figures() {
 }
 
 /// navego with corrupted GNSS files: the default gross-error gate keeps the filter on the
-/// good fixes and its reported σ honest (the README's "Trustworthy runs" figures).
+/// good fixes and its reported σ honest (the guide's "Trustworthy runs" figures, docs/guide/program.md).
 mod gate {
     use super::*;
     use ins_gnss_core::io::formats::{create, write_gnss};
