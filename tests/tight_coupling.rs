@@ -284,6 +284,72 @@ fn satellite_jacobians_match_differences_through_oplus() {
     }
 }
 
+/// The 21-state tight state (scale factors): the satellite models through `OnTc` match
+/// differences through ⊕ in all 26 directions (zero in the scale factors'), and the
+/// process model's `Φ` and its block-wise covariance product match differences and the
+/// dense product.
+#[test]
+fn tight21_jacobians_match_differences_through_oplus() {
+    use estimator_core::MeasurementModel;
+    use ins_gnss_core::scale::{InsModel21, InsState21, ScaleFactorNoise};
+    use ins_gnss_core::tight::{InsModelTc21, InsStateTc21, OnTc};
+    let nav = nav();
+    let c = case(&RawSim::spp_budget(start()), 3);
+    let e = &c.epochs[150];
+    let (sats, _) = prepare(e, &nav.ephemerides, &SppOptions::default());
+    let k = c.data.truth.partition_point(|r| r.t <= epoch_time(e, &c.data));
+    let t = &c.data.truth[k];
+    let mut nav21 = InsState21 {
+        nav: t.state.clone(),
+        sg: Vector3::new(1e-3, -2e-3, 5e-4),
+        sa: Vector3::new(-1e-3, 3e-4, 2e-3),
+    };
+    nav21.nav.bg = Vector3::new(1e-4, -2e-4, 3e-4);
+    let x = InsStateTc21 {
+        nav: nav21,
+        clock: nalgebra::Vector2::new(1234.0, 0.3),
+        isb: Vector3::new(1.0, 2.0, 3.0),
+    };
+    for s in &sats {
+        let pr = Pseudorange { sat: s, corrections: 3.0, lever_arm: LEVER };
+        let rr = RangeRate { sat: s, lever_arm: LEVER, gyro_rate: Vector3::new(0.1, -0.05, 0.2) };
+        let (pr, rr) = (OnTc(&pr), OnTc(&rr));
+        let (hp, hr) = (pr.jacobian(&x).H, rr.jacobian(&x).H);
+        for k in 0..26 {
+            let h = match k {
+                9..=11 => 1e-5,
+                _ => 1e-3,
+            };
+            let mut d = nalgebra::SVector::<f64, 26>::zeros();
+            d[k] = h;
+            let (xp, xm) = (x.oplus(&d), x.oplus(&(-d)));
+            let np = (pr.predict(&xp)[0] - pr.predict(&xm)[0]) / (2.0 * h);
+            let nr = (rr.predict(&xp)[0] - rr.predict(&xm)[0]) / (2.0 * h);
+            assert!((np - hp[(0, k)]).abs() < 2e-4 * (1.0 + hp[(0, k)].abs()), "pr d{k}");
+            assert!((nr - hr[(0, k)]).abs() < 2e-4 * (1.0 + hr[(0, k)].abs()), "rr d{k}");
+            if (15..21).contains(&k) {
+                assert_eq!((hp[(0, k)], hr[(0, k)]), (0.0, 0.0));
+            }
+        }
+    }
+    let base = InsModel::wgs84(scenarios::mems_imu().noise);
+    let scale = ScaleFactorNoise { gyro: Vector3::repeat(1e-4), accel: Vector3::repeat(1e-4) };
+    let model = InsModelTc21 { base: InsModel21 { base, scale }, clock: ClockNoise::default() };
+    let u = ImuInput { prev: Some(c.data.imu[k - 1]), cur: c.data.imu[k] };
+    let dt = u.cur.dt;
+    // Φ: the 21-state model's (checked against one step in ins-gnss/tests/jacobians.rs)
+    // and the clock's shear, nothing across
+    use estimator_core::ProcessModel;
+    let phi = model.jacobians(&x, &u, dt).Phi;
+    let phi21 = model.base.jacobians(&x.nav, &u, dt).Phi;
+    let mut expected = nalgebra::SMatrix::<f64, 26, 26>::identity();
+    expected.fixed_view_mut::<21, 21>(0, 0).copy_from(&phi21);
+    expected[(21, 22)] = dt;
+    assert_eq!(phi, expected);
+    // the block-wise covariance product against the dense one, the combined calls
+    estimator_core::harness::check_combined_calls(&model, &x, &u, dt).unwrap();
+}
+
 /// A dual-frequency receiver (iono-free codes, broadcast orbits good to 0.5 m) on the
 /// drive, seeds 11–14: tight coupling against loose coupling of the same observations
 /// (the single point's positions and Doppler velocities), a 60 s canyon that leaves the 3

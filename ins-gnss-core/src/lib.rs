@@ -15,7 +15,7 @@
 //! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`] |
-//! | [`tight`] | tight coupling: [`tight::InsStateTc`] (15 + clock + inter-system biases), per-satellite pseudorange and range-rate models |
+//! | [`tight`] | tight coupling: [`tight::InsStateTc`] (15 + clock + inter-system biases) and [`tight::InsStateTc21`] (21 + clock + biases), per-satellite pseudorange and range-rate models |
 //! | [`vehicle`] | land-vehicle aiding: [`vehicle::Nhc`], [`vehicle::Zupt`], [`vehicle::Zaru`], the stationary detector |
 //! | [`spill`] | the states and IMU inputs as exact rows of numbers for the smoother's storage |
 //! | [`align`] | initialisation from the data: the static start (levelling, gyro biases, noise), the in-motion alignment |

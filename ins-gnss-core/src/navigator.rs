@@ -30,7 +30,10 @@ use crate::raw::GpsTime;
 use crate::raw::System;
 use crate::scale::{InsModel21, InsState21, M21};
 use crate::state::InsState;
-use crate::tight::{Antenna, InsModelTc, InsStateTc, Pseudorange, RangeRate, M20};
+use crate::tight::{
+    Antenna, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21, OnTc, Pseudorange, RangeRate, M20,
+    M26,
+};
 use crate::vehicle::{
     mounting_matrix, Nhc, Odometer, OdometerScale, StationaryDetector, VehicleAiding, Zaru, Zupt,
 };
@@ -121,7 +124,8 @@ where
         O: Observer,
         DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>;
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>;
 }
 
 /// A measurement model of the 15-state navigation state applied to a larger navigation
@@ -216,7 +220,8 @@ impl NavState for InsState {
         O: Observer,
         DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
     {
         filter.update_observed(model, z, r, observer).map(|r| r.summary())
     }
@@ -246,7 +251,8 @@ impl NavState for InsState21 {
         O: Observer,
         DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
     {
         filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
     }
@@ -276,7 +282,39 @@ impl NavState for InsStateTc {
         O: Observer,
         DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
             + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>,
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
+    {
+        filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
+    }
+}
+
+impl NavState for InsStateTc21 {
+    type Model = InsModelTc21;
+
+    fn nav(&self) -> &InsState {
+        &self.nav.nav
+    }
+
+    fn imu_noise(model: &InsModelTc21) -> &ImuNoise {
+        &model.base.base.noise
+    }
+
+    fn update<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsState>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
+            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
     {
         filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
     }
@@ -908,7 +946,103 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         }
         Self::from_parts(x, p, init.time, model, strategy, gnss)
     }
+}
 
+impl<A: NoiseStrategy> Navigator<A, InsStateTc21> {
+    /// A tightly coupled 21-state navigator (the IMU scale factors of `scale`) at `init`
+    /// with the receiver clock of `clock`.
+    pub fn new_tight21(
+        init: &InitialState,
+        scale: &ScaleInit,
+        clock: &ClockInit,
+        model: InsModelTc21,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let x = InsStateTc21 {
+            nav: InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa },
+            clock: manifolds::R2::new(clock.clock.0, clock.clock.1),
+            isb: Vector3::zeros(),
+        };
+        let mut p = M26::zeros();
+        let p15: M15 = init.std.covariance();
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p15);
+        for k in 0..3 {
+            p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
+            p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
+        }
+        let c0 = InsStateTc21::CLOCK.start();
+        p[(c0, c0)] = clock.std.0.powi(2);
+        p[(c0 + 1, c0 + 1)] = clock.std.1.powi(2);
+        for k in InsStateTc21::ISB.range() {
+            p[(k, k)] = clock.isb_std.powi(2);
+        }
+        Self::from_parts(x, p, init.time, model, strategy, gnss)
+    }
+}
+
+/// A tightly coupled state: the 15- or 21-state INS, then the receiver clock and the
+/// inter-system biases ([`InsStateTc`], [`InsStateTc21`]). The satellite models are
+/// written once, for [`InsStateTc`]; each state applies them its own way.
+pub trait TightState: NavState
+where
+    DefaultAllocator: DimAlloc<Self::Dim>,
+{
+    /// Update `filter` with a scalar satellite model of [`InsStateTc`]: measurement `z`,
+    /// variance `r`.
+    fn update_tc<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: f64,
+        r: f64,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsStateTc, Measurement = nalgebra::Vector1<f64>>,
+        O: Observer;
+}
+
+impl TightState for InsStateTc {
+    fn update_tc<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: f64,
+        r: f64,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsStateTc, Measurement = nalgebra::Vector1<f64>>,
+        O: Observer,
+    {
+        let (z, r) = (nalgebra::Vector1::new(z), nalgebra::Matrix1::new(r));
+        filter.update_observed(model, &z, &r, observer).map(|r| r.summary())
+    }
+}
+
+impl TightState for InsStateTc21 {
+    fn update_tc<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: f64,
+        r: f64,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsStateTc, Measurement = nalgebra::Vector1<f64>>,
+        O: Observer,
+    {
+        let (z, r) = (nalgebra::Vector1::new(z), nalgebra::Matrix1::new(r));
+        filter.update_observed(&OnTc(model), &z, &r, observer).map(|r| r.summary())
+    }
+}
+
+impl<A: NoiseStrategy, S: TightState> Navigator<A, S>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
     /// One IMU sample with the raw epochs of its interval (sorted): each satellite's
     /// pseudorange (and range rate) is an update of its own stream, at the epoch's time.
     pub fn process_raw<O: Observer>(
@@ -924,7 +1058,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
 
     /// [`process_raw`](Self::process_raw) telling `recorder` of every prediction and
     /// update (a smoother).
-    pub fn process_raw_recorded<O: Observer, R: StepRecorder<InsStateTc, ImuInput>>(
+    pub fn process_raw_recorded<O: Observer, R: StepRecorder<S, ImuInput>>(
         &mut self,
         imu: &ImuSample,
         raw: &[RawEpoch],
@@ -946,7 +1080,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
 
     /// The satellites of one epoch, one update each (now: the epoch's time is the
     /// navigator's).
-    fn update_raw<O: Observer, R: StepRecorder<InsStateTc, ImuInput>>(
+    fn update_raw<O: Observer, R: StepRecorder<S, ImuInput>>(
         &mut self,
         e: &RawEpoch,
         cfg: &TightConfig,
@@ -965,7 +1099,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         let mut used = 0;
         for s in &e.sats {
             // the geometry at the state as it stands (earlier satellites of the epoch moved it)
-            let a = Antenna::at(&self.filter.state().nav, &lever);
+            let a = Antenna::at(self.filter.state().nav(), &lever);
             let ant = a.pos;
             let d = s.state.pos - a.r;
             let (az, el) = azel(ant.lat, ant.lon, &(d / d.norm()));
@@ -982,16 +1116,9 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
             );
             let model = Pseudorange { sat: s, corrections: corr, lever_arm: lever };
             recorder.before_update(&self.filter);
-            let report = self
-                .filter
-                .update_observed(
-                    &model,
-                    &nalgebra::Vector1::new(s.range),
-                    &nalgebra::Matrix1::new(var),
-                    observer,
-                )
-                .map_err(err)?;
-            out.push(report.summary());
+            let report =
+                S::update_tc(&mut self.filter, &model, s.range, var, observer).map_err(err)?;
+            out.push(report);
             if report.verdict != estimator_core::Verdict::Rejected {
                 let persisting = var - code_noise_variance(&cfg.models, el, s);
                 let u = a.c_ne * (d / d.norm());
@@ -1005,16 +1132,9 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
                 let model = RangeRate { sat: s, lever_arm: lever, gyro_rate: self.rate };
                 let v = cfg.models.doppler_std.powi(2);
                 recorder.before_update(&self.filter);
-                let report = self
-                    .filter
-                    .update_observed(
-                        &model,
-                        &nalgebra::Vector1::new(rate),
-                        &nalgebra::Matrix1::new(v),
-                        observer,
-                    )
-                    .map_err(err)?;
-                out.push(report.summary());
+                let report =
+                    S::update_tc(&mut self.filter, &model, rate, v, observer).map_err(err)?;
+                out.push(report);
             }
         }
         if cfg.error_floor && used >= 4 {
@@ -1024,7 +1144,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         }
         if cfg.carrier {
             // this epoch's phases, for the next one
-            let a = Antenna::at(&self.filter.state().nav, &lever);
+            let a = Antenna::at(self.filter.state().nav(), &lever);
             let anchor = a.r;
             let llh = (a.pos.lat, a.pos.lon, a.pos.h);
             let sats = e
@@ -1043,7 +1163,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
 
     /// The time-differenced carrier phases of epoch `e` against the last epoch's, as
     /// whitened single differences ([`crate::tight::CarrierRow`]), before the epoch's codes.
-    fn update_carrier<O: Observer, R: StepRecorder<InsStateTc, ImuInput>>(
+    fn update_carrier<O: Observer, R: StepRecorder<S, ImuInput>>(
         &mut self,
         e: &RawEpoch,
         cfg: &TightConfig,
@@ -1056,7 +1176,7 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
         if !(dt > 0.0 && dt <= CARRIER_MAX_GAP) {
             return Ok(());
         }
-        let x = &self.filter.state().nav;
+        let x = self.filter.state().nav();
         let (v0, att0, ba0) = (x.vel, x.att, x.ba);
         // the interval's displacement error: Δt δv + ½ Δt² C_nb [f^b×] δθ (δv̇ = −C_nb [f^b×] δθ
         // for the body-frame attitude error), with the last sample's specific force
@@ -1129,16 +1249,9 @@ impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
                 ba0,
             };
             recorder.before_update(&self.filter);
-            let report = self
-                .filter
-                .update_observed(
-                    &model,
-                    &nalgebra::Vector1::new(y[k]),
-                    &nalgebra::Matrix1::new(1.0),
-                    observer,
-                )
-                .map_err(err)?;
-            out.push(report.summary());
+            let report =
+                S::update_tc(&mut self.filter, &model, y[k], 1.0, observer).map_err(err)?;
+            out.push(report);
         }
         Ok(())
     }

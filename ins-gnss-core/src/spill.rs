@@ -10,7 +10,7 @@ use crate::model::ImuInput;
 use crate::position::GeoPos;
 use crate::scale::InsState21;
 use crate::state::InsState;
-use crate::tight::InsStateTc;
+use crate::tight::{InsStateTc, InsStateTc21};
 
 fn put3(out: &mut [f64], v: &Vector3<f64>) {
     out[..3].copy_from_slice(v.as_slice());
@@ -72,6 +72,26 @@ impl Spill for InsStateTc {
         let n = InsState::LEN;
         InsStateTc {
             nav: InsState::unspill(&v[..n]),
+            clock: manifolds::R2::new(v[n], v[n + 1]),
+            isb: get3(&v[n + 2..]),
+        }
+    }
+}
+
+impl Spill for InsStateTc21 {
+    /// The 21-state row, the clock bias and drift, the inter-system biases.
+    const LEN: usize = InsState21::LEN + 5;
+    fn spill(&self, out: &mut [f64]) {
+        let n = InsState21::LEN;
+        self.nav.spill(&mut out[..n]);
+        out[n] = self.clock[0];
+        out[n + 1] = self.clock[1];
+        put3(&mut out[n + 2..], &self.isb);
+    }
+    fn unspill(v: &[f64]) -> Self {
+        let n = InsState21::LEN;
+        InsStateTc21 {
+            nav: InsState21::unspill(&v[..n]),
             clock: manifolds::R2::new(v[n], v[n + 1]),
             isb: get3(&v[n + 2..]),
         }

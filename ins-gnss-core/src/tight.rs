@@ -32,6 +32,7 @@ use crate::model::{ImuInput, InsModel};
 use crate::raw::ephemeris::C;
 use crate::raw::spp::{geometry, range_rate, Prepared};
 use crate::raw::{Sat, System};
+use crate::scale::{InsModel21, InsState21, M21};
 use crate::state::InsState;
 
 composite_state! {
@@ -110,17 +111,22 @@ impl InsModelTc {
 
     /// The clock and bias blocks of `Q_d` over `dt` (rows/columns 15..20).
     fn clock_q(&self, dt: f64) -> SMatrix<f64, 5, 5> {
-        let (qb, qd) = (self.clock.bias.powi(2), self.clock.drift.powi(2));
-        let mut q = SMatrix::<f64, 5, 5>::zeros();
-        q[(0, 0)] = qb * dt + qd * dt.powi(3) / 3.0;
-        q[(0, 1)] = qd * dt * dt / 2.0;
-        q[(1, 0)] = q[(0, 1)];
-        q[(1, 1)] = qd * dt;
-        for k in 2..5 {
-            q[(k, k)] = self.clock.isb.powi(2) * dt;
-        }
-        q
+        clock_q(&self.clock, dt)
     }
+}
+
+/// `Q_d` of the clock (bias, drift) and the inter-system biases over `dt`.
+fn clock_q(clock: &ClockNoise, dt: f64) -> SMatrix<f64, 5, 5> {
+    let (qb, qd) = (clock.bias.powi(2), clock.drift.powi(2));
+    let mut q = SMatrix::<f64, 5, 5>::zeros();
+    q[(0, 0)] = qb * dt + qd * dt.powi(3) / 3.0;
+    q[(0, 1)] = qd * dt * dt / 2.0;
+    q[(1, 0)] = q[(0, 1)];
+    q[(1, 1)] = qd * dt;
+    for k in 2..5 {
+        q[(k, k)] = clock.isb.powi(2) * dt;
+    }
+    q
 }
 
 impl ProcessModel for InsModelTc {
@@ -190,6 +196,151 @@ impl ProcessModel for InsModelTc {
     }
 
     const FUSED_STEP_COVARIANCE: bool = true;
+}
+
+composite_state! {
+    /// The 21-state INS (with the IMU scale factors) and the receiver clock and
+    /// inter-system biases: the tightly coupled filter with `filter.states = 21`. Tangent
+    /// dimension `Const<26>`; blocks `NAV` (21), `CLOCK`, `ISB`. The satellite models,
+    /// written for [`InsStateTc`], apply through [`OnTc`].
+    pub struct InsStateTc21 {
+        /// Attitude, velocity, position, biases, scale factors.
+        pub nav: InsState21 => NAV,
+        /// Receiver clock bias `c·dt` (m) and drift `c·ḋt` (m/s).
+        pub clock: R2 => CLOCK,
+        /// Inter-system biases of Galileo, BeiDou, QZSS against GPS, m.
+        pub isb: R3 => ISB,
+    }
+}
+
+/// 26×26 matrices of the 21-state tightly coupled error state.
+pub type M26 = SMatrix<f64, 26, 26>;
+
+impl InsStateTc21 {
+    /// The 20-state view the satellite models read: the 15 navigation states, the clock
+    /// and the inter-system biases (the scale factors left out).
+    pub fn tc(&self) -> InsStateTc {
+        InsStateTc { nav: self.nav.nav.clone(), clock: self.clock, isb: self.isb }
+    }
+}
+
+/// The 21-state tightly coupled process model: [`InsModel21`] and the clock.
+#[derive(Clone, Debug)]
+pub struct InsModelTc21 {
+    /// The 21-state INS.
+    pub base: InsModel21,
+    /// The clock.
+    pub clock: ClockNoise,
+}
+
+impl ProcessModel for InsModelTc21 {
+    type State = InsStateTc21;
+    type Input = ImuInput;
+
+    fn propagate(&self, x: &InsStateTc21, u: &ImuInput, dt: f64) -> InsStateTc21 {
+        InsStateTc21 {
+            nav: self.base.propagate(&x.nav, u, dt),
+            clock: R2::new(x.clock[0] + x.clock[1] * dt, x.clock[1]),
+            isb: x.isb,
+        }
+    }
+
+    fn jacobians(&self, x: &InsStateTc21, u: &ImuInput, dt: f64) -> ProcessJacobians<Const<26>> {
+        self.step(x, u, dt).1
+    }
+
+    /// The 21-state model's `Φ` and `Q_d` in the first 21 rows and columns, the clock's
+    /// (`[[1, Δt], [0, 1]]` and [`InsModelTc`]'s `Q_c`) in the last five.
+    fn step(
+        &self,
+        x: &InsStateTc21,
+        u: &ImuInput,
+        dt: f64,
+    ) -> (InsStateTc21, ProcessJacobians<Const<26>>) {
+        let (nav, j21) = self.base.step(&x.nav, u, dt);
+        const C0: usize = InsStateTc21::CLOCK.start();
+        let mut Phi = M26::identity();
+        Phi.fixed_view_mut::<21, 21>(0, 0).copy_from(&j21.Phi);
+        Phi[(C0, C0 + 1)] = dt;
+        let mut Q = M26::zeros();
+        Q.fixed_view_mut::<21, 21>(0, 0).copy_from(&j21.Q);
+        Q.fixed_view_mut::<5, 5>(C0, C0).copy_from(&clock_q(&self.clock, dt));
+        let next = InsStateTc21 {
+            nav,
+            clock: R2::new(x.clock[0] + x.clock[1] * dt, x.clock[1]),
+            isb: x.isb,
+        };
+        (next, ProcessJacobians { Phi, Q })
+    }
+
+    /// `Φ P Φᵀ + Q` by blocks (`Φ` and `Q` are block-diagonal: the INS's 21 and the
+    /// clock's 5): the INS block by the 21-state model's product, the clock's and the
+    /// cross blocks directly; about 60 % of the dense product's multiply-adds.
+    fn propagate_covariance(&self, P: &M26, jac: &ProcessJacobians<Const<26>>, out: &mut M26) {
+        const C0: usize = InsStateTc21::CLOCK.start();
+        let phi21: M21 = jac.Phi.fixed_view::<21, 21>(0, 0).into_owned();
+        let j21 = ProcessJacobians { Phi: phi21, Q: jac.Q.fixed_view::<21, 21>(0, 0).into_owned() };
+        let mut o21 = M21::zeros();
+        self.base.propagate_covariance(&P.fixed_view::<21, 21>(0, 0).into_owned(), &j21, &mut o21);
+        out.fixed_view_mut::<21, 21>(0, 0).copy_from(&o21);
+        let phic: SMatrix<f64, 5, 5> = jac.Phi.fixed_view::<5, 5>(C0, C0).into_owned();
+        let cross = phi21 * P.fixed_view::<21, 5>(0, C0) * phic.transpose();
+        out.fixed_view_mut::<21, 5>(0, C0).copy_from(&cross);
+        out.fixed_view_mut::<5, 21>(C0, 0).copy_from(&cross.transpose());
+        let pc = phic * P.fixed_view::<5, 5>(C0, C0) * phic.transpose()
+            + jac.Q.fixed_view::<5, 5>(C0, C0);
+        out.fixed_view_mut::<5, 5>(C0, C0).copy_from(&pc);
+    }
+}
+
+/// A satellite model of [`InsStateTc`] applied to [`InsStateTc21`]: the same prediction
+/// from [`InsStateTc21::tc`], `H`'s columns of the clock and the inter-system biases moved
+/// past the scale factors (whose columns are zero: a satellite sees them only through
+/// the navigation states they drive).
+#[derive(Debug)]
+pub struct OnTc<'a, M>(pub &'a M);
+
+impl<M> Clone for OnTc<'_, M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<M> Copy for OnTc<'_, M> {}
+
+impl<M> MeasurementModel for OnTc<'_, M>
+where
+    M: MeasurementModel<State = InsStateTc, Measurement = Vector1<f64>>,
+{
+    type State = InsStateTc21;
+    type Measurement = Vector1<f64>;
+
+    fn predict(&self, x: &InsStateTc21) -> Vector1<f64> {
+        self.0.predict(&x.tc())
+    }
+
+    fn jacobian(&self, x: &InsStateTc21) -> JacobiansOf<Self> {
+        MeasurementJacobians { H: widen(&self.0.jacobian(&x.tc()).H) }
+    }
+
+    fn linearize(&self, x: &InsStateTc21) -> (Vector1<f64>, JacobiansOf<Self>) {
+        let (z, j) = self.0.linearize(&x.tc());
+        (z, MeasurementJacobians { H: widen(&j.H) })
+    }
+
+    fn stream(&self) -> StreamId {
+        self.0.stream()
+    }
+}
+
+/// A row of the 20-state `H` in the 26-state layout.
+fn widen(h: &SMatrix<f64, 1, 20>) -> SMatrix<f64, 1, 26> {
+    const NAV15: usize = 15;
+    let mut out = SMatrix::<f64, 1, 26>::zeros();
+    out.fixed_view_mut::<1, NAV15>(0, 0).copy_from(&h.fixed_view::<1, NAV15>(0, 0));
+    out.fixed_view_mut::<1, 5>(0, InsStateTc21::CLOCK.start())
+        .copy_from(&h.fixed_view::<1, 5>(0, InsStateTc::CLOCK.start()));
+    out
 }
 
 /// The stream of a satellite's pseudoranges (`"pr G05"`) or range rates (`"rr G05"`):

@@ -28,8 +28,8 @@ impl Config {
         Ok(())
     }
 
-    /// `gnss.coupling = "tight"` and what it excludes: the 21-state model (not coupled
-    /// tightly yet), column maps and a fixes' format (the raw file names its contents).
+    /// `gnss.coupling = "tight"` and what it excludes: column maps and a fixes' format
+    /// (the raw file names its contents).
     pub(crate) fn validate_tight(&self) -> Result<(), String> {
         self.gnss.tight.spp_options()?;
         if self.gnss.coupling != Coupling::Tight {
@@ -39,13 +39,6 @@ impl Config {
                     .into());
             }
             return Ok(());
-        }
-        if self.filter.states != 15 {
-            return Err(format!(
-                "`gnss.coupling = \"tight\"` runs on the 15-state model (with the receiver \
-                 clock); `filter.states = {}` is not coupled tightly yet",
-                self.filter.states
-            ));
         }
         if self.data.gnss_columns.is_some() || self.data.gnss_format != GnssFormatName::Auto {
             return Err("`gnss.coupling = \"tight\"` reads `data.gnss` as RINEX observations \

@@ -38,7 +38,7 @@ use ins_gnss_core::model::{ImuInput, InsModel};
 use ins_gnss_core::navigator::{ClockInit, NavError, NavState, Navigator, RawEpoch, TightConfig};
 use ins_gnss_core::scale::{InsModel21, InsState21};
 use ins_gnss_core::state::InsState;
-use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsStateTc};
+use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21};
 use ins_gnss_core::vehicle::VEHICLE_STREAMS;
 use nalgebra::DefaultAllocator;
 
@@ -164,6 +164,9 @@ fn run_with<O: Sink>(
     let inputs = ((feed, gnss, prefix, checks), (&mut out, nav));
     let tight = config.gnss.coupling == crate::config::Coupling::Tight;
     let result = match config.filter.states {
+        21 if tight => {
+            run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs.0, inputs.1)
+        }
         _ if tight => {
             run_into::<InsStateTc, O>(config, strategy, names, progress, inputs.0, inputs.1)
         }

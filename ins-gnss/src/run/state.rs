@@ -90,6 +90,52 @@ impl RunState for InsState21 {
     }
 }
 
+/// The receiver clock a tight run starts with: the single point's clock (its σ a few
+/// metres; the drift from the Dopplers that follow), or, none found before the start,
+/// 1 ms.
+fn clock_init(clock: Option<f64>) -> ClockInit {
+    match clock {
+        Some(b) => ClockInit { clock: (b, 0.0), std: (30.0, 100.0), isb_std: 30.0 },
+        None => ClockInit { clock: (0.0, 0.0), std: (3.0e5, 100.0), isb_std: 30.0 },
+    }
+}
+
+fn clock_noise(config: &Config) -> ClockNoise {
+    ClockNoise { drift: config.gnss.tight.clock_drift_noise, ..Default::default() }
+}
+
+/// What the two tight states share: the raw epochs' updates, every satellite update a
+/// fix for `nav.pos`, the satellites' error floor.
+macro_rules! tight_run_state {
+    () => {
+        fn process<R: estimator_core::StepRecorder<Self, ImuInput>>(
+            nav: &mut Navigator<RunStrategy, Self>,
+            imu: &ImuSample,
+            _fixes: &[GnssEpoch],
+            raw: &[RawEpoch],
+            tight: Option<&TightConfig>,
+            out: &mut Vec<UpdateSummary>,
+            recorder: &mut R,
+        ) -> Result<(), NavError> {
+            match tight {
+                Some(cfg) => {
+                    nav.process_raw_recorded(imu, raw, cfg, &mut NoObserver, out, recorder)
+                }
+                // (a tight run always has its models: no satellite without them)
+                None => nav.process_recorded(imu, &[], &mut NoObserver, out, recorder),
+            }
+        }
+
+        fn is_fix(stream: estimator_core::StreamId) -> bool {
+            !VEHICLE_STREAMS.contains(&stream)
+        }
+
+        fn position_floor(nav: &Navigator<RunStrategy, Self>) -> Option<[f64; 3]> {
+            nav.satellite_floor().map(|f| [f[(0, 0)], f[(1, 1)], f[(2, 2)]])
+        }
+    };
+}
+
 /// Tight coupling: the 15 states, the receiver clock and the inter-system biases.
 impl RunState for InsStateTc {
     const SIGMA_COLUMNS: usize = 15;
@@ -101,45 +147,41 @@ impl RunState for InsStateTc {
         clock: Option<f64>,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
-        let noise = ClockNoise { drift: config.gnss.tight.clock_drift_noise, ..Default::default() };
-        let model = InsModelTc { base, clock: noise };
-        // the single point's clock (its σ a few metres; the drift from the Dopplers that
-        // follow), or, none found before the start, 1 ms
-        let clock = match clock {
-            Some(b) => ClockInit { clock: (b, 0.0), std: (30.0, 100.0), isb_std: 30.0 },
-            None => ClockInit { clock: (0.0, 0.0), std: (3.0e5, 100.0), isb_std: 30.0 },
-        };
+        let model = InsModelTc { base, clock: clock_noise(config) };
         let init = config.initial_state(start);
-        Navigator::new_tight(&init, &clock, model, strategy, config.gnss_config())
+        Navigator::new_tight(&init, &clock_init(clock), model, strategy, config.gnss_config())
     }
 
     fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
         None
     }
 
-    fn process<R: estimator_core::StepRecorder<Self, ImuInput>>(
-        nav: &mut Navigator<RunStrategy, Self>,
-        imu: &ImuSample,
-        _fixes: &[GnssEpoch],
-        raw: &[RawEpoch],
-        tight: Option<&TightConfig>,
-        out: &mut Vec<UpdateSummary>,
-        recorder: &mut R,
-    ) -> Result<(), NavError> {
-        match tight {
-            Some(cfg) => nav.process_raw_recorded(imu, raw, cfg, &mut NoObserver, out, recorder),
-            // (a tight run always has its models: no satellite without them)
-            None => nav.process_recorded(imu, &[], &mut NoObserver, out, recorder),
-        }
+    tight_run_state!();
+}
+
+/// Tight coupling with 21 states: the scale factors as well.
+impl RunState for InsStateTc21 {
+    const SIGMA_COLUMNS: usize = 21;
+
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+        clock: Option<f64>,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let base = InsModel21 { base, scale: config.scale_factor_noise() };
+        let model = InsModelTc21 { base, clock: clock_noise(config) };
+        let init = config.initial_state(start);
+        let (scale, gnss) = (config.scale_init(), config.gnss_config());
+        Navigator::new_tight21(&init, &scale, &clock_init(clock), model, strategy, gnss)
     }
 
-    fn is_fix(stream: estimator_core::StreamId) -> bool {
-        !VEHICLE_STREAMS.contains(&stream)
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        Some((self.nav.sg, self.nav.sa))
     }
 
-    fn position_floor(nav: &Navigator<RunStrategy, Self>) -> Option<[f64; 3]> {
-        nav.satellite_floor().map(|f| [f[(0, 0)], f[(1, 1)], f[(2, 2)]])
-    }
+    tight_run_state!();
 }
 
 /// The navigator at the start time (the configured one, or the first IMU sample's
