@@ -52,6 +52,57 @@ pub enum ResetMode {
     Identity,
 }
 
+/// What step *innovate* of an update finds at the prior, for the steps after it.
+#[allow(non_snake_case)]
+struct Innovated<N: DimName, M: DimName, T: FilterScalar>
+where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    /// `r = z ⊖ h(x̂⁻)` and `H`.
+    innovation: (nalgebra::OVector<T, M>, crate::traits::MeasurementJacobians<M, N, T>),
+    PHt: OMatrix<T, N, M>,
+    HPHt: OMatrix<T, M, M>,
+    S: OMatrix<T, M, M>,
+    chol_S: nalgebra::Cholesky<T, M>,
+    /// `Q_Σ Hᵀ` and `H Q_Σ Hᵀ` (a strategy that tracks the process noise).
+    QHt: Option<OMatrix<T, N, M>>,
+    HQHt: Option<OMatrix<T, M, M>>,
+    nis: f64,
+}
+
+impl<N: DimName, M: DimName, T: FilterScalar> Innovated<N, M, T>
+where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    fn r(&self) -> &nalgebra::OVector<T, M> {
+        &self.innovation.0
+    }
+
+    #[allow(non_snake_case)]
+    fn H(&self) -> &OMatrix<T, M, N> {
+        &self.innovation.1.H
+    }
+}
+
+/// The strategy's decision on one measurement (step *adapt*).
+struct Decision<N: DimName, M: DimName, T: FilterScalar>
+where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    stream: crate::StreamId,
+    epoch: u64,
+    prior_scale: f64,
+    prior_scaling: PriorScaling,
+    /// `λ_P` scales the propagated part of `P⁻` only (and `Q_Σ` is tracked).
+    propagated_only: bool,
+    verdict: Verdict,
+    reason: &'static str,
+    factors: crate::adapt::Factors,
+    q: QAdjust<N, T>,
+    /// `R*`.
+    R: OMatrix<T, M, M>,
+}
+
 /// A user-supplied covariance, checked (finite, symmetric within the tolerance, positive
 /// definite) and stored exactly symmetric: the products assume `P = Pᵀ`.
 fn checked_symmetric<T: FilterScalar, N: nalgebra::DimName>(
@@ -417,17 +468,65 @@ where
         O: Observer<T>,
         DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement, T>>,
     {
+        let inn = self.innovate(model, z, R)?;
+        let decision = self.adapt(model.stream(), &inn, R);
+        let mut report = UpdateReport {
+            stream: decision.stream,
+            epoch: decision.epoch,
+            time: self.time,
+            innovation: inn.r().clone(),
+            S: inn.S.clone(),
+            nis: inn.nis,
+            nis_adapted: f64::NAN,
+            verdict: decision.verdict,
+            reason: decision.reason,
+            factors: decision.factors,
+            prior_scaling_fallback: false,
+            log_likelihood: log_likelihood(&inn.chol_S, inn.nis),
+        };
+        if decision.verdict == Verdict::Rejected {
+            self.epoch = decision.epoch;
+            self.apply_q(&decision.q);
+            observer.on_update(&report);
+            return Ok((report, None));
+        }
+        let (x_new, K) = match self.correct(&inn, &decision, R, &mut report) {
+            Ok(v) => v,
+            Err(e) => {
+                // `Err` leaves the strategy as it was before `adapt`
+                if let Some(saved) = &mut self.saved {
+                    core::mem::swap(&mut self.strategy, saved);
+                }
+                return Err(e);
+            }
+        };
+        self.finish(x_new, &K, &decision, &report, observer);
+        Ok((report, Some(K)))
+    }
+
+    /// Step *innovate*: `r = z ⊖ h(x̂⁻)` and `H` (checked finite), `P⁻ Hᵀ`,
+    /// `S = H P⁻ Hᵀ + R` and its Cholesky factor, the NIS `rᵀ S⁻¹ r`, and `H Q_Σ Hᵀ` for a
+    /// strategy that tracks the process noise since the last update.
+    #[allow(non_snake_case, clippy::type_complexity)]
+    fn innovate<MM>(
+        &mut self,
+        model: &MM,
+        z: &MM::Measurement,
+        R: &Cov<StateDim<MM::Measurement, T>, T>,
+    ) -> Result<Innovated<X::Dim, StateDim<MM::Measurement, T>, T>, FilterError>
+    where
+        MM: MeasurementModel<T, State = X>,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement, T>>,
+    {
         if !z.is_finite() {
             return Err(FilterError::NonFinite { what: "measurement z" });
         }
         check_covariance("measurement noise R", R)?;
-
-        // (borrowed from the returned pair: destructuring it would copy `H`)
+        // (kept as the returned pair: destructuring it would copy `H`)
         let innovation = model.innovation(&self.x, z);
-        let (r, H) = (&innovation.0, &innovation.1.H);
-        check_finite("innovation r = z ⊖ h(x)", r)?;
-        check_finite("measurement Jacobian H", H)?;
-
+        check_finite("innovation r = z ⊖ h(x)", &innovation.0)?;
+        check_finite("measurement Jacobian H", &innovation.1.H)?;
+        let H = &innovation.1.H;
         // S = H P⁻ Hᵀ + R
         let PHt = self.backend.p_times_ht(H, &self.bufs[self.cur]);
         let mut HPHt =
@@ -449,21 +548,36 @@ where
         });
         let chol_S = cholesky("innovation covariance S = H P Hᵀ + R", S.clone())?;
         // NIS = rᵀ S⁻¹ r
-        let nis = whitened_norm_sq(&chol_S, r).to_f64();
+        let nis = whitened_norm_sq(&chol_S, &innovation.0).to_f64();
+        Ok(Innovated { innovation, PHt, HPHt, S, chol_S, QHt, HQHt, nis })
+    }
 
+    /// Step *adapt*: the strategy's decision on the innovation — the verdict, the prior's
+    /// scale `λ_P`, the noise `R*`, a process-noise request. The strategy as it was is
+    /// kept, so that a later failure can restore it.
+    #[allow(non_snake_case)]
+    fn adapt<M: DimName>(
+        &mut self,
+        stream: crate::StreamId,
+        inn: &Innovated<X::Dim, M, T>,
+        R: &Cov<M, T>,
+    ) -> Decision<X::Dim, M, T>
+    where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
         let epoch = self.epoch + 1;
         let mut a = Adaptation {
-            stream: model.stream(),
+            stream,
             epoch,
             time: self.time,
-            innovation: r,
-            H,
+            innovation: inn.r(),
+            H: inn.H(),
             P_prior: CovView::new(&self.bufs[self.cur]),
-            HPHt: &HPHt,
-            HQHt: HQHt.as_ref(),
+            HPHt: &inn.HPHt,
+            HQHt: inn.HQHt.as_ref(),
             R_nominal: R,
-            S: &S,
-            nis,
+            S: &inn.S,
+            nis: inn.nis,
             prior_scale: 1.0,
             prior_scaling: PriorScaling::default(),
             scale_propagated_only: false,
@@ -485,144 +599,181 @@ where
         // `q` by value, copies a whole covariance (the `AddRate` variant's room) each time,
         // which cost more than the update's own products. `clone` of `q` copies only the
         // variant present.
-        let (stream, prior_scale, prior_scaling) = (a.stream, a.prior_scale, a.prior_scaling);
-        let propagated_only = a.scale_propagated_only && QHt.is_some();
-        let (verdict, reason, factors) = (a.verdict, a.reason, a.factors);
-        let q = a.q.clone();
-        let R_used = a.R;
-
-        let mut report = UpdateReport {
-            stream,
+        Decision {
+            stream: a.stream,
             epoch,
-            time: self.time,
-            innovation: r.clone(),
-            S,
-            nis,
-            nis_adapted: f64::NAN,
-            verdict,
-            reason,
-            factors,
-            prior_scaling_fallback: false,
-            log_likelihood: log_likelihood(&chol_S, nis),
-        };
-
-        if verdict == Verdict::Rejected {
-            self.epoch = epoch;
-            self.apply_q(&q);
-            observer.on_update(&report);
-            return Ok((report, None));
+            prior_scale: a.prior_scale,
+            prior_scaling: a.prior_scaling,
+            propagated_only: a.scale_propagated_only && inn.QHt.is_some(),
+            verdict: a.verdict,
+            reason: a.reason,
+            factors: a.factors,
+            q: a.q.clone(),
+            R: a.R,
         }
-        let mut fallback = false;
-        let applied = (|| {
-            if !(prior_scale.is_finite() && prior_scale > 0.0) {
-                return Err(FilterError::NonFinite { what: "strategy prior scale λ_P" });
-            }
-            // S* = λ_P H P⁻ Hᵀ + R* (both scalings give H P⁻* = λ_P H P⁻); when the strategy
-            // changed nothing, S* = S and its factor is the one already computed.
-            // (compared as slices: nalgebra's `!=` walks a strided iterator, several times slower)
-            let adapted = prior_scale != 1.0 || R_used.as_slice() != R.as_slice();
-            // The scaled part B of P⁻: P⁻ itself, or Φ_Σ P Φ_Σᵀ = P⁻ − Q_Σ (Xia), and
-            // P⁻* = P⁻ + (λ − 1) B (or its restriction to the measurement subspace), so
-            // S* = H P⁻ Hᵀ + (λ − 1) H B Hᵀ + R*, P⁻* Hᵀ = P⁻ Hᵀ + (λ − 1) B Hᵀ.
-            let differences = match (&QHt, &HQHt) {
-                (Some(QHt), Some(HQHt)) if propagated_only => Some((&PHt - QHt, &HPHt - HQHt)),
-                _ => None,
-            };
-            let (BHt, HBHt) = match &differences {
-                Some((BHt, HBHt)) => (BHt, HBHt),
-                None => (&PHt, &HPHt),
-            };
-            let S_adapted;
-            let chol = if adapted {
-                check_covariance("adapted measurement noise R*", &R_used)?;
-                let mut S_used = &HPHt + HBHt * T::lit(prior_scale - 1.0) + &R_used;
-                symmetrize(&mut S_used);
-                let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
-                report.nis_adapted = whitened_norm_sq(&chol, r).to_f64();
-                // an adaptation that made S smaller along the innovation deflated it
-                if report.verdict == Verdict::Inflated && report.nis_adapted > nis {
-                    report.verdict = Verdict::Deflated;
-                }
-                report.log_likelihood = log_likelihood(&chol, report.nis_adapted);
-                S_adapted = Some(S_used);
-                chol
-            } else {
-                report.nis_adapted = nis;
-                S_adapted = None;
-                chol_S
-            };
-            let S_used = S_adapted.as_ref().unwrap_or(&report.S);
+    }
 
-            // P⁻*: P⁻ + (λ − 1) B, or P⁻ + (λ − 1) (HB)ᵀ (HBHᵀ)⁻¹ (HB) along the measurement
-            // subspace (B = P⁻ unless the strategy scales the propagated part only).
-            let mut backend = core::mem::take(&mut self.backend);
-            let form = self.form;
-            let (P, next, aux) = Self::split(&mut self.bufs, self.cur);
-            let scaled = if prior_scale == 1.0 {
-                false
-            } else {
-                let HB = BHt.transpose();
-                let subspace = match prior_scaling {
-                    PriorScaling::MeasurementSubspace => {
-                        HBHt.clone().cholesky().map(|c| c.solve(&HB))
-                    }
-                    PriorScaling::Full => None,
-                };
-                match subspace {
-                    Some(A) => {
-                        backend.scale_add(P, T::one(), T::lit(prior_scale - 1.0), &HB, &A, aux)
-                    }
-                    None => {
-                        // H B Hᵀ has no Cholesky factor (a measurement direction the prior
-                        // does not constrain): the whole of B is scaled, and the report
-                        // says so.
-                        fallback = prior_scaling == PriorScaling::MeasurementSubspace;
-                        backend.scale_add(P, T::lit(prior_scale), T::zero(), &HB, &HB, aux);
-                        if let (true, Some(q_sum)) = (propagated_only, &self.q_sum) {
-                            // λ P⁻ − (λ − 1) Q_Σ = P⁻ + (λ − 1)(P⁻ − Q_Σ)
-                            sub_scaled(aux, T::lit(prior_scale - 1.0), q_sum, X::Dim::DIM);
-                        }
-                    }
-                }
-                true
-            };
-            // P⁻* Hᵀ = P⁻ Hᵀ + (λ − 1) B Hᵀ (both scalings)
-            let scaled_PHt = (prior_scale != 1.0).then(|| &PHt + BHt * T::lit(prior_scale - 1.0));
-            let PHt_used = scaled_PHt.unwrap_or(PHt);
-            // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
-            let mut K = PHt_used.clone();
-            T::right_solve_cholesky(chol.l_dirty(), &mut K);
-            let mut dx = OMatrix::<T, X::Dim, nalgebra::U1>::zeros();
-            T::mat_mul(&K, r, &mut dx);
-
-            let prior: &B::Cov = if scaled { aux } else { P };
-            // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
-            backend.update(prior, &K, H, &PHt_used, &R_used, S_used, form, next);
-            let x_new = if self.reset == ResetMode::Exact {
-                // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx, block by block
-                let next = &mut self.bufs[(self.cur + 1) % 3];
-                self.x.oplus_reset(&dx, &mut |o, b| backend.reset_block(next, o, b))
-            } else {
-                self.x.oplus(&dx)
-            };
-            self.backend = backend;
-            check_finite("state correction δx", &dx)?;
-            if !x_new.is_finite() {
-                return Err(FilterError::NonFinite { what: "updated state" });
-            }
-            B::check_finite("updated covariance P", &self.bufs[(self.cur + 1) % 3])?;
-            Ok((x_new, K))
-        })();
-        let (x_new, K) = match applied {
-            Ok(v) => v,
-            Err(e) => {
-                if let Some(saved) = &mut self.saved {
-                    core::mem::swap(&mut self.strategy, saved);
-                }
-                return Err(e);
-            }
+    /// Steps *gain*, *update* and *inject* for an accepted (or adapted) measurement: `S*`
+    /// and the adapted NIS, the prior `P⁻*`, `K = P⁻* Hᵀ S*⁻¹` and `δx = K r`, the updated
+    /// covariance into the next buffer (Joseph or the chosen form), then `x̂ ⊕ δx` with the
+    /// reset `G P Gᵀ`. Returns the new state and the gain; the current buffer is untouched.
+    #[allow(non_snake_case, clippy::type_complexity)]
+    fn correct<M: DimName>(
+        &mut self,
+        inn: &Innovated<X::Dim, M, T>,
+        d: &Decision<X::Dim, M, T>,
+        R: &Cov<M, T>,
+        report: &mut UpdateReport<M, T>,
+    ) -> Result<(X, OMatrix<T, X::Dim, M>), FilterError>
+    where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
+        let prior_scale = d.prior_scale;
+        if !(prior_scale.is_finite() && prior_scale > 0.0) {
+            return Err(FilterError::NonFinite { what: "strategy prior scale λ_P" });
+        }
+        let Innovated { PHt, HPHt, QHt, HQHt, .. } = inn;
+        let (r, H) = (inn.r(), inn.H());
+        // The scaled part B of P⁻: P⁻ itself, or Φ_Σ P Φ_Σᵀ = P⁻ − Q_Σ (Xia), and
+        // P⁻* = P⁻ + (λ − 1) B (or its restriction to the measurement subspace), so
+        // S* = H P⁻ Hᵀ + (λ − 1) H B Hᵀ + R*, P⁻* Hᵀ = P⁻ Hᵀ + (λ − 1) B Hᵀ.
+        let differences = match (&QHt, &HQHt) {
+            (Some(QHt), Some(HQHt)) if d.propagated_only => Some((PHt - QHt, HPHt - HQHt)),
+            _ => None,
         };
+        let (BHt, HBHt) = match &differences {
+            Some((BHt, HBHt)) => (BHt, HBHt),
+            None => (PHt, HPHt),
+        };
+        let adapted = Self::adapted_innovation(d, R, inn, HBHt, report)?;
+        let (chol, S_used) = match &adapted {
+            Some((chol, S)) => (chol, S),
+            None => (&inn.chol_S, &report.S),
+        };
+
+        let mut backend = core::mem::take(&mut self.backend);
+        let form = self.form;
+        let (P, next, aux) = Self::split(&mut self.bufs, self.cur);
+        let (scaled, fallback) =
+            Self::scale_prior(&mut backend, (P, aux), d, (BHt, HBHt), self.q_sum.as_ref());
         report.prior_scaling_fallback = fallback;
+        // P⁻* Hᵀ = P⁻ Hᵀ + (λ − 1) B Hᵀ (both scalings)
+        let scaled_PHt = (prior_scale != 1.0).then(|| PHt + BHt * T::lit(prior_scale - 1.0));
+        let PHt_used = scaled_PHt.as_ref().unwrap_or(PHt);
+        // K = P⁻* Hᵀ S*⁻¹ (S* = L Lᵀ; two substitutions over the columns of P⁻* Hᵀ)
+        let mut K = PHt_used.clone();
+        T::right_solve_cholesky(chol.l_dirty(), &mut K);
+        let mut dx = OMatrix::<T, X::Dim, nalgebra::U1>::zeros();
+        T::mat_mul(&K, r, &mut dx);
+
+        let prior: &B::Cov = if scaled { aux } else { P };
+        // Joseph: P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ, or short: P = P⁻ − K H P⁻
+        backend.update(prior, &K, H, PHt_used, &d.R, S_used, form, next);
+        let x_new = if self.reset == ResetMode::Exact {
+            // P ← G P Gᵀ with G = ∂(x ⊕ δ)/∂δ at the injected δx, block by block
+            let next = &mut self.bufs[(self.cur + 1) % 3];
+            self.x.oplus_reset(&dx, &mut |o, b| backend.reset_block(next, o, b))
+        } else {
+            self.x.oplus(&dx)
+        };
+        self.backend = backend;
+        check_finite("state correction δx", &dx)?;
+        if !x_new.is_finite() {
+            return Err(FilterError::NonFinite { what: "updated state" });
+        }
+        B::check_finite("updated covariance P", &self.bufs[(self.cur + 1) % 3])?;
+        Ok((x_new, K))
+    }
+
+    /// `S* = λ_P H P⁻ Hᵀ + R*` and its factor when the strategy changed `λ_P` or `R`
+    /// (both scalings give `H P⁻* = λ_P H P⁻`); `None` when it changed neither (then `S`
+    /// and its factor stand). Sets the report's adapted NIS, log-likelihood and a
+    /// deflation verdict.
+    #[allow(non_snake_case, clippy::type_complexity)]
+    fn adapted_innovation<M: DimName>(
+        d: &Decision<X::Dim, M, T>,
+        R: &Cov<M, T>,
+        inn: &Innovated<X::Dim, M, T>,
+        HBHt: &OMatrix<T, M, M>,
+        report: &mut UpdateReport<M, T>,
+    ) -> Result<Option<(nalgebra::Cholesky<T, M>, OMatrix<T, M, M>)>, FilterError>
+    where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
+        // (compared as slices: nalgebra's `!=` walks a strided iterator, several times slower)
+        let adapted = d.prior_scale != 1.0 || d.R.as_slice() != R.as_slice();
+        if !adapted {
+            report.nis_adapted = inn.nis;
+            return Ok(None);
+        }
+        check_covariance("adapted measurement noise R*", &d.R)?;
+        let mut S_used = &inn.HPHt + HBHt * T::lit(d.prior_scale - 1.0) + &d.R;
+        symmetrize(&mut S_used);
+        let chol = cholesky("adapted innovation covariance S*", S_used.clone())?;
+        report.nis_adapted = whitened_norm_sq(&chol, inn.r()).to_f64();
+        // an adaptation that made S smaller along the innovation deflated it
+        if report.verdict == Verdict::Inflated && report.nis_adapted > inn.nis {
+            report.verdict = Verdict::Deflated;
+        }
+        report.log_likelihood = log_likelihood(&chol, report.nis_adapted);
+        Ok(Some((chol, S_used)))
+    }
+
+    /// `P⁻* = P⁻ + (λ_P − 1) B` into `aux`, whole or along the measurement subspace
+    /// `(HB)ᵀ (HBHᵀ)⁻¹ (HB)` (`B = P⁻`, or `P⁻ − Q_Σ` when the strategy scales the
+    /// propagated part only). Returns whether the prior was scaled and whether the
+    /// subspace scaling fell back to the whole of `B`.
+    #[allow(non_snake_case, clippy::type_complexity)]
+    fn scale_prior<M: DimName>(
+        backend: &mut B,
+        (P, aux): (&B::Cov, &mut B::Cov),
+        d: &Decision<X::Dim, M, T>,
+        (BHt, HBHt): (&OMatrix<T, X::Dim, M>, &OMatrix<T, M, M>),
+        q_sum: Option<&B::Cov>,
+    ) -> (bool, bool)
+    where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
+        let prior_scale = d.prior_scale;
+        if prior_scale == 1.0 {
+            return (false, false);
+        }
+        let HB = BHt.transpose();
+        let subspace = match d.prior_scaling {
+            PriorScaling::MeasurementSubspace => HBHt.clone().cholesky().map(|c| c.solve(&HB)),
+            PriorScaling::Full => None,
+        };
+        let mut fallback = false;
+        match subspace {
+            Some(A) => backend.scale_add(P, T::one(), T::lit(prior_scale - 1.0), &HB, &A, aux),
+            None => {
+                // H B Hᵀ has no Cholesky factor (a measurement direction the prior does not
+                // constrain): the whole of B is scaled, and the report says so.
+                fallback = d.prior_scaling == PriorScaling::MeasurementSubspace;
+                backend.scale_add(P, T::lit(prior_scale), T::zero(), &HB, &HB, aux);
+                if let (true, Some(q_sum)) = (d.propagated_only, q_sum) {
+                    // λ P⁻ − (λ − 1) Q_Σ = P⁻ + (λ − 1)(P⁻ − Q_Σ)
+                    sub_scaled(aux, T::lit(prior_scale - 1.0), q_sum, X::Dim::DIM);
+                }
+            }
+        }
+        (true, fallback)
+    }
+
+    /// The last step: the new state and covariance become current, the process noise
+    /// accumulated since the last update starts again, the strategy sees the gain used
+    /// and the observer the report.
+    #[allow(non_snake_case)]
+    fn finish<M: DimName, O: Observer<T>>(
+        &mut self,
+        x_new: X,
+        K: &OMatrix<T, X::Dim, M>,
+        d: &Decision<X::Dim, M, T>,
+        report: &UpdateReport<M, T>,
+        observer: &mut O,
+    ) where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
         self.x = x_new;
         self.commit();
         if let Some(q_sum) = &mut self.q_sum {
@@ -631,14 +782,14 @@ where
                 q_sum.col_mut(c).fill(T::zero());
             }
         }
-        self.epoch = epoch;
-        self.apply_q(&q);
+        self.epoch = d.epoch;
+        self.apply_q(&d.q);
+        let innovation = &report.innovation;
         let mut post =
-            PostUpdate { stream, time: self.time, K: &K, innovation: r, q: QAdjust::Keep };
+            PostUpdate { stream: d.stream, time: self.time, K, innovation, q: QAdjust::Keep };
         self.strategy.after_update(&mut post);
         self.apply_q(&post.q);
-        observer.on_update(&report);
-        Ok((report, Some(K)))
+        observer.on_update(report);
     }
 
     /// Take up the strategy's process-noise request (by reference, for the reason given
