@@ -54,53 +54,53 @@ pub enum ResetMode {
 
 /// What step *innovate* of an update finds at the prior, for the steps after it.
 #[allow(non_snake_case)]
-struct Innovated<N: DimName, M: DimName, T: FilterScalar>
+pub(crate) struct Innovated<N: DimName, M: DimName, T: FilterScalar>
 where
     DefaultAllocator: FilterAlloc<N, M>,
 {
     /// `r = z ⊖ h(x̂⁻)` and `H`.
-    innovation: (nalgebra::OVector<T, M>, crate::traits::MeasurementJacobians<M, N, T>),
-    PHt: OMatrix<T, N, M>,
-    HPHt: OMatrix<T, M, M>,
-    S: OMatrix<T, M, M>,
-    chol_S: nalgebra::Cholesky<T, M>,
+    pub(crate) innovation: (nalgebra::OVector<T, M>, crate::traits::MeasurementJacobians<M, N, T>),
+    pub(crate) PHt: OMatrix<T, N, M>,
+    pub(crate) HPHt: OMatrix<T, M, M>,
+    pub(crate) S: OMatrix<T, M, M>,
+    pub(crate) chol_S: nalgebra::Cholesky<T, M>,
     /// `Q_Σ Hᵀ` and `H Q_Σ Hᵀ` (a strategy that tracks the process noise).
-    QHt: Option<OMatrix<T, N, M>>,
-    HQHt: Option<OMatrix<T, M, M>>,
-    nis: f64,
+    pub(crate) QHt: Option<OMatrix<T, N, M>>,
+    pub(crate) HQHt: Option<OMatrix<T, M, M>>,
+    pub(crate) nis: f64,
 }
 
 impl<N: DimName, M: DimName, T: FilterScalar> Innovated<N, M, T>
 where
     DefaultAllocator: FilterAlloc<N, M>,
 {
-    fn r(&self) -> &nalgebra::OVector<T, M> {
+    pub(crate) fn r(&self) -> &nalgebra::OVector<T, M> {
         &self.innovation.0
     }
 
     #[allow(non_snake_case)]
-    fn H(&self) -> &OMatrix<T, M, N> {
+    pub(crate) fn H(&self) -> &OMatrix<T, M, N> {
         &self.innovation.1.H
     }
 }
 
 /// The strategy's decision on one measurement (step *adapt*).
-struct Decision<N: DimName, M: DimName, T: FilterScalar>
+pub(crate) struct Decision<N: DimName, M: DimName, T: FilterScalar>
 where
     DefaultAllocator: FilterAlloc<N, M>,
 {
-    stream: crate::StreamId,
-    epoch: u64,
-    prior_scale: f64,
-    prior_scaling: PriorScaling,
+    pub(crate) stream: crate::StreamId,
+    pub(crate) epoch: u64,
+    pub(crate) prior_scale: f64,
+    pub(crate) prior_scaling: PriorScaling,
     /// `λ_P` scales the propagated part of `P⁻` only (and `Q_Σ` is tracked).
-    propagated_only: bool,
-    verdict: Verdict,
-    reason: &'static str,
-    factors: crate::adapt::Factors,
-    q: QAdjust<N, T>,
+    pub(crate) propagated_only: bool,
+    pub(crate) verdict: Verdict,
+    pub(crate) reason: &'static str,
+    pub(crate) factors: crate::adapt::Factors,
+    pub(crate) q: QAdjust<N, T>,
     /// `R*`.
-    R: OMatrix<T, M, M>,
+    pub(crate) R: OMatrix<T, M, M>,
 }
 
 /// A user-supplied covariance, checked (finite, symmetric within the tolerance, positive
@@ -470,33 +470,15 @@ where
     {
         let inn = self.innovate(model, z, R)?;
         let decision = self.adapt(model.stream(), &inn, R);
-        let mut report = UpdateReport {
-            stream: decision.stream,
-            epoch: decision.epoch,
-            time: self.time,
-            innovation: inn.r().clone(),
-            S: inn.S.clone(),
-            nis: inn.nis,
-            nis_adapted: f64::NAN,
-            verdict: decision.verdict,
-            reason: decision.reason,
-            factors: decision.factors,
-            prior_scaling_fallback: false,
-            log_likelihood: log_likelihood(&inn.chol_S, inn.nis),
-        };
+        let mut report = self.report_of(&inn, &decision);
         if decision.verdict == Verdict::Rejected {
-            self.epoch = decision.epoch;
-            self.apply_q(&decision.q);
-            observer.on_update(&report);
+            self.reject(&decision, &report, observer);
             return Ok((report, None));
         }
         let (x_new, K) = match self.correct(&inn, &decision, R, &mut report) {
             Ok(v) => v,
             Err(e) => {
-                // `Err` leaves the strategy as it was before `adapt`
-                if let Some(saved) = &mut self.saved {
-                    core::mem::swap(&mut self.strategy, saved);
-                }
+                self.restore_strategy();
                 return Err(e);
             }
         };
@@ -504,11 +486,60 @@ where
         Ok((report, Some(K)))
     }
 
+    /// Put back the strategy as it was before step *adapt* (an update that fails after it
+    /// leaves the strategy unchanged too).
+    pub(crate) fn restore_strategy(&mut self) {
+        if let Some(saved) = &mut self.saved {
+            core::mem::swap(&mut self.strategy, saved);
+        }
+    }
+
+    /// The report of an update as the strategy decided it (the adapted NIS follows in
+    /// [`correct`](Self::correct)).
+    pub(crate) fn report_of<M: DimName>(
+        &self,
+        inn: &Innovated<X::Dim, M, T>,
+        d: &Decision<X::Dim, M, T>,
+    ) -> UpdateReport<M, T>
+    where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
+        UpdateReport {
+            stream: d.stream,
+            epoch: d.epoch,
+            time: self.time,
+            innovation: inn.r().clone(),
+            S: inn.S.clone(),
+            nis: inn.nis,
+            nis_adapted: f64::NAN,
+            verdict: d.verdict,
+            reason: d.reason,
+            factors: d.factors,
+            prior_scaling_fallback: false,
+            log_likelihood: log_likelihood(&inn.chol_S, inn.nis),
+        }
+    }
+
+    /// A rejected measurement: counted, the strategy's process-noise request taken up,
+    /// the observer told; state and covariance unchanged.
+    pub(crate) fn reject<M: DimName, O: Observer<T>>(
+        &mut self,
+        d: &Decision<X::Dim, M, T>,
+        report: &UpdateReport<M, T>,
+        observer: &mut O,
+    ) where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
+        self.epoch = d.epoch;
+        self.apply_q(&d.q);
+        observer.on_update(report);
+    }
+
     /// Step *innovate*: `r = z ⊖ h(x̂⁻)` and `H` (checked finite), `P⁻ Hᵀ`,
     /// `S = H P⁻ Hᵀ + R` and its Cholesky factor, the NIS `rᵀ S⁻¹ r`, and `H Q_Σ Hᵀ` for a
     /// strategy that tracks the process noise since the last update.
     #[allow(non_snake_case, clippy::type_complexity)]
-    fn innovate<MM>(
+    pub(crate) fn innovate<MM>(
         &mut self,
         model: &MM,
         z: &MM::Measurement,
@@ -556,7 +587,7 @@ where
     /// scale `λ_P`, the noise `R*`, a process-noise request. The strategy as it was is
     /// kept, so that a later failure can restore it.
     #[allow(non_snake_case)]
-    fn adapt<M: DimName>(
+    pub(crate) fn adapt<M: DimName>(
         &mut self,
         stream: crate::StreamId,
         inn: &Innovated<X::Dim, M, T>,
@@ -690,7 +721,7 @@ where
     /// and its factor stand). Sets the report's adapted NIS, log-likelihood and a
     /// deflation verdict.
     #[allow(non_snake_case, clippy::type_complexity)]
-    fn adapted_innovation<M: DimName>(
+    pub(crate) fn adapted_innovation<M: DimName>(
         d: &Decision<X::Dim, M, T>,
         R: &Cov<M, T>,
         inn: &Innovated<X::Dim, M, T>,
@@ -776,6 +807,22 @@ where
     {
         self.x = x_new;
         self.commit();
+        self.after_correction(K, d, report, observer);
+    }
+
+    /// After the state and covariance of an accepted update are in place: the process
+    /// noise accumulated since the last update starts again, the strategy sees the gain
+    /// used (and may request process noise), the observer gets the report.
+    #[allow(non_snake_case)]
+    pub(crate) fn after_correction<M: DimName, O: Observer<T>>(
+        &mut self,
+        K: &OMatrix<T, X::Dim, M>,
+        d: &Decision<X::Dim, M, T>,
+        report: &UpdateReport<M, T>,
+        observer: &mut O,
+    ) where
+        DefaultAllocator: FilterAlloc<X::Dim, M>,
+    {
         if let Some(q_sum) = &mut self.q_sum {
             // the next update's propagated part starts from this posterior
             for c in 0..X::Dim::DIM {

@@ -15,8 +15,12 @@
 //! the identity) the iteration still converges on a curved state, but to a slightly
 //! different point and more slowly.
 //!
-//! The noise strategy is not consulted: `R` is used as given, and the update is not
-//! reported to a strategy or an observer.
+//! The update goes through the same steps as the plain one before and after the
+//! iterations: the innovation at the prior is judged by the noise strategy (the gate's
+//! verdict; a rejected measurement changes nothing), the iterations use the strategy's
+//! `R*` and its prior scale `λ_P` (on the whole prior), and the strategy and the observer
+//! receive the update's report and last gain, so adaptation, gating and telemetry work
+//! for iterated updates as for plain ones.
 
 use nalgebra::{DefaultAllocator, OMatrix};
 
@@ -27,10 +31,11 @@ use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
 use crate::filter::ResetMode;
-use crate::linalg::{check_covariance, check_finite, cholesky, symmetrize, whitened_norm_sq};
+use crate::linalg::{check_finite, cholesky, symmetrize, whitened_norm_sq};
+use crate::report::{NoObserver, Observer, UpdateReport};
 use crate::smoother::{reframe, Reframe};
 use crate::traits::MeasurementModel;
-use crate::NoiseStrategy;
+use crate::{NoiseStrategy, Verdict};
 
 /// What an iterated update did.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,6 +48,9 @@ pub struct IteratedReport {
     pub nis: f64,
     /// The post-fit residual `z ⊖ h(x⁺)` whitened by `R` (`rᵀ R⁻¹ r`).
     pub post_fit: f64,
+    /// The strategy's verdict on the innovation at the prior (`Rejected`: nothing changed,
+    /// no iteration).
+    pub verdict: crate::Verdict,
 }
 
 impl<X, A, B> ErrorStateFilter<X, A, B>
@@ -67,12 +75,87 @@ where
         MM: MeasurementModel<State = X>,
         DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
     {
-        check_covariance("measurement noise R", R)?;
+        self.update_iterated_observed(model, z, R, max_iterations, tolerance, &mut NoObserver)
+            .map(|(report, _)| report)
+    }
+
+    /// [`update_iterated`](Self::update_iterated) with an observer that receives the
+    /// update's report; also returns that report (`S`, NIS and adapted NIS at the prior,
+    /// the verdict and the strategy's factors).
+    #[allow(clippy::type_complexity)]
+    pub fn update_iterated_observed<MM, O>(
+        &mut self,
+        model: &MM,
+        z: &MM::Measurement,
+        R: &Cov<StateDim<MM::Measurement>>,
+        max_iterations: usize,
+        tolerance: f64,
+        observer: &mut O,
+    ) -> Result<(IteratedReport, UpdateReport<StateDim<MM::Measurement>>), FilterError>
+    where
+        MM: MeasurementModel<State = X>,
+        O: Observer,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+    {
+        // the innovation at the prior and the strategy's decision on it, as a plain update
+        let inn = self.innovate(model, z, R)?;
+        let decision = self.adapt(model.stream(), &inn, R);
+        let mut update = self.report_of(&inn, &decision);
+        let mut report = IteratedReport {
+            iterations: 0,
+            converged: false,
+            nis: inn.nis,
+            post_fit: f64::NAN,
+            verdict: decision.verdict,
+        };
+        if decision.verdict == Verdict::Rejected {
+            self.reject(&decision, &update, observer);
+            return Ok((report, update));
+        }
+        let lambda = decision.prior_scale;
+        if !(lambda.is_finite() && lambda > 0.0) {
+            self.restore_strategy();
+            return Err(FilterError::NonFinite { what: "strategy prior scale λ_P" });
+        }
+        if let Err(e) = Self::adapted_innovation(&decision, R, &inn, &inn.HPHt, &mut update) {
+            self.restore_strategy();
+            return Err(e);
+        }
+        match self.iterate(model, z, &decision.R, lambda, max_iterations, tolerance, &mut report) {
+            Ok(k) => {
+                self.after_correction(&k, &decision, &update, observer);
+                Ok((report, update))
+            }
+            Err(e) => {
+                self.restore_strategy();
+                Err(e)
+            }
+        }
+    }
+
+    /// The Gauss–Newton iterations from the prior (scaled by `lambda`) with noise `R`;
+    /// sets the state and covariance and returns the last gain.
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn iterate<MM>(
+        &mut self,
+        model: &MM,
+        z: &MM::Measurement,
+        R: &Cov<StateDim<MM::Measurement>>,
+        lambda: f64,
+        max_iterations: usize,
+        tolerance: f64,
+        report: &mut IteratedReport,
+    ) -> Result<OMatrix<f64, X::Dim, StateDim<MM::Measurement>>, FilterError>
+    where
+        MM: MeasurementModel<State = X>,
+        DefaultAllocator: FilterAlloc<X::Dim, StateDim<MM::Measurement>>,
+    {
         let prior = self.state().clone();
-        let p_prior = self.covariance().into_owned();
+        let mut p_prior = self.covariance().into_owned();
+        if lambda != 1.0 {
+            p_prior *= lambda;
+        }
         let mut x = prior.clone();
-        let mut report =
-            IteratedReport { iterations: 0, converged: false, nis: f64::NAN, post_fit: f64::NAN };
         let (mut gain, mut h, mut p_j) = (None, None, p_prior.clone());
         let (mut x_j, mut last_step) = (x.clone(), None);
         for _ in 0..max_iterations.max(1) {
@@ -90,9 +173,6 @@ where
             let mut s = &hp * jac.H.transpose() + R;
             symmetrize(&mut s);
             let chol = cholesky("innovation covariance S", s)?;
-            if report.iterations == 0 {
-                report.nis = whitened_norm_sq(&chol, &r);
-            }
             // K = P Hᵀ S⁻¹ = (S⁻¹ H P)ᵀ
             let k: OMatrix<f64, X::Dim, StateDim<MM::Measurement>> = chol.solve(&hp).transpose();
             let back = &j_inv * &delta;
@@ -130,6 +210,6 @@ where
             self.set_state(saved)?;
             return Err(e);
         }
-        Ok(report)
+        Ok(k)
     }
 }

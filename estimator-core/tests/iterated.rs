@@ -178,3 +178,75 @@ fn on_so3_the_iteration_converges_where_one_step_does_not() {
     // whitened by R (σ 1e-3): the measurement fits to a few thousandths of its σ
     assert!(rep.post_fit < 1e-4, "{rep:?}");
 }
+
+/// A strategy that quadruples `R` and counts the gains it is shown.
+#[derive(Clone, Default)]
+struct Quadruple {
+    gains: usize,
+}
+
+impl estimator_core::NoiseStrategy for Quadruple {
+    fn adapt<N: nalgebra::DimName, M: nalgebra::DimName>(
+        &mut self,
+        a: &mut estimator_core::Adaptation<'_, N, M>,
+    ) where
+        nalgebra::DefaultAllocator: estimator_core::FilterAlloc<N, M>,
+    {
+        a.R *= 4.0;
+        a.verdict = estimator_core::Verdict::Inflated;
+    }
+
+    fn after_update<N: nalgebra::DimName, M: nalgebra::DimName>(
+        &mut self,
+        _p: &mut estimator_core::PostUpdate<'_, N, M>,
+    ) where
+        nalgebra::DefaultAllocator: estimator_core::FilterAlloc<N, M>,
+    {
+        self.gains += 1;
+    }
+}
+
+/// The iterated update goes through the strategy and the observer as the plain one does:
+/// a gate refuses an outlier (nothing changes, no iteration), an adapted `R*` is the `R`
+/// the iterations use, the strategy sees the gain, and the observer every report.
+#[test]
+fn the_iterated_update_is_gated_adapted_and_observed() {
+    use estimator_core::{NisGate, UpdateLog, Verdict};
+    let p0 = Matrix2::new(2.0, 0.3, 0.3, 1.0);
+    let x0 = Vector2::new(3.0, 1.0);
+    let r = Matrix2::new(0.01, 0.0, 0.0, 1e-4);
+    let (good, outlier) = (Vector2::new(3.5, 0.4), Vector2::new(30.0, -2.0));
+    let mut log = UpdateLog::default();
+    let mut gated = ErrorStateFilter::new(x0, p0, NisGate { threshold: 9.21 }).unwrap();
+    let (rep, update) =
+        gated.update_iterated_observed(&RangeBearing, &outlier, &r, 30, 1e-10, &mut log).unwrap();
+    assert_eq!((rep.verdict, rep.iterations), (Verdict::Rejected, 0));
+    assert!(update.nis > 9.21, "{}", update.nis);
+    assert_eq!(gated.state(), &x0);
+    assert_eq!(gated.covariance().into_owned(), p0);
+    // a good measurement is taken as the ungated filter takes it
+    let (rep, _) =
+        gated.update_iterated_observed(&RangeBearing, &good, &r, 30, 1e-10, &mut log).unwrap();
+    assert_eq!(rep.verdict, Verdict::Accepted);
+    let mut plain = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+    let plain_rep = plain.update_iterated(&RangeBearing, &good, &r, 30, 1e-10).unwrap();
+    assert_eq!(rep.iterations, plain_rep.iterations);
+    assert!((gated.state() - plain.state()).abs().max() < 1e-12);
+    let verdicts: Vec<Verdict> = log.entries.iter().map(|e| e.verdict).collect();
+    assert_eq!(verdicts, [Verdict::Rejected, Verdict::Accepted]);
+    // an adapted R*: the iterations use it, the report has the adapted NIS, the strategy
+    // sees the gain
+    let mut adapted = ErrorStateFilter::new(x0, p0, Quadruple::default()).unwrap();
+    let (rep, update) =
+        adapted.update_iterated_observed(&RangeBearing, &good, &r, 30, 1e-10, &mut log).unwrap();
+    let mut by_hand = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+    by_hand.update_iterated(&RangeBearing, &good, &(r * 4.0), 30, 1e-10).unwrap();
+    assert_eq!(rep.verdict, Verdict::Inflated);
+    assert!((adapted.state() - by_hand.state()).abs().max() < 1e-12);
+    assert!(
+        (adapted.covariance().into_owned() - by_hand.covariance().into_owned()).abs().max() < 1e-12
+    );
+    assert!(update.nis_adapted < update.nis, "{} vs {}", update.nis_adapted, update.nis);
+    assert_eq!(adapted.strategy().gains, 1);
+    assert_eq!(log.entries.len(), 3);
+}
