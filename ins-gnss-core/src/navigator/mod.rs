@@ -1,0 +1,555 @@
+//! The INS/GNSS navigator: the 15-state error-state filter driven by IMU samples, with
+//! GNSS epochs applied at their exact time.
+//!
+//! A GNSS epoch that falls inside an IMU interval `(t − dt, t]` splits it: the increments
+//! are shared linearly, the filter is propagated to the GNSS time, updated, then
+//! propagated over the rest of the interval (no snapping to the nearest IMU epoch).
+//!
+//! Rooms: this file holds the navigator, its start and the IMU/GNSS loop; `state` the
+//! navigation states it runs ([`NavState`], [`OnNav`]); `vehicle` the land-vehicle
+//! aiding at the end of each sample; `tight` the raw epochs of tight coupling
+//! ([`TightState`], [`RawEpoch`], [`TightConfig`]).
+
+use core::fmt;
+use core::marker::PhantomData;
+
+use estimator_core::{
+    Cov, DimAlloc, ErrorStateFilter, FilterAlloc, FilterError, FixedNoise, JacobiansOf, Manifold,
+    MeasurementJacobians, MeasurementModel, NoiseStrategy, Observer, StateDim, StepRecorder,
+    StreamId, UpdateSummary,
+};
+use manifolds::Tangent;
+use nalgebra::allocator::Allocator;
+use nalgebra::{
+    Const, DefaultAllocator, DimName, Matrix, Matrix3, OMatrix, OVector, RawStorage, SMatrix,
+    Vector3,
+};
+
+use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
+use crate::imu::ImuNoise;
+use crate::imu::ImuSample;
+use crate::model::{ImuInput, InsModel, M15};
+use crate::raw::atmosphere::Klobuchar;
+use crate::raw::spp::{azel, code_noise_variance, corrections, Prepared, SppOptions};
+use crate::raw::GpsTime;
+use crate::raw::System;
+use crate::scale::{InsModel21, InsState21, M21};
+use crate::state::InsState;
+use crate::tight::{
+    Antenna, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21, OnTc, Pseudorange, RangeRate, M20,
+    M26,
+};
+mod state;
+mod tight;
+mod vehicle;
+
+pub use state::{NavState, OnNav};
+pub use tight::{
+    satellite_error_floor, ClockInit, RawEpoch, TightConfig, TightState, CARRIER_MAX_GAP, SLIP_RATE,
+};
+use vehicle::VehicleState;
+
+use crate::vehicle::{
+    mounting_matrix, Nhc, Odometer, OdometerScale, StationaryDetector, VehicleAiding, Zaru, Zupt,
+};
+
+/// 1σ of the initial state, SI units (rad, m/s, m, rad/s, m/s²).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InitialStd {
+    /// Attitude (roll, pitch, yaw) error, rad.
+    pub att: Vector3<f64>,
+    /// Velocity error (N, E, D), m/s.
+    pub vel: Vector3<f64>,
+    /// Position error (N, E, D), m.
+    pub pos: Vector3<f64>,
+    /// Gyro bias, rad/s.
+    pub bg: Vector3<f64>,
+    /// Accelerometer bias, m/s².
+    pub ba: Vector3<f64>,
+}
+
+impl InitialStd {
+    /// The diagonal initial covariance.
+    pub fn covariance(&self) -> M15 {
+        let mut d = nalgebra::SVector::<f64, 15>::zeros();
+        for i in 0..3 {
+            d[i] = self.att[i].powi(2);
+            d[3 + i] = self.vel[i].powi(2);
+            d[6 + i] = self.pos[i].powi(2);
+            d[9 + i] = self.bg[i].powi(2);
+            d[12 + i] = self.ba[i].powi(2);
+        }
+        M15::from_diagonal(&d)
+    }
+}
+
+/// Where the navigator starts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InitialState {
+    /// Time of the state, s.
+    pub time: f64,
+    /// The state.
+    pub state: InsState,
+    /// Its 1σ.
+    pub std: InitialStd,
+}
+
+/// The initial scale factors of a 21-state run and their 1σ (fractions).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScaleInit {
+    /// Gyro scale factors.
+    pub sg: Vector3<f64>,
+    /// Accelerometer scale factors.
+    pub sa: Vector3<f64>,
+    /// 1σ of the gyro scale factors.
+    pub sg_std: Vector3<f64>,
+    /// 1σ of the accelerometer scale factors.
+    pub sa_std: Vector3<f64>,
+}
+
+/// How GNSS epochs are used.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssConfig {
+    /// Antenna lever arm (FRD), m.
+    pub lever_arm: Vector3<f64>,
+    /// Use the velocity of epochs that have one (6-D update) instead of position only.
+    pub use_velocity: bool,
+    /// Replace the file's position σ (N, E, D), m.
+    pub pos_std: Option<Vector3<f64>>,
+    /// Replace the file's velocity σ, m/s.
+    pub vel_std: Option<Vector3<f64>>,
+}
+
+impl Default for GnssConfig {
+    fn default() -> Self {
+        Self { lever_arm: Vector3::zeros(), use_velocity: true, pos_std: None, vel_std: None }
+    }
+}
+
+/// A failure of the navigator, with the time it happened.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NavError {
+    /// The filter refused a GNSS epoch or its update produced a non-finite result.
+    Measurement {
+        /// Time of the epoch, s.
+        t: f64,
+        /// What the filter said.
+        source: FilterError,
+    },
+    /// The filter's prediction over an IMU interval failed (a non-finite result, noise
+    /// that is not a covariance).
+    Filter {
+        /// Time, s.
+        t: f64,
+        /// What the filter said.
+        source: FilterError,
+    },
+    /// A sample or epoch earlier than the navigator's time.
+    TimeWentBackwards {
+        /// The offending time, s.
+        t: f64,
+        /// The navigator's time, s.
+        now: f64,
+    },
+    /// A sample with a non-finite value or a non-positive interval.
+    BadSample {
+        /// Time, s.
+        t: f64,
+        /// What is wrong.
+        what: &'static str,
+    },
+}
+
+impl fmt::Display for NavError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            NavError::Filter { t, source } => write!(f, "at t = {t:.6} s: {source}"),
+            NavError::Measurement { t, source } => {
+                write!(f, "at the GNSS epoch t = {t:.6} s: {source}")
+            }
+            NavError::TimeWentBackwards { t, now } => {
+                write!(f, "time went backwards: {t:.6} s after {now:.6} s")
+            }
+            NavError::BadSample { t, what } => write!(f, "at t = {t:.6} s: {what}"),
+        }
+    }
+}
+
+impl std::error::Error for NavError {}
+
+/// Two times closer than this are the same epoch, s.
+pub const TIME_EPSILON: f64 = 1e-6;
+
+/// The INS/GNSS navigator over any noise strategy, on the 15-state [`InsState`]
+/// (default) or the 21-state [`InsState21`].
+#[derive(Clone, Debug)]
+pub struct Navigator<A: NoiseStrategy = FixedNoise, S: NavState = InsState>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    filter: ErrorStateFilter<S, A>,
+    model: S::Model,
+    gnss: GnssConfig,
+    prev: Option<ImuSample>,
+    rate: Vector3<f64>,
+    time: f64,
+    vehicle: VehicleState,
+    /// Tight coupling: the covariance of position (NED) and GPS clock the last raw
+    /// epoch's persisting satellite errors leave a single point ([`satellite_error_floor`]).
+    floor: Option<nalgebra::Matrix4<f64>>,
+    /// Tight coupling: the last raw epoch's carrier phases, for the next one's
+    /// time-differenced updates.
+    carrier: Option<CarrierEpoch>,
+}
+
+/// What the time-differenced carrier phase needs of the last raw epoch.
+#[derive(Clone, Debug)]
+struct CarrierEpoch {
+    /// Time, s.
+    t: f64,
+    /// The antenna (ECEF) after that epoch's updates.
+    anchor: Vector3<f64>,
+    /// Per satellite: its phase (m), position (ECEF) and clock (s) at transmission, and
+    /// the atmosphere's delay of the phase `T − I` (m).
+    sats: Vec<(crate::raw::Sat, f64, Vector3<f64>, f64, f64)>,
+}
+
+impl<A: NoiseStrategy> Navigator<A, InsState> {
+    /// A 15-state navigator at `init`, with process model `model`, strategy and GNSS
+    /// settings.
+    pub fn new(
+        init: &InitialState,
+        model: InsModel,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        Self::from_parts(
+            init.state.clone(),
+            init.std.covariance(),
+            init.time,
+            model,
+            strategy,
+            gnss,
+        )
+    }
+}
+
+impl<A: NoiseStrategy> Navigator<A, InsState21> {
+    /// A 21-state navigator at `init` with the scale factors of `scale`.
+    pub fn new21(
+        init: &InitialState,
+        scale: &ScaleInit,
+        model: InsModel21,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let x = InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa };
+        let mut p = M21::zeros();
+        let p15: M15 = init.std.covariance();
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p15);
+        for k in 0..3 {
+            p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
+            p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
+        }
+        Self::from_parts(x, p, init.time, model, strategy, gnss)
+    }
+}
+
+impl<A: NoiseStrategy, S: NavState> Navigator<A, S>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    /// A navigator at state `x0` with covariance `p0` at time `time`.
+    pub fn from_parts(
+        x0: S,
+        p0: Cov<S::Dim>,
+        time: f64,
+        model: S::Model,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let filter = ErrorStateFilter::new(x0, p0, strategy)
+            .map_err(|source| NavError::Filter { t: time, source })?
+            .with_time(time);
+        Ok(Self {
+            filter,
+            model,
+            gnss,
+            prev: None,
+            rate: Vector3::zeros(),
+            time,
+            vehicle: VehicleState::default(),
+            floor: None,
+            carrier: None,
+        })
+    }
+
+    /// Turn on land-vehicle aiding (NHC, ZUPT/ZARU on detected stops), applied at the end
+    /// of each IMU sample.
+    pub fn with_vehicle_aiding(mut self, aiding: VehicleAiding) -> Self {
+        let never = f64::NEG_INFINITY;
+        self.vehicle = VehicleState {
+            aiding,
+            c_vb: aiding
+                .nhc
+                .map(|n| mounting_matrix(&n.mounting))
+                .unwrap_or_else(Matrix3::identity),
+            detector: aiding.zupt.map(|z| StationaryDetector::new(z.detector)),
+            last_nhc: never,
+            last_zupt: never,
+            last_zaru: never,
+            stationary_time: 0.0,
+            last_odometer: never,
+            odometer_scale: OdometerScale::default(),
+            last_gnss: never,
+        };
+        self
+    }
+
+    /// The stationary detector, when ZUPT is on.
+    pub fn stationary_detector(&self) -> Option<&StationaryDetector> {
+        self.vehicle.detector.as_ref()
+    }
+
+    /// Tight coupling with [`TightConfig::error_floor`]: the covariance of position (NED,
+    /// m²) and GPS clock that the last raw epoch's persisting satellite errors leave a
+    /// single point (`None` before one, or when its geometry did not fix them). The
+    /// filter's own covariance does not include it; the σ a run reports does.
+    pub fn satellite_floor(&self) -> Option<&nalgebra::Matrix4<f64>> {
+        self.floor.as_ref()
+    }
+
+    /// The odometer's calibrated scale (reading / true speed), once calibrated.
+    pub fn odometer_scale(&self) -> Option<f64> {
+        let min = self.vehicle.aiding.odometer.map_or(f64::INFINITY, |o| o.calibration_samples);
+        self.vehicle.odometer_scale.scale(min)
+    }
+
+    /// Time the vehicle was judged standing — the detector said so and the filter's speed
+    /// was below `max_speed` — so far, s (0 without ZUPT).
+    pub fn stationary_time(&self) -> f64 {
+        self.vehicle.stationary_time
+    }
+
+    /// Current time, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The nominal state.
+    pub fn state(&self) -> &S {
+        self.filter.state()
+    }
+
+    /// Attitude, velocity, position and biases (the whole state of a 15-state run).
+    pub fn nav_state(&self) -> &InsState {
+        self.filter.state().nav()
+    }
+
+    /// The error covariance.
+    pub fn covariance(&self) -> &Cov<S::Dim> {
+        self.filter.covariance_raw()
+    }
+
+    /// The underlying filter.
+    pub fn filter(&self) -> &ErrorStateFilter<S, A> {
+        &self.filter
+    }
+
+    /// The process model.
+    pub fn model(&self) -> &S::Model {
+        &self.model
+    }
+
+    /// 1σ of the error states.
+    pub fn sigma(&self) -> OVector<f64, S::Dim> {
+        self.filter.sigma()
+    }
+
+    /// Process one IMU sample and the GNSS epochs with `t ∈ (now, imu.t]` (sorted), each
+    /// at its exact time. Returns the update summaries in order.
+    pub fn process<O: Observer>(
+        &mut self,
+        imu: &ImuSample,
+        gnss: &[GnssEpoch],
+        observer: &mut O,
+    ) -> Result<Vec<UpdateSummary>, NavError> {
+        let mut out = Vec::new();
+        self.process_into(imu, gnss, observer, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`process`](Self::process) appending summaries to `out` (no allocation when `out`
+    /// has capacity).
+    pub fn process_into<O: Observer>(
+        &mut self,
+        imu: &ImuSample,
+        gnss: &[GnssEpoch],
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+    ) -> Result<(), NavError> {
+        self.process_recorded(imu, gnss, observer, out, &mut ())
+    }
+
+    /// [`process_into`](Self::process_into) telling `recorder` of every prediction
+    /// (e.g. a [`SegmentSmoother`](estimator_core::SegmentSmoother)); the prediction that
+    /// ends at the sample's time is marked.
+    pub fn process_recorded<O: Observer, R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        imu: &ImuSample,
+        gnss: &[GnssEpoch],
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        self.process_events(
+            imu,
+            gnss,
+            |g| g.t,
+            observer,
+            out,
+            recorder,
+            |nav, g, obs, out, rec| {
+                rec.before_update(&nav.filter);
+                out.push(nav.update(g, obs)?);
+                Ok(())
+            },
+        )
+    }
+
+    /// One IMU sample with the measurement events whose time (`time`) falls in its
+    /// interval, each applied by `apply` at its exact time (the interval split there),
+    /// then the vehicle aiding at the sample's end.
+    #[allow(clippy::too_many_arguments)]
+    fn process_events<O: Observer, R: StepRecorder<S, ImuInput>, E>(
+        &mut self,
+        imu: &ImuSample,
+        events: &[E],
+        time: impl Fn(&E) -> f64,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+        mut apply: impl FnMut(
+            &mut Self,
+            &E,
+            &mut O,
+            &mut Vec<UpdateSummary>,
+            &mut R,
+        ) -> Result<(), NavError>,
+    ) -> Result<(), NavError> {
+        if !(imu.t.is_finite() && imu.dt.is_finite() && imu.dt > 0.0) {
+            return Err(NavError::BadSample {
+                t: imu.t,
+                what: "IMU time or interval not finite or not positive",
+            });
+        }
+        if !(imu.dtheta.iter().chain(imu.dvel.iter()).all(|v| v.is_finite())) {
+            return Err(NavError::BadSample { t: imu.t, what: "IMU increment is NaN or infinite" });
+        }
+        if imu.t < self.time + TIME_EPSILON {
+            return Err(NavError::TimeWentBackwards { t: imu.t, now: self.time });
+        }
+        let mut rest = *imu;
+        for g in events {
+            let gt = time(g);
+            if gt < self.time - TIME_EPSILON {
+                return Err(NavError::TimeWentBackwards { t: gt, now: self.time });
+            }
+            if gt > imu.t + TIME_EPSILON {
+                break;
+            }
+            if gt < rest.t - TIME_EPSILON && gt > self.time + TIME_EPSILON {
+                let (first, second) = rest.split(gt);
+                self.propagate(&first, recorder, false)?;
+                rest = second;
+            } else if gt >= rest.t - TIME_EPSILON {
+                self.propagate(&rest, recorder, true)?;
+                rest.dt = 0.0;
+            }
+            apply(self, g, observer, out, recorder)?;
+        }
+        if rest.dt > 0.0 {
+            self.propagate(&rest, recorder, true)?;
+        }
+        self.time = imu.t;
+        if self.vehicle.aiding.any() {
+            self.aid(imu, observer, out, recorder)?;
+        }
+        Ok(())
+    }
+
+    fn propagate<R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        s: &ImuSample,
+        recorder: &mut R,
+        mark: bool,
+    ) -> Result<(), NavError> {
+        if s.dt <= 0.0 {
+            return Ok(());
+        }
+        let input = ImuInput { prev: self.prev, cur: *s };
+        // the clock on the samples' time stamps: the interval's start before (the first
+        // sample's interval may begin before the start time), its end after (updates and
+        // smoothed rows are reported at the filter's time)
+        self.filter.set_time(s.t - s.dt);
+        recorder.before_predict(&self.filter, &input, s.dt, mark);
+        self.filter
+            .predict(&self.model, &input, s.dt)
+            .map_err(|source| NavError::Filter { t: s.t, source })?;
+        self.filter.set_time(s.t);
+        self.prev = Some(*s);
+        self.rate = s.rate();
+        self.time = s.t;
+        Ok(())
+    }
+
+    /// Apply one GNSS epoch now (its time must be the navigator's time).
+    fn update<O: Observer>(
+        &mut self,
+        g: &GnssEpoch,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, NavError> {
+        let err = |source| NavError::Measurement { t: g.t, source };
+        self.vehicle.last_gnss = g.t;
+        // the file's covariance (its correlations included), unless the configuration
+        // states the σ
+        let r_pos = match self.gnss.pos_std {
+            Some(s) => diag3(&s.component_mul(&s)),
+            None => g.position_covariance(),
+        };
+        let lever = self.gnss.lever_arm;
+        match (self.gnss.use_velocity, g.vel) {
+            (true, Some((v, _))) => {
+                let r_vel = match self.gnss.vel_std {
+                    Some(s) => diag3(&s.component_mul(&s)),
+                    None => g.velocity_covariance().unwrap_or_else(Matrix3::zeros),
+                };
+                let mut r = diag6(&nalgebra::SVector::<f64, 6>::zeros());
+                r.fixed_view_mut::<3, 3>(0, 0).copy_from(&r_pos);
+                r.fixed_view_mut::<3, 3>(3, 3).copy_from(&r_vel);
+                let model = GnssPosVel { lever_arm: lever, gyro_rate: self.rate };
+                S::update::<A, GnssPosVel, O>(&mut self.filter, &model, &(g.pos, v), &r, observer)
+                    .map_err(err)
+            }
+            _ => {
+                let model = GnssPosition { lever_arm: lever };
+                S::update::<A, GnssPosition, O>(&mut self.filter, &model, &g.pos, &r_pos, observer)
+                    .map_err(err)
+            }
+        }
+    }
+}
+
+// Outside the navigator's generic impl: there, the where-clause on the state's dimension
+// hides nalgebra's allocator impls from these constructors.
+fn diag2(d: &nalgebra::Vector2<f64>) -> nalgebra::Matrix2<f64> {
+    nalgebra::Matrix2::from_diagonal(d)
+}
+
+fn diag3(d: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::from_diagonal(d)
+}
+
+fn diag6(d: &nalgebra::SVector<f64, 6>) -> SMatrix<f64, 6, 6> {
+    SMatrix::<f64, 6, 6>::from_diagonal(d)
+}

@@ -1,0 +1,123 @@
+//! The land-vehicle aiding in the navigator: NHC, ZUPT/ZARU on detected stops and the
+//! odometer, applied at the end of each IMU sample.
+
+use super::*;
+
+/// The vehicle aiding's settings and bookkeeping.
+#[derive(Clone, Debug, Default)]
+pub(super) struct VehicleState {
+    pub(super) aiding: VehicleAiding,
+    pub(super) c_vb: Matrix3<f64>,
+    pub(super) detector: Option<StationaryDetector>,
+    pub(super) last_nhc: f64,
+    pub(super) last_zupt: f64,
+    pub(super) last_zaru: f64,
+    /// Time judged standing (detector and speed), s.
+    pub(super) stationary_time: f64,
+    pub(super) last_odometer: f64,
+    pub(super) odometer_scale: OdometerScale,
+    /// Time of the last GNSS update (the odometer's scale is calibrated only near one).
+    pub(super) last_gnss: f64,
+}
+
+impl<A: NoiseStrategy, S: NavState> Navigator<A, S>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    /// The vehicle aiding at the end of an IMU sample: ZUPT (and ZARU) while the detector
+    /// says the vehicle stands, otherwise NHC.
+    pub(super) fn aid<O: Observer, R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        imu: &ImuSample,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        let t = imu.t;
+        let err = |source| NavError::Measurement { t, source };
+        let v = &mut self.vehicle;
+        let bg = self.filter.state().nav().bg;
+        let imu_says = match &mut v.detector {
+            Some(d) => d.push(imu.dt, &imu.rate(), &imu.specific_force(), &bg),
+            None => false,
+        };
+        // a wheel odometer reads exactly zero when the wheels stand
+        let wheels_say =
+            v.aiding.odometer.is_some() && imu.odometer.is_some_and(|r| r.abs() < 1e-3);
+        let stationary = imu_says || wheels_say;
+        let speed = self.filter.state().nav().vel.norm();
+        if let (Some(o), Some(reading)) = (v.aiding.odometer, imu.odometer) {
+            let model = Odometer { c_vb: v.c_vb, lever_arm: o.lever_arm, gyro_rate: imu.rate() };
+            let forward = model.predict(self.filter.state().nav())[0];
+            // calibrate the scale while GNSS keeps the forward speed right
+            if t - v.last_gnss <= 1.5 && forward > 1.0 {
+                v.odometer_scale.add(reading, forward, imu.dt, o.calibration_time);
+            }
+            let scale = v.odometer_scale.scale(o.calibration_samples);
+            if let (Some(k), true) = (scale, t - v.last_odometer >= o.interval - TIME_EPSILON) {
+                v.last_odometer = t;
+                let z = nalgebra::Vector1::new(reading / k);
+                let r = nalgebra::Matrix1::new(o.std * o.std);
+                recorder.before_update(&self.filter);
+                let report =
+                    S::update::<A, Odometer, O>(&mut self.filter, &model, &z, &r, observer);
+                out.push(report.map_err(err)?);
+            }
+        }
+        // the filter's speed must be consistent with rest: below `max_speed` plus three of
+        // its σ (tight while GNSS holds the velocity, wide in an outage, when a stop is
+        // most worth taking)
+        let filter = &self.filter;
+        let zupt = v.aiding.zupt.filter(|z| {
+            stationary && {
+                // (the σ only when standing: this runs at every IMU sample)
+                let sigma = filter.sigma();
+                let speed_sigma = (sigma[3].powi(2) + sigma[4].powi(2) + sigma[5].powi(2)).sqrt();
+                speed < z.max_speed + z.speed_sigmas * speed_sigma
+            }
+        });
+        if let (Some(z), Some(d)) = (zupt, &v.detector) {
+            v.stationary_time += imu.dt;
+            if t - v.last_zupt >= z.interval - TIME_EPSILON {
+                v.last_zupt = t;
+                let r = Matrix3::identity() * z.velocity_std.powi(2);
+                recorder.before_update(&self.filter);
+                let report = S::update::<A, Zupt, O>(
+                    &mut self.filter,
+                    &Zupt,
+                    &Vector3::zeros(),
+                    &r,
+                    observer,
+                );
+                out.push(report.map_err(err)?);
+            }
+            if let Some(rate_std) = z.rate_std {
+                if t - v.last_zaru >= d.config().window - TIME_EPSILON {
+                    v.last_zaru = t;
+                    // the window mean's own white noise, ARW²/window, plus the configured σ
+                    let window = d.config().window.max(1e-3);
+                    let arw = S::imu_noise(&self.model).arw;
+                    let r = diag3(&arw.map(|a| a * a / window + rate_std * rate_std));
+                    let mean = d.mean_rate();
+                    recorder.before_update(&self.filter);
+                    let report =
+                        S::update::<A, Zaru, O>(&mut self.filter, &Zaru, &mean, &r, observer);
+                    out.push(report.map_err(err)?);
+                }
+            }
+            return Ok(());
+        }
+        if let Some(n) = v.aiding.nhc {
+            if t - v.last_nhc >= n.interval - TIME_EPSILON && speed >= n.min_speed {
+                v.last_nhc = t;
+                let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
+                let r = diag2(&n.std.component_mul(&n.std));
+                let z = nalgebra::Vector2::zeros();
+                recorder.before_update(&self.filter);
+                let report = S::update::<A, Nhc, O>(&mut self.filter, &model, &z, &r, observer);
+                out.push(report.map_err(err)?);
+            }
+        }
+        Ok(())
+    }
+}
