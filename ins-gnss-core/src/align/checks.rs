@@ -1,0 +1,222 @@
+//! Checks against the GNSS course: the gyro scale from turns, the IMU–GNSS time offset.
+
+use super::*;
+
+/// The slope of the GNSS course change on the gyro's turn ([`turn_ratio`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TurnRatio {
+    /// Least-squares slope `Σ Δχ Δψ / Σ Δψ²`.
+    pub ratio: f64,
+    /// Pairs of consecutive moving fixes used.
+    pub pairs: usize,
+    /// Σ (Δχ − Δψ)², rad²: the misfit at the declared scale.
+    pub misfit_declared: f64,
+    /// Σ (Δχ − ratio·Δψ)², rad²: the misfit at the fitted slope.
+    pub misfit_fitted: f64,
+    /// Σ |ratio·Δψ|, rad: how far the vehicle turned by the fit.
+    pub turned: f64,
+}
+
+/// Minimum horizontal speed for a fix's course, m/s (velocity given), or the distance
+/// between its neighbours, m (course from positions; at least 4× their horizontal σ).
+const COURSE_SPEED: f64 = 3.0;
+const COURSE_BASE: f64 = 6.0;
+
+/// Fixes of `(t_a, t_b]` about a second apart (a course from 0.2 s of noisy positions is
+/// noise).
+fn fixes_a_second_apart(gnss: &[GnssEpoch], t_a: f64, t_b: f64) -> Vec<&GnssEpoch> {
+    let mut fixes: Vec<&GnssEpoch> = Vec::new();
+    for e in gnss.iter().filter(|e| e.t > t_a && e.t <= t_b) {
+        if fixes.last().is_none_or(|l| e.t >= l.t + 0.9) {
+            fixes.push(e);
+        }
+    }
+    fixes
+}
+
+/// The course at each fix: from its velocity, else from its neighbours' positions (`None`
+/// where it does not move enough to tell).
+fn courses(fixes: &[&GnssEpoch]) -> Vec<Option<f64>> {
+    (0..fixes.len())
+        .map(|i| match fixes[i].vel {
+            Some((v, _)) => (v.xy().norm() >= COURSE_SPEED).then(|| v.y.atan2(v.x)),
+            None if i > 0 && i + 1 < fixes.len() => {
+                let d = geodetic_to_local_ned(fixes[i - 1].pos.tuple(), fixes[i + 1].pos.tuple());
+                let noise = fixes[i - 1].pos_std.xy().norm().max(fixes[i + 1].pos_std.xy().norm());
+                (d.xy().norm() >= COURSE_BASE.max(4.0 * noise)
+                    && fixes[i + 1].t - fixes[i - 1].t <= 5.0)
+                    .then(|| d.y.atan2(d.x))
+            }
+            None => None,
+        })
+        .collect()
+}
+
+/// A course change wrapped into (−π, π].
+fn wrapped(d: f64) -> f64 {
+    (d + core::f64::consts::PI).rem_euclid(2.0 * core::f64::consts::PI) - core::f64::consts::PI
+}
+
+/// The GNSS course change `Δχ` between consecutive moving fixes in `(t_a, t_b]` against
+/// the gyro's rotation `Δψ` about the down axis (the mean specific force's opposite)
+/// over the same interval. `None` when fewer than 10 pairs move.
+pub fn turn_ratio(imu: &[ImuSample], gnss: &[GnssEpoch], t_a: f64, t_b: f64) -> Option<TurnRatio> {
+    let imu: Vec<&ImuSample> = imu.iter().filter(|s| s.t > t_a && s.t <= t_b).collect();
+    let fixes = fixes_a_second_apart(gnss, t_a, t_b);
+    let f_sum: Vector3<f64> = imu.iter().map(|s| s.dvel).sum();
+    let down = -f_sum.try_normalize(1e-12)?;
+    let course = courses(&fixes);
+    // the gyro's turn about `down` accumulated up to each fix
+    let mut psi = Vec::with_capacity(fixes.len());
+    let (mut acc, mut k) = (0.0, 0);
+    for e in &fixes {
+        while k < imu.len() && imu[k].t <= e.t {
+            acc += imu[k].dtheta.dot(&down);
+            k += 1;
+        }
+        psi.push(acc);
+    }
+    let mut pairs = Vec::new();
+    for i in 1..fixes.len() {
+        if let (Some(a), Some(b)) = (course[i - 1], course[i]) {
+            if fixes[i].t - fixes[i - 1].t <= 2.5 {
+                pairs.push((wrapped(b - a), psi[i] - psi[i - 1]));
+            }
+        }
+    }
+    if pairs.len() < 10 {
+        return None;
+    }
+    let sxy: f64 = pairs.iter().map(|(x, y)| x * y).sum();
+    let syy: f64 = pairs.iter().map(|(_, y)| y * y).sum();
+    if syy <= 0.0 {
+        return None;
+    }
+    let ratio = sxy / syy;
+    let misfit = |r: f64| pairs.iter().map(|(x, y)| (x - r * y).powi(2)).sum::<f64>();
+    Some(TurnRatio {
+        ratio,
+        pairs: pairs.len(),
+        misfit_declared: misfit(1.0),
+        misfit_fitted: misfit(ratio),
+        turned: pairs.iter().map(|(_, y)| (ratio * y).abs()).sum(),
+    })
+}
+
+/// The IMU–GNSS time offset [`time_offset`] finds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimeOffset {
+    /// Seconds by which the IMU's time stamps are late on the GNSS's: the gyro's turn at
+    /// GNSS time `t` is stamped `t + offset` (so `−offset` added to the IMU's times
+    /// corrects them).
+    pub offset: f64,
+    /// 1σ of [`offset`](Self::offset), s (from the misfit's curvature).
+    pub std: f64,
+    /// Pairs of consecutive moving fixes used.
+    pub pairs: usize,
+    /// `Σ (Δχ − Δψ)²` at no offset and at [`offset`](Self::offset), rad².
+    pub misfit_zero: f64,
+    /// See [`misfit_zero`](Self::misfit_zero).
+    pub misfit_best: f64,
+    /// `Σ |Δχ|` over the pairs: how far the course turned, rad.
+    pub turned: f64,
+}
+
+/// Grid step of [`time_offset`]'s search, s (refined by a parabola through the best
+/// point and its neighbours).
+const OFFSET_STEP: f64 = 0.02;
+
+/// The offset between the IMU's and the GNSS's time stamps within `±max_offset` s: the
+/// GNSS course changes `Δχ` between consecutive moving fixes of `(t_a + max_offset,
+/// t_b − max_offset]` (about a second apart, as [`turn_ratio`]) against the gyro's turn
+/// about the down axis over the same interval shifted by the candidate offset, `Δψ(δ) =
+/// ψ(tᵢ + δ) − ψ(tᵢ₋₁ + δ)` (`ψ` the gyro's rotation about down integrated sample by
+/// sample and interpolated); the offset minimises `Σ (Δχ − Δψ(δ))²`. The course turns
+/// with the vehicle whatever its mounting, so the check needs no attitude. `None` when
+/// fewer than 10 pairs move or the IMU does not cover the shifted intervals.
+pub fn time_offset(
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    t_a: f64,
+    t_b: f64,
+    max_offset: f64,
+) -> Option<TimeOffset> {
+    let (lo, hi) = (t_a + max_offset, t_b - max_offset);
+    if hi <= lo {
+        return None;
+    }
+    let imu: Vec<&ImuSample> =
+        imu.iter().filter(|s| s.t > t_a - s.dt && s.t <= t_b + s.dt).collect();
+    let first = imu.first()?;
+    let f_sum: Vector3<f64> = imu.iter().map(|s| s.dvel).sum();
+    let down = -f_sum.try_normalize(1e-12)?;
+    // ψ at each sample's end, from the first sample's start
+    let mut ts = Vec::with_capacity(imu.len() + 1);
+    let mut psi = Vec::with_capacity(imu.len() + 1);
+    ts.push(first.t - first.dt);
+    psi.push(0.0);
+    for s in &imu {
+        ts.push(s.t);
+        psi.push(psi[psi.len() - 1] + s.dtheta.dot(&down));
+    }
+    let psi_at = |t: f64| -> Option<f64> {
+        let k = ts.partition_point(|&x| x < t);
+        if k == 0 || k >= ts.len() {
+            return None;
+        }
+        let a = (t - ts[k - 1]) / (ts[k] - ts[k - 1]);
+        Some(psi[k - 1] + a * (psi[k] - psi[k - 1]))
+    };
+    let fixes = fixes_a_second_apart(gnss, lo, hi);
+    let course = courses(&fixes);
+    let mut pairs: Vec<(f64, f64, f64)> = Vec::new();
+    for i in 1..fixes.len() {
+        if let (Some(a), Some(b)) = (course[i - 1], course[i]) {
+            if fixes[i].t - fixes[i - 1].t <= 2.5 {
+                pairs.push((wrapped(b - a), fixes[i - 1].t, fixes[i].t));
+            }
+        }
+    }
+    if pairs.len() < 10 {
+        return None;
+    }
+    let misfit = |d: f64| -> Option<f64> {
+        let mut sum = 0.0;
+        for &(dchi, t0, t1) in &pairs {
+            let dpsi = psi_at(t1 + d)? - psi_at(t0 + d)?;
+            sum += (dchi - dpsi).powi(2);
+        }
+        Some(sum)
+    };
+    let n = (max_offset / OFFSET_STEP).round() as i64;
+    let grid: Vec<(f64, f64)> = (-n..=n)
+        .filter_map(|k| {
+            let d = k as f64 * OFFSET_STEP;
+            misfit(d).map(|m| (d, m))
+        })
+        .collect();
+    let k = (0..grid.len()).min_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))?;
+    let (mut offset, mut best) = grid[k];
+    let mut curvature = f64::NAN;
+    if k > 0 && k + 1 < grid.len() {
+        let (m0, m1, m2) = (grid[k - 1].1, grid[k].1, grid[k + 1].1);
+        let c = (m0 - 2.0 * m1 + m2) / (OFFSET_STEP * OFFSET_STEP);
+        if c > 0.0 {
+            let shift = 0.5 * OFFSET_STEP * (m0 - m2) / (m0 - 2.0 * m1 + m2);
+            offset += shift;
+            best = misfit(offset).unwrap_or(best).min(best);
+            curvature = c;
+        }
+    }
+    // var(δ) = 2 s² / f'' for a least-squares misfit f with residual variance s²
+    let s2 = best / (pairs.len() - 1) as f64;
+    let std = if curvature > 0.0 { (2.0 * s2 / curvature).sqrt() } else { f64::INFINITY };
+    Some(TimeOffset {
+        offset,
+        std,
+        pairs: pairs.len(),
+        misfit_zero: misfit(0.0)?,
+        misfit_best: best,
+        turned: pairs.iter().map(|p| p.0.abs()).sum(),
+    })
+}

@@ -1,0 +1,243 @@
+//! The static start: found in the IMU and GNSS streams, its noise and gyro biases.
+
+use super::*;
+
+/// What the start of a log shows while it stands still: the span, and the mean and
+/// per-axis standard deviation of the rates and specific forces over it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StaticStart {
+    /// Samples from the first one that belong to the static span.
+    pub samples: usize,
+    /// First and last time of the span, s (start of the first interval, end of the last).
+    pub span: (f64, f64),
+    /// Mean angular rate, rad/s.
+    pub mean_w: Vector3<f64>,
+    /// Mean specific force, m/s².
+    pub mean_f: Vector3<f64>,
+    /// Per-axis standard deviation of the rates, rad/s.
+    pub std_w: Vector3<f64>,
+    /// Per-axis standard deviation of the specific force, m/s².
+    pub std_f: Vector3<f64>,
+    /// Mean sample interval, s.
+    pub dt: f64,
+}
+
+impl StaticStart {
+    /// Length of the static span, s.
+    pub fn duration(&self) -> f64 {
+        self.span.1 - self.span.0
+    }
+
+    /// Angular random walk per axis, rad/√s: the rates' σ times √dt (white noise
+    /// sampled at `1/dt`; vibration at rest counts, which is the point).
+    pub fn arw(&self) -> Vector3<f64> {
+        self.std_w * self.dt.sqrt()
+    }
+
+    /// Velocity random walk per axis, m/s/√s.
+    pub fn vrw(&self) -> Vector3<f64> {
+        self.std_f * self.dt.sqrt()
+    }
+
+    /// 1σ of the mean rate over the span, per axis, rad/s (white noise only).
+    pub fn mean_w_std(&self) -> Vector3<f64> {
+        self.std_w / (self.samples.max(1) as f64).sqrt()
+    }
+}
+
+/// The χ² (2 degrees of freedom) beyond which the fixes' horizontal drift is motion, not
+/// noise: a probability of 1e-6 (−2 ln 1e-6) for fixes as noisy as their σ says.
+const DRIFT_CHI2: f64 = 27.63;
+
+/// The drift speed (m/s) below which fixes are never taken for motion: real fixes wander
+/// by more than their σ says (multipath, a single point's slow errors), and a vehicle
+/// that creeps slower than this is not started on by the static test's velocity 0 anyway
+/// (its 0.02 m/s σ aside, the fit then has its first fixes).
+const DRIFT_SPEED: f64 = 0.1;
+
+/// Whether the GNSS fixes after `t0` up to `tb` drift: the horizontal velocity of a
+/// straight-line least-squares fit to them, significant by [`DRIFT_CHI2`] against its σ
+/// from the fixes' own σ, and faster than [`DRIFT_SPEED`]. Fixes 5 m apart in σ do not
+/// move beyond 3σ of the first for 100 s at 0.42 m/s (a slow rover), and a window that
+/// long is no static start; their line tells the motion within about 40 s.
+fn drifting(gnss: &[GnssEpoch], t0: f64, tb: f64) -> bool {
+    let span: Vec<&GnssEpoch> =
+        gnss.iter().filter(|e| e.t > t0 - 1e-9 && e.t <= tb + 1e-9).collect();
+    let Some(first) = span.first() else { return false };
+    if span.len() < 5 {
+        return false;
+    }
+    let n = span.len() as f64;
+    let t_mean = span.iter().map(|e| e.t).sum::<f64>() / n;
+    let stt: f64 = span.iter().map(|e| (e.t - t_mean).powi(2)).sum();
+    if stt <= 0.0 {
+        return false;
+    }
+    // (north, east): the slope of the line and the fixes' mean variance
+    let (mut slope, mut var) = (Vector2::zeros(), Vector2::zeros());
+    for e in &span {
+        let d = geodetic_to_local_ned(first.pos.tuple(), e.pos.tuple());
+        slope += d.xy() * ((e.t - t_mean) / stt);
+        var += e.pos_std.xy().map(|s| s * s / n);
+    }
+    let chi2 = slope.component_mul(&slope).component_div(&(var / stt).map(|v| v.max(1e-12))).sum();
+    chi2 > DRIFT_CHI2 && slope.norm() > DRIFT_SPEED
+}
+
+/// Window statistics for [`detect_static`].
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    end: usize,
+    t1: f64,
+    n: usize,
+    sum_w: Vector3<f64>,
+    sum_f: Vector3<f64>,
+    sq_w: Vector3<f64>,
+    sq_f: Vector3<f64>,
+}
+
+impl Window {
+    fn mean_w(&self) -> Vector3<f64> {
+        self.sum_w / self.n as f64
+    }
+    fn mean_f(&self) -> Vector3<f64> {
+        self.sum_f / self.n as f64
+    }
+    fn std(sum: &Vector3<f64>, sq: &Vector3<f64>, n: usize) -> Vector3<f64> {
+        let n = n as f64;
+        (sq / n - (sum / n).component_mul(&(sum / n))).map(|v| v.max(0.0).sqrt())
+    }
+    fn std_w(&self) -> Vector3<f64> {
+        Self::std(&self.sum_w, &self.sq_w, self.n)
+    }
+    fn std_f(&self) -> Vector3<f64> {
+        Self::std(&self.sum_f, &self.sq_f, self.n)
+    }
+}
+
+/// The static span at the start of `imu`: consecutive windows of `window` seconds that
+/// look like the first one (rates and specific force with the same mean and spread, to
+/// within what the first window's noise explains plus 0.1 deg/s and 0.05 m/s²) while the
+/// specific force stays near gravity (|f| within 0.5 m/s² of normal gravity at the first
+/// fix, or of 9.8 without one) and the GNSS fixes of the span show no motion (speed below
+/// 0.3 m/s, positions within 3σ + 0.3 m of the first). When the fixes of a span whose IMU
+/// never changed drift (a straight line fitted to them moves faster than 0.1 m/s, beyond
+/// what their σ explains at a probability of 1e-6), nothing was static: a constant velocity from the
+/// first sample looks like rest to the IMU. A vibrating vehicle (engine
+/// running) is static too: the test is relative to the first window. Returns a span of
+/// zero samples when the first window already moves.
+pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
+    let none = |t: f64| StaticStart {
+        samples: 0,
+        span: (t, t),
+        mean_w: Vector3::zeros(),
+        mean_f: Vector3::zeros(),
+        std_w: Vector3::zeros(),
+        std_f: Vector3::zeros(),
+        dt: 0.0,
+    };
+    let Some(first) = imu.first() else { return none(f64::NAN) };
+    let t0 = first.t - first.dt;
+    let g = gnss.iter().find(|e| e.t >= t0).map_or(9.8, |e| normal_gravity(e.pos.lat, e.pos.h));
+    // windows
+    let mut windows: Vec<Window> = Vec::new();
+    let mut cur = Window {
+        end: 0,
+        t1: t0 + window,
+        n: 0,
+        sum_w: Vector3::zeros(),
+        sum_f: Vector3::zeros(),
+        sq_w: Vector3::zeros(),
+        sq_f: Vector3::zeros(),
+    };
+    for (k, s) in imu.iter().enumerate() {
+        if s.t > cur.t1 + 1e-9 && cur.n > 0 {
+            windows.push(cur);
+            cur = Window {
+                end: k,
+                t1: cur.t1 + window * ((s.t - cur.t1) / window).ceil().max(1.0),
+                n: 0,
+                sum_w: Vector3::zeros(),
+                sum_f: Vector3::zeros(),
+                sq_w: Vector3::zeros(),
+                sq_f: Vector3::zeros(),
+            };
+        }
+        let (w, f) = (s.rate(), s.specific_force());
+        cur.sum_w += w;
+        cur.sum_f += f;
+        cur.sq_w += w.component_mul(&w);
+        cur.sq_f += f.component_mul(&f);
+        cur.n += 1;
+        cur.end = k + 1;
+    }
+    // a last window counts only when full (a partial one has a noisier mean)
+    if cur.n > 0 && imu.last().is_some_and(|s| s.t >= cur.t1 - 1e-6) {
+        windows.push(cur);
+    }
+    let Some(w0) = windows.first().copied() else { return none(t0) };
+    let moving_gnss = |ta: f64, tb: f64| {
+        let mut first_fix: Option<&GnssEpoch> = None;
+        gnss.iter().filter(|e| e.t > t0 - 1e-9 && e.t <= tb + 1e-9).any(|e| {
+            let f = *first_fix.get_or_insert(e);
+            if e.t < ta - 1e-9 {
+                return false;
+            }
+            let fast = e.vel.is_some_and(|(v, _)| v.xy().norm() > 0.3);
+            let d = geodetic_to_local_ned(f.pos.tuple(), e.pos.tuple());
+            let tol = 3.0 * (f.pos_std.xy().norm() + e.pos_std.xy().norm()) + 0.3;
+            fast || d.xy().norm() > tol
+        })
+    };
+    let (m0w, m0f, s0w, s0f) = (w0.mean_w(), w0.mean_f(), w0.std_w(), w0.std_f());
+    let deg = core::f64::consts::PI / 180.0;
+    let still = |w: &Window, ta: f64| {
+        let n = (w.n as f64).sqrt();
+        let mf = w.mean_f();
+        (mf.norm() - g).abs() < 0.5
+            && (w.mean_w() - m0w).norm() <= 3.0 * s0w.norm() / n + 0.1 * deg
+            && (mf - m0f).norm() <= 3.0 * s0f.norm() / n + 0.05
+            && w.std_w().norm() <= 2.0 * s0w.norm() + 0.2 * deg
+            && w.std_f().norm() <= 2.0 * s0f.norm() + 0.1
+            && !moving_gnss(ta, w.t1)
+    };
+    let mut n_windows = 0;
+    let mut ta = t0;
+    for w in &windows {
+        if !still(w, ta) {
+            break;
+        }
+        // the IMU unchanged since the first window while the fixes drift: a constant
+        // velocity from the first sample (a rover moving off before the log began), which
+        // the IMU cannot tell from rest; no part of the span was static
+        if drifting(gnss, t0, w.t1) {
+            return none(t0);
+        }
+        n_windows += 1;
+        ta = w.t1;
+    }
+    if n_windows == 0 {
+        return none(t0);
+    }
+    let used = &windows[..n_windows];
+    let samples = used.last().map_or(0, |w| w.end);
+    let sum = |f: fn(&Window) -> Vector3<f64>| used.iter().map(f).sum::<Vector3<f64>>();
+    let (sum_w, sum_f, sq_w, sq_f) =
+        (sum(|w| w.sum_w), sum(|w| w.sum_f), sum(|w| w.sq_w), sum(|w| w.sq_f));
+    let span = (t0, imu[samples - 1].t);
+    StaticStart {
+        samples,
+        span,
+        mean_w: sum_w / samples as f64,
+        mean_f: sum_f / samples as f64,
+        std_w: Window::std(&sum_w, &sq_w, samples),
+        std_f: Window::std(&sum_f, &sq_f, samples),
+        dt: (span.1 - span.0) / samples as f64,
+    }
+}
+
+/// The gyro bias of a static start once the attitude is known: the mean rate less the
+/// Earth rate seen in the body frame, rad/s.
+pub fn static_gyro_bias(s: &StaticStart, att: &So3, lat: f64) -> Vector3<f64> {
+    s.mean_w - att.inverse().rotate(&earth_rate_ned(lat))
+}
