@@ -7,6 +7,9 @@ Kalman filter with adaptive noise, running in Rust.
   written.
 - :func:`kalman` runs the Kalman filter and the RTS smoother on a Euclidean state with
   ``F, Q, H, R`` given as arrays (constant or per step), with any adaptive strategy.
+- :class:`ExtendedKalmanFilter`, :class:`UnscentedKalmanFilter` and
+  :class:`KalmanFilter` take your models as Python callables in FilterPy's shape, with
+  every strategy, the gate, the verdict and the RTS smoother (``estimator.filterpy``).
 - :func:`kinematic` gives ``F, Q`` of the built-in kinematic models (CV, CA, Singer).
 - :func:`ahrs` runs the attitude and heading reference system of the third paper
   (conventional, modified, CS-MAEKF) on gyro, accelerometer and magnetometer arrays;
@@ -28,8 +31,15 @@ import pandas as pd
 
 from . import _native
 from ._native import EstimatorError
+from .filterpy import (ExtendedKalmanFilter, KalmanFilter, MerweScaledSigmaPoints,
+                       UnscentedKalmanFilter, unscented_transform)
 
 __all__ = [
+    "KalmanFilter",
+    "ExtendedKalmanFilter",
+    "UnscentedKalmanFilter",
+    "MerweScaledSigmaPoints",
+    "unscented_transform",
     "navigate",
     "Navigation",
     "kalman",

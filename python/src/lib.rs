@@ -15,6 +15,7 @@
 #![allow(non_snake_case)]
 
 mod ahrs;
+mod callables;
 mod filter;
 
 use std::path::Path;
@@ -269,6 +270,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(navigate, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     filter::register(m)?;
+    callables::register(m)?;
     ahrs::register(m)?;
     Ok(())
 }

@@ -1,0 +1,363 @@
+//! The filter core behind the Python models given as callables (FilterPy's shape, in
+//! `estimator/filterpy.py`): Python evaluates the user's `fx`, `hx`, Jacobians, mean and
+//! residual functions; this core takes what they give — the predicted state with `F` and
+//! `Q`, the innovation with `H` (extended filter) or the sigma points' statistics
+//! (unscented filter) — and runs the library's prediction and update on it, so every
+//! noise strategy, the gate, the verdict, the report and the RTS smoother apply. The
+//! state is Euclidean (`R^n`); the dimensions are compile-time in the library, and a core
+//! is built for `n ≤ MAX_N` with updates of `m ≤ MAX_M` (dispatched at run time).
+
+use adaptive::AnyStrategy;
+use estimator_core::{
+    ErrorStateFilter, MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessModel,
+    RtsSmoother,
+};
+use nalgebra::{Const, SMatrix, SVector};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::fail;
+
+/// Largest state dimension of a core.
+pub const MAX_N: usize = 9;
+/// Largest measurement dimension of an update.
+pub const MAX_M: usize = 8;
+
+/// A prediction computed by the caller: the predicted state, the transition `F` (the
+/// Jacobian, or the sigma points' statistical one) and the process noise `Q`, so that
+/// `P⁻ = F P Fᵀ + Q`.
+struct GivenStep<const N: usize> {
+    x: SVector<f64, N>,
+    F: SMatrix<f64, N, N>,
+    Q: SMatrix<f64, N, N>,
+}
+
+impl<const N: usize> ProcessModel for GivenStep<N> {
+    type State = SVector<f64, N>;
+    type Input = ();
+
+    fn propagate(&self, _x: &SVector<f64, N>, _u: &(), _dt: f64) -> SVector<f64, N> {
+        self.x
+    }
+
+    fn jacobians(&self, _x: &SVector<f64, N>, _u: &(), _dt: f64) -> ProcessJacobians<Const<N>> {
+        ProcessJacobians { Phi: self.F, Q: self.Q }
+    }
+}
+
+/// A measurement linearised by the caller: the innovation `y = residual(z, h(x))` and
+/// `H` (for the unscented filter, the statistical `H̃ = P_xzᵀ P⁻¹`).
+struct Given<const M: usize, const N: usize> {
+    y: SVector<f64, M>,
+    H: SMatrix<f64, M, N>,
+}
+
+impl<const M: usize, const N: usize> MeasurementModel for Given<M, N> {
+    type State = SVector<f64, N>;
+    type Measurement = SVector<f64, M>;
+
+    fn predict(&self, _x: &SVector<f64, N>) -> SVector<f64, M> {
+        SVector::zeros()
+    }
+
+    fn jacobian(&self, _x: &SVector<f64, N>) -> MeasurementJacobians<Const<M>, Const<N>> {
+        MeasurementJacobians { H: self.H }
+    }
+
+    fn innovation(
+        &self,
+        _x: &SVector<f64, N>,
+        _z: &SVector<f64, M>,
+    ) -> (SVector<f64, M>, MeasurementJacobians<Const<M>, Const<N>>) {
+        (self.y, MeasurementJacobians { H: self.H })
+    }
+}
+
+/// What an update gives back, row-major.
+#[derive(Default)]
+struct Updated {
+    x: Vec<f64>,
+    P: Vec<f64>,
+    K: Vec<f64>,
+    S: Vec<f64>,
+    nis: f64,
+    nis_adapted: f64,
+    log_likelihood: f64,
+    verdict: &'static str,
+}
+
+fn rowmajor<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<f64> {
+    m.transpose().iter().copied().collect()
+}
+
+/// The operations of a core, whatever its dimension.
+trait Core: Send + Sync {
+    fn set(&mut self, x: &[f64], P: &[f64]) -> Result<(), String>;
+    fn predict(&mut self, x: &[f64], F: &[f64], Q: &[f64], dt: f64) -> Result<Vec<f64>, String>;
+    /// `stats`: `H` holds `P_xz` (`n × m`) and `Pzz` the points' spread of `h`.
+    fn update(
+        &mut self,
+        y: &[f64],
+        H: &[f64],
+        R: &[f64],
+        Pzz: Option<&[f64]>,
+    ) -> Result<Updated, String>;
+    fn smooth(&self) -> Result<(Vec<f64>, Vec<f64>), String>;
+    fn strategy(&self) -> &'static str;
+}
+
+struct Filter<const N: usize> {
+    f: ErrorStateFilter<SVector<f64, N>, AnyStrategy>,
+    rts: Option<RtsSmoother<SVector<f64, N>>>,
+}
+
+impl<const N: usize> Filter<N> {
+    fn update_m<const M: usize>(
+        &mut self,
+        y: &[f64],
+        H: &[f64],
+        R: &[f64],
+        Pzz: Option<&[f64]>,
+    ) -> Result<Updated, String> {
+        let y = SVector::<f64, M>::from_row_slice(y);
+        let R = SMatrix::<f64, M, M>::from_row_slice(R);
+        let (H, R_used) = match Pzz {
+            None => (SMatrix::<f64, M, N>::from_row_slice(H), R),
+            Some(pzz) => {
+                // statistical linear regression of the points: H̃ = P_xzᵀ P⁻¹ and the noise
+                // R + Ω, Ω = P_zz − H̃ P_xz (the points' linearisation error), so that
+                // S = H̃ P H̃ᵀ + R + Ω = P_zz + R and K = P H̃ᵀ S⁻¹ = P_xz S⁻¹
+                let pxz = SMatrix::<f64, N, M>::from_row_slice(H);
+                let pzz = SMatrix::<f64, M, M>::from_row_slice(pzz);
+                let chol = self
+                    .f
+                    .covariance()
+                    .into_owned()
+                    .cholesky()
+                    .ok_or("the covariance P is not positive definite")?;
+                let h = chol.solve(&pxz).transpose();
+                let mut total = pzz - h * pxz + R;
+                total = (total + total.transpose()) * 0.5;
+                (h, total)
+            }
+        };
+        let (report, K) = self
+            .f
+            .update_with_gain(
+                &Given { y, H },
+                &SVector::zeros(),
+                &R_used,
+                &mut estimator_core::NoObserver,
+            )
+            .map_err(|e| e.to_string())?;
+        Ok(Updated {
+            x: self.f.state().iter().copied().collect(),
+            P: rowmajor(&self.f.covariance().into_owned()),
+            K: K.map_or_else(|| vec![0.0; N * M], |k| rowmajor(&k)),
+            S: rowmajor(&report.S),
+            nis: report.nis,
+            nis_adapted: report.nis_adapted,
+            log_likelihood: report.log_likelihood,
+            verdict: report.verdict.as_str(),
+        })
+    }
+}
+
+macro_rules! update_dispatch {
+    ($self:ident, $m:expr, $y:ident, $H:ident, $R:ident, $Pzz:ident, [$($mm:literal),*]) => {
+        match $m {
+            $($mm => $self.update_m::<$mm>($y, $H, $R, $Pzz),)*
+            m => Err(format!("measurement dimension {m}: 1 to {MAX_M}")),
+        }
+    };
+}
+
+impl<const N: usize> Core for Filter<N> {
+    fn set(&mut self, x: &[f64], P: &[f64]) -> Result<(), String> {
+        self.f.set_state(SVector::from_row_slice(x)).map_err(|e| format!("x: {e}"))?;
+        self.f.set_covariance(SMatrix::from_row_slice(P)).map_err(|e| format!("P: {e}"))
+    }
+
+    fn predict(&mut self, x: &[f64], F: &[f64], Q: &[f64], dt: f64) -> Result<Vec<f64>, String> {
+        let step = GivenStep {
+            x: SVector::from_row_slice(x),
+            F: SMatrix::from_row_slice(F),
+            Q: SMatrix::from_row_slice(Q),
+        };
+        match &mut self.rts {
+            Some(rts) => rts.predict(&mut self.f, &step, &(), dt),
+            None => self.f.predict(&step, &(), dt),
+        }
+        .map_err(|e| e.to_string())?;
+        Ok(rowmajor(&self.f.covariance().into_owned()))
+    }
+
+    fn update(
+        &mut self,
+        y: &[f64],
+        H: &[f64],
+        R: &[f64],
+        Pzz: Option<&[f64]>,
+    ) -> Result<Updated, String> {
+        update_dispatch!(self, y.len(), y, H, R, Pzz, [1, 2, 3, 4, 5, 6, 7, 8])
+    }
+
+    fn smooth(&self) -> Result<(Vec<f64>, Vec<f64>), String> {
+        let rts = self.rts.as_ref().ok_or("the filter was made with smooth=False")?;
+        let s = rts.smooth(&self.f).map_err(|e| e.to_string())?;
+        let xs = s.iter().flat_map(|e| e.x.iter().copied()).collect();
+        let ps = s.iter().flat_map(|e| rowmajor(&e.p)).collect();
+        Ok((xs, ps))
+    }
+
+    fn strategy(&self) -> &'static str {
+        estimator_core::NoiseStrategy::name(self.f.strategy())
+    }
+}
+
+fn build<const N: usize>(strategy: AnyStrategy, smooth: bool) -> Result<Box<dyn Core>, String> {
+    let f = ErrorStateFilter::new(SVector::<f64, N>::zeros(), SMatrix::identity(), strategy)
+        .map_err(|e| e.to_string())?;
+    Ok(Box::new(Filter { f, rts: smooth.then(RtsSmoother::new) }))
+}
+
+/// The filter core of the Python callables: created for a state dimension, a strategy by
+/// name, and whether the RTS smoother records.
+#[pyclass(module = "estimator._native")]
+pub struct CallableCore {
+    core: Box<dyn Core>,
+    n: usize,
+}
+
+fn flat(name: &str, a: &PyReadonlyArrayDyn<'_, f64>, len: usize) -> PyResult<Vec<f64>> {
+    let v: Vec<f64> = a.as_array().iter().copied().collect();
+    if v.len() != len {
+        return Err(PyValueError::new_err(format!(
+            "{name} has {} entries, {len} expected (shape {:?})",
+            v.len(),
+            a.as_array().shape()
+        )));
+    }
+    Ok(v)
+}
+
+#[pymethods]
+impl CallableCore {
+    #[new]
+    #[pyo3(signature = (n, strategy="fixed", smooth=false))]
+    fn new(n: usize, strategy: &str, smooth: bool) -> PyResult<Self> {
+        let s: AnyStrategy = strategy.parse().map_err(fail)?;
+        let core = match n {
+            1 => build::<1>(s, smooth),
+            2 => build::<2>(s, smooth),
+            3 => build::<3>(s, smooth),
+            4 => build::<4>(s, smooth),
+            5 => build::<5>(s, smooth),
+            6 => build::<6>(s, smooth),
+            7 => build::<7>(s, smooth),
+            8 => build::<8>(s, smooth),
+            9 => build::<9>(s, smooth),
+            n => Err(format!("state dimension {n}: 1 to {MAX_N}")),
+        }
+        .map_err(fail)?;
+        Ok(Self { core, n })
+    }
+
+    /// Set the state and covariance (as the Python object holds them).
+    fn set(
+        &mut self,
+        x: PyReadonlyArrayDyn<'_, f64>,
+        P: PyReadonlyArrayDyn<'_, f64>,
+    ) -> PyResult<()> {
+        let n = self.n;
+        self.core.set(&flat("x", &x, n)?, &flat("P", &P, n * n)?).map_err(fail)
+    }
+
+    /// From the posterior `x0`, `P0`: predict to the state `x` with transition `F` and
+    /// noise `Q` (`P⁻ = λ F P Fᵀ + Q`, with the strategy's fading `λ` and process-noise
+    /// adjustment); returns `P⁻`.
+    #[allow(clippy::too_many_arguments)]
+    fn predict<'py>(
+        &mut self,
+        py: Python<'py>,
+        x0: PyReadonlyArrayDyn<'py, f64>,
+        P0: PyReadonlyArrayDyn<'py, f64>,
+        x: PyReadonlyArrayDyn<'py, f64>,
+        F: PyReadonlyArrayDyn<'py, f64>,
+        Q: PyReadonlyArrayDyn<'py, f64>,
+        dt: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.n;
+        self.core.set(&flat("x", &x0, n)?, &flat("P", &P0, n * n)?).map_err(fail)?;
+        let (x, F, Q) = (flat("x", &x, n)?, flat("F", &F, n * n)?, flat("Q", &Q, n * n)?);
+        let p = self.core.predict(&x, &F, &Q, dt).map_err(fail)?;
+        Ok(PyArray1::from_vec(py, p).reshape([n, n])?.into_any())
+    }
+
+    /// At the prior `x0`, `P0`: update with innovation `y` and Jacobian `H` (`m × n`),
+    /// noise `R`; with `Pzz`, `H` is the points' cross-covariance `P_xz` (`n × m`) and
+    /// `Pzz` their spread of `h` (without `R`). Returns a dict: `x`, `P`, `K`, `S`, `nis`,
+    /// `nis_adapted`, `log_likelihood`, `verdict`.
+    #[pyo3(signature = (x0, P0, y, H, R, Pzz=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn update<'py>(
+        &mut self,
+        py: Python<'py>,
+        x0: PyReadonlyArrayDyn<'py, f64>,
+        P0: PyReadonlyArrayDyn<'py, f64>,
+        y: PyReadonlyArrayDyn<'py, f64>,
+        H: PyReadonlyArrayDyn<'py, f64>,
+        R: PyReadonlyArrayDyn<'py, f64>,
+        Pzz: Option<PyReadonlyArrayDyn<'py, f64>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.n;
+        self.core.set(&flat("x", &x0, n)?, &flat("P", &P0, n * n)?).map_err(fail)?;
+        let y: Vec<f64> = y.as_array().iter().copied().collect();
+        let m = y.len();
+        let H = flat(if Pzz.is_some() { "Pxz" } else { "H" }, &H, m * n)?;
+        let R = flat("R", &R, m * m)?;
+        let pzz = match &Pzz {
+            Some(p) => Some(flat("Pzz", p, m * m)?),
+            None => None,
+        };
+        let u = self.core.update(&y, &H, &R, pzz.as_deref()).map_err(fail)?;
+        let d = PyDict::new(py);
+        d.set_item("x", PyArray1::from_vec(py, u.x))?;
+        d.set_item("P", PyArray1::from_vec(py, u.P).reshape([n, n])?)?;
+        d.set_item("K", PyArray1::from_vec(py, u.K).reshape([n, m])?)?;
+        d.set_item("S", PyArray1::from_vec(py, u.S).reshape([m, m])?)?;
+        d.set_item("nis", u.nis)?;
+        d.set_item("nis_adapted", u.nis_adapted)?;
+        d.set_item("log_likelihood", u.log_likelihood)?;
+        d.set_item("verdict", u.verdict)?;
+        Ok(d)
+    }
+
+    /// The RTS smoother over every recorded prediction: `(xs, Ps)`, the smoothed states
+    /// at the start and after every prediction.
+    fn smooth<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let n = self.n;
+        let (xs, ps) = self.core.smooth().map_err(fail)?;
+        let k = xs.len() / n;
+        Ok((
+            PyArray1::from_vec(py, xs).reshape([k, n])?.into_any(),
+            PyArray1::from_vec(py, ps).reshape([k, n, n])?.into_any(),
+        ))
+    }
+
+    /// The strategy's name.
+    #[getter]
+    fn strategy(&self) -> &'static str {
+        self.core.strategy()
+    }
+}
+
+/// Add the class of this module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<CallableCore>()?;
+    m.add("CALLABLE_MAX_N", MAX_N)?;
+    m.add("CALLABLE_MAX_M", MAX_M)?;
+    Ok(())
+}
