@@ -154,7 +154,7 @@ impl<const N: usize> Filter<N> {
             .map_err(|e| e.to_string())?;
         Ok(Updated {
             x: self.f.state().iter().copied().collect(),
-            P: rowmajor(&self.f.covariance().into_owned()),
+            P: rowmajor(&self.f.covariance()),
             K: K.map_or_else(|| vec![0.0; N * M], |k| rowmajor(&k)),
             S: rowmajor(&report.S),
             nis: report.nis,
@@ -191,7 +191,7 @@ impl<const N: usize> Core for Filter<N> {
             None => self.f.predict(&step, &(), dt),
         }
         .map_err(|e| e.to_string())?;
-        Ok(rowmajor(&self.f.covariance().into_owned()))
+        Ok(rowmajor(&self.f.covariance()))
     }
 
     fn update(
