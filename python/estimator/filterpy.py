@@ -15,7 +15,8 @@ what FilterPy does not have comes with them:
   ``rejected``), ``nis`` and ``nis_adapted``; a refused measurement leaves ``x`` and
   ``P`` as they were;
 - ``smooth=True``: the library's RTS smoother over every prediction made
-  (:meth:`smoothed`), for the extended and unscented filters too.
+  (:meth:`smoothed`), for the extended and unscented filters too; ``lag=k``: its
+  fixed-lag smoother over the last ``k`` predictions, in bounded memory.
 
 The state is a vector of ``dim_x`` ≤ ``estimator._native.CALLABLE_MAX_N`` (9) entries and a
 measurement has at most ``CALLABLE_MAX_M`` (8): the library's dimensions are fixed when
@@ -59,9 +60,10 @@ class _Core:
     """What the three filters share: the native core, the attributes FilterPy gives after
     an update, and the smoother."""
 
-    def __init__(self, dim_x: int, dim_z: int, strategy: str, smooth: bool):
+    def __init__(self, dim_x: int, dim_z: int, strategy: str, smooth: bool,
+                 lag: Optional[int] = None):
         self.dim_x, self.dim_z = dim_x, dim_z
-        self._core = _native.CallableCore(dim_x, strategy, smooth)
+        self._core = _native.CallableCore(dim_x, strategy, smooth, lag)
         self.x = np.zeros(dim_x)
         self.P = np.eye(dim_x)
         self.Q = np.eye(dim_x)
@@ -147,9 +149,10 @@ class _Core:
         return out
 
     def smoothed(self):
-        """The RTS smoother over every prediction since the start (``smooth=True``):
-        ``(xs, Ps)``, the smoothed states at the start and after every prediction (with
-        the updates that followed it)."""
+        """The smoother's estimates ``(xs, Ps)``: with ``smooth=True`` the RTS smoother's
+        at the start and after every prediction since (with the updates that followed
+        it); with ``lag=k`` the fixed-lag smoother's over the last ``k`` predictions (the
+        first is ``x(t − k steps | t)``), in bounded memory."""
         return self._core.smooth()
 
 
@@ -162,8 +165,8 @@ class KalmanFilter(_Core):
     """
 
     def __init__(self, dim_x: int, dim_z: int, dim_u: int = 0, strategy: str = "fixed",
-                 smooth: bool = False):
-        super().__init__(dim_x, dim_z, strategy, smooth)
+                 smooth: bool = False, lag: Optional[int] = None):
+        super().__init__(dim_x, dim_z, strategy, smooth, lag)
         self.dim_u = dim_u
         self.F = np.eye(dim_x)
         self.H = np.zeros((dim_z, dim_x))
@@ -249,8 +252,8 @@ class ExtendedKalmanFilter(_Core):
     library's update. ``x`` may be a column, as in FilterPy."""
 
     def __init__(self, dim_x: int, dim_z: int, dim_u: int = 0, strategy: str = "fixed",
-                 smooth: bool = False, dt: float = 1.0):
-        super().__init__(dim_x, dim_z, strategy, smooth)
+                 smooth: bool = False, dt: float = 1.0, lag: Optional[int] = None):
+        super().__init__(dim_x, dim_z, strategy, smooth, lag)
         self.dim_u = dim_u
         self.x = np.zeros((dim_x, 1))
         self.F = np.eye(dim_x)
@@ -357,8 +360,8 @@ class UnscentedKalmanFilter(_Core):
     def __init__(self, dim_x: int, dim_z: int, dt: float, hx: Callable, fx: Callable,
                  points, sqrt_fn=None, x_mean_fn=None, z_mean_fn=None, residual_x=None,
                  residual_z=None, state_add=None, strategy: str = "fixed",
-                 smooth: bool = False):
-        super().__init__(dim_x, dim_z, strategy, smooth)
+                 smooth: bool = False, lag: Optional[int] = None):
+        super().__init__(dim_x, dim_z, strategy, smooth, lag)
         self._dt, self.hx, self.fx = dt, hx, fx
         self.points_fn = points
         self.x_mean, self.z_mean = x_mean_fn, z_mean_fn

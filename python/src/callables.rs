@@ -9,8 +9,8 @@
 
 use adaptive::AnyStrategy;
 use estimator_core::{
-    ErrorStateFilter, MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessModel,
-    RtsSmoother,
+    ErrorStateFilter, FixedLagSmoother, Lag, MeasurementJacobians, MeasurementModel,
+    ProcessJacobians, ProcessModel, RtsSmoother,
 };
 use nalgebra::{Const, SMatrix, SVector};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
@@ -108,9 +108,16 @@ trait Core: Send + Sync {
     fn strategy(&self) -> &'static str;
 }
 
+/// Which smoother records the predictions.
+enum Recorder<const N: usize> {
+    None,
+    Rts(RtsSmoother<SVector<f64, N>>),
+    FixedLag(FixedLagSmoother<SVector<f64, N>>),
+}
+
 struct Filter<const N: usize> {
     f: ErrorStateFilter<SVector<f64, N>, AnyStrategy>,
-    rts: Option<RtsSmoother<SVector<f64, N>>>,
+    rec: Recorder<N>,
 }
 
 impl<const N: usize> Filter<N> {
@@ -186,9 +193,10 @@ impl<const N: usize> Core for Filter<N> {
             F: SMatrix::from_row_slice(F),
             Q: SMatrix::from_row_slice(Q),
         };
-        match &mut self.rts {
-            Some(rts) => rts.predict(&mut self.f, &step, &(), dt),
-            None => self.f.predict(&step, &(), dt),
+        match &mut self.rec {
+            Recorder::Rts(rts) => rts.predict(&mut self.f, &step, &(), dt),
+            Recorder::FixedLag(fl) => fl.predict(&mut self.f, &step, &(), dt),
+            Recorder::None => self.f.predict(&step, &(), dt),
         }
         .map_err(|e| e.to_string())?;
         Ok(rowmajor(&self.f.covariance()))
@@ -205,8 +213,12 @@ impl<const N: usize> Core for Filter<N> {
     }
 
     fn smooth(&self) -> Result<(Vec<f64>, Vec<f64>), String> {
-        let rts = self.rts.as_ref().ok_or("the filter was made with smooth=False")?;
-        let s = rts.smooth(&self.f).map_err(|e| e.to_string())?;
+        let s = match &self.rec {
+            Recorder::Rts(rts) => rts.smooth(&self.f),
+            Recorder::FixedLag(fl) => fl.smooth(&self.f),
+            Recorder::None => return Err("the filter was made without smooth or lag".into()),
+        }
+        .map_err(|e| e.to_string())?;
         let xs = s.iter().flat_map(|e| e.x.iter().copied()).collect();
         let ps = s.iter().flat_map(|e| rowmajor(&e.p)).collect();
         Ok((xs, ps))
@@ -217,14 +229,25 @@ impl<const N: usize> Core for Filter<N> {
     }
 }
 
-fn build<const N: usize>(strategy: AnyStrategy, smooth: bool) -> Result<Box<dyn Core>, String> {
+fn build<const N: usize>(
+    strategy: AnyStrategy,
+    smooth: bool,
+    lag: Option<usize>,
+) -> Result<Box<dyn Core>, String> {
     let f = ErrorStateFilter::new(SVector::<f64, N>::zeros(), SMatrix::identity(), strategy)
         .map_err(|e| e.to_string())?;
-    Ok(Box::new(Filter { f, rts: smooth.then(RtsSmoother::new) }))
+    let rec = match (smooth, lag) {
+        (true, Some(_)) => return Err("smooth and lag: one smoother or the other".into()),
+        (true, None) => Recorder::Rts(RtsSmoother::new()),
+        (false, Some(k)) => Recorder::FixedLag(FixedLagSmoother::new(Lag::Steps(k))),
+        (false, None) => Recorder::None,
+    };
+    Ok(Box::new(Filter { f, rec }))
 }
 
 /// The filter core of the Python callables: created for a state dimension, a strategy by
-/// name, and whether the RTS smoother records.
+/// name, and which smoother records (`smooth`: the RTS smoother over the whole run; `lag`:
+/// the fixed-lag smoother over the last `lag` predictions).
 #[pyclass(module = "estimator._native")]
 pub struct CallableCore {
     core: Box<dyn Core>,
@@ -246,19 +269,19 @@ fn flat(name: &str, a: &PyReadonlyArrayDyn<'_, f64>, len: usize) -> PyResult<Vec
 #[pymethods]
 impl CallableCore {
     #[new]
-    #[pyo3(signature = (n, strategy="fixed", smooth=false))]
-    fn new(n: usize, strategy: &str, smooth: bool) -> PyResult<Self> {
+    #[pyo3(signature = (n, strategy="fixed", smooth=false, lag=None))]
+    fn new(n: usize, strategy: &str, smooth: bool, lag: Option<usize>) -> PyResult<Self> {
         let s: AnyStrategy = strategy.parse().map_err(fail)?;
         let core = match n {
-            1 => build::<1>(s, smooth),
-            2 => build::<2>(s, smooth),
-            3 => build::<3>(s, smooth),
-            4 => build::<4>(s, smooth),
-            5 => build::<5>(s, smooth),
-            6 => build::<6>(s, smooth),
-            7 => build::<7>(s, smooth),
-            8 => build::<8>(s, smooth),
-            9 => build::<9>(s, smooth),
+            1 => build::<1>(s, smooth, lag),
+            2 => build::<2>(s, smooth, lag),
+            3 => build::<3>(s, smooth, lag),
+            4 => build::<4>(s, smooth, lag),
+            5 => build::<5>(s, smooth, lag),
+            6 => build::<6>(s, smooth, lag),
+            7 => build::<7>(s, smooth, lag),
+            8 => build::<8>(s, smooth, lag),
+            9 => build::<9>(s, smooth, lag),
             n => Err(format!("state dimension {n}: 1 to {MAX_N}")),
         }
         .map_err(fail)?;
@@ -335,8 +358,9 @@ impl CallableCore {
         Ok(d)
     }
 
-    /// The RTS smoother over every recorded prediction: `(xs, Ps)`, the smoothed states
-    /// at the start and after every prediction.
+    /// The smoother over the recorded predictions: `(xs, Ps)`, the smoothed states at the
+    /// start and after every prediction (RTS), or over the last `lag` predictions
+    /// (fixed lag: the oldest is `x(t − lag | t)`).
     fn smooth<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let n = self.n;
         let (xs, ps) = self.core.smooth().map_err(fail)?;

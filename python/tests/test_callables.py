@@ -312,3 +312,14 @@ def test_a_gate_refuses_an_outlier_and_the_smoother_runs():
         # the last smoothed estimate is the last filtered one
         assert np.allclose(sx[-1], xs[-1], atol=1e-12)
         assert all(np.all(np.linalg.eigvalsh(p) > 0) for p in sp)
+
+    # the fixed-lag smoother over the last 10 predictions: the RTS smoother's estimates
+    # over that window (the same recursion, restricted to it)
+    rts = ekf_robot(estimator.ExtendedKalmanFilter, smooth=True)
+    lagged = ekf_robot(estimator.ExtendedKalmanFilter, lag=10)
+    run_ekf(rts, u, zs)
+    run_ekf(lagged, u, zs)
+    (ax, ap), (bx, bp) = rts.smoothed(), lagged.smoothed()
+    assert bx.shape == (11, 3)
+    assert np.allclose(bx, ax[-11:], rtol=0, atol=1e-12)
+    assert np.allclose(bp, ap[-11:], rtol=0, atol=1e-12)
