@@ -10,6 +10,8 @@ Kalman filter with adaptive noise, running in Rust.
 - :class:`ExtendedKalmanFilter`, :class:`UnscentedKalmanFilter` and
   :class:`KalmanFilter` take your models as Python callables in FilterPy's shape, with
   every strategy, the gate, the verdict and the RTS smoother (``estimator.filterpy``).
+- :func:`fleet` runs many logs or seeds on a Dask cluster (a local one by default) and
+  returns one table: errors, verdict, refused share, time, failures.
 - :func:`kinematic` gives ``F, Q`` of the built-in kinematic models (CV, CA, Singer).
 - :func:`ahrs` runs the attitude and heading reference system of the third paper
   (conventional, modified, CS-MAEKF) on gyro, accelerometer and magnetometer arrays;
@@ -33,8 +35,11 @@ from . import _native
 from ._native import EstimatorError
 from .filterpy import (ExtendedKalmanFilter, KalmanFilter, MerweScaledSigmaPoints,
                        UnscentedKalmanFilter, unscented_transform)
+from .fleet import Job, fleet
 
 __all__ = [
+    "fleet",
+    "Job",
     "KalmanFilter",
     "ExtendedKalmanFilter",
     "UnscentedKalmanFilter",

@@ -1,0 +1,53 @@
+"""Fleets on Dask: a two-worker local cluster runs navego logs and a bad one; the table
+has a row per job in order, the numbers of the sequential runs, the verdict, and the
+bad log's message without stopping the others. And a campaign of seeds of one's own."""
+
+import math
+import os
+
+import numpy as np
+import pytest
+
+import estimator
+
+DATA = os.path.join(os.path.dirname(__file__), "..", "..", "data")
+NAVEGO = os.path.join(DATA, "navego", "kf-gins-ADIS16488.yaml")
+TRUTH = os.path.join(DATA, "navego", "truth.nav.zst")
+
+
+def seed_row(seed):
+    """A campaign's job of one's own: one simulated figure per seed."""
+    rng = np.random.default_rng(seed)
+    return {"seed": seed, "figure": float(rng.normal())}
+
+
+def test_fleet_on_a_two_worker_local_cluster(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[data]\nimu = 'missing.txt'\ngnss = 'missing.txt'\nimu_rate = 100.0\n"
+                   "[imu_noise]\narw = [0.2, 0.2, 0.2]\nvrw = [0.1, 0.1, 0.1]\n"
+                   "gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n"
+                   "corr_time = 1.0\n")
+    jobs = [estimator.Job(f"navego {s}", NAVEGO, truth=TRUTH, skip=60,
+                          options={"strategy": s})
+            for s in ("fixed", "sage-husa", "fused")]
+    jobs.insert(1, estimator.Job("bad", str(bad)))
+    table = estimator.fleet(jobs, workers=2)
+    assert list(table["name"]) == ["navego fixed", "bad", "navego sage-husa", "navego fused"]
+    assert list(table["ok"]) == [True, False, True, True]
+    assert "missing.txt" in table.loc[1, "error"], table.loc[1, "error"]
+    # the numbers of the same runs made here, one after the other
+    for k, s in ((0, "fixed"), (2, "sage-husa"), (3, "fused")):
+        nav = estimator.navigate(NAVEGO, strategy=s, accept_inconsistent=True)
+        rms = nav.evaluate(TRUTH, 60)["overall"]["horizontal"]["rms"]
+        assert table.loc[k, "horizontal_rms"] == rms
+        assert table.loc[k, "verdict"] == ("trusted" if nav.summary["warning"] is None
+                                          else "flagged")
+    assert math.isclose(table.loc[0, "horizontal_rms"], 1.445, abs_tol=0.001)
+    assert (table.loc[[0, 2, 3], "refused_share"] >= 0).all()
+    assert (table["time_s"] > 0).all()
+    assert "fleet [" in capsys.readouterr().err  # the progress bar
+
+    seeds = estimator.fleet([estimator.Job(f"seed {s}", run=seed_row, options={"seed": s})
+                             for s in range(6)], workers=2, progress=False)
+    assert list(seeds["seed"]) == list(range(6))
+    assert list(seeds["figure"]) == [seed_row(s)["figure"] for s in range(6)]
