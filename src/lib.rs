@@ -39,4 +39,6 @@ mod guide {
     mod library {}
     #[doc = include_str!("../docs/guide/microcontroller.md")]
     mod microcontroller {}
+    #[doc = include_str!("../docs/guide/house.md")]
+    mod house {}
 }

@@ -342,6 +342,24 @@ where
         })
     }
 
+    /// Propagate to the absolute time `t` (s): [`predict`](Self::predict) over
+    /// `t − time()`, after which the filter's time is `t` exactly — stamps compare equal
+    /// however many steps led there (a sum of steps drifts: 200 steps of 0.1 s sum to
+    /// 20.000000000000014). A `t` before the filter's time is an error; on `Err` the
+    /// filter is unchanged.
+    pub fn predict_to<PM>(&mut self, model: &PM, u: &PM::Input, t: f64) -> Result<(), FilterError>
+    where
+        PM: ProcessModel<T, State = X>,
+    {
+        let dt = t - self.time;
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(FilterError::InvalidTimeStep { dt });
+        }
+        self.predict(model, u, T::lit(dt))?;
+        self.time = t;
+        Ok(())
+    }
+
     /// Propagate over `dt ≥ 0` seconds with `model` and input `u`:
     /// `x̂⁻ = f(x̂, u, dt)`, `P⁻ = λ Φ P Φᵀ + Q_d` (λ = 1 unless the strategy fades), by the
     /// back-end's [`CovBackend::predict`]. `Q_d` is checked (finite, symmetric, positive

@@ -197,3 +197,26 @@ fn any_update_and_prediction_replay_bit_for_bit_with_natural_stamps() {
     // the filter's clock is not the natural stamp, which is why the tolerance matters
     assert_ne!(f.time(), 300.0 * STEP);
 }
+
+/// `predict_to` lands on the stamp exactly, where a sum of steps drifts, and refuses a
+/// time in the past.
+#[test]
+fn predict_to_lands_on_the_stamp() {
+    use estimator_core::linear::LinearProcess;
+    use estimator_core::{ErrorStateFilter, FixedNoise};
+    use nalgebra::{Matrix2, Vector2};
+    let process =
+        LinearProcess { F: Matrix2::new(1.0, 0.1, 0.0, 1.0), Q: Matrix2::identity() * 1e-3 };
+    let mut summed =
+        ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
+    let mut stamped = summed.clone();
+    for k in 1..=200 {
+        summed.predict(&process, &(), 0.1).unwrap();
+        stamped.predict_to(&process, &(), k as f64 * 0.1).unwrap();
+    }
+    assert_ne!(summed.time(), 20.0);
+    assert_eq!(stamped.time(), 20.0);
+    assert!((summed.state() - stamped.state()).abs().max() < 1e-12);
+    assert!(stamped.predict_to(&process, &(), 19.9).is_err());
+    assert_eq!(stamped.time(), 20.0);
+}
