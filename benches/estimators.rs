@@ -40,9 +40,7 @@ impl MeasurementModel for RangeBearing {
         let d = self.0 - x.xy();
         let q = d.norm_squared();
         let r = q.sqrt();
-        MeasurementJacobians {
-            H: Matrix2x3::new(-d.x / r, -d.y / r, 0.0, d.y / q, -d.x / q, -1.0),
-        }
+        MeasurementJacobians { H: Matrix2x3::new(-d.x / r, -d.y / r, 0.0, d.y / q, -d.x / q, -1.0) }
     }
 }
 

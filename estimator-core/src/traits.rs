@@ -240,8 +240,17 @@ where
     /// Predicted measurement `h(x)`.
     fn predict(&self, x: &Self::State) -> Self::Measurement;
 
-    /// `H` at `x`.
-    fn jacobian(&self, x: &Self::State) -> JacobiansOf<Self, T>;
+    /// `H` at `x`. Default: central differences through `⊕` on the state and `⊖` on the
+    /// measurement (step [`Real::DIFF_STEP`](manifolds::Real::DIFF_STEP)), so a model
+    /// used only through sigma points (the unscented update calls `predict` alone) needs
+    /// none, and any other model works before its analytic `H` is written; override it
+    /// where speed or accuracy matter (the harness compares an override with these
+    /// differences).
+    fn jacobian(&self, x: &Self::State) -> JacobiansOf<Self, T> {
+        MeasurementJacobians {
+            H: manifolds::numdiff::jacobian_between(x, |p| self.predict(p), T::DIFF_STEP),
+        }
+    }
 
     /// `h(x)` and `H` at once; override when they share work (rotation matrices, Earth
     /// rates). [`innovation`](Self::innovation)'s default, which the filter calls, calls

@@ -91,3 +91,38 @@ fn the_unscented_update_goes_through_the_strategy_hook() {
     assert_eq!(ukf.covariance().into_owned(), p);
     assert_eq!((ukf.strategy().seen, ukf.epoch()), (2, 2));
 }
+
+/// Range and bearing to a landmark, written with `predict` only: no Jacobian.
+struct RangeBearingNoJacobian;
+
+impl estimator_core::MeasurementModel for RangeBearingNoJacobian {
+    type State = Vector2<f64>;
+    type Measurement = Vector2<f64>;
+
+    fn predict(&self, x: &Vector2<f64>) -> Vector2<f64> {
+        let d = Vector2::new(5.0, 10.0) - x;
+        Vector2::new(d.norm(), d.y.atan2(d.x))
+    }
+}
+
+/// A model with no Jacobian: the unscented update needs none, and the default `H` (central
+/// differences through ⊕/⊖) is the analytic one to 1e-7, so the plain update runs too.
+#[test]
+fn a_model_without_jacobian_runs_unscented_and_plain() {
+    use estimator_core::{ErrorStateFilter, FixedNoise, MeasurementModel, SigmaPoints};
+    let x0 = Vector2::new(2.0, 6.0);
+    let p0 = Matrix2::new(0.1, 0.02, 0.02, 0.2);
+    let r = Matrix2::new(0.09, 0.0, 0.0, 0.01);
+    let z = Vector2::new(4.9, 0.95);
+    let mut ukf = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+    ukf.update_unscented(&RangeBearingNoJacobian, &z, &r, &SigmaPoints::default()).unwrap();
+    let mut ekf = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+    ekf.update(&RangeBearingNoJacobian, &z, &r).unwrap();
+    let d = Vector2::new(5.0, 10.0) - x0;
+    let q = d.norm_squared();
+    let analytic = Matrix2::new(-d.x / q.sqrt(), -d.y / q.sqrt(), d.y / q, -d.x / q);
+    let h = RangeBearingNoJacobian.jacobian(&x0).H;
+    assert!((h - analytic).abs().max() < 1e-7, "{h} vs {analytic}");
+    // the two filters see the same measurement and land close (a mild nonlinearity)
+    assert!((ukf.state() - ekf.state()).norm() < 0.05, "{} vs {}", ukf.state(), ekf.state());
+}
