@@ -157,6 +157,32 @@ where
         Ok(())
     }
 
+    /// `filter.predict_unscented(model, u, dt, sp)`, recording the step with its
+    /// statistical transition `Φ̃ = P_yx P⁻¹`: the backward pass is then the unscented
+    /// RTS smoother's (Särkkä 2008). On `Err` nothing is recorded and the filter is
+    /// unchanged.
+    pub fn predict_unscented<A, B, PM>(
+        &mut self,
+        filter: &mut ErrorStateFilter<X, A, B>,
+        model: &PM,
+        u: &PM::Input,
+        dt: f64,
+        sp: &crate::SigmaPoints,
+    ) -> Result<(), FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+        PM: ProcessModel<State = X>,
+        DefaultAllocator: crate::FilterAlloc<X::Dim, X::Dim>,
+    {
+        if self.start_time.is_none() {
+            self.start_time = Some(filter.time());
+        }
+        let step = record_with(filter, |f| f.predict_unscented_transition(model, u, dt, sp))?;
+        self.steps.push(step);
+        Ok(())
+    }
+
     /// The backward pass from the filter's current (last) posterior: the smoothed
     /// estimate at the start and after every recorded prediction (with the updates that
     /// followed it), in time order.
@@ -291,9 +317,39 @@ where
     {
         let before = filter.time();
         let step = record(filter, model, u, dt)?;
+        self.push(before, step, filter.time());
+        Ok(())
+    }
+
+    /// `filter.predict_unscented(model, u, dt, sp)`, recording the step with its
+    /// statistical transition (see [`RtsSmoother::predict_unscented`]) and dropping the
+    /// steps that left the window. On `Err` nothing is recorded and the filter is
+    /// unchanged.
+    pub fn predict_unscented<A, B, PM>(
+        &mut self,
+        filter: &mut ErrorStateFilter<X, A, B>,
+        model: &PM,
+        u: &PM::Input,
+        dt: f64,
+        sp: &crate::SigmaPoints,
+    ) -> Result<(), FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+        PM: ProcessModel<State = X>,
+        DefaultAllocator: crate::FilterAlloc<X::Dim, X::Dim>,
+    {
+        let before = filter.time();
+        let step = record_with(filter, |f| f.predict_unscented_transition(model, u, dt, sp))?;
+        self.push(before, step, filter.time());
+        Ok(())
+    }
+
+    /// A recorded step into the window (which started at `before`; the filter is now at
+    /// `now`), dropping the steps that left it.
+    fn push(&mut self, before: f64, step: RtsStep<X>, now: f64) {
         self.start.get_or_insert(before);
         self.steps.push_back(step);
-        let now = filter.time();
         while let (Some(front), Some(start)) = (self.steps.front(), self.start) {
             let out = match self.lag {
                 Lag::Steps(n) => self.steps.len() > n,
@@ -306,7 +362,6 @@ where
             self.start = Some(front.time);
             self.steps.pop_front();
         }
-        Ok(())
     }
 
     /// The smoothed estimates over the window, oldest first (at the window's start and
@@ -350,10 +405,29 @@ where
     PM: ProcessModel<State = X>,
     DefaultAllocator: DimAlloc<X::Dim>,
 {
+    record_with(filter, |f| {
+        let phi = model.jacobians(f.state(), u, dt).Phi;
+        f.predict(model, u, dt)?;
+        Ok(phi)
+    })
+}
+
+/// A prediction made by `step` (which moves the filter and returns the step's transition:
+/// the model's Jacobian, or the sigma points' statistical one), with the posterior before
+/// it and the prior after it.
+fn record_with<X, A, B>(
+    filter: &mut ErrorStateFilter<X, A, B>,
+    step: impl FnOnce(&mut ErrorStateFilter<X, A, B>) -> Result<Cov<X::Dim>, FilterError>,
+) -> Result<RtsStep<X>, FilterError>
+where
+    X: Manifold,
+    A: NoiseStrategy,
+    B: CovBackend<X::Dim>,
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
     let x_post = filter.state().clone();
     let p_post = filter.covariance().into_owned();
-    let phi = model.jacobians(&x_post, u, dt).Phi;
-    filter.predict(model, u, dt)?;
+    let phi = step(filter)?;
     Ok(RtsStep {
         x_post,
         p_post,

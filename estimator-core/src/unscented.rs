@@ -260,6 +260,22 @@ where
     where
         PM: ProcessModel<State = X>,
     {
+        self.predict_unscented_transition(model, u, dt, sp).map(|_| ())
+    }
+
+    /// [`predict_unscented`](Self::predict_unscented), returning the statistically
+    /// linearised transition `Φ̃ = P_yx P⁻¹` of the step (what a smoother records: with it
+    /// the RTS gain `P Φ̃ᵀ P⁻⁻¹` is the unscented smoother's `P_xy P⁻⁻¹`).
+    pub(crate) fn predict_unscented_transition<PM>(
+        &mut self,
+        model: &PM,
+        u: &PM::Input,
+        dt: f64,
+        sp: &SigmaPoints,
+    ) -> Result<Cov<X::Dim>, FilterError>
+    where
+        PM: ProcessModel<State = X>,
+    {
         if !(dt.is_finite() && dt >= 0.0) {
             return Err(FilterError::InvalidTimeStep { dt });
         }
@@ -288,7 +304,8 @@ where
         // the statistically linearised transition Φ̃ = P_yx P⁻¹, for a strategy that
         // tracks the process noise since the last update
         let phi = drawn.chol.solve(&cross.transpose()).transpose();
-        self.finish_prediction(mean, P_next, dt, &phi, &jac.Q)
+        self.finish_prediction(mean, P_next, dt, &phi, &jac.Q)?;
+        Ok(phi)
     }
 
     /// The unscented update (see the [module](crate::unscented)) with measurement `z` of

@@ -126,3 +126,46 @@ fn a_model_without_jacobian_runs_unscented_and_plain() {
     // the two filters see the same measurement and land close (a mild nonlinearity)
     assert!((ukf.state() - ekf.state()).norm() < 0.05, "{} vs {}", ukf.state(), ekf.state());
 }
+
+/// The smoothers record unscented predictions (with the statistical transition): on the
+/// linear problem the RTS smoother over unscented steps is the RTS smoother over plain
+/// ones, and the fixed-lag smoother over unscented steps is the RTS smoother's window.
+#[test]
+fn the_smoothers_record_unscented_predictions() {
+    use estimator_core::{FixedLagSmoother, Lag, RtsSmoother};
+    let (f, q, h) = problem();
+    let sp = SigmaPoints::merwe(0.5, 2.0, 0.0);
+    let mut r = rng(9);
+    let p0 = spd::<4>(&mut r, 0.5);
+    let x0 = gaussian::<4, 1>(&mut r);
+    let (process, sensor) = (LinearProcess { F: f, Q: q }, LinearMeasurement::new(h));
+    let mut plain = ErrorStateFilter::new(x0, p0, FixedNoise).unwrap();
+    let mut sigma = plain.clone();
+    let mut lagged = plain.clone();
+    let (mut rts_plain, mut rts_sigma) = (RtsSmoother::new(), RtsSmoother::new());
+    let mut window = FixedLagSmoother::new(Lag::Steps(15));
+    let mut truth = Vector4::new(0.0, 0.0, 1.0, -0.5);
+    for k in 0..100 {
+        truth = f * truth;
+        rts_plain.predict(&mut plain, &process, &(), 0.1).unwrap();
+        rts_sigma.predict_unscented(&mut sigma, &process, &(), 0.1, &sp).unwrap();
+        window.predict_unscented(&mut lagged, &process, &(), 0.1, &sp).unwrap();
+        let rk = spd::<2>(&mut r, 0.1) * (0.5 + (k % 7) as f64 * 0.1);
+        let z = h * truth + gaussian::<2, 1>(&mut r) * 0.3;
+        plain.update(&sensor, &z, &rk).unwrap();
+        sigma.update_unscented(&sensor, &z, &rk, &sp).unwrap();
+        lagged.update_unscented(&sensor, &z, &rk, &sp).unwrap();
+    }
+    let (a, b) = (rts_plain.smooth(&plain).unwrap(), rts_sigma.smooth(&sigma).unwrap());
+    assert_eq!((a.len(), b.len()), (101, 101));
+    for (k, (a, b)) in a.iter().zip(&b).enumerate() {
+        assert!(close(&a.x, &b.x, 1e-10), "x at {k}");
+        assert!(close(&a.p, &b.p, 1e-10), "P at {k}");
+    }
+    let w = window.smooth(&lagged).unwrap();
+    assert_eq!(w.len(), 16);
+    for (k, (a, b)) in b[85..].iter().zip(&w).enumerate() {
+        assert!(close(&a.x, &b.x, 1e-10), "window x at {k}");
+        assert!(close(&a.p, &b.p, 1e-10), "window P at {k}");
+    }
+}
