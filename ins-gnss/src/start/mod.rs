@@ -1,0 +1,289 @@
+//! Before the filter starts: the first seconds of the IMU and GNSS data are checked
+//! against the declared units, axes and rate, and what `[init]` (and, with
+//! `imu_noise.from_static`, `[imu_noise]`) does not give is found from them.
+//!
+//! | part | from |
+//! |---|---|
+//! | roll, pitch | levelling over the static start ([`detect_static`]), else the in-motion alignment |
+//! | heading | the in-motion alignment ([`align_in_motion`]: any heading, no forward-motion assumption) |
+//! | position, velocity | the in-motion alignment's fit to the first fixes (lever arm included); velocity 0 on a static start |
+//! | gyro bias | the static start's mean rate less the Earth rate, else 0 |
+//! | ARW, VRW | the static start's per-axis σ × √dt (`imu_noise.from_static`) |
+//!
+//! Every check refuses with the key to change and the value that would fit, and stays
+//! silent when the data cannot tell.
+
+use nalgebra::Vector3;
+
+use crate::config::Config;
+use ins_gnss_core::align::{
+    align_in_motion, detect_static, fit_span, static_gyro_bias, time_offset, turn_ratio, MotionFit,
+    StaticStart, TimeOffset, TurnRatio,
+};
+use ins_gnss_core::earth::normal_gravity;
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::imu::{ImuSample, DEG_PER_H, DEG_PER_SQRT_H, M_S_PER_SQRT_H};
+use ins_gnss_core::init::level;
+use ins_gnss_core::io::columns::{unit_factor, Quantity};
+
+mod checks;
+mod fill;
+
+use checks::*;
+pub use checks::{MAX_TIME_OFFSET, TIME_OFFSET_REFUSED};
+use fill::*;
+
+/// The gyro bias 1σ without a static start to measure it, deg/h. On navego (no static
+/// start; the filter's bias estimates settle at 12–70 deg/h) the forward horizontal RMS
+/// with this prior given as `init.gyro_bias_std` is 1.414 m at 48, 1.413 m at 100, 1.418 m
+/// at 400 and 1.430 m at 1000 deg/h (the alignment fits the horizontal biases itself).
+pub const DEFAULT_GYRO_BIAS_STD: f64 = 100.0;
+
+/// How much noisier at rest than declared an axis must be before
+/// `imu_noise.static_floor` raises its ARW or VRW: the σ of a static start of
+/// `align.min_static` (5 s) at 100 Hz is known to ±3 % (1/√(2N)), and at-rest noise that
+/// is not white (vibration) makes the √dt scaling approximate; drive-0708's engine shakes
+/// the axes 1.6–27× above KF-GINS's generic figures.
+pub const FLOOR_FACTOR: f64 = 1.5;
+
+/// The longest static start (s) after which `align.max_time` still counts: the start's
+/// data are read up to `align.max_time` + this after the start, so that a vehicle that
+/// stands still for up to ten minutes before it drives (an alignment practice) aligns on
+/// its first minutes of motion.
+pub const STATIC_ALLOWANCE: f64 = 600.0;
+
+/// The largest heading σ (rad) the self-start accepts: the error-state filter's
+/// linearisation holds to about this.
+const MAX_HEADING_STD: f64 = 20.0 * core::f64::consts::PI / 180.0;
+
+/// The χ² gain (in units of the fit's χ² per degree of freedom) by which a mirror image
+/// must beat the best rotation before a left-handed frame is refused.
+const MIRROR_DECISIVE: f64 = 100.0;
+
+/// What the start of the data gave: the completed configuration and, for the run
+/// summary, how each part of the initial state was obtained.
+#[derive(Clone, Debug)]
+pub struct Start {
+    /// The configuration with `[init]` (and the noise, with `from_static`) filled in.
+    pub config: Config,
+    /// One line per part found from the data (empty when everything was given).
+    pub report: Vec<String>,
+}
+
+fn fmt3(v: [f64; 3], digits: usize) -> String {
+    format!("[{:.digits$}, {:.digits$}, {:.digits$}]", v[0], v[1], v[2])
+}
+
+/// Check the data of the run's first seconds (`imu` and `gnss` after `t0`, the start
+/// time) and complete `config` from them. The error names the configuration key to
+/// change.
+pub fn prepare(
+    config: &Config,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> Result<Start, String> {
+    // (both in time order: the readers refuse time going backwards)
+    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
+    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
+    let mut config = config.clone();
+    let mut report = Vec::new();
+    let a = config.align.clone();
+    let need_init = !config.init.is_complete();
+    let need_noise = config.imu_noise.from_static;
+    if imu.is_empty() || !looks_at_data(&config) {
+        return Ok(Start { config, report });
+    }
+    let g = gnss.first().map_or(9.80, |e| normal_gravity(e.pos.lat, e.pos.h));
+    let (still, is_static) = static_start(&config, imu, gnss, t0);
+
+    if a.checks {
+        check_rate(&config, imu)?;
+        check_accel_unit(&config, imu, &still, g)?;
+        check_gyro_at_rest(&config, &still)?;
+    }
+    let lever = Vector3::from(config.gnss.lever_arm);
+    let bias0 = if is_static { still.mean_w } else { Vector3::zeros() };
+    // what is left of the gyro bias: the static mean's noise (and the Earth rate it
+    // holds), else a consumer MEMS turn-on bias
+    let bias_std = if is_static {
+        still.mean_w_std().norm() + 15.0 * DEG_PER_H
+    } else {
+        config.init.gyro_bias_std.map_or(DEFAULT_GYRO_BIAS_STD, |v| v[2]) * DEG_PER_H
+    };
+    // `align.max_time` counts from the motion's start: a vehicle that stands still for
+    // minutes before it drives (an alignment practice) is aligned on its first minutes of
+    // motion, the static span included
+    let max_time =
+        if is_static { a.max_time + still.duration().min(STATIC_ALLOWANCE) } else { a.max_time };
+    let fit = |scale: f64| {
+        align_in_motion(
+            imu,
+            gnss,
+            t0,
+            &(bias0 * scale),
+            scale,
+            &lever,
+            max_time,
+            a.heading_std.to_radians(),
+            bias_std,
+        )
+    };
+    let motion = if need_init || a.checks { fit(1.0) } else { None };
+    if a.checks {
+        let turns = turn_ratio(imu, gnss, t0, t0 + max_time);
+        if let Some(m) = &motion {
+            // the fit stops once the heading is known, which may be before the first
+            // turn, and its span is chosen for the heading: a mirror image shows only
+            // when the motion turned, so it is judged on the whole span (no early stop)
+            // and only when the course turned (the early fit of navego's ADIS16405, a
+            // straight drive with a large gyro bias, looked like one)
+            let turned = turns.is_some_and(|t| t.turned > 30f64.to_radians());
+            let whole =
+                if turned { fit_span(imu, gnss, t0, &bias0, &lever, t0 + max_time) } else { None };
+            check_motion(&config, m, whole.as_ref(), &fit)?;
+        }
+        if let Some(t) = turns {
+            check_turns(&config, &t, a.max_time)?;
+        }
+        if let Some(t) = time_offset(imu, gnss, t0, t0 + max_time, MAX_TIME_OFFSET) {
+            check_time_offset(&config, &t, &mut report)?;
+        }
+        let (roll, _) = match (&motion, is_static) {
+            (_, true) => level(&still.mean_f),
+            (Some(m), false) => {
+                let (r, p, _) = m.att.euler();
+                (r, p)
+            }
+            (None, false) => (0.0, 0.0),
+        };
+        if roll.abs() > core::f64::consts::FRAC_PI_2 {
+            return Err(format!(
+                "{}: the IMU reads gravity along its +z axis (roll {:.1}°: the body frame is \
+                 upside down, where FRD has z down): FRD data declared `axes = \"flu\"` (or \
+                 the reverse), or a mounting not stated; set `data.imu_columns.axes` or \
+                 `imu.mounting` so that z points down",
+                axes_key(&config),
+                roll.to_degrees()
+            ));
+        }
+    }
+
+    if need_noise {
+        if !is_static {
+            return Err(format!(
+                "`imu_noise.from_static`: the start is static for {:.1} s ({:.3}–{:.3} s); at \
+                 least `align.min_static` = {} s are needed to measure the noise: give \
+                 `imu_noise.arw` and `imu_noise.vrw` instead",
+                still.duration(),
+                still.span.0,
+                still.span.1,
+                a.min_static
+            ));
+        }
+        let arw = still.arw() / DEG_PER_SQRT_H;
+        let vrw = still.vrw() / M_S_PER_SQRT_H;
+        config.imu_noise.arw = arw.into();
+        config.imu_noise.vrw = vrw.into();
+        config.imu_noise.from_static = false;
+        report.push(format!(
+            "noise from the static start {:.3}–{:.3} s ({:.1} s): ARW {} deg/√h, VRW {} m/s/√h",
+            still.span.0,
+            still.span.1,
+            still.duration(),
+            fmt3(arw.into(), 3),
+            fmt3(vrw.into(), 3)
+        ));
+    }
+
+    if !need_noise && is_static {
+        noise_floor(&mut config, &mut report, &still);
+    }
+    if need_init {
+        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), gnss, t0)?;
+    }
+    Ok(Start { config, report })
+}
+
+/// The static start of the data after `t0` (the start time), with the configuration's
+/// window, and whether it lasts `align.min_static`.
+pub fn static_start(
+    config: &Config,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> (StaticStart, bool) {
+    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
+    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
+    let still = detect_static(imu, gnss, config.align.static_window);
+    let is_static = still.samples > 0 && still.duration() >= config.align.min_static;
+    (still, is_static)
+}
+
+/// [`prepare`]'s part that needs only the static start: `imu_noise.static_floor` (when
+/// `[init]` is complete and the noise given, the rest of `prepare` only checks, beside
+/// the filter).
+pub fn prepare_floor(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Start {
+    let mut config = config.clone();
+    let mut report = Vec::new();
+    let (still, is_static) = static_start(&config, imu, gnss, t0);
+    if is_static && !config.imu_noise.from_static {
+        noise_floor(&mut config, &mut report, &still);
+    }
+    Start { config, report }
+}
+
+/// `imu_noise.static_floor`: raise each ARW / VRW axis the static start shows
+/// [`FLOOR_FACTOR`]× noisier than declared to the measured value.
+fn noise_floor(config: &mut Config, report: &mut Vec<String>, still: &StaticStart) {
+    if !config.imu_noise.static_floor {
+        return;
+    }
+    let arw = still.arw() / DEG_PER_SQRT_H;
+    let vrw = still.vrw() / M_S_PER_SQRT_H;
+    let n = &mut config.imu_noise;
+    let (arw0, vrw0) = (n.arw, n.vrw);
+    let mut raised = false;
+    for k in 0..3 {
+        if arw[k] > FLOOR_FACTOR * n.arw[k] {
+            n.arw[k] = arw[k];
+            raised = true;
+        }
+        if vrw[k] > FLOOR_FACTOR * n.vrw[k] {
+            n.vrw[k] = vrw[k];
+            raised = true;
+        }
+    }
+    if raised {
+        report.push(format!(
+            "noise raised to what the IMU shows at rest (static start {:.3}–{:.3} s, {:.1} s): \
+             ARW {} deg/√h (declared {}), VRW {} m/s/√h (declared {}); \
+             `imu_noise.static_floor = false` keeps the declared",
+            still.span.0,
+            still.span.1,
+            still.duration(),
+            fmt3(n.arw, 3),
+            fmt3(arw0, 3),
+            fmt3(n.vrw, 3),
+            fmt3(vrw0, 3)
+        ));
+    }
+}
+
+/// Whether [`prepare`] reads the data at all: checks on, or a part of the configuration
+/// to fill.
+pub fn looks_at_data(config: &Config) -> bool {
+    config.align.checks || fills(config) || floors(config)
+}
+
+/// Whether [`prepare`] fills a part of the configuration from the data: `[init]`
+/// incomplete or the noise `from_static`. (Otherwise it only checks.)
+pub fn fills(config: &Config) -> bool {
+    !config.init.is_complete() || config.imu_noise.from_static
+}
+
+/// Whether [`prepare_floor`] may change the noise (it reads the data until the static
+/// start ends).
+pub fn floors(config: &Config) -> bool {
+    config.imu_noise.static_floor && !config.imu_noise.from_static
+}
