@@ -150,10 +150,9 @@ where
         B: CovBackend<X::Dim>,
         PM: ProcessModel<State = X>,
     {
-        if self.start_time.is_none() {
-            self.start_time = Some(filter.time());
-        }
-        self.steps.push(record(filter, model, u, dt)?);
+        let before = filter.time();
+        let step = record(filter, model, u, dt)?;
+        self.push(before, step);
         Ok(())
     }
 
@@ -175,12 +174,16 @@ where
         PM: ProcessModel<State = X>,
         DefaultAllocator: crate::FilterAlloc<X::Dim, X::Dim>,
     {
-        if self.start_time.is_none() {
-            self.start_time = Some(filter.time());
-        }
+        let before = filter.time();
         let step = record_with(filter, |f| f.predict_unscented_transition(model, u, dt, sp))?;
-        self.steps.push(step);
+        self.push(before, step);
         Ok(())
+    }
+
+    /// A recorded step (the first one starts the recording at `before`).
+    fn push(&mut self, before: f64, step: RtsStep<X>) {
+        self.start_time.get_or_insert(before);
+        self.steps.push(step);
     }
 
     /// The backward pass from the filter's current (last) posterior: the smoothed

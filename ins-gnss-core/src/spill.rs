@@ -58,45 +58,33 @@ impl Spill for InsState21 {
     }
 }
 
-impl Spill for InsStateTc {
-    /// The 15-state row, the clock bias and drift, the inter-system biases.
-    const LEN: usize = InsState::LEN + 5;
-    fn spill(&self, out: &mut [f64]) {
-        let n = InsState::LEN;
-        self.nav.spill(&mut out[..n]);
-        out[n] = self.clock[0];
-        out[n + 1] = self.clock[1];
-        put3(&mut out[n + 2..], &self.isb);
-    }
-    fn unspill(v: &[f64]) -> Self {
-        let n = InsState::LEN;
-        InsStateTc {
-            nav: InsState::unspill(&v[..n]),
-            clock: manifolds::R2::new(v[n], v[n + 1]),
-            isb: get3(&v[n + 2..]),
+/// A tightly coupled state: its navigation state's row, the clock bias and drift, the
+/// inter-system biases.
+macro_rules! tight_spill {
+    ($state:ident, $nav:ident) => {
+        impl Spill for $state {
+            const LEN: usize = $nav::LEN + 5;
+            fn spill(&self, out: &mut [f64]) {
+                let n = $nav::LEN;
+                self.nav.spill(&mut out[..n]);
+                out[n] = self.clock[0];
+                out[n + 1] = self.clock[1];
+                put3(&mut out[n + 2..], &self.isb);
+            }
+            fn unspill(v: &[f64]) -> Self {
+                let n = $nav::LEN;
+                $state {
+                    nav: $nav::unspill(&v[..n]),
+                    clock: manifolds::R2::new(v[n], v[n + 1]),
+                    isb: get3(&v[n + 2..]),
+                }
+            }
         }
-    }
+    };
 }
 
-impl Spill for InsStateTc21 {
-    /// The 21-state row, the clock bias and drift, the inter-system biases.
-    const LEN: usize = InsState21::LEN + 5;
-    fn spill(&self, out: &mut [f64]) {
-        let n = InsState21::LEN;
-        self.nav.spill(&mut out[..n]);
-        out[n] = self.clock[0];
-        out[n + 1] = self.clock[1];
-        put3(&mut out[n + 2..], &self.isb);
-    }
-    fn unspill(v: &[f64]) -> Self {
-        let n = InsState21::LEN;
-        InsStateTc21 {
-            nav: InsState21::unspill(&v[..n]),
-            clock: manifolds::R2::new(v[n], v[n + 1]),
-            isb: get3(&v[n + 2..]),
-        }
-    }
-}
+tight_spill!(InsStateTc, InsState);
+tight_spill!(InsStateTc21, InsState21);
 
 /// An IMU sample: time, interval, increments, odometer flag and reading.
 const SAMPLE: usize = 10;

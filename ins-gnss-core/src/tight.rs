@@ -104,9 +104,14 @@ pub struct InsModelTc {
     pub clock: ClockNoise,
 }
 
+/// The receiver clock (bias, drift) after `dt`: the bias grows by the drift.
+fn clock_after(clock: &R2, dt: f64) -> R2 {
+    R2::new(clock[0] + clock[1] * dt, clock[1])
+}
+
 impl InsModelTc {
     fn next(&self, x: &InsStateTc, nav: InsState, dt: f64) -> InsStateTc {
-        InsStateTc { nav, clock: R2::new(x.clock[0] + x.clock[1] * dt, x.clock[1]), isb: x.isb }
+        InsStateTc { nav, clock: clock_after(&x.clock, dt), isb: x.isb }
     }
 
     /// The clock and bias blocks of `Q_d` over `dt` (rows/columns 15..20).
@@ -240,7 +245,7 @@ impl ProcessModel for InsModelTc21 {
     fn propagate(&self, x: &InsStateTc21, u: &ImuInput, dt: f64) -> InsStateTc21 {
         InsStateTc21 {
             nav: self.base.propagate(&x.nav, u, dt),
-            clock: R2::new(x.clock[0] + x.clock[1] * dt, x.clock[1]),
+            clock: clock_after(&x.clock, dt),
             isb: x.isb,
         }
     }
@@ -265,11 +270,7 @@ impl ProcessModel for InsModelTc21 {
         let mut Q = M26::zeros();
         Q.fixed_view_mut::<21, 21>(0, 0).copy_from(&j21.Q);
         Q.fixed_view_mut::<5, 5>(C0, C0).copy_from(&clock_q(&self.clock, dt));
-        let next = InsStateTc21 {
-            nav,
-            clock: R2::new(x.clock[0] + x.clock[1] * dt, x.clock[1]),
-            isb: x.isb,
-        };
+        let next = InsStateTc21 { nav, clock: clock_after(&x.clock, dt), isb: x.isb };
         (next, ProcessJacobians { Phi, Q })
     }
 

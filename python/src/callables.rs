@@ -266,6 +266,18 @@ fn flat(name: &str, a: &PyReadonlyArrayDyn<'_, f64>, len: usize) -> PyResult<Vec
     Ok(v)
 }
 
+impl CallableCore {
+    /// The state and covariance into the filter, their sizes checked.
+    fn load(
+        &mut self,
+        x: &PyReadonlyArrayDyn<'_, f64>,
+        P: &PyReadonlyArrayDyn<'_, f64>,
+    ) -> PyResult<()> {
+        let n = self.n;
+        self.core.set(&flat("x", x, n)?, &flat("P", P, n * n)?).map_err(fail)
+    }
+}
+
 #[pymethods]
 impl CallableCore {
     #[new]
@@ -313,7 +325,7 @@ impl CallableCore {
         dt: f64,
     ) -> PyResult<Bound<'py, PyAny>> {
         let n = self.n;
-        self.core.set(&flat("x", &x0, n)?, &flat("P", &P0, n * n)?).map_err(fail)?;
+        self.load(&x0, &P0)?;
         let (x, F, Q) = (flat("x", &x, n)?, flat("F", &F, n * n)?, flat("Q", &Q, n * n)?);
         let p = self.core.predict(&x, &F, &Q, dt).map_err(fail)?;
         Ok(PyArray1::from_vec(py, p).reshape([n, n])?.into_any())
@@ -336,7 +348,7 @@ impl CallableCore {
         Pzz: Option<PyReadonlyArrayDyn<'py, f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let n = self.n;
-        self.core.set(&flat("x", &x0, n)?, &flat("P", &P0, n * n)?).map_err(fail)?;
+        self.load(&x0, &P0)?;
         let y: Vec<f64> = y.as_array().iter().copied().collect();
         let m = y.len();
         let H = flat(if Pzz.is_some() { "Pxz" } else { "H" }, &H, m * n)?;

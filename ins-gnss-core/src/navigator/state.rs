@@ -138,95 +138,46 @@ impl NavState for InsState {
     }
 }
 
-impl NavState for InsState21 {
-    type Model = InsModel21;
+/// A navigation state larger than the 15-state one (its error state begins with those
+/// 15): the 15-state measurement models apply through [`OnNav`]. `nav` and `noise` are
+/// the field paths to its [`InsState`] and to its model's [`ImuNoise`].
+macro_rules! on_nav_state {
+    ($state:ty, $model:ty, nav: $($nav:ident).+, noise: $($noise:ident).+) => {
+        impl NavState for $state {
+            type Model = $model;
 
-    fn nav(&self) -> &InsState {
-        &self.nav
-    }
+            fn nav(&self) -> &InsState {
+                &self.$($nav).+
+            }
 
-    fn imu_noise(model: &InsModel21) -> &ImuNoise {
-        &model.base.noise
-    }
+            fn imu_noise(model: &$model) -> &ImuNoise {
+                &model.$($noise).+
+            }
 
-    fn update<A, MM, O>(
-        filter: &mut ErrorStateFilter<Self, A>,
-        model: &MM,
-        z: &MM::Measurement,
-        r: &Cov<StateDim<MM::Measurement>>,
-        observer: &mut O,
-    ) -> Result<UpdateSummary, FilterError>
-    where
-        A: NoiseStrategy,
-        MM: MeasurementModel<State = InsState>,
-        O: Observer,
-        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
-    {
-        filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
-    }
+            fn update<A, MM, O>(
+                filter: &mut ErrorStateFilter<Self, A>,
+                model: &MM,
+                z: &MM::Measurement,
+                r: &Cov<StateDim<MM::Measurement>>,
+                observer: &mut O,
+            ) -> Result<UpdateSummary, FilterError>
+            where
+                A: NoiseStrategy,
+                MM: MeasurementModel<State = InsState>,
+                O: Observer,
+                DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
+                    + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
+                    + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
+                    + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
+            {
+                filter
+                    .update_observed(&OnNav::<Self, MM>::new(model), z, r, observer)
+                    .map(|r| r.summary())
+            }
+        }
+    };
 }
 
-impl NavState for InsStateTc {
-    type Model = InsModelTc;
-
-    fn nav(&self) -> &InsState {
-        &self.nav
-    }
-
-    fn imu_noise(model: &InsModelTc) -> &ImuNoise {
-        &model.base.noise
-    }
-
-    fn update<A, MM, O>(
-        filter: &mut ErrorStateFilter<Self, A>,
-        model: &MM,
-        z: &MM::Measurement,
-        r: &Cov<StateDim<MM::Measurement>>,
-        observer: &mut O,
-    ) -> Result<UpdateSummary, FilterError>
-    where
-        A: NoiseStrategy,
-        MM: MeasurementModel<State = InsState>,
-        O: Observer,
-        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
-    {
-        filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
-    }
-}
-
-impl NavState for InsStateTc21 {
-    type Model = InsModelTc21;
-
-    fn nav(&self) -> &InsState {
-        &self.nav.nav
-    }
-
-    fn imu_noise(model: &InsModelTc21) -> &ImuNoise {
-        &model.base.base.noise
-    }
-
-    fn update<A, MM, O>(
-        filter: &mut ErrorStateFilter<Self, A>,
-        model: &MM,
-        z: &MM::Measurement,
-        r: &Cov<StateDim<MM::Measurement>>,
-        observer: &mut O,
-    ) -> Result<UpdateSummary, FilterError>
-    where
-        A: NoiseStrategy,
-        MM: MeasurementModel<State = InsState>,
-        O: Observer,
-        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
-    {
-        filter.update_observed(&OnNav::<Self, MM>::new(model), z, r, observer).map(|r| r.summary())
-    }
-}
+on_nav_state!(InsState21, InsModel21, nav: nav, noise: base.noise);
+on_nav_state!(InsStateTc, InsModelTc, nav: nav, noise: base.noise);
+on_nav_state!(InsStateTc21, InsModelTc21, nav: nav.nav, noise: base.base.noise);
