@@ -171,8 +171,35 @@ fn initial_offset(summary: &RunSummary, config: &Config) -> Option<((f64, f64), 
     Some(((dn.hypot(de), dh.abs()), (sigma_h, sigma_v)))
 }
 
+/// The odometer reads motion one way while the filter moves the other for most of the
+/// time it reads motion (at least [`REVERSED_TIME`] s): the filter's heading is about 180°
+/// off. Its GNSS innovations can stay small (the fixes hold the position; nothing but the
+/// odometer, which then never calibrates, tells forward from backward), so only this
+/// catches it. The problem and its cause.
+fn odometer_reversed(summary: &RunSummary) -> Option<(String, String)> {
+    let (moving, reversed) = summary.odometer_reversed;
+    (reversed >= REVERSED_TIME && reversed > 0.5 * moving).then(|| {
+        (
+            format!(
+                "odometer: for {reversed:.0} s of the {moving:.0} s it reads motion, the filter \
+                 moves the other way (its forward speed beyond 0.5 m/s with the other sign): \
+                 its heading is about 180° off, so its attitude and the odometer's use are wrong \
+                 however well it follows the fixes"
+            ),
+            "the initial heading is reversed (the in-motion alignment's, when `init.attitude` is \
+             not given: slow motion with a noisy IMU leaves it poorly determined), or \
+             `imu.mounting` makes the body's x axis point backward: give `init.attitude` (the \
+             heading of the vehicle's forward axis), or check the mounting"
+                .into(),
+        )
+    })
+}
+
+/// Seconds the filter must move against the odometer before a run is flagged.
+const REVERSED_TIME: f64 = 10.0;
+
 /// Judge a finished run: `Err` when a GNSS stream refused more than half of its epochs or
-/// its innovations are far from their distribution. `config` is the run's configuration
+/// its innovations are far from their distribution, or the filter moves against the odometer. `config` is the run's configuration
 /// as the user gave it (the initial position, if given, is checked against the first
 /// fix).
 pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
@@ -184,10 +211,12 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
     if floor {
         problems.extend(pseudorange_problem(&gnss));
     }
+    let reversed = odometer_reversed(summary);
+    problems.extend(reversed.iter().map(|(p, _)| p.clone()));
     if problems.is_empty() {
         return Ok(());
     }
-    let mut diagnosis = Vec::new();
+    let mut diagnosis: Vec<String> = reversed.into_iter().map(|(_, d)| d).collect();
     // the initial position, farther from the first fix than its σ and the fix's allow
     if let Some(((h, v), (sh, sv))) = initial_offset(summary, config) {
         if h > 5.0 * sh.max(0.5) || v > 5.0 * sv.max(0.5) {

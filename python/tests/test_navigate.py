@@ -209,3 +209,16 @@ def test_an_error_carries_the_programs_message_and_location(cli, navego_arrays, 
     message = str(raised.value)
     assert "imu.txt:50" in message and "not a number" in message, message
     assert message in program.stderr, (message, program.stderr)
+
+
+def test_a_ros_bag_runs_from_python_as_from_the_program(cli, tmp_path):
+    """robot_localization's Husky bag through `[data.ros]`: the same nav.txt as the
+    program, the recording named in the start report, the reversed heading flagged."""
+    config = DATA / "ros-husky" / "husky.toml"
+    out = tmp_path / "cli"
+    subprocess.run([str(cli), "run", str(config), "--quiet", "--accept-inconsistent",
+                    "--out", str(out)], check=True)
+    py = estimator.navigate(config, accept_inconsistent=True)
+    assert_printed(py.nav.to_numpy(), out / "nav.txt", NAV_DECIMALS, "nav.txt", 1)
+    assert any("recording" in line and "/imu/data" in line for line in py.summary["start"])
+    assert "180° off" in py.summary["warning"]

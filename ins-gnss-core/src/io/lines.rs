@@ -59,6 +59,9 @@ pub enum LineErrorKind {
     /// Values that cannot be what the format says (e.g. rates where increments are
     /// expected).
     WrongUnits(String),
+    /// A record that cannot be used, with why (a recording's message: `line` is its
+    /// 1-based position).
+    Invalid(String),
 }
 
 /// A located error: file, 1-based line, what.
@@ -99,6 +102,7 @@ impl fmt::Display for LineError {
                  (allowed {allowed:.6} s)"
             ),
             LineErrorKind::WrongUnits(m) => write!(f, "{p}:{l}: {m}"),
+            LineErrorKind::Invalid(m) => write!(f, "{p}:#{l}: {m}"),
         }
     }
 }

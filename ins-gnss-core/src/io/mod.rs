@@ -5,6 +5,7 @@ pub mod fixed;
 pub mod formats;
 pub mod lines;
 pub mod nmea;
+pub mod ros;
 pub mod rtklib;
 
 pub use columns::{ColumnMap, Quantity, Source, TimeScale};

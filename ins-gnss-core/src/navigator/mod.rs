@@ -302,6 +302,7 @@ where
             last_odometer: never,
             odometer_scale: OdometerScale::default(),
             last_gnss: never,
+            odometer_reversed: (0.0, 0.0),
         };
         self
     }
@@ -323,6 +324,13 @@ where
     pub fn odometer_scale(&self) -> Option<f64> {
         let min = self.vehicle.aiding.odometer.map_or(f64::INFINITY, |o| o.calibration_samples);
         self.vehicle.odometer_scale.scale(min)
+    }
+
+    /// With the odometer: the time it read motion (above 0.5 m/s) so far, and of it the
+    /// time the filter moved the other way (its forward speed beyond 0.5 m/s with the
+    /// other sign), s. A filter whose heading is 180° off drives backward all along.
+    pub fn odometer_reversed(&self) -> (f64, f64) {
+        self.vehicle.odometer_reversed
     }
 
     /// Time the vehicle was judged standing — the detector said so and the filter's speed

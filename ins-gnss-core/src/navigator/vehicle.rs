@@ -18,7 +18,13 @@ pub(super) struct VehicleState {
     pub(super) odometer_scale: OdometerScale,
     /// Time of the last GNSS update (the odometer's scale is calibrated only near one).
     pub(super) last_gnss: f64,
+    /// Time the odometer read motion (above [`ODOMETER_MOVING`]), and of it the time the
+    /// filter's forward speed had the other sign (beyond the same speed), s.
+    pub(super) odometer_reversed: (f64, f64),
 }
+
+/// A speed (m/s) at which the odometer and the filter surely tell forward from backward.
+const ODOMETER_MOVING: f64 = 0.5;
 
 impl<A: NoiseStrategy, S: NavState> Navigator<A, S>
 where
@@ -49,6 +55,12 @@ where
         if let (Some(o), Some(reading)) = (v.aiding.odometer, imu.odometer) {
             let model = Odometer { c_vb: v.c_vb, lever_arm: o.lever_arm, gyro_rate: imu.rate() };
             let forward = model.predict(self.filter.state().nav())[0];
+            if reading.abs() > ODOMETER_MOVING {
+                v.odometer_reversed.0 += imu.dt;
+                if forward * reading.signum() < -ODOMETER_MOVING {
+                    v.odometer_reversed.1 += imu.dt;
+                }
+            }
             // calibrate the scale while GNSS keeps the forward speed right
             if t - v.last_gnss <= 1.5 && forward > 1.0 {
                 v.odometer_scale.add(reading, forward, imu.dt, o.calibration_time);

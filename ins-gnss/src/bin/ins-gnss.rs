@@ -151,6 +151,19 @@ enum Command {
         #[arg(long)]
         reference: bool,
     },
+    /// Copy a ROS 1 bag's messages into an MCAP file: as ROS 1 messages, or (`--cdr`) the
+    /// IMU, NavSatFix and Odometry messages as ROS 2 CDR messages (what `ros2 bag record`
+    /// writes). `ins-gnss run` reads either through `[data.ros]`.
+    Mcap {
+        /// The ROS 1 bag (or an MCAP file of ROS 1 messages).
+        input: PathBuf,
+        /// The MCAP file to write (an existing one is replaced only once the copy is
+        /// complete).
+        output: PathBuf,
+        /// Write ROS 2 CDR messages (the three types a run reads; other topics left out).
+        #[arg(long)]
+        cdr: bool,
+    },
     /// Run several strategies on one dataset and print one table.
     Compare {
         /// Configuration file.
@@ -240,6 +253,23 @@ fn main() -> ExitCode {
                 ins_gnss::config::reference::example()
             };
             text.map(|t| print!("{t}")).map_err(Into::into)
+        }
+        Some(Command::Mcap { input, output, cdr }) => {
+            use ins_gnss_core::io::ros::{write_mcap, Encoding};
+            let encoding = if cdr { Encoding::Cdr } else { Encoding::Ros1 };
+            write_mcap(&input, &output, encoding)
+                .map(|(written, left)| {
+                    println!(
+                        "{}: {written} messages written{}",
+                        output.display(),
+                        if left > 0 {
+                            format!(", {left} of other types left out")
+                        } else {
+                            String::new()
+                        }
+                    )
+                })
+                .map_err(Into::into)
         }
         Some(Command::Compare { config, strategies, truth, skip, out }) => {
             cli::compare(&config, &strategies, truth.as_deref(), skip, out.as_deref())

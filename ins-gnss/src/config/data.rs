@@ -6,14 +6,18 @@ use super::*;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DataSection {
-    /// IMU file.
+    /// IMU file (required unless `[data.ros]` gives a recording).
+    #[serde(default, skip_serializing_if = "path_unset")]
     pub imu: PathBuf,
-    /// GNSS file (7 or 13 columns).
+    /// GNSS file (7 or 13 columns; required unless `[data.ros]`).
+    #[serde(default, skip_serializing_if = "path_unset")]
     pub gnss: PathBuf,
     /// Output directory. Default `out`.
     #[serde(default = "default_output")]
     pub output: PathBuf,
-    /// IMU sampling rate, Hz.
+    /// IMU sampling rate, Hz (required unless `[data.ros]`, whose rate is the median
+    /// interval of its IMU messages).
+    #[serde(default, skip_serializing_if = "rate_unset")]
     pub imu_rate: f64,
     /// `increments` (default) or `rates`.
     #[serde(default)]
@@ -64,6 +68,62 @@ pub struct DataSection {
     /// needs these.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub nav: Vec<PathBuf>,
+    /// A ROS recording ([`RosSection`]) instead of `imu` and `gnss`.
+    #[serde(default)]
+    pub ros: Option<RosSection>,
+}
+
+fn path_unset(p: &Path) -> bool {
+    p.as_os_str().is_empty()
+}
+
+fn rate_unset(r: &f64) -> bool {
+    *r == 0.0
+}
+
+/// `[data.ros]`: the IMU, the GNSS fixes and the odometry from a ROS recording: a ROS 1
+/// bag (bz2 or lz4 chunks) or an MCAP file (ROS 1 or ROS 2 CDR messages), read as it is.
+/// The IMU messages' angular velocity and specific force are in their `frame_id`'s axes
+/// (`imu.mounting` turns them into the body's, FRD); the odometry's forward speed
+/// (`twist.linear.x` in its child frame) feeds `[vehicle.odometer]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RosSection {
+    /// The recording (`.bag` or `.mcap`, told apart by their first bytes).
+    pub recording: PathBuf,
+    /// The `sensor_msgs/Imu` topic (default: the recording's only one).
+    #[serde(default)]
+    pub imu_topic: Option<String>,
+    /// The `sensor_msgs/NavSatFix` topic (default: the recording's only one). Its status
+    /// is the fix's quality (no fix: left out; fix, SBAS, GBAS: `[gnss.quality]`'s
+    /// `single`, `sbas`, `dgps`), its ENU covariance the σ (an unknown covariance, type 0,
+    /// needs `gnss.position_std`).
+    #[serde(default)]
+    pub fix_topic: Option<String>,
+    /// The `nav_msgs/Odometry` topic (default: the recording's only one), read when
+    /// `[vehicle.odometer]` is on: its forward speed, linear between its messages, is
+    /// the odometer's reading at each IMU sample.
+    #[serde(default)]
+    pub odometry_topic: Option<String>,
+    /// `header` (default: the messages' header stamps) or `receive` (the times the
+    /// recorder received them).
+    #[serde(default)]
+    pub stamps: StampsName,
+    /// Take `imu_noise.arw` and `imu_noise.vrw` from the IMU messages' covariances (their
+    /// median diagonal σ times √dt), instead of giving them. Default false.
+    #[serde(default)]
+    pub imu_noise_from_covariance: bool,
+}
+
+/// Which times a recording's messages carry.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StampsName {
+    /// The header stamps (when the sensor measured).
+    #[default]
+    Header,
+    /// The receive times (when the recorder got the message).
+    Receive,
 }
 
 pub(crate) fn default_output() -> PathBuf {

@@ -136,6 +136,7 @@ pub fn from_yaml(text_in: &str) -> Result<Config, String> {
             gnss_format: Default::default(),
             truth_columns: None,
             nav: Vec::new(),
+            ros: None,
         },
         init: InitSection {
             position: Some(triple(doc, "initpos")?),

@@ -146,8 +146,10 @@ impl Config {
             ConfigKind::Toml => toml::from_str::<Config>(text).map_err(|e| e.to_string())?,
             ConfigKind::Json => serde_json::from_str::<Config>(text).map_err(|e| e.to_string())?,
         };
-        for p in [&mut cfg.data.imu, &mut cfg.data.gnss, &mut cfg.data.output] {
-            if p.is_relative() {
+        let recording = cfg.data.ros.as_mut().map(|r| &mut r.recording);
+        let files = [&mut cfg.data.imu, &mut cfg.data.gnss, &mut cfg.data.output];
+        for p in files.into_iter().chain(recording) {
+            if p.is_relative() && !p.as_os_str().is_empty() {
                 *p = base.join(&*p);
             }
         }

@@ -6,9 +6,11 @@ impl Config {
     /// That each input file named exists; the error names its key (`data.imu`,
     /// `data.gnss`, `data.truth`; `imupath`, `gnsspath` in a KF-GINS YAML).
     pub fn require_inputs(&self) -> Result<(), ConfigError> {
+        let files = self.data.ros.is_none();
         let inputs = [
-            ("data.imu (imupath in a KF-GINS YAML)", Some(&self.data.imu)),
-            ("data.gnss (gnsspath in a KF-GINS YAML)", Some(&self.data.gnss)),
+            ("data.imu (imupath in a KF-GINS YAML)", Some(&self.data.imu).filter(|_| files)),
+            ("data.gnss (gnsspath in a KF-GINS YAML)", Some(&self.data.gnss).filter(|_| files)),
+            ("data.ros.recording", self.data.ros.as_ref().map(|r| &r.recording)),
             ("data.truth", self.data.truth.as_ref()),
         ];
         let navs = self.data.nav.iter().map(|n| ("data.nav", Some(n)));
@@ -26,6 +28,35 @@ impl Config {
             }
         }
         Ok(())
+    }
+
+    /// `[data.ros]` and what it excludes: the IMU and GNSS files, their column maps and
+    /// formats, tight coupling; without it, the files are required.
+    fn validate_ros(&self) -> Result<(), String> {
+        let d = &self.data;
+        let Some(_) = &d.ros else {
+            if d.imu.as_os_str().is_empty() || d.gnss.as_os_str().is_empty() {
+                return Err("`data.imu` and `data.gnss` are required (or a ROS recording in \
+                            `[data.ros]`)"
+                    .into());
+            }
+            return Ok(());
+        };
+        let excluded = [
+            ("data.imu", !d.imu.as_os_str().is_empty()),
+            ("data.gnss", !d.gnss.as_os_str().is_empty()),
+            ("data.imu_columns", d.imu_columns.is_some()),
+            ("data.gnss_columns", d.gnss_columns.is_some()),
+            ("data.gnss_format", d.gnss_format != GnssFormatName::Auto),
+            ("gnss.coupling = \"tight\"", self.gnss.coupling == Coupling::Tight),
+        ];
+        match excluded.iter().find(|(_, set)| *set) {
+            Some((key, _)) => Err(format!(
+                "`{key}` and `[data.ros]` exclude each other: the recording holds the IMU \
+                 and the fixes, in the messages' own layout"
+            )),
+            None => Ok(()),
+        }
     }
 
     /// `gnss.coupling = "tight"` and what it excludes: column maps and a fixes' format
@@ -87,8 +118,11 @@ impl Config {
         if let Some(c) = &d.truth_columns {
             c.map().map_err(|e| format!("`data.truth_columns`: {e}"))?;
         }
+        self.validate_ros()?;
         finite("data.imu_rate", &[d.imu_rate])?;
-        if !(d.imu_rate > 0.0 && d.imu_rate <= 100_000.0) {
+        let from_recording = d.ros.is_some() && d.imu_rate == 0.0;
+        let in_range = d.imu_rate > 0.0 && d.imu_rate <= 100_000.0;
+        if !(from_recording || in_range) {
             return Err(format!(
                 "`data.imu_rate` must be positive and at most 100 kHz (Hz), got {}",
                 d.imu_rate
@@ -187,14 +221,22 @@ impl Config {
                     .into());
             }
         } else {
-            if n.arw == [0.0; 3] || n.vrw == [0.0; 3] {
-                return Err("missing `imu_noise.arw` (deg/√h) and `imu_noise.vrw` (m/s/√h), \
-                            or `imu_noise.from_static = true` to measure them on the static \
-                            start"
+            let from_recording = d.ros.as_ref().is_some_and(|r| r.imu_noise_from_covariance);
+            if from_recording && (n.arw != [0.0; 3] || n.vrw != [0.0; 3]) {
+                return Err("`data.ros.imu_noise_from_covariance` takes `imu_noise.arw` and \
+                            `imu_noise.vrw` from the recording; remove one or the other"
                     .into());
             }
-            positive("imu_noise.arw", &n.arw)?;
-            positive("imu_noise.vrw", &n.vrw)?;
+            if !from_recording {
+                if n.arw == [0.0; 3] || n.vrw == [0.0; 3] {
+                    return Err("missing `imu_noise.arw` (deg/√h) and `imu_noise.vrw` (m/s/√h), \
+                                or `imu_noise.from_static = true` to measure them on the \
+                                static start"
+                        .into());
+                }
+                positive("imu_noise.arw", &n.arw)?;
+                positive("imu_noise.vrw", &n.vrw)?;
+            }
         }
         self.check_bias_noise()?;
         positive("imu_noise.gyro_scale_std", &n.gyro_scale_std)?;

@@ -12,13 +12,16 @@ pub struct VehicleSection {
     /// ZUPT and ZARU on detected stops.
     #[serde(default)]
     pub zupt: Option<ZuptSection>,
-    /// The odometer: the IMU file's 8th column (forward wheel speed, m/s).
+    /// The odometer: the IMU file's 8th column (forward wheel speed, m/s), or a ROS
+    /// recording's odometry (`data.ros.odometry_topic`).
     #[serde(default)]
     pub odometer: Option<OdometerSection>,
 }
 
-/// `[vehicle.odometer]`: the forward speed of the IMU file's 8th column, its scale
-/// calibrated against the filter while GNSS is available.
+/// `[vehicle.odometer]`: the forward speed of the IMU file's 8th column (or of a ROS
+/// recording's odometry), its scale calibrated against the filter while GNSS is
+/// available. A run in which the filter moves against the odometer for most of the time
+/// it reads motion is flagged (its heading is 180° off).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OdometerSection {

@@ -17,9 +17,9 @@ pub(crate) fn open_inputs(
             config.require_inputs().map_err(RunError::Config)?;
             ImuReader::open(&config.data.imu, format, rate, gap, policy)?
         }
-        Inputs::Arrays { imu, imu_width, .. } => {
-            let name = Path::new(IMU_ARRAY);
-            ImuReader::from_rows(imu.clone(), *imu_width, name, format, rate, gap, policy)
+        Inputs::Arrays { imu, imu_width, .. } | Inputs::Recording { imu, imu_width, .. } => {
+            let name = inputs.imu_name(config);
+            ImuReader::from_rows(imu.clone(), *imu_width, &name, format, rate, gap, policy)
         }
     }
     .with_max_bridge(config.data.max_bridge)
@@ -37,15 +37,13 @@ pub(crate) fn open_inputs(
 
 /// The configured GNSS input: fixes, or raw observations (tight coupling, files only).
 pub(crate) fn open_aid(config: &Config, inputs: &Inputs) -> Result<AidReader, RunError> {
-    if config.gnss.coupling == crate::config::Coupling::Tight {
-        if let Inputs::Arrays { .. } = inputs {
-            return Err(bad_map(
-                "gnss.coupling",
-                "tight coupling reads raw observations from `data.gnss` and `data.nav` files; \
-                 arrays hold fixes (loose coupling)"
-                    .into(),
-            ));
-        }
+    if config.gnss.coupling == crate::config::Coupling::Tight && !matches!(inputs, Inputs::Files) {
+        return Err(bad_map(
+            "gnss.coupling",
+            "tight coupling reads raw observations from `data.gnss` and `data.nav` files; \
+             arrays and recordings hold fixes (loose coupling)"
+                .into(),
+        ));
     }
     AidReader::open(config, || open_gnss(config, inputs))
 }
@@ -56,6 +54,12 @@ pub(crate) fn open_aid(config: &Config, inputs: &Inputs) -> Result<AidReader, Ru
 pub(crate) fn array_refuses(inputs: &Inputs, key: &str) -> Result<(), RunError> {
     match inputs {
         Inputs::Files => Ok(()),
+        Inputs::Recording { .. } => Err(bad_map(
+            key,
+            "a column map names a file's columns; a recording's messages are read by their \
+             types (`[data.ros]`)"
+                .into(),
+        )),
         Inputs::Arrays { .. } => Err(bad_map(
             key,
             "a column map applies to a file's header; arrays are read in the file format's \
@@ -83,6 +87,9 @@ pub(crate) fn open_gnss(
         }
         Inputs::Arrays { gnss, gnss_width, .. } => {
             GnssReader::from_rows(gnss.clone(), *gnss_width, Path::new(GNSS_ARRAY), policy)
+        }
+        Inputs::Recording { gnss, names, .. } => {
+            GnssReader::from_rows(gnss.clone(), 7, &names.1, policy)
         }
     };
     let mut gnss = gnss
@@ -116,6 +123,21 @@ pub enum Inputs {
         /// Numbers per GNSS row: 7 (position), or 13 (with velocity).
         gnss_width: usize,
     },
+    /// A ROS recording's messages as the formats' rows (rates, then the odometer speed;
+    /// 7-column fixes), read by [`open_recording`] for `[data.ros]`; errors name the
+    /// recording and topic, with the message's position on the topic as the line.
+    Recording {
+        /// The IMU rows.
+        imu: std::sync::Arc<[f64]>,
+        /// Numbers per IMU row: 7, or 8 with the odometer speed.
+        imu_width: usize,
+        /// The fixes, 7 numbers each.
+        gnss: std::sync::Arc<[f64]>,
+        /// The names of the IMU and fix rows in errors.
+        names: (PathBuf, PathBuf),
+        /// What was read, for the run summary.
+        notes: Vec<String>,
+    },
 }
 
 /// The name of an IMU array in errors (the line is the 1-based row).
@@ -128,6 +150,7 @@ impl Inputs {
         match self {
             Inputs::Files => config.data.imu.clone(),
             Inputs::Arrays { .. } => PathBuf::from(IMU_ARRAY),
+            Inputs::Recording { names, .. } => names.0.clone(),
         }
     }
 
@@ -135,6 +158,7 @@ impl Inputs {
         match self {
             Inputs::Files => config.data.gnss.clone(),
             Inputs::Arrays { .. } => PathBuf::from(GNSS_ARRAY),
+            Inputs::Recording { names, .. } => names.1.clone(),
         }
     }
 }

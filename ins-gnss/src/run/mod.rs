@@ -46,6 +46,7 @@ mod error;
 mod inputs;
 mod memory;
 mod outputs;
+mod recording;
 mod rows;
 mod slices;
 mod smoothed;
@@ -56,6 +57,7 @@ pub use error::*;
 pub use inputs::*;
 pub use memory::*;
 pub use outputs::*;
+use recording::*;
 pub use rows::*;
 pub use slices::*;
 use smoothed::*;
@@ -129,6 +131,15 @@ fn run_with<O: Sink>(
     progress: Option<Progress<'_>>,
     create: impl FnOnce() -> Result<(O, O::Nav), RunError>,
 ) -> Result<(RunSummary, O), (RunError, bool)> {
+    // a recording is read once, into rows, and completes the configuration
+    let recording;
+    let (config, inputs) = match (inputs, &config.data.ros) {
+        (Inputs::Files, Some(_)) => {
+            recording = open_recording(config).map_err(|e| (e, false))?;
+            (&recording.0, &recording.1)
+        }
+        _ => (config, inputs),
+    };
     let (imu, mut gnss) = open_inputs(config, inputs).map_err(|e| (e, false))?;
     // With the whole initial state and noise given, the data's first seconds are only
     // checked (`start::prepare` changes nothing but the noise floor, which needs only the
@@ -161,6 +172,10 @@ fn run_with<O: Sink>(
     };
     let config = &start.config;
     let names = (inputs.imu_name(config), inputs.gnss_name(config));
+    let notes = match inputs {
+        Inputs::Recording { notes, .. } => notes.clone(),
+        _ => Vec::new(),
+    };
     let inputs = ((feed, gnss, prefix, checks), (&mut out, nav));
     let tight = config.gnss.coupling == crate::config::Coupling::Tight;
     let result = match config.filter.states {
@@ -176,6 +191,7 @@ fn run_with<O: Sink>(
     match result {
         Ok(mut summary) => {
             summary.start = start.report;
+            summary.start.splice(0..0, notes);
             Ok((summary, out))
         }
         Err(e) => Err((e, true)),
@@ -373,6 +389,7 @@ where
     out.flush()?;
     summary.gnss_skipped = gnss.skipped();
     summary.stationary_time = nav.stationary_time();
+    summary.odometer_reversed = nav.odometer_reversed();
     if let Some(recorder) = recorder {
         let backward = Instant::now();
         let rows = out.smoothed(recorder, &nav, &floors)?;

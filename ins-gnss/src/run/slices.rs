@@ -95,6 +95,7 @@ where
     summary.finish_streams();
     check_gnss_overlap(&summary, Path::new("(GNSS data)"))?;
     summary.stationary_time = nav.stationary_time();
+    summary.odometer_reversed = nav.odometer_reversed();
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }

@@ -43,6 +43,9 @@ pub struct RunSummary {
     /// Time the vehicle was judged standing (detector and filter speed), s (0 without
     /// ZUPT).
     pub stationary_time: f64,
+    /// With the odometer: the time it read motion, and of it the time the filter moved
+    /// the other way, s ([`ins_gnss_core::navigator::Navigator::odometer_reversed`]).
+    pub odometer_reversed: (f64, f64),
     /// Rows of `nav_smoothed.txt` when the run smoothed (`filter.smooth`), and the wall
     /// time of the backward pass, s.
     pub smoothed: Option<(usize, f64)>,

@@ -145,6 +145,7 @@ impl Scenario {
                 gnss_format: Default::default(),
                 truth_columns: None,
                 nav: self.raw.iter().filter_map(|r| r.nav.file_name().map(PathBuf::from)).collect(),
+                ros: None,
             },
             init: InitSection {
                 position: Some([x0.pos.lat * d, x0.pos.lon * d, x0.pos.h]),

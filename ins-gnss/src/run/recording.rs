@@ -1,0 +1,116 @@
+//! A run on a ROS recording (`[data.ros]`): its messages read once into the IMU and GNSS
+//! formats' rows, and the configuration completed from it (the IMU rate, and the noise
+//! when asked).
+
+use super::*;
+use ins_gnss_core::io::ros::{Recording, Selection, Stamps};
+
+/// The configuration keys of the three topics, named in errors.
+const TOPIC_KEYS: [&str; 3] =
+    ["data.ros.imu_topic", "data.ros.fix_topic", "data.ros.odometry_topic"];
+
+/// rad/√s → deg/√h, and m/s/√s → m/s/√h.
+const PER_ROOT_SECOND_TO_PER_ROOT_HOUR: f64 = 60.0;
+
+/// Read `config`'s recording: the configuration the run uses (the rate, the IMU format,
+/// and the noise when asked, from the recording), the rows, and the summary's lines
+/// about it.
+pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunError> {
+    let Some(ros) = &config.data.ros else {
+        return Err(bad_map("data.ros", "no recording configured".into()));
+    };
+    config.require_inputs().map_err(RunError::Config)?;
+    let select = Selection {
+        imu: ros.imu_topic.clone(),
+        fix: ros.fix_topic.clone(),
+        odometry: ros.odometry_topic.clone(),
+        use_odometry: config.vehicle.odometer.is_some(),
+        stamps: match ros.stamps {
+            crate::config::StampsName::Header => Stamps::Header,
+            crate::config::StampsName::Receive => Stamps::Receive,
+        },
+    };
+    let rec = Recording::read(&ros.recording, &select, TOPIC_KEYS)?;
+    let mut cfg = config.clone();
+    cfg.data.imu_format = crate::config::ImuFormatName::Rates;
+    let mut notes = Vec::new();
+    let rate = rec.imu_rate().ok_or_else(|| {
+        RunError::NoData(format!(
+            "{}: fewer than two IMU messages on {}",
+            rec.path.display(),
+            rec.imu_topic.0
+        ))
+    })?;
+    let container = match rec.container {
+        ins_gnss_core::io::ros::Container::Bag => "ROS 1 bag",
+        ins_gnss_core::io::ros::Container::Mcap => "MCAP",
+    };
+    notes.push(format!(
+        "recording {} ({container}, {} stamps): IMU {} (frame {}) {} messages, median rate \
+         {rate:.2} Hz{}",
+        rec.path.display(),
+        match select.stamps {
+            Stamps::Header => "header",
+            Stamps::Receive => "receive",
+        },
+        rec.imu_topic.0,
+        rec.imu_topic.1,
+        rec.imu.len(),
+        if cfg.data.imu_rate == 0.0 { " (data.imu_rate)" } else { "" },
+    ));
+    if cfg.data.imu_rate == 0.0 {
+        cfg.data.imu_rate = rate;
+    }
+    if ros.imu_noise_from_covariance {
+        let Some((w, f)) = rec.imu_sigma() else {
+            return Err(bad_map(
+                "data.ros.imu_noise_from_covariance",
+                format!(
+                    "the IMU messages on {} give no covariances (all zero or −1): give \
+                     `imu_noise.arw` and `imu_noise.vrw`",
+                    rec.imu_topic.0
+                ),
+            ));
+        };
+        let root_dt = (1.0 / cfg.data.imu_rate).sqrt() * PER_ROOT_SECOND_TO_PER_ROOT_HOUR;
+        cfg.imu_noise.arw = w.map(|s| s.to_degrees() * root_dt);
+        cfg.imu_noise.vrw = f.map(|s| s * root_dt);
+        // taken: the run's configuration gives them now
+        if let Some(r) = cfg.data.ros.as_mut() {
+            r.imu_noise_from_covariance = false;
+        }
+        notes.push(format!(
+            "IMU noise from the messages' covariances: σ {:.4} rad/s, {:.4} m/s² per sample → \
+             ARW {:.3} deg/√h, VRW {:.4} m/s/√h (x axis)",
+            w[0], f[0], cfg.imu_noise.arw[0], cfg.imu_noise.vrw[0]
+        ));
+    }
+    let (imu, imu_width, longest) = rec.imu_rows();
+    if let Some((topic, frame)) = &rec.odometry_topic {
+        notes.push(format!(
+            "odometer: {topic} (child frame {frame}) {} messages, its forward speed linear \
+             between messages (longest interval {longest:.2} s)",
+            rec.odometry.len()
+        ));
+    }
+    let quality = cfg.gnss.quality.factors().map_err(|e| bad_map("gnss.quality", e))?;
+    let (gnss, dropped) = rec.fix_rows(&quality, cfg.gnss.position_std, "gnss.position_std")?;
+    notes.push(format!(
+        "fixes: {} (frame {}) {} messages, σ from their covariances, {dropped} without a position or of a dropped \
+         quality left out",
+        rec.fix_topic.0,
+        rec.fix_topic.1,
+        rec.fixes.len()
+    ));
+    cfg.validate().map_err(|message| {
+        RunError::Config(crate::config::ConfigError { path: ros.recording.clone(), message })
+    })?;
+    let inputs = Inputs::Recording {
+        imu: imu.into(),
+        imu_width,
+        gnss: gnss.into(),
+        names: (rec.imu_name(), rec.fix_name()),
+        notes,
+    };
+    Ok((cfg, inputs))
+}
