@@ -124,7 +124,7 @@ pub enum Inputs {
         gnss_width: usize,
     },
     /// A ROS recording's messages as the formats' rows (rates, then the odometer speed;
-    /// 7-column fixes), read by [`open_recording`] for `[data.ros]`; errors name the
+    /// 7-column fixes), read once for `[data.ros]`; errors name the
     /// recording and topic, with the message's position on the topic as the line.
     Recording {
         /// The IMU rows.
