@@ -13,6 +13,7 @@ wrong/right (wrong: horizontal RMS beyond the bound).
         --rates 0,2,5,10,20,50 --starts 0,60 --configs yaml,noinit --csv /tmp/c.csv
     python3 benches/campaign.py --walk --seeds 50     # the self-start in a small yard
     python3 benches/campaign.py --rover --seeds 20    # a slow rover, true and 100x-low IMU noise
+    python3 benches/campaign.py --walk --seeds 50 --fleet   # on a Dask cluster (estimator.fleet)
 
 Every run's row goes to the CSV (config, rate, start, seed, exit status, horizontal RMS,
 refused share, the first line of the error); the table is printed as Markdown.
@@ -225,10 +226,43 @@ def walk_one(job):
         shutil.rmtree(work, ignore_errors=True)
 
 
+# `--fleet [ADDRESS]`: the runs go to a Dask cluster through the Python package's
+# `estimator.fleet` (a local cluster of `--jobs` workers, or the scheduler at ADDRESS)
+# instead of this process's threads; `None`: threads.
+FLEET = None
+
+
+def _call(fn, job):
+    """One run as a fleet job: `fn(job)`'s row (a failure is the fleet's row, with why)."""
+    return fn(job)
+
+
+def dispatch(fn, todo, jobs):
+    """`fn` over `todo`, in order: on `jobs` threads, or on the fleet (`--fleet`)."""
+    if FLEET is None:
+        with cf.ThreadPoolExecutor(jobs) as ex:
+            return list(ex.map(fn, todo))
+    import estimator  # the Python package (pip install ./python, with dask)
+
+    table = estimator.fleet(
+        [estimator.Job(f"run {k}", run=_call, options={"fn": fn, "job": j})
+         for k, j in enumerate(todo)],
+        address=FLEET or None, workers=jobs)
+    failed = table[~table["ok"]]
+    if len(failed):
+        raise SystemExit("%d runs failed on the fleet, the first: %s"
+                         % (len(failed), failed["error"].iloc[0]))
+    # the fleet's own columns; `error` is the run's when the run has one
+    own = ["name", "ok", "time_s"] + (["error"] if table["error"].isna().all() else [])
+    keep = [c for c in table.columns if c not in own and c != "error"]
+    keep += [] if "error" in own else ["error"]   # (last, where the runs put it)
+    return [{k: r[k] for k in keep} for r in table.to_dict("records")]
+
+
 def run_seeds(one_seed, todo, jobs, csv_path):
-    """Run `one_seed` over `todo` on `jobs` threads; write every row to `csv_path` if given."""
-    with cf.ThreadPoolExecutor(jobs) as ex:
-        rows = list(ex.map(one_seed, todo))
+    """Run `one_seed` over `todo` on `jobs` threads (or the fleet); write every row to
+    `csv_path` if given."""
+    rows = dispatch(one_seed, todo, jobs)
     if csv_path:
         with open(csv_path, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=sorted({k for r in rows for k in r}))
@@ -360,7 +394,12 @@ def main():
     ap.add_argument("--walk", action="store_true",
                     help="the self-start campaign instead: scenarios/walk.toml by seed, with and "
                          "without GNSS velocity, no [init] against the given state")
+    ap.add_argument("--fleet", nargs="?", const="", default=None, metavar="ADDRESS",
+                    help="run on a Dask cluster through estimator.fleet: a local one of --jobs "
+                         "workers, or the scheduler at ADDRESS (needs the Python package)")
     a = ap.parse_args()
+    global FLEET
+    FLEET = a.fleet
     if a.rover:
         rover(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.low, a.init, a.csv)
         return
@@ -387,12 +426,7 @@ def main():
             for start in starts if rate > 0 else starts[:1]:
                 for s in range(a.seeds):
                     jobs.append((os.path.abspath(a.bin), kind, rate, start, a.size, a.first_seed + s, a.cache, a.extra))
-    rows = []
-    with cf.ThreadPoolExecutor(a.jobs) as ex:
-        for k, r in enumerate(ex.map(one, jobs)):
-            rows.append(r)
-            if (k + 1) % 20 == 0:
-                print("%d/%d runs" % (k + 1, len(jobs)), file=sys.stderr)
+    rows = dispatch(one, jobs, a.jobs)
     if a.csv:
         with open(a.csv, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))

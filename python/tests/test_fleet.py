@@ -4,11 +4,14 @@ bad log's message without stopping the others. And a campaign of seeds of one's 
 
 import math
 import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import estimator
+from conftest import REPO
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "..", "data")
 NAVEGO = os.path.join(DATA, "navego", "kf-gins-ADIS16488.yaml")
@@ -51,3 +54,20 @@ def test_fleet_on_a_two_worker_local_cluster(tmp_path, capsys):
                              for s in range(6)], workers=2, progress=False)
     assert list(seeds["seed"]) == list(range(6))
     assert list(seeds["figure"]) == [seed_row(s)["figure"] for s in range(6)]
+
+
+def test_the_campaign_runner_on_the_fleet_gives_the_threads_rows(cli, tmp_path):
+    """`benches/campaign.py --fleet` (the decisions' campaigns on Dask through
+    `estimator.fleet`) writes the same rows as its thread pool: the walk self-start
+    campaign over two seeds, with and without GNSS velocity."""
+    script = REPO / "benches" / "campaign.py"
+    out = {}
+    for name, extra in [("threads", []), ("fleet", ["--fleet"])]:
+        csv = tmp_path / f"{name}.csv"
+        r = subprocess.run([sys.executable, str(script), "--bin", str(cli), "--walk",
+                            "--seeds", "2", "--jobs", "2", "--csv", str(csv), *extra],
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr[-2000:]
+        out[name] = csv.read_text()
+    assert out["threads"] == out["fleet"]
+    assert len(out["fleet"].splitlines()) == 1 + 4
