@@ -141,3 +141,52 @@ fn a_reversed_heading_is_named_and_a_given_heading_uses_the_odometer() {
     assert!(used > 2000, "odometer updates {used}: {stdout}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_mounting_and_lever_arm_come_from_tf_static() {
+    // robot_localization's launch file gives its players base_link → imu_link; written into
+    // an MCAP copy on /tf_static, it replaces the configuration's mounting and odometer
+    // lever arm: the same run as the hand-written ones, to the rounding of 1.570796327
+    let dir = temp("tf");
+    let bag = husky().join("test1.bag");
+    let mcap = dir.join("tf.mcap");
+    let tf = "0 -0.3 0.52 -1.570796327 0 1.570796327 base_link imu_link";
+    let o =
+        bin().arg("mcap").arg(&bag).arg(&mcap).args(["--static-transform", tf]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(config(&dir, &mcap, "")).unwrap();
+    let text: String = text
+        .lines()
+        .filter(|l| !l.starts_with("mounting =") && !l.starts_with("lever_arm ="))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let cfg = dir.join("tf.toml");
+    std::fs::write(&cfg, text).unwrap();
+    let o = run(&cfg, &dir.join("tf"), &["--accept-inconsistent"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("imu.mounting from /tf_static (base_link → imu_link)"), "{stdout}");
+    assert!(stdout.contains("vehicle.odometer.lever_arm from /tf_static"), "{stdout}");
+    let o = run(&config(&dir, &bag, ""), &dir.join("hand"), &["--accept-inconsistent"]);
+    assert!(o.status.success());
+    let rows = |d: &str| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(dir.join(d).join("nav.txt"))
+            .unwrap()
+            .lines()
+            .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    let (a, b) = (rows("tf"), rows("hand"));
+    assert_eq!(a.len(), b.len());
+    let mut worst = [0.0f64; 11];
+    for (x, y) in a.iter().zip(&b) {
+        for k in 0..11 {
+            worst[k] = worst[k].max((x[k] - y[k]).abs());
+        }
+    }
+    // lat/lon (deg), height (m), velocity (m/s), attitude (deg)
+    assert!(worst[2] < 1e-8 && worst[3] < 1e-8 && worst[4] < 1e-3, "{worst:?}");
+    assert!(worst[5..8].iter().all(|&d| d < 1e-4), "{worst:?}");
+    assert!(worst[8..11].iter().all(|&d| d < 1e-3), "{worst:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -160,9 +160,15 @@ enum Command {
         /// The MCAP file to write (an existing one is replaced only once the copy is
         /// complete).
         output: PathBuf,
-        /// Write ROS 2 CDR messages (the three types a run reads; other topics left out).
+        /// Write ROS 2 CDR messages (the types a run reads; other topics left out).
         #[arg(long)]
         cdr: bool,
+        /// A static transform to add on `/tf_static`, as `static_transform_publisher`
+        /// takes it: "X Y Z YAW PITCH ROLL PARENT CHILD" (m, rad) or "X Y Z QX QY QZ QW
+        /// PARENT CHILD" (repeatable). A run finds the IMU's mounting and the lever arms
+        /// from these.
+        #[arg(long = "static-transform", value_name = "TRANSFORM")]
+        static_transforms: Vec<String>,
     },
     /// Run several strategies on one dataset and print one table.
     Compare {
@@ -254,22 +260,25 @@ fn main() -> ExitCode {
             };
             text.map(|t| print!("{t}")).map_err(Into::into)
         }
-        Some(Command::Mcap { input, output, cdr }) => {
-            use ins_gnss_core::io::ros::{write_mcap, Encoding};
+        Some(Command::Mcap { input, output, cdr, static_transforms }) => {
+            use ins_gnss_core::io::ros::{write_mcap, Encoding, StaticTransform};
             let encoding = if cdr { Encoding::Cdr } else { Encoding::Ros1 };
-            write_mcap(&input, &output, encoding)
-                .map(|(written, left)| {
-                    println!(
-                        "{}: {written} messages written{}",
-                        output.display(),
-                        if left > 0 {
-                            format!(", {left} of other types left out")
-                        } else {
-                            String::new()
-                        }
-                    )
-                })
+            let transforms: Result<Vec<_>, String> =
+                static_transforms.iter().map(|t| StaticTransform::from_publisher_args(t)).collect();
+            let written: Result<(usize, usize), cli::CliError> = transforms
                 .map_err(Into::into)
+                .and_then(|t| write_mcap(&input, &output, encoding, &t).map_err(Into::into));
+            written.map(|(written, left)| {
+                println!(
+                    "{}: {written} messages written{}",
+                    output.display(),
+                    if left > 0 {
+                        format!(", {left} of other types left out")
+                    } else {
+                        String::new()
+                    }
+                )
+            })
         }
         Some(Command::Compare { config, strategies, truth, skip, out }) => {
             cli::compare(&config, &strategies, truth.as_deref(), skip, out.as_deref())

@@ -105,6 +105,13 @@ pub struct RosSection {
     /// the odometer's reading at each IMU sample.
     #[serde(default)]
     pub odometry_topic: Option<String>,
+    /// The body frame for the recording's static transforms (`/tf_static`), default the
+    /// odometry's child frame, else `base_link`. When they connect it to the IMU's
+    /// `frame_id`, they give `imu.mounting` (if not set) and, from the IMU, the antenna's
+    /// (`gnss.lever_arm`) and the body origin's (`vehicle.odometer.lever_arm`) lever arms
+    /// where those are left at zero; the run's summary says which.
+    #[serde(default)]
+    pub base_frame: Option<String>,
     /// `header` (default: the messages' header stamps) or `receive` (the times the
     /// recorder received them).
     #[serde(default)]

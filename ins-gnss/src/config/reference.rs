@@ -61,6 +61,7 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("data.ros.imu_topic", "—", r#""/imu/data""#),
     ("data.ros.fix_topic", "—", r#""/fix""#),
     ("data.ros.odometry_topic", "—", r#""/husky_velocity_controller/odom""#),
+    ("data.ros.base_frame", "—", r#""base_footprint""#),
     ("data.ros.stamps", "—", r#""receive""#),
     ("data.ros.imu_noise_from_covariance", "—", "true"),
     ("data.imu_columns.time", "—", r#""t_s""#),

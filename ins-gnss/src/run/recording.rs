@@ -85,6 +85,7 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
             w[0], f[0], cfg.imu_noise.arw[0], cfg.imu_noise.vrw[0]
         ));
     }
+    from_transforms(&rec, ros.base_frame.as_deref(), &mut cfg, &mut notes);
     let (imu, imu_width, longest) = rec.imu_rows();
     if let Some((topic, frame)) = &rec.odometry_topic {
         notes.push(format!(
@@ -113,4 +114,60 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
         notes,
     };
     Ok((cfg, inputs))
+}
+
+/// The mounting and lever arms from the recording's static transforms, where the
+/// configuration leaves them: the IMU's frame in the body frame (`base` or the odometry's
+/// child frame, else `base_link`; ROS's FLU turned into FRD), and from the IMU the antenna
+/// (the fixes' frame) and the body origin (the odometer's point).
+fn from_transforms(rec: &Recording, base: Option<&str>, cfg: &mut Config, notes: &mut Vec<String>) {
+    use nalgebra::{Matrix3, Vector3};
+    if rec.transforms.is_empty() || cfg.imu.mounting.is_some() {
+        return;
+    }
+    let base = base
+        .map(str::to_string)
+        .or_else(|| rec.odometry_topic.as_ref().map(|(_, child)| child.clone()))
+        .unwrap_or_else(|| "base_link".into());
+    let Some((r, t_imu)) = rec.transform(&base, &rec.imu_topic.1) else {
+        notes.push(format!(
+            "/tf_static: no chain from {base} to the IMU's frame {} (imu.mounting: the sensor \
+             axes are the body's)",
+            rec.imu_topic.1
+        ));
+        return;
+    };
+    // FLU (ROS) → FRD (the filter's body frame)
+    let flip = Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0));
+    let c_bs = flip * r;
+    let rows = [0, 1, 2].map(|i| [c_bs[(i, 0)], c_bs[(i, 1)], c_bs[(i, 2)]]);
+    cfg.imu.mounting = Some(crate::config::Mounting::Matrix(rows));
+    let (roll, pitch, yaw) = nalgebra::Rotation3::from_matrix(&c_bs).euler_angles();
+    notes.push(format!(
+        "imu.mounting from /tf_static ({base} → {}): roll {:.2}°, pitch {:.2}°, yaw {:.2}° \
+         (FRD body)",
+        rec.imu_topic.1,
+        roll.to_degrees(),
+        pitch.to_degrees(),
+        yaw.to_degrees()
+    ));
+    let from_imu = |t: Vector3<f64>| -> [f64; 3] { (flip * (t - t_imu)).into() };
+    if cfg.gnss.lever_arm == [0.0; 3] {
+        if let Some((_, t_ant)) = rec.transform(&base, &rec.fix_topic.1) {
+            cfg.gnss.lever_arm = from_imu(t_ant);
+            notes.push(format!(
+                "gnss.lever_arm from /tf_static ({base} → {}): {:?} m (FRD)",
+                rec.fix_topic.1, cfg.gnss.lever_arm
+            ));
+        }
+    }
+    if let Some(o) = cfg.vehicle.odometer.as_mut() {
+        if o.lever_arm == [0.0; 3] {
+            o.lever_arm = from_imu(Vector3::zeros());
+            notes.push(format!(
+                "vehicle.odometer.lever_arm from /tf_static ({base}'s origin): {:?} m (FRD)",
+                o.lever_arm
+            ));
+        }
+    }
 }

@@ -15,7 +15,10 @@
 
 mod msg;
 
-pub use msg::{decode, encode, Encoding, Header, Header1, Header2, Imu, Kind, NavSatFix, Odometry};
+pub use msg::{
+    decode, encode, Encoding, Header, Header1, Header2, Imu, Kind, NavSatFix, Odometry, Quat,
+    TfMessage, TransformStamped, Vec3,
+};
 
 use crate::io::lines::{LineError, LineErrorKind};
 use crate::io::rtklib::QualityFactors;
@@ -121,6 +124,66 @@ pub struct OdometryRecord {
     pub speed: f64,
 }
 
+/// A transform of `/tf_static`: the child frame's origin and axes in the parent frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StaticTransform {
+    /// The parent frame (a leading `/` removed).
+    pub parent: String,
+    /// The child frame.
+    pub child: String,
+    /// The child's origin in the parent frame, m.
+    pub translation: [f64; 3],
+    /// The child's axes in the parent frame, as a quaternion `[x, y, z, w]`.
+    pub rotation: [f64; 4],
+}
+
+impl StaticTransform {
+    /// A transform as `static_transform_publisher`'s arguments give it: `x y z yaw pitch
+    /// roll parent child` (m, rad; the rotation `R_z(yaw) R_y(pitch) R_x(roll)`) or `x y z
+    /// qx qy qz qw parent child`.
+    pub fn from_publisher_args(text: &str) -> Result<Self, String> {
+        let f: Vec<&str> = text.split_whitespace().collect();
+        let n = f.len();
+        if n != 8 && n != 9 {
+            return Err(format!(
+                "`{text}`: give `x y z yaw pitch roll parent child` or `x y z qx qy qz qw \
+                 parent child` ({n} fields)"
+            ));
+        }
+        let v: Vec<f64> = f[..n - 2]
+            .iter()
+            .map(|s| s.parse::<f64>().map_err(|_| format!("`{text}`: `{s}` is not a number")))
+            .collect::<Result<_, _>>()?;
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(format!("`{text}`: a number is not finite"));
+        }
+        let rotation = if n == 8 {
+            let q = nalgebra::UnitQuaternion::from_euler_angles(v[5], v[4], v[3]);
+            [q.i, q.j, q.k, q.w]
+        } else {
+            let norm = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5] + v[6] * v[6]).sqrt();
+            if (norm - 1.0).abs() > 1e-3 {
+                return Err(format!("`{text}`: the quaternion's norm is {norm}, not 1"));
+            }
+            [v[3] / norm, v[4] / norm, v[5] / norm, v[6] / norm]
+        };
+        Ok(StaticTransform {
+            parent: frame_name(f[n - 2]).to_string(),
+            child: frame_name(f[n - 1]).to_string(),
+            translation: [v[0], v[1], v[2]],
+            rotation,
+        })
+    }
+}
+
+/// A frame name as tf compares them: without a leading `/`.
+fn frame_name(f: &str) -> &str {
+    f.strip_prefix('/').unwrap_or(f)
+}
+
+/// The topic whose `tf2_msgs/TFMessage` messages are read: the static transforms.
+pub const TF_STATIC: &str = "/tf_static";
+
 /// A recording's messages of the selected topics, in time order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Recording {
@@ -142,6 +205,8 @@ pub struct Recording {
     pub fixes: Vec<FixRecord>,
     /// The odometry messages.
     pub odometry: Vec<OdometryRecord>,
+    /// The static transforms (`/tf_static`), each parent–child pair once.
+    pub transforms: Vec<StaticTransform>,
 }
 
 /// What a message on one of the three types decodes into.
@@ -149,6 +214,7 @@ enum Decoded {
     Imu(ImuRecord, String),
     Fix(FixRecord, String),
     Odometry(OdometryRecord, String),
+    Tf(Vec<StaticTransform>),
 }
 
 fn located(path: &Path, index: usize, message: String) -> LineError {
@@ -206,7 +272,22 @@ fn decode_as(
         let r = OdometryRecord { t: pick(&m.header, receive, stamps), speed: m.twist.linear.x };
         Decoded::Odometry(r, m.child_frame_id)
     }
+    fn tf<H: Header>(m: TfMessage<H>) -> Decoded {
+        let list = m
+            .transforms
+            .into_iter()
+            .map(|t| StaticTransform {
+                parent: frame_name(t.header.frame()).to_string(),
+                child: frame_name(&t.child_frame_id).to_string(),
+                translation: t.translation.array(),
+                rotation: [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w],
+            })
+            .collect();
+        Decoded::Tf(list)
+    }
     Ok(match (kind, encoding) {
+        (Kind::Tf, Encoding::Ros1) => tf::<Header1>(decode(data, encoding)?),
+        (Kind::Tf, Encoding::Cdr) => tf::<Header2>(decode(data, encoding)?),
         (Kind::Imu, Encoding::Ros1) => imu::<Header1>(decode(data, encoding)?, receive, stamps),
         (Kind::Imu, Encoding::Cdr) => imu::<Header2>(decode(data, encoding)?, receive, stamps),
         (Kind::NavSatFix, Encoding::Ros1) => {
@@ -411,12 +492,14 @@ impl Recording {
     pub fn read(path: &Path, select: &Selection, keys: [&str; 3]) -> Result<Self, LineError> {
         let mut topics: Vec<Topic> = Vec::new();
         let mut gathered = Gathered::default();
+        let mut transforms: Vec<StaticTransform> = Vec::new();
         let wanted = |kind: Kind, topic: &str| match kind {
             Kind::Imu => select.imu.as_deref().is_none_or(|n| n == topic),
             Kind::NavSatFix => select.fix.as_deref().is_none_or(|n| n == topic),
             Kind::Odometry => {
                 select.use_odometry && select.odometry.as_deref().is_none_or(|n| n == topic)
             }
+            Kind::Tf => topic == TF_STATIC,
         };
         let container = for_each_message(path, |channel, index, receive_ns, data| {
             match topics.iter_mut().find(|t| t.name == channel.topic) {
@@ -475,6 +558,13 @@ impl Recording {
                     check_frame(&mut e.1, f)?;
                     e.0.push(r);
                 }
+                Decoded::Tf(list) => {
+                    for t in list {
+                        if !transforms.iter().any(|u| u.parent == t.parent && u.child == t.child) {
+                            transforms.push(t);
+                        }
+                    }
+                }
             }
             Ok(())
         })?;
@@ -512,7 +602,47 @@ impl Recording {
             imu,
             fixes,
             odometry,
+            transforms,
         })
+    }
+
+    /// Where frame `to` is in frame `from` through the static transforms (chained, either
+    /// way along each): its axes `R` (a vector in `to` is `R v` in `from`) and its origin
+    /// `t` in `from`, m. `None` when the transforms do not connect them.
+    pub fn transform(
+        &self,
+        from: &str,
+        to: &str,
+    ) -> Option<(nalgebra::Matrix3<f64>, nalgebra::Vector3<f64>)> {
+        use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+        let (from, to) = (frame_name(from), frame_name(to));
+        // edges both ways: parent → child as given, child → parent inverted
+        let mut edges: Vec<(&str, &str, Matrix3<f64>, Vector3<f64>)> = Vec::new();
+        for t in &self.transforms {
+            let [x, y, z, w] = t.rotation;
+            let r = *UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
+                .to_rotation_matrix()
+                .matrix();
+            let p = Vector3::from(t.translation);
+            edges.push((&t.parent, &t.child, r, p));
+            edges.push((&t.child, &t.parent, r.transpose(), -(r.transpose() * p)));
+        }
+        // breadth first from `from`, composing poses
+        let mut seen = vec![(from, Matrix3::identity(), Vector3::zeros())];
+        let mut k = 0;
+        while k < seen.len() {
+            let (frame, r, p) = seen[k];
+            if frame == to {
+                return Some((r, p));
+            }
+            for (a, b, r2, p2) in &edges {
+                if *a == frame && !seen.iter().any(|(f, _, _)| f == b) {
+                    seen.push((b, r * r2, p + r * p2));
+                }
+            }
+            k += 1;
+        }
+        None
     }
 
     /// The offset that takes the recording's Unix times to GPST seconds of week (taken at
@@ -659,21 +789,41 @@ impl Recording {
     }
 }
 
+/// The ROS 1 definition of `tf2_msgs/TFMessage`, for a copy's schema.
+const TF_ROS1_DEFINITION: &str = concat!(
+    "geometry_msgs/TransformStamped[] transforms\n",
+    "================================================================================\n",
+    "MSG: geometry_msgs/TransformStamped\nHeader header\nstring child_frame_id\n",
+    "Transform transform\n",
+    "================================================================================\n",
+    "MSG: std_msgs/Header\nuint32 seq\ntime stamp\nstring frame_id\n",
+    "================================================================================\n",
+    "MSG: geometry_msgs/Transform\nVector3 translation\nQuaternion rotation\n",
+    "================================================================================\n",
+    "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n",
+    "================================================================================\n",
+    "MSG: geometry_msgs/Quaternion\nfloat64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
+);
+
 /// Write the messages of `input` (a ROS 1 bag or an MCAP file of ROS 1 messages) to an
 /// MCAP file at `output`: as they are (`ros1`), or as ROS 2 CDR messages (`cdr`: the
-/// IMU, NavSatFix and Odometry messages converted, the other topics left out). Returns
-/// the messages written and left out.
+/// IMU, NavSatFix, Odometry and TFMessage messages converted, the other topics left
+/// out). `static_transforms` (e.g. what a launch file's `static_transform_publisher`
+/// gave the recording's players) go first, as one message on `/tf_static`, and win over
+/// the recording's own for the same pair of frames. Returns the messages written and
+/// left out.
 pub fn write_mcap(
     input: &Path,
     output: &Path,
     encoding: Encoding,
+    static_transforms: &[StaticTransform],
 ) -> Result<(usize, usize), LineError> {
     let out_error = |e: String| file_error(output, e);
     // written beside, and moved over `output` only when complete
     let mut partial = output.as_os_str().to_owned();
     partial.push(".partial");
     let partial = PathBuf::from(partial);
-    let result = write_mcap_to(input, &partial, output, encoding);
+    let result = write_mcap_to(input, &partial, output, encoding, static_transforms);
     match result {
         Ok(counts) => {
             std::fs::rename(&partial, output).map_err(|e| out_error(e.to_string()))?;
@@ -691,6 +841,7 @@ fn write_mcap_to(
     partial: &Path,
     output: &Path,
     encoding: Encoding,
+    static_transforms: &[StaticTransform],
 ) -> Result<(usize, usize), LineError> {
     let out_error = |e: String| file_error(output, e);
     let file = std::fs::File::create(partial).map_err(|e| out_error(e.to_string()))?;
@@ -699,7 +850,7 @@ fn write_mcap_to(
     let mut ids: BTreeMap<String, u16> = BTreeMap::new();
     let (mut written, mut left) = (0usize, 0usize);
     let mut sequence = 0u32;
-    for_each_message(input, |channel, index, receive_ns, data| {
+    let mut put = |channel: &Channel, index: usize, receive_ns: u64, data: &[u8]| {
         if channel.encoding != Some(Encoding::Ros1) {
             return Err(located(input, index, format!("{}: not a ROS 1 message", channel.topic)));
         }
@@ -725,6 +876,10 @@ fn write_mcap_to(
                     Kind::Odometry => {
                         let m: Odometry<Header1> = decode(data, Encoding::Ros1).map_err(bad)?;
                         encode(&msg::odometry_to_ros2(&m), Encoding::Cdr)
+                    }
+                    Kind::Tf => {
+                        let m: TfMessage<Header1> = decode(data, Encoding::Ros1).map_err(bad)?;
+                        encode(&msg::tf_to_ros2(&m), Encoding::Cdr)
                     }
                 }
                 .map_err(bad)?;
@@ -764,6 +919,47 @@ fn write_mcap_to(
         writer.write_to_known_channel(&header, bytes).map_err(|e| out_error(e.to_string()))?;
         written += 1;
         Ok(())
+    };
+    // the given static transforms, as one ROS 1 message before the first of the input
+    let tf = (!static_transforms.is_empty()).then(|| {
+        let secs_of = |ns: u64| ((ns / 1_000_000_000) as u32, (ns % 1_000_000_000) as u32);
+        let channel = Channel {
+            topic: TF_STATIC.into(),
+            type_name: Kind::Tf.ros1_name().into(),
+            encoding: Some(Encoding::Ros1),
+            definition: TF_ROS1_DEFINITION.as_bytes().to_vec(),
+        };
+        (channel, secs_of)
+    });
+    let mut first = true;
+    for_each_message(input, |channel, index, receive_ns, data| {
+        if let (true, Some((tf_channel, secs_of))) = (first, &tf) {
+            let (secs, nsecs) = secs_of(receive_ns);
+            let message = TfMessage {
+                transforms: static_transforms
+                    .iter()
+                    .map(|t| TransformStamped {
+                        header: Header1::new(secs, nsecs, &t.parent),
+                        child_frame_id: t.child.clone(),
+                        translation: Vec3 {
+                            x: t.translation[0],
+                            y: t.translation[1],
+                            z: t.translation[2],
+                        },
+                        rotation: Quat {
+                            x: t.rotation[0],
+                            y: t.rotation[1],
+                            z: t.rotation[2],
+                            w: t.rotation[3],
+                        },
+                    })
+                    .collect(),
+            };
+            let bytes = encode(&message, Encoding::Ros1).map_err(&out_error)?;
+            put(tf_channel, 0, receive_ns, &bytes)?;
+        }
+        first = false;
+        put(channel, index, receive_ns, data)
     })?;
     writer.finish().map_err(|e| out_error(e.to_string()))?;
     Ok((written, left))

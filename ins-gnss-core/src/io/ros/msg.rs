@@ -56,6 +56,13 @@ impl Header for Header2 {
     }
 }
 
+impl Header1 {
+    /// A header stamped `secs`, `nsecs` in `frame` (sequence 0).
+    pub fn new(secs: u32, nsecs: u32, frame: &str) -> Self {
+        Header1 { seq: 0, secs, nsecs, frame_id: frame.to_string() }
+    }
+}
+
 impl From<&Header1> for Header2 {
     fn from(h: &Header1) -> Self {
         // a ROS 1 stamp past 2038 does not fit ROS 2's i32 seconds: kept as its bits
@@ -84,10 +91,34 @@ impl Vec3 {
 /// `geometry_msgs/Quaternion`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Quat {
-    x: f64,
-    y: f64,
-    z: f64,
-    w: f64,
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// w.
+    pub w: f64,
+}
+
+/// `geometry_msgs/TransformStamped`: the child frame in the header's frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TransformStamped<H> {
+    /// The header (its frame is the parent).
+    pub header: H,
+    /// The child frame.
+    pub child_frame_id: String,
+    /// The child's origin in the parent frame, m.
+    pub translation: Vec3,
+    /// The child's axes in the parent frame.
+    pub rotation: Quat,
+}
+
+/// `tf2_msgs/TFMessage`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TfMessage<H> {
+    /// The transforms.
+    pub transforms: Vec<TransformStamped<H>>,
 }
 
 /// `sensor_msgs/Imu`.
@@ -173,6 +204,8 @@ pub enum Kind {
     NavSatFix,
     /// `nav_msgs/Odometry`.
     Odometry,
+    /// `tf2_msgs/TFMessage` (read on `/tf_static`).
+    Tf,
 }
 
 impl Kind {
@@ -182,6 +215,7 @@ impl Kind {
             "sensor_msgs/Imu" => Some(Kind::Imu),
             "sensor_msgs/NavSatFix" => Some(Kind::NavSatFix),
             "nav_msgs/Odometry" => Some(Kind::Odometry),
+            "tf2_msgs/TFMessage" => Some(Kind::Tf),
             _ => None,
         }
     }
@@ -192,6 +226,7 @@ impl Kind {
             Kind::Imu => "sensor_msgs/Imu",
             Kind::NavSatFix => "sensor_msgs/NavSatFix",
             Kind::Odometry => "nav_msgs/Odometry",
+            Kind::Tf => "tf2_msgs/TFMessage",
         }
     }
 }
@@ -278,6 +313,22 @@ pub fn odometry_to_ros2(m: &Odometry<Header1>) -> Odometry<Header2> {
     }
 }
 
+/// A ROS 1 `TFMessage` as ROS 2's.
+pub fn tf_to_ros2(m: &TfMessage<Header1>) -> TfMessage<Header2> {
+    TfMessage {
+        transforms: m
+            .transforms
+            .iter()
+            .map(|t| TransformStamped {
+                header: (&t.header).into(),
+                child_frame_id: t.child_frame_id.clone(),
+                translation: t.translation,
+                rotation: t.rotation,
+            })
+            .collect(),
+    }
+}
+
 /// ROS 2 message definitions (`ros2msg`) of the three types, for an MCAP's schemas.
 pub fn ros2_definition(kind: Kind) -> &'static str {
     match kind {
@@ -331,6 +382,23 @@ pub fn ros2_definition(kind: Kind) -> &'static str {
             "geometry_msgs/Vector3 angular\n",
             "================================================================================\n",
             "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n",
+        ),
+        Kind::Tf => concat!(
+            "geometry_msgs/TransformStamped[] transforms\n",
+            "================================================================================\n",
+            "MSG: geometry_msgs/TransformStamped\nstd_msgs/Header header\n",
+            "string child_frame_id\ngeometry_msgs/Transform transform\n",
+            "================================================================================\n",
+            "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n",
+            "================================================================================\n",
+            "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n",
+            "================================================================================\n",
+            "MSG: geometry_msgs/Transform\ngeometry_msgs/Vector3 translation\n",
+            "geometry_msgs/Quaternion rotation\n",
+            "================================================================================\n",
+            "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n",
+            "================================================================================\n",
+            "MSG: geometry_msgs/Quaternion\nfloat64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
         ),
     }
 }

@@ -82,7 +82,7 @@ fn mcap_copies_read_the_same_in_both_encodings() {
     let original = Recording::read(&bag(), &all(Stamps::Header), KEYS).unwrap();
     for (encoding, name) in [(Encoding::Ros1, "ros1.mcap"), (Encoding::Cdr, "cdr.mcap")] {
         let out = dir.join(name);
-        let (written, left) = write_mcap(&bag(), &out, encoding).unwrap();
+        let (written, left) = write_mcap(&bag(), &out, encoding, &[]).unwrap();
         assert_eq!((written, left), (11_865 + 989 + 3_952, 0));
         for stamps in [Stamps::Header, Stamps::Receive] {
             let a = Recording::read(&bag(), &all(stamps), KEYS).unwrap();
@@ -116,6 +116,7 @@ fn the_encodings_round_trip_and_cdr_aligns() {
             Kind::Odometry => {
                 encode(&decode::<Odometry<Header1>>(data, Encoding::Ros1).unwrap(), Encoding::Ros1)
             }
+            Kind::Tf => unreachable!("the bag has no /tf_static"),
         }
         .unwrap();
         assert_eq!(again, data);
@@ -192,7 +193,7 @@ fn corrupted_recordings_are_errors_not_panics() {
     let dir = std::env::temp_dir().join(format!("ros-corrupt-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mcap = dir.join("copy.mcap");
-    write_mcap(&bag(), &mcap, Encoding::Cdr).unwrap();
+    write_mcap(&bag(), &mcap, Encoding::Cdr, &[]).unwrap();
     let (mut errors, mut panics) = (0, 0);
     for (source, name) in [(bag(), "c.bag"), (mcap, "c.mcap")] {
         let bytes = std::fs::read(&source).unwrap();
@@ -215,4 +216,48 @@ fn corrupted_recordings_are_errors_not_panics() {
     std::fs::remove_dir_all(&dir).unwrap();
     assert_eq!(panics, 0, "{errors} errors");
     assert!(errors > 0);
+}
+
+#[test]
+fn static_transforms_chain_and_read_back_from_a_copy() {
+    // `static_transform_publisher`'s two forms give the same rotation
+    let euler = StaticTransform::from_publisher_args("1 2 3 0.3 -0.2 0.1 /base_link imu").unwrap();
+    let q = nalgebra::UnitQuaternion::from_euler_angles(0.1, -0.2, 0.3);
+    let quat = StaticTransform::from_publisher_args(&format!(
+        "1 2 3 {} {} {} {} base_link imu",
+        q.i, q.j, q.k, q.w
+    ))
+    .unwrap();
+    assert_eq!((euler.parent.as_str(), euler.child.as_str()), ("base_link", "imu"));
+    for k in 0..4 {
+        assert!((euler.rotation[k] - quat.rotation[k]).abs() < 1e-15);
+    }
+    for bad in ["1 2 3 0 0 0 a", "1 2 x 0 0 0 a b", "1 2 3 0 0 0 2 a b", "1 2 NaN 0 0 0 a b"] {
+        assert!(StaticTransform::from_publisher_args(bad).is_err(), "{bad}");
+    }
+    // base → a: 1 m forward, turned 90° left; a → b: 1 m along a's y. So b sits at the
+    // base's origin, turned 90°; and the way back is the inverse
+    let mut r = Recording::read(&bag(), &Selection::default(), KEYS).unwrap();
+    r.transforms = vec![
+        StaticTransform::from_publisher_args("1 0 0 1.5707963267948966 0 0 base a").unwrap(),
+        StaticTransform::from_publisher_args("0 1 0 0 0 0 a b").unwrap(),
+    ];
+    let (rot, t) = r.transform("base", "b").unwrap();
+    assert!(t.norm() < 1e-12, "{t}");
+    assert!((rot * nalgebra::Vector3::x() - nalgebra::Vector3::y()).norm() < 1e-12);
+    let (back, tb) = r.transform("b", "/base").unwrap();
+    assert!((back * rot - nalgebra::Matrix3::identity()).norm() < 1e-12 && tb.norm() < 1e-12);
+    assert!(r.transform("base", "c").is_none());
+    // written into an MCAP copy (ROS 1 and CDR), read back from /tf_static
+    let dir = std::env::temp_dir().join(format!("ros-tf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for encoding in [Encoding::Ros1, Encoding::Cdr] {
+        let out = dir.join("tf.mcap");
+        let (written, _) = write_mcap(&bag(), &out, encoding, &r.transforms).unwrap();
+        assert_eq!(written, 16_807);
+        let copy = Recording::read(&out, &Selection::default(), KEYS).unwrap();
+        assert_eq!(copy.transforms, r.transforms, "{encoding:?}");
+        assert!(copy.topics.iter().any(|t| t.name == TF_STATIC && t.messages == 1));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }
