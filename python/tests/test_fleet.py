@@ -71,3 +71,31 @@ def test_the_campaign_runner_on_the_fleet_gives_the_threads_rows(cli, tmp_path):
         out[name] = csv.read_text()
     assert out["threads"] == out["fleet"]
     assert len(out["fleet"].splitlines()) == 1 + 4
+
+
+def test_a_fleet_of_twenty_corrupted_logs_and_a_broken_one(tmp_path):
+    """20 logs — navego and drive-0708 in turn, 5 % of each one's fixes moved 30 m by its
+    own seed — and one broken log on a two-worker local cluster: a row for every log in
+    order, the broken one with the reader's message, the others with their errors against
+    the truth, the gate's refusals and a verdict; the numbers those of the same runs made
+    one after the other here."""
+    sys.path.insert(0, str(REPO / "python" / "benches"))
+    from fleet import corrupted_jobs
+
+    jobs = corrupted_jobs(str(tmp_path), 20)
+    table = estimator.fleet(jobs, workers=2, progress=False)
+    assert list(table["name"]) == [j.name for j in jobs] and len(table) == 21
+    assert list(table["ok"]) == [True] * 20 + [False]
+    assert "broken.txt:101" in table.loc[20, "error"], table.loc[20, "error"]
+    good = table.iloc[:20]
+    assert good["horizontal_rms"].notna().all() and (good["refused_share"] > 0).all()
+    assert set(good["verdict"]) <= {"trusted", "flagged"}
+    # each set's errors stay where its clean run is (navego 1.4 m; drive-0708 12 m with its
+    # ten outages): the gate keeps the 30 m fixes out
+    navego = good[good["name"].str.startswith("navego")]["horizontal_rms"]
+    drive = good[good["name"].str.startswith("drive")]["horizontal_rms"]
+    assert navego.max() < 3.0 and drive.max() < 20.0, (navego.tolist(), drive.tolist())
+    for k in (0, 1):
+        nav = estimator.navigate(jobs[k].config, accept_inconsistent=True)
+        rms = nav.evaluate(jobs[k].truth, 60)["overall"]["horizontal"]["rms"]
+        assert table.loc[k, "horizontal_rms"] == rms
