@@ -67,13 +67,32 @@ fn commands(root: &Path) -> Vec<(String, Vec<String>, Option<String>)> {
     out
 }
 
+/// `from`'s folders made again under `to`, its files linked; earlier runs' output folders
+/// (`out*`) left out.
+fn mirror(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap();
+        if path.is_dir() {
+            if !name.to_string_lossy().starts_with("out") {
+                mirror(&path, &to.join(name));
+            }
+        } else {
+            std::os::unix::fs::symlink(&path, to.join(name)).unwrap();
+        }
+    }
+}
+
 #[test]
 fn every_ins_gnss_command_of_the_docs_runs() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").canonicalize().unwrap();
     let work = std::env::temp_dir().join(format!("estimator-doc-commands-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&work);
     std::fs::create_dir_all(work.join("ins-gnss")).unwrap();
-    std::os::unix::fs::symlink(root.join("data"), work.join("data")).unwrap();
+    // the data's folders are made here and their files linked, so that what a command
+    // writes beside its configuration (an `outputpath`) lands here, not in the repository
+    mirror(&root.join("data"), &work.join("data"));
     std::os::unix::fs::symlink(root.join("ins-gnss/scenarios"), work.join("ins-gnss/scenarios"))
         .unwrap();
     let list = commands(&root);
