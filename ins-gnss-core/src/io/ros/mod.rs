@@ -723,7 +723,7 @@ impl Recording {
     /// the statuses `quality` drops (status 0 as `single`, 1 SBAS as `sbas`, 2 GBAS as
     /// `dgps`). The σ are the message's covariance as it is: `quality`'s factors, which
     /// make up for RTKLIB's and NMEA's optimistic σ, are not applied (on the Husky bag
-    /// the SBAS factor 5 left the innovations at 0.21× their σ; as given, 1.05×). A fix
+    /// the SBAS factor 5 left the innovations at 0.21× their σ; as given, 0.42×). A fix
     /// whose covariance is unknown (type 0) takes `sigma` (N, E, D), and is refused
     /// without it; `sigma` replaces every fix's when given. Returns the rows and the
     /// fixes left out.
