@@ -14,6 +14,7 @@ wrong/right (wrong: horizontal RMS beyond the bound).
     python3 benches/campaign.py --walk --seeds 50     # the self-start in a small yard
     python3 benches/campaign.py --rover --seeds 20    # a slow rover, true and 100x-low IMU noise
     python3 benches/campaign.py --walk --seeds 50 --fleet   # on a Dask cluster (estimator.fleet)
+    python3 benches/campaign.py --reversed --seeds 30  # the odometer verdict: heading right and 180° off
 
 Every run's row goes to the CSV (config, rate, start, seed, exit status, horizontal RMS,
 refused share, the first line of the error); the table is printed as Markdown.
@@ -291,6 +292,57 @@ def walk(binary, seeds, first, jobs, csv_path):
             "%.2f° / %.2f°" % (worst["heading_err"], worst["heading_std"]) if worst else "-"))
 
 
+def reversed_one(job):
+    """One seed of `scenarios/car-aided.toml` (with GNSS velocity, or position only) run
+    with `--odometer` three ways: as simulated (its `[init]`), with no `[init]` (the
+    self-start), and with the given heading turned 180°. The exit status, and whether the
+    odometer verdict ("the filter moves the other way") named it."""
+    (binary, seed, velocity) = job
+    work = tempfile.mkdtemp(prefix="reversed-")
+    try:
+        text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "car-aided.toml")).read()
+        text = re.sub(r"(?m)^seed = .*", "seed = %d" % seed, text)
+        if not velocity:
+            text = re.sub(r"(?m)^velocity_std = .*remove for a 7-column.*\n", "", text)
+        open(os.path.join(work, "s.toml"), "w").write(text)
+        d = os.path.join(work, "d")
+        subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
+                       check=True, capture_output=True)
+        cfg = open(os.path.join(d, "config.toml")).read()
+        att = re.search(r"(?m)^attitude = \[([^\]]*)\]", cfg)
+        roll, pitch, yaw = [float(x) for x in att.group(1).split(",") if x.strip()]
+        flipped = cfg.replace(att.group(0), "attitude = [%r, %r, %r]" % (roll, pitch, yaw + 180.0))
+        open(os.path.join(d, "given.toml"), "w").write(cfg)
+        open(os.path.join(d, "noinit.toml"), "w").write(strip_init(cfg))
+        open(os.path.join(d, "reversed.toml"), "w").write(flipped)
+        row = {"seed": seed, "velocity": velocity}
+        for name in ("given", "noinit", "reversed"):
+            p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--odometer",
+                                "--out", os.path.join(work, "o_" + name), "--quiet"],
+                               capture_output=True, text=True)
+            row[name + "_exit"] = p.returncode
+            row[name + "_flagged"] = "odometer: for" in p.stderr
+        return row
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def reversed_heading(binary, seeds, first, jobs, csv_path):
+    todo = [(binary, first + s, v) for v in (True, False) for s in range(seeds)]
+    rows = run_seeds(reversed_one, todo, jobs, csv_path)
+    print("| GNSS | start | seeds | exit 0 | exit 3 (flagged) | named by the odometer verdict | other exit |")
+    print("|---|---|---|---|---|---|---|")
+    for v in (True, False):
+        rs = [r for r in rows if r["velocity"] == v]
+        for name, what in (("given", "as simulated"), ("noinit", "no [init]"),
+                           ("reversed", "heading given 180° off")):
+            print("| %s | %s | %d | %d | %d | %d | %d |" % (
+                "position + velocity" if v else "position only", what, len(rs),
+                sum(r[name + "_exit"] == 0 for r in rs), sum(r[name + "_exit"] == 3 for r in rs),
+                sum(r[name + "_flagged"] for r in rs),
+                sum(r[name + "_exit"] not in (0, 3) for r in rs)))
+
+
 def scale_noise(text, factor):
     """`[imu_noise]` ARW and VRW divided by `factor` (a peer's "optimised" settings)."""
     def one(m):
@@ -397,11 +449,17 @@ def main():
     ap.add_argument("--fleet", nargs="?", const="", default=None, metavar="ADDRESS",
                     help="run on a Dask cluster through estimator.fleet: a local one of --jobs "
                          "workers, or the scheduler at ADDRESS (needs the Python package)")
+    ap.add_argument("--reversed", action="store_true",
+                    help="the odometer verdict's campaign instead: scenarios/car-aided.toml by "
+                         "seed with --odometer, its heading as simulated, found, and 180° off")
     a = ap.parse_args()
     global FLEET
     FLEET = a.fleet
     if a.rover:
         rover(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.low, a.init, a.csv)
+        return
+    if a.reversed:
+        reversed_heading(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv)
         return
     if a.walk:
         walk(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv)
