@@ -47,6 +47,42 @@ fn horizontal(a: (f64, f64), b: (f64, f64)) -> f64 {
     dn.hypot(de)
 }
 
+/// `nav.txt` in `out` against the bag's fixes: the horizontal RMS at the fixes' times
+/// (nearest row), the distance of the row nearest the last fix from it, the track's and
+/// the fixes' start-to-end distances (m), and the fixes compared.
+fn against_fixes(out: &Path) -> (f64, f64, f64, f64, usize) {
+    let rec = Recording::read(
+        &husky().join("test1.bag"),
+        &Selection::default(),
+        ["data.ros.imu_topic", "data.ros.fix_topic", "data.ros.odometry_topic"],
+    )
+    .unwrap();
+    let offset = rec.gpst_offset();
+    let nav: Vec<Vec<f64>> = std::fs::read_to_string(out.join("nav.txt"))
+        .unwrap()
+        .lines()
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let (mut sum, mut n, mut last) = (0.0, 0, f64::NAN);
+    for f in &rec.fixes {
+        let t = f.t + offset;
+        let k = nav.partition_point(|r| r[1] < t);
+        if k == 0 || k == nav.len() {
+            continue;
+        }
+        let r = if t - nav[k - 1][1] < nav[k][1] - t { &nav[k - 1] } else { &nav[k] };
+        let d = horizontal((r[2], r[3]), (f.position[0], f.position[1]));
+        sum += d * d;
+        n += 1;
+        last = d;
+    }
+    let (a, b) = (&nav[0], &nav[nav.len() - 1]);
+    let (f0, f1) = (&rec.fixes[0].position, &rec.fixes[rec.fixes.len() - 1].position);
+    let track = horizontal((a[2], a[3]), (b[2], b[3]));
+    let fixes = horizontal((f0[0], f0[1]), (f1[0], f1[1]));
+    ((sum / n as f64).sqrt(), last, track, fixes, n)
+}
+
 #[test]
 fn the_husky_bag_runs_as_it_is_and_its_mcap_copies_give_the_same_bytes() {
     let dir = temp("husky");
@@ -66,32 +102,16 @@ fn the_husky_bag_runs_as_it_is_and_its_mcap_copies_give_the_same_bytes() {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     // nav.txt against the fixes (read from the bag by the library): the track follows
-    // them (0.59 m RMS measured; the fixes' own σ is 0.8–1.2 m)
-    let rec = Recording::read(
-        &bag,
-        &Selection::default(),
-        ["data.ros.imu_topic", "data.ros.fix_topic", "data.ros.odometry_topic"],
-    )
-    .unwrap();
-    let offset = rec.gpst_offset();
-    let nav: Vec<Vec<f64>> = std::fs::read_to_string(out.join("nav.txt"))
-        .unwrap()
-        .lines()
-        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
-        .collect();
-    let (mut sum, mut n) = (0.0, 0);
-    for f in &rec.fixes {
-        let t = f.t + offset;
-        let k = nav.partition_point(|r| r[1] < t);
-        if k == 0 || k == nav.len() {
-            continue;
-        }
-        let r = if t - nav[k - 1][1] < nav[k][1] - t { &nav[k - 1] } else { &nav[k] };
-        sum += horizontal((r[2], r[3]), (f.position[0], f.position[1])).powi(2);
-        n += 1;
-    }
-    let rms = (sum / n as f64).sqrt();
+    // them (0.59 m RMS measured; the fixes' own σ is 0.8–1.2 m) and ends near the last
+    let (rms, last, track, fixes, n) = against_fixes(&out);
+    eprintln!(
+        "husky as shipped: {n} fixes, horizontal RMS {rms:.2} m, {last:.2} m from the last \
+         fix; start to end {track:.2} m (the fixes: {fixes:.2} m; robot_localization's \
+         answer: {:.1} m)",
+        40.0454f64.hypot(76.9988)
+    );
     assert!(n > 980 && rms < 1.0, "{n} fixes, RMS {rms:.2} m");
+    assert!(last < 1.0 && (track - fixes).abs() < 1.0, "{last} {track} {fixes}");
 
     // MCAP copies, ROS 1 and ROS 2 CDR messages: the same run, byte for byte
     for (name, flag) in [("ros1.mcap", None), ("cdr.mcap", Some("--cdr"))] {
@@ -107,6 +127,18 @@ fn the_husky_bag_runs_as_it_is_and_its_mcap_copies_give_the_same_bytes() {
             assert!(a == b, "{name}: {f} differs from the bag's");
         }
     }
+    // a copy that fails (a bag cut short) leaves the earlier MCAP as it was, and no
+    // partial file
+    let cut = dir.join("cut.bag");
+    let bytes = std::fs::read(&bag).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let mcap = dir.join("ros1.mcap");
+    let before = std::fs::read(&mcap).unwrap();
+    let o = bin().arg("mcap").arg(&cut).arg(&mcap).output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && stderr.contains("rosbag reindex"), "{stderr}");
+    assert!(std::fs::read(&mcap).unwrap() == before, "the earlier copy was touched");
+    assert!(!dir.join("ros1.mcap.partial").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -129,6 +161,11 @@ fn a_reversed_heading_is_named_and_a_given_heading_uses_the_odometer() {
     let cfg = dir.join("given.toml");
     std::fs::write(&cfg, text).unwrap();
     let o = run(&cfg, &dir.join("b"), &["--accept-inconsistent"]);
+    let (rms, last, track, fixes, n) = against_fixes(&dir.join("b"));
+    eprintln!(
+        "husky, heading given, odometer on: {n} fixes, horizontal RMS {rms:.2} m, {last:.2} m \
+         from the last fix; start to end {track:.2} m (the fixes: {fixes:.2} m)"
+    );
     let stdout = String::from_utf8_lossy(&o.stdout);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");

@@ -36,7 +36,7 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
     let mut notes = Vec::new();
     let rate = rec.imu_rate().ok_or_else(|| {
         RunError::NoData(format!(
-            "{}: fewer than two IMU messages on {}",
+            "{}: fewer than two IMU messages on {}, or their stamps do not advance",
             rec.path.display(),
             rec.imu_topic.0
         ))
