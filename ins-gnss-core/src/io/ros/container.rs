@@ -42,23 +42,26 @@ pub(crate) fn for_each_message(
     path: &Path,
     mut each: impl FnMut(&Channel, usize, u64, &[u8]) -> Result<(), LineError>,
 ) -> Result<Container, LineError> {
-    let mut head = [0u8; 16];
-    {
+    // the first bytes tell the layout, and hold a bag's header
+    let (head, len) = {
         use std::io::Read;
-        let mut f = std::fs::File::open(path).map_err(|e| file_error(path, e.to_string()))?;
-        let n = f.read(&mut head).map_err(|e| file_error(path, e.to_string()))?;
-        if Container::detect(&head[..n]).is_none() {
-            return Err(file_error(
-                path,
-                "neither a ROS 1 bag (`#ROSBAG V2.0`) nor an MCAP file (`\\x89MCAP0`)".into(),
-            ));
-        }
-    }
-    let container = Container::detect(&head).unwrap_or(Container::Bag);
+        let io = |e: std::io::Error| file_error(path, e.to_string());
+        let f = std::fs::File::open(path).map_err(io)?;
+        let len = f.metadata().map_err(io)?.len();
+        let mut head = Vec::with_capacity(4096);
+        f.take(4096).read_to_end(&mut head).map_err(io)?;
+        (head, len)
+    };
+    let Some(container) = Container::detect(&head) else {
+        return Err(file_error(
+            path,
+            "neither a ROS 1 bag (`#ROSBAG V2.0`) nor an MCAP file (`\\x89MCAP0`)".into(),
+        ));
+    };
     let mut index = 0usize;
     match container {
         Container::Bag => {
-            check_bag_index(path)?;
+            check_bag_index(path, &head, len)?;
             let bag = rosbag::RosBag::new(path).map_err(|e| file_error(path, e.to_string()))?;
             let mut channels: BTreeMap<u32, Channel> = BTreeMap::new();
             for record in bag.chunk_records() {
@@ -122,14 +125,9 @@ pub(crate) fn for_each_message(
 
 /// A bag's header names where its index starts; a bag whose recording did not finish (a
 /// `.bag.active`, or one cut short) has none, or one past its end. `rosbag` indexes past
-/// the end of the file then, so the header is checked first.
-fn check_bag_index(path: &Path) -> Result<(), LineError> {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path).map_err(|e| file_error(path, e.to_string()))?;
-    let len = f.metadata().map_err(|e| file_error(path, e.to_string()))?.len();
-    let mut head = vec![0u8; 4096];
-    let n = f.read(&mut head).map_err(|e| file_error(path, e.to_string()))?;
-    head.truncate(n);
+/// the end of the file then, so the header — in `head`, the file's first bytes; `len` is
+/// its length — is checked first.
+fn check_bag_index(path: &Path, head: &[u8], len: u64) -> Result<(), LineError> {
     // after the version line: the header record's length, then `len` + `name=value` fields
     let fields = head.iter().position(|&b| b == b'\n').map(|p| p + 1).and_then(|p| {
         let size = u32::from_le_bytes(head.get(p..p + 4)?.try_into().ok()?) as usize;

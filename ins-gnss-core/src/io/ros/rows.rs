@@ -113,11 +113,7 @@ impl Recording {
                 (_, Some(s)) => s,
                 (0, None) => {
                     return Err(LineError {
-                        path: PathBuf::from(format!(
-                            "{} {}",
-                            self.path.display(),
-                            self.fix_topic.0
-                        )),
+                        path: self.fix_name(),
                         line: i + 1,
                         kind: LineErrorKind::Invalid(format!(
                             "NavSatFix with an unknown covariance (type 0): set `{sigma_key}`"
