@@ -187,7 +187,7 @@ def walk_one(job):
     """One seed of `scenarios/walk.toml` (with or without GNSS velocity): the run given the
     simulator's initial state and the run with no `[init]`; their outage scores (largest
     horizontal error inside the outage window) and the self-start's heading error and σ."""
-    (binary, seed, velocity) = job
+    (binary, seed, velocity, extra) = job
     work = tempfile.mkdtemp(prefix="walk-")
     try:
         text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "walk.toml")).read()
@@ -205,8 +205,8 @@ def walk_one(job):
         row = {"seed": seed, "velocity": velocity}
         for name in ("config", "noinit"):
             out = os.path.join(work, "o_" + name)
-            p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--out", out, "--quiet"],
-                               capture_output=True, text=True)
+            p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--out", out, "--quiet"]
+                               + extra, capture_output=True, text=True)
             row[name + "_exit"] = p.returncode
             row[name + "_score"] = float("nan")
             if name == "noinit":
@@ -272,8 +272,8 @@ def run_seeds(one_seed, todo, jobs, csv_path):
     return rows
 
 
-def walk(binary, seeds, first, jobs, csv_path):
-    todo = [(binary, first + s, v) for v in (True, False) for s in range(seeds)]
+def walk(binary, seeds, first, jobs, csv_path, extra):
+    todo = [(binary, first + s, v, extra) for v in (True, False) for s in range(seeds)]
     rows = run_seeds(walk_one, todo, jobs, csv_path)
     print("| GNSS | seeds | started (no `[init]`) | heading within 3σ | score within 20 % of given | "
           "median score found / given m | largest heading error / its σ |")
@@ -297,7 +297,7 @@ def reversed_one(job):
     with `--odometer` three ways: as simulated (its `[init]`), with no `[init]` (the
     self-start), and with the given heading turned 180°. The exit status, and whether the
     odometer verdict ("the filter moves the other way") named it."""
-    (binary, seed, velocity) = job
+    (binary, seed, velocity, extra) = job
     work = tempfile.mkdtemp(prefix="reversed-")
     try:
         text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "car-aided.toml")).read()
@@ -318,7 +318,7 @@ def reversed_one(job):
         row = {"seed": seed, "velocity": velocity}
         for name in ("given", "noinit", "reversed"):
             p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--odometer",
-                                "--out", os.path.join(work, "o_" + name), "--quiet"],
+                                "--out", os.path.join(work, "o_" + name), "--quiet"] + extra,
                                capture_output=True, text=True)
             row[name + "_exit"] = p.returncode
             row[name + "_flagged"] = "odometer: for" in p.stderr
@@ -327,8 +327,8 @@ def reversed_one(job):
         shutil.rmtree(work, ignore_errors=True)
 
 
-def reversed_heading(binary, seeds, first, jobs, csv_path):
-    todo = [(binary, first + s, v) for v in (True, False) for s in range(seeds)]
+def reversed_heading(binary, seeds, first, jobs, csv_path, extra):
+    todo = [(binary, first + s, v, extra) for v in (True, False) for s in range(seeds)]
     rows = run_seeds(reversed_one, todo, jobs, csv_path)
     print("| GNSS | start | seeds | exit 0 | exit 3 (flagged) | named by the odometer verdict | other exit |")
     print("|---|---|---|---|---|---|---|")
@@ -357,7 +357,7 @@ def rover_one(job):
     """One seed of `scenarios/rover.toml`, no `[init]`: with the true IMU noise and with
     ARW and VRW declared `low`× smaller; forward and smoothed horizontal RMS, the
     self-start's heading error and σ, the exit status and the diagnosis."""
-    (binary, seed, low, keep_init) = job
+    (binary, seed, low, keep_init, extra) = job
     work = tempfile.mkdtemp(prefix="rover-")
     try:
         text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "rover.toml")).read()
@@ -376,7 +376,7 @@ def rover_one(job):
         for name in ("true", "low"):
             out = os.path.join(work, "o_" + name)
             p = subprocess.run([binary, "run", os.path.join(d, name + ".toml"), "--out", out,
-                                "--quiet", "--smooth"], capture_output=True, text=True)
+                                "--quiet", "--smooth"] + extra, capture_output=True, text=True)
             row[name + "_exit"] = p.returncode
             m = re.search(HEADING, p.stdout)
             row[name + "_heading_err"] = (float(m.group(1)) - yaw0 + 180.0) % 360.0 - 180.0 if m else float("nan")
@@ -397,8 +397,8 @@ def rover_one(job):
         shutil.rmtree(work, ignore_errors=True)
 
 
-def rover(binary, seeds, first, jobs, low, keep_init, csv_path):
-    todo = [(binary, first + s, low, keep_init) for s in range(seeds)]
+def rover(binary, seeds, first, jobs, low, keep_init, csv_path, extra):
+    todo = [(binary, first + s, low, keep_init, extra) for s in range(seeds)]
     rows = run_seeds(rover_one, todo, jobs, csv_path)
     med = lambda xs: sorted(xs)[len(xs) // 2] if xs else float("nan")
     print("| IMU noise declared | seeds | started | exit 3 | heading within 3σ | median forward / "
@@ -456,13 +456,13 @@ def main():
     global FLEET
     FLEET = a.fleet
     if a.rover:
-        rover(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.low, a.init, a.csv)
+        rover(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.low, a.init, a.csv, a.extra)
         return
     if a.reversed:
-        reversed_heading(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv)
+        reversed_heading(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv, a.extra)
         return
     if a.walk:
-        walk(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv)
+        walk(os.path.abspath(a.bin), a.seeds, a.first_seed, a.jobs, a.csv, a.extra)
         return
     if a.table:
         rows = list(csv.DictReader(open(a.table)))

@@ -175,6 +175,38 @@ fn ins(c: &mut Criterion) {
             k += 1;
         })
     });
+    // The navigator's IMU path (checks, bookkeeping, the filter's step) with no GNSS:
+    // the exact mode, and the covariance once per 20 ms (4 samples at 200 Hz), the state
+    // at every sample (`Navigator::with_covariance_interval`).
+    for (name, interval) in [("navigator_exact", 0.0), ("navigator_covariance_20ms", 0.02)] {
+        g.bench_function(name, |b| {
+            let start = || {
+                let t0 = d.inputs[0].cur.t - d.inputs[0].cur.dt;
+                Navigator::from_parts(
+                    d.states[0].clone(),
+                    d.P,
+                    t0,
+                    d.model.clone(),
+                    FixedNoise,
+                    GnssConfig::default(),
+                )
+                .unwrap()
+                .with_covariance_interval(interval)
+            };
+            let mut nav = start();
+            let mut out = Vec::with_capacity(16);
+            let mut k = 0;
+            b.iter(|| {
+                if k == d.inputs.len() {
+                    nav = start();
+                    k = 0;
+                }
+                nav.process_into(black_box(&d.inputs[k].cur), &[], &mut NoObserver, &mut out)
+                    .unwrap();
+                k += 1;
+            })
+        });
+    }
     g.bench_function("mechanization_only", |b| {
         let mut k = 0;
         b.iter(|| {

@@ -49,3 +49,40 @@ fn fixed_lambda_equals_fading_memory_filter() {
     }
     assert!(f.covariance()[(0, 0)] > 1.01 * plain.covariance()[(0, 0)]);
 }
+
+/// The covariance in one step for several state steps (`predict_state` n times, then
+/// `predict_covariance(.., steps = n)`): with `F = I` and `Q = 0` the fading compounds to
+/// `λⁿ P`, as n full predictions give; one state step then one covariance step at the state
+/// before is `predict` bit for bit; the state follows the same path.
+#[test]
+fn a_covariance_step_for_n_state_steps_fades_by_lambda_to_the_n() {
+    let alpha: f64 = 1.05;
+    let identity = LinearProcess { F: Matrix2::identity(), Q: Matrix2::zeros() };
+    let P0 = Matrix2::new(2.0, 0.3, 0.3, 1.0);
+    let x0 = Vector2::new(1.0, -2.0);
+    let mut full = ErrorStateFilter::new(x0, P0, Afkf::fading_memory(alpha)).unwrap();
+    let mut split = full.clone();
+    for _ in 0..4 {
+        full.predict(&identity, &(), 0.1).unwrap();
+        split.predict_state(&identity, &(), 0.1).unwrap();
+    }
+    assert_eq!(split.covariance().as_ref(), &P0, "the state steps leave P alone");
+    split.predict_covariance(&identity, &x0, &(), 0.4, 4).unwrap();
+    let want = P0 * alpha.powi(8);
+    assert!((full.covariance().as_ref() - want).abs().max() < 1e-12);
+    assert!((split.covariance().as_ref() - want).abs().max() < 1e-12);
+    assert_eq!(split.state(), full.state());
+    assert!((split.time() - full.time()).abs() < 1e-12);
+
+    let dt = 0.1;
+    let moving =
+        LinearProcess { F: Matrix2::new(1.0, dt, 0.0, 1.0), Q: Matrix2::new(1e-3, 0.0, 0.0, 2e-3) };
+    let mut one = ErrorStateFilter::new(x0, P0, Afkf::fading_memory(alpha)).unwrap();
+    let mut halves = one.clone();
+    one.predict(&moving, &(), dt).unwrap();
+    let before = *halves.state();
+    halves.predict_state(&moving, &(), dt).unwrap();
+    halves.predict_covariance(&moving, &before, &(), dt, 1).unwrap();
+    assert_eq!(halves.state(), one.state());
+    assert_eq!(halves.covariance(), one.covariance());
+}

@@ -223,6 +223,13 @@ where
     /// The end of the last recorded prediction is an epoch at which the smoothed
     /// variances are wanted too (the prediction is marked as well). Default: nothing.
     fn mark_variances(&mut self) {}
+
+    /// Whether this recorder keeps the predictions (a smoother's replay needs every one
+    /// as [`ErrorStateFilter::predict`] takes it); `false` lets the caller take
+    /// shortcuts such as a covariance at a lower rate. Default: `true`.
+    fn records(&self) -> bool {
+        true
+    }
 }
 
 impl<X: Manifold, U> StepRecorder<X, U> for ()
@@ -237,6 +244,11 @@ where
         _: f64,
         _: bool,
     ) {
+    }
+
+    #[inline]
+    fn records(&self) -> bool {
+        false
     }
 }
 
@@ -272,6 +284,11 @@ where
         if let Some(r) = self {
             r.mark_variances();
         }
+    }
+
+    #[inline]
+    fn records(&self) -> bool {
+        self.as_ref().is_some_and(|r| r.records())
     }
 }
 

@@ -9,7 +9,7 @@ fn at(r: &common::RunOutput, t: f64) -> &common::Record {
     r.records.iter().find(|x| (x.t - t).abs() < 1e-6).unwrap()
 }
 
-use common::{drive_setup, run_many};
+use common::{drive_setup, run_many_with_interval};
 use estimator_core::consistency::{averaged_chi2_band, fraction_inside};
 use estimator_core::FixedNoise;
 
@@ -18,8 +18,19 @@ const OUTAGE: (f64, f64) = (330.0, 390.0);
 
 #[test]
 fn mems_drive_is_consistent_and_outage_is_covered() {
+    consistent_and_covered(0.0);
+}
+
+/// The same laws with the covariance propagated once per 50 ms (5 IMU samples combined,
+/// `Navigator::with_covariance_interval`), the σ read as they stand between its steps.
+#[test]
+fn with_the_covariance_every_50_ms_too() {
+    consistent_and_covered(0.05);
+}
+
+fn consistent_and_covered(interval: f64) {
     let setup = drive_setup(100.0, Some(OUTAGE));
-    let runs = run_many(&setup, 0..RUNS, FixedNoise, None);
+    let runs = run_many_with_interval(&setup, 0..RUNS, FixedNoise, None, interval);
     let epochs = runs[0].records.len();
 
     // 1. Mean NEES per epoch after convergence (t ≥ 100 s), outside the outage.
@@ -35,7 +46,7 @@ fn mems_drive_is_consistent_and_outage_is_covered() {
     let inside = fraction_inside(&mean_nees, lo, hi);
     let avg = mean_nees.iter().sum::<f64>() / mean_nees.len() as f64;
     eprintln!(
-        "mean NEES {avg:.2} (15 dof); band [{lo:.2}, {hi:.2}]; inside at {:.1} % of {} epochs",
+        "covariance interval {interval} s: mean NEES {avg:.2} (15 dof); band [{lo:.2}, {hi:.2}]; inside at {:.1} % of {} epochs",
         inside * 100.0,
         mean_nees.len()
     );

@@ -39,6 +39,7 @@ use crate::tight::{
     Antenna, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21, OnTc, Pseudorange, RangeRate, M20,
     M26,
 };
+mod coarse;
 mod state;
 mod tight;
 mod vehicle;
@@ -200,6 +201,8 @@ where
     /// Tight coupling: the last raw epoch's carrier phases, for the next one's
     /// time-differenced updates.
     carrier: Option<CarrierEpoch>,
+    /// The covariance at a lower rate than the state (`None`: at every sample).
+    coarse: Option<coarse::Coarse<S>>,
 }
 
 /// What the time-differenced carrier phase needs of the last raw epoch.
@@ -281,6 +284,7 @@ where
             vehicle: VehicleState::default(),
             floor: None,
             carrier: None,
+            coarse: None,
         })
     }
 
@@ -474,6 +478,7 @@ where
                 self.propagate(&rest, recorder, true)?;
                 rest.dt = 0.0;
             }
+            coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
             apply(self, g, observer, out, recorder)?;
         }
         if rest.dt > 0.0 {
@@ -500,10 +505,20 @@ where
         // sample's interval may begin before the start time), its end after (updates and
         // smoothed rows are reported at the filter's time)
         self.filter.set_time(s.t - s.dt);
-        recorder.before_predict(&self.filter, &input, s.dt, mark);
-        self.filter
-            .predict(&self.model, &input, s.dt)
-            .map_err(|source| NavError::Filter { t: s.t, source })?;
+        let err = |source| NavError::Filter { t: s.t, source };
+        match &mut self.coarse {
+            Some(c) if !recorder.records() => {
+                let full = c.add(self.filter.state(), s);
+                self.filter.predict_state(&self.model, &input, s.dt).map_err(err)?;
+                if full {
+                    coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
+                }
+            }
+            _ => {
+                recorder.before_predict(&self.filter, &input, s.dt, mark);
+                self.filter.predict(&self.model, &input, s.dt).map_err(err)?;
+            }
+        }
         self.filter.set_time(s.t);
         self.prev = Some(*s);
         self.rate = s.rate();

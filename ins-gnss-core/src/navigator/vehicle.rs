@@ -70,6 +70,7 @@ where
                 v.last_odometer = t;
                 let z = nalgebra::Vector1::new(reading / k);
                 let r = nalgebra::Matrix1::new(o.std * o.std);
+                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 recorder.before_update(&self.filter);
                 let report =
                     S::update::<A, Odometer, O>(&mut self.filter, &model, &z, &r, observer);
@@ -93,6 +94,7 @@ where
             if t - v.last_zupt >= z.interval - TIME_EPSILON {
                 v.last_zupt = t;
                 let r = Matrix3::identity() * z.velocity_std.powi(2);
+                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 recorder.before_update(&self.filter);
                 let report = S::update::<A, Zupt, O>(
                     &mut self.filter,
@@ -111,6 +113,7 @@ where
                     let arw = S::imu_noise(&self.model).arw;
                     let r = diag3(&arw.map(|a| a * a / window + rate_std * rate_std));
                     let mean = d.mean_rate();
+                    coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                     recorder.before_update(&self.filter);
                     let report =
                         S::update::<A, Zaru, O>(&mut self.filter, &Zaru, &mean, &r, observer);
@@ -125,6 +128,7 @@ where
                 let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
                 let r = diag2(&n.std.component_mul(&n.std));
                 let z = nalgebra::Vector2::zeros();
+                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 recorder.before_update(&self.filter);
                 let report = S::update::<A, Nhc, O>(&mut self.filter, &model, &z, &r, observer);
                 out.push(report.map_err(err)?);

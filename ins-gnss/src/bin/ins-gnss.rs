@@ -62,6 +62,11 @@ enum Command {
         /// `filter.states`; KF-GINS YAML scale-factor keys set their values).
         #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["15", "21"]))]
         states: Option<String>,
+        /// Propagate the covariance at most once per this many seconds, over the IMU
+        /// samples combined, and before every update; 0: at every sample (overrides
+        /// `filter.covariance_interval`; a smoothed run takes exact steps).
+        #[arg(long, value_name = "SECONDS")]
+        covariance_interval: Option<f64>,
         /// Land vehicle: the odometer speed of the IMU file's 8th column, with the
         /// configuration's `[vehicle.odometer]` settings or the defaults.
         #[arg(long)]
@@ -212,6 +217,7 @@ fn main() -> ExitCode {
             zupt,
             odometer,
             states,
+            covariance_interval,
             no_vehicle,
             smooth,
             report,
@@ -231,6 +237,7 @@ fn main() -> ExitCode {
                 odometer,
                 no_vehicle,
                 states: states.as_deref().and_then(|s| s.parse().ok()),
+                covariance_interval,
                 smooth,
                 report,
                 accept_inconsistent,

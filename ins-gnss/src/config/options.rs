@@ -34,6 +34,8 @@ pub struct RunOptions<'a> {
     pub states: Option<u32>,
     /// Smooth the run (sets `filter.smooth`).
     pub smooth: bool,
+    /// Override `filter.covariance_interval` (s).
+    pub covariance_interval: Option<f64>,
     /// Write `report.html` (with the plots when there is a truth).
     pub report: bool,
     /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
@@ -76,6 +78,9 @@ impl Config {
         }
         if o.smooth {
             cfg.filter.smooth = true;
+        }
+        if let Some(c) = o.covariance_interval {
+            cfg.filter.covariance_interval = c;
         }
         Ok(o.strategy.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone()))
     }

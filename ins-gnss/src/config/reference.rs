@@ -167,6 +167,7 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("filter.streams", "—", r#"{ gnss-position = "fused" }"#),
     ("filter.states", "—", "21"),
     ("filter.smooth", "—", "true"),
+    ("filter.covariance_interval", "s", "0"),
     ("filter.gate.enabled", "—", "false"),
     ("filter.gate.probability", "probability", "1e-6"),
     ("filter.gate.readmit_after", "refusals", "10"),

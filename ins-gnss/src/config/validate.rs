@@ -241,6 +241,13 @@ impl Config {
         self.check_bias_noise()?;
         positive("imu_noise.gyro_scale_std", &n.gyro_scale_std)?;
         positive("imu_noise.accel_scale_std", &n.accel_scale_std)?;
+        let ci = self.filter.covariance_interval;
+        if !(ci.is_finite() && (0.0..=1.0).contains(&ci)) {
+            return Err(format!(
+                "`filter.covariance_interval` must be between 0 and 1 s, got {ci} (0: at every \
+                 IMU sample)"
+            ));
+        }
         if self.filter.states != 15 && self.filter.states != 21 {
             return Err(format!("`filter.states` must be 15 or 21, got {}", self.filter.states));
         }

@@ -200,8 +200,9 @@ where
     // the name of the strategy the user chose (the vehicle streams' fixed noise aside)
     let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
     let strategy = config.strategy(strategy).map_err(RunError::Config)?;
-    let nav =
-        S::navigator(config, strategy, start, clock)?.with_vehicle_aiding(config.vehicle_aiding());
+    let nav = S::navigator(config, strategy, start, clock)?
+        .with_vehicle_aiding(config.vehicle_aiding())
+        .with_covariance_interval(config.filter.covariance_interval);
     let summary = RunSummary {
         strategy: name.to_string(),
         span: (start, start),

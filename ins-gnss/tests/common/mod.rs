@@ -101,12 +101,25 @@ pub fn run<A: NoiseStrategy>(
     strategy: A,
     init_yaw_error: Option<f64>,
 ) -> RunOutput {
+    run_with_interval(setup, seed, strategy, init_yaw_error, 0.0)
+}
+
+/// [`run`] with the covariance propagated once per `interval` s
+/// ([`Navigator::with_covariance_interval`]; 0: at every sample).
+pub fn run_with_interval<A: NoiseStrategy>(
+    setup: &Setup,
+    seed: u64,
+    strategy: A,
+    init_yaw_error: Option<f64>,
+    interval: f64,
+) -> RunOutput {
     let errors = imu_errors();
     let data = simulate_from(&setup.exact, &setup.traj, &errors, &setup.gnss, seed);
     let init = initial_state(&data, 10_000 + seed, init_yaw_error);
     let model = InsModel::wgs84(errors.noise);
     let cfg = GnssConfig { lever_arm: setup.gnss.lever_arm, ..GnssConfig::default() };
-    let mut nav = Navigator::new(&init, model, strategy, cfg).unwrap();
+    let mut nav =
+        Navigator::new(&init, model, strategy, cfg).unwrap().with_covariance_interval(interval);
     let mut log = UpdateLog::default();
     let mut records = Vec::new();
     for (k, (s, gnss)) in data.replay().enumerate() {
@@ -128,15 +141,25 @@ pub fn run_many<A: NoiseStrategy + Clone + Send + Sync>(
     strategy: A,
     yaw: Option<f64>,
 ) -> Vec<RunOutput> {
+    run_many_with_interval(setup, seeds, strategy, yaw, 0.0)
+}
+
+/// [`run_many`] with the covariance once per `interval` s.
+#[allow(dead_code)]
+pub fn run_many_with_interval<A: NoiseStrategy + Clone + Send + Sync>(
+    setup: &Setup,
+    seeds: std::ops::Range<u64>,
+    strategy: A,
+    yaw: Option<f64>,
+    interval: f64,
+) -> Vec<RunOutput> {
     let seeds: Vec<u64> = seeds.collect();
     let half = seeds.len() / 2;
     let (a, b) = seeds.split_at(half);
+    let one = |seed: u64| run_with_interval(setup, seed, strategy.clone(), yaw, interval);
     std::thread::scope(|s| {
-        let h = s.spawn(|| {
-            a.iter().map(|&seed| run(setup, seed, strategy.clone(), yaw)).collect::<Vec<_>>()
-        });
-        let mut second: Vec<_> =
-            b.iter().map(|&seed| run(setup, seed, strategy.clone(), yaw)).collect();
+        let h = s.spawn(|| a.iter().map(|&seed| one(seed)).collect::<Vec<_>>());
+        let mut second: Vec<_> = b.iter().map(|&seed| one(seed)).collect();
         let mut first = h.join().unwrap();
         first.append(&mut second);
         first
