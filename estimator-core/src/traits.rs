@@ -86,6 +86,16 @@ where
         self.jacobians(x, u, dt).Phi
     }
 
+    /// The weighted mean of propagated sigma points, for the unscented prediction
+    /// (FilterPy's `x_mean_fn`): `weights` are the points' mean weights, in order. `None`
+    /// (the default) takes the mean on the manifold, the fixed-point iteration
+    /// [`manifold_mean`](crate::unscented::manifold_mean). Override it to reproduce a
+    /// recipe's own mean, e.g. an angle's `atan2(Σ wᵢ sin θᵢ, Σ wᵢ cos θᵢ)`.
+    fn sigma_mean(&self, points: &[Self::State], weights: &[T]) -> Option<Self::State> {
+        let _ = (points, weights);
+        None
+    }
+
     /// Both at once; override when they share work (mechanization and its Jacobians).
     fn step(
         &self,
@@ -279,6 +289,14 @@ where
     ) -> (Tangent<Self::Measurement, T>, JacobiansOf<Self, T>) {
         let (z_hat, jac) = self.linearize(x);
         (self.residual(z, &z_hat), jac)
+    }
+
+    /// The weighted mean of the sigma points' predicted measurements, for the unscented
+    /// update (FilterPy's `z_mean_fn`); `None` (the default): the mean on the manifold, as
+    /// [`ProcessModel::sigma_mean`].
+    fn sigma_mean(&self, points: &[Self::Measurement], weights: &[T]) -> Option<Self::Measurement> {
+        let _ = (points, weights);
+        None
     }
 
     /// The measurement stream this model feeds; adaptive strategies keep one window per

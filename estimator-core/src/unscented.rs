@@ -14,7 +14,11 @@
 //! A mean on a manifold is found by the usual fixed-point iteration
 //! `ȳ ← ȳ ⊕ Σ Wᵢᵐ (yᵢ ⊖ ȳ)` from `y₀` until the step is below
 //! [`SigmaPoints::mean_tolerance`] (one step on a vector space); deviations are
-//! `yᵢ ⊖ ȳ`.
+//! `yᵢ ⊖ ȳ`. A model can give a mean of its own instead
+//! ([`ProcessModel::sigma_mean`](crate::ProcessModel::sigma_mean),
+//! [`MeasurementModel::sigma_mean`](crate::MeasurementModel::sigma_mean): FilterPy's
+//! `x_mean_fn` and `z_mean_fn`), e.g. the `atan2` of weighted sines and cosines for an
+//! angle.
 //!
 //! **Prediction** ([`ErrorStateFilter::predict_unscented`]): the points go through the
 //! model's `propagate`; `x̂⁻ = mean`, `P⁻ = λ_f Σ Wᵢᶜ dᵢ dᵢᵀ + Q_d`, where `Q_d` is the
@@ -35,8 +39,8 @@
 //!
 //! On a vector space with linear models the filter equals the Kalman filter (to 1e-12,
 //! `tests/unscented.rs`); on the planar range-bearing robot it equals FilterPy's
-//! `UnscentedKalmanFilter` with the same points and mean functions (to 1e-9,
-//! `models/tests/ukf_filterpy.rs`). Julier & Uhlmann (1997); Wan & van der Merwe (2000);
+//! `UnscentedKalmanFilter` with the same points and mean functions, the iterated one and,
+//! through the hooks, FilterPy recipes' `atan2` one (to 1e-9, `tests/ukf_filterpy.rs`). Julier & Uhlmann (1997); Wan & van der Merwe (2000);
 //! Hauberg, Lauze & Pedersen (2013) and Brossard, Barrau & Bonnabel (2020) for sigma
 //! points on manifolds.
 //!
@@ -159,6 +163,25 @@ where
         }
     }
     Err(FilterError::NotConverged { what: "sigma-point mean on the manifold" })
+}
+
+/// The mean of `points` by a model's hook (`hook(points, weights)`, checked finite), or
+/// else on the manifold ([`manifold_mean`]).
+fn sigma_mean<M: Manifold>(
+    points: &[M],
+    weights: &SigmaWeights,
+    sp: &SigmaPoints,
+    hook: impl FnOnce(&[M], &[f64]) -> Option<M>,
+) -> Result<M, FilterError>
+where
+    DefaultAllocator: manifolds::DimAlloc<M::Dim>,
+{
+    let w: Vec<f64> = (0..points.len()).map(|i| weights.mean(i)).collect();
+    match hook(points, &w) {
+        Some(m) if m.is_finite() => Ok(m),
+        Some(_) => Err(FilterError::NonFinite { what: "the model's sigma-point mean" }),
+        None => manifold_mean(points, weights, sp),
+    }
 }
 
 /// The sigma points drawn from `(x, P)`.
@@ -290,7 +313,7 @@ where
         if moved.iter().any(|p| !p.is_finite()) {
             return Err(FilterError::NonFinite { what: "propagated sigma point" });
         }
-        let mean = manifold_mean(&moved, &w, sp)?;
+        let mean = sigma_mean(&moved, &w, sp, |p, wm| model.sigma_mean(p, wm))?;
         let (_, jac) = adjusted_step(model, self.process_noise_adjustment(), self.state(), u, dt)?;
         let mut spread = Cov::<X::Dim>::zeros();
         let mut cross = Cov::<X::Dim>::zeros(); // Σ Wᶜ (yᵢ ⊖ ȳ)(χᵢ ⊖ x̂)ᵀ
@@ -350,7 +373,7 @@ where
         if zs.iter().any(|z| !z.is_finite()) {
             return Err(FilterError::NonFinite { what: "predicted measurement of a sigma point" });
         }
-        let z_hat = manifold_mean(&zs, &w, sp)?;
+        let z_hat = sigma_mean(&zs, &w, sp, |p, wm| model.sigma_mean(p, wm))?;
         type M<MM> = StateDim<<MM as MeasurementModel>::Measurement>;
         let mut Pzz = Cov::<M<MM>>::zeros();
         let mut Pxz = OMatrix::<f64, X::Dim, M<MM>>::zeros();
