@@ -15,8 +15,8 @@
 //! `ȳ ← ȳ ⊕ Σ Wᵢᵐ (yᵢ ⊖ ȳ)` from `y₀` until the step is below
 //! [`SigmaPoints::mean_tolerance`] (one step on a vector space); deviations are
 //! `yᵢ ⊖ ȳ`. A model can give a mean of its own instead
-//! ([`ProcessModel::sigma_mean`](crate::ProcessModel::sigma_mean),
-//! [`MeasurementModel::sigma_mean`](crate::MeasurementModel::sigma_mean): FilterPy's
+//! ([`ProcessModel::sigma_mean`],
+//! [`MeasurementModel::sigma_mean`]: FilterPy's
 //! `x_mean_fn` and `z_mean_fn`), e.g. the `atan2` of weighted sines and cosines for an
 //! angle.
 //!

@@ -1,0 +1,102 @@
+//! What a forward pass tells a recorder ([`StepRecorder`]).
+
+use super::*;
+
+/// What a forward pass tells a recorder: the filter before each prediction, with the
+/// prediction's input and interval. `()` records nothing.
+pub trait StepRecorder<X: Manifold, U>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    /// Called with the filter just before `filter.predict(model, u, dt)`; `mark` says that
+    /// the prediction ends at an output epoch.
+    fn before_predict<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+        u: &U,
+        dt: f64,
+        mark: bool,
+    );
+
+    /// Called with the filter just before an update (or the first of several at one
+    /// time): a recorder that stores the covariance a stretch of predictions ends with
+    /// takes it here. Without this call the backward pass rebuilds that covariance by
+    /// replaying the stretch. Default: nothing.
+    fn before_update<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) {
+        let _ = filter;
+    }
+
+    /// The end of the last recorded prediction is an epoch at which the smoothed
+    /// variances are wanted too (the prediction is marked as well). Default: nothing.
+    fn mark_variances(&mut self) {}
+
+    /// Whether this recorder keeps the predictions (a smoother's replay needs every one
+    /// as [`ErrorStateFilter::predict`] takes it); `false` lets the caller take
+    /// shortcuts such as a covariance at a lower rate. Default: `true`.
+    fn records(&self) -> bool {
+        true
+    }
+}
+
+impl<X: Manifold, U> StepRecorder<X, U> for ()
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    #[inline]
+    fn before_predict<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        _: &ErrorStateFilter<X, A, B>,
+        _: &U,
+        _: f64,
+        _: bool,
+    ) {
+    }
+
+    #[inline]
+    fn records(&self) -> bool {
+        false
+    }
+}
+
+impl<X: Manifold, U, R: StepRecorder<X, U>> StepRecorder<X, U> for Option<R>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    #[inline]
+    fn before_predict<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+        u: &U,
+        dt: f64,
+        mark: bool,
+    ) {
+        if let Some(r) = self {
+            r.before_predict(filter, u, dt, mark);
+        }
+    }
+
+    #[inline]
+    fn before_update<A: NoiseStrategy, B: CovBackend<X::Dim>>(
+        &mut self,
+        filter: &ErrorStateFilter<X, A, B>,
+    ) {
+        if let Some(r) = self {
+            r.before_update(filter);
+        }
+    }
+
+    #[inline]
+    fn mark_variances(&mut self) {
+        if let Some(r) = self {
+            r.mark_variances();
+        }
+    }
+
+    #[inline]
+    fn records(&self) -> bool {
+        self.as_ref().is_some_and(|r| r.records())
+    }
+}
