@@ -303,7 +303,7 @@ pub fn evaluate_records(
 }
 
 /// Evaluates the result at the reference's epochs (the result interpolated).
-pub(super) fn evaluate_at_reference(
+fn evaluate_at_reference(
     result: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     mut reference: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     skip: f64,
@@ -321,7 +321,7 @@ pub(super) fn evaluate_at_reference(
 }
 
 /// Evaluates the result at its own epochs (the truth interpolated).
-pub(super) fn evaluate_at_result(
+fn evaluate_at_result(
     mut result: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     truth: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     skip: f64,

@@ -24,7 +24,7 @@ use plan::*;
 
 /// One line of a panel: label, points, colour, and whether it is a ±y envelope (drawn as
 /// a shaded band between −y and +y) rather than a line.
-pub(super) type Line<'a> = (&'a str, &'a [(f64, f64)], RGBColor, bool);
+type Line<'a> = (&'a str, &'a [(f64, f64)], RGBColor, bool);
 
 /// Several runs side by side: one panel per entry of `panels` (title, unit), each with
 /// one line per labelled series (e.g. the absolute heading error of each strategy), in
@@ -66,12 +66,12 @@ pub fn comparison(
 
 /// Where a plot is drawn before it replaces `path` (an earlier plot is never left half
 /// overwritten).
-pub(super) fn partial(path: &Path) -> PathBuf {
+fn partial(path: &Path) -> PathBuf {
     ins_gnss_core::io::formats::partial_path(path)
 }
 
 /// Move a finished plot into place.
-pub(super) fn publish(path: &Path) -> Result<(), String> {
+fn publish(path: &Path) -> Result<(), String> {
     std::fs::rename(partial(path), path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
