@@ -17,6 +17,11 @@
 //! [`Replay::predict_with`] one that propagates it over a given interval (the sigma-point
 //! prediction), which the history may split at a delayed measurement's time.
 //!
+//! A smoother composes with it: [`Replay::with_smoother`] records each prediction in an
+//! [`RtsSmoother`] when it leaves the history (final: no late measurement can change it),
+//! and [`Replay::smooth`] smooths everything so far — the on-time filter's smoothed
+//! trajectory, bit for bit (`tests/delayed.rs`).
+//!
 //! Time stamps are compared within [`STAMP_TOLERANCE`] (relative): the filter's clock sums
 //! its intervals (200 steps of 0.1 s make 20.000000000000014), so a measurement stamped
 //! 20.0 belongs to that epoch — after the updates already applied there, never as a
@@ -39,13 +44,20 @@ use crate::backend::CovBackend;
 use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
+use crate::smoother::{RtsSmoother, Smoothed};
 use crate::traits::{MeasurementModel, ProcessModel};
 
 /// An update as the history keeps it.
 type Apply<X, A, B> = Rc<dyn Fn(&mut ErrorStateFilter<X, A, B>) -> Result<(), FilterError>>;
 
-/// A prediction of the caller's as the history keeps it: the filter over an interval.
-type Step<X, A, B> = Rc<dyn Fn(&mut ErrorStateFilter<X, A, B>, f64) -> Result<(), FilterError>>;
+/// A prediction of the caller's as the history keeps it: the filter over an interval,
+/// returning the step's transition when the caller gave it (for a smoother).
+type Step<X, A, B> = Rc<
+    dyn Fn(
+        &mut ErrorStateFilter<X, A, B>,
+        f64,
+    ) -> Result<Option<Cov<<X as Manifold>::Dim>>, FilterError>,
+>;
 
 /// Two time stamps closer than this, relative to their size (at least 1 s), are the same
 /// epoch.
@@ -126,6 +138,8 @@ where
     events: VecDeque<Event<X, A, B, PM::Input>>,
     filter: ErrorStateFilter<X, A, B>,
     replays: u64,
+    /// The smoother's recording of the events that left the history (final).
+    smoother: Option<RtsSmoother<X>>,
 }
 
 impl<X, A, B, PM> Replay<X, A, B, PM>
@@ -139,7 +153,45 @@ where
 {
     /// Keep `history` seconds of events for `filter` propagated by `model`.
     pub fn new(filter: ErrorStateFilter<X, A, B>, model: PM, history: f64) -> Self {
-        Self { model, history, start: filter.clone(), events: VecDeque::new(), filter, replays: 0 }
+        Self {
+            model,
+            history,
+            start: filter.clone(),
+            events: VecDeque::new(),
+            filter,
+            replays: 0,
+            smoother: None,
+        }
+    }
+
+    /// Record for a fixed-interval smoother ([`RtsSmoother`]): every prediction is
+    /// recorded when it leaves the history, when no late measurement can change it any
+    /// more, so the recording is the on-time filter's; [`smooth`](Self::smooth) smooths
+    /// it with the history's events. Call it before the first event. A caller's
+    /// prediction must then give its transition
+    /// ([`predict_with_transition`](Self::predict_with_transition)).
+    pub fn with_smoother(mut self) -> Self {
+        self.smoother = Some(RtsSmoother::new());
+        self
+    }
+
+    /// The smoother's recording of the predictions that left the history (`None` without
+    /// [`with_smoother`](Self::with_smoother)).
+    pub fn smoother(&self) -> Option<&RtsSmoother<X>> {
+        self.smoother.as_ref()
+    }
+
+    /// The fixed-interval smoothed trajectory of everything so far
+    /// ([`RtsSmoother::smooth`]): the recording, with the events still in the history
+    /// recorded on a copy. Without [`with_smoother`](Self::with_smoother), the history's
+    /// events alone, from its start.
+    pub fn smooth(&self) -> Result<Vec<Smoothed<X>>, FilterError> {
+        let mut rts = self.smoother.clone().unwrap_or_default();
+        let mut f = self.start.clone();
+        for e in &self.events {
+            record(&mut rts, &mut f, &self.model, e)?;
+        }
+        rts.smooth(&f)
     }
 
     /// The filter, up to date.
@@ -177,19 +229,42 @@ where
 
     /// Predict over `dt` by `step(filter, dt)` — any prediction of the caller's, such as
     /// the sigma-point one; a replay may run it over parts of `dt` that add up to it. On
-    /// `Err` nothing changes.
+    /// `Err` nothing changes. With a smoother ([`with_smoother`](Self::with_smoother))
+    /// the step must give its transition: use
+    /// [`predict_with_transition`](Self::predict_with_transition).
     pub fn predict_with(
         &mut self,
         dt: f64,
         step: impl Fn(&mut ErrorStateFilter<X, A, B>, f64) -> Result<(), FilterError> + 'static,
     ) -> Result<(), FilterError> {
+        if self.smoother.is_some() {
+            return Err(FilterError::Unsupported {
+                what: "a caller's prediction without its transition in a smoothed Replay \
+                       (use predict_with_transition)",
+            });
+        }
+        self.push_step(dt, Rc::new(move |f, dt| step(f, dt).map(|()| None)))
+    }
+
+    /// [`predict_with`](Self::predict_with) for a step that returns its transition `Φ`
+    /// (the model's Jacobian, or the sigma points' statistical one:
+    /// [`ErrorStateFilter::predict_unscented_transition`]), which a smoother records.
+    pub fn predict_with_transition(
+        &mut self,
+        dt: f64,
+        step: impl Fn(&mut ErrorStateFilter<X, A, B>, f64) -> Result<Cov<X::Dim>, FilterError> + 'static,
+    ) -> Result<(), FilterError> {
+        self.push_step(dt, Rc::new(move |f, dt| step(f, dt).map(Some)))
+    }
+
+    fn push_step(&mut self, dt: f64, step: Step<X, A, B>) -> Result<(), FilterError> {
         let mut next = self.filter.clone();
         step(&mut next, dt)?;
         if !same_epoch(next.time(), self.filter.time() + dt) {
             return Err(FilterError::InvalidTimeStep { dt: next.time() - self.filter.time() });
         }
         self.filter = next;
-        self.events.push_back(Event::Step { step: Rc::new(step), dt });
+        self.events.push_back(Event::Step { step, dt });
         self.trim()
     }
 
@@ -288,7 +363,10 @@ where
                     break;
                 }
             }
-            run(&mut self.start, &self.model, e)?;
+            match &mut self.smoother {
+                Some(rts) => record(rts, &mut self.start, &self.model, e)?,
+                None => run(&mut self.start, &self.model, e)?,
+            }
             self.events.pop_front();
         }
         Ok(())
@@ -309,7 +387,32 @@ where
 {
     match e {
         Event::Predict { u, dt } => f.predict(model, u, *dt),
-        Event::Step { step, dt } => step(f, *dt),
+        Event::Step { step, dt } => step(f, *dt).map(|_| ()),
+        Event::Update { apply } => apply(f),
+    }
+}
+
+/// [`run`], recording a prediction in `rts`.
+fn record<X, A, B, PM>(
+    rts: &mut RtsSmoother<X>,
+    f: &mut ErrorStateFilter<X, A, B>,
+    model: &PM,
+    e: &Event<X, A, B, PM::Input>,
+) -> Result<(), FilterError>
+where
+    X: Manifold,
+    A: NoiseStrategy,
+    B: CovBackend<X::Dim>,
+    PM: ProcessModel<State = X>,
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    match e {
+        Event::Predict { u, dt } => rts.predict(f, model, u, *dt),
+        Event::Step { step, dt } => rts.predict_with(f, |f| {
+            step(f, *dt)?.ok_or(FilterError::Unsupported {
+                what: "a caller's prediction without its transition in a smoothed Replay",
+            })
+        }),
         Event::Update { apply } => apply(f),
     }
 }

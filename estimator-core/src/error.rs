@@ -60,6 +60,11 @@ pub enum FilterError {
         /// What was iterated.
         what: &'static str,
     },
+    /// A combination the library does not support.
+    Unsupported {
+        /// What was asked, and what to do instead.
+        what: &'static str,
+    },
 }
 
 impl fmt::Display for FilterError {
@@ -101,6 +106,9 @@ impl fmt::Display for FilterError {
                 "{what} did not converge within its iteration cap (points spread too far on a \
                  curved state? try a smaller α) — the filter was left unchanged"
             ),
+            FilterError::Unsupported { what } => {
+                write!(f, "not supported: {what} — the filter was left unchanged")
+            }
         }
     }
 }

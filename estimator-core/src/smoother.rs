@@ -180,6 +180,25 @@ where
         Ok(())
     }
 
+    /// A prediction of the caller's, `step(filter)`, which moves the filter and returns
+    /// the step's transition `Φ` (the model's Jacobian, or the sigma points' statistical
+    /// one, [`ErrorStateFilter::predict_unscented_transition`]), recorded. On `Err`
+    /// nothing is recorded and the filter is unchanged.
+    pub fn predict_with<A, B>(
+        &mut self,
+        filter: &mut ErrorStateFilter<X, A, B>,
+        step: impl FnOnce(&mut ErrorStateFilter<X, A, B>) -> Result<Cov<X::Dim>, FilterError>,
+    ) -> Result<(), FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+    {
+        let before = filter.time();
+        let step = record_with(filter, step)?;
+        self.push(before, step);
+        Ok(())
+    }
+
     /// A recorded step (the first one starts the recording at `before`).
     fn push(&mut self, before: f64, step: RtsStep<X>) {
         self.start_time.get_or_insert(before);

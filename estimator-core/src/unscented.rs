@@ -289,7 +289,7 @@ where
     /// [`predict_unscented`](Self::predict_unscented), returning the statistically
     /// linearised transition `Φ̃ = P_yx P⁻¹` of the step (what a smoother records: with it
     /// the RTS gain `P Φ̃ᵀ P⁻⁻¹` is the unscented smoother's `P_xy P⁻⁻¹`).
-    pub(crate) fn predict_unscented_transition<PM>(
+    pub fn predict_unscented_transition<PM>(
         &mut self,
         model: &PM,
         u: &PM::Input,

@@ -220,3 +220,74 @@ fn predict_to_lands_on_the_stamp() {
     assert!(stamped.predict_to(&process, &(), 19.9).is_err());
     assert_eq!(stamped.time(), 20.0);
 }
+
+/// A smoothed `Replay` (`with_smoother`): fixes twice a second (on a prediction epoch and
+/// between two) received 0.25 s late give
+/// the fixed-interval smoothed trajectory of the on-time filter recorded by an
+/// `RtsSmoother` — the same epochs, states and covariances, bit for bit — whether the
+/// predictions are the model's (`predict`) or the caller's with their transition
+/// (`predict_with_transition`); a caller's prediction without its transition is refused
+/// with nothing changed.
+#[test]
+fn a_smoothed_replay_gives_the_on_time_smoothed_trajectory() {
+    use estimator_core::RtsSmoother;
+    let R = Matrix2::identity() * 0.25;
+    let (delay, offset) = (0.25, 0.5);
+    // fixes at 0.5, 1.005, 1.5, 2.005, …: on an epoch, then inside a step
+    let mut on_time = filter();
+    let mut rts = RtsSmoother::new();
+    let mut by_model = Replay::new(filter(), process(), 1.0).with_smoother();
+    let mut by_step = Replay::new(filter(), process(), 1.0).with_smoother();
+    let step = |f: &mut ErrorStateFilter<Vector4<f64>>, dt: f64| {
+        f.predict(&process(), &(), dt)?;
+        Ok(process().F)
+    };
+    let mut pending: Vec<(f64, Vector2<f64>)> = Vec::new();
+    let mut next_fix = offset;
+    for _ in 0..500 {
+        let t0 = on_time.time();
+        if next_fix > t0 + 1e-9 && next_fix < t0 + DT - 1e-9 {
+            rts.predict(&mut on_time, &process(), &(), next_fix - t0).unwrap();
+            on_time.update(&gps(), &truth(next_fix), &R).unwrap();
+            rts.predict(&mut on_time, &process(), &(), DT - (next_fix - t0)).unwrap();
+            pending.push((next_fix, truth(next_fix)));
+            next_fix += if next_fix.fract() < 0.1 { 0.505 } else { 0.495 };
+        } else {
+            rts.predict(&mut on_time, &process(), &(), DT).unwrap();
+        }
+        by_model.predict(&(), DT).unwrap();
+        by_step.predict_with_transition(DT, step).unwrap();
+        if (next_fix - on_time.time()).abs() < 1e-9 {
+            on_time.update(&gps(), &truth(next_fix), &R).unwrap();
+            pending.push((by_model.filter().time(), truth(next_fix)));
+            next_fix += if next_fix.fract() < 0.1 { 0.505 } else { 0.495 };
+        }
+        while let Some(&(t, z)) = pending.first() {
+            if t + delay > by_model.filter().time() + 1e-9 {
+                break;
+            }
+            by_model.update_at(gps(), z, R, t).unwrap();
+            by_step.update_at(gps(), z, R, t).unwrap();
+            pending.remove(0);
+        }
+    }
+    // the fixes still on their way arrive
+    for (t, z) in pending {
+        by_model.update_at(gps(), z, R, t).unwrap();
+        by_step.update_at(gps(), z, R, t).unwrap();
+    }
+    assert!(by_model.replays() > 0 && by_model.smoother().unwrap().steps().len() > 300);
+    let want = rts.smooth(&on_time).unwrap();
+    for replay in [&by_model, &by_step] {
+        let got = replay.smooth().unwrap();
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g.time - w.time).abs() < 1e-9, "{} vs {}", g.time, w.time);
+            assert_eq!((g.x, g.p), (w.x, w.p), "at {}", w.time);
+        }
+    }
+    let before = by_model.filter().clone();
+    let refused = by_model.predict_with(DT, |f, dt| f.predict(&process(), &(), dt));
+    assert!(matches!(refused, Err(FilterError::Unsupported { .. })), "{refused:?}");
+    assert_eq!(by_model.filter().state(), before.state());
+}
