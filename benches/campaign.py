@@ -183,6 +183,21 @@ def strip_init(text):
     return "\n".join(out) + "\n"
 
 
+def simulated(binary, work, scenario, seed, velocity=True):
+    """`ins-gnss/scenarios/SCENARIO` with `seed` (without its GNSS velocity when
+    `velocity` is false) simulated into `WORK/d`; returns that folder and its
+    `config.toml`'s text."""
+    text = open(os.path.join(ROOT, "ins-gnss", "scenarios", scenario)).read()
+    text = re.sub(r"(?m)^seed = .*", "seed = %d" % seed, text)
+    if not velocity:
+        text = re.sub(r"(?m)^velocity_std = .*remove for a 7-column.*\n", "", text)
+    open(os.path.join(work, "s.toml"), "w").write(text)
+    d = os.path.join(work, "d")
+    subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
+                   check=True, capture_output=True)
+    return d, open(os.path.join(d, "config.toml")).read()
+
+
 def walk_one(job):
     """One seed of `scenarios/walk.toml` (with or without GNSS velocity): the run given the
     simulator's initial state and the run with no `[init]`; their outage scores (largest
@@ -190,15 +205,7 @@ def walk_one(job):
     (binary, seed, velocity, extra) = job
     work = tempfile.mkdtemp(prefix="walk-")
     try:
-        text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "walk.toml")).read()
-        text = re.sub(r"(?m)^seed = .*", "seed = %d" % seed, text)
-        if not velocity:
-            text = re.sub(r"(?m)^velocity_std = .*remove for a 7-column.*\n", "", text)
-        open(os.path.join(work, "s.toml"), "w").write(text)
-        d = os.path.join(work, "d")
-        subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
-                       check=True, capture_output=True)
-        cfg = open(os.path.join(d, "config.toml")).read()
+        d, cfg = simulated(binary, work, "walk.toml", seed, velocity)
         open(os.path.join(d, "noinit.toml"), "w").write(strip_init(cfg))
         truth = os.path.join(d, "truth.nav")
         yaw0 = float(open(truth).readline().split()[10])
@@ -300,15 +307,7 @@ def reversed_one(job):
     (binary, seed, velocity, extra) = job
     work = tempfile.mkdtemp(prefix="reversed-")
     try:
-        text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "car-aided.toml")).read()
-        text = re.sub(r"(?m)^seed = .*", "seed = %d" % seed, text)
-        if not velocity:
-            text = re.sub(r"(?m)^velocity_std = .*remove for a 7-column.*\n", "", text)
-        open(os.path.join(work, "s.toml"), "w").write(text)
-        d = os.path.join(work, "d")
-        subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
-                       check=True, capture_output=True)
-        cfg = open(os.path.join(d, "config.toml")).read()
+        d, cfg = simulated(binary, work, "car-aided.toml", seed, velocity)
         att = re.search(r"(?m)^attitude = \[([^\]]*)\]", cfg)
         roll, pitch, yaw = [float(x) for x in att.group(1).split(",") if x.strip()]
         flipped = cfg.replace(att.group(0), "attitude = [%r, %r, %r]" % (roll, pitch, yaw + 180.0))
@@ -360,13 +359,7 @@ def rover_one(job):
     (binary, seed, low, keep_init, extra) = job
     work = tempfile.mkdtemp(prefix="rover-")
     try:
-        text = open(os.path.join(ROOT, "ins-gnss", "scenarios", "rover.toml")).read()
-        text = re.sub(r"(?m)^seed = .*", "seed = %d" % seed, text)
-        open(os.path.join(work, "s.toml"), "w").write(text)
-        d = os.path.join(work, "d")
-        subprocess.run([binary, "simulate", os.path.join(work, "s.toml"), "--out", d],
-                       check=True, capture_output=True)
-        cfg = open(os.path.join(d, "config.toml")).read()
+        d, cfg = simulated(binary, work, "rover.toml", seed)
         cfg = cfg if keep_init else strip_init(cfg)
         open(os.path.join(d, "true.toml"), "w").write(cfg)
         open(os.path.join(d, "low.toml"), "w").write(scale_noise(cfg, low))

@@ -189,7 +189,7 @@ where
         let mut rts = self.smoother.clone().unwrap_or_default();
         let mut f = self.start.clone();
         for e in &self.events {
-            record(&mut rts, &mut f, &self.model, e)?;
+            run(&mut f, &self.model, e, Some(&mut rts))?;
         }
         rts.smooth(&f)
     }
@@ -345,7 +345,7 @@ where
         }
         let mut filter = self.start.clone();
         for e in &events {
-            run(&mut filter, &self.model, e)?;
+            run(&mut filter, &self.model, e, None)?;
         }
         self.filter = filter;
         self.events = events;
@@ -363,20 +363,19 @@ where
                     break;
                 }
             }
-            match &mut self.smoother {
-                Some(rts) => record(rts, &mut self.start, &self.model, e)?,
-                None => run(&mut self.start, &self.model, e)?,
-            }
+            run(&mut self.start, &self.model, e, self.smoother.as_mut())?;
             self.events.pop_front();
         }
         Ok(())
     }
 }
 
+/// Apply event `e` to `f`, recording a prediction in `rts` when there is one.
 fn run<X, A, B, PM>(
     f: &mut ErrorStateFilter<X, A, B>,
     model: &PM,
     e: &Event<X, A, B, PM::Input>,
+    rts: Option<&mut RtsSmoother<X>>,
 ) -> Result<(), FilterError>
 where
     X: Manifold,
@@ -385,34 +384,15 @@ where
     PM: ProcessModel<State = X>,
     DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
 {
-    match e {
-        Event::Predict { u, dt } => f.predict(model, u, *dt),
-        Event::Step { step, dt } => step(f, *dt).map(|_| ()),
-        Event::Update { apply } => apply(f),
-    }
-}
-
-/// [`run`], recording a prediction in `rts`.
-fn record<X, A, B, PM>(
-    rts: &mut RtsSmoother<X>,
-    f: &mut ErrorStateFilter<X, A, B>,
-    model: &PM,
-    e: &Event<X, A, B, PM::Input>,
-) -> Result<(), FilterError>
-where
-    X: Manifold,
-    A: NoiseStrategy,
-    B: CovBackend<X::Dim>,
-    PM: ProcessModel<State = X>,
-    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
-{
-    match e {
-        Event::Predict { u, dt } => rts.predict(f, model, u, *dt),
-        Event::Step { step, dt } => rts.predict_with(f, |f| {
+    match (e, rts) {
+        (Event::Predict { u, dt }, None) => f.predict(model, u, *dt),
+        (Event::Predict { u, dt }, Some(rts)) => rts.predict(f, model, u, *dt),
+        (Event::Step { step, dt }, None) => step(f, *dt).map(|_| ()),
+        (Event::Step { step, dt }, Some(rts)) => rts.predict_with(f, |f| {
             step(f, *dt)?.ok_or(FilterError::Unsupported {
                 what: "a caller's prediction without its transition in a smoothed Replay",
             })
         }),
-        Event::Update { apply } => apply(f),
+        (Event::Update { apply }, _) => apply(f),
     }
 }

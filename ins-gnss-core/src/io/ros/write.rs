@@ -78,22 +78,10 @@ fn write_mcap_to(
                 };
                 let bad = |e: String| located(input, index, format!("{}: {e}", channel.topic));
                 converted = match kind {
-                    Kind::Imu => {
-                        let m: Imu<Header1> = decode(data, Encoding::Ros1).map_err(bad)?;
-                        encode(&msg::imu_to_ros2(&m), Encoding::Cdr)
-                    }
-                    Kind::NavSatFix => {
-                        let m: NavSatFix<Header1> = decode(data, Encoding::Ros1).map_err(bad)?;
-                        encode(&msg::fix_to_ros2(&m), Encoding::Cdr)
-                    }
-                    Kind::Odometry => {
-                        let m: Odometry<Header1> = decode(data, Encoding::Ros1).map_err(bad)?;
-                        encode(&msg::odometry_to_ros2(&m), Encoding::Cdr)
-                    }
-                    Kind::Tf => {
-                        let m: TfMessage<Header1> = decode(data, Encoding::Ros1).map_err(bad)?;
-                        encode(&msg::tf_to_ros2(&m), Encoding::Cdr)
-                    }
+                    Kind::Imu => to_cdr(data, msg::imu_to_ros2),
+                    Kind::NavSatFix => to_cdr(data, msg::fix_to_ros2),
+                    Kind::Odometry => to_cdr(data, msg::odometry_to_ros2),
+                    Kind::Tf => to_cdr(data, msg::tf_to_ros2),
                 }
                 .map_err(bad)?;
                 &converted[..]
@@ -176,4 +164,14 @@ fn write_mcap_to(
     })?;
     writer.finish().map_err(|e| out_error(e.to_string()))?;
     Ok((written, left))
+}
+
+/// A ROS 1 message `data` of type `M` as the ROS 2 CDR bytes of `convert(message)`.
+fn to_cdr<M, N>(data: &[u8], convert: fn(&M) -> N) -> Result<Vec<u8>, String>
+where
+    M: serde::de::DeserializeOwned + serde::Serialize,
+    N: serde::Serialize,
+{
+    let m: M = decode(data, Encoding::Ros1)?;
+    encode(&convert(&m), Encoding::Cdr)
 }

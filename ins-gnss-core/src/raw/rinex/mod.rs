@@ -28,12 +28,12 @@ mod observations;
 pub use navigation::{read_nav, NavData};
 pub use observations::{ObsHeader, ObsReader};
 
-pub(super) fn err(path: &Path, line: usize, message: impl Into<String>) -> RawError {
+fn err(path: &Path, line: usize, message: impl Into<String>) -> RawError {
     RawError { path: path.to_path_buf(), line, message: message.into() }
 }
 
 /// A fixed-column number: blank is `None`; Fortran `D` exponents accepted.
-pub(super) fn field(line: &str, from: usize, to: usize) -> Result<Option<f64>, String> {
+fn field(line: &str, from: usize, to: usize) -> Result<Option<f64>, String> {
     let end = to.min(line.len());
     if from >= end {
         return Ok(None);
@@ -53,7 +53,7 @@ pub(super) fn field(line: &str, from: usize, to: usize) -> Result<Option<f64>, S
     }
 }
 
-pub(super) fn int_field(line: &str, from: usize, to: usize) -> Result<Option<i64>, String> {
+fn int_field(line: &str, from: usize, to: usize) -> Result<Option<i64>, String> {
     let end = to.min(line.len());
     match line.get(from..end).map(str::trim) {
         None | Some("") => Ok(None),
@@ -64,7 +64,7 @@ pub(super) fn int_field(line: &str, from: usize, to: usize) -> Result<Option<i64
     }
 }
 
-pub(super) fn year4(y: i64) -> i64 {
+fn year4(y: i64) -> i64 {
     match y {
         0..=79 => 2000 + y,
         80..=99 => 1900 + y,
@@ -72,13 +72,13 @@ pub(super) fn year4(y: i64) -> i64 {
     }
 }
 
-pub(super) fn label(line: &str) -> &str {
+fn label(line: &str) -> &str {
     line.get(60..).unwrap_or("").trim_end()
 }
 
 /// Reads the lines up to `END OF HEADER`, calling `each` on each (its
 /// error is located at the line).
-pub(super) fn read_header(
+fn read_header(
     input: &mut Input,
     path: &Path,
     line_no: &mut usize,
@@ -100,7 +100,7 @@ pub(super) fn read_header(
     }
 }
 
-pub(super) fn version_and_type(l: &str) -> Result<(f64, char, char), String> {
+fn version_and_type(l: &str) -> Result<(f64, char, char), String> {
     let v = field(l, 0, 9)?.ok_or("no version in `RINEX VERSION / TYPE`")?;
     let kind = l.chars().nth(20).unwrap_or(' ');
     let sys = l.chars().nth(40).unwrap_or(' ');

@@ -358,7 +358,7 @@ impl Iterator for ObsReader {
 }
 
 /// RINEX 2 satellite list from column 33, up to 12 a line.
-pub(super) fn sat_list(l: &str, left: usize) -> Result<Vec<Sat>, String> {
+fn sat_list(l: &str, left: usize) -> Result<Vec<Sat>, String> {
     (0..left.min(12))
         .map(|k| {
             let id = l.get(32 + 3 * k..35 + 3 * k).unwrap_or("");
@@ -370,7 +370,7 @@ pub(super) fn sat_list(l: &str, left: usize) -> Result<Vec<Sat>, String> {
 }
 
 /// A type's column: `(slot, rank, kind)` where kind is `C`, `L`, `D` or `S`.
-pub(super) fn column_of(sys: System, t: &str, version: f64) -> Column {
+fn column_of(sys: System, t: &str, version: f64) -> Column {
     let b = t.as_bytes();
     if b.len() < 2 {
         return None;
@@ -404,7 +404,7 @@ pub(super) fn column_of(sys: System, t: &str, version: f64) -> Column {
 }
 
 /// Puts a satellite's values into its two slots, each kind from the best-ranked code present.
-pub(super) fn assemble(
+fn assemble(
     sat: Sat,
     cols: &[Option<(usize, u8, u8)>],
     values: &[(Option<f64>, u8, Option<u32>)],
