@@ -363,6 +363,8 @@ fn cases(base: &Base) -> Vec<Case> {
         ("filter.gate.probability", "[filter.gate]", "probability", None, "nan"),
         ("filter.gate.readmit_after", "[filter.gate]", "readmit_after", None, "0"),
         ("filter.states", "[filter]", "states", None, "17"),
+        ("filter.covariance_interval", "[filter]", "covariance_interval", None, "-0.5"),
+        ("filter.covariance_interval", "[filter]", "covariance_interval", None, "nan"),
         ("init.gyro_scale_std", "[init]", "gyro_scale_std", Some(0), "0.0"),
         ("init.accel_scale", "[init]", "accel_scale", Some(1), "2e5"),
         ("imu_noise.accel_scale_std", "[imu_noise]", "accel_scale_std", Some(2), "nan"),
@@ -487,6 +489,16 @@ fn cases(base: &Base) -> Vec<Case> {
     for (name, args, expect) in [
         ("cli-skip-nan", vec!["run", &good, "--out", &out, "--skip", "nan"], vec!["--skip"]),
         ("cli-skip-negative", vec!["run", &good, "--out", &out, "--skip=-1"], vec!["--skip"]),
+        (
+            "cli-covariance-interval-negative",
+            vec!["run", &good, "--out", &out, "--covariance-interval=-1"],
+            vec!["--covariance-interval"],
+        ),
+        (
+            "cli-covariance-interval-nan",
+            vec!["run", &good, "--out", &out, "--covariance-interval", "nan"],
+            vec!["--covariance-interval"],
+        ),
         (
             "cli-skip-huge",
             vec!["run", &good, "--out", &out, "--truth", &truth, "--skip", "1e9"],

@@ -82,6 +82,8 @@ impl Config {
         if let Some(c) = o.covariance_interval {
             cfg.filter.covariance_interval = c;
         }
+        // the options are checked as the file's keys were
+        cfg.validate()?;
         Ok(o.strategy.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone()))
     }
 }

@@ -244,8 +244,8 @@ impl Config {
         let ci = self.filter.covariance_interval;
         if !(ci.is_finite() && (0.0..=1.0).contains(&ci)) {
             return Err(format!(
-                "`filter.covariance_interval` must be between 0 and 1 s, got {ci} (0: at every \
-                 IMU sample)"
+                "`filter.covariance_interval` (`--covariance-interval`) must be between 0 and 1 \
+                 s, got {ci} (0: at every IMU sample)"
             ));
         }
         if self.filter.states != 15 && self.filter.states != 21 {
