@@ -13,7 +13,8 @@
 
 use crate::trajectory::Trajectory;
 use ins_gnss_core::earth::{ecef_to_geodetic, geodetic_to_ecef};
-use ins_gnss_core::raw::atmosphere::{saastamoinen, Klobuchar};
+use ins_gnss_core::raw::atmosphere::{saastamoinen, saastamoinen_niell, Klobuchar};
+use ins_gnss_core::raw::spp::Troposphere;
 use ins_gnss_core::raw::ephemeris::{Ephemerides, C};
 use ins_gnss_core::raw::obs::frequency;
 use ins_gnss_core::raw::spp::{azel, geometry, range_rate};
@@ -63,8 +64,11 @@ pub struct RawSim {
     /// The true ionosphere is the broadcast model times `1 + δ`, `δ ~ N(0, σ²)` per
     /// satellite and run.
     pub iono_error: f64,
-    /// The true troposphere is Saastamoinen's plus `N(0, (k/(sin el + 0.1))²)` with this `k`,
-    /// per satellite and run, m.
+    /// The true troposphere is Saastamoinen's (mapped as this says: `Saastamoinen` by
+    /// 1/sin(el), `Niell` by Niell's functions, `Off` none) plus `tropo_error`'s term.
+    pub troposphere: Troposphere,
+    /// The true troposphere is the mapped Saastamoinen delay plus `N(0, (k/(sin el +
+    /// 0.1))²)` with this `k`, per satellite and run, m.
     pub tropo_error: f64,
     /// Probability per satellite and epoch of a multipath outlier on the code, and its
     /// size range (m, either sign).
@@ -101,6 +105,7 @@ impl RawSim {
             ephemeris_std: 2.4,
             code_bias_std: 0.3,
             iono_error: 0.5,
+            troposphere: Troposphere::Saastamoinen,
             tropo_error: 0.3,
             outliers: (0.0, (20.0, 100.0)),
             slip_probability: 0.0,
@@ -224,7 +229,12 @@ pub fn simulate_raw(
                 ],
             });
             let iono_l1 = klobuchar.delay(lat, lon, az, el, gps.tow) * tr.errors.iono_factor;
-            let tropo = saastamoinen(lat, h, el)
+            let mapped = match sim.troposphere {
+                Troposphere::Off => 0.0,
+                Troposphere::Saastamoinen => saastamoinen(lat, h, el),
+                Troposphere::Niell => saastamoinen_niell(lat, h, el, gps.day_of_year()),
+            };
+            let tropo = mapped
                 + sim.tropo_error / (el.sin() + 0.1) * tr.errors.tropo_bias;
             // range rate with the Sagnac term's rate
             let rate = range_rate(&st.pos, &st.vel, &rr, &vr, &u);

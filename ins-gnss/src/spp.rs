@@ -164,7 +164,8 @@ pub fn parse_tropo(s: &str) -> Result<Troposphere, String> {
     match s {
         "off" => Ok(Troposphere::Off),
         "saastamoinen" | "saas" => Ok(Troposphere::Saastamoinen),
-        _ => Err(format!("`{s}`: off or saastamoinen")),
+        "niell" => Ok(Troposphere::Niell),
+        _ => Err(format!("`{s}`: off, saastamoinen or niell")),
     }
 }
 

@@ -248,7 +248,7 @@ where
                 &cfg.klobuchar,
                 (ant.lat, ant.lon, ant.h),
                 (az, el),
-                e.time.tow,
+                e.time,
                 s,
             );
             let model = Pseudorange { sat: s, corrections: corr, lever_arm: lever };
@@ -289,7 +289,7 @@ where
                 .iter()
                 .filter_map(|s| {
                     let p = s.phase?;
-                    let atm = phase_atmosphere(cfg, llh, &anchor, e.time.tow, s);
+                    let atm = phase_atmosphere(cfg, llh, &anchor, e.time, s);
                     Some((s.sat, p, s.state.pos, s.state.clock, atm))
                 })
                 .collect();
@@ -342,7 +342,7 @@ where
                 }
             }
             let sat_clock = crate::raw::ephemeris::C * (s.state.clock - clk0);
-            let atm = phase_atmosphere(cfg, (ant.lat, ant.lon, ant.h), &r_a, e.time.tow, s);
+            let atm = phase_atmosphere(cfg, (ant.lat, ant.lon, ant.h), &r_a, e.time, s);
             rows.push((el, change + sat_clock - (rho - rho0) - (atm - atm0), c_ne * u));
         }
         if rows.len() < 2 {
@@ -400,13 +400,13 @@ fn phase_atmosphere(
     cfg: &TightConfig,
     llh: (f64, f64, f64),
     r: &Vector3<f64>,
-    tow: f64,
+    time: GpsTime,
     s: &Prepared,
 ) -> f64 {
     let d = s.state.pos - r;
     let azel = azel(llh.0, llh.1, &(d / d.norm()));
     let ((iono, _), (tropo, _)) =
-        crate::raw::spp::atmosphere(&cfg.models, &cfg.klobuchar, llh, azel, tow, s);
+        crate::raw::spp::atmosphere(&cfg.models, &cfg.klobuchar, llh, azel, time, s);
     tropo - iono
 }
 

@@ -5,7 +5,10 @@
 //!   metres (scale by `(f_L1/f)²` for another frequency).
 //! - Saastamoinen (1972) zenith delays from a standard atmosphere (1013.25 hPa and 15 °C
 //!   at sea level, −6.5 K/km, relative humidity 0.7 — the values RTKLIB's `tropmodel`
-//!   uses), mapped to the elevation by 1/sin(el) (the formula's own mapping).
+//!   uses), mapped to the elevation by 1/sin(el) (the formula's own mapping, and
+//!   RTKLIB's in its single point) or by Niell's (1996) mapping functions, hydrostatic
+//!   and wet apart ([`niell`]): 1/sin(el) treats the atmosphere as flat, and overstates
+//!   the hydrostatic delay by about 0.5 m at 10° of elevation and 3 m at 5°.
 
 use super::ephemeris::C;
 use core::f64::consts::PI;
@@ -71,6 +74,81 @@ pub fn saastamoinen(lat: f64, h: f64, el: f64) -> f64 {
     (zh + zw) / el.sin()
 }
 
+/// Saastamoinen's zenith delays mapped by Niell's functions: `z_h·m_h + z_w·m_w` (m), at
+/// day of year `doy` (for the hydrostatic mapping's season); 0 where [`saastamoinen`] is.
+pub fn saastamoinen_niell(lat: f64, h: f64, el: f64, doy: f64) -> f64 {
+    if el <= 0.0 || !(-100.0..=1e4).contains(&h) {
+        return 0.0;
+    }
+    let (zh, zw) = saastamoinen_zenith(lat, h);
+    let (mh, mw) = niell(lat, h, el, doy);
+    zh * mh + zw * mw
+}
+
+/// Marini's continued fraction in the form Niell normalised to 1 at the zenith:
+/// `(1 + a/(1 + b/(1 + c))) / (sin e + a/(sin e + b/(sin e + c)))`.
+fn marini(el: f64, (a, b, c): (f64, f64, f64)) -> f64 {
+    let s = el.sin();
+    (1.0 + a / (1.0 + b / (1.0 + c))) / (s + a / (s + b / (s + c)))
+}
+
+/// Niell's (1996) latitudes of the coefficient tables, degrees; a coefficient is
+/// interpolated linearly in |latitude| between them and held beyond them.
+const NIELL_LATITUDES: [f64; 5] = [15.0, 30.0, 45.0, 60.0, 75.0];
+/// Hydrostatic `a, b, c`: annual averages, then amplitudes of the seasonal term (Niell
+/// 1996, table 3).
+const NIELL_HYDRO_AVG: [[f64; 5]; 3] = [
+    [1.276_993_4e-3, 1.268_323_0e-3, 1.246_539_7e-3, 1.219_604_9e-3, 1.204_599_6e-3],
+    [2.915_369_5e-3, 2.915_229_9e-3, 2.928_844_5e-3, 2.902_256_5e-3, 2.902_491_2e-3],
+    [62.610_505e-3, 62.837_393e-3, 63.721_774e-3, 63.824_265e-3, 64.258_455e-3],
+];
+const NIELL_HYDRO_AMP: [[f64; 5]; 3] = [
+    [0.0, 1.270_962_6e-5, 2.652_366_2e-5, 3.400_045_2e-5, 4.120_219_1e-5],
+    [0.0, 2.141_497_9e-5, 3.016_077_9e-5, 7.256_272_2e-5, 11.723_375e-5],
+    [0.0, 9.012_840_0e-5, 4.349_703_7e-5, 84.795_348e-5, 170.372_06e-5],
+];
+/// The hydrostatic mapping's height correction `a, b, c` (per km of height).
+const NIELL_HEIGHT: (f64, f64, f64) = (2.53e-5, 5.49e-3, 1.14e-3);
+/// Wet `a, b, c` (no seasonal term).
+const NIELL_WET: [[f64; 5]; 3] = [
+    [5.802_189_7e-4, 5.679_484_7e-4, 5.811_801_9e-4, 5.972_754_2e-4, 6.164_169_3e-4],
+    [1.427_526_8e-3, 1.513_862_5e-3, 1.457_275_2e-3, 1.500_742_8e-3, 1.759_908_2e-3],
+    [4.347_296_1e-2, 4.672_951_0e-2, 4.390_893_1e-2, 4.462_698_2e-2, 5.473_603_8e-2],
+];
+
+/// A table's row at |latitude| `lat_deg`: linear between the tabulated latitudes.
+fn niell_row(row: &[f64; 5], lat_deg: f64) -> f64 {
+    let x = lat_deg.abs();
+    let l = &NIELL_LATITUDES;
+    if x <= l[0] {
+        return row[0];
+    }
+    if x >= l[4] {
+        return row[4];
+    }
+    let i = ((x - l[0]) / 15.0).floor() as usize;
+    let t = (x - l[i]) / (l[i + 1] - l[i]);
+    row[i] + t * (row[i + 1] - row[i])
+}
+
+/// Niell's (1996) mapping functions `(m_h, m_w)` at latitude `lat` (rad), height `h` (m,
+/// above the ellipsoid; Niell's is above sea level, within tens of metres the same here),
+/// elevation `el` (rad) and day of year `doy` (1.0 = 1 January 0 h). Both are 1 at the
+/// zenith. The hydrostatic coefficients vary with the season, peaking on day 28 in the
+/// north and half a year later in the south; the wet ones do not.
+pub fn niell(lat: f64, h: f64, el: f64, doy: f64) -> (f64, f64) {
+    let lat_deg = lat.to_degrees();
+    let phase = if lat < 0.0 { doy - 28.0 + 365.25 / 2.0 } else { doy - 28.0 };
+    let season = (2.0 * core::f64::consts::PI * phase / 365.25).cos();
+    let coef = |k: usize| {
+        niell_row(&NIELL_HYDRO_AVG[k], lat_deg) - niell_row(&NIELL_HYDRO_AMP[k], lat_deg) * season
+    };
+    let hydro = marini(el, (coef(0), coef(1), coef(2)));
+    let height = (1.0 / el.sin() - marini(el, NIELL_HEIGHT)) * h / 1e3;
+    let wet = |k: usize| niell_row(&NIELL_WET[k], lat_deg);
+    (hydro + height, marini(el, (wet(0), wet(1), wet(2))))
+}
+
 /// Saastamoinen's zenith delays (hydrostatic, wet), m, in the standard atmosphere.
 pub fn saastamoinen_zenith(lat: f64, h: f64) -> (f64, f64) {
     let h = h.max(0.0);
@@ -117,5 +195,55 @@ mod tests {
         assert!((at_30 - 2.0 * (zh + zw)).abs() < 1e-9);
         assert!(saastamoinen(0.0, 2000.0, 1.0) < saastamoinen(0.0, 0.0, 1.0));
         assert_eq!(saastamoinen(0.0, 0.0, -0.1), 0.0);
+    }
+
+    #[test]
+    fn niell_is_one_at_the_zenith_and_below_the_flat_mapping_near_the_horizon() {
+        let zenith = core::f64::consts::FRAC_PI_2;
+        for lat in [-80.0f64, -45.0, 0.0, 22.5, 45.0, 52.0, 80.0] {
+            for doy in [1.0, 28.0, 120.0, 300.0] {
+                let (mh, mw) = niell(lat.to_radians(), 500.0, zenith, doy);
+                assert!((mh - 1.0).abs() < 1e-12 && (mw - 1.0).abs() < 1e-12, "{mh} {mw}");
+            }
+        }
+        let (lat, doy) = (45f64.to_radians(), 150.0);
+        // high satellites: within 0.5 % of 1/sin(el) (the atmosphere's curvature is felt
+        // only low down)
+        for el_deg in [30.0f64, 45.0, 60.0] {
+            let el = el_deg.to_radians();
+            let (mh, mw) = niell(lat, 0.0, el, doy);
+            let flat = 1.0 / el.sin();
+            assert!((mh / flat - 1.0).abs() < 5e-3 && (mw / flat - 1.0).abs() < 5e-3);
+        }
+        // low ones: below 1/sin(el), the hydrostatic function more so than the wet
+        // (the wet layer is lower, so flatter); at 5° the hydrostatic value is about 10.2
+        // (1/sin 5° = 11.47)
+        let el = 5f64.to_radians();
+        let (mh, mw) = niell(lat, 0.0, el, doy);
+        assert!(mh > 9.9 && mh < 10.4, "{mh}");
+        assert!(mh < mw && mw < 1.0 / el.sin(), "{mh} {mw}");
+        // the mapping grows with height (less atmosphere above to bend through)
+        assert!(niell(lat, 2000.0, el, doy).0 > mh);
+        // and the slant delay: below the 1/sin mapping's by about 3 m at 5°
+        let d = saastamoinen(lat, 0.0, el) - saastamoinen_niell(lat, 0.0, el, doy);
+        assert!(d > 2.5 && d < 3.5, "{d}");
+        assert_eq!(saastamoinen_niell(lat, 0.0, -0.1, doy), 0.0);
+    }
+
+    #[test]
+    fn niell_seasons_mirror_between_hemispheres_and_vanish_at_15_degrees() {
+        let el = 7f64.to_radians();
+        let north = niell(50f64.to_radians(), 0.0, el, 28.0);
+        let south = niell(-50f64.to_radians(), 0.0, el, 28.0 + 365.25 / 2.0);
+        assert!((north.0 - south.0).abs() < 1e-12 && (north.1 - south.1).abs() < 1e-12);
+        // the seasons differ at 50°, not at the equator's table row
+        let summer = niell(50f64.to_radians(), 0.0, el, 28.0 + 365.25 / 2.0).0;
+        assert!((summer - north.0).abs() > 1e-3, "{summer} {}", north.0);
+        let (a, b) = (niell(0.1, 0.0, el, 28.0).0, niell(0.1, 0.0, el, 200.0).0);
+        assert!((a - b).abs() < 1e-15);
+        // the tables are interpolated in latitude: 37.5° lies between 30° and 45°
+        let (m30, m45) = (niell(30f64.to_radians(), 0.0, el, 100.0), niell(45f64.to_radians(), 0.0, el, 100.0));
+        let m = niell(37.5f64.to_radians(), 0.0, el, 100.0);
+        assert!(m.0 > m30.0.min(m45.0) && m.0 < m30.0.max(m45.0));
     }
 }

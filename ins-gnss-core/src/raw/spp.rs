@@ -14,7 +14,7 @@
 //! troposphere when uncorrected, half the Klobuchar delay and 0.3/(sin el + 0.1) m when
 //! corrected) with the textbook 1/sin² elevation term (RTKLIB 2.4.3 divides by sin el).
 
-use super::atmosphere::{saastamoinen, Klobuchar};
+use super::atmosphere::{saastamoinen, saastamoinen_niell, Klobuchar};
 use super::ephemeris::{Ephemerides, SatState, C, OMEGA_E};
 use super::obs::{frequency, ObsEpoch};
 use super::time::{GpsTime, Sat, System};
@@ -41,8 +41,12 @@ pub enum Ionosphere {
 pub enum Troposphere {
     /// No correction (3 m of error budget).
     Off,
-    /// Saastamoinen with the standard atmosphere.
+    /// Saastamoinen with the standard atmosphere, mapped by 1/sin(el) (RTKLIB's single
+    /// point).
     Saastamoinen,
+    /// Saastamoinen's zenith delays mapped by Niell's hydrostatic and wet functions
+    /// (lower than 1/sin(el) by 0.5 m at 10° and 3 m at 5°).
+    Niell,
 }
 
 /// Options of the single-point solution.
@@ -419,7 +423,7 @@ pub fn code_noise_variance(opt: &SppOptions, el: f64, s: &Prepared) -> f64 {
 }
 
 /// The atmospheric corrections `I + T` (m) of a code at the receiver `(lat, lon, h)` for a
-/// satellite at `(az, el)` at GPS seconds of week `tow`, and the code's whole variance
+/// satellite at `(az, el)` at GPS time `time`, and the code's whole variance
 /// (m²): [`code_variance`] plus the models' residual errors (5 m of ionosphere and 3 m of
 /// troposphere when not corrected; half the Klobuchar delay and 0.3/(sin el + 0.1) m
 /// when corrected). Used by the single point and the tightly coupled filter alike.
@@ -428,10 +432,10 @@ pub fn corrections(
     kb: &Klobuchar,
     llh: (f64, f64, f64),
     azel: (f64, f64),
-    tow: f64,
+    time: GpsTime,
     s: &Prepared,
 ) -> (f64, f64) {
-    let ((iono, var_iono), (tropo, var_tropo)) = atmosphere(opt, kb, llh, azel, tow, s);
+    let ((iono, var_iono), (tropo, var_tropo)) = atmosphere(opt, kb, llh, azel, time, s);
     (iono + tropo, code_variance(opt, azel.1, s) + var_iono + var_tropo)
 }
 
@@ -442,22 +446,22 @@ pub fn atmosphere(
     kb: &Klobuchar,
     (lat, lon, h): (f64, f64, f64),
     (az, el): (f64, f64),
-    tow: f64,
+    time: GpsTime,
     s: &Prepared,
 ) -> ((f64, f64), (f64, f64)) {
     let (iono, var_iono) = match opt.ionosphere {
         Ionosphere::Off => (0.0, 25.0),
         Ionosphere::IonoFree => (0.0, 0.0),
         Ionosphere::Klobuchar => {
-            let d = kb.delay(lat, lon, az, el, tow) * s.iono_scale;
+            let d = kb.delay(lat, lon, az, el, time.tow) * s.iono_scale;
             (d, (0.5 * d).powi(2))
         }
     };
+    let residual = (0.3 / (el.sin().max(0.05) + 0.1)).powi(2);
     let (tropo, var_tropo) = match opt.troposphere {
         Troposphere::Off => (0.0, 9.0),
-        Troposphere::Saastamoinen => {
-            (saastamoinen(lat, h, el), (0.3 / (el.sin().max(0.05) + 0.1)).powi(2))
-        }
+        Troposphere::Saastamoinen => (saastamoinen(lat, h, el), residual),
+        Troposphere::Niell => (saastamoinen_niell(lat, h, el, time.day_of_year()), residual),
     };
     ((iono, var_iono), (tropo, var_tropo))
 }
@@ -506,7 +510,7 @@ fn least_squares(
                 continue;
             }
             let (corr, var) = if known {
-                corrections(opt, kb, (lat, lon, h), (az, el), time.tow, s)
+                corrections(opt, kb, (lat, lon, h), (az, el), time, s)
             } else {
                 // no position yet: no atmosphere, its whole budget in the variance
                 let mut var = code_variance(opt, el, s);

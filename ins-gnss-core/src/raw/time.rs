@@ -56,6 +56,16 @@ impl GpsTime {
     }
 }
 
+impl GpsTime {
+    /// Day of the year with its fraction on GPS time's scale: 1.0 at 1 January 0 h (the
+    /// season of the troposphere's mapping; leap seconds do not matter there).
+    pub fn day_of_year(&self) -> f64 {
+        let (y, ..) = self.calendar();
+        let jan1 = days_from_civil(y, 1, 1) - GPS_EPOCH_DAYS;
+        1.0 + (self.week as i64 * 7 - jan1) as f64 + self.tow / 86_400.0
+    }
+}
+
 impl fmt::Display for GpsTime {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let (y, m, d, h, mi, s) = self.calendar();
@@ -168,6 +178,10 @@ mod tests {
         let u = t.add(100_000.0);
         assert_eq!(u.week, 1317);
         assert!((u.diff(&t) - 100_000.0).abs() < 1e-9);
+        // 2 April 2005 is day 92 of its year; 2004 was a leap year (31 December: day 366)
+        assert!((t.add(43_200.0).day_of_year() - 92.5).abs() < 1e-9);
+        assert_eq!(GpsTime::from_calendar(2005, 1, 1, 0, 0, 0.0).day_of_year(), 1.0);
+        assert_eq!(GpsTime::from_calendar(2004, 12, 31, 6, 0, 0.0).day_of_year(), 366.25);
     }
 
     #[test]

@@ -132,7 +132,8 @@ enum Command {
         /// Ionosphere: off, klobuchar, iono-free.
         #[arg(long, default_value = "klobuchar", value_parser = ins_gnss::spp::parse_iono)]
         iono: ins_gnss_core::raw::spp::Ionosphere,
-        /// Troposphere: off, saastamoinen.
+        /// Troposphere: off, saastamoinen (mapped by 1/sin(el)), niell (Saastamoinen mapped by
+        /// Niell's functions).
         #[arg(long, default_value = "saastamoinen", value_parser = ins_gnss::spp::parse_tropo)]
         tropo: ins_gnss_core::raw::spp::Troposphere,
         /// Elevation mask, degrees.

@@ -206,6 +206,14 @@ pub struct RawSpec {
     /// Probability per satellite and epoch of a multipath outlier of 20–100 m on the code.
     #[serde(default)]
     pub outliers: f64,
+    /// Satellites below this elevation are not tracked, degrees. Default 10.
+    #[serde(default = "ten")]
+    pub elevation_mask: f64,
+    /// How the true troposphere maps Saastamoinen's zenith delays to a satellite:
+    /// `saastamoinen` (default; 1/sin(el), as the single point's default model does) or
+    /// `niell` (Niell's functions: a truth the default model misses at low elevation).
+    #[serde(default = "default_truth_tropo")]
+    pub troposphere: String,
     /// Sky masks: `[start, end, satellites left]` (s from `start.time`; 0 is a tunnel).
     #[serde(default)]
     pub masks: Vec<[f64; 3]>,
@@ -219,6 +227,14 @@ pub struct RawSpec {
     /// Whether the receiver flags its slips (loss of lock). Default true.
     #[serde(default = "yes")]
     pub flag_slips: bool,
+}
+
+fn ten() -> f64 {
+    10.0
+}
+
+fn default_truth_tropo() -> String {
+    "saastamoinen".into()
 }
 
 fn yes() -> bool {
