@@ -14,9 +14,9 @@
 use crate::trajectory::Trajectory;
 use ins_gnss_core::earth::{ecef_to_geodetic, geodetic_to_ecef};
 use ins_gnss_core::raw::atmosphere::{saastamoinen, saastamoinen_niell, Klobuchar};
-use ins_gnss_core::raw::spp::Troposphere;
 use ins_gnss_core::raw::ephemeris::{Ephemerides, C};
 use ins_gnss_core::raw::obs::frequency;
+use ins_gnss_core::raw::spp::Troposphere;
 use ins_gnss_core::raw::spp::{azel, geometry, range_rate};
 use ins_gnss_core::raw::{GpsTime, ObsEpoch, Sat, SatObs, Signal};
 use nalgebra::Vector3;
@@ -234,8 +234,7 @@ pub fn simulate_raw(
                 Troposphere::Saastamoinen => saastamoinen(lat, h, el),
                 Troposphere::Niell => saastamoinen_niell(lat, h, el, gps.day_of_year()),
             };
-            let tropo = mapped
-                + sim.tropo_error / (el.sin() + 0.1) * tr.errors.tropo_bias;
+            let tropo = mapped + sim.tropo_error / (el.sin() + 0.1) * tr.errors.tropo_bias;
             // range rate with the Sagnac term's rate
             let rate = range_rate(&st.pos, &st.vel, &rr, &vr, &u);
             let (a, b) = sim.code_noise;

@@ -477,6 +477,8 @@ fn cases(base: &Base) -> Vec<Case> {
         ("init.position_std", "position_std = [2.0, 2.0, 3.0]", "position_std = [2.0, 0.0, 3.0]"),
         ("gnss.window[0]", "position_std = [1.0, 1.0, 2.0]", "position_std = [1.0, 1.0, 2.0]\n[[gnss.window]]\nstart = 5.0\nend = 2.0\nkind = \"outage\""),
         ("unknown field", "seed = 3", "seed = 3\nsede = 4"),
+        ("raw.troposphere", "[init]", "[raw]\nnav = \"x.nav\"\nweek = 1316\ntroposphere = \"flat\"\n[init]"),
+        ("raw.elevation_mask", "[init]", "[raw]\nnav = \"x.nav\"\nweek = 1316\nelevation_mask = 95.0\n[init]"),
     ] {
         let name = format!("scenario-{}-{}", key.replace(['.', ' ', '[', ']'], "-"), s.cases.len());
         s.scenario(&name, from, to, &[key]);

@@ -102,7 +102,6 @@ fn p_times_ht_body<N: DimName, M: DimName, const FMA: bool>(
     }
 }
 
-
 fma_kernel! {
     /// The Joseph update multiplied out: `out ← P + V Kᵀ + K Vᵀ` with `V = K S/2 − U`,
     /// for a symmetric `N × N` `P`, the gain `K` and `U = P Hᵀ` (`N × M`) and a symmetric
@@ -123,7 +122,6 @@ fma_kernel! {
         + avx512 (N::DIM <= 24)
     where DefaultAllocator: FilterAlloc<N, M>
 }
-
 
 #[inline(always)]
 fn joseph_update_body<N: DimName, M: DimName, const FMA: bool>(

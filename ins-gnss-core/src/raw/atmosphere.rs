@@ -242,7 +242,8 @@ mod tests {
         let (a, b) = (niell(0.1, 0.0, el, 28.0).0, niell(0.1, 0.0, el, 200.0).0);
         assert!((a - b).abs() < 1e-15);
         // the tables are interpolated in latitude: 37.5° lies between 30° and 45°
-        let (m30, m45) = (niell(30f64.to_radians(), 0.0, el, 100.0), niell(45f64.to_radians(), 0.0, el, 100.0));
+        let (m30, m45) =
+            (niell(30f64.to_radians(), 0.0, el, 100.0), niell(45f64.to_radians(), 0.0, el, 100.0));
         let m = niell(37.5f64.to_radians(), 0.0, el, 100.0);
         assert!(m.0 > m30.0.min(m45.0) && m.0 < m30.0.max(m45.0));
     }

@@ -71,24 +71,10 @@ impl Scenario {
         let klobuchar = nav.klobuchar.unwrap_or_default();
         let start = ins_gnss_core::raw::GpsTime { week: raw.week, tow: self.start.time };
         let t0 = self.start.time;
-        use ins_gnss_core::raw::spp::Troposphere;
-        let troposphere = match raw.troposphere.as_str() {
-            "saastamoinen" => Troposphere::Saastamoinen,
-            "niell" => Troposphere::Niell,
-            other => {
-                return Err(format!("`raw.troposphere = \"{other}\"`: saastamoinen or niell"))
-            }
-        };
-        if !(0.0..90.0).contains(&raw.elevation_mask) {
-            return Err(format!(
-                "`raw.elevation_mask = {}`: degrees in [0, 90)",
-                raw.elevation_mask
-            ));
-        }
         let sim = RawSim {
             rate_hz: raw.rate,
             elevation_mask: raw.elevation_mask.to_radians(),
-            troposphere,
+            troposphere: raw.true_troposphere()?,
             lever_arm: v3(self.gnss.lever_arm),
             outliers: (raw.outliers, (20.0, 100.0)),
             white_errors: raw.white_errors,
