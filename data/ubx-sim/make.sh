@@ -1,12 +1,16 @@
 #!/bin/sh
-# Regenerates the simulated u-blox log and RTKLIB's conversion of it (Debian package
-# `rtklib`, convbin 2.4.3 b34). Run from the repository root:
+# Regenerates the simulated u-blox logs and RTKLIB's conversions of them (Debian package
+# `rtklib`, convbin 2.4.3 b34): `sim` (GPS, 300 s) and `gal` (GPS and Galileo I/NAV, 70 s).
+# Run from the repository root:
 #   sh data/ubx-sim/make.sh
 set -eu
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 cargo run --release --example sim_ubx -- "$tmp/sim.ubx"
-convbin -r ubx -v 3.04 -oi -od -os -o "$tmp/sim.obs" -n "$tmp/sim.nav" "$tmp/sim.ubx" >/dev/null 2>&1
-for f in sim.ubx sim.obs sim.nav; do
-    zstd -q -19 -f "$tmp/$f" -o "data/ubx-sim/$f.zst"
+cargo run --release --example sim_ubx -- "$tmp/gal.ubx" --galileo
+for log in sim gal; do
+    convbin -r ubx -v 3.04 -oi -od -os -o "$tmp/$log.obs" -n "$tmp/$log.nav" "$tmp/$log.ubx" >/dev/null 2>&1
+    for f in $log.ubx $log.obs $log.nav; do
+        zstd -q -19 -f "$tmp/$f" -o "data/ubx-sim/$f.zst"
+    done
 done

@@ -391,9 +391,11 @@ fn ubx_packet(out: &mut Vec<u8>, class: u8, id: u8, payload: &[u8]) {
 
 /// Writes epochs as a u-blox log: an RXM-RAWX (version 1) per epoch, and for each GPS
 /// satellite the RXM-SFRBX subframes 1–3 of its broadcast record
-/// ([`ins_gnss_core::raw::lnav::encode`]) before its first observation and whenever the
-/// record in use changes, with the broadcast ionosphere (subframe 4 page 18) first. Signals: GPS L1 C/A (sigId 0) and L2 CL (sigId 3); `leap`: GPS −
-/// UTC, s.
+/// ([`ins_gnss_core::raw::lnav::encode`]), for each Galileo satellite the I/NAV pages of
+/// word types 0–5 ([`ins_gnss_core::raw::inav`]), before its first observation and
+/// whenever the record in use changes, with the broadcast ionosphere (subframe 4 page 18)
+/// first. Signals: GPS L1 C/A (sigId 0) and L2 CL (sigId 3), Galileo E1 B (sigId 1) and
+/// E5a I (sigId 3); `leap`: GPS − UTC, s.
 pub fn write_ubx(
     epochs: &[ObsEpoch],
     eph: &Ephemerides,
@@ -415,7 +417,8 @@ pub fn write_ubx(
     let mut lock: BTreeMap<(Sat, usize), (GpsTime, GpsTime)> = BTreeMap::new();
     for e in epochs {
         for o in &e.sats {
-            if o.sat.sys != ins_gnss_core::raw::System::Gps {
+            let galileo = o.sat.sys == ins_gnss_core::raw::System::Galileo;
+            if o.sat.sys != ins_gnss_core::raw::System::Gps && !galileo {
                 continue;
             }
             let Some(r) = eph.select(o.sat, &e.time) else { continue };
@@ -423,6 +426,22 @@ pub fn write_ubx(
                 continue;
             }
             sent.insert(o.sat, (r.iode, r.toe.tow));
+            if galileo {
+                // word types 0–4, 6 (GST − UTC) and 5 as E1-B I/NAV nominal pages (sigId 1)
+                use ins_gnss_core::raw::inav;
+                let [w0, w1, w2, w3, w4, w5] = inav::encode(r, e.time.tow);
+                let utc = inav::encode_utc(leap, e.time.week, e.time.tow);
+                // nine words, the ninth reserved (zero), as u-blox receivers send them and
+                // RTKLIB's reader requires
+                for w in [w0, w1, w2, w3, w4, utc, w5] {
+                    let mut p = vec![2u8, o.sat.prn, 1, 0, 9, 0, 2, 0];
+                    for word in inav::encode_page(w).into_iter().chain([0]) {
+                        p.extend_from_slice(&word.to_le_bytes());
+                    }
+                    ubx_packet(&mut out, 0x02, 0x13, &p);
+                }
+                continue;
+            }
             for sf in ins_gnss_core::raw::lnav::encode(r, e.time.tow) {
                 let mut p = vec![0u8, o.sat.prn, 0, 0, 10, 0, 2, 0];
                 for w in sf {

@@ -7,11 +7,14 @@
 //! | [`obs`] | [`ObsEpoch`]: per satellite, two frequencies' code, phase, Doppler, C/N0 |
 //! | [`rinex`] | RINEX 2/3 observation ([`ObsReader`]) and navigation ([`read_nav`]) files |
 //! | [`ephemeris`] | broadcast orbits: satellite position, velocity, clock |
-//! | [`atmosphere`] | Klobuchar ionosphere, Saastamoinen troposphere |
+//! | [`atmosphere`] | Klobuchar ionosphere, Saastamoinen troposphere (1/sin or Niell mapping) |
+//! | [`lnav`], [`inav`] | GPS LNAV subframes and Galileo I/NAV words to ephemerides and back |
+//! | [`ubx`] | u-blox RXM-RAWX observations and RXM-SFRBX navigation data |
 //! | [`spp`] | single point: weighted least squares, χ² check, RAIM exclusion, Doppler velocity |
 
 pub mod atmosphere;
 pub mod ephemeris;
+pub mod inav;
 pub mod lnav;
 pub mod obs;
 pub mod rinex;

@@ -1,7 +1,9 @@
 //! u-blox UBX logs: RXM-RAWX observations and RXM-SFRBX navigation subframes, read with
 //! the `ublox` crate (MIT; 10 crates with its dependencies). GPS subframes 1–3 become
-//! ephemerides, and subframe 4 page 18 the broadcast ionosphere, through [`super::lnav`]; Galileo and BeiDou navigation messages are not
-//! decoded yet (their observations are read; give a RINEX navigation file for them).
+//! ephemerides, and subframe 4 page 18 the broadcast ionosphere, through [`super::lnav`];
+//! Galileo I/NAV pages (word types 0–5) through [`super::inav`]. BeiDou navigation
+//! messages are not decoded yet (their observations are read; give a RINEX navigation
+//! file for them).
 //!
 //! Chosen by measurement against the alternatives: the `ublox` crate decodes RAWX and
 //! SFRBX packets (checksums checked) but not the GPS frames' ephemerides unless built with
@@ -9,6 +11,7 @@
 //! loops until it panics), so the simulator's logs could not be made with it; the LNAV
 //! fields are a table here, checked against RTKLIB's `convbin` on the same log.
 
+use super::inav;
 use super::lnav::{self, Subframe};
 use super::obs::{ObsEpoch, SatObs, Signal};
 use super::time::{GpsTime, Sat, System};
@@ -22,7 +25,7 @@ use ublox::{proto23::PacketRef, Parser, UbxPacket};
 pub struct UbxLog {
     /// RXM-RAWX epochs.
     pub epochs: Vec<ObsEpoch>,
-    /// GPS ephemerides from RXM-SFRBX.
+    /// GPS and Galileo ephemerides from RXM-SFRBX.
     pub ephemerides: Ephemerides,
     /// The broadcast ionosphere (GPS subframe 4, page 18), when the log has it.
     pub klobuchar: Option<super::atmosphere::Klobuchar>,
@@ -57,6 +60,13 @@ fn slot(sys: System, sig_id: u8) -> Option<usize> {
     }
 }
 
+/// Adds a record unless the same satellite's record of that issue and `toe` is there.
+fn push_new(records: &mut Vec<Ephemeris>, e: Ephemeris) {
+    if !records.iter().any(|r| r.sat == e.sat && r.iode == e.iode && r.toe == e.toe) {
+        records.push(e);
+    }
+}
+
 /// Reads a UBX log (plain, or `.gz`/`.zst`/`.xz`).
 pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     let err = |m: String| RawError { path: path.to_path_buf(), line: 0, message: m };
@@ -67,6 +77,9 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     // subframes 1–3 per satellite, and the last lock times (a drop is a slip)
     let mut frames: BTreeMap<u8, [Option<Subframe>; 3]> = BTreeMap::new();
     let mut complete: Vec<(u8, [Subframe; 3], Option<GpsTime>)> = Vec::new();
+    // Galileo: the last word of each type 0–5 per satellite
+    let mut words: BTreeMap<u8, [Option<u128>; 6]> = BTreeMap::new();
+    let mut records: Vec<Ephemeris> = Vec::new();
     let mut lock: BTreeMap<(Sat, usize), u16> = BTreeMap::new();
     let mut last_time: Option<GpsTime> = None;
     let mut parser = Parser::default();
@@ -114,6 +127,26 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
                 last_time = Some(time);
                 log.epochs.push(ObsEpoch { time, flag: 0, sats, line: 0 });
             }
+            PacketRef::RxmSfrbx(f) if f.gnss_id() == 2 => {
+                // eight words of page (u-blox receivers send a ninth, reserved)
+                let page: Vec<u32> = f.dwrd().collect();
+                let Some(Ok(page)) = page.get(..8).map(<[u32; 8]>::try_from) else { continue };
+                let Some(w) = inav::decode_page(&page) else { continue };
+                let t = usize::from(inav::word_type(w));
+                if t > 5 {
+                    continue;
+                }
+                let set = words.entry(f.sv_id()).or_default();
+                set[t] = Some(w);
+                // a record once type 5 (health, week) closes a set under one IODnav
+                if t == 5 {
+                    if let [Some(a), Some(b), Some(c), Some(d), Some(e), Some(g)] = *set {
+                        if let Some(r) = inav::decode(&[a, b, c, d, e, g]) {
+                            push_new(&mut records, r);
+                        }
+                    }
+                }
+            }
             PacketRef::RxmSfrbx(f) => {
                 if f.gnss_id() != 0 {
                     continue;
@@ -135,14 +168,11 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
             _ => log.other_packets += 1,
         }
     }
-    let mut records: Vec<Ephemeris> = Vec::new();
     let first_time = log.epochs.first().map(|e| e.time);
     for (prn, sf, near) in complete {
         let Some(near) = near.or(first_time) else { continue };
         if let Some(e) = lnav::decode(prn, &sf, &near) {
-            if !records.iter().any(|r| r.sat == e.sat && r.iode == e.iode && r.toe == e.toe) {
-                records.push(e);
-            }
+            push_new(&mut records, e);
         }
     }
     if log.epochs.is_empty() && records.is_empty() {
