@@ -132,7 +132,7 @@ pub fn sisa_metres(index: u8) -> Option<f64> {
 /// The SISA index whose value is the smallest not below `m` (255, no accuracy prediction:
 /// `m` negative, as RINEX writes that, not finite, or above 6 m).
 pub fn sisa_index(m: f64) -> u8 {
-    if !(m >= 0.0) {
+    if m.is_nan() || m < 0.0 {
         return 255;
     }
     (0..=125u8).find(|&i| sisa_metres(i).is_some_and(|s| s >= m - 1e-9)).unwrap_or(255)
@@ -153,7 +153,10 @@ pub fn encode(e: &Ephemeris, tow: f64) -> [u128; 6] {
     for (word, fields) in [
         (0usize, &[(&TIME_FIELD, 2.0), (&WN0, gst_week), (&TOW0, tow)][..]),
         (1, &[(&IOD, iod), (&TOE, e.toe_sow), (&M0, e.m0), (&ECC, e.e), (&SQRT_A, e.sqrt_a)][..]),
-        (2, &[(&IOD, iod), (&OMEGA0, e.omega0), (&I0, e.i0), (&OMEGA, e.omega), (&IDOT, e.idot)][..]),
+        (
+            2,
+            &[(&IOD, iod), (&OMEGA0, e.omega0), (&I0, e.i0), (&OMEGA, e.omega), (&IDOT, e.idot)][..],
+        ),
         (
             3,
             &[
