@@ -104,7 +104,7 @@ macro_rules! __composite_serde {
 }
 
 /// Define a named composite state whose tangent dimension is the sum of its fields',
-/// known at compile time, with a typed [`Block`] constant per field.
+/// known at compile time, with a typed [`Block`](crate::product::Block) constant per field.
 ///
 /// ```
 /// use manifolds::{composite_state, Manifold, So3, R3};
