@@ -99,34 +99,47 @@ impl RawInput {
         &self.path
     }
 
-    /// Refuses navigation records none of which is within a week of the first epoch: no
-    /// epoch could be solved, and the likely cause is a 10-bit GPS week resolved against
-    /// another date (`convbin` resolves it against today's).
+    /// Refuses navigation records when a system the first epoch observes has records none
+    /// of which is within a week of it: that system's satellites could never be used
+    /// (with GPS alone, no epoch solved), and the likely cause is a 10-bit GPS week
+    /// resolved against another date (`convbin` resolves it against today's). A file that
+    /// mixes systems is checked system by system: Galileo's 12-bit week can be right while
+    /// GPS's is not.
     fn refuse_far_records(&self, first: &ObsEpoch) -> Result<(), RawError> {
         let records = self.nav.ephemerides.records();
-        if records.iter().any(|r| r.toe.diff(&first.time).abs() < 604_800.0) {
-            return Ok(());
+        let mut systems: Vec<_> = records.iter().map(|r| r.sat.sys).collect();
+        systems.dedup();
+        for sys in systems {
+            if !first.sats.iter().any(|s| s.sat.sys == sys) {
+                continue;
+            }
+            let of_sys = || records.iter().filter(move |r| r.sat.sys == sys);
+            if of_sys().any(|r| r.toe.diff(&first.time).abs() < 604_800.0) {
+                continue;
+            }
+            let (lo, hi) = of_sys()
+                .fold((i32::MAX, i32::MIN), |(a, b), r| (a.min(r.toe.week), b.max(r.toe.week)));
+            let names: Vec<String> = if self.navs.is_empty() {
+                vec![self.path.display().to_string()]
+            } else {
+                self.navs.iter().map(|p| p.display().to_string()).collect()
+            };
+            return Err(RawError {
+                path: self.path.clone(),
+                line: 0,
+                message: format!(
+                    "the {} ephemerides of {} are of GPS weeks {lo}–{hi}, the observations \
+                     of week {} ({}): none is within a week of them (a 10-bit week resolved \
+                     against another date — convbin resolves it against today's — or the wrong \
+                     navigation file)",
+                    sys.name(),
+                    names.join(", "),
+                    first.time.week,
+                    first.time
+                ),
+            });
         }
-        let (lo, hi) = records
-            .iter()
-            .fold((i32::MAX, i32::MIN), |(a, b), r| (a.min(r.toe.week), b.max(r.toe.week)));
-        let names: Vec<String> = if self.navs.is_empty() {
-            vec![self.path.display().to_string()]
-        } else {
-            self.navs.iter().map(|p| p.display().to_string()).collect()
-        };
-        Err(RawError {
-            path: self.path.clone(),
-            line: 0,
-            message: format!(
-                "the ephemerides of {} are of GPS weeks {lo}–{hi}, the observations of week {} \
-                 ({}): none is within a week of them (a 10-bit week resolved against another \
-                 date — convbin resolves it against today's — or the wrong navigation file)",
-                names.join(", "),
-                first.time.week,
-                first.time
-            ),
-        })
+        Ok(())
     }
 }
 

@@ -172,4 +172,11 @@ fn ephemerides_of_another_week_are_refused() {
         m.contains("sim.nav.zst") && m.contains("weeks 2340") && m.contains("week 1316"),
         "{m}"
     );
+    // a file that mixes systems, checked system by system: convbin's Galileo records are
+    // of the log's week (GST's 12-bit week), its GPS ones are not
+    let nav = repo("ubx-sim/gal.nav.zst");
+    let err = solve_file(&repo("ubx-sim/gal.obs.zst"), &[nav.as_path()], &SppOptions::default())
+        .unwrap_err();
+    let m = err.to_string();
+    assert!(m.contains("GPS ephemerides of") && m.contains("weeks 2340"), "{m}");
 }

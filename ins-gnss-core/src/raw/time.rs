@@ -120,6 +120,19 @@ impl System {
         }
     }
 
+    /// Its name as users write it (`GPS`, `Galileo`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Gps => "GPS",
+            Self::Glonass => "GLONASS",
+            Self::Galileo => "Galileo",
+            Self::BeiDou => "BeiDou",
+            Self::Qzss => "QZSS",
+            Self::Sbas => "SBAS",
+            Self::Irnss => "NavIC",
+        }
+    }
+
     /// Whether its broadcast orbit is Keplerian (the model of [`super::ephemeris`]).
     pub fn keplerian(self) -> bool {
         matches!(self, Self::Gps | Self::Galileo | Self::BeiDou | Self::Qzss)
