@@ -39,11 +39,14 @@ use crate::tight::{
     Antenna, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21, OnTc, Pseudorange, RangeRate, M20,
     M26,
 };
+
 mod coarse;
+mod setup;
 mod state;
 mod tight;
 mod vehicle;
 
+pub use setup::*;
 pub use state::{NavState, OnNav};
 pub use tight::{
     satellite_error_floor, ClockInit, RawEpoch, TightConfig, TightState, CARRIER_MAX_GAP, SLIP_RATE,
@@ -53,130 +56,6 @@ use vehicle::VehicleState;
 use crate::vehicle::{
     mounting_matrix, Nhc, Odometer, OdometerScale, StationaryDetector, VehicleAiding, Zaru, Zupt,
 };
-
-/// 1σ of the initial state, SI units (rad, m/s, m, rad/s, m/s²).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct InitialStd {
-    /// Attitude (roll, pitch, yaw) error, rad.
-    pub att: Vector3<f64>,
-    /// Velocity error (N, E, D), m/s.
-    pub vel: Vector3<f64>,
-    /// Position error (N, E, D), m.
-    pub pos: Vector3<f64>,
-    /// Gyro bias, rad/s.
-    pub bg: Vector3<f64>,
-    /// Accelerometer bias, m/s².
-    pub ba: Vector3<f64>,
-}
-
-impl InitialStd {
-    /// The diagonal initial covariance.
-    pub fn covariance(&self) -> M15 {
-        let mut d = nalgebra::SVector::<f64, 15>::zeros();
-        for i in 0..3 {
-            d[i] = self.att[i].powi(2);
-            d[3 + i] = self.vel[i].powi(2);
-            d[6 + i] = self.pos[i].powi(2);
-            d[9 + i] = self.bg[i].powi(2);
-            d[12 + i] = self.ba[i].powi(2);
-        }
-        M15::from_diagonal(&d)
-    }
-}
-
-/// Where the navigator starts.
-#[derive(Clone, Debug, PartialEq)]
-pub struct InitialState {
-    /// Time of the state, s.
-    pub time: f64,
-    /// The state.
-    pub state: InsState,
-    /// Its 1σ.
-    pub std: InitialStd,
-}
-
-/// The initial scale factors of a 21-state run and their 1σ (fractions).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ScaleInit {
-    /// Gyro scale factors.
-    pub sg: Vector3<f64>,
-    /// Accelerometer scale factors.
-    pub sa: Vector3<f64>,
-    /// 1σ of the gyro scale factors.
-    pub sg_std: Vector3<f64>,
-    /// 1σ of the accelerometer scale factors.
-    pub sa_std: Vector3<f64>,
-}
-
-/// How GNSS epochs are used.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GnssConfig {
-    /// Antenna lever arm (FRD), m.
-    pub lever_arm: Vector3<f64>,
-    /// Use the velocity of epochs that have one (6-D update) instead of position only.
-    pub use_velocity: bool,
-    /// Replace the file's position σ (N, E, D), m.
-    pub pos_std: Option<Vector3<f64>>,
-    /// Replace the file's velocity σ, m/s.
-    pub vel_std: Option<Vector3<f64>>,
-}
-
-impl Default for GnssConfig {
-    fn default() -> Self {
-        Self { lever_arm: Vector3::zeros(), use_velocity: true, pos_std: None, vel_std: None }
-    }
-}
-
-/// A failure of the navigator, with the time it happened.
-#[derive(Clone, Debug, PartialEq)]
-pub enum NavError {
-    /// The filter refused a GNSS epoch or its update produced a non-finite result.
-    Measurement {
-        /// Time of the epoch, s.
-        t: f64,
-        /// What the filter said.
-        source: FilterError,
-    },
-    /// The filter's prediction over an IMU interval failed (a non-finite result, noise
-    /// that is not a covariance).
-    Filter {
-        /// Time, s.
-        t: f64,
-        /// What the filter said.
-        source: FilterError,
-    },
-    /// A sample or epoch earlier than the navigator's time.
-    TimeWentBackwards {
-        /// The offending time, s.
-        t: f64,
-        /// The navigator's time, s.
-        now: f64,
-    },
-    /// A sample with a non-finite value or a non-positive interval.
-    BadSample {
-        /// Time, s.
-        t: f64,
-        /// What is wrong.
-        what: &'static str,
-    },
-}
-
-impl fmt::Display for NavError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            NavError::Filter { t, source } => write!(f, "at t = {t:.6} s: {source}"),
-            NavError::Measurement { t, source } => {
-                write!(f, "at the GNSS epoch t = {t:.6} s: {source}")
-            }
-            NavError::TimeWentBackwards { t, now } => {
-                write!(f, "time went backwards: {t:.6} s after {now:.6} s")
-            }
-            NavError::BadSample { t, what } => write!(f, "at t = {t:.6} s: {what}"),
-        }
-    }
-}
-
-impl std::error::Error for NavError {}
 
 /// Two times closer than this are the same epoch, s.
 pub const TIME_EPSILON: f64 = 1e-6;
