@@ -1,4 +1,5 @@
-//! Samplers: the points and tangents the laws are checked at (proptest strategies for the built-in types, [`Sampler`] for any type).
+//! Samplers: the points and tangents the laws are checked at (proptest strategies for the
+//! built-in types, [`Sampler`] for any type).
 
 use super::*;
 

@@ -1,4 +1,6 @@
-//! A satellite's code and Doppler as the single point and the tightly coupled filter model them: the satellite prepared at its transmission time, the geometry, the code's variance and the atmosphere's delays.
+//! A satellite's code and Doppler as the single point and the tightly coupled filter model
+//! them: the satellite prepared at its transmission time, the geometry, the code's variance
+//! and the atmosphere's delays.
 
 use super::*;
 

@@ -11,6 +11,12 @@ pub use crate::config::RunOptions;
 use crate::eval::{evaluate, evaluate_with, Evaluation, Stats};
 use crate::run::{run as run_config, RunSummary};
 
+mod keep;
+mod print;
+
+pub use keep::*;
+pub use print::*;
+
 /// Any error of a subcommand, as text for the user.
 pub type CliError = Box<dyn std::error::Error>;
 
@@ -58,13 +64,6 @@ fn require_overlap(
 
 fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
     Ok(name.parse::<AnyStrategy>()?)
-}
-
-/// Print a run summary.
-pub fn print_summary(s: &RunSummary) {
-    for line in s.lines() {
-        out!("{line}");
-    }
 }
 
 /// `ins-gnss run`.
@@ -183,113 +182,6 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     }
 }
 
-/// The file a run judged untrustworthy leaves in its output directory (its diagnosis):
-/// a later run may replace that result whatever its own verdict, where it replaces a
-/// result without the file only with one that is not judged untrustworthy either.
-pub const UNTRUSTED_MARK: &str = "UNTRUSTED.txt";
-
-/// `dir` with `suffix` added to its last component (a directory beside it).
-fn sibling(dir: &Path, suffix: &str) -> PathBuf {
-    let name = dir.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-    dir.with_file_name(format!("{name}{suffix}"))
-}
-
-/// The files of `dir` kept aside in a directory beside it (a hard link each, a copy where
-/// links cannot be made): the run's outputs replace the files in `dir` by renames, which
-/// leave the kept ones as they were.
-fn keep_aside(dir: &Path) -> Result<PathBuf, CliError> {
-    let kept = sibling(dir, ".kept");
-    if kept.exists() {
-        std::fs::remove_dir_all(&kept).map_err(|e| format!("{}: {e}", kept.display()))?;
-    }
-    std::fs::create_dir_all(&kept).map_err(|e| format!("{}: {e}", kept.display()))?;
-    for entry in std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))? {
-        let path = entry.map_err(|e| format!("{}: {e}", dir.display()))?.path();
-        let name = path.file_name().unwrap_or_default();
-        if !path.is_file() || path.extension().is_some_and(|e| e == "partial") {
-            continue;
-        }
-        let to = kept.join(name);
-        if std::fs::hard_link(&path, &to).is_err() {
-            std::fs::copy(&path, &to).map_err(|e| format!("{}: {e}", to.display()))?;
-        }
-    }
-    Ok(kept)
-}
-
-/// Whether two paths hold the same file (the same inode on Unix; the same length and
-/// modification time elsewhere).
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (std::fs::metadata(a), std::fs::metadata(b)) {
-        (Ok(x), Ok(y)) => {
-            #[cfg(unix)]
-            {
-                use std::os::unix::fs::MetadataExt;
-                x.ino() == y.ino() && x.dev() == y.dev()
-            }
-            #[cfg(not(unix))]
-            {
-                x.len() == y.len() && x.modified().ok() == y.modified().ok()
-            }
-        }
-        _ => false,
-    }
-}
-
-/// An untrusted run over a trusted result: the files the run wrote in `dir` move to
-/// `beside` (an earlier one there is replaced), and the kept ones go back into `dir`.
-fn put_back(kept: &Path, dir: &Path, beside: &Path) -> Result<(), CliError> {
-    let err = |p: &Path, e: std::io::Error| format!("{}: {e}", p.display());
-    if beside.exists() {
-        std::fs::remove_dir_all(beside).map_err(|e| err(beside, e))?;
-    }
-    std::fs::create_dir_all(beside).map_err(|e| err(beside, e))?;
-    for entry in std::fs::read_dir(dir).map_err(|e| err(dir, e))? {
-        let path = entry.map_err(|e| err(dir, e))?.path();
-        let name = path.file_name().unwrap_or_default();
-        if path.is_file() && !same_file(&path, &kept.join(name)) {
-            let to = beside.join(name);
-            std::fs::rename(&path, &to).map_err(|e| err(&to, e))?;
-        }
-    }
-    for entry in std::fs::read_dir(kept).map_err(|e| err(kept, e))? {
-        let path = entry.map_err(|e| err(kept, e))?.path();
-        let to = dir.join(path.file_name().unwrap_or_default());
-        // (a rename onto another link of the same file does nothing)
-        if same_file(&path, &to) {
-            std::fs::remove_file(&path).map_err(|e| err(&path, e))?;
-        } else {
-            std::fs::rename(&path, &to).map_err(|e| err(&to, e))?;
-        }
-    }
-    std::fs::remove_dir(kept).map_err(|e| err(kept, e))?;
-    Ok(())
-}
-
-/// Removes a report and plots an earlier run left in `dir` that this run did not write
-/// (they would describe another result), saying so.
-fn remove_stale(dir: &Path, report: bool, figures: &[PathBuf]) -> Result<(), CliError> {
-    let mut names: Vec<&str> = crate::plot::FILES.to_vec();
-    if !report {
-        names.push("report.html");
-    }
-    for name in names {
-        let p = dir.join(name);
-        if p.is_file() && !figures.contains(&p) {
-            std::fs::remove_file(&p).map_err(|e| format!("{}: {e}", p.display()))?;
-            out!("removed {} (an earlier run's, not this result's)", p.display());
-        }
-    }
-    Ok(())
-}
-
-/// The NEES line of an evaluation against the truth, if its σ file was there.
-fn print_nees(label: &str, ev: &Evaluation) {
-    if let Some(n) = &ev.nees {
-        out!("consistency against the truth ({label}): {}", n.line());
-    }
-}
-
 /// The GNSS fixes of a configuration (time, position), for the plan view.
 fn read_fixes(cfg: &Config) -> Result<Vec<(f64, ins_gnss_core::GeoPos)>, CliError> {
     let mut r = ins_gnss_core::io::GnssReader::open(&cfg.data.gnss, cfg.bad_lines())?
@@ -321,89 +213,6 @@ fn progress_bar(cfg: &Config) -> (indicatif::ProgressBar, f64) {
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     (bar, start)
-}
-
-/// Print a table of statistics, one row per labelled result.
-pub fn print_table(rows: &[(&str, &Stats)]) {
-    let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0).max(12);
-    out!(
-        "| {:w$} | {:>7} | {:>7} | {:>7} | {:>7} | {:>8} | {:>8} | {:>8} | {:>8} | {:>8} |",
-        "strategy",
-        "N RMS",
-        "E RMS",
-        "D RMS",
-        "horiz",
-        "horiz max",
-        "3D RMS",
-        "vel RMS",
-        "roll °",
-        "pitch °"
-    );
-    for (name, s) in rows {
-        let [n, e, d, h, hmax, p3, v, roll, pitch, yaw, ymax] = s.table_row();
-        out!(
-            "| {name:w$} | {n:7.3} | {e:7.3} | {d:7.3} | {h:7.3} | {hmax:8.3} | {p3:8.3} | {v:8.4} | {roll:8.4} | {pitch:8.4} | yaw RMS {yaw:.4}° max {ymax:.3}°"
-        );
-    }
-}
-
-fn print_eval(ev: &Evaluation) {
-    out!("epochs compared: {} (unmatched {})", ev.overall.epochs, ev.unmatched);
-    if let Some(n) = &ev.nees {
-        out!("consistency against the truth: {}", n.line());
-    }
-    if !ev.windows.is_empty() {
-        out!(
-            "windows: RMS over windows of the maximum horizontal error {:.3} m, vertical {:.3} m",
-            ev.windows_rms_of_max_horizontal,
-            ev.windows_rms_of_max_vertical
-        );
-    }
-    let mut rows: Vec<(&str, &Stats)> = vec![(ev.overall.label.as_str(), &ev.overall)];
-    for w in &ev.windows {
-        rows.push((w.label.as_str(), w));
-    }
-    out!(
-        "| {:16} | {:>6} | {:>21} | {:>21} | {:>21} | {:>21} |",
-        "span",
-        "epochs",
-        "N rms/max/mean m",
-        "E rms/max/mean m",
-        "D rms/max/mean m",
-        "horiz rms/max m"
-    );
-    for (label, s) in &rows {
-        let f = |x: &crate::eval::Stat| format!("{:.3}/{:.3}/{:+.3}", x.rms, x.max, x.mean);
-        out!(
-            "| {:16} | {:6} | {:>21} | {:>21} | {:>21} | {:>21} |",
-            label,
-            s.epochs,
-            f(&s.north),
-            f(&s.east),
-            f(&s.down),
-            format!("{:.3}/{:.3}", s.horizontal.rms, s.horizontal.max)
-        );
-    }
-    out!(
-        "| {:16} | {:>21} | {:>21} | {:>21} | {:>21} |",
-        "span",
-        "3D rms/max m",
-        "vel 3D rms/max m/s",
-        "roll rms/max °",
-        "pitch rms/max °"
-    );
-    for (label, s) in &rows {
-        let f = |x: &crate::eval::Stat| format!("{:.4}/{:.4}", x.rms, x.max);
-        out!(
-            "| {:16} | {:>21} | {:>21} | {:>21} | {:>21} | yaw rms/max {}",
-            label,
-            f(&s.position_3d),
-            f(&s.velocity_3d),
-            f(&s.roll),
-            f(&s.pitch),
-            f(&s.yaw)
-        );
-    }
 }
 
 /// `ins-gnss eval`.
