@@ -3,13 +3,52 @@
 //! RINEX (read by this crate's RINEX readers), and the observations the simulator wrote.
 
 use ins_gnss_core::raw::ubx::read_ubx;
-use ins_gnss_core::raw::{read_nav, GpsTime, ObsReader};
+use ins_gnss_core::raw::{read_nav, Ephemeris, GpsTime, ObsReader, System};
 use ins_gnss_sim::raw::{simulate_raw, RawSim};
 use ins_gnss_sim::{scenarios, Trajectory};
 use std::path::{Path, PathBuf};
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)
+}
+
+/// Each record as convbin decoded it from the same log, every field to RINEX's 12 digits
+/// (1e-11 relative). convbin resolves GPS's 10-bit week against today's date (2340 for the
+/// logs' 1316: one rollover of 1024 weeks; the seconds of week agree); Galileo's GST week
+/// is 12 bits, written as GPS weeks: the same week.
+fn assert_records_match(ours: &[Ephemeris], theirs: &[Ephemeris]) {
+    assert_eq!(ours.len(), theirs.len());
+    for (a, b) in ours.iter().zip(theirs) {
+        assert_eq!(a.sat, b.sat);
+        let rollovers = if a.sat.sys == System::Gps { 1024 } else { 0 };
+        assert_eq!(a.toe.week + rollovers, b.toe.week, "{}", a.sat);
+        assert_eq!((a.toe.tow, a.toc.tow), (b.toe.tow, b.toc.tow));
+        assert_eq!((a.iode, a.iodc, a.health), (b.iode, b.iodc, b.health));
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-11 * x.abs().max(1e-20) + 1e-300;
+        let pairs = [
+            (a.af[0], b.af[0]),
+            (a.af[1], b.af[1]),
+            (a.af[2], b.af[2]),
+            (a.sqrt_a, b.sqrt_a),
+            (a.e, b.e),
+            (a.i0, b.i0),
+            (a.omega0, b.omega0),
+            (a.omega, b.omega),
+            (a.m0, b.m0),
+            (a.delta_n, b.delta_n),
+            (a.omega_dot, b.omega_dot),
+            (a.idot, b.idot),
+            (a.tgd[0], b.tgd[0]),
+            (a.tgd[1], b.tgd[1]),
+            (a.accuracy, b.accuracy),
+        ];
+        for (k, (x, y)) in pairs.iter().enumerate() {
+            assert!(close(*x, *y), "{} field {k}: {x} vs {y}", a.sat);
+        }
+        for (x, y) in a.harmonics.iter().zip(&b.harmonics) {
+            assert!(close(*x, *y), "{}: {x} vs {y}", a.sat);
+        }
+    }
 }
 
 #[test]
@@ -47,9 +86,7 @@ fn a_ubx_log_reads_as_its_convbin_rinex() {
     assert_eq!(values, 16_080);
     assert!(slips > 0);
 
-    // the ephemerides: every field as convbin decoded it (RINEX's 12 digits); convbin
-    // resolves the 10-bit week against today's date (2340 instead of 1316): the weeks
-    // differ by two rollovers, the seconds of week agree
+    // the ephemerides: every field as convbin decoded it (`assert_records_match`)
     let nav = read_nav(&data("ubx-sim/sim.nav.zst")).unwrap();
     // the ionosphere of subframe 4 page 18 as convbin wrote it (`GPSA`, `GPSB`)
     let (k, kc) = (log.klobuchar.unwrap(), nav.klobuchar.unwrap());
@@ -60,34 +97,7 @@ fn a_ubx_log_reads_as_its_convbin_rinex() {
     let ours = log.ephemerides.records();
     assert_eq!(ours.len(), nav.ephemerides.records().len());
     assert_eq!(ours.len(), 10);
-    for (a, b) in ours.iter().zip(nav.ephemerides.records()) {
-        assert_eq!(a.sat, b.sat);
-        assert_eq!(a.toe.week + 1024, b.toe.week);
-        assert_eq!((a.toe.tow, a.toc.tow), (b.toe.tow, b.toc.tow));
-        assert_eq!((a.iode, a.iodc, a.health), (b.iode, b.iodc, b.health));
-        let close = |x: f64, y: f64| (x - y).abs() <= 1e-11 * x.abs().max(1e-20) + 1e-300;
-        let pairs = [
-            (a.af[0], b.af[0]),
-            (a.af[1], b.af[1]),
-            (a.sqrt_a, b.sqrt_a),
-            (a.e, b.e),
-            (a.i0, b.i0),
-            (a.omega0, b.omega0),
-            (a.omega, b.omega),
-            (a.m0, b.m0),
-            (a.delta_n, b.delta_n),
-            (a.omega_dot, b.omega_dot),
-            (a.idot, b.idot),
-            (a.tgd[0], b.tgd[0]),
-            (a.accuracy, b.accuracy),
-        ];
-        for (k, (x, y)) in pairs.iter().enumerate() {
-            assert!(close(*x, *y), "{} field {k}: {x} vs {y}", a.sat);
-        }
-        for (x, y) in a.harmonics.iter().zip(&b.harmonics) {
-            assert!(close(*x, *y), "{}: {x} vs {y}", a.sat);
-        }
-    }
+    assert_records_match(ours, nav.ephemerides.records());
 }
 
 /// The log's observations are the simulator's, bit for bit (codes and phases are f64 in
@@ -151,51 +161,15 @@ fn a_ubx_log_holds_what_the_simulator_wrote() {
 /// the message's last bit of the records the simulator wrote.
 #[test]
 fn a_galileo_log_reads_as_its_convbin_rinex() {
-    use ins_gnss_core::raw::System;
     let log = read_ubx(&data("ubx-sim/gal.ubx.zst")).unwrap();
     assert_eq!(log.bad_packets, 0);
     let nav = read_nav(&data("ubx-sim/gal.nav.zst")).unwrap();
     let ours = log.ephemerides.records();
     let theirs = nav.ephemerides.records();
-    let gal = |r: &[ins_gnss_core::raw::Ephemeris]| {
-        r.iter().filter(|e| e.sat.sys == System::Galileo).count()
-    };
+    let gal = |r: &[Ephemeris]| r.iter().filter(|e| e.sat.sys == System::Galileo).count();
     assert_eq!(gal(ours), 3);
     assert_eq!(gal(theirs), 3);
-    assert_eq!(ours.len(), theirs.len());
-    for (a, b) in ours.iter().zip(theirs) {
-        assert_eq!(a.sat, b.sat);
-        // convbin resolves GPS's 10-bit week against today's date; Galileo's GST week is
-        // 12 bits, written as GPS weeks: the same week
-        let rollovers = if a.sat.sys == System::Gps { 1024 } else { 0 };
-        assert_eq!(a.toe.week + rollovers, b.toe.week, "{}", a.sat);
-        assert_eq!((a.toe.tow, a.toc.tow), (b.toe.tow, b.toc.tow));
-        assert_eq!((a.iode, a.iodc, a.health), (b.iode, b.iodc, b.health));
-        let close = |x: f64, y: f64| (x - y).abs() <= 1e-11 * x.abs().max(1e-20) + 1e-300;
-        let pairs = [
-            (a.af[0], b.af[0]),
-            (a.af[1], b.af[1]),
-            (a.af[2], b.af[2]),
-            (a.sqrt_a, b.sqrt_a),
-            (a.e, b.e),
-            (a.i0, b.i0),
-            (a.omega0, b.omega0),
-            (a.omega, b.omega),
-            (a.m0, b.m0),
-            (a.delta_n, b.delta_n),
-            (a.omega_dot, b.omega_dot),
-            (a.idot, b.idot),
-            (a.tgd[0], b.tgd[0]),
-            (a.tgd[1], b.tgd[1]),
-            (a.accuracy, b.accuracy),
-        ];
-        for (k, (x, y)) in pairs.iter().enumerate() {
-            assert!(close(*x, *y), "{} field {k}: {x} vs {y}", a.sat);
-        }
-        for (x, y) in a.harmonics.iter().zip(&b.harmonics) {
-            assert!(close(*x, *y), "{}: {x} vs {y}", a.sat);
-        }
-    }
+    assert_records_match(ours, theirs);
     // the Galileo records against the simulator's (made from the GPS file's, as the example
     // makes them): within the I/NAV message's resolution. The node, the inclination and the
     // mean anomaly, moved off the GPS file's grid, are rounded to 2⁻³¹ semicircles (7.3e-10
@@ -212,7 +186,7 @@ fn a_galileo_log_reads_as_its_convbin_rinex() {
         assert!((e.af[0] - g.af[0]).abs() <= 2f64.powi(-35));
         assert!((e.tgd[1] - 1.1 * g.tgd[0]).abs() <= 2f64.powi(-33));
         assert_eq!(e.accuracy, 3.12);
-        let sim = ins_gnss_core::raw::Ephemeris {
+        let sim = Ephemeris {
             sat: e.sat,
             sqrt_a: 5440.588,
             i0: 56f64.to_radians(),

@@ -13,7 +13,7 @@
 
 use crate::trajectory::Trajectory;
 use ins_gnss_core::earth::{ecef_to_geodetic, geodetic_to_ecef};
-use ins_gnss_core::raw::atmosphere::{saastamoinen, saastamoinen_niell, Klobuchar};
+use ins_gnss_core::raw::atmosphere::Klobuchar;
 use ins_gnss_core::raw::ephemeris::{Ephemerides, C};
 use ins_gnss_core::raw::obs::frequency;
 use ins_gnss_core::raw::spp::Troposphere;
@@ -229,12 +229,8 @@ pub fn simulate_raw(
                 ],
             });
             let iono_l1 = klobuchar.delay(lat, lon, az, el, gps.tow) * tr.errors.iono_factor;
-            let mapped = match sim.troposphere {
-                Troposphere::Off => 0.0,
-                Troposphere::Saastamoinen => saastamoinen(lat, h, el),
-                Troposphere::Niell => saastamoinen_niell(lat, h, el, gps.day_of_year()),
-            };
-            let tropo = mapped + sim.tropo_error / (el.sin() + 0.1) * tr.errors.tropo_bias;
+            let tropo = sim.troposphere.delay(lat, h, el, gps)
+                + sim.tropo_error / (el.sin() + 0.1) * tr.errors.tropo_bias;
             // range rate with the Sagnac term's rate
             let rate = range_rate(&st.pos, &st.vel, &rr, &vr, &u);
             let (a, b) = sim.code_noise;

@@ -161,12 +161,8 @@ pub fn parse_iono(s: &str) -> Result<Ionosphere, String> {
 
 /// Parses `--tropo`.
 pub fn parse_tropo(s: &str) -> Result<Troposphere, String> {
-    match s {
-        "off" => Ok(Troposphere::Off),
-        "saastamoinen" | "saas" => Ok(Troposphere::Saastamoinen),
-        "niell" => Ok(Troposphere::Niell),
-        _ => Err(format!("`{s}`: off, saastamoinen or niell")),
-    }
+    let name = if s == "saas" { "saastamoinen" } else { s };
+    Troposphere::from_name(name).ok_or_else(|| format!("`{s}`: off, saastamoinen or niell"))
 }
 
 /// `ins-gnss spp`: solve, write, print a summary (and the comparison with `against`).

@@ -67,17 +67,23 @@ impl Klobuchar {
 /// Saastamoinen's slant delay (m) at latitude `lat` (rad), ellipsoidal height `h` (m) and
 /// elevation `el` (rad); 0 below the horizon or outside −100 m … 10 km.
 pub fn saastamoinen(lat: f64, h: f64, el: f64) -> f64 {
-    let (zh, zw) = saastamoinen_zenith(lat, h);
-    if el <= 0.0 || !(-100.0..=1e4).contains(&h) {
+    if !modelled(h, el) {
         return 0.0;
     }
+    let (zh, zw) = saastamoinen_zenith(lat, h);
     (zh + zw) / el.sin()
+}
+
+/// Whether the troposphere models give a delay: a satellite above the horizon seen from
+/// −100 m … 10 km.
+fn modelled(h: f64, el: f64) -> bool {
+    el > 0.0 && (-100.0..=1e4).contains(&h)
 }
 
 /// Saastamoinen's zenith delays mapped by Niell's functions: `z_h·m_h + z_w·m_w` (m), at
 /// day of year `doy` (for the hydrostatic mapping's season); 0 where [`saastamoinen`] is.
 pub fn saastamoinen_niell(lat: f64, h: f64, el: f64, doy: f64) -> f64 {
-    if el <= 0.0 || !(-100.0..=1e4).contains(&h) {
+    if !modelled(h, el) {
         return 0.0;
     }
     let (zh, zw) = saastamoinen_zenith(lat, h);

@@ -144,16 +144,12 @@ impl TightSection {
                 ))
             }
         };
-        let troposphere = match self.troposphere.as_str() {
-            "off" => Troposphere::Off,
-            "saastamoinen" => Troposphere::Saastamoinen,
-            "niell" => Troposphere::Niell,
-            other => {
-                return Err(format!(
-                    "`gnss.tight.troposphere = \"{other}\"`: saastamoinen, niell or off"
-                ))
-            }
-        };
+        let troposphere = Troposphere::from_name(&self.troposphere).ok_or_else(|| {
+            format!(
+                "`gnss.tight.troposphere = \"{}\"`: saastamoinen, niell or off",
+                self.troposphere
+            )
+        })?;
         if !(0.0..90.0).contains(&self.elevation_mask) {
             return Err(format!(
                 "`gnss.tight.elevation_mask = {}`: degrees in 0…90",

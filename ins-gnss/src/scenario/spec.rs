@@ -186,11 +186,10 @@ impl RawSpec {
     /// `troposphere` as the simulator's model; the message names the key.
     pub fn true_troposphere(&self) -> Result<ins_gnss_core::raw::spp::Troposphere, String> {
         use ins_gnss_core::raw::spp::Troposphere;
-        match self.troposphere.as_str() {
-            "saastamoinen" => Ok(Troposphere::Saastamoinen),
-            "niell" => Ok(Troposphere::Niell),
-            other => Err(format!("`raw.troposphere = \"{other}\"`: saastamoinen or niell")),
-        }
+        // (the truth has a troposphere: `off` is not one)
+        Troposphere::from_name(&self.troposphere).filter(|t| *t != Troposphere::Off).ok_or_else(
+            || format!("`raw.troposphere = \"{}\"`: saastamoinen or niell", self.troposphere),
+        )
     }
 }
 

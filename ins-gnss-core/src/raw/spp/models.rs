@@ -162,10 +162,7 @@ pub fn atmosphere(
         }
     };
     let residual = (0.3 / (el.sin().max(0.05) + 0.1)).powi(2);
-    let (tropo, var_tropo) = match opt.troposphere {
-        Troposphere::Off => (0.0, 9.0),
-        Troposphere::Saastamoinen => (saastamoinen(lat, h, el), residual),
-        Troposphere::Niell => (saastamoinen_niell(lat, h, el, time.day_of_year()), residual),
-    };
+    let tropo = opt.troposphere.delay(lat, h, el, time);
+    let var_tropo = if opt.troposphere == Troposphere::Off { 9.0 } else { residual };
     ((iono, var_iono), (tropo, var_tropo))
 }

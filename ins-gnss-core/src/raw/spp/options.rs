@@ -27,6 +27,29 @@ pub enum Troposphere {
     Niell,
 }
 
+impl Troposphere {
+    /// The model a name selects: `off`, `saastamoinen` or `niell` (as the configuration,
+    /// the scenarios and `ins-gnss spp --tropo` write it).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "off" => Self::Off,
+            "saastamoinen" => Self::Saastamoinen,
+            "niell" => Self::Niell,
+            _ => return None,
+        })
+    }
+
+    /// The slant delay (m) this model gives at `(lat, h)` for a satellite at elevation `el`
+    /// at `time` (the season of Niell's mapping); `Off`: 0.
+    pub fn delay(self, lat: f64, h: f64, el: f64, time: GpsTime) -> f64 {
+        match self {
+            Self::Off => 0.0,
+            Self::Saastamoinen => saastamoinen(lat, h, el),
+            Self::Niell => saastamoinen_niell(lat, h, el, time.day_of_year()),
+        }
+    }
+}
+
 /// Options of the single-point solution.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SppOptions {
