@@ -9,10 +9,18 @@
 //!   3.12 m, two group delays; the records whose toe and toc are whole minutes, as I/NAV
 //!   sends them), observed on E1 (a u-blox F9 tracks E1 and E5b; RTKLIB's
 //!   reader takes no E5a from RXM-RAWX), its records as I/NAV pages. The orbits are not
-//!   real Galileo ones: the log tests the I/NAV path, not the constellation.
+//!   real Galileo ones: the log tests the I/NAV path, not the constellation;
+//! - with `--beidou`, the drive's first 60 s with GPS and BeiDou: GPS as above, and a
+//!   BeiDou MEO constellation made likewise (C06–C35 from G03–G32: √A 5282.6 m^½, 55°
+//!   inclination, the node and the mean anomaly turned, URA 2 m, two group delays; toe and
+//!   toc the GPS record's toe read as BDT, so a multiple of 8 s as D1 sends it), observed on
+//!   B1I, its records as D1 subframes. The log is dated 1024 weeks after the navigation
+//!   file (2024-11-16): BeiDou time starts in 2006, and GPS's 10-bit week, the only GPS
+//!   field that sees the date, reads the same.
 //!
-//! `cargo run --release --example sim_ubx -- OUT.ubx [--galileo]`
+//! `cargo run --release --example sim_ubx -- OUT.ubx [--galileo | --beidou]`
 
+use ins_gnss_core::raw::time::BDT_MINUS_GPST;
 use ins_gnss_core::raw::{read_nav, Ephemerides, Ephemeris, GpsTime, Sat, System};
 use ins_gnss_sim::raw::{simulate_raw, write_ubx, RawSim};
 use ins_gnss_sim::{scenarios, Trajectory};
@@ -33,14 +41,44 @@ fn galileo_from(g: &Ephemeris) -> Ephemeris {
     }
 }
 
+/// A BeiDou record made from a GPS one (see the module's documentation).
+fn beidou_from(g: &Ephemeris) -> Ephemeris {
+    let toe = g.toe.add(-BDT_MINUS_GPST);
+    Ephemeris {
+        sat: Sat { sys: System::BeiDou, prn: g.sat.prn + 3 },
+        toe,
+        toc: toe,
+        sqrt_a: 5282.625,
+        i0: 55f64.to_radians(),
+        omega0: g.omega0 + 2.0,
+        m0: g.m0 + 1.0,
+        iode: g.iode % 32,
+        iodc: g.iode % 32,
+        accuracy: 2.0,
+        tgd: [g.tgd[0], -0.5 * g.tgd[0]],
+        health: 0,
+        ..g.clone()
+    }
+}
+
+/// The BeiDou log's date shift: 1024 weeks.
+const WEEKS_AHEAD: i32 = 1024;
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let out = std::env::args().nth(1).ok_or("usage: sim_ubx OUT.ubx [--galileo]")?;
-    let galileo = std::env::args().nth(2).as_deref() == Some("--galileo");
+    let usage = "usage: sim_ubx OUT.ubx [--galileo | --beidou]";
+    let out = std::env::args().nth(1).ok_or(usage)?;
+    let mode = std::env::args().nth(2);
+    let (galileo, beidou) = match mode.as_deref() {
+        None => (false, false),
+        Some("--galileo") => (true, false),
+        Some("--beidou") => (false, true),
+        Some(_) => return Err(usage.into()),
+    };
     let nav = read_nav(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/rinex-rtklib/07590920.05n.zst"),
     )?;
     let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, if galileo { &segs[..3] } else { &segs[..10] })?;
+    let traj = Trajectory::new(start, if galileo || beidou { &segs[..3] } else { &segs[..10] })?;
     let sim = RawSim {
         slip_probability: 0.002,
         ..RawSim::spp_budget(GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0))
@@ -52,15 +90,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let whole = |e: &&Ephemeris| e.toe_sow % 60.0 == 0.0 && e.toc.tow % 60.0 == 0.0;
         records.extend(nav.ephemerides.records().iter().filter(whole).map(galileo_from));
         Ephemerides::new(records)
+    } else if beidou {
+        let mut records = nav.ephemerides.records().to_vec();
+        let d1 = |e: &&Ephemeris| e.sat.prn >= 3 && e.toc == e.toe && e.toe_sow % 8.0 == 0.0;
+        records.extend(nav.ephemerides.records().iter().filter(d1).map(beidou_from));
+        Ephemerides::new(records)
     } else {
         nav.ephemerides
     };
     let (mut epochs, _) = simulate_raw(&traj, &eph, &kb, &sim, 2005);
     for o in epochs.iter_mut().flat_map(|e| e.sats.iter_mut()) {
-        if o.sat.sys == System::Galileo {
+        if matches!(o.sat.sys, System::Galileo | System::BeiDou) {
             o.signals[1] = Default::default();
         }
     }
+    let eph = if beidou {
+        // the same sky 1024 weeks later (see the module's documentation)
+        for e in &mut epochs {
+            e.time.week += WEEKS_AHEAD;
+        }
+        let mut records = eph.records().to_vec();
+        for r in &mut records {
+            r.toe.week += WEEKS_AHEAD;
+            r.toc.week += WEEKS_AHEAD;
+        }
+        Ephemerides::new(records)
+    } else {
+        eph
+    };
     let bytes = write_ubx(&epochs, &eph, Some(&kb), 13);
     std::fs::write(&out, &bytes)?;
     println!("{out}: {} epochs, {} bytes", epochs.len(), bytes.len());

@@ -388,10 +388,12 @@ fn ubx_packet(out: &mut Vec<u8>, class: u8, id: u8, payload: &[u8]) {
 /// Writes epochs as a u-blox log: an RXM-RAWX (version 1) per epoch, and for each GPS
 /// satellite the RXM-SFRBX subframes 1–3 of its broadcast record
 /// ([`ins_gnss_core::raw::lnav::encode`]), for each Galileo satellite the I/NAV pages of
-/// word types 0–5 ([`ins_gnss_core::raw::inav`]), before its first observation and
-/// whenever the record in use changes, with the broadcast ionosphere (subframe 4 page 18)
-/// first. Signals: GPS L1 C/A (sigId 0) and L2 CL (sigId 3), Galileo E1 B (sigId 1) and
-/// E5a I (sigId 3); `leap`: GPS − UTC, s.
+/// word types 0–5 ([`ins_gnss_core::raw::inav`]), for each BeiDou MEO or IGSO satellite
+/// the D1 subframes 1–3 ([`ins_gnss_core::raw::bds`]; GEO satellites get none), before its
+/// first observation and whenever the record in use changes, with the broadcast
+/// ionosphere (subframe 4 page 18) first. Signals: GPS L1 C/A (sigId 0) and L2 CL (sigId
+/// 3), Galileo E1 B (sigId 1) and E5a I (sigId 3), BeiDou B1I (sigId 0); `leap`: GPS −
+/// UTC, s.
 pub fn write_ubx(
     epochs: &[ObsEpoch],
     eph: &Ephemerides,
@@ -414,7 +416,10 @@ pub fn write_ubx(
     for e in epochs {
         for o in &e.sats {
             let galileo = o.sat.sys == ins_gnss_core::raw::System::Galileo;
-            if o.sat.sys != ins_gnss_core::raw::System::Gps && !galileo {
+            let beidou = o.sat.sys == ins_gnss_core::raw::System::BeiDou;
+            if o.sat.sys != ins_gnss_core::raw::System::Gps && !galileo && !beidou
+                || o.sat.beidou_geo()
+            {
                 continue;
             }
             let Some(r) = eph.select(o.sat, &e.time) else { continue };
@@ -433,6 +438,18 @@ pub fn write_ubx(
                     let mut p = vec![2u8, o.sat.prn, 1, 0, 9, 0, 2, 0];
                     for word in inav::encode_page(w).into_iter().chain([0]) {
                         p.extend_from_slice(&word.to_le_bytes());
+                    }
+                    ubx_packet(&mut out, 0x02, 0x13, &p);
+                }
+                continue;
+            }
+            if beidou {
+                // D1 subframes 1–3 (sigId 0: B1I D1), timed in BDT
+                let bdt = e.time.add(ins_gnss_core::raw::time::BDT_MINUS_GPST).tow;
+                for sf in ins_gnss_core::raw::bds::encode(r, bdt) {
+                    let mut p = vec![3u8, o.sat.prn, 0, 0, 10, 0, 2, 0];
+                    for w in sf {
+                        p.extend_from_slice(&w.to_le_bytes());
                     }
                     ubx_packet(&mut out, 0x02, 0x13, &p);
                 }

@@ -4,7 +4,7 @@
 
 use ins_gnss::spp::{compare, read_pos, scatter, solve_file};
 use ins_gnss_core::raw::spp::{Ionosphere, Troposphere};
-use ins_gnss_core::raw::SppOptions;
+use ins_gnss_core::raw::{SppOptions, System};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
@@ -115,6 +115,39 @@ fn niell_mapping_lifts_the_height_by_what_the_low_satellites_carry() {
         eprintln!("{station}: horizontal mean moved {:.3} m at 5°", d.x.hypot(d.y));
         assert!(d.x.hypot(d.y) < 0.3, "{station}: {d}");
     }
+}
+
+/// GPS and BeiDou from a u-blox log (`data/ubx-sim/bds.ubx.zst`: BeiDou D1 ephemerides
+/// from its RXM-SFRBX, no navigation file) against RTKLIB's single point of its `convbin`
+/// RINEX with both systems (`bds-rtklib.conf`: no mask, Klobuchar, Saastamoinen; the same
+/// options here, no RAIM). Measured: 71 of 71 epochs, 3D RMS 0.047 m; our GPS-only
+/// solution of the same log sits 1.226 m from it, so the BeiDou satellites (with a clock of
+/// their own) are what agrees.
+#[test]
+fn gps_and_beidou_from_a_ubx_log_agree_with_rtklib() {
+    let opt = SppOptions { elevation_mask: 0.0, max_exclusions: 0, ..SppOptions::default() };
+    let run = solve_file(&repo("ubx-sim/bds.ubx.zst"), &[], &opt).unwrap();
+    let theirs = read_pos(&repo("ubx-sim/bds-rtklib.pos.zst")).unwrap();
+    let ours: Vec<(f64, Vector3<f64>)> =
+        run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
+    let (n, rms, _) = compare(&ours, &theirs);
+    eprintln!("GPS + BeiDou from UBX: {n} of {} epochs, 3D RMS {rms:.3} m", theirs.len());
+    assert_eq!((n, theirs.len()), (71, 71));
+    assert!(rms < 0.1, "{rms}");
+    // every epoch used the 3 BeiDou satellites, with a BeiDou clock of its own
+    for s in &run.solutions {
+        let bds = s.used.iter().filter(|u| u.0.sys == System::BeiDou).count();
+        assert_eq!(bds, 3, "{}", s.time);
+        assert!(s.clocks.iter().any(|c| c.0 == System::BeiDou));
+    }
+    // and without them the solution is another one
+    let gps = SppOptions { systems: vec![System::Gps], ..opt };
+    let run = solve_file(&repo("ubx-sim/bds.ubx.zst"), &[], &gps).unwrap();
+    let ours: Vec<(f64, Vector3<f64>)> =
+        run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
+    let (_, rms_gps, _) = compare(&ours, &theirs);
+    eprintln!("GPS alone against RTKLIB's GPS + BeiDou: 3D RMS {rms_gps:.3} m");
+    assert!(rms_gps > 0.3, "{rms_gps}");
 }
 
 #[test]

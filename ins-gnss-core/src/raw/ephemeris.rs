@@ -93,6 +93,17 @@ const URA: [f64; 15] = [
     6144.0,
 ];
 
+/// The ICD's nominal URA of an index (2^(1 + N/2) m up to 6, 2^(N − 2) m above), what
+/// RTKLIB writes to RINEX for GPS, QZSS and BeiDou; the variance rounds it up to the
+/// index's bound.
+pub fn ura_metres(index: usize) -> f64 {
+    if index <= 6 {
+        2f64.powf(1.0 + index as f64 / 2.0)
+    } else {
+        2f64.powi(index as i32 - 2)
+    }
+}
+
 /// The URA index of an accuracy (m): the first index whose bound it does not exceed, 15
 /// beyond the table (or for a NaN).
 pub fn ura_index(accuracy: f64) -> usize {

@@ -10,7 +10,7 @@
 //! readers of RXM-SFRBX do; a record is taken when the preamble is there and the three
 //! subframes agree on their issue of data.
 
-use super::ephemeris::{ura_index, Ephemeris};
+use super::ephemeris::{ura_index, ura_metres, Ephemeris};
 use super::time::{GpsTime, Sat, System, WEEK};
 
 /// The ICD's π for semicircles (IS-GPS-200 §20.3.3.4.3.1 states it to 14 digits).
@@ -223,13 +223,7 @@ pub fn decode(prn: u8, sf: &[Subframe; 3], near: &GpsTime) -> Option<Ephemeris> 
         ],
         tgd: [read(s1, &TGD), 0.0],
         health: read(s1, &HEALTH) as u32,
-        // the ICD's nominal URA of the index (2^(1 + N/2) m up to 6, 2^(N − 2) m above),
-        // what RTKLIB writes to RINEX; the variance rounds it up to the index's bound
-        accuracy: if ura <= 6 {
-            2f64.powf(1.0 + ura as f64 / 2.0)
-        } else {
-            2f64.powi(ura as i32 - 2)
-        },
+        accuracy: ura_metres(ura),
     })
 }
 

@@ -8,11 +8,12 @@
 //! | [`rinex`] | RINEX 2/3 observation ([`ObsReader`]) and navigation ([`read_nav`]) files |
 //! | [`ephemeris`] | broadcast orbits: satellite position, velocity, clock |
 //! | [`atmosphere`] | Klobuchar ionosphere, Saastamoinen troposphere (1/sin or Niell mapping) |
-//! | [`lnav`], [`inav`] | GPS LNAV subframes and Galileo I/NAV words to ephemerides and back |
+//! | [`lnav`], [`inav`], [`bds`] | GPS LNAV subframes, Galileo I/NAV words and BeiDou D1 subframes to ephemerides and back |
 //! | [`ubx`] | u-blox RXM-RAWX observations and RXM-SFRBX navigation data |
 //! | [`spp`] | single point: weighted least squares, χ² check, RAIM exclusion, Doppler velocity |
 
 pub mod atmosphere;
+pub mod bds;
 pub mod ephemeris;
 pub mod inav;
 pub mod lnav;

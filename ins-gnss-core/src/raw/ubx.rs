@@ -1,9 +1,10 @@
 //! u-blox UBX logs: RXM-RAWX observations and RXM-SFRBX navigation subframes, read with
 //! the `ublox` crate (MIT; 10 crates with its dependencies). GPS subframes 1–3 become
 //! ephemerides, and subframe 4 page 18 the broadcast ionosphere, through [`super::lnav`];
-//! Galileo I/NAV pages (word types 0–5) through [`super::inav`]. BeiDou navigation
-//! messages are not decoded yet (their observations are read; give a RINEX navigation
-//! file for them).
+//! Galileo I/NAV pages (word types 0–5) through [`super::inav`]; BeiDou D1 subframes 1–3
+//! (the MEO and IGSO satellites) through [`super::bds`]. The BeiDou GEO satellites' D2
+//! pages are not decoded (their observations are read; give a RINEX navigation file for
+//! them).
 //!
 //! Chosen by measurement against the alternatives: the `ublox` crate decodes RAWX and
 //! SFRBX packets (checksums checked) but not the GPS frames' ephemerides unless built with
@@ -11,10 +12,10 @@
 //! loops until it panics), so the simulator's logs could not be made with it; the LNAV
 //! fields are a table here, checked against RTKLIB's `convbin` on the same log.
 
-use super::inav;
 use super::lnav::{self, Subframe};
 use super::obs::{ObsEpoch, SatObs, Signal};
 use super::time::{GpsTime, Sat, System};
+use super::{bds, inav};
 use super::{Ephemerides, Ephemeris, RawError};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -25,7 +26,7 @@ use ublox::{proto23::PacketRef, Parser, UbxPacket};
 pub struct UbxLog {
     /// RXM-RAWX epochs.
     pub epochs: Vec<ObsEpoch>,
-    /// GPS and Galileo ephemerides from RXM-SFRBX.
+    /// GPS, Galileo and BeiDou (MEO, IGSO) ephemerides from RXM-SFRBX.
     pub ephemerides: Ephemerides,
     /// The broadcast ionosphere (GPS subframe 4, page 18), when the log has it.
     pub klobuchar: Option<super::atmosphere::Klobuchar>,
@@ -79,6 +80,8 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     let mut complete: Vec<(u8, [Subframe; 3], Option<GpsTime>)> = Vec::new();
     // Galileo: the last word of each type 0–5 per satellite
     let mut words: BTreeMap<u8, [Option<u128>; 6]> = BTreeMap::new();
+    // BeiDou D1: the last subframes 1–3 per satellite
+    let mut d1: BTreeMap<u8, [Option<bds::Subframe>; 3]> = BTreeMap::new();
     let mut records: Vec<Ephemeris> = Vec::new();
     let mut lock: BTreeMap<(Sat, usize), u16> = BTreeMap::new();
     let mut last_time: Option<GpsTime> = None;
@@ -144,6 +147,23 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
                         if let Some(r) = inav::decode(&[a, b, c, d, e, g]) {
                             push_new(&mut records, r);
                         }
+                    }
+                }
+            }
+            PacketRef::RxmSfrbx(f) if f.gnss_id() == 3 => {
+                let prn = f.sv_id();
+                if (Sat { sys: System::BeiDou, prn }).beidou_geo() {
+                    continue;
+                }
+                let words: Vec<u32> = f.dwrd().map(|w| w & 0x3fff_ffff).collect();
+                let Ok(sf) = <bds::Subframe>::try_from(words.as_slice()) else { continue };
+                let Some(id @ 1..=3) = bds::subframe_id(&sf) else { continue };
+                let set = d1.entry(prn).or_default();
+                set[usize::from(id) - 1] = Some(sf);
+                // a record when subframe 3 closes 1 and 2 of the same frame
+                if let (3, [Some(a), Some(b), Some(c)]) = (id, *set) {
+                    if let Some(r) = bds::decode(prn, &[a, b, c]) {
+                        push_new(&mut records, r);
                     }
                 }
             }
