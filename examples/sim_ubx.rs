@@ -10,11 +10,14 @@
 //!   sends them), observed on E1 (a u-blox F9 tracks E1 and E5b; RTKLIB's
 //!   reader takes no E5a from RXM-RAWX), its records as I/NAV pages. The orbits are not
 //!   real Galileo ones: the log tests the I/NAV path, not the constellation;
-//! - with `--beidou`, the drive's first 60 s with GPS and BeiDou: GPS as above, and a
+//! - with `--beidou`, the drive's first 200 s with GPS and BeiDou: GPS as above, and a
 //!   BeiDou MEO constellation made likewise (C06–C35 from G03–G32: √A 5282.6 m^½, 55°
 //!   inclination, the node and the mean anomaly turned, URA 2 m, two group delays; toe and
 //!   toc the GPS record's toe read as BDT, so a multiple of 8 s as D1 sends it), observed on
-//!   B1I, its records as D1 subframes. The log is dated 1024 weeks after the navigation
+//!   B1I, its records as D1 subframes; and three GEO satellites C01–C03 made from G01–G03's
+//!   records (√A 6493.4 m^½, 5° inclination in the GEO message's frame, which its −5° turn
+//!   makes equatorial, the node placed so; parked at 140°, 80° and 110.5° E, BeiDou's own GEO slots), their
+//!   records as D2 pages. The log is dated 1024 weeks after the navigation
 //!   file (2024-11-16): BeiDou time starts in 2006, and GPS's 10-bit week, the only GPS
 //!   field that sees the date, reads the same.
 //!
@@ -61,6 +64,32 @@ fn beidou_from(g: &Ephemeris) -> Ephemeris {
     }
 }
 
+/// A BeiDou GEO record made from a GPS one, parked over `longitude` (degrees east): the
+/// GEO message's orbit, inclined 5° in a frame the model turns by −5° about its x axis,
+/// with its ascending node on that axis's negative side at toe, is equatorial (on the
+/// positive side the two add up to 10°), and its argument of latitude at toe is the
+/// longitude less 180°.
+fn beidou_geo_from(g: &Ephemeris, prn: u8, longitude: f64) -> Ephemeris {
+    /// BeiDou's Earth rotation rate (CGCS2000), rad/s.
+    const OMEGA_E: f64 = 7.292_115e-5;
+    let wrap = |a: f64| {
+        (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+    };
+    Ephemeris {
+        sqrt_a: 6493.4,
+        e: 0.0003,
+        i0: 5f64.to_radians(),
+        omega0: wrap(OMEGA_E * g.toe_sow + std::f64::consts::PI),
+        omega: 0.0,
+        m0: wrap(longitude.to_radians() - std::f64::consts::PI),
+        delta_n: 0.0,
+        omega_dot: 0.0,
+        idot: 0.0,
+        harmonics: [0.0; 6],
+        ..Ephemeris { sat: Sat { sys: System::BeiDou, prn }, ..beidou_from(g) }
+    }
+}
+
 /// The BeiDou log's date shift: 1024 weeks.
 const WEEKS_AHEAD: i32 = 1024;
 
@@ -78,7 +107,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/rinex-rtklib/07590920.05n.zst"),
     )?;
     let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, if galileo || beidou { &segs[..3] } else { &segs[..10] })?;
+    let traj = Trajectory::new(start, if galileo { &segs[..3] } else { &segs[..10] })?;
     let sim = RawSim {
         slip_probability: 0.002,
         ..RawSim::spp_budget(GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0))
@@ -94,6 +123,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut records = nav.ephemerides.records().to_vec();
         let d1 = |e: &&Ephemeris| e.sat.prn >= 3 && e.toc == e.toe && e.toe_sow % 8.0 == 0.0;
         records.extend(nav.ephemerides.records().iter().filter(d1).map(beidou_from));
+        // (d1's condition without the PRN's: the GEO message has the same times)
+        let geo = |e: &&Ephemeris| e.sat.prn <= 3 && e.toc == e.toe && e.toe_sow % 8.0 == 0.0;
+        records.extend(nav.ephemerides.records().iter().filter(geo).map(|g| {
+            let longitude = [140.0, 80.0, 110.5][usize::from(g.sat.prn) - 1];
+            beidou_geo_from(g, g.sat.prn, longitude)
+        }));
         Ephemerides::new(records)
     } else {
         nav.ephemerides

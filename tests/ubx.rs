@@ -227,9 +227,10 @@ fn a_galileo_log_reads_as_its_convbin_rinex() {
 }
 
 /// A log with BeiDou (`data/ubx-sim/bds.ubx.zst`, see `examples/sim_ubx.rs`): its D1
-/// subframes give the records RTKLIB's `convbin` decodes from the same log, field by field,
-/// the GPS ones too, and its B1I observations convbin's; the records sit within half a
-/// unit of the message's last bit of the records the simulator wrote.
+/// subframes (MEO) and D2 pages (GEO) give the records RTKLIB's `convbin` decodes from the
+/// same log, field by field, the GPS ones too, and its B1I observations convbin's; the MEO
+/// records sit within half a unit of the message's last bit of the records the simulator
+/// wrote, the GEO ones where the simulator parked them.
 #[test]
 fn a_beidou_log_reads_as_its_convbin_rinex() {
     let log = read_ubx(&data("ubx-sim/bds.ubx.zst")).unwrap();
@@ -238,14 +239,27 @@ fn a_beidou_log_reads_as_its_convbin_rinex() {
     let ours = log.ephemerides.records();
     let theirs = nav.ephemerides.records();
     let bds = |r: &[Ephemeris]| r.iter().filter(|e| e.sat.sys == System::BeiDou).count();
-    assert_eq!(bds(ours), 3);
-    assert_eq!(bds(theirs), 3);
+    // the 3 MEO satellites' D1 records and the 3 GEO satellites' D2 ones (C01's record
+    // changes inside the log: 4)
+    assert_eq!(bds(ours), 7);
+    assert_eq!(bds(theirs), 7);
     assert_records_match(ours, theirs);
     // against the simulator's records (made from the GPS file's, 1024 weeks later, as the
     // example makes them): the orbits agree to the message's resolution (2⁻³¹ semicircles
     // of the turned node and mean anomaly: 2 cm at BeiDou's 27,900 km)
     let gps = read_nav(&data("rinex-rtklib/07590920.05n.zst")).unwrap();
-    for e in ours.iter().filter(|e| e.sat.sys == System::BeiDou) {
+    for e in ours.iter().filter(|e| e.sat.beidou_geo()) {
+        // parked over BeiDou's GEO slots: within 0.1° of the slot's longitude and 0.5° of
+        // the equator, and a few kilometres from where it was half an hour earlier (its
+        // eccentricity, 0.0003, swings it by ±13 km a day; a MEO moves 7,000 km)
+        let slot = [140.0, 80.0, 110.5][usize::from(e.sat.prn) - 1];
+        let (p0, p1) = (e.state(&e.toe).pos, e.state(&e.toe.add(1800.0)).pos);
+        let (lat, lon, _) = ins_gnss_core::earth::ecef_to_geodetic(&p0);
+        assert!((lon.to_degrees() - slot).abs() < 0.1, "{}: {}", e.sat, lon.to_degrees());
+        assert!(lat.to_degrees().abs() < 0.5, "{}: {}", e.sat, lat.to_degrees());
+        assert!((p1 - p0).norm() < 10_000.0, "{}: {} m", e.sat, (p1 - p0).norm());
+    }
+    for e in ours.iter().filter(|e| e.sat.sys == System::BeiDou && !e.sat.beidou_geo()) {
         let g = gps
             .ephemerides
             .records()
@@ -277,7 +291,7 @@ fn a_beidou_log_reads_as_its_convbin_rinex() {
     // the observations, BeiDou's B1I included, as convbin wrote them
     let rinex: Vec<_> =
         ObsReader::open(&data("ubx-sim/bds.obs.zst")).unwrap().map(Result::unwrap).collect();
-    assert_eq!(log.epochs.len(), 71);
+    assert_eq!(log.epochs.len(), 201);
     assert_eq!(rinex.len(), log.epochs.len());
     let mut beidou_values = 0;
     for (u, r) in log.epochs.iter().zip(&rinex) {

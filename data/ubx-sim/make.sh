@@ -1,7 +1,7 @@
 #!/bin/sh
 # Regenerates the simulated u-blox logs and RTKLIB's conversions of them (Debian package
 # `rtklib`, convbin 2.4.3 b34): `sim` (GPS, 300 s), `gal` (GPS and Galileo I/NAV, 70 s) and
-# `bds` (GPS and BeiDou D1, 70 s), and RTKLIB's single point of the `bds` log (rnx2rtkp
+# `bds` (GPS and BeiDou D1 and D2, 200 s), and RTKLIB's single point of the `bds` log (rnx2rtkp
 # 2.4.3 b34 with `bds-rtklib.conf`: GPS and BeiDou, no mask, Klobuchar, Saastamoinen).
 # Run from the repository root:
 #   sh data/ubx-sim/make.sh

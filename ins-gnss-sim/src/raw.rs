@@ -389,8 +389,8 @@ fn ubx_packet(out: &mut Vec<u8>, class: u8, id: u8, payload: &[u8]) {
 /// satellite the RXM-SFRBX subframes 1–3 of its broadcast record
 /// ([`ins_gnss_core::raw::lnav::encode`]), for each Galileo satellite the I/NAV pages of
 /// word types 0–5 ([`ins_gnss_core::raw::inav`]), for each BeiDou MEO or IGSO satellite
-/// the D1 subframes 1–3 ([`ins_gnss_core::raw::bds`]; GEO satellites get none), before its
-/// first observation and whenever the record in use changes, with the broadcast
+/// the D1 subframes 1–3 and for each GEO the D2 pages 1–10 ([`ins_gnss_core::raw::bds`]),
+/// before its first observation and whenever the record in use changes, with the broadcast
 /// ionosphere (subframe 4 page 18) first. Signals: GPS L1 C/A (sigId 0) and L2 CL (sigId
 /// 3), Galileo E1 B (sigId 1) and E5a I (sigId 3), BeiDou B1I (sigId 0); `leap`: GPS −
 /// UTC, s.
@@ -417,9 +417,7 @@ pub fn write_ubx(
         for o in &e.sats {
             let galileo = o.sat.sys == ins_gnss_core::raw::System::Galileo;
             let beidou = o.sat.sys == ins_gnss_core::raw::System::BeiDou;
-            if o.sat.sys != ins_gnss_core::raw::System::Gps && !galileo && !beidou
-                || o.sat.beidou_geo()
-            {
+            if o.sat.sys != ins_gnss_core::raw::System::Gps && !galileo && !beidou {
                 continue;
             }
             let Some(r) = eph.select(o.sat, &e.time) else { continue };
@@ -444,10 +442,18 @@ pub fn write_ubx(
                 continue;
             }
             if beidou {
-                // D1 subframes 1–3 (sigId 0: B1I D1), timed in BDT
+                // D1 subframes 1–3 (sigId 0: B1I D1), or a GEO's D2 pages 1–10 (sigId 1:
+                // B1I D2), timed in BDT
+                use ins_gnss_core::raw::bds;
                 let bdt = e.time.add(ins_gnss_core::raw::time::BDT_MINUS_GPST).tow;
-                for sf in ins_gnss_core::raw::bds::encode(r, bdt) {
-                    let mut p = vec![3u8, o.sat.prn, 0, 0, 10, 0, 2, 0];
+                let geo = o.sat.beidou_geo();
+                let frames = if geo {
+                    bds::encode_d2(r, bdt).to_vec()
+                } else {
+                    bds::encode(r, bdt).to_vec()
+                };
+                for sf in frames {
+                    let mut p = vec![3u8, o.sat.prn, u8::from(geo), 0, 10, 0, 2, 0];
                     for w in sf {
                         p.extend_from_slice(&w.to_le_bytes());
                     }
@@ -496,7 +502,9 @@ pub fn write_ubx(
             entry.1 = e.time;
             let lock_ms = (e.time.diff(&entry.0) * 1000.0).clamp(0.0, 64_500.0) as u16;
             p.extend_from_slice(&s.code.unwrap_or(0.0).to_le_bytes());
-            p.extend_from_slice(&s.phase.unwrap_or(0.0).to_le_bytes());
+            // (a BeiDou GEO's phase half a cycle short, as u-blox receivers give it)
+            let half = if sat.beidou_geo() { 0.5 } else { 0.0 };
+            p.extend_from_slice(&s.phase.map_or(0.0, |l| l - half).to_le_bytes());
             p.extend_from_slice(&(s.doppler.unwrap_or(0.0) as f32).to_le_bytes());
             let cn0 = s.cn0.unwrap_or(0.0).round().clamp(0.0, 255.0) as u8;
             let trk = 1 | if s.phase.is_some() { 2 | 4 } else { 0 };

@@ -165,6 +165,12 @@ pub fn parse_tropo(s: &str) -> Result<Troposphere, String> {
     Troposphere::from_name(name).ok_or_else(|| format!("`{s}`: off, saastamoinen or niell"))
 }
 
+/// A system for `spp --systems`: a RINEX letter or a name
+/// ([`ins_gnss_core::raw::System::parse_list`]).
+pub fn parse_system(s: &str) -> Result<ins_gnss_core::raw::System, String> {
+    ins_gnss_core::raw::System::parse_list(&[s]).map(|v| v[0])
+}
+
 /// `ins-gnss spp`: solve, write, print a summary (and the comparison with `against`).
 pub fn run(
     obs: &Path,

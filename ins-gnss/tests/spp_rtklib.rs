@@ -120,9 +120,10 @@ fn niell_mapping_lifts_the_height_by_what_the_low_satellites_carry() {
 /// GPS and BeiDou from a u-blox log (`data/ubx-sim/bds.ubx.zst`: BeiDou D1 ephemerides
 /// from its RXM-SFRBX, no navigation file) against RTKLIB's single point of its `convbin`
 /// RINEX with both systems (`bds-rtklib.conf`: no mask, Klobuchar, Saastamoinen; the same
-/// options here, no RAIM). Measured: 71 of 71 epochs, 3D RMS 0.047 m; our GPS-only
-/// solution of the same log sits 1.226 m from it, so the BeiDou satellites (with a clock of
-/// their own) are what agrees.
+/// options here, no RAIM). Measured: 201 of 201 epochs with 9–10 GPS, 3 BeiDou MEO and 3
+/// BeiDou GEO satellites, 3D RMS 0.049 m; our GPS-only solution of the same log sits
+/// metres from it, so the BeiDou satellites (with a clock of their own, the GEOs' orbits
+/// from D2) are what agrees.
 #[test]
 fn gps_and_beidou_from_a_ubx_log_agree_with_rtklib() {
     let opt = SppOptions { elevation_mask: 0.0, max_exclusions: 0, ..SppOptions::default() };
@@ -132,12 +133,13 @@ fn gps_and_beidou_from_a_ubx_log_agree_with_rtklib() {
         run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
     let (n, rms, _) = compare(&ours, &theirs);
     eprintln!("GPS + BeiDou from UBX: {n} of {} epochs, 3D RMS {rms:.3} m", theirs.len());
-    assert_eq!((n, theirs.len()), (71, 71));
+    assert_eq!((n, theirs.len()), (201, 201));
     assert!(rms < 0.1, "{rms}");
-    // every epoch used the 3 BeiDou satellites, with a BeiDou clock of its own
+    // every epoch used the 6 BeiDou satellites, 3 of them GEO, with a BeiDou clock
     for s in &run.solutions {
         let bds = s.used.iter().filter(|u| u.0.sys == System::BeiDou).count();
-        assert_eq!(bds, 3, "{}", s.time);
+        let geo = s.used.iter().filter(|u| u.0.beidou_geo()).count();
+        assert_eq!((bds, geo), (6, 3), "{}", s.time);
         assert!(s.clocks.iter().any(|c| c.0 == System::BeiDou));
     }
     // and without them the solution is another one

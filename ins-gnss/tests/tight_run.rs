@@ -246,6 +246,13 @@ fn tight_config_refusals() {
         parse(&format!("{nav}[gnss]\ncoupling = \"tight\"\n[gnss.tight]\nionosphere = \"x\"\n"))
             .unwrap_err();
     assert!(e.contains("gnss.tight.ionosphere"), "{e}");
+    for systems in ["[\"G\", \"R\"]", "[]"] {
+        let e = parse(&format!(
+            "{nav}[gnss]\ncoupling = \"tight\"\n[gnss.tight]\nsystems = {systems}\n"
+        ))
+        .unwrap_err();
+        assert!(e.contains("gnss.tight.systems"), "{e}");
+    }
     let e = parse(&format!("{nav}gnss_format = \"rtklib\"\n[gnss]\ncoupling = \"tight\"\n"))
         .unwrap_err();
     assert!(e.contains("data.gnss_format"), "{e}");
@@ -330,6 +337,48 @@ fn tight_run_from_a_ubx_log() {
     assert!(ev.overall.horizontal.rms < 6.0, "{}", ev.overall.horizontal.rms);
     assert!((0.3..2.0).contains(&nees), "{nees}");
     ins_gnss::health::assess(&s, &cfg).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The GPS and BeiDou log (`data/ubx-sim/bds.ubx.zst`: the same 200 s of the drive,
+/// BeiDou's MEO satellites from D1 and GEO satellites from D2, no navigation file) into the
+/// tight run with the same IMU, no `[init]`, with `gnss.tight.systems` GPS alone and GPS
+/// with BeiDou (one change: the same log): each BeiDou satellite is a pseudorange stream of
+/// its own beside GPS's (BeiDou's clock a bias against GPS's), and the run with them is
+/// better.
+#[test]
+fn tight_run_from_a_gps_and_beidou_ubx_log() {
+    let sc = Scenario::parse(UBX_DRIVE, "the UBX log's drive").unwrap();
+    let dir = dataset("ubx-bds", &sc);
+    let mut cfg = Config::load(&dir.join("config.toml")).unwrap();
+    cfg.gnss.coupling = Coupling::Tight;
+    cfg.init = Default::default();
+    cfg.data.gnss = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/ubx-sim/bds.ubx.zst");
+    let mut horizontal = Vec::new();
+    for systems in [vec!["G"], vec!["G", "C"]] {
+        cfg.gnss.tight.systems = systems.iter().map(|s| s.to_string()).collect();
+        let out = dir.join(format!("out-{}", systems.len()));
+        let s = run(&cfg, "fixed".parse().unwrap(), &out, None).unwrap();
+        let ev = eval(&out, "nav.txt");
+        let nees = ev.nees.unwrap().position.mean_per_dof;
+        let beidou: Vec<String> = s
+            .streams
+            .iter()
+            .map(|st| st.stream.to_string())
+            .filter(|n| n.starts_with("pr C"))
+            .collect();
+        eprintln!(
+            "{systems:?}: horizontal RMS {:.2} m, vertical RMS {:.2} m, position NEES/dof \
+             {nees:.2}, BeiDou streams {beidou:?}",
+            ev.overall.horizontal.rms, ev.overall.down.rms
+        );
+        // with BeiDou, its 3 GEO and 3 MEO satellites, each refused or taken on its own
+        assert_eq!(beidou.len(), if systems.len() == 2 { 6 } else { 0 }, "{beidou:?}");
+        assert!((0.3..2.0).contains(&nees), "{systems:?}: {nees}");
+        ins_gnss::health::assess(&s, &cfg).unwrap();
+        horizontal.push(ev.overall.horizontal.rms);
+    }
+    assert!(horizontal[1] < 0.8 * horizontal[0], "{horizontal:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

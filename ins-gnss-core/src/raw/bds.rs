@@ -24,15 +24,15 @@ use super::time::{GpsTime, Sat, System, BDT_MINUS_GPST, BDT_WEEK_OFFSET, WEEK};
 #[allow(clippy::approx_constant)]
 const SC: f64 = 3.1415926535898;
 
-/// A field: pieces `(first bit 0–299, width)` most significant first, signed (two's
-/// complement), and the scale of one unit.
+/// A field: pieces `(subframe or page 0…, first bit 0–299, width)` most significant
+/// first, signed (two's complement), and the scale of one unit.
 struct Field {
-    pieces: &'static [(usize, usize)],
+    pieces: &'static [(usize, usize, usize)],
     signed: bool,
     scale: f64,
 }
 
-const fn f(pieces: &'static [(usize, usize)], signed: bool, scale: f64) -> Field {
+const fn f(pieces: &'static [(usize, usize, usize)], signed: bool, scale: f64) -> Field {
     Field { pieces, signed, scale }
 }
 
@@ -41,47 +41,89 @@ const fn p2(n: i32) -> f64 {
     1.0 / (1u64 << n) as f64
 }
 
-// every subframe: word 1 and the start of word 2
-const PREAMBLE: Field = f(&[(0, 11)], false, 1.0);
-const FRAME_ID: Field = f(&[(15, 3)], false, 1.0);
-const SOW: Field = f(&[(18, 8), (30, 12)], false, 1.0);
-// subframe 1
-const SAT_H1: Field = f(&[(42, 1)], false, 1.0);
-const AODC: Field = f(&[(43, 5)], false, 1.0);
-const URAI: Field = f(&[(48, 4)], false, 1.0);
-const WN: Field = f(&[(60, 13)], false, 1.0);
-const TOC: Field = f(&[(73, 9), (90, 8)], false, 8.0);
-const TGD1: Field = f(&[(98, 10)], true, 1e-10);
-const TGD2: Field = f(&[(108, 4), (120, 6)], true, 1e-10);
-const A2: Field = f(&[(214, 11)], true, p2(60) * p2(6));
-const A0: Field = f(&[(225, 7), (240, 17)], true, p2(33));
-const A1: Field = f(&[(257, 5), (270, 17)], true, p2(50));
-const AODE: Field = f(&[(287, 5)], false, 1.0);
-// subframe 2
-const DELTA_N: Field = f(&[(42, 10), (60, 6)], true, p2(43) * SC);
-const CUC: Field = f(&[(66, 16), (90, 2)], true, p2(31));
-const M0: Field = f(&[(92, 20), (120, 12)], true, p2(31) * SC);
-const ECC: Field = f(&[(132, 10), (150, 22)], false, p2(33));
-const CUS: Field = f(&[(180, 18)], true, p2(31));
-const CRC: Field = f(&[(198, 4), (210, 14)], true, p2(6));
-const CRS: Field = f(&[(224, 8), (240, 10)], true, p2(6));
-const SQRT_A: Field = f(&[(250, 12), (270, 20)], false, p2(19));
-// toe: its 2 most significant bits end subframe 2, the other 15 start subframe 3
-const TOE_MSB: Field = f(&[(290, 2)], false, 1.0);
-const TOE_LSB: Field = f(&[(42, 10), (60, 5)], false, 1.0);
-// subframe 3
-const I0: Field = f(&[(65, 17), (90, 15)], true, p2(31) * SC);
-const CIC: Field = f(&[(105, 7), (120, 11)], true, p2(31));
-const OMEGA_DOT: Field = f(&[(131, 11), (150, 13)], true, p2(43) * SC);
-const CIS: Field = f(&[(163, 9), (180, 9)], true, p2(31));
-const IDOT: Field = f(&[(189, 13), (210, 1)], true, p2(43) * SC);
-const OMEGA0: Field = f(&[(211, 21), (240, 11)], true, p2(31) * SC);
-const OMEGA: Field = f(&[(251, 11), (270, 21)], true, p2(31) * SC);
+// every subframe: word 1 and the start of word 2 (read from one subframe at a time)
+const PREAMBLE: Field = f(&[(0, 0, 11)], false, 1.0);
+const FRAME_ID: Field = f(&[(0, 15, 3)], false, 1.0);
+const SOW: Field = f(&[(0, 18, 8), (0, 30, 12)], false, 1.0);
 
-/// The D1 preamble, `11100010010`.
+/// D1: subframes 1–3 (0–2 here).
+mod d1 {
+    use super::{f, p2, Field, SC};
+    // subframe 1
+    pub const SAT_H1: Field = f(&[(0, 42, 1)], false, 1.0);
+    pub const AODC: Field = f(&[(0, 43, 5)], false, 1.0);
+    pub const URAI: Field = f(&[(0, 48, 4)], false, 1.0);
+    pub const WN: Field = f(&[(0, 60, 13)], false, 1.0);
+    pub const TOC: Field = f(&[(0, 73, 9), (0, 90, 8)], false, 8.0);
+    pub const TGD1: Field = f(&[(0, 98, 10)], true, 1e-10);
+    pub const TGD2: Field = f(&[(0, 108, 4), (0, 120, 6)], true, 1e-10);
+    pub const A2: Field = f(&[(0, 214, 11)], true, p2(60) * p2(6));
+    pub const A0: Field = f(&[(0, 225, 7), (0, 240, 17)], true, p2(33));
+    pub const A1: Field = f(&[(0, 257, 5), (0, 270, 17)], true, p2(50));
+    pub const AODE: Field = f(&[(0, 287, 5)], false, 1.0);
+    // subframe 2
+    pub const DELTA_N: Field = f(&[(1, 42, 10), (1, 60, 6)], true, p2(43) * SC);
+    pub const CUC: Field = f(&[(1, 66, 16), (1, 90, 2)], true, p2(31));
+    pub const M0: Field = f(&[(1, 92, 20), (1, 120, 12)], true, p2(31) * SC);
+    pub const ECC: Field = f(&[(1, 132, 10), (1, 150, 22)], false, p2(33));
+    pub const CUS: Field = f(&[(1, 180, 18)], true, p2(31));
+    pub const CRC: Field = f(&[(1, 198, 4), (1, 210, 14)], true, p2(6));
+    pub const CRS: Field = f(&[(1, 224, 8), (1, 240, 10)], true, p2(6));
+    pub const SQRT_A: Field = f(&[(1, 250, 12), (1, 270, 20)], false, p2(19));
+    // toe: its 2 most significant bits end subframe 2, the other 15 start subframe 3
+    pub const TOE: Field = f(&[(1, 290, 2), (2, 42, 10), (2, 60, 5)], false, 8.0);
+    // subframe 3
+    pub const I0: Field = f(&[(2, 65, 17), (2, 90, 15)], true, p2(31) * SC);
+    pub const CIC: Field = f(&[(2, 105, 7), (2, 120, 11)], true, p2(31));
+    pub const OMEGA_DOT: Field = f(&[(2, 131, 11), (2, 150, 13)], true, p2(43) * SC);
+    pub const CIS: Field = f(&[(2, 163, 9), (2, 180, 9)], true, p2(31));
+    pub const IDOT: Field = f(&[(2, 189, 13), (2, 210, 1)], true, p2(43) * SC);
+    pub const OMEGA0: Field = f(&[(2, 211, 21), (2, 240, 11)], true, p2(31) * SC);
+    pub const OMEGA: Field = f(&[(2, 251, 11), (2, 270, 21)], true, p2(31) * SC);
+}
+
+/// D2: pages 1–10 of subframe 1 (0–9 here; page 2, the ionosphere's grid, not read).
+/// Fields cross pages where the message splits them.
+mod d2 {
+    use super::{f, p2, Field, SC};
+    pub const PAGE: Field = f(&[(0, 42, 4)], false, 1.0);
+    // page 1
+    pub const SAT_H1: Field = f(&[(0, 46, 1)], false, 1.0);
+    pub const AODC: Field = f(&[(0, 47, 5)], false, 1.0);
+    pub const URAI: Field = f(&[(0, 60, 4)], false, 1.0);
+    pub const WN: Field = f(&[(0, 64, 13)], false, 1.0);
+    pub const TOC: Field = f(&[(0, 77, 5), (0, 90, 12)], false, 8.0);
+    pub const TGD1: Field = f(&[(0, 102, 10)], true, 1e-10);
+    pub const TGD2: Field = f(&[(0, 120, 10)], true, 1e-10);
+    // pages 3–4
+    pub const A0: Field = f(&[(2, 100, 12), (2, 120, 12)], true, p2(33));
+    pub const A1: Field = f(&[(2, 132, 4), (3, 46, 6), (3, 60, 12)], true, p2(50));
+    pub const A2: Field = f(&[(3, 72, 10), (3, 90, 1)], true, p2(60) * p2(6));
+    pub const AODE: Field = f(&[(3, 91, 5)], false, 1.0);
+    pub const DELTA_N: Field = f(&[(3, 96, 16)], true, p2(43) * SC);
+    pub const CUC: Field = f(&[(3, 120, 14), (4, 46, 4)], true, p2(31));
+    // pages 5–6
+    pub const M0: Field = f(&[(4, 50, 2), (4, 60, 22), (4, 90, 8)], true, p2(31) * SC);
+    pub const CUS: Field = f(&[(4, 98, 14), (4, 120, 4)], true, p2(31));
+    pub const ECC: Field = f(&[(4, 124, 10), (5, 46, 6), (5, 60, 16)], false, p2(33));
+    pub const SQRT_A: Field = f(&[(5, 76, 6), (5, 90, 22), (5, 120, 4)], false, p2(19));
+    pub const CIC: Field = f(&[(5, 124, 10), (6, 46, 6), (6, 60, 2)], true, p2(31));
+    // pages 7–8
+    pub const CIS: Field = f(&[(6, 62, 18)], true, p2(31));
+    pub const TOE: Field = f(&[(6, 80, 2), (6, 90, 15)], false, 8.0);
+    pub const I0: Field =
+        f(&[(6, 105, 7), (6, 120, 14), (7, 46, 6), (7, 60, 5)], true, p2(31) * SC);
+    pub const CRC: Field = f(&[(7, 65, 17), (7, 90, 1)], true, p2(6));
+    pub const CRS: Field = f(&[(7, 91, 18)], true, p2(6));
+    pub const OMEGA_DOT: Field = f(&[(7, 109, 3), (7, 120, 16), (8, 46, 5)], true, p2(43) * SC);
+    // pages 9–10
+    pub const OMEGA0: Field = f(&[(8, 51, 1), (8, 60, 22), (8, 90, 9)], true, p2(31) * SC);
+    pub const OMEGA: Field = f(&[(8, 99, 13), (8, 120, 14), (9, 46, 5)], true, p2(31) * SC);
+    pub const IDOT: Field = f(&[(9, 51, 1), (9, 60, 13)], true, p2(43) * SC);
+}
+
+/// The D1/D2 preamble, `11100010010`.
 const PREAMBLE_BITS: f64 = 0x712 as f64;
-/// toe and toc are counted in units of 8 s.
-const TOE_UNIT: f64 = 8.0;
 
 /// A subframe: ten words as RXM-SFRBX gives them.
 pub type Subframe = [u32; 10];
@@ -90,34 +132,189 @@ fn bits(sf: &Subframe, start: usize, width: usize) -> u64 {
     (start..start + width).fold(0, |v, b| (v << 1) | u64::from((sf[b / 30] >> (29 - b % 30)) & 1))
 }
 
-fn read(sf: &Subframe, fd: &Field) -> f64 {
+fn read(frames: &[Subframe], fd: &Field) -> f64 {
     let (mut v, mut n) = (0u64, 0usize);
-    for &(start, width) in fd.pieces {
-        v = (v << width) | bits(sf, start, width);
+    for &(k, start, width) in fd.pieces {
+        v = (v << width) | bits(&frames[k], start, width);
         n += width;
     }
     let x = if fd.signed && v >> (n - 1) == 1 { v as i64 - (1i64 << n) } else { v as i64 };
     x as f64 * fd.scale
 }
 
-fn write(sf: &mut Subframe, fd: &Field, value: f64) {
-    let n: usize = fd.pieces.iter().map(|p| p.1).sum();
+fn write(frames: &mut [Subframe], fd: &Field, value: f64) {
+    let n: usize = fd.pieces.iter().map(|p| p.2).sum();
     let v = ((value / fd.scale).round() as i64 as u64) & ((1u64 << n) - 1);
     let mut at = n;
-    for &(start, width) in fd.pieces {
+    for &(k, start, width) in fd.pieces {
         at -= width;
-        for k in 0..width {
-            let bit = ((v >> (at + width - 1 - k)) & 1) as u32;
-            let b = start + k;
+        for j in 0..width {
+            let bit = ((v >> (at + width - 1 - j)) & 1) as u32;
+            let b = start + j;
             let shift = 29 - b % 30;
-            sf[b / 30] = (sf[b / 30] & !(1 << shift)) | (bit << shift);
+            let word = &mut frames[k][b / 30];
+            *word = (*word & !(1 << shift)) | (bit << shift);
         }
     }
 }
 
-/// Which subframe (1–5) a D1 subframe is, when its preamble is there.
+/// Which subframe (1–5) a D1 or D2 subframe is, when its preamble is there.
 pub fn subframe_id(sf: &Subframe) -> Option<u8> {
-    (read(sf, &PREAMBLE) == PREAMBLE_BITS).then(|| read(sf, &FRAME_ID) as u8)
+    let one = core::slice::from_ref(sf);
+    (read(one, &PREAMBLE) == PREAMBLE_BITS).then(|| read(one, &FRAME_ID) as u8)
+}
+
+/// The page number (1–10) of a D2 subframe 1.
+pub fn d2_page(sf: &Subframe) -> u8 {
+    read(core::slice::from_ref(sf), &d2::PAGE) as u8
+}
+
+/// The seconds of week a subframe states.
+fn sow(sf: &Subframe) -> f64 {
+    read(core::slice::from_ref(sf), &SOW)
+}
+
+/// Headers (preamble, subframe ID, seconds of week) of `frames`, the first stating `first`
+/// and each later one `step` seconds on.
+fn headers(frames: &mut [Subframe], id: impl Fn(usize) -> usize, first: f64, step: f64) {
+    for (k, sf) in frames.iter_mut().enumerate() {
+        let one = core::slice::from_mut(sf);
+        write(one, &PREAMBLE, PREAMBLE_BITS);
+        write(one, &FRAME_ID, id(k) as f64);
+        write(one, &SOW, (first + step * k as f64).rem_euclid(WEEK));
+    }
+}
+
+/// The fields a record has in both messages, in one message's table.
+struct Table {
+    sat_h1: Field,
+    aodc: Field,
+    urai: Field,
+    wn: Field,
+    toc: Field,
+    toe: Field,
+    tgd: [Field; 2],
+    af: [Field; 3],
+    aode: Field,
+    kepler: [Field; 9],
+    harmonics: [Field; 6],
+}
+
+/// `kepler`: √A, e, i0, Ω0, ω, M0, Δn, Ω̇, IDOT; `harmonics` in [`Ephemeris::harmonics`]'s
+/// order.
+const D1: Table = Table {
+    sat_h1: d1::SAT_H1,
+    aodc: d1::AODC,
+    urai: d1::URAI,
+    wn: d1::WN,
+    toc: d1::TOC,
+    toe: d1::TOE,
+    tgd: [d1::TGD1, d1::TGD2],
+    af: [d1::A0, d1::A1, d1::A2],
+    aode: d1::AODE,
+    kepler: [
+        d1::SQRT_A,
+        d1::ECC,
+        d1::I0,
+        d1::OMEGA0,
+        d1::OMEGA,
+        d1::M0,
+        d1::DELTA_N,
+        d1::OMEGA_DOT,
+        d1::IDOT,
+    ],
+    harmonics: [d1::CUC, d1::CUS, d1::CRC, d1::CRS, d1::CIC, d1::CIS],
+};
+
+const D2: Table = Table {
+    sat_h1: d2::SAT_H1,
+    aodc: d2::AODC,
+    urai: d2::URAI,
+    wn: d2::WN,
+    toc: d2::TOC,
+    toe: d2::TOE,
+    tgd: [d2::TGD1, d2::TGD2],
+    af: [d2::A0, d2::A1, d2::A2],
+    aode: d2::AODE,
+    kepler: [
+        d2::SQRT_A,
+        d2::ECC,
+        d2::I0,
+        d2::OMEGA0,
+        d2::OMEGA,
+        d2::M0,
+        d2::DELTA_N,
+        d2::OMEGA_DOT,
+        d2::IDOT,
+    ],
+    harmonics: [d2::CUC, d2::CUS, d2::CRC, d2::CRS, d2::CIC, d2::CIS],
+};
+
+fn encode_fields(e: &Ephemeris, t: &Table, frames: &mut [Subframe]) {
+    let bdt_week = e.toe.add(BDT_MINUS_GPST).week - BDT_WEEK_OFFSET;
+    write(frames, &t.sat_h1, f64::from(u8::from(e.health != 0)));
+    write(frames, &t.aodc, f64::from(e.iodc.rem_euclid(32)));
+    write(frames, &t.urai, ura_index(e.accuracy) as f64);
+    write(frames, &t.wn, f64::from(bdt_week));
+    write(frames, &t.toc, e.toe_sow);
+    write(frames, &t.toe, e.toe_sow);
+    for (fd, v) in t.tgd.iter().zip(e.tgd) {
+        write(frames, fd, v);
+    }
+    for (fd, v) in t.af.iter().zip(e.af) {
+        write(frames, fd, v);
+    }
+    write(frames, &t.aode, f64::from(e.iode.rem_euclid(32)));
+    let kepler = [e.sqrt_a, e.e, e.i0, e.omega0, e.omega, e.m0, e.delta_n, e.omega_dot, e.idot];
+    for (fd, v) in t.kepler.iter().zip(kepler) {
+        write(frames, fd, v);
+    }
+    for (fd, v) in t.harmonics.iter().zip(e.harmonics) {
+        write(frames, fd, v);
+    }
+}
+
+fn decode_fields(prn: u8, t: &Table, frames: &[Subframe]) -> Option<Ephemeris> {
+    let toe_sow = read(frames, &t.toe);
+    let toc_sow = read(frames, &t.toc);
+    if toc_sow != toe_sow {
+        return None;
+    }
+    // BDT week and second of week to a GPS-time instant: the week that puts the reference
+    // time within half a week of the first subframe's transmission
+    let week = read(frames, &t.wn) as i32 + BDT_WEEK_OFFSET;
+    let sent = GpsTime::new(week, sow(&frames[0]) - BDT_MINUS_GPST);
+    let near = |sow: f64| {
+        let t = GpsTime::new(week, sow - BDT_MINUS_GPST);
+        t.add(-(t.diff(&sent) / WEEK).round() * WEEK)
+    };
+    let [sqrt_a, e, i0, omega0, omega, m0, delta_n, omega_dot, idot] =
+        t.kepler.each_ref().map(|fd| read(frames, fd));
+    let aode = read(frames, &t.aode) as i32;
+    Some(Ephemeris {
+        sat: Sat { sys: System::BeiDou, prn },
+        toc: near(toc_sow),
+        toe: near(toe_sow),
+        toe_sow,
+        af: t.af.each_ref().map(|fd| read(frames, fd)),
+        // (the RINEX reader takes the age of data for both, as RINEX carries AODE only in
+        // the issue-of-data column)
+        iode: aode,
+        iodc: aode,
+        sqrt_a,
+        e,
+        i0,
+        omega0,
+        omega,
+        m0,
+        delta_n,
+        omega_dot,
+        idot,
+        harmonics: t.harmonics.each_ref().map(|fd| read(frames, fd)),
+        tgd: t.tgd.each_ref().map(|fd| read(frames, fd)),
+        health: read(frames, &t.sat_h1) as u32,
+        accuracy: ura_metres(read(frames, &t.urai) as usize),
+    })
 }
 
 /// Encodes the record of a BeiDou MEO or IGSO satellite as D1 subframes 1–3, the first
@@ -126,44 +323,8 @@ pub fn subframe_id(sf: &Subframe) -> Option<u8> {
 /// to its `toe`, as the message has them; the Klobuchar coefficients are written as zero.
 pub fn encode(e: &Ephemeris, bdt_sow: f64) -> [Subframe; 3] {
     let mut out = [[0u32; 10]; 3];
-    let first = ((bdt_sow / 6.0).floor() + 1.0) * 6.0;
-    for (k, sf) in out.iter_mut().enumerate() {
-        write(sf, &PREAMBLE, PREAMBLE_BITS);
-        write(sf, &FRAME_ID, (k + 1) as f64);
-        write(sf, &SOW, (first + 6.0 * k as f64).rem_euclid(WEEK));
-    }
-    let [s1, s2, s3] = &mut out;
-    let bdt_week = e.toe.add(BDT_MINUS_GPST).week - BDT_WEEK_OFFSET;
-    write(s1, &SAT_H1, f64::from(u8::from(e.health != 0)));
-    write(s1, &AODC, f64::from(e.iodc.rem_euclid(32)));
-    write(s1, &URAI, ura_index(e.accuracy) as f64);
-    write(s1, &WN, f64::from(bdt_week));
-    write(s1, &TOC, e.toe_sow);
-    write(s1, &TGD1, e.tgd[0]);
-    write(s1, &TGD2, e.tgd[1]);
-    write(s1, &A2, e.af[2]);
-    write(s1, &A0, e.af[0]);
-    write(s1, &A1, e.af[1]);
-    write(s1, &AODE, f64::from(e.iode.rem_euclid(32)));
-    let [cuc, cus, crc, crs, cic, cis] = e.harmonics;
-    let toe = (e.toe_sow / TOE_UNIT).round();
-    write(s2, &DELTA_N, e.delta_n);
-    write(s2, &CUC, cuc);
-    write(s2, &M0, e.m0);
-    write(s2, &ECC, e.e);
-    write(s2, &CUS, cus);
-    write(s2, &CRC, crc);
-    write(s2, &CRS, crs);
-    write(s2, &SQRT_A, e.sqrt_a);
-    write(s2, &TOE_MSB, (toe / 32_768.0).floor());
-    write(s3, &TOE_LSB, toe.rem_euclid(32_768.0));
-    write(s3, &I0, e.i0);
-    write(s3, &CIC, cic);
-    write(s3, &OMEGA_DOT, e.omega_dot);
-    write(s3, &CIS, cis);
-    write(s3, &IDOT, e.idot);
-    write(s3, &OMEGA0, e.omega0);
-    write(s3, &OMEGA, e.omega);
+    headers(&mut out, |k| k + 1, ((bdt_sow / 6.0).floor() + 1.0) * 6.0, 6.0);
+    encode_fields(e, &D1, &mut out);
     out
 }
 
@@ -177,144 +338,100 @@ pub fn decode(prn: u8, sf: &[Subframe; 3]) -> Option<Ephemeris> {
             return None;
         }
     }
-    let [s1, s2, s3] = sf;
-    let sow = read(s1, &SOW);
-    if read(s2, &SOW) != sow + 6.0 || read(s3, &SOW) != sow + 12.0 {
+    let t0 = sow(&sf[0]);
+    if sow(&sf[1]) != t0 + 6.0 || sow(&sf[2]) != t0 + 12.0 {
         return None;
     }
-    let toe_sow = (read(s2, &TOE_MSB) * 32_768.0 + read(s3, &TOE_LSB)) * TOE_UNIT;
-    let toc_sow = read(s1, &TOC);
-    if toc_sow != toe_sow {
+    decode_fields(prn, &D1, sf)
+}
+
+/// Encodes the record of a BeiDou GEO satellite as D2 subframe 1, pages 1–10, page 1 at
+/// the BDT second of week after `bdt_sow` that is a multiple of 30, each next page 3 s
+/// later (page 2, the ionosphere's, carries its header only). `toe_sow` and `toc` as for
+/// [`encode`].
+pub fn encode_d2(e: &Ephemeris, bdt_sow: f64) -> [Subframe; 10] {
+    let mut out = [[0u32; 10]; 10];
+    headers(&mut out, |_| 1, ((bdt_sow / 30.0).floor() + 1.0) * 30.0, 3.0);
+    for (k, sf) in out.iter_mut().enumerate() {
+        write(core::slice::from_mut(sf), &d2::PAGE, (k + 1) as f64);
+    }
+    encode_fields(e, &D2, &mut out);
+    out
+}
+
+/// Decodes D2 subframe 1, pages 1–10 (page 2 unused) of BeiDou GEO satellite `prn` into a
+/// record. `None` when a preamble is missing, a page is out of place, the pages are not
+/// 3 s apart, or toc is not toe, as RTKLIB refuses them.
+pub fn decode_d2(prn: u8, pages: &[Subframe; 10]) -> Option<Ephemeris> {
+    for (k, s) in pages.iter().enumerate() {
+        if subframe_id(s)? != 1 || usize::from(d2_page(s)) != k + 1 {
+            return None;
+        }
+    }
+    let t0 = sow(&pages[0]);
+    if (2..10).any(|k| sow(&pages[k]) != t0 + 3.0 * k as f64) {
         return None;
     }
-    // BDT week and second of week to a GPS-time instant: the week that puts the reference
-    // time within half a week of the subframe's transmission
-    let week = read(s1, &WN) as i32 + BDT_WEEK_OFFSET;
-    let sent = GpsTime::new(week, sow - BDT_MINUS_GPST);
-    let near = |sow: f64| {
-        let t = GpsTime::new(week, sow - BDT_MINUS_GPST);
-        t.add(-(t.diff(&sent) / WEEK).round() * WEEK)
-    };
-    let aode = read(s1, &AODE) as i32;
-    Some(Ephemeris {
-        sat: Sat { sys: System::BeiDou, prn },
-        toc: near(toc_sow),
-        toe: near(toe_sow),
-        toe_sow,
-        af: [read(s1, &A0), read(s1, &A1), read(s1, &A2)],
-        // (the RINEX reader takes the age of data for both, as RINEX carries AODE only in
-        // the issue-of-data column)
-        iode: aode,
-        iodc: aode,
-        sqrt_a: read(s2, &SQRT_A),
-        e: read(s2, &ECC),
-        i0: read(s3, &I0),
-        omega0: read(s3, &OMEGA0),
-        omega: read(s3, &OMEGA),
-        m0: read(s2, &M0),
-        delta_n: read(s2, &DELTA_N),
-        omega_dot: read(s3, &OMEGA_DOT),
-        idot: read(s3, &IDOT),
-        harmonics: [
-            read(s2, &CUC),
-            read(s2, &CUS),
-            read(s2, &CRC),
-            read(s2, &CRS),
-            read(s3, &CIC),
-            read(s3, &CIS),
-        ],
-        tgd: [read(s1, &TGD1), read(s1, &TGD2)],
-        health: read(s1, &SAT_H1) as u32,
-        accuracy: ura_metres(read(s1, &URAI) as usize),
-    })
+    decode_fields(prn, &D2, pages)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Every field of a subframe written, then read back at its resolution: no two fields
-    /// share a bit, and none touches the parity bits or the words' two padding bits.
+    fn table_fields(t: &Table) -> Vec<&Field> {
+        let mut v = vec![&t.sat_h1, &t.aodc, &t.urai, &t.wn, &t.toc, &t.toe, &t.aode];
+        v.extend(t.tgd.iter().chain(&t.af).chain(&t.kepler).chain(&t.harmonics));
+        v
+    }
+
+    /// Each message's fields (and the headers, and D2's page number) cover each bit at most
+    /// once, stay inside one word's data bits (none on a parity bit), and have the ICD's
+    /// widths.
     #[test]
-    fn fields_round_trip_at_their_resolution_and_leave_the_parity_alone() {
-        let subframes: [&[(&Field, f64)]; 3] = [
-            &[
-                (&SAT_H1, 1.0),
-                (&AODC, 17.0),
-                (&URAI, 2.0),
-                (&WN, 984.0),
-                (&TOC, 345_600.0),
-                (&TGD1, -5.3e-9),
-                (&TGD2, 2.1e-9),
-                (&A2, -1.0e-20),
-                (&A0, -3.1e-4),
-                (&A1, 4.4e-11),
-                (&AODE, 30.0),
-            ],
-            &[
-                (&DELTA_N, 4.0e-9),
-                (&CUC, -2.6e-6),
-                (&M0, -2.5),
-                (&ECC, 0.00123),
-                (&CUS, 4.1e-6),
-                (&CRC, 309.375),
-                (&CRS, -52.1875),
-                (&SQRT_A, 5282.62),
-                (&TOE_MSB, 1.0),
-            ],
-            &[
-                (&TOE_LSB, 10_800.0),
-                (&I0, 0.96),
-                (&CIC, 1.1e-7),
-                (&OMEGA_DOT, -7.0e-9),
-                (&CIS, -9.3e-8),
-                (&IDOT, -4.0e-10),
-                (&OMEGA0, 2.87),
-                (&OMEGA, -1.65),
-            ],
-        ];
+    fn the_fields_share_no_bit_and_leave_the_parity_alone() {
         // the parity bits: word 1's last 4, words 2–10's last 8
         let parity = |b: usize| if b < 30 { b >= 26 } else { b % 30 >= 22 };
-        for fields in subframes {
-            let mut sf = [0u32; 10];
-            for (fd, v) in
-                fields.iter().copied().chain([(&PREAMBLE, PREAMBLE_BITS), (&SOW, 604_794.0)])
-            {
-                write(&mut sf, fd, v);
+        for (t, frames, extra) in [(&D1, 3, vec![]), (&D2, 10, vec![&d2::PAGE])] {
+            let mut used = vec![[false; 300]; frames];
+            for k in 0..frames {
+                for fd in [&PREAMBLE, &FRAME_ID, &SOW].into_iter().chain(extra.iter().copied()) {
+                    for &(_, start, width) in fd.pieces {
+                        used[k][start..start + width].iter_mut().for_each(|u| *u = true);
+                    }
+                }
             }
-            for (fd, v) in
-                fields.iter().copied().chain([(&PREAMBLE, PREAMBLE_BITS), (&SOW, 604_794.0)])
-            {
-                let back = read(&sf, fd);
-                assert!((back - v).abs() <= fd.scale / 2.0 + 1e-15 * v.abs(), "{v} → {back}");
+            for fd in table_fields(t) {
+                for &(k, start, width) in fd.pieces {
+                    assert_eq!(start / 30, (start + width - 1) / 30, "a piece across words");
+                    for b in start..start + width {
+                        assert!(!parity(b), "bit {b} of frame {k} is parity");
+                        assert!(!used[k][b], "bit {b} of frame {k} used twice");
+                        used[k][b] = true;
+                    }
+                }
             }
-            assert!(sf.iter().all(|w| w >> 30 == 0));
-            assert!((0..300).filter(|b| parity(*b)).all(|b| bits(&sf, b, 1) == 0));
-        }
-        // and each field's pieces fit their words' data bits
-        let all = [
-            &PREAMBLE, &FRAME_ID, &SOW, &SAT_H1, &AODC, &URAI, &WN, &TOC, &TGD1, &TGD2, &A2, &A0,
-            &A1, &AODE, &DELTA_N, &CUC, &M0, &ECC, &CUS, &CRC, &CRS, &SQRT_A, &TOE_MSB, &TOE_LSB,
-            &I0, &CIC, &OMEGA_DOT, &CIS, &IDOT, &OMEGA0, &OMEGA,
-        ];
-        for fd in all {
-            for &(start, width) in fd.pieces {
-                assert!((start..start + width).all(|b| !parity(b) && b / 30 == start / 30));
-            }
+            // the ICD's widths (both messages carry the same ones)
+            let width = |fd: &Field| fd.pieces.iter().map(|p| p.2).sum::<usize>();
+            let widths: Vec<usize> = table_fields(t).into_iter().map(width).collect();
+            assert_eq!(
+                widths,
+                [1, 5, 4, 13, 17, 17, 5, 10, 10, 24, 22, 11, 32, 32, 32, 32, 32, 32, 16, 24, 14]
+                    .into_iter()
+                    .chain([18, 18, 18, 18, 18, 18])
+                    .collect::<Vec<_>>()
+            );
         }
     }
 
-    /// A record through the subframes and back: every field within half a unit of its
-    /// last bit, the times exact.
-    #[test]
-    fn a_record_survives_its_subframes() {
+    fn record(prn: u8) -> Ephemeris {
         let toe = GpsTime::new(BDT_WEEK_OFFSET + 984, 345_600.0 - BDT_MINUS_GPST);
-        let e = Ephemeris {
-            sat: Sat { sys: System::BeiDou, prn: 23 },
+        Ephemeris {
+            sat: Sat { sys: System::BeiDou, prn },
             toc: toe,
             toe,
             toe_sow: 345_600.0,
-            af: [-3.1e-4, 4.4e-11, 0.0],
+            af: [-3.1e-4, 4.4e-11, -1.0e-20],
             iode: 7,
             iodc: 7,
             sqrt_a: 5282.6,
@@ -326,31 +443,70 @@ mod tests {
             delta_n: 3.9e-9,
             omega_dot: -6.9e-9,
             idot: 2.0e-10,
-            harmonics: [1.0e-6, 8.0e-6, 200.5, -10.25, 3.0e-8, -2.0e-8],
+            harmonics: [1.0e-6, -8.0e-6, 200.5, -10.25, 3.0e-8, -2.0e-8],
             tgd: [-5.3e-9, 2.1e-9],
-            health: 0,
+            health: 1,
             accuracy: 2.0,
-        };
-        // sent 1.5 h before its toe, and 3 days after it
-        for sent in [345_600.0 - 5400.0, 604_600.0] {
-            let sf = encode(&e, sent);
-            let back = decode(23, &sf).unwrap();
-            assert_eq!(back.toe, e.toe);
-            assert_eq!(back.toc, e.toc);
-            let close = |a: f64, b: f64, unit: f64| (a - b).abs() <= unit / 2.0;
-            assert!(close(back.sqrt_a, e.sqrt_a, SQRT_A.scale));
-            assert!(close(back.m0, e.m0, M0.scale));
-            assert!(close(back.omega0, e.omega0, OMEGA0.scale));
-            assert!(close(back.af[0], e.af[0], A0.scale));
-            assert!(close(back.tgd[1], e.tgd[1], TGD2.scale));
-            assert!(close(back.harmonics[2], e.harmonics[2], CRC.scale));
-            assert_eq!((back.iode, back.accuracy), (7, 2.0));
         }
-        // a subframe out of its place, or 2 and 3 from another frame: no record
+    }
+
+    /// Every field within half a unit of its last bit, the times exact.
+    fn assert_close(back: &Ephemeris, e: &Ephemeris, t: &Table) {
+        assert_eq!((back.sat, back.toe, back.toc), (e.sat, e.toe, e.toc));
+        assert_eq!((back.iode, back.accuracy, back.health), (7, 2.0, 1));
+        let kepler = [e.sqrt_a, e.e, e.i0, e.omega0, e.omega, e.m0, e.delta_n, e.omega_dot, e.idot];
+        let got = [
+            back.sqrt_a,
+            back.e,
+            back.i0,
+            back.omega0,
+            back.omega,
+            back.m0,
+            back.delta_n,
+            back.omega_dot,
+            back.idot,
+        ];
+        let pairs = t.kepler.iter().zip(kepler.iter().zip(got));
+        let pairs = pairs
+            .chain(t.af.iter().zip(e.af.iter().zip(back.af)))
+            .chain(t.tgd.iter().zip(e.tgd.iter().zip(back.tgd)))
+            .chain(t.harmonics.iter().zip(e.harmonics.iter().zip(back.harmonics)));
+        for (fd, (a, b)) in pairs {
+            assert!((a - b).abs() <= fd.scale / 2.0 * (1.0 + 1e-12), "{a} → {b}");
+        }
+    }
+
+    /// A record through D1's subframes and D2's pages and back, sent 1.5 h before its toe
+    /// and 3 days after it.
+    #[test]
+    fn a_record_survives_both_messages() {
+        for sent in [345_600.0 - 5400.0, 604_600.0] {
+            let e = record(23);
+            assert_close(&decode(23, &encode(&e, sent)).unwrap(), &e, &D1);
+            let e = record(3);
+            assert_close(&decode_d2(3, &encode_d2(&e, sent)).unwrap(), &e, &D2);
+        }
+    }
+
+    /// Out of place or from two frames: no record, as RTKLIB takes none.
+    #[test]
+    fn mixed_frames_give_no_record() {
+        let e = record(23);
         let mut sf = encode(&e, 0.0);
         sf.swap(1, 2);
         assert!(decode(23, &sf).is_none());
         let (a, b) = (encode(&e, 0.0), encode(&e, 30.0));
         assert!(decode(23, &[a[0], b[1], b[2]]).is_none());
+        let (a, b) = (encode_d2(&e, 0.0), encode_d2(&e, 30.0));
+        let mut mixed = a;
+        mixed[5] = b[5];
+        assert!(decode_d2(3, &mixed).is_none());
+        let mut swapped = a;
+        swapped.swap(3, 4);
+        assert!(decode_d2(3, &swapped).is_none());
+        // toc ≠ toe (a record caught across an upload)
+        let mut moved = a;
+        write(&mut moved, &d2::TOC, e.toe_sow + 8.0);
+        assert!(decode_d2(3, &moved).is_none());
     }
 }

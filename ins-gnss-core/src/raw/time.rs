@@ -137,6 +137,38 @@ impl System {
     pub fn keplerian(self) -> bool {
         matches!(self, Self::Gps | Self::Galileo | Self::BeiDou | Self::Qzss)
     }
+
+    /// The systems of a list as users write them: RINEX letters (`G`, `E`, `C`, `J`) or
+    /// names (`GPS`, `Galileo`, `BeiDou`, `QZSS`), any case — the systems the satellite
+    /// models serve. An error names the first entry that is none of them, or an empty list.
+    pub fn parse_list<S: AsRef<str>>(list: &[S]) -> Result<Vec<Self>, String> {
+        if list.is_empty() {
+            return Err("no system given: G, E, C or J".into());
+        }
+        let mut out = Vec::with_capacity(list.len());
+        for entry in list {
+            let entry = entry.as_ref().trim();
+            let mut letters = entry.chars();
+            let by_letter = match (letters.next(), letters.next()) {
+                (Some(c), None) => Self::from_letter(c.to_ascii_uppercase()),
+                _ => None,
+            };
+            let sys = by_letter
+                .or_else(|| {
+                    [Self::Gps, Self::Galileo, Self::BeiDou, Self::Qzss]
+                        .into_iter()
+                        .find(|s| s.name().eq_ignore_ascii_case(entry))
+                })
+                .filter(|s| s.keplerian() && !entry.is_empty())
+                .ok_or_else(|| {
+                    format!("`{entry}`: not a system the models serve (G, E, C or J)")
+                })?;
+            if !out.contains(&sys) {
+                out.push(sys);
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// A satellite: system and number.
@@ -177,6 +209,20 @@ impl fmt::Display for Sat {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn system_lists_read_letters_and_names_and_refuse_the_rest() {
+        use System::*;
+        assert_eq!(
+            System::parse_list(&["G", "c", "Galileo", "QZSS", "G"]),
+            Ok(vec![Gps, BeiDou, Galileo, Qzss])
+        );
+        for bad in ["R", "GLONASS", "X", "", "GP"] {
+            let e = System::parse_list(&[bad]).unwrap_err();
+            assert!(e.contains(&format!("`{bad}`")), "{e}");
+        }
+        assert!(System::parse_list::<&str>(&[]).is_err());
+    }
 
     #[test]
     fn calendar_round_trip_and_known_week() {

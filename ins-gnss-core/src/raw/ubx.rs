@@ -2,9 +2,8 @@
 //! the `ublox` crate (MIT; 10 crates with its dependencies). GPS subframes 1–3 become
 //! ephemerides, and subframe 4 page 18 the broadcast ionosphere, through [`super::lnav`];
 //! Galileo I/NAV pages (word types 0–5) through [`super::inav`]; BeiDou D1 subframes 1–3
-//! (the MEO and IGSO satellites) through [`super::bds`]. The BeiDou GEO satellites' D2
-//! pages are not decoded (their observations are read; give a RINEX navigation file for
-//! them).
+//! (the MEO and IGSO satellites) and D2 subframe 1 pages 1–10 (the GEO satellites)
+//! through [`super::bds`].
 //!
 //! Chosen by measurement against the alternatives: the `ublox` crate decodes RAWX and
 //! SFRBX packets (checksums checked) but not the GPS frames' ephemerides unless built with
@@ -80,8 +79,9 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     let mut complete: Vec<(u8, [Subframe; 3], Option<GpsTime>)> = Vec::new();
     // Galileo: the last word of each type 0–5 per satellite
     let mut words: BTreeMap<u8, [Option<u128>; 6]> = BTreeMap::new();
-    // BeiDou D1: the last subframes 1–3 per satellite
+    // BeiDou: the last D1 subframes 1–3 per MEO/IGSO satellite, D2 pages 1–10 per GEO
     let mut d1: BTreeMap<u8, [Option<bds::Subframe>; 3]> = BTreeMap::new();
+    let mut d2: BTreeMap<u8, [Option<bds::Subframe>; 10]> = BTreeMap::new();
     let mut records: Vec<Ephemeris> = Vec::new();
     let mut lock: BTreeMap<(Sat, usize), u16> = BTreeMap::new();
     let mut last_time: Option<GpsTime> = None;
@@ -117,7 +117,10 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
                     let s = &mut sats[i].signals[k];
                     // (a value that is not finite is no measurement)
                     s.code = Some(m.pr_mes()).filter(|v| trk & 1 != 0 && v.is_finite());
-                    s.phase = Some(m.cp_mes()).filter(|v| trk & 2 != 0 && v.is_finite());
+                    // (a BeiDou GEO's B1I phase comes half a cycle short of the MEO
+                    // satellites' convention; RTKLIB's reader adds it back, so does this one)
+                    let half = if sat.beidou_geo() { 0.5 } else { 0.0 };
+                    s.phase = Some(m.cp_mes() + half).filter(|v| trk & 2 != 0 && v.is_finite());
                     s.doppler = Some(f64::from(m.do_mes())).filter(|v| v.is_finite());
                     s.cn0 = Some(f64::from(m.cno()));
                     // a lock time of 0 (a new arc) or one that dropped: a slip, as RTKLIB
@@ -152,11 +155,26 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
             }
             PacketRef::RxmSfrbx(f) if f.gnss_id() == 3 => {
                 let prn = f.sv_id();
-                if (Sat { sys: System::BeiDou, prn }).beidou_geo() {
-                    continue;
-                }
                 let words: Vec<u32> = f.dwrd().map(|w| w & 0x3fff_ffff).collect();
                 let Ok(sf) = <bds::Subframe>::try_from(words.as_slice()) else { continue };
+                if (Sat { sys: System::BeiDou, prn }).beidou_geo() {
+                    let (Some(1), page @ 1..=10) = (bds::subframe_id(&sf), bds::d2_page(&sf))
+                    else {
+                        continue;
+                    };
+                    let set = d2.entry(prn).or_default();
+                    set[usize::from(page) - 1] = Some(sf);
+                    // a record when page 10 closes the other nine
+                    if page == 10 {
+                        if let Some(pages) = set.iter().copied().collect::<Option<Vec<_>>>() {
+                            let pages: [bds::Subframe; 10] = pages.try_into().expect("ten pages");
+                            if let Some(r) = bds::decode_d2(prn, &pages) {
+                                push_new(&mut records, r);
+                            }
+                        }
+                    }
+                    continue;
+                }
                 let Some(id @ 1..=3) = bds::subframe_id(&sf) else { continue };
                 let set = d1.entry(prn).or_default();
                 set[usize::from(id) - 1] = Some(sf);

@@ -142,6 +142,10 @@ enum Command {
         /// Satellites RAIM may exclude per epoch (0: none).
         #[arg(long, default_value_t = 2)]
         raim: usize,
+        /// Systems used, comma-separated RINEX letters or names: G (GPS), E (Galileo), C
+        /// (BeiDou), J (QZSS).
+        #[arg(long, default_value = "G,E,C,J", value_delimiter = ',', value_parser = ins_gnss::spp::parse_system)]
+        systems: Vec<ins_gnss_core::raw::System>,
         /// Compare with another solution of the same file (an RTKLIB `.pos`, GPST).
         #[arg(long)]
         against: Option<PathBuf>,
@@ -249,12 +253,13 @@ fn main() -> ExitCode {
             cli::eval(&result, &truth, skip, &windows, json, config.as_deref())
         }
         Some(Command::Simulate { scenario, out }) => cli::simulate(&scenario, &out),
-        Some(Command::Spp { obs, nav, out, iono, tropo, mask, raim, against }) => {
+        Some(Command::Spp { obs, nav, out, iono, tropo, mask, raim, systems, against }) => {
             let opt = ins_gnss_core::raw::SppOptions {
                 ionosphere: iono,
                 troposphere: tropo,
                 elevation_mask: mask.to_radians(),
                 max_exclusions: raim,
+                systems,
                 ..Default::default()
             };
             let navs: Vec<&std::path::Path> = nav.iter().map(PathBuf::as_path).collect();

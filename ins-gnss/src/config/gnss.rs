@@ -88,6 +88,15 @@ pub struct TightSection {
     /// σ of a carrier phase, m. Default 0.003 (RTKLIB's default for its constant term).
     #[serde(default = "default_phase_std")]
     pub phase_std: f64,
+    /// The systems used, as RINEX letters or names: `G` (GPS), `E` (Galileo), `C`
+    /// (BeiDou), `J` (QZSS). Default all four; Galileo's, BeiDou's and QZSS's clocks are
+    /// biases against GPS's (inter-system bias states).
+    #[serde(default = "default_systems")]
+    pub systems: Vec<String>,
+}
+
+pub(crate) fn default_systems() -> Vec<String> {
+    ["G", "E", "C", "J"].map(String::from).to_vec()
 }
 
 fn default_phase_std() -> f64 {
@@ -122,6 +131,7 @@ impl Default for TightSection {
             error_floor: true,
             carrier: false,
             phase_std: default_phase_std(),
+            systems: default_systems(),
         }
     }
 }
@@ -165,10 +175,13 @@ impl TightSection {
                 return Err(format!("`gnss.tight.{key} = {v}`: must be positive"));
             }
         }
+        let systems = ins_gnss_core::raw::System::parse_list(&self.systems)
+            .map_err(|e| format!("`gnss.tight.systems`: {e}"))?;
         Ok(ins_gnss_core::raw::SppOptions {
             elevation_mask: self.elevation_mask.to_radians(),
             ionosphere,
             troposphere,
+            systems,
             doppler_std: self.doppler_std,
             ..Default::default()
         })

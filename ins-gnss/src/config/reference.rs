@@ -162,6 +162,7 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("gnss.tight.error_floor", "—", "true"),
     ("gnss.tight.carrier", "—", "true"),
     ("gnss.tight.phase_std", "m", "0.003"),
+    ("gnss.tight.systems", "—", r#"["G", "C"]"#),
     ("filter.strategy", "—", r#""fused""#),
     ("filter.mechanization", "—", r#""flat-earth""#),
     ("filter.streams", "—", r#"{ gnss-position = "fused" }"#),
