@@ -1,7 +1,4 @@
-//! The noise-adaptation hook (design decision 6): a strategy sees each innovation with
-//! `S`, `H`, `P⁻` and `R`, and may rescale `P⁻`, replace `R`, adjust `Q` for the
-//! predictions that follow, or reject the measurement. Strategies keep their windows per
-//! measurement [`StreamId`]. [`FixedNoise`], the zero-sized default, does none of it.
+//! [`NoiseStrategy`] and what serves it (the documentation is on the item).
 
 use core::marker::PhantomData;
 
@@ -12,9 +9,7 @@ use manifolds::DimAlloc;
 use crate::dims::{Cov, FilterAlloc};
 use crate::entries::Entries;
 use crate::scalar::FilterScalar;
-pub use crate::stream::StreamId;
-#[cfg(feature = "std")]
-pub use crate::stream::StreamMap;
+use crate::stream::StreamId;
 
 /// Read access to an `N × N` covariance where its back-end keeps it, without copying it:
 /// entries, contiguous columns, or a static copy on demand
@@ -228,7 +223,7 @@ where
 /// finite and positive; the filter verifies both and fails the update with a typed error
 /// if not. After any `Err` the filter restores the strategy as it was before the update
 /// (it keeps a clone, hence the `Clone` bound; a zero-sized strategy clones for free).
-/// State kept between updates belongs in a [`StreamMap`], one entry per measurement
+/// State kept between updates belongs in a [`StreamMap`](crate::StreamMap), one entry per measurement
 /// stream.
 ///
 /// # Example
@@ -274,6 +269,11 @@ where
 ///
 /// `impl NoiseStrategy for S` is `NoiseStrategy<f64>`: the strategies of `adaptive` run in
 /// double precision. [`FixedNoise`] serves every scalar.
+///
+/// The noise-adaptation hook (design decision 6): a strategy sees each innovation with
+/// `S`, `H`, `P⁻` and `R`, and may rescale `P⁻`, replace `R`, adjust `Q` for the
+/// predictions that follow, or reject the measurement. Strategies keep their windows per
+/// measurement [`StreamId`]. [`FixedNoise`], the zero-sized default, does none of it.
 pub trait NoiseStrategy<T: FilterScalar = f64>: Clone {
     /// Short name (`"fixed"`, `"iae"` …) for logs and the command line. Default: the
     /// type's name without its module path.

@@ -1,49 +1,4 @@
-//! Covariance back-ends: where `P` lives and who does its O(N³) and O(N²M) products.
-//!
-//! The filter is generic over a [`CovBackend`] with the static nalgebra back-end as the
-//! default; the same filter code runs on all three:
-//!
-//! | back-end | `P` | products | best for |
-//! |---|---|---|---|
-//! | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | the crate's column kernels (AVX2/FMA when available), or the model's structured propagation | small and medium states |
-//! | [`DynamicCov`] | `DMatrix<f64>` on the heap | nalgebra dynamic (matrixmultiply) | large states without the faer dependency; keeps `P` off the stack |
-//! | `FaerCov` (feature `faer`) | `faer::Mat<f64>` on the heap | faer (single-threaded; lower triangles of symmetric products) | large states |
-//!
-//! The dimension is always a compile-time type (the filter's state decides it); the heap
-//! back-ends differ in where `P` lives and who multiplies, not in what sizes they accept.
-//! Where each one wins is measured in `benches/README.md`.
-//!
-//! Each back-end owns its whole prediction ([`CovBackend::predict`]): the static one hands
-//! `P` to the model's structured [`ProcessModel::step_covariance`], the heap ones ask the
-//! model for `Φ` and `Q_d` and multiply densely. The filter never asks which one it has.
-//!
-//! # Example
-//!
-//! The same filter on two back-ends, one token apart:
-//!
-//! ```
-//! use estimator_core::linear::{LinearMeasurement, LinearProcess};
-//! use estimator_core::{CovBackend, DynamicCov, ErrorStateFilter, FixedNoise, StaticCov};
-//! use nalgebra::{Matrix2, Vector1, Vector2};
-//!
-//! let process = LinearProcess { F: Matrix2::new(1.0, 0.1, 0.0, 1.0), Q: Matrix2::identity() * 1e-3 };
-//! let sensor = LinearMeasurement::<1, 2>::new(nalgebra::Matrix1x2::new(1.0, 0.0));
-//! let mut a = ErrorStateFilter::with_backend(Vector2::zeros(), Matrix2::identity(), FixedNoise, StaticCov).unwrap();
-//! let mut b = ErrorStateFilter::with_backend(Vector2::zeros(), Matrix2::identity(), FixedNoise, DynamicCov::default()).unwrap();
-//! for k in 0..10 {
-//!     let z = Vector1::new(0.3 * k as f64);
-//!     a.predict(&process, &(), 0.1).unwrap();
-//!     b.predict(&process, &(), 0.1).unwrap();
-//!     a.update(&sensor, &z, &nalgebra::Matrix1::new(0.01)).unwrap();
-//!     b.update(&sensor, &z, &nalgebra::Matrix1::new(0.01)).unwrap();
-//! }
-//! assert!((a.covariance().into_owned() - b.covariance().into_owned()).norm() < 1e-12);
-//! assert_eq!(<DynamicCov as CovBackend<nalgebra::U2>>::NAME, "nalgebra-dynamic");
-//! ```
-//!
-//! Every operation writes into a caller-provided output so the filter stays unchanged
-//! when a step fails. The dynamic back-ends allocate their scratch buffers once, on first
-//! use; afterwards a step does not allocate.
+//! [`CovBackend`] and what serves it (the documentation is on the item).
 
 #[cfg(feature = "std")]
 use std::borrow::Cow;
@@ -54,7 +9,7 @@ use manifolds::{DimAlloc, Manifold};
 
 use crate::adapt::QAdjust;
 use crate::dims::{Cov, FilterAlloc};
-pub use crate::entries::Entries;
+use crate::entries::Entries;
 use crate::error::FilterError;
 use crate::linalg::{check_finite, check_process_noise, symmetrize};
 use crate::scalar::FilterScalar;
@@ -94,7 +49,54 @@ pub enum UpdateForm {
     Short,
 }
 
-/// Storage and products of the covariance. See the [module docs](self).
+/// Storage and products of the covariance.
+///
+/// Covariance back-ends: where `P` lives and who does its O(N³) and O(N²M) products.
+///
+/// The filter is generic over a [`CovBackend`] with the static nalgebra back-end as the
+/// default; the same filter code runs on all three:
+///
+/// | back-end | `P` | products | best for |
+/// |---|---|---|---|
+/// | [`StaticCov`] | `OMatrix<f64, N, N>` on the stack | the crate's column kernels (AVX2/FMA when available), or the model's structured propagation | small and medium states |
+/// | [`DynamicCov`] | `DMatrix<f64>` on the heap | nalgebra dynamic (matrixmultiply) | large states without the faer dependency; keeps `P` off the stack |
+/// | `FaerCov` (feature `faer`) | `faer::Mat<f64>` on the heap | faer (single-threaded; lower triangles of symmetric products) | large states |
+///
+/// The dimension is always a compile-time type (the filter's state decides it); the heap
+/// back-ends differ in where `P` lives and who multiplies, not in what sizes they accept.
+/// Where each one wins is measured in `benches/README.md`.
+///
+/// Each back-end owns its whole prediction ([`CovBackend::predict`]): the static one hands
+/// `P` to the model's structured [`ProcessModel::step_covariance`], the heap ones ask the
+/// model for `Φ` and `Q_d` and multiply densely. The filter never asks which one it has.
+///
+/// # Example
+///
+/// The same filter on two back-ends, one token apart:
+///
+/// ```
+/// use estimator_core::linear::{LinearMeasurement, LinearProcess};
+/// use estimator_core::{CovBackend, DynamicCov, ErrorStateFilter, FixedNoise, StaticCov};
+/// use nalgebra::{Matrix2, Vector1, Vector2};
+///
+/// let process = LinearProcess { F: Matrix2::new(1.0, 0.1, 0.0, 1.0), Q: Matrix2::identity() * 1e-3 };
+/// let sensor = LinearMeasurement::<1, 2>::new(nalgebra::Matrix1x2::new(1.0, 0.0));
+/// let mut a = ErrorStateFilter::with_backend(Vector2::zeros(), Matrix2::identity(), FixedNoise, StaticCov).unwrap();
+/// let mut b = ErrorStateFilter::with_backend(Vector2::zeros(), Matrix2::identity(), FixedNoise, DynamicCov::default()).unwrap();
+/// for k in 0..10 {
+///     let z = Vector1::new(0.3 * k as f64);
+///     a.predict(&process, &(), 0.1).unwrap();
+///     b.predict(&process, &(), 0.1).unwrap();
+///     a.update(&sensor, &z, &nalgebra::Matrix1::new(0.01)).unwrap();
+///     b.update(&sensor, &z, &nalgebra::Matrix1::new(0.01)).unwrap();
+/// }
+/// assert!((a.covariance().into_owned() - b.covariance().into_owned()).norm() < 1e-12);
+/// assert_eq!(<DynamicCov as CovBackend<nalgebra::U2>>::NAME, "nalgebra-dynamic");
+/// ```
+///
+/// Every operation writes into a caller-provided output so the filter stays unchanged
+/// when a step fails. The dynamic back-ends allocate their scratch buffers once, on first
+/// use; afterwards a step does not allocate.
 pub trait CovBackend<N: DimName, T: FilterScalar = f64>:
     Clone + core::fmt::Debug + Default
 where

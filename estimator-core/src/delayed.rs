@@ -1,36 +1,4 @@
-//! Delayed measurements: a measurement stamped in the past is applied at its own time, by
-//! replaying a bounded history of predictions and updates.
-//!
-//! [`Replay`] owns the filter and the process model and keeps, for the last
-//! `history` seconds, the filter as it was at the history's start and every event since
-//! (the input and interval of each prediction, each update). A measurement stamped at
-//! `t` earlier than the filter's time goes into the history at `t` — a prediction that
-//! spans `t` is split in two with the same input, as an on-time filter would have split
-//! it — and the history is replayed from its start. The result is the filter that would
-//! have seen the measurement on time, exactly (the same operations in the same order;
-//! `tests/delayed.rs`: to 1e-9 and in fact bit for bit). A measurement older than the
-//! history is refused ([`FilterError::TooLate`]); on any `Err` the filter and the history
-//! are unchanged.
-//!
-//! Any update and any prediction can be kept: [`Replay::update_with_at`] takes a closure
-//! that updates the filter (iterated, unscented, with an observer — whatever it does), and
-//! [`Replay::predict_with`] one that propagates it over a given interval (the sigma-point
-//! prediction), which the history may split at a delayed measurement's time.
-//!
-//! A smoother composes with it: [`Replay::with_smoother`] records each prediction in an
-//! [`RtsSmoother`] when it leaves the history (final: no late measurement can change it),
-//! and [`Replay::smooth`] smooths everything so far — the on-time filter's smoothed
-//! trajectory, bit for bit (`tests/delayed.rs`).
-//!
-//! Time stamps are compared within [`STAMP_TOLERANCE`] (relative): the filter's clock sums
-//! its intervals (200 steps of 0.1 s make 20.000000000000014), so a measurement stamped
-//! 20.0 belongs to that epoch — after the updates already applied there, never as a
-//! prediction split into a step of 1e-14 s.
-//!
-//! Cost: a delayed measurement replays the history (its events since the history's start);
-//! every event is also applied a second time when it leaves the history (to move the
-//! history's start on), so a filter in a `Replay` does about twice the work of a bare one,
-//! plus the replays. Each update event holds its model, measurement and noise in an `Rc`.
+//! [`Replay`] and what serves it (the documentation is on the item).
 
 use std::collections::VecDeque;
 use std::rc::Rc;
@@ -122,8 +90,41 @@ where
     }
 }
 
-/// A filter with a replay history for delayed measurements (see the
-/// [module](crate::delayed)).
+/// A filter with a replay history for delayed measurements.
+///
+/// Delayed measurements: a measurement stamped in the past is applied at its own time, by
+/// replaying a bounded history of predictions and updates.
+///
+/// [`Replay`] owns the filter and the process model and keeps, for the last
+/// `history` seconds, the filter as it was at the history's start and every event since
+/// (the input and interval of each prediction, each update). A measurement stamped at
+/// `t` earlier than the filter's time goes into the history at `t` — a prediction that
+/// spans `t` is split in two with the same input, as an on-time filter would have split
+/// it — and the history is replayed from its start. The result is the filter that would
+/// have seen the measurement on time, exactly (the same operations in the same order;
+/// `tests/delayed.rs`: to 1e-9 and in fact bit for bit). A measurement older than the
+/// history is refused ([`FilterError::TooLate`]); on any `Err` the filter and the history
+/// are unchanged.
+///
+/// Any update and any prediction can be kept: [`Replay::update_with_at`] takes a closure
+/// that updates the filter (iterated, unscented, with an observer — whatever it does), and
+/// [`Replay::predict_with`] one that propagates it over a given interval (the sigma-point
+/// prediction), which the history may split at a delayed measurement's time.
+///
+/// A smoother composes with it: [`Replay::with_smoother`] records each prediction in an
+/// [`RtsSmoother`] when it leaves the history (final: no late measurement can change it),
+/// and [`Replay::smooth`] smooths everything so far — the on-time filter's smoothed
+/// trajectory, bit for bit (`tests/delayed.rs`).
+///
+/// Time stamps are compared within [`STAMP_TOLERANCE`] (relative): the filter's clock sums
+/// its intervals (200 steps of 0.1 s make 20.000000000000014), so a measurement stamped
+/// 20.0 belongs to that epoch — after the updates already applied there, never as a
+/// prediction split into a step of 1e-14 s.
+///
+/// Cost: a delayed measurement replays the history (its events since the history's start);
+/// every event is also applied a second time when it leaves the history (to move the
+/// history's start on), so a filter in a `Replay` does about twice the work of a bare one,
+/// plus the replays. Each update event holds its model, measurement and noise in an `Rc`.
 pub struct Replay<X, A, B, PM>
 where
     X: Manifold,

@@ -1,26 +1,4 @@
-//! The iterated update: Gauss–Newton on the manifold for a measurement too nonlinear for
-//! one linearisation (the iterated error-state filter of IKFoM and FAST-LIO).
-//!
-//! From the prior `x⁻, P⁻`, each iteration `j` linearises the measurement at `x_j`
-//! (`r_j = z ⊖ h(x_j)`, `H_j`), moves the prior into `x_j`'s tangent space with the
-//! Jacobian of `⊖` (`δ_j = x_j ⊖ x⁻`, `J_j = ∂(x_j ⊖ x⁻)/∂x_j`, `P_j = J_j⁻¹ P⁻ J_j⁻ᵀ`),
-//! and takes the maximum-a-posteriori step
-//!
-//! `Δ_j = K_j (r_j + H_j J_j⁻¹ δ_j) − J_j⁻¹ δ_j`, `K_j = P_j H_jᵀ (H_j P_j H_jᵀ + R)⁻¹`,
-//!
-//! `x_{j+1} = x_j ⊕ Δ_j`, until `‖Δ_j‖ ≤ tolerance` or `max_iterations`. The covariance is
-//! the Joseph form at the last linearisation, `(I − K H) P_j (I − K H)ᵀ + K R Kᵀ`, taken
-//! to the new estimate by the reset `G(x_j, Δ_j)` as the plain update does (under
-//! [`ResetMode::Exact`]). One iteration is the plain error-state update (on SO(3) too). Without the transport `J_j` (taking it as
-//! the identity) the iteration still converges on a curved state, but to a slightly
-//! different point and more slowly.
-//!
-//! The update goes through the same steps as the plain one before and after the
-//! iterations: the innovation at the prior is judged by the noise strategy (the gate's
-//! verdict; a rejected measurement changes nothing), the iterations use the strategy's
-//! `R*` and its prior scale `λ_P` (on the whole prior), and the strategy and the observer
-//! receive the update's report and last gain, so adaptation, gating and telemetry work
-//! for iterated updates as for plain ones.
+//! [`update_iterated`] and what serves it (the documentation is on the item).
 
 use nalgebra::{DefaultAllocator, OMatrix};
 
@@ -60,9 +38,33 @@ where
     B: CovBackend<X::Dim>,
     DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
 {
-    /// The iterated update (see the [module](crate::iterated)): at most `max_iterations`
+    /// The iterated update (below): at most `max_iterations`
     /// linearisations (≥ 1), stopping when a step's norm is at most `tolerance`. On `Err`
     /// the state and covariance are unchanged.
+    ///
+    /// The iterated update: Gauss–Newton on the manifold for a measurement too nonlinear for
+    /// one linearisation (the iterated error-state filter of IKFoM and FAST-LIO).
+    ///
+    /// From the prior `x⁻, P⁻`, each iteration `j` linearises the measurement at `x_j`
+    /// (`r_j = z ⊖ h(x_j)`, `H_j`), moves the prior into `x_j`'s tangent space with the
+    /// Jacobian of `⊖` (`δ_j = x_j ⊖ x⁻`, `J_j = ∂(x_j ⊖ x⁻)/∂x_j`, `P_j = J_j⁻¹ P⁻ J_j⁻ᵀ`),
+    /// and takes the maximum-a-posteriori step
+    ///
+    /// `Δ_j = K_j (r_j + H_j J_j⁻¹ δ_j) − J_j⁻¹ δ_j`, `K_j = P_j H_jᵀ (H_j P_j H_jᵀ + R)⁻¹`,
+    ///
+    /// `x_{j+1} = x_j ⊕ Δ_j`, until `‖Δ_j‖ ≤ tolerance` or `max_iterations`. The covariance is
+    /// the Joseph form at the last linearisation, `(I − K H) P_j (I − K H)ᵀ + K R Kᵀ`, taken
+    /// to the new estimate by the reset `G(x_j, Δ_j)` as the plain update does (under
+    /// [`ResetMode::Exact`]). One iteration is the plain error-state update (on SO(3) too). Without the transport `J_j` (taking it as
+    /// the identity) the iteration still converges on a curved state, but to a slightly
+    /// different point and more slowly.
+    ///
+    /// The update goes through the same steps as the plain one before and after the
+    /// iterations: the innovation at the prior is judged by the noise strategy (the gate's
+    /// verdict; a rejected measurement changes nothing), the iterations use the strategy's
+    /// `R*` and its prior scale `λ_P` (on the whole prior), and the strategy and the observer
+    /// receive the update's report and last gain, so adaptation, gating and telemetry work
+    /// for iterated updates as for plain ones.
     pub fn update_iterated<MM>(
         &mut self,
         model: &MM,

@@ -7,7 +7,7 @@
 //! | [`ProcessModel`], [`MeasurementModel`] | what users implement; Jacobians in named structs |
 //! | [`ErrorStateFilter`] | predict / update (Cholesky, Joseph) / inject and reset on any [`Manifold`] state |
 //! | [`RtsSmoother`] | the fixed-interval (RTS) smoother on manifolds: records the forward pass, runs the backward one |
-//! | [`SigmaPoints`], [`unscented`] | the unscented (sigma-point) filter on manifolds: `predict_unscented` / `update_unscented` on the same filter, models, strategies and reports |
+//! | [`SigmaPoints`], [`manifold_mean`] | the unscented (sigma-point) filter on manifolds: `predict_unscented` / `update_unscented` on the same filter, models, strategies and reports |
 //! | [`FixedLagSmoother`] | the same recursion over the last lag only (steps or seconds), bounded memory |
 //! | [`Replay`] | delayed measurements applied at their own time, by replay of a bounded history |
 //! | [`SegmentSmoother`] | the same smoother for long high-rate runs: one record per update on disk, steps rebuilt by replay |
@@ -15,12 +15,16 @@
 //! | [`StreamId`], [`StreamMap`] | named measurement streams and per-stream strategy state |
 //! | [`UpdateReport`], [`Observer`], [`UpdateLog`] | per-update telemetry |
 //! | [`FilterError`] | typed failures; the filter (state, covariance, strategy) is unchanged after any of them |
-//! | [`backend`] | covariance back-ends: nalgebra static (default), nalgebra dynamic, faer (feature `faer`) |
+//! | [`CovBackend`]: [`StaticCov`], [`DynamicCov`], `FaerCov` | covariance back-ends: nalgebra static (default), nalgebra dynamic, faer (feature `faer`) |
 //! | [`consistency`] | NEES / NIS and χ² bands |
 //! | `harness` (feature `testing`) | analytic vs numerical Jacobians through ⊕/⊖ for any model |
 //! | [`fixed_from_dynamic`], [`symmetrize`] | a runtime-sized matrix into a typed one (typed error); exact symmetry for a custom strategy's covariances |
 //! | [`linear`] | linear-Gaussian models (the plain Kalman filter as a special case) |
 //! | [`FilterScalar`] | the scalar: `f64` (the default of every type, the AVX2/FMA kernels) or `f32` (plain loops; a microcontroller's FPU) |
+//!
+//! Every type and function is reachable by one path: the crate's root, except the
+//! namespaces [`consistency`], [`discretize`], [`linear`] and `harness`, whose items are
+//! theirs alone (the modules behind the root are private, as nalgebra's `geometry` is).
 //!
 //! # Features
 //!
@@ -53,36 +57,36 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
-pub mod adapt;
-pub mod backend;
+mod adapt;
+mod backend;
 #[cfg(feature = "std")]
 pub mod consistency;
 #[cfg(feature = "std")]
-pub mod delayed;
+mod delayed;
 mod dims;
 pub mod discretize;
 mod entries;
-pub mod error;
-pub mod filter;
+mod error;
+mod filter;
 #[cfg(feature = "testing")]
 pub mod harness;
 #[cfg(feature = "std")]
-pub mod iterated;
+mod iterated;
 mod kernels;
 mod linalg;
 pub mod linear;
-pub mod report;
+mod report;
 mod scalar;
 #[cfg(feature = "std")]
-pub mod segments;
+mod segments;
 #[doc(hidden)]
 pub mod simd;
 #[cfg(feature = "std")]
-pub mod smoother;
+mod smoother;
 mod stream;
-pub mod traits;
+mod traits;
 #[cfg(feature = "std")]
-pub mod unscented;
+mod unscented;
 
 pub use adapt::{
     Adaptation, CovView, Factors, FixedNoise, NisGate, NoiseStrategy, PostUpdate, PriorScaling,
@@ -95,8 +99,7 @@ pub use backend::{CovBackend, StaticCov, UpdateForm};
 pub use backend::{DenseCov, DynamicCov};
 #[cfg(feature = "std")]
 pub use delayed::{Replay, STAMP_TOLERANCE};
-#[doc(hidden)]
-pub use entries::Entries;
+pub use dims::{Cov, FilterAlloc, StateDim};
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};
 #[cfg(feature = "std")]
@@ -112,15 +115,15 @@ pub use scalar::FilterScalar;
 pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder, AFTER_FORMS};
 #[cfg(feature = "std")]
 pub use smoother::{FixedLagSmoother, Lag, RtsSmoother, RtsStep, Smoothed};
+pub use stream::StreamId;
 #[cfg(feature = "std")]
 pub use stream::{clone_entries_from, StreamMap};
-pub use stream::{short_type_name, StreamId};
 pub use traits::{
-    Cov, FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians,
-    ProcessJacobiansOf, ProcessModel, StateDim,
+    JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessJacobiansOf,
+    ProcessModel,
 };
 #[cfg(feature = "std")]
-pub use unscented::{SigmaPoints, SigmaWeights};
+pub use unscented::{manifold_mean, SigmaPoints, SigmaWeights};
 
 pub use manifolds::{self, DimAlloc, Manifold, Tangent, TangentMatrix};
 pub use nalgebra;

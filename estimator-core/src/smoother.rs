@@ -1,37 +1,4 @@
-//! A fixed-interval (Rauch–Tung–Striebel) smoother for the error-state filter on a
-//! manifold, for any process and measurement model and every covariance back-end.
-//!
-//! The forward pass runs the filter as usual, with each prediction made through
-//! [`RtsSmoother::predict`], which records what the backward pass needs: the posterior
-//! `(x̂⁺_k, P⁺_k)` before the prediction, the transition `Φ_k` at it, and the prediction
-//! `(x̂⁻_{k+1}, P⁻_{k+1})`. Updates go to the filter directly (any number between two
-//! predictions). [`RtsSmoother::smooth`] then runs, from the last posterior back,
-//!
-//! ```text
-//! d_k   = x̂ˢ_{k+1} ⊖ x̂⁻_{k+1}
-//! Σ_k   = G(x̂⁻_{k+1}, d_k)⁻¹ Pˢ_{k+1} G(x̂⁻_{k+1}, d_k)⁻ᵀ          (into the prior's frame)
-//! C_k   = P⁺_k Φ_kᵀ (P⁻_{k+1})⁻¹
-//! δ_k   = C_k d_k
-//! x̂ˢ_k  = x̂⁺_k ⊕ δ_k
-//! Pˢ_k  = G(x̂⁺_k, δ_k) (P⁺_k + C_k (Σ_k − P⁻_{k+1}) C_kᵀ) G(x̂⁺_k, δ_k)ᵀ   (out to x̂ˢ_k)
-//! ```
-//!
-//! with `G(x, δ) = ∂((x ⊕ (δ + ε)) ⊖ (x ⊕ δ))/∂ε`, the reset Jacobian of the filter's
-//! update (the identity on a vector space). The forward records live in the frames of the
-//! forward nominals (`P⁺_k` at `x̂⁺_k`, `Φ_k` from there to `x̂⁻_{k+1}`, `P⁻_{k+1}` at
-//! `x̂⁻_{k+1}`), the smoothed covariance in the frame of the smoothed estimate, so each step
-//! takes `Pˢ_{k+1}` into the prior's frame before it meets `P⁻_{k+1}` and the result out to
-//! `x̂ˢ_k`. Between two predictions without an update the two transports cancel; after an
-//! update they do not. Both are needed: on SO(3) × R³ without process noise, where the
-//! smoothed covariance is exactly the final one carried back through the dynamics, this
-//! recursion matches it to 1.4e-5 (relative σ) while the out-transport alone misses by
-//! 115 % and no transport by up to 5 % (`tests/smoother_manifold.rs`). On a linear-Gaussian
-//! problem the result is the batch weighted-least-squares solution of the whole interval
-//! (`tests/smoother.rs`, to 1e-9). Rauch, Tung & Striebel (1965); Bar-Shalom, Li &
-//! Kirubarajan (2001) §8.6.
-//!
-//! Memory: one record of two states and three `N × N` matrices per prediction — fine for
-//! thousands of steps at moderate `N`; a long high-rate run should record less often.
+//! [`RtsSmoother`] and what serves it (the documentation is on the item).
 
 use nalgebra::DefaultAllocator;
 
@@ -105,6 +72,41 @@ where
         deserialize = "X: serde::Deserialize<'de>, Cov<X::Dim>: serde::Deserialize<'de>"
     ))
 )]
+///
+/// A fixed-interval (Rauch–Tung–Striebel) smoother for the error-state filter on a
+/// manifold, for any process and measurement model and every covariance back-end.
+///
+/// The forward pass runs the filter as usual, with each prediction made through
+/// [`RtsSmoother::predict`], which records what the backward pass needs: the posterior
+/// `(x̂⁺_k, P⁺_k)` before the prediction, the transition `Φ_k` at it, and the prediction
+/// `(x̂⁻_{k+1}, P⁻_{k+1})`. Updates go to the filter directly (any number between two
+/// predictions). [`RtsSmoother::smooth`] then runs, from the last posterior back,
+///
+/// ```text
+/// d_k   = x̂ˢ_{k+1} ⊖ x̂⁻_{k+1}
+/// Σ_k   = G(x̂⁻_{k+1}, d_k)⁻¹ Pˢ_{k+1} G(x̂⁻_{k+1}, d_k)⁻ᵀ          (into the prior's frame)
+/// C_k   = P⁺_k Φ_kᵀ (P⁻_{k+1})⁻¹
+/// δ_k   = C_k d_k
+/// x̂ˢ_k  = x̂⁺_k ⊕ δ_k
+/// Pˢ_k  = G(x̂⁺_k, δ_k) (P⁺_k + C_k (Σ_k − P⁻_{k+1}) C_kᵀ) G(x̂⁺_k, δ_k)ᵀ   (out to x̂ˢ_k)
+/// ```
+///
+/// with `G(x, δ) = ∂((x ⊕ (δ + ε)) ⊖ (x ⊕ δ))/∂ε`, the reset Jacobian of the filter's
+/// update (the identity on a vector space). The forward records live in the frames of the
+/// forward nominals (`P⁺_k` at `x̂⁺_k`, `Φ_k` from there to `x̂⁻_{k+1}`, `P⁻_{k+1}` at
+/// `x̂⁻_{k+1}`), the smoothed covariance in the frame of the smoothed estimate, so each step
+/// takes `Pˢ_{k+1}` into the prior's frame before it meets `P⁻_{k+1}` and the result out to
+/// `x̂ˢ_k`. Between two predictions without an update the two transports cancel; after an
+/// update they do not. Both are needed: on SO(3) × R³ without process noise, where the
+/// smoothed covariance is exactly the final one carried back through the dynamics, this
+/// recursion matches it to 1.4e-5 (relative σ) while the out-transport alone misses by
+/// 115 % and no transport by up to 5 % (`tests/smoother_manifold.rs`). On a linear-Gaussian
+/// problem the result is the batch weighted-least-squares solution of the whole interval
+/// (`tests/smoother.rs`, to 1e-9). Rauch, Tung & Striebel (1965); Bar-Shalom, Li &
+/// Kirubarajan (2001) §8.6.
+///
+/// Memory: one record of two states and three `N × N` matrices per prediction — fine for
+/// thousands of steps at moderate `N`; a long high-rate run should record less often.
 pub struct RtsSmoother<X: Manifold>
 where
     DefaultAllocator: DimAlloc<X::Dim>,

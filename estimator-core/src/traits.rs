@@ -5,7 +5,7 @@ use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
 use manifolds::{DimAlloc, Manifold, Tangent};
 
-pub use crate::dims::{Cov, FilterAlloc, StateDim};
+use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::scalar::FilterScalar;
 use crate::stream::StreamId;
 

@@ -1,51 +1,4 @@
-//! The unscented (sigma-point) error-state filter on a manifold: the same filter, models,
-//! strategies, streams and reports as the error-state Kalman filter, with the prediction
-//! and the update made through sigma points instead of Jacobians.
-//!
-//! Sigma points are drawn in the tangent space of the estimate and mapped through `⊕`
-//! (van der Merwe's scaled set, `2n + 1` points):
-//!
-//! ```text
-//! λ = α² (n + κ) − n,   L Lᵀ = (n + λ) P
-//! χ₀ = x̂,  χᵢ = x̂ ⊕ Lᵢ,  χₙ₊ᵢ = x̂ ⊕ (−Lᵢ)            (Lᵢ: column i of L)
-//! W₀ᵐ = λ / (n + λ),  W₀ᶜ = W₀ᵐ + 1 − α² + β,  Wᵢᵐ = Wᵢᶜ = 1 / (2 (n + λ))
-//! ```
-//!
-//! A mean on a manifold is found by the usual fixed-point iteration
-//! `ȳ ← ȳ ⊕ Σ Wᵢᵐ (yᵢ ⊖ ȳ)` from `y₀` until the step is below
-//! [`SigmaPoints::mean_tolerance`] (one step on a vector space); deviations are
-//! `yᵢ ⊖ ȳ`. A model can give a mean of its own instead
-//! ([`ProcessModel::sigma_mean`],
-//! [`MeasurementModel::sigma_mean`]: FilterPy's
-//! `x_mean_fn` and `z_mean_fn`), e.g. the `atan2` of weighted sines and cosines for an
-//! angle.
-//!
-//! **Prediction** ([`ErrorStateFilter::predict_unscented`]): the points go through the
-//! model's `propagate`; `x̂⁻ = mean`, `P⁻ = λ_f Σ Wᵢᶜ dᵢ dᵢᵀ + Q_d`, where `Q_d` is the
-//! model's discrete noise at `x̂` (with the strategy's adjustment) and `λ_f` the
-//! strategy's prediction fading, as in [`ErrorStateFilter::predict`].
-//!
-//! **Update** ([`ErrorStateFilter::update_unscented`]): points are drawn afresh from
-//! `(x̂⁻, P⁻)`, go through the model's `predict`, and give `ẑ` (mean on the measurement
-//! manifold), `P_zz = Σ Wᵢᶜ eᵢ eᵢᵀ` and `P_xz = Σ Wᵢᶜ (χᵢ ⊖ x̂⁻) eᵢᵀ` (`eᵢ = zᵢ ⊖ ẑ`). The
-//! update is then the error-state update of the statistically linearised measurement
-//! (statistical linear regression): `H̃ = P_xzᵀ P⁻⁻¹`, innovation `z ⊖ ẑ` and noise
-//! `R + Ω` with `Ω = P_zz − H̃ P⁻ H̃ᵀ`, the linearisation error of the points. Its
-//! `S = H̃ P⁻ H̃ᵀ + R + Ω = P_zz + R` and `K = P⁻ H̃ᵀ S⁻¹ = P_xz S⁻¹` are the unscented
-//! filter's, and everything else — the strategy's adaptation (which sees `R + Ω` as the
-//! nominal noise: an `R`-estimating strategy estimates the two together), refusals,
-//! streams, reports, the Joseph covariance and the reset — is the error-state filter's
-//! own path.
-//!
-//! On a vector space with linear models the filter equals the Kalman filter (to 1e-12,
-//! `tests/unscented.rs`); on the planar range-bearing robot it equals FilterPy's
-//! `UnscentedKalmanFilter` with the same points and mean functions, the iterated one and,
-//! through the hooks, FilterPy recipes' `atan2` one (to 1e-9, `tests/ukf_filterpy.rs`). Julier & Uhlmann (1997); Wan & van der Merwe (2000);
-//! Hauberg, Lauze & Pedersen (2013) and Brossard, Barrau & Bonnabel (2020) for sigma
-//! points on manifolds.
-//!
-//! Each prediction and update allocates its `2n + 1` points (a `Vec`): the sigma-point
-//! filter is not on the allocation-free path of the error-state filter.
+//! [`SigmaPoints`] and what serves it (the documentation is on the item).
 
 use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
@@ -62,6 +15,55 @@ use crate::stream::StreamId;
 use crate::traits::{JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessModel};
 
 /// The scaled sigma-point set and the manifold-mean iteration.
+///
+/// The unscented (sigma-point) error-state filter on a manifold: the same filter, models,
+/// strategies, streams and reports as the error-state Kalman filter, with the prediction
+/// and the update made through sigma points instead of Jacobians.
+///
+/// Sigma points are drawn in the tangent space of the estimate and mapped through `⊕`
+/// (van der Merwe's scaled set, `2n + 1` points):
+///
+/// ```text
+/// λ = α² (n + κ) − n,   L Lᵀ = (n + λ) P
+/// χ₀ = x̂,  χᵢ = x̂ ⊕ Lᵢ,  χₙ₊ᵢ = x̂ ⊕ (−Lᵢ)            (Lᵢ: column i of L)
+/// W₀ᵐ = λ / (n + λ),  W₀ᶜ = W₀ᵐ + 1 − α² + β,  Wᵢᵐ = Wᵢᶜ = 1 / (2 (n + λ))
+/// ```
+///
+/// A mean on a manifold is found by the usual fixed-point iteration
+/// `ȳ ← ȳ ⊕ Σ Wᵢᵐ (yᵢ ⊖ ȳ)` from `y₀` until the step is below
+/// [`SigmaPoints::mean_tolerance`] (one step on a vector space); deviations are
+/// `yᵢ ⊖ ȳ`. A model can give a mean of its own instead
+/// ([`ProcessModel::sigma_mean`],
+/// [`MeasurementModel::sigma_mean`]: FilterPy's
+/// `x_mean_fn` and `z_mean_fn`), e.g. the `atan2` of weighted sines and cosines for an
+/// angle.
+///
+/// **Prediction** ([`ErrorStateFilter::predict_unscented`]): the points go through the
+/// model's `propagate`; `x̂⁻ = mean`, `P⁻ = λ_f Σ Wᵢᶜ dᵢ dᵢᵀ + Q_d`, where `Q_d` is the
+/// model's discrete noise at `x̂` (with the strategy's adjustment) and `λ_f` the
+/// strategy's prediction fading, as in [`ErrorStateFilter::predict`].
+///
+/// **Update** ([`ErrorStateFilter::update_unscented`]): points are drawn afresh from
+/// `(x̂⁻, P⁻)`, go through the model's `predict`, and give `ẑ` (mean on the measurement
+/// manifold), `P_zz = Σ Wᵢᶜ eᵢ eᵢᵀ` and `P_xz = Σ Wᵢᶜ (χᵢ ⊖ x̂⁻) eᵢᵀ` (`eᵢ = zᵢ ⊖ ẑ`). The
+/// update is then the error-state update of the statistically linearised measurement
+/// (statistical linear regression): `H̃ = P_xzᵀ P⁻⁻¹`, innovation `z ⊖ ẑ` and noise
+/// `R + Ω` with `Ω = P_zz − H̃ P⁻ H̃ᵀ`, the linearisation error of the points. Its
+/// `S = H̃ P⁻ H̃ᵀ + R + Ω = P_zz + R` and `K = P⁻ H̃ᵀ S⁻¹ = P_xz S⁻¹` are the unscented
+/// filter's, and everything else — the strategy's adaptation (which sees `R + Ω` as the
+/// nominal noise: an `R`-estimating strategy estimates the two together), refusals,
+/// streams, reports, the Joseph covariance and the reset — is the error-state filter's
+/// own path.
+///
+/// On a vector space with linear models the filter equals the Kalman filter (to 1e-12,
+/// `tests/unscented.rs`); on the planar range-bearing robot it equals FilterPy's
+/// `UnscentedKalmanFilter` with the same points and mean functions, the iterated one and,
+/// through the hooks, FilterPy recipes' `atan2` one (to 1e-9, `tests/ukf_filterpy.rs`). Julier & Uhlmann (1997); Wan & van der Merwe (2000);
+/// Hauberg, Lauze & Pedersen (2013) and Brossard, Barrau & Bonnabel (2020) for sigma
+/// points on manifolds.
+///
+/// Each prediction and update allocates its `2n + 1` points (a `Vec`): the sigma-point
+/// filter is not on the allocation-free path of the error-state filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SigmaPoints {
     /// Spread `α` (`0 < α ≤ 1`).
@@ -271,7 +273,7 @@ where
     B: CovBackend<X::Dim>,
     DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
 {
-    /// The unscented prediction over `dt ≥ 0` (see the [module](crate::unscented)). On
+    /// The unscented prediction over `dt ≥ 0` (see [`SigmaPoints`](crate::SigmaPoints)). On
     /// `Err` the filter is unchanged.
     pub fn predict_unscented<PM>(
         &mut self,
@@ -331,7 +333,7 @@ where
         Ok(phi)
     }
 
-    /// The unscented update (see the [module](crate::unscented)) with measurement `z` of
+    /// The unscented update (see [`SigmaPoints`](crate::SigmaPoints)) with measurement `z` of
     /// `model` and noise `R`. Returns the report; a rejected measurement is `Ok` with
     /// `verdict = Rejected`. On `Err` the state, covariance and strategy are unchanged.
     pub fn update_unscented<MM>(

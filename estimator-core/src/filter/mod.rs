@@ -1,22 +1,4 @@
-//! The error-state Kalman filter on a manifold state.
-//!
-//! The filter owns the nominal state `x̂` and the error covariance `P`; models are
-//! stateless and passed to each call, so one filter takes any number of measurement
-//! models. Steps, with the equation each implements:
-//!
-//! ```text
-//! predict   x̂⁻ = f(x̂, u, dt)                 P⁻ = λ Φ P Φᵀ + Q_d   (λ = 1 unless fading)
-//! innovate  r = z ⊖ h(x̂⁻)                    S = H P⁻ Hᵀ + R   (MeasurementModel::innovation)
-//! adapt     (strategy) P⁻* = λ_P P⁻, R* , or reject
-//! gain      K = P⁻* Hᵀ S*⁻¹                   (Cholesky solve of S* Kᵀ = H P⁻*)
-//! update    δx = K r                          P = (I−KH) P⁻* (I−KH)ᵀ + K R* Kᵀ   (Joseph,
-//!                                             multiplied out: see UpdateForm)
-//! inject    x̂ ← x̂ ⊕ δx                        P ← G P Gᵀ,  G = ∂((x̂ ⊕ (δx+ε)) ⊖ (x̂ ⊕ δx))/∂ε
-//! ```
-//!
-//! The Joseph form is Bar-Shalom, Li & Kirubarajan (2001) eq. 5.2.3-18; the reset
-//! Jacobian `G` is, for a rotation block, `Jr(δθ) ≈ I − ½[δθ×]` (Solà 2017, §7.2;
-//! paper `fused-iae-afkf` eq. 21–22).
+//! [`ErrorStateFilter`] and what serves it (the documentation is on the item).
 
 #[cfg(feature = "std")]
 use std::borrow::Cow;
@@ -31,7 +13,7 @@ use manifolds::{DimAlloc, Manifold};
 use crate::adapt::{
     Adaptation, CovView, FixedNoise, NoiseStrategy, PostUpdate, PriorScaling, QAdjust, Verdict,
 };
-pub use crate::backend::UpdateForm;
+use crate::backend::UpdateForm;
 use crate::backend::{CovBackend, StaticCov};
 use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::entries::Entries;
@@ -121,7 +103,7 @@ where
 }
 
 /// An error-state Kalman filter on the manifold state `X` with noise strategy `A` and
-/// covariance back-end `B` (default: stack-allocated nalgebra, see [`crate::backend`]).
+/// covariance back-end `B` (default: stack-allocated nalgebra, see [`CovBackend`](crate::CovBackend)).
 ///
 /// ```
 /// use estimator_core::{ErrorStateFilter, FixedNoise, MeasurementJacobians, MeasurementModel};
@@ -155,6 +137,26 @@ where
                        QAdjust<X::Dim, T>: serde::Deserialize<'de>"
     ))
 )]
+///
+/// The error-state Kalman filter on a manifold state.
+///
+/// The filter owns the nominal state `x̂` and the error covariance `P`; models are
+/// stateless and passed to each call, so one filter takes any number of measurement
+/// models. Steps, with the equation each implements:
+///
+/// ```text
+/// predict   x̂⁻ = f(x̂, u, dt)                 P⁻ = λ Φ P Φᵀ + Q_d   (λ = 1 unless fading)
+/// innovate  r = z ⊖ h(x̂⁻)                    S = H P⁻ Hᵀ + R   (MeasurementModel::innovation)
+/// adapt     (strategy) P⁻* = λ_P P⁻, R* , or reject
+/// gain      K = P⁻* Hᵀ S*⁻¹                   (Cholesky solve of S* Kᵀ = H P⁻*)
+/// update    δx = K r                          P = (I−KH) P⁻* (I−KH)ᵀ + K R* Kᵀ   (Joseph,
+///                                             multiplied out: see UpdateForm)
+/// inject    x̂ ← x̂ ⊕ δx                        P ← G P Gᵀ,  G = ∂((x̂ ⊕ (δx+ε)) ⊖ (x̂ ⊕ δx))/∂ε
+/// ```
+///
+/// The Joseph form is Bar-Shalom, Li & Kirubarajan (2001) eq. 5.2.3-18; the reset
+/// Jacobian `G` is, for a rotation block, `Jr(δθ) ≈ I − ½[δθ×]` (Solà 2017, §7.2;
+/// paper `fused-iae-afkf` eq. 21–22).
 pub struct ErrorStateFilter<
     X: Manifold<T>,
     A: NoiseStrategy<T> = FixedNoise,

@@ -1,76 +1,4 @@
-//! A fixed-interval smoother for long, high-rate runs: the forward pass is stored per
-//! *segment* (the predictions between two updates, at most `max_steps` of them), on disk
-//! or any other seekable storage, and every step is rebuilt by replaying the segment.
-//!
-//! [`RtsSmoother`](crate::RtsSmoother) keeps `(x̂⁺, P⁺, Φ, x̂⁻, P⁻)` of every prediction in
-//! memory: about 3 `N × N` matrices per step, 17 GB for a day of 100 Hz IMU data with 15
-//! states. [`SegmentSmoother`] keeps, per segment, the posterior `(x̂⁺, P⁺)` it starts from,
-//! the covariance `Pₙ` it ends with when an update follows (given by
-//! [`StepRecorder::before_update`]), the strategy's prediction fading and process-noise
-//! adjustment (constant within a segment: strategies change them only at updates) and the
-//! inputs `(u, dt)` of its steps — two covariances per update instead of three per step —
-//! in its storage, and in memory only the start offset of each segment.
-//!
-//! The backward pass reads the segments last to first. It replays each one's nominal
-//! states and transitions `Φᵢ` with the model (no covariance) and runs the RTS recursion
-//! through it in its adjoint form (Bryson & Frazier; Bierman 1977 §X), which needs no
-//! inverse inside a segment and no covariance between its ends:
-//!
-//! ```text
-//! at the segment's end n (the prior of the next segment's first update), with
-//! d = x̂ˢ ⊖ x̂ₙ and Σ = G(x̂ₙ, d)⁻¹ Pˢ G(x̂ₙ, d)⁻ᵀ (Pˢ taken into the prior's frame):
-//!   λₙ = Pₙ⁻¹ d,           Λₙ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
-//! backwards through the steps:
-//!   λᵢ = Φᵢᵀ λᵢ₊₁,          Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ
-//! at the start, and forwards through the steps (the smoothed corrections δᵢ = Pᵢ λᵢ):
-//!   δ₀ = P₀ λ₀,            δᵢ₊₁ = α Φᵢ δᵢ + Q̃ᵢ λᵢ₊₁,      x̂ˢᵢ = x̂ᵢ ⊕ δᵢ
-//!   Pˢ₀ = P₀ − P₀ Λ₀ P₀    (and Pˢₙ = Pₙ − Pₙ Λₙ Pₙ where the variances are asked)
-//! ```
-//!
-//! which is the RTS gain `Cᵢ = Pᵢ Φᵢᵀ Pᵢ₊₁⁻¹` applied step by step (`δᵢ = Cᵢ δᵢ₊₁`
-//! with `δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁`); the forward sweep is `Pᵢ₊₁ λᵢ₊₁` expanded with the
-//! prediction `Pᵢ₊₁ = Φᵢ (α Pᵢ) Φᵢᵀ + Q̃ᵢ` (`α` the fading, `Q̃ᵢ` the adjusted `Q_d`, whose
-//! product with a vector the model gives: [`ProcessModel::noise_times`]), so the
-//! covariances inside a segment are never formed. The frames are those of
-//! [`RtsSmoother`](crate::RtsSmoother) (see its module): inside a segment there is no
-//! update, so the smoothed error stays in the frames of the replayed nominals; `Pˢ` is
-//! taken into the prior's frame at the segment's end and out to the smoothed estimate's
-//! (`G(x̂ᵢ, δᵢ) Pˢᵢ G(x̂ᵢ, δᵢ)ᵀ`) where it is reported. Both smoothers give the same
-//! numbers, on a vector space (`tests/segment_smoother.rs`) and on SO(3) × R³
-//! (`tests/smoother_manifold.rs`), to 1e-9.
-//!
-//! The forward pass records through [`StepRecorder::before_predict`], called with the
-//! filter before each prediction, and [`StepRecorder::before_update`], before each update;
-//! a new segment starts whenever the filter's update counter moved (an update, accepted or
-//! refused, may change `x̂`, `P`, the fading and the noise adjustment), the segment is full,
-//! or its last step asked for variances. Steps are *marked* when their end is an output
-//! epoch; the backward pass returns the smoothed state there, and the smoothed variances
-//! where [`StepRecorder::mark_variances`] asked for them (such a step ends its segment, so
-//! its covariance is stored). A segment whose end covariance was not given (an update
-//! without `before_update`) is replayed with its covariance, as the filter predicted it.
-//!
-//! What keeps the second pass close to the cost of the first:
-//! - the replay forms each step's nominal and `Φᵀ` only
-//!   ([`ProcessModel::step_transition`]); the recursion's `Φᵀ Λ Φ` is the model's
-//!   structured product ([`ProcessModel::adjoint_sandwich`]; the INS model runs its
-//!   prediction kernel on the transposed pattern), the rest products with vectors;
-//! - a segment closed for length, not by an update, is *continued*: `λ` and `Λ` go through
-//!   its boundary as they are, without the smoothed covariance and the Cholesky factor an
-//!   update boundary needs;
-//! - at an update boundary, `Pₙ⁻¹` is formed by the replay's thread with the segment, not
-//!   by the recursion's (the longer of the two);
-//! - an input that repeats the step before's (an IMU input carries the previous sample)
-//!   is stored once, and only what the step before does not give
-//!   ([`Spill::spill_after`]: a steady-rate IMU sample is its six increments); a step
-//!   whose end time and interval are its input's ([`Spill::stamp`]) is stored without
-//!   them; closed segments are written and read back about a megabyte at a time, as the
-//!   numbers they are (no conversion), and a storage file is cut behind the reads (what
-//!   the backward pass has used is dropped from the page cache before it is written back
-//!   to the disk, if it was not yet).
-//!
-//! What the smoother does not see: an update's prior scaling (a strategy's `λ_P`) — the
-//! segment's end uses the propagated `Pₙ`, not the scaled prior the update used. For
-//! fixed noise, an adaptive `R` or an adapted `Q` the recursion is exact.
+//! [`SegmentSmoother`] and what serves it (the documentation is on the item).
 
 use core::marker::PhantomData;
 use std::io::{Read, Seek, SeekFrom, Write};
@@ -177,10 +105,84 @@ const END_PRIOR: f64 = 1.0;
 /// backward pass replays the covariance through the segment.
 const END_REPLAY: f64 = 2.0;
 
-/// The segment-wise fixed-interval smoother (see the [module](self) documentation).
+/// The segment-wise fixed-interval smoother.
 ///
 /// `S` is the storage: a file for long runs ([`SegmentSmoother::on_file`]), or a
 /// `std::io::Cursor<Vec<u8>>` in memory.
+///
+/// A fixed-interval smoother for long, high-rate runs: the forward pass is stored per
+/// *segment* (the predictions between two updates, at most `max_steps` of them), on disk
+/// or any other seekable storage, and every step is rebuilt by replaying the segment.
+///
+/// [`RtsSmoother`](crate::RtsSmoother) keeps `(x̂⁺, P⁺, Φ, x̂⁻, P⁻)` of every prediction in
+/// memory: about 3 `N × N` matrices per step, 17 GB for a day of 100 Hz IMU data with 15
+/// states. [`SegmentSmoother`] keeps, per segment, the posterior `(x̂⁺, P⁺)` it starts from,
+/// the covariance `Pₙ` it ends with when an update follows (given by
+/// [`StepRecorder::before_update`]), the strategy's prediction fading and process-noise
+/// adjustment (constant within a segment: strategies change them only at updates) and the
+/// inputs `(u, dt)` of its steps — two covariances per update instead of three per step —
+/// in its storage, and in memory only the start offset of each segment.
+///
+/// The backward pass reads the segments last to first. It replays each one's nominal
+/// states and transitions `Φᵢ` with the model (no covariance) and runs the RTS recursion
+/// through it in its adjoint form (Bryson & Frazier; Bierman 1977 §X), which needs no
+/// inverse inside a segment and no covariance between its ends:
+///
+/// ```text
+/// at the segment's end n (the prior of the next segment's first update), with
+/// d = x̂ˢ ⊖ x̂ₙ and Σ = G(x̂ₙ, d)⁻¹ Pˢ G(x̂ₙ, d)⁻ᵀ (Pˢ taken into the prior's frame):
+///   λₙ = Pₙ⁻¹ d,           Λₙ = Pₙ⁻¹ − Pₙ⁻¹ Σ Pₙ⁻¹
+/// backwards through the steps:
+///   λᵢ = Φᵢᵀ λᵢ₊₁,          Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ
+/// at the start, and forwards through the steps (the smoothed corrections δᵢ = Pᵢ λᵢ):
+///   δ₀ = P₀ λ₀,            δᵢ₊₁ = α Φᵢ δᵢ + Q̃ᵢ λᵢ₊₁,      x̂ˢᵢ = x̂ᵢ ⊕ δᵢ
+///   Pˢ₀ = P₀ − P₀ Λ₀ P₀    (and Pˢₙ = Pₙ − Pₙ Λₙ Pₙ where the variances are asked)
+/// ```
+///
+/// which is the RTS gain `Cᵢ = Pᵢ Φᵢᵀ Pᵢ₊₁⁻¹` applied step by step (`δᵢ = Cᵢ δᵢ₊₁`
+/// with `δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁`); the forward sweep is `Pᵢ₊₁ λᵢ₊₁` expanded with the
+/// prediction `Pᵢ₊₁ = Φᵢ (α Pᵢ) Φᵢᵀ + Q̃ᵢ` (`α` the fading, `Q̃ᵢ` the adjusted `Q_d`, whose
+/// product with a vector the model gives: [`ProcessModel::noise_times`]), so the
+/// covariances inside a segment are never formed. The frames are those of
+/// [`RtsSmoother`](crate::RtsSmoother) (see its module): inside a segment there is no
+/// update, so the smoothed error stays in the frames of the replayed nominals; `Pˢ` is
+/// taken into the prior's frame at the segment's end and out to the smoothed estimate's
+/// (`G(x̂ᵢ, δᵢ) Pˢᵢ G(x̂ᵢ, δᵢ)ᵀ`) where it is reported. Both smoothers give the same
+/// numbers, on a vector space (`tests/segment_smoother.rs`) and on SO(3) × R³
+/// (`tests/smoother_manifold.rs`), to 1e-9.
+///
+/// The forward pass records through [`StepRecorder::before_predict`], called with the
+/// filter before each prediction, and [`StepRecorder::before_update`], before each update;
+/// a new segment starts whenever the filter's update counter moved (an update, accepted or
+/// refused, may change `x̂`, `P`, the fading and the noise adjustment), the segment is full,
+/// or its last step asked for variances. Steps are *marked* when their end is an output
+/// epoch; the backward pass returns the smoothed state there, and the smoothed variances
+/// where [`StepRecorder::mark_variances`] asked for them (such a step ends its segment, so
+/// its covariance is stored). A segment whose end covariance was not given (an update
+/// without `before_update`) is replayed with its covariance, as the filter predicted it.
+///
+/// What keeps the second pass close to the cost of the first:
+/// - the replay forms each step's nominal and `Φᵀ` only
+///   ([`ProcessModel::step_transition`]); the recursion's `Φᵀ Λ Φ` is the model's
+///   structured product ([`ProcessModel::adjoint_sandwich`]; the INS model runs its
+///   prediction kernel on the transposed pattern), the rest products with vectors;
+/// - a segment closed for length, not by an update, is *continued*: `λ` and `Λ` go through
+///   its boundary as they are, without the smoothed covariance and the Cholesky factor an
+///   update boundary needs;
+/// - at an update boundary, `Pₙ⁻¹` is formed by the replay's thread with the segment, not
+///   by the recursion's (the longer of the two);
+/// - an input that repeats the step before's (an IMU input carries the previous sample)
+///   is stored once, and only what the step before does not give
+///   ([`Spill::spill_after`]: a steady-rate IMU sample is its six increments); a step
+///   whose end time and interval are its input's ([`Spill::stamp`]) is stored without
+///   them; closed segments are written and read back about a megabyte at a time, as the
+///   numbers they are (no conversion), and a storage file is cut behind the reads (what
+///   the backward pass has used is dropped from the page cache before it is written back
+///   to the disk, if it was not yet).
+///
+/// What the smoother does not see: an update's prior scaling (a strategy's `λ_P`) — the
+/// segment's end uses the propagated `Pₙ`, not the scaled prior the update used. For
+/// fixed noise, an adaptive `R` or an adapted `Q` the recursion is exact.
 #[derive(Debug)]
 pub struct SegmentSmoother<X, U, S = std::fs::File> {
     store: S,

@@ -394,20 +394,20 @@ mod tests {
         let parity = |b: usize| if b < 30 { b >= 26 } else { b % 30 >= 22 };
         for (t, frames, extra) in [(&D1, 3, vec![]), (&D2, 10, vec![&d2::PAGE])] {
             let mut used = vec![[false; 300]; frames];
-            for k in 0..frames {
+            for frame in used.iter_mut() {
                 for fd in [&PREAMBLE, &FRAME_ID, &SOW].into_iter().chain(extra.iter().copied()) {
                     for &(_, start, width) in fd.pieces {
-                        used[k][start..start + width].iter_mut().for_each(|u| *u = true);
+                        frame[start..start + width].fill(true);
                     }
                 }
             }
             for fd in table_fields(t) {
                 for &(k, start, width) in fd.pieces {
                     assert_eq!(start / 30, (start + width - 1) / 30, "a piece across words");
-                    for b in start..start + width {
+                    for (b, u) in used[k].iter_mut().enumerate().skip(start).take(width) {
                         assert!(!parity(b), "bit {b} of frame {k} is parity");
-                        assert!(!used[k][b], "bit {b} of frame {k} used twice");
-                        used[k][b] = true;
+                        assert!(!*u, "bit {b} of frame {k} used twice");
+                        *u = true;
                     }
                 }
             }
