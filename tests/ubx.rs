@@ -361,6 +361,51 @@ fn frames(bytes: &[u8]) -> Vec<(usize, usize)> {
     out
 }
 
+/// An F9 receiver's GPS L2C CNAV messages (RXM-SFRBX with signal 3, whose preamble is
+/// LNAV's) beside the L1 C/A subframes: every L1 subframe of the log sent again as signal 3
+/// with its data words garbled and its subframe ID kept. The records stay the clean log's.
+#[test]
+fn cnav_messages_do_not_reach_the_lnav_decoder() {
+    let mut bytes = Vec::new();
+    let clean_path = data("ubx-sim/sim.ubx.zst");
+    std::io::Read::read_to_end(
+        &mut ins_gnss_core::io::formats::open(&clean_path).unwrap(),
+        &mut bytes,
+    )
+    .unwrap();
+    let mut out = Vec::with_capacity(2 * bytes.len());
+    for (at, len) in frames(&bytes) {
+        let packet = &bytes[at..at + len];
+        out.extend_from_slice(packet);
+        if packet[2..4] == [0x02, 0x13] && packet[6] == 0 {
+            let mut cnav = packet.to_vec();
+            cnav[8] = 3;
+            // words 3–10 garbled (word 2 keeps the subframe ID)
+            for (k, w) in (2..10).enumerate() {
+                let at = 14 + 4 * w;
+                let v = u32::from_le_bytes(cnav[at..at + 4].try_into().unwrap());
+                cnav[at..at + 4].copy_from_slice(&(v ^ (0x2aaa_aa40 >> k)).to_le_bytes());
+            }
+            let (mut a, mut b) = (0u8, 0u8);
+            for byte in &cnav[2..len - 2] {
+                a = a.wrapping_add(*byte);
+                b = b.wrapping_add(a);
+            }
+            cnav[len - 2] = a;
+            cnav[len - 1] = b;
+            out.extend_from_slice(&cnav);
+        }
+    }
+    let path = std::env::temp_dir().join(format!("cnav-{}.ubx", std::process::id()));
+    std::fs::write(&path, &out).unwrap();
+    let with_cnav = read_ubx(&path);
+    let _ = std::fs::remove_file(&path);
+    let with_cnav = with_cnav.unwrap();
+    let clean = read_ubx(&clean_path).unwrap();
+    assert_eq!(with_cnav.bad_packets, 0);
+    assert_eq!(with_cnav.ephemerides.records(), clean.ephemerides.records());
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
 

@@ -186,7 +186,9 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
                 }
             }
             PacketRef::RxmSfrbx(f) => {
-                if f.gnss_id() != 0 {
+                // GPS L1 C/A's LNAV only: byte 2 is the signal on F9 receivers (0 on M8), and
+                // L2C's and L5's CNAV messages start with LNAV's preamble
+                if f.gnss_id() != 0 || f.reserved1() != 0 {
                     continue;
                 }
                 let words: Vec<u32> = f.dwrd().collect();
