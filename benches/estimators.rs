@@ -21,7 +21,7 @@ use estimator::ins_gnss::imu::DEG_PER_H;
 use estimator::ins_gnss::position::GeoPos;
 use ins_gnss_sim::scenarios::{gnss_1hz, mems_imu};
 use ins_gnss_sim::simulate;
-use ins_gnss_sim::trajectory::{Segment, Start, Trajectory};
+use ins_gnss_sim::{Segment, Start, Trajectory};
 use nalgebra::{Const, Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 
 /// Range and bearing of a landmark from a planar pose (x, y, heading).

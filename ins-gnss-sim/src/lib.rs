@@ -1,5 +1,6 @@
 //! The simulator of the INS/GNSS library (`ins-gnss-core`): exact trajectories
-//! ([`trajectory`]), sensor errors ([`sensors`]), built-in drives ([`scenarios`]), and
+//! ([`Trajectory`]), sensor errors ([`ImuErrors`], [`GnssSim`]), built-in drives
+//! ([`scenarios`]), and
 //! [`simulate`], which turns them into a dataset (IMU increments, GNSS epochs, truth) at
 //! any IMU rate, seeded and deterministic. The `ins-gnss` program's `simulate` command,
 //! the examples and the tests build on it.
@@ -8,8 +9,8 @@
 
 pub mod raw;
 pub mod scenarios;
-pub mod sensors;
-pub mod trajectory;
+mod sensors;
+mod trajectory;
 
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
@@ -20,8 +21,8 @@ use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
 use ins_gnss_core::state::InsState;
 
-pub use sensors::{GnssSim, GnssWindow, GnssWindowKind, ImuCorruptor, ImuErrors};
-pub use trajectory::{Kinematics, Segment, Start, Trajectory, TrajectoryError};
+pub use sensors::{GnssSim, GnssWindow, GnssWindowKind, ImuCorruptor, ImuErrors, VIBRATION_SPEED};
+pub use trajectory::{Kinematics, Segment, Start, Trajectory, TrajectoryError, GRID};
 
 /// One truth record: the true navigation state and the true IMU biases.
 #[derive(Clone, Debug, PartialEq)]

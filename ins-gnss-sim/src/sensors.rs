@@ -1,11 +1,4 @@
-//! IMU and GNSS error simulation (seeded, deterministic).
-//!
-//! IMU: white noise on the increments (`σ_Δθ = ARW·√dt`, `σ_Δv = VRW·√dt`), a constant
-//! turn-on bias, a bias that follows a first-order Gauss–Markov process (exact
-//! discretisation `b⁺ = e^{−dt/τ} b + σ √(1 − e^{−2dt/τ}) n`) or a random walk, and a
-//! scale-factor error: `Δθ_meas = (1 + s_g) ⊙ Δθ + b_g dt + n`.
-//! GNSS: white position (and velocity) noise at the antenna, with time windows for
-//! outages, interference (noise × factor, the reported σ unchanged) and outliers.
+//! [`ImuErrors`] and what serves it (the documentation is on the item).
 
 use manifolds::Manifold;
 use nalgebra::Vector3;
@@ -16,6 +9,15 @@ use rand_distr::StandardNormal;
 use ins_gnss_core::imu::{BiasModel, ImuNoise};
 
 /// IMU error specification for simulation, SI units.
+///
+/// IMU and GNSS error simulation (seeded, deterministic).
+///
+/// IMU: white noise on the increments (`σ_Δθ = ARW·√dt`, `σ_Δv = VRW·√dt`), a constant
+/// turn-on bias, a bias that follows a first-order Gauss–Markov process (exact
+/// discretisation `b⁺ = e^{−dt/τ} b + σ √(1 − e^{−2dt/τ}) n`) or a random walk, and a
+/// scale-factor error: `Δθ_meas = (1 + s_g) ⊙ Δθ + b_g dt + n`.
+/// GNSS: white position (and velocity) noise at the antenna, with time windows for
+/// outages, interference (noise × factor, the reported σ unchanged) and outliers.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImuErrors {
     /// White noise and time-varying bias (the part a filter models).

@@ -1,19 +1,4 @@
-//! Trajectories from segments with exact kinematics.
-//!
-//! Within a segment the speed `s`, yaw `ψ` and pitch `θ` change linearly (constant
-//! acceleration, yaw rate and pitch rate; roll is zero, no side-slip), so velocity,
-//! attitude, body rates and specific force are closed-form:
-//!
-//! ```text
-//! v^n   = s [cos θ cos ψ, cos θ sin ψ, −sin θ]          R_nb = Rz(ψ) Ry(θ)
-//! ω_nb^b = [−ψ̇ sin θ, θ̇, ψ̇ cos θ]                      ω_ib^b = ω_nb^b + R_nbᵀ (ω_ie^n + ω_en^n)
-//! f^b   = R_nbᵀ (v̇^n + (2ω_ie^n + ω_en^n) × v^n − g^n)
-//! ```
-//!
-//! Position integrates `(φ̇, λ̇, ḣ) = (v_N/(R_M+h), v_E/((R_N+h) cos φ), −v_D)` with RK4
-//! on a 1 ms grid whose nodes include every segment boundary (RK4 never straddles a
-//! discontinuity of the acceleration), and is interpolated between nodes by cubic
-//! Hermite polynomials using the exact velocity.
+//! [`Trajectory`] and what serves it (the documentation is on the item).
 
 use core::fmt;
 
@@ -169,6 +154,23 @@ pub const GRID: f64 = 1e-3;
 const CHUNK: usize = 1024;
 
 /// A trajectory with exact kinematics at any time in `[start, end]`.
+///
+/// Trajectories from segments with exact kinematics.
+///
+/// Within a segment the speed `s`, yaw `ψ` and pitch `θ` change linearly (constant
+/// acceleration, yaw rate and pitch rate; roll is zero, no side-slip), so velocity,
+/// attitude, body rates and specific force are closed-form:
+///
+/// ```text
+/// v^n   = s [cos θ cos ψ, cos θ sin ψ, −sin θ]          R_nb = Rz(ψ) Ry(θ)
+/// ω_nb^b = [−ψ̇ sin θ, θ̇, ψ̇ cos θ]                      ω_ib^b = ω_nb^b + R_nbᵀ (ω_ie^n + ω_en^n)
+/// f^b   = R_nbᵀ (v̇^n + (2ω_ie^n + ω_en^n) × v^n − g^n)
+/// ```
+///
+/// Position integrates `(φ̇, λ̇, ḣ) = (v_N/(R_M+h), v_E/((R_N+h) cos φ), −v_D)` with RK4
+/// on a 1 ms grid whose nodes include every segment boundary (RK4 never straddles a
+/// discontinuity of the acceleration), and is interpolated between nodes by cubic
+/// Hermite polynomials using the exact velocity.
 #[derive(Clone, Debug)]
 pub struct Trajectory {
     segs: Vec<SegState>,

@@ -7,7 +7,7 @@ use ins_gnss_core::imu::DEG_PER_H;
 use ins_gnss_core::position::GeoPos;
 use ins_gnss_sim::scenarios::{gnss_1hz, mems_imu};
 use ins_gnss_sim::simulate;
-use ins_gnss_sim::trajectory::{Segment, Start, Trajectory};
+use ins_gnss_sim::{Segment, Start, Trajectory};
 use nalgebra::Vector3;
 
 fn wrap(a: f64) -> f64 {

@@ -52,7 +52,7 @@ fn detector_finds_the_stops_without_false_alarms() {
             let says = d.push(s.dt, &s.rate(), &s.specific_force(), &Vector3::zeros());
             let speed = truth.state.vel.norm();
             let still = speed < 1e-9;
-            if speed > ins_gnss_sim::sensors::VIBRATION_SPEED {
+            if speed > ins_gnss_sim::VIBRATION_SPEED {
                 still_since = f64::INFINITY;
                 moving += 1;
                 false_alarms += usize::from(says);
