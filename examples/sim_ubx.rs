@@ -1,6 +1,7 @@
-//! Writes the simulated u-blox logs of `data/ubx-sim/` (see its `make.sh`), seed 2005:
+//! Writes the simulated u-blox logs of `data/ubx-sim/` (see its `make.sh`), seed 2005 unless
+//! given:
 //!
-//! - `OUT.ubx`: the 600 s drive's first 300 s, 1 Hz RXM-RAWX (GPS L1 C/A and L2 CL, with a
+//! - `OUT.ubx`: the 600 s drive's first 200 s, 1 Hz RXM-RAWX (GPS L1 C/A and L2 CL, with a
 //!   cycle slip now and then) and the RXM-SFRBX subframes of the shipped navigation file's
 //!   records;
 //! - with `--galileo`, the drive's first 60 s with GPS and Galileo: GPS as above, and a
@@ -21,7 +22,8 @@
 //!   file (2024-11-16): BeiDou time starts in 2006, and GPS's 10-bit week, the only GPS
 //!   field that sees the date, reads the same.
 //!
-//! `cargo run --release --example sim_ubx -- OUT.ubx [--galileo | --beidou]`
+//! `cargo run --release --example sim_ubx -- OUT.ubx [--galileo | --beidou] [--seed N]`
+//! (`--seed`: the receiver's errors, default 2005, the shipped logs' seed).
 
 use ins_gnss_core::raw::time::BDT_MINUS_GPST;
 use ins_gnss_core::raw::{read_nav, Ephemerides, Ephemeris, GpsTime, Sat, System};
@@ -94,15 +96,22 @@ fn beidou_geo_from(g: &Ephemeris, prn: u8, longitude: f64) -> Ephemeris {
 const WEEKS_AHEAD: i32 = 1024;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let usage = "usage: sim_ubx OUT.ubx [--galileo | --beidou]";
-    let out = std::env::args().nth(1).ok_or(usage)?;
-    let mode = std::env::args().nth(2);
-    let (galileo, beidou) = match mode.as_deref() {
-        None => (false, false),
-        Some("--galileo") => (true, false),
-        Some("--beidou") => (false, true),
-        Some(_) => return Err(usage.into()),
-    };
+    let usage = "usage: sim_ubx OUT.ubx [--galileo | --beidou] [--seed N]";
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let out = args.first().ok_or(usage)?.clone();
+    let (mut galileo, mut beidou, mut seed) = (false, false, 2005u64);
+    let mut rest = args[1..].iter();
+    while let Some(a) = rest.next() {
+        match a.as_str() {
+            "--galileo" => galileo = true,
+            "--beidou" => beidou = true,
+            "--seed" => seed = rest.next().and_then(|v| v.parse().ok()).ok_or(usage)?,
+            _ => return Err(usage.into()),
+        }
+    }
+    if galileo && beidou {
+        return Err(usage.into());
+    }
     let nav = read_nav(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/rinex-rtklib/07590920.05n.zst"),
     )?;
@@ -133,7 +142,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         nav.ephemerides
     };
-    let (mut epochs, _) = simulate_raw(&traj, &eph, &kb, &sim, 2005);
+    let (mut epochs, _) = simulate_raw(&traj, &eph, &kb, &sim, seed);
     for o in epochs.iter_mut().flat_map(|e| e.sats.iter_mut()) {
         if matches!(o.sat.sys, System::Galileo | System::BeiDou) {
             o.signals[1] = Default::default();
