@@ -222,3 +222,27 @@ def test_a_ros_bag_runs_from_python_as_from_the_program(cli, tmp_path):
     assert_printed(py.nav.to_numpy(), out / "nav.txt", NAV_DECIMALS, "nav.txt", 1)
     assert any("recording" in line and "/imu/data" in line for line in py.summary["start"])
     assert "180° off" in py.summary["warning"]
+
+
+def test_a_tight_run_from_a_ubx_log_runs_from_python_as_from_the_program(cli, tmp_path):
+    """Tight coupling from Python: the GPS + BeiDou u-blox log (`data/ubx-sim/bds.ubx.zst`,
+    its ephemerides inside, no `[init]`) with an IMU simulated along its drive by the
+    program; the same nav.txt as the program's, and each BeiDou satellite a pseudorange
+    stream of its own in the summary."""
+    subprocess.run([str(cli), "simulate", str(DATA / "ubx-sim" / "drive.toml"), "--out",
+                    str(tmp_path)], check=True, capture_output=True)
+    text = (tmp_path / "config.toml").read_text()
+    text = text.replace('gnss = "GNSS.txt"', f'gnss = "{DATA / "ubx-sim" / "bds.ubx.zst"}"')
+    start, end = text.index("\n[init]\n"), text.index("\n[imu]\n")
+    text = text[:start] + text[end:]
+    text = text.replace("use_velocity = true\n", 'use_velocity = true\ncoupling = "tight"\n', 1)
+    config = tmp_path / "tight.toml"
+    config.write_text(text)
+    out = tmp_path / "cli"
+    subprocess.run([str(cli), "run", str(config), "--quiet", "--accept-inconsistent",
+                    "--out", str(out)], check=True)
+    py = estimator.navigate(config, accept_inconsistent=True)
+    assert_printed(py.nav.to_numpy(), out / "nav.txt", NAV_DECIMALS, "nav.txt", 1)
+    streams = json.dumps(py.summary)
+    for sat in ["C01", "C02", "C03", "C09", "C19", "C24"]:
+        assert f"pr {sat}" in streams, sat
