@@ -22,8 +22,9 @@
 //!   file (2024-11-16): BeiDou time starts in 2006, and GPS's 10-bit week, the only GPS
 //!   field that sees the date, reads the same.
 //!
-//! `cargo run --release --example sim_ubx -- OUT.ubx [--galileo | --beidou] [--seed N]`
-//! (`--seed`: the receiver's errors, default 2005, the shipped logs' seed).
+//! `cargo run --release --example sim_ubx -- OUT.ubx [--galileo | --beidou [--no-geo]] [--seed N]`
+//! (`--seed`: the receiver's errors, default 2005, the shipped logs' seed; `--no-geo`: the
+//! BeiDou log without its GEO satellites' observations, the others' errors unchanged).
 
 use ins_gnss_core::raw::time::BDT_MINUS_GPST;
 use ins_gnss_core::raw::{read_nav, Ephemerides, Ephemeris, GpsTime, Sat, System};
@@ -96,20 +97,21 @@ fn beidou_geo_from(g: &Ephemeris, prn: u8, longitude: f64) -> Ephemeris {
 const WEEKS_AHEAD: i32 = 1024;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let usage = "usage: sim_ubx OUT.ubx [--galileo | --beidou] [--seed N]";
+    let usage = "usage: sim_ubx OUT.ubx [--galileo | --beidou [--no-geo]] [--seed N]";
     let args: Vec<String> = std::env::args().skip(1).collect();
     let out = args.first().ok_or(usage)?.clone();
-    let (mut galileo, mut beidou, mut seed) = (false, false, 2005u64);
+    let (mut galileo, mut beidou, mut seed, mut no_geo) = (false, false, 2005u64, false);
     let mut rest = args[1..].iter();
     while let Some(a) = rest.next() {
         match a.as_str() {
             "--galileo" => galileo = true,
             "--beidou" => beidou = true,
+            "--no-geo" => no_geo = true,
             "--seed" => seed = rest.next().and_then(|v| v.parse().ok()).ok_or(usage)?,
             _ => return Err(usage.into()),
         }
     }
-    if galileo && beidou {
+    if galileo && beidou || no_geo && !beidou {
         return Err(usage.into());
     }
     let nav = read_nav(
@@ -143,6 +145,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         nav.ephemerides
     };
     let (mut epochs, _) = simulate_raw(&traj, &eph, &kb, &sim, seed);
+    if no_geo {
+        // the GEO satellites' observations left out after the simulation: every other
+        // satellite's errors are those of the log with them
+        for e in &mut epochs {
+            e.sats.retain(|o| !o.sat.beidou_geo());
+        }
+    }
     for o in epochs.iter_mut().flat_map(|e| e.sats.iter_mut()) {
         if matches!(o.sat.sys, System::Galileo | System::BeiDou) {
             o.signals[1] = Default::default();
