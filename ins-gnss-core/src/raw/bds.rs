@@ -18,11 +18,8 @@
 //! log's GEO satellites need a navigation file.
 
 use super::ephemeris::{ura_index, ura_metres, Ephemeris};
+use super::fields::{self, p2, SC};
 use super::time::{GpsTime, Sat, System, BDT_MINUS_GPST, BDT_WEEK_OFFSET, WEEK};
-
-/// The ICD's π for semicircles (as GPS's).
-#[allow(clippy::approx_constant)]
-const SC: f64 = 3.1415926535898;
 
 /// A field: pieces `(subframe or page 0…, first bit 0–299, width)` most significant
 /// first, signed (two's complement), and the scale of one unit.
@@ -34,11 +31,6 @@ struct Field {
 
 const fn f(pieces: &'static [(usize, usize, usize)], signed: bool, scale: f64) -> Field {
     Field { pieces, signed, scale }
-}
-
-const fn p2(n: i32) -> f64 {
-    // 2^-n for the scales below (n ≤ 60)
-    1.0 / (1u64 << n) as f64
 }
 
 // every subframe: word 1 and the start of word 2 (read from one subframe at a time)
@@ -138,13 +130,12 @@ fn read(frames: &[Subframe], fd: &Field) -> f64 {
         v = (v << width) | bits(&frames[k], start, width);
         n += width;
     }
-    let x = if fd.signed && v >> (n - 1) == 1 { v as i64 - (1i64 << n) } else { v as i64 };
-    x as f64 * fd.scale
+    fields::value(v, n, fd.signed, fd.scale)
 }
 
 fn write(frames: &mut [Subframe], fd: &Field, value: f64) {
     let n: usize = fd.pieces.iter().map(|p| p.2).sum();
-    let v = ((value / fd.scale).round() as i64 as u64) & ((1u64 << n) - 1);
+    let v = fields::bits(value, n, fd.scale);
     let mut at = n;
     for &(k, start, width) in fd.pieces {
         at -= width;

@@ -16,11 +16,9 @@
 //! whose flags or CRC do not check is not a page ([`decode_page`] returns `None`).
 
 use super::ephemeris::Ephemeris;
+use super::fields::{self, p2, SC};
 use super::time::{GpsTime, Sat, System, WEEK};
 
-/// The ICD's π for semicircles (as GPS's).
-#[allow(clippy::approx_constant)]
-const SC: f64 = 3.1415926535898;
 /// GPS week of GST week 0 (1999-08-22).
 pub const GST_WEEK_OFFSET: i32 = 1024;
 
@@ -35,11 +33,6 @@ struct Field {
 
 const fn f(start: u32, width: u32, signed: bool, scale: f64) -> Field {
     Field { start, width, signed, scale }
-}
-
-const fn p2(n: i32) -> f64 {
-    // 2^-n for the scales below (n ≤ 60)
-    1.0 / (1u64 << n) as f64
 }
 
 const TYPE: Field = f(0, 6, false, 1.0);
@@ -96,19 +89,14 @@ const TOW6: Field = f(105, 20, false, 1.0);
 
 fn read(w: u128, fd: &Field) -> f64 {
     let v = (w >> (128 - fd.start - fd.width)) & ((1u128 << fd.width) - 1);
-    let x = if fd.signed && v >> (fd.width - 1) == 1 {
-        v as i128 - (1i128 << fd.width)
-    } else {
-        v as i128
-    };
-    x as f64 * fd.scale
+    fields::value(v as u64, fd.width as usize, fd.signed, fd.scale)
 }
 
 fn write(w: &mut u128, fd: &Field, value: f64) {
-    let units = (value / fd.scale).round() as i128;
     let mask = (1u128 << fd.width) - 1;
     let shift = 128 - fd.start - fd.width;
-    *w = (*w & !(mask << shift)) | (((units as u128) & mask) << shift);
+    let bits = u128::from(fields::bits(value, fd.width as usize, fd.scale));
+    *w = (*w & !(mask << shift)) | (bits << shift);
 }
 
 /// The type (0–63) of a word.

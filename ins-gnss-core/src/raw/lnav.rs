@@ -11,11 +11,8 @@
 //! subframes agree on their issue of data.
 
 use super::ephemeris::{ura_index, ura_metres, Ephemeris};
+use super::fields::{self, SC};
 use super::time::{GpsTime, Sat, System, WEEK};
-
-/// The ICD's π for semicircles (IS-GPS-200 §20.3.3.4.3.1 states it to 14 digits).
-#[allow(clippy::approx_constant)]
-const SC: f64 = 3.1415926535898;
 
 /// A field: pieces `(word 1–10, first data bit 1–24, width)` most significant first,
 /// signed (two's complement), and the scale of one unit.
@@ -103,14 +100,12 @@ fn read(sf: &Subframe, fd: &Field) -> f64 {
         v = (v << len) | bits(sf, w, b, len);
         n += len;
     }
-    let x = if fd.signed && v >> (n - 1) == 1 { v as i64 - (1i64 << n) } else { v as i64 };
-    x as f64 * fd.scale
+    fields::value(v, n, fd.signed, fd.scale)
 }
 
 fn write(sf: &mut Subframe, fd: &Field, value: f64) {
     let n: usize = fd.pieces.iter().map(|p| p.2).sum();
-    let units = (value / fd.scale).round() as i64;
-    let mut v = (units as u64) & ((1u64 << n) - 1);
+    let mut v = fields::bits(value, n, fd.scale);
     for &(w, b, len) in fd.pieces.iter().rev() {
         let piece = (v & ((1 << len) - 1)) as u32;
         v >>= len;

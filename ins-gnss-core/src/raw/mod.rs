@@ -15,6 +15,7 @@
 pub mod atmosphere;
 pub mod bds;
 pub mod ephemeris;
+mod fields;
 pub mod inav;
 pub mod lnav;
 pub mod obs;
