@@ -385,6 +385,16 @@ fn ubx_packet(out: &mut Vec<u8>, class: u8, id: u8, payload: &[u8]) {
     out.extend_from_slice(&[a, b]);
 }
 
+/// An RXM-SFRBX packet (version 2): the system, satellite and signal, and the words.
+fn sfrbx(out: &mut Vec<u8>, gnss_id: u8, sv_id: u8, sig_id: u8, words: &[u32]) {
+    let mut p = Vec::with_capacity(8 + 4 * words.len());
+    p.extend_from_slice(&[gnss_id, sv_id, sig_id, 0, words.len() as u8, 0, 2, 0]);
+    for w in words {
+        p.extend_from_slice(&w.to_le_bytes());
+    }
+    ubx_packet(out, 0x02, 0x13, &p);
+}
+
 /// Writes epochs as a u-blox log: an RXM-RAWX (version 1) per epoch, and for each GPS
 /// satellite the RXM-SFRBX subframes 1–3 of its broadcast record
 /// ([`ins_gnss_core::raw::lnav::encode`]), for each Galileo satellite the I/NAV pages of
@@ -404,11 +414,8 @@ pub fn write_ubx(
     // the ionosphere (subframe 4, page 18) once, from the first satellite
     if let (Some(k), Some(e)) = (klobuchar, epochs.first()) {
         if let Some(o) = e.sats.iter().find(|o| o.sat.sys == ins_gnss_core::raw::System::Gps) {
-            let mut p = vec![0u8, o.sat.prn, 0, 0, 10, 0, 2, 0];
-            for w in ins_gnss_core::raw::lnav::encode_ionosphere(k, e.time.tow) {
-                p.extend_from_slice(&w.to_le_bytes());
-            }
-            ubx_packet(&mut out, 0x02, 0x13, &p);
+            let sf = ins_gnss_core::raw::lnav::encode_ionosphere(k, e.time.tow);
+            sfrbx(&mut out, 0, o.sat.prn, 0, &sf);
         }
     }
     let mut sent: BTreeMap<Sat, (i32, f64)> = BTreeMap::new();
@@ -433,11 +440,8 @@ pub fn write_ubx(
                 // nine words, the ninth reserved (zero), as u-blox receivers send them and
                 // RTKLIB's reader requires
                 for w in [w0, w1, w2, w3, w4, utc, w5] {
-                    let mut p = vec![2u8, o.sat.prn, 1, 0, 9, 0, 2, 0];
-                    for word in inav::encode_page(w).into_iter().chain([0]) {
-                        p.extend_from_slice(&word.to_le_bytes());
-                    }
-                    ubx_packet(&mut out, 0x02, 0x13, &p);
+                    let [a, b, c, d, f, g, h, i] = inav::encode_page(w);
+                    sfrbx(&mut out, 2, o.sat.prn, 1, &[a, b, c, d, f, g, h, i, 0]);
                 }
                 continue;
             }
@@ -453,20 +457,12 @@ pub fn write_ubx(
                     bds::encode(r, bdt).to_vec()
                 };
                 for sf in frames {
-                    let mut p = vec![3u8, o.sat.prn, u8::from(geo), 0, 10, 0, 2, 0];
-                    for w in sf {
-                        p.extend_from_slice(&w.to_le_bytes());
-                    }
-                    ubx_packet(&mut out, 0x02, 0x13, &p);
+                    sfrbx(&mut out, 3, o.sat.prn, u8::from(geo), &sf);
                 }
                 continue;
             }
             for sf in ins_gnss_core::raw::lnav::encode(r, e.time.tow) {
-                let mut p = vec![0u8, o.sat.prn, 0, 0, 10, 0, 2, 0];
-                for w in sf {
-                    p.extend_from_slice(&w.to_le_bytes());
-                }
-                ubx_packet(&mut out, 0x02, 0x13, &p);
+                sfrbx(&mut out, 0, o.sat.prn, 0, &sf);
             }
         }
         let mut p = Vec::with_capacity(16 + 64 * e.sats.len());
