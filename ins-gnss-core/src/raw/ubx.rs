@@ -165,12 +165,9 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
                     let set = d2.entry(prn).or_default();
                     set[usize::from(page) - 1] = Some(sf);
                     // a record when page 10 closes the other nine
-                    if page == 10 {
-                        if let Some(pages) = set.iter().copied().collect::<Option<Vec<_>>>() {
-                            let pages: [bds::Subframe; 10] = pages.try_into().expect("ten pages");
-                            if let Some(r) = bds::decode_d2(prn, &pages) {
-                                push_new(&mut records, r);
-                            }
+                    if page == 10 && set.iter().all(Option::is_some) {
+                        if let Some(r) = bds::decode_d2(prn, &set.map(Option::unwrap_or_default)) {
+                            push_new(&mut records, r);
                         }
                     }
                     continue;
