@@ -2,7 +2,7 @@
 //! gives the same observations and ephemerides as RTKLIB's `convbin` conversion of it to
 //! RINEX (read by this crate's RINEX readers), and the observations the simulator wrote.
 
-use ins_gnss_core::raw::ubx::read_ubx;
+use ins_gnss_core::raw::ubx::{read_ubx, UbxLog};
 use ins_gnss_core::raw::{read_nav, Ephemeris, GpsTime, ObsReader, System};
 use ins_gnss_sim::raw::{simulate_raw, RawSim};
 use ins_gnss_sim::{scenarios, Trajectory};
@@ -203,12 +203,20 @@ fn a_galileo_log_reads_as_its_convbin_rinex() {
         assert!(d < 0.05, "{}: {d} m", e.sat);
     }
     // the observations, Galileo's E1 included, as convbin wrote them
-    let rinex: Vec<_> =
-        ObsReader::open(&data("ubx-sim/gal.obs.zst")).unwrap().map(Result::unwrap).collect();
     assert_eq!(log.epochs.len(), 71);
+    let galileo_values = assert_observations_match(&log, "ubx-sim/gal.obs.zst", System::Galileo);
+    assert!(galileo_values > 500, "{galileo_values}");
+}
+
+/// A log's epochs against convbin's RINEX of it: the same times (to RINEX's 1e-7 s), the
+/// same satellites, and each code, phase and Doppler present in both or neither and equal to
+/// RINEX's 3 decimals. Returns how many values of `sys` were compared.
+fn assert_observations_match(log: &UbxLog, rinex: &str, sys: System) -> usize {
+    let rinex: Vec<_> = ObsReader::open(&data(rinex)).unwrap().map(Result::unwrap).collect();
     assert_eq!(rinex.len(), log.epochs.len());
-    let mut galileo_values = 0;
+    let mut values = 0;
     for (u, r) in log.epochs.iter().zip(&rinex) {
+        assert!(u.time.diff(&r.time).abs() < 1e-6, "{} vs {}", u.time, r.time);
         assert_eq!(u.sats.len(), r.sats.len(), "{}", u.time);
         for (a, b) in u.sats.iter().zip(&r.sats) {
             assert_eq!(a.sat, b.sat);
@@ -217,13 +225,13 @@ fn a_galileo_log_reads_as_its_convbin_rinex() {
                     assert_eq!(p.is_some(), q.is_some(), "{} {}", u.time, a.sat);
                     if let (Some(p), Some(q)) = (p, q) {
                         assert!((p - q).abs() <= 1e-3, "{} {}: {p} vs {q}", u.time, a.sat);
-                        galileo_values += usize::from(a.sat.sys == System::Galileo);
+                        values += usize::from(a.sat.sys == sys);
                     }
                 }
             }
         }
     }
-    assert!(galileo_values > 500, "{galileo_values}");
+    values
 }
 
 /// A log with BeiDou (`data/ubx-sim/bds.ubx.zst`, see `examples/sim_ubx.rs`): its D1
@@ -289,27 +297,8 @@ fn a_beidou_log_reads_as_its_convbin_rinex() {
         assert!(d < 0.05, "{}: {d} m", e.sat);
     }
     // the observations, BeiDou's B1I included, as convbin wrote them
-    let rinex: Vec<_> =
-        ObsReader::open(&data("ubx-sim/bds.obs.zst")).unwrap().map(Result::unwrap).collect();
     assert_eq!(log.epochs.len(), 201);
-    assert_eq!(rinex.len(), log.epochs.len());
-    let mut beidou_values = 0;
-    for (u, r) in log.epochs.iter().zip(&rinex) {
-        assert!(u.time.diff(&r.time).abs() < 1e-6, "{} vs {}", u.time, r.time);
-        assert_eq!(u.sats.len(), r.sats.len(), "{}", u.time);
-        for (a, b) in u.sats.iter().zip(&r.sats) {
-            assert_eq!(a.sat, b.sat);
-            for (x, y) in a.signals.iter().zip(&b.signals) {
-                for (p, q) in [(x.code, y.code), (x.phase, y.phase), (x.doppler, y.doppler)] {
-                    assert_eq!(p.is_some(), q.is_some(), "{} {}", u.time, a.sat);
-                    if let (Some(p), Some(q)) = (p, q) {
-                        assert!((p - q).abs() <= 1e-3, "{} {}: {p} vs {q}", u.time, a.sat);
-                        beidou_values += usize::from(a.sat.sys == System::BeiDou);
-                    }
-                }
-            }
-        }
-    }
+    let beidou_values = assert_observations_match(&log, "ubx-sim/bds.obs.zst", System::BeiDou);
     assert!(beidou_values > 500, "{beidou_values}");
 }
 
@@ -366,13 +355,7 @@ fn frames(bytes: &[u8]) -> Vec<(usize, usize)> {
 /// with its data words garbled and its subframe ID kept. The records stay the clean log's.
 #[test]
 fn cnav_messages_do_not_reach_the_lnav_decoder() {
-    let mut bytes = Vec::new();
-    let clean_path = data("ubx-sim/sim.ubx.zst");
-    std::io::Read::read_to_end(
-        &mut ins_gnss_core::io::formats::open(&clean_path).unwrap(),
-        &mut bytes,
-    )
-    .unwrap();
+    let bytes = log_bytes("ubx-sim/sim.ubx.zst");
     let mut out = Vec::with_capacity(2 * bytes.len());
     for (at, len) in frames(&bytes) {
         let packet = &bytes[at..at + len];
@@ -386,24 +369,44 @@ fn cnav_messages_do_not_reach_the_lnav_decoder() {
                 let v = u32::from_le_bytes(cnav[at..at + 4].try_into().unwrap());
                 cnav[at..at + 4].copy_from_slice(&(v ^ (0x2aaa_aa40 >> k)).to_le_bytes());
             }
-            let (mut a, mut b) = (0u8, 0u8);
-            for byte in &cnav[2..len - 2] {
-                a = a.wrapping_add(*byte);
-                b = b.wrapping_add(a);
-            }
-            cnav[len - 2] = a;
-            cnav[len - 1] = b;
+            set_checksum(&mut cnav);
             out.extend_from_slice(&cnav);
         }
     }
-    let path = std::env::temp_dir().join(format!("cnav-{}.ubx", std::process::id()));
-    std::fs::write(&path, &out).unwrap();
-    let with_cnav = read_ubx(&path);
-    let _ = std::fs::remove_file(&path);
-    let with_cnav = with_cnav.unwrap();
-    let clean = read_ubx(&clean_path).unwrap();
+    let with_cnav = read_bytes(&out, "cnav");
+    let clean = read_ubx(&data("ubx-sim/sim.ubx.zst")).unwrap();
     assert_eq!(with_cnav.bad_packets, 0);
     assert_eq!(with_cnav.ephemerides.records(), clean.ephemerides.records());
+}
+
+/// A shipped log's bytes, decompressed.
+fn log_bytes(name: &str) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    let mut input = ins_gnss_core::io::formats::open(&data(name)).unwrap();
+    std::io::Read::read_to_end(&mut input, &mut bytes).unwrap();
+    bytes
+}
+
+/// The Fletcher checksum of a whole packet (sync to checksum) set from its class to its
+/// payload's end.
+fn set_checksum(packet: &mut [u8]) {
+    let len = packet.len();
+    let (mut a, mut b) = (0u8, 0u8);
+    for byte in &packet[2..len - 2] {
+        a = a.wrapping_add(*byte);
+        b = b.wrapping_add(a);
+    }
+    packet[len - 2] = a;
+    packet[len - 1] = b;
+}
+
+/// `bytes` read as a UBX log from a scratch file (removed after).
+fn read_bytes(bytes: &[u8], name: &str) -> UbxLog {
+    let path = std::env::temp_dir().join(format!("{name}-{}.ubx", std::process::id()));
+    std::fs::write(&path, bytes).unwrap();
+    let log = read_ubx(&path);
+    let _ = std::fs::remove_file(&path);
+    log.unwrap()
 }
 
 proptest::proptest! {
@@ -418,9 +421,7 @@ proptest::proptest! {
         picks in proptest::collection::vec((0usize..4000, 0usize..40, proptest::prelude::any::<u32>()), 1..40),
     ) {
         let name = ["ubx-sim/sim.ubx.zst", "ubx-sim/gal.ubx.zst", "ubx-sim/bds.ubx.zst"][log];
-        let mut bytes = Vec::new();
-        std::io::Read::read_to_end(&mut ins_gnss_core::io::formats::open(&data(name)).unwrap(), &mut bytes)
-            .unwrap();
+        let mut bytes = log_bytes(name);
         let sfrbx: Vec<(usize, usize)> = frames(&bytes)
             .into_iter()
             .filter(|&(at, _)| bytes[at + 2] == 0x02 && bytes[at + 3] == 0x13)
@@ -432,19 +433,9 @@ proptest::proptest! {
             // fields reach the decoders)
             let w = at + 14 + 4 * (1 + word % (words - 1));
             bytes[w..w + 4].copy_from_slice(&value.to_le_bytes());
-            let (mut a, mut b) = (0u8, 0u8);
-            for byte in &bytes[at + 2..at + len - 2] {
-                a = a.wrapping_add(*byte);
-                b = b.wrapping_add(a);
-            }
-            bytes[at + len - 2] = a;
-            bytes[at + len - 1] = b;
+            set_checksum(&mut bytes[at..at + len]);
         }
-        let path = std::env::temp_dir().join(format!("garbled-{}-{log}.ubx", std::process::id()));
-        std::fs::write(&path, &bytes).unwrap();
-        let garbled = read_ubx(&path);
-        let _ = std::fs::remove_file(&path);
-        let garbled = garbled.unwrap();
+        let garbled = read_bytes(&bytes, &format!("garbled-{log}"));
         let clean = read_ubx(&data(name)).unwrap();
         proptest::prop_assert_eq!(garbled.bad_packets, 0);
         proptest::prop_assert_eq!(garbled.epochs.len(), clean.epochs.len());
