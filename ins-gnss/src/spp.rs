@@ -26,6 +26,14 @@ pub struct SppRun {
     pub excluded: usize,
 }
 
+impl SppRun {
+    /// Each solution's time (GPS seconds of week, as a `.pos` gives them) and ECEF position:
+    /// what [`compare`] takes.
+    pub fn positions(&self) -> Vec<(f64, Vector3<f64>)> {
+        self.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect()
+    }
+}
+
 /// Solves every epoch of `obs` — a RINEX observation file, or a u-blox log (`.ubx`, with
 /// its GPS ephemerides from RXM-SFRBX) — with the ephemerides of `navs` (merged).
 pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun, CliError> {
@@ -209,9 +217,7 @@ pub fn run(
     }
     if let Some(a) = against {
         let theirs = read_pos(a)?;
-        let ours: Vec<(f64, Vector3<f64>)> =
-            run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
-        let (n, rms, d) = compare(&ours, &theirs);
+        let (n, rms, d) = compare(&run.positions(), &theirs);
         let tp: Vec<Vector3<f64>> = theirs.iter().map(|p| p.1).collect();
         let (ths, tvs, _) = scatter(&tp);
         out!(

@@ -42,8 +42,7 @@ fn single_point_agrees_with_rtklib_on_both_stations() {
         for (name, opt, bound) in cases() {
             let run = solve_file(&obs, &[nav.as_path()], &opt).unwrap();
             let theirs = read_pos(&data(&format!("rtklib/spp{station}-{name}.pos.zst"))).unwrap();
-            let ours: Vec<(f64, Vector3<f64>)> =
-                run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
+            let ours = run.positions();
             let (n, rms, mean) = compare(&ours, &theirs);
             let (h_ours, v_ours, _) = scatter(&ours.iter().map(|p| p.1).collect::<Vec<_>>());
             let (h_theirs, v_theirs, _) = scatter(&theirs.iter().map(|p| p.1).collect::<Vec<_>>());
@@ -129,8 +128,7 @@ fn gps_and_beidou_from_a_ubx_log_agree_with_rtklib() {
     let opt = SppOptions { elevation_mask: 0.0, max_exclusions: 0, ..SppOptions::default() };
     let run = solve_file(&repo("ubx-sim/bds.ubx.zst"), &[], &opt).unwrap();
     let theirs = read_pos(&repo("ubx-sim/bds-rtklib.pos.zst")).unwrap();
-    let ours: Vec<(f64, Vector3<f64>)> =
-        run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
+    let ours = run.positions();
     let (n, rms, _) = compare(&ours, &theirs);
     eprintln!("GPS + BeiDou from UBX: {n} of {} epochs, 3D RMS {rms:.3} m", theirs.len());
     assert_eq!((n, theirs.len()), (201, 201));
@@ -145,8 +143,7 @@ fn gps_and_beidou_from_a_ubx_log_agree_with_rtklib() {
     // and without them the solution is another one
     let gps = SppOptions { systems: vec![System::Gps], ..opt };
     let run = solve_file(&repo("ubx-sim/bds.ubx.zst"), &[], &gps).unwrap();
-    let ours: Vec<(f64, Vector3<f64>)> =
-        run.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
+    let ours = run.positions();
     let (_, rms_gps, _) = compare(&ours, &theirs);
     eprintln!("GPS alone against RTKLIB's GPS + BeiDou: 3D RMS {rms_gps:.3} m");
     assert!(rms_gps > 0.3, "{rms_gps}");
@@ -185,10 +182,8 @@ fn a_ubx_log_solves_as_its_observations_with_the_source_navigation() {
     let nav = repo("rinex-rtklib/07590920.05n.zst");
     let rinex = solve_file(&repo("ubx-sim/sim.obs.zst"), &[nav.as_path()], &opt).unwrap();
     assert_eq!(ubx.solutions.len(), 201);
-    let a: Vec<(f64, Vector3<f64>)> =
-        ubx.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
-    let b: Vec<(f64, Vector3<f64>)> =
-        rinex.solutions.iter().map(|s| (s.solution_time().tow, s.pos)).collect();
+    let a = ubx.positions();
+    let b = rinex.positions();
     let (n, rms, _) = compare(&a, &b);
     assert_eq!(n, 201);
     assert!(rms < 0.01, "{rms}");
