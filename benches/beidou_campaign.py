@@ -15,6 +15,8 @@ repository root after `cargo build --release -p ins-gnss && cargo build --releas
 """
 import json, os, re, statistics as st, subprocess, sys, tempfile
 
+from campaign import strip_init
+
 first = int(sys.argv[1]) if len(sys.argv) > 1 else 101
 last = int(sys.argv[2]) if len(sys.argv) > 2 else 117
 B = os.path.abspath("target/release/ins-gnss")
@@ -36,8 +38,7 @@ for seed in range(first, last):
     subprocess.run([B, "simulate", f"{d}/sc.toml", "--out", f"{d}/data"], check=True,
                    capture_output=True)
     base = open(f"{d}/data/config.toml").read()
-    # no [init]: the run starts itself from the log
-    base = re.sub(r"\n\[init\]\n.*?(?=\n\[imu\]\n)", "\n", base, flags=re.S)
+    base = strip_init(base)  # no [init]: the run starts itself from the log
     base = base.replace("use_velocity = true\n", 'use_velocity = true\ncoupling = "tight"\n', 1)
     for name, (systems, meo) in RUNS.items():
         cfg = f"{d}/data/run-{name}.toml"
