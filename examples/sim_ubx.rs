@@ -132,10 +132,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Ephemerides::new(records)
     } else if beidou {
         let mut records = nav.ephemerides.records().to_vec();
-        let d1 = |e: &&Ephemeris| e.sat.prn >= 3 && e.toc == e.toe && e.toe_sow % 8.0 == 0.0;
+        // (both messages send toc = toe, in units of 8 s)
+        let times = |e: &Ephemeris| e.toc == e.toe && e.toe_sow % 8.0 == 0.0;
+        let d1 = |e: &&Ephemeris| e.sat.prn >= 3 && times(e);
         records.extend(nav.ephemerides.records().iter().filter(d1).map(beidou_from));
-        // (d1's condition without the PRN's: the GEO message has the same times)
-        let geo = |e: &&Ephemeris| e.sat.prn <= 3 && e.toc == e.toe && e.toe_sow % 8.0 == 0.0;
+        let geo = |e: &&Ephemeris| e.sat.prn <= 3 && times(e);
         records.extend(nav.ephemerides.records().iter().filter(geo).map(|g| {
             let longitude = [140.0, 80.0, 110.5][usize::from(g.sat.prn) - 1];
             beidou_geo_from(g, g.sat.prn, longitude)
