@@ -135,7 +135,7 @@ fn read(frames: &[Subframe], fd: &Field) -> f64 {
 
 fn write(frames: &mut [Subframe], fd: &Field, value: f64) {
     let n: usize = fd.pieces.iter().map(|p| p.2).sum();
-    let v = fields::bits(value, n, fd.scale);
+    let v = fields::pattern(value, n, fd.scale);
     let mut at = n;
     for &(k, start, width) in fd.pieces {
         at -= width;

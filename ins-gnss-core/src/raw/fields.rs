@@ -19,6 +19,6 @@ pub(crate) fn value(v: u64, n: usize, signed: bool, scale: f64) -> f64 {
 }
 
 /// The `n` bits of `value` in units of `scale`, rounded (two's complement when negative).
-pub(crate) fn bits(value: f64, n: usize, scale: f64) -> u64 {
+pub(crate) fn pattern(value: f64, n: usize, scale: f64) -> u64 {
     ((value / scale).round() as i64 as u64) & ((1u64 << n) - 1)
 }

@@ -95,7 +95,7 @@ fn read(w: u128, fd: &Field) -> f64 {
 fn write(w: &mut u128, fd: &Field, value: f64) {
     let mask = (1u128 << fd.width) - 1;
     let shift = 128 - fd.start - fd.width;
-    let bits = u128::from(fields::bits(value, fd.width as usize, fd.scale));
+    let bits = u128::from(fields::pattern(value, fd.width as usize, fd.scale));
     *w = (*w & !(mask << shift)) | (bits << shift);
 }
 

@@ -105,7 +105,7 @@ fn read(sf: &Subframe, fd: &Field) -> f64 {
 
 fn write(sf: &mut Subframe, fd: &Field, value: f64) {
     let n: usize = fd.pieces.iter().map(|p| p.2).sum();
-    let mut v = fields::bits(value, n, fd.scale);
+    let mut v = fields::pattern(value, n, fd.scale);
     for &(w, b, len) in fd.pieces.iter().rev() {
         let piece = (v & ((1 << len) - 1)) as u32;
         v >>= len;

@@ -159,7 +159,7 @@ impl System {
                         .into_iter()
                         .find(|s| s.name().eq_ignore_ascii_case(entry))
                 })
-                .filter(|s| s.keplerian() && !entry.is_empty())
+                .filter(|s| s.keplerian())
                 .ok_or_else(|| {
                     format!("`{entry}`: not a system the models serve (G, E, C or J)")
                 })?;

@@ -25,7 +25,7 @@ use ublox::{proto23::PacketRef, Parser, UbxPacket};
 pub struct UbxLog {
     /// RXM-RAWX epochs.
     pub epochs: Vec<ObsEpoch>,
-    /// GPS, Galileo and BeiDou (MEO, IGSO) ephemerides from RXM-SFRBX.
+    /// GPS, Galileo and BeiDou ephemerides from RXM-SFRBX.
     pub ephemerides: Ephemerides,
     /// The broadcast ionosphere (GPS subframe 4, page 18), when the log has it.
     pub klobuchar: Option<super::atmosphere::Klobuchar>,
