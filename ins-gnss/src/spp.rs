@@ -35,7 +35,7 @@ impl SppRun {
 }
 
 /// Solves every epoch of `obs` — a RINEX observation file, or a u-blox log (`.ubx`, with
-/// its GPS ephemerides from RXM-SFRBX) — with the ephemerides of `navs` (merged).
+/// the ephemerides of its RXM-SFRBX) — with the ephemerides of `navs` (merged).
 pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun, CliError> {
     let navs: Vec<std::path::PathBuf> = navs.iter().map(|p| p.to_path_buf()).collect();
     let mut input = crate::aiding::RawInput::open(obs, &navs)?;

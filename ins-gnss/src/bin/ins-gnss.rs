@@ -124,7 +124,7 @@ enum Command {
         /// RINEX observation file (2.xx or 3.xx), or a u-blox log (`.ubx`: RXM-RAWX and
         /// RXM-SFRBX); `.gz`/`.zst`/`.xz` read as they are.
         obs: PathBuf,
-        /// RINEX navigation file(s) (optional for a u-blox log with GPS subframes).
+        /// RINEX navigation file(s) (optional for a u-blox log with its navigation messages).
         nav: Vec<PathBuf>,
         /// Output `.pos` file.
         #[arg(long, short)]
@@ -143,8 +143,8 @@ enum Command {
         #[arg(long, default_value_t = 2)]
         raim: usize,
         /// Systems used, comma-separated RINEX letters or names: G (GPS), E (Galileo), C
-        /// (BeiDou), J (QZSS).
-        #[arg(long, default_value = "G,E,C,J", value_delimiter = ',', value_parser = ins_gnss::spp::parse_system)]
+        /// (BeiDou), J (QZSS) [default: all four].
+        #[arg(long, value_delimiter = ',', value_parser = ins_gnss::spp::parse_system)]
         systems: Vec<ins_gnss_core::raw::System>,
         /// Compare with another solution of the same file (an RTKLIB `.pos`, GPST).
         #[arg(long)]
@@ -259,8 +259,12 @@ fn main() -> ExitCode {
                 troposphere: tropo,
                 elevation_mask: mask.to_radians(),
                 max_exclusions: raim,
-                systems,
                 ..Default::default()
+            };
+            let opt = if systems.is_empty() {
+                opt
+            } else {
+                ins_gnss_core::raw::SppOptions { systems, ..opt }
             };
             let navs: Vec<&std::path::Path> = nav.iter().map(PathBuf::as_path).collect();
             ins_gnss::spp::run(&obs, &navs, out.as_deref(), &opt, against.as_deref())

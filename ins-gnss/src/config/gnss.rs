@@ -95,8 +95,11 @@ pub struct TightSection {
     pub systems: Vec<String>,
 }
 
+/// The single point's systems ([`SppOptions`](ins_gnss_core::raw::SppOptions)'s default), as
+/// letters.
 pub(crate) fn default_systems() -> Vec<String> {
-    ["G", "E", "C", "J"].map(String::from).to_vec()
+    let systems = ins_gnss_core::raw::SppOptions::default().systems;
+    systems.iter().map(|s| s.letter().to_string()).collect()
 }
 
 fn default_phase_std() -> f64 {
