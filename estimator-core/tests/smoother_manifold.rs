@@ -19,14 +19,12 @@ use std::io::Cursor;
 
 use estimator_core::{
     ErrorStateFilter, FixedNoise, Manifold, MeasurementJacobians, MeasurementModel,
-    ProcessJacobians, ProcessModel, RtsSmoother, RtsStep, SegmentSmoother, SmoothedRow, Spill,
+    ProcessJacobians, ProcessModel, RtsSmoother, RtsStep, SegmentSmoother, SmoothedRow,
     StepRecorder, Tangent,
 };
 use manifolds::numdiff::jacobian;
 use manifolds::{composite_state, hat, right_jacobian, So3, R3};
-use nalgebra::{
-    DMatrix, DVector, Matrix3, Matrix6, SMatrix, SVector, UnitQuaternion, Vector3, Vector6, U6,
-};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, SMatrix, SVector, Vector3, Vector6, U6};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
@@ -38,22 +36,6 @@ composite_state! {
         pub att: So3 => ATT,
         /// Gyro bias, rad/s.
         pub bias: R3 => BIAS,
-    }
-}
-
-impl Spill for AttBias {
-    const LEN: usize = 7;
-    fn spill(&self, out: &mut [f64]) {
-        let q = self.att.quaternion();
-        out[..4].copy_from_slice(&[q.w, q.i, q.j, q.k]);
-        out[4..7].copy_from_slice(self.bias.as_slice());
-    }
-    fn unspill(v: &[f64]) -> Self {
-        let q = nalgebra::Quaternion::new(v[0], v[1], v[2], v[3]);
-        AttBias {
-            att: So3::from_unit_quaternion_unchecked(UnitQuaternion::new_unchecked(q)),
-            bias: Vector3::new(v[4], v[5], v[6]),
-        }
     }
 }
 

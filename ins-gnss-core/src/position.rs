@@ -110,6 +110,17 @@ impl GeoPos {
     }
 }
 
+impl manifolds::Coeffs for GeoPos {
+    /// Latitude, longitude (rad), height (m).
+    const LEN: usize = 3;
+    fn coeffs(&self, out: &mut [f64]) {
+        out.copy_from_slice(&[self.lat, self.lon, self.h]);
+    }
+    fn from_coeffs(c: &[f64]) -> Self {
+        GeoPos { lat: c[0], lon: c[1], h: c[2] }
+    }
+}
+
 impl Manifold for GeoPos {
     type Dim = Const<3>;
 

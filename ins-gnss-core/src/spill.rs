@@ -1,16 +1,13 @@
-//! The INS states and inputs as exact rows of numbers, for the segment smoother's storage
-//! ([`estimator_core::SegmentSmoother`]).
+//! The IMU inputs as exact rows of numbers, for the segment smoother's storage
+//! ([`estimator_core::SegmentSmoother`]). The states need no code here: they are stored as
+//! their coefficients ([`manifolds::Coeffs`], which `composite_state!` derives from the
+//! fields' and [`GeoPos`](crate::position::GeoPos) implements).
 
 use estimator_core::Spill;
-use manifolds::So3;
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 
 use crate::imu::ImuSample;
 use crate::model::ImuInput;
-use crate::position::GeoPos;
-use crate::scale::InsState21;
-use crate::state::InsState;
-use crate::tight::{InsStateTc, InsStateTc21};
 
 fn put3(out: &mut [f64], v: &Vector3<f64>) {
     out[..3].copy_from_slice(v.as_slice());
@@ -19,72 +16,6 @@ fn put3(out: &mut [f64], v: &Vector3<f64>) {
 fn get3(v: &[f64]) -> Vector3<f64> {
     Vector3::new(v[0], v[1], v[2])
 }
-
-impl Spill for InsState {
-    /// Quaternion (w, i, j, k), velocity, latitude, longitude, height, biases.
-    const LEN: usize = 16;
-    fn spill(&self, out: &mut [f64]) {
-        let q = self.att.quaternion();
-        out[..4].copy_from_slice(&[q.w, q.i, q.j, q.k]);
-        put3(&mut out[4..], &self.vel);
-        out[7..10].copy_from_slice(&[self.pos.lat, self.pos.lon, self.pos.h]);
-        put3(&mut out[10..], &self.bg);
-        put3(&mut out[13..], &self.ba);
-    }
-    fn unspill(v: &[f64]) -> Self {
-        // (the stored quaternion is already unit: taken as it is, not renormalised)
-        let q = UnitQuaternion::new_unchecked(Quaternion::new(v[0], v[1], v[2], v[3]));
-        InsState {
-            att: So3::from_unit_quaternion_unchecked(q),
-            vel: get3(&v[4..]),
-            pos: GeoPos { lat: v[7], lon: v[8], h: v[9] },
-            bg: get3(&v[10..]),
-            ba: get3(&v[13..]),
-        }
-    }
-}
-
-impl Spill for InsState21 {
-    /// The 15-state row, gyro and accelerometer scale factors.
-    const LEN: usize = InsState::LEN + 6;
-    fn spill(&self, out: &mut [f64]) {
-        self.nav.spill(&mut out[..InsState::LEN]);
-        put3(&mut out[InsState::LEN..], &self.sg);
-        put3(&mut out[InsState::LEN + 3..], &self.sa);
-    }
-    fn unspill(v: &[f64]) -> Self {
-        let n = InsState::LEN;
-        InsState21 { nav: InsState::unspill(&v[..n]), sg: get3(&v[n..]), sa: get3(&v[n + 3..]) }
-    }
-}
-
-/// A tightly coupled state: its navigation state's row, the clock bias and drift, the
-/// inter-system biases.
-macro_rules! tight_spill {
-    ($state:ident, $nav:ident) => {
-        impl Spill for $state {
-            const LEN: usize = $nav::LEN + 5;
-            fn spill(&self, out: &mut [f64]) {
-                let n = $nav::LEN;
-                self.nav.spill(&mut out[..n]);
-                out[n] = self.clock[0];
-                out[n + 1] = self.clock[1];
-                put3(&mut out[n + 2..], &self.isb);
-            }
-            fn unspill(v: &[f64]) -> Self {
-                let n = $nav::LEN;
-                $state {
-                    nav: $nav::unspill(&v[..n]),
-                    clock: manifolds::R2::new(v[n], v[n + 1]),
-                    isb: get3(&v[n + 2..]),
-                }
-            }
-        }
-    };
-}
-
-tight_spill!(InsStateTc, InsState);
-tight_spill!(InsStateTc21, InsState21);
 
 /// An IMU sample: time, interval, increments, odometer flag and reading.
 const SAMPLE: usize = 10;
@@ -200,6 +131,11 @@ const NO_ODOMETER: u8 = 4;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::position::GeoPos;
+    use crate::scale::InsState21;
+    use crate::state::InsState;
+    use crate::tight::{InsStateTc, InsStateTc21};
+    use manifolds::So3;
 
     fn round_trip<T: Spill + PartialEq + core::fmt::Debug>(x: &T) {
         let mut v = vec![f64::NAN; T::LEN];
@@ -218,11 +154,21 @@ mod tests {
             ba: Vector3::new(1e-3, 2e-3, -4e-3),
         };
         round_trip(&nav);
-        round_trip(&InsState21 {
-            nav,
+        let nav21 = InsState21 {
+            nav: nav.clone(),
             sg: Vector3::new(1e-4, 2e-4, -3e-4),
             sa: Vector3::new(-1e-4, 5e-4, 0.0),
-        });
+        };
+        round_trip(&nav21);
+        // (the rows are the fields' coefficients in order: the quaternion w, i, j, k first)
+        let mut row = [0.0; 16];
+        nav.spill(&mut row);
+        let q = nav.att.quaternion();
+        assert_eq!(row[..4], [q.w, q.i, q.j, q.k]);
+        assert_eq!(row[7..10], [0.5, 2.1, 30.5]);
+        let isb = Vector3::new(3.0, -4.0, 0.5);
+        round_trip(&InsStateTc { nav, clock: manifolds::R2::new(12.5, -0.25), isb });
+        round_trip(&InsStateTc21 { nav: nav21, clock: manifolds::R2::new(-1.0, 0.0), isb });
         let s = ImuSample::from_increments(
             10.01,
             0.01,

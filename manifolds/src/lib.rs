@@ -9,6 +9,7 @@
 //! | [`Real`] | the scalar, `f64` (default) or `f32` |
 //! | tuples `(A, B, …)` up to 6 parts | products whose dimension is the type-level sum of the parts |
 //! | [`composite_state!`] | named product states with a typed [`Block`] constant per field |
+//! | [`Coeffs`] | a point as the flat row of its representation's numbers (manif's `coeffs()`) |
 //! | [`numdiff`] | central-difference Jacobians through ⊕/⊖ |
 //! | `testing` (feature) | the public law harness and proptest strategies |
 //!
@@ -50,6 +51,7 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+mod coeffs;
 mod euclid;
 pub mod numdiff;
 pub mod product;
@@ -61,6 +63,9 @@ mod traits;
 #[cfg(feature = "testing")]
 pub mod testing;
 
+pub use coeffs::Coeffs;
+#[cfg(feature = "serde")]
+pub use coeffs::serde_coeffs;
 pub use euclid::{Rn, R1, R2, R3};
 pub use product::Block;
 pub use scalar::Real;

@@ -5,6 +5,7 @@
 
 use nalgebra::{Const, Matrix1, Matrix2, Vector1};
 
+use crate::coeffs::Coeffs;
 use crate::scalar::Real;
 use crate::traits::{Manifold, OminusJacobians, OplusJacobians};
 
@@ -80,5 +81,17 @@ impl<T: Real> Manifold<T> for So2<T> {
 
     fn ominus_jacobians(&self, _origin: &Self) -> OminusJacobians<Self, T> {
         OminusJacobians { J_d_y: Matrix1::identity(), J_d_x: -Matrix1::identity() }
+    }
+}
+
+// (here, where the angle is reachable as stored: `So2::new` would wrap it again)
+impl<T: Real> Coeffs<T> for So2<T> {
+    /// The angle, rad, in (−π, π].
+    const LEN: usize = 1;
+    fn coeffs(&self, out: &mut [T]) {
+        out[0] = self.angle();
+    }
+    fn from_coeffs(c: &[T]) -> Self {
+        Self { angle: c[0] }
     }
 }

@@ -176,3 +176,45 @@ fn generic_composite_blocks_and_dimension() {
     assert_eq!(Pose::<f32>::POS.of(&d), R3::<f32>::from_element(0.01));
     assert!((x.oplus(&d).ominus(&x) - d).norm() < 1e-6);
 }
+
+/// `from_coeffs(coeffs(x))` is `x`, bit for bit, and the row is the parts' rows in order,
+/// for every built-in manifold, tuples and composites, over random points (the `Sampler`s
+/// above); a composite's row is its tuple's.
+fn coeffs_round_trip<M, T>(x: &M) -> Result<(), TestCaseError>
+where
+    M: manifolds::Coeffs<T> + PartialEq + core::fmt::Debug,
+    T: manifolds::Real,
+{
+    let mut row = vec![nalgebra::convert::<f64, T>(f64::NAN); M::LEN];
+    x.coeffs(&mut row);
+    prop_assert!(row.iter().all(|v| v.is_finite()), "every number written: {x:?}");
+    prop_assert_eq!(&M::from_coeffs(&row), x);
+    Ok(())
+}
+
+proptest! {
+    #[test]
+    fn coefficients_come_back_exactly(
+        ins in Ins::arb_point(),
+        so2 in manifolds::testing::Sampler::<So2>::of().points,
+        triple in manifolds::testing::Sampler::<(So2<f32>, R2<f32>, So3<f32>), f32>::of().points,
+        pose in pose_sampler_f32().points,
+    ) {
+        coeffs_round_trip(&ins)?;
+        coeffs_round_trip(&so2)?;
+        coeffs_round_trip(&ins.att)?;
+        coeffs_round_trip(&triple)?;
+        coeffs_round_trip(&pose)?;
+        let tuple = (ins.att, ins.vel, ins.pos, ins.bg, ins.ba);
+        coeffs_round_trip(&tuple)?;
+        let (mut a, mut b) = ([0.0; 16], [0.0; 16]);
+        manifolds::Coeffs::coeffs(&ins, &mut a);
+        manifolds::Coeffs::coeffs(&tuple, &mut b);
+        prop_assert_eq!(a, b);
+        let q = ins.att.quaternion();
+        prop_assert_eq!(a[..4].to_vec(), vec![q.w, q.i, q.j, q.k]);
+        prop_assert_eq!(&a[4..7], ins.vel.as_slice());
+        prop_assert_eq!(a[15], ins.ba.z);
+        prop_assert_eq!(<(So2<f32>, R2<f32>, So3<f32>) as manifolds::Coeffs<f32>>::LEN, 7);
+    }
+}

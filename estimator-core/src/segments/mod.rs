@@ -3,7 +3,7 @@
 use core::marker::PhantomData;
 use std::io::{Read, Seek, SeekFrom, Write};
 
-use nalgebra::{DefaultAllocator, DimName, OVector, SVector};
+use nalgebra::{DefaultAllocator, DimName, OVector};
 
 use manifolds::{DimAlloc, Manifold};
 

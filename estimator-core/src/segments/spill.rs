@@ -1,9 +1,8 @@
 //! The values a smoother stores exactly as numbers ([`Spill`]).
 
-use super::*;
-
-/// A value stored exactly as `LEN` numbers (states and inputs a [`SegmentSmoother`]
-/// writes to its storage).
+/// A value stored exactly as `LEN` numbers (states and inputs a
+/// [`SegmentSmoother`](super::SegmentSmoother) writes to its storage). States need no
+/// code: every [`Coeffs`](manifolds::Coeffs) type is stored as its coefficients (below).
 pub trait Spill: Sized {
     /// How many numbers.
     const LEN: usize;
@@ -44,28 +43,14 @@ pub trait Spill: Sized {
 /// Forms of [`Spill::spill_after`] (they share a step's flags with the smoother's own).
 pub const AFTER_FORMS: u8 = 16;
 
-impl<const D: usize> Spill for SVector<f64, D> {
-    const LEN: usize = D;
+/// Every value with a flat coefficient view ([`manifolds::Coeffs`]: vectors, rotations,
+/// tuples, `composite_state!` states, `f64`, `()`) is stored as its coefficients.
+impl<M: manifolds::Coeffs<f64>> Spill for M {
+    const LEN: usize = M::LEN;
     fn spill(&self, out: &mut [f64]) {
-        out.copy_from_slice(self.as_slice());
+        self.coeffs(out);
     }
     fn unspill(v: &[f64]) -> Self {
-        Self::from_column_slice(v)
-    }
-}
-
-impl Spill for () {
-    const LEN: usize = 0;
-    fn spill(&self, _: &mut [f64]) {}
-    fn unspill(_: &[f64]) -> Self {}
-}
-
-impl Spill for f64 {
-    const LEN: usize = 1;
-    fn spill(&self, out: &mut [f64]) {
-        out[0] = *self;
-    }
-    fn unspill(v: &[f64]) -> Self {
-        v[0]
+        M::from_coeffs(v)
     }
 }

@@ -103,6 +103,36 @@ macro_rules! __composite_serde {
     ($($t:tt)*) => {};
 }
 
+/// A composite state's [`Coeffs`](crate::Coeffs): its fields' numbers in declaration order
+/// (when every field has them).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __composite_coeffs {
+    ($Name:ty, $S:ty; $($field:ident : $T:ty),+) => {
+        fn coeffs(&self, out: &mut [$S]) {
+            let mut _off = 0usize;
+            $(
+                let n = <$T as $crate::Coeffs<$S>>::LEN;
+                $crate::Coeffs::<$S>::coeffs(&self.$field, &mut out[_off.._off + n]);
+                _off += n;
+            )+
+        }
+        fn from_coeffs(c: &[$S]) -> Self {
+            let mut _off = 0usize;
+            Self {
+                $(
+                    $field: {
+                        let n = <$T as $crate::Coeffs<$S>>::LEN;
+                        let part = <$T as $crate::Coeffs<$S>>::from_coeffs(&c[_off.._off + n]);
+                        _off += n;
+                        part
+                    },
+                )+
+            }
+        }
+    };
+}
+
 /// Define a named composite state whose tangent dimension is the sum of its fields',
 /// known at compile time, with a typed [`Block`](crate::product::Block) constant per field.
 ///
@@ -169,6 +199,16 @@ macro_rules! composite_state {
         $crate::__composite_serde!($Name; $($field : $T),+);
         $crate::__composite_law_sampler!($Name; $($field : $T => $BLOCK),+);
 
+        // (higher-ranked bounds, as for serde: a field without coefficients makes the impl
+        // absent instead of an error)
+        impl $crate::Coeffs for $Name
+        where
+            $(for<'__a> $T: $crate::Coeffs,)+
+        {
+            const LEN: usize = 0 $(+ <$T as $crate::Coeffs>::LEN)+;
+            $crate::__composite_coeffs!($Name, f64; $($field : $T),+);
+        }
+
         impl $crate::Manifold for $Name {
             $crate::composite_state!(@body f64; $($field : $T, $T => $BLOCK),+);
         }
@@ -192,6 +232,14 @@ macro_rules! composite_state {
         $crate::composite_state!(@gblocks $Name, $S, 0usize, $($field : $T => $BLOCK),+);
         $crate::__composite_serde!(@generic $Name, $S; $($field : $T),+);
         $crate::__composite_law_sampler!($Name<f64>; $($field : $T<f64> => $BLOCK),+);
+
+        impl<$S: $crate::Real> $crate::Coeffs<$S> for $Name<$S>
+        where
+            $(for<'__a> $T<$S>: $crate::Coeffs<$S>,)+
+        {
+            const LEN: usize = 0 $(+ <$T<$S> as $crate::Coeffs<$S>>::LEN)+;
+            $crate::__composite_coeffs!($Name<$S>, $S; $($field : $T<$S>),+);
+        }
 
         impl<$S: $crate::Real> $crate::Manifold<$S> for $Name<$S> {
             $crate::composite_state!(@body $S; $($field : $T, $T<$S> => $BLOCK),+);
