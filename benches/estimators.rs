@@ -18,7 +18,7 @@ use estimator::estimator_core::{
 };
 use estimator::ins_gnss::align::{align_in_motion, detect_static};
 use estimator::ins_gnss::imu::DEG_PER_H;
-use estimator::ins_gnss::position::GeoPos;
+use estimator::ins_gnss::GeoPos;
 use ins_gnss_sim::scenarios::{gnss_1hz, mems_imu};
 use ins_gnss_sim::simulate;
 use ins_gnss_sim::{Segment, Start, Trajectory};

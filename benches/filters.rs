@@ -359,7 +359,7 @@ fn text_io(c: &mut Criterion) {
     use estimator::ins_gnss::io::formats::{
         write_nav, BadLinePolicy, ImuFormat, ImuReader, NavRecord,
     };
-    use estimator::ins_gnss::position::GeoPos;
+    use estimator::ins_gnss::GeoPos;
     use std::io::Write as _;
     let n = 20_000;
     let mut imu = Vec::new();

@@ -97,7 +97,7 @@ impl<A: Clone> Clone for PerStream<A> {
 
     fn clone_from(&mut self, source: &Self) {
         self.default.clone_from(&source.default);
-        estimator_core::clone_entries_from(&mut self.streams, &source.streams);
+        estimator_core::__private::clone_entries_from(&mut self.streams, &source.streams);
     }
 }
 

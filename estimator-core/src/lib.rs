@@ -79,7 +79,6 @@ mod report;
 mod scalar;
 #[cfg(feature = "std")]
 mod segments;
-#[doc(hidden)]
 pub mod simd;
 #[cfg(feature = "std")]
 mod smoother;
@@ -117,7 +116,7 @@ pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecor
 pub use smoother::{FixedLagSmoother, Lag, RtsSmoother, RtsStep, Smoothed};
 pub use stream::StreamId;
 #[cfg(feature = "std")]
-pub use stream::{clone_entries_from, StreamMap};
+pub use stream::StreamMap;
 pub use traits::{
     JacobiansOf, MeasurementJacobians, MeasurementModel, ProcessJacobians, ProcessJacobiansOf,
     ProcessModel,
@@ -127,3 +126,11 @@ pub use unscented::{manifold_mean, SigmaPoints, SigmaWeights};
 
 pub use manifolds::{self, DimAlloc, Manifold, Tangent, TangentMatrix};
 pub use nalgebra;
+
+/// What the workspace's other crates share with this one and users do not call (not an
+/// API: it may change at any release).
+#[doc(hidden)]
+#[cfg(feature = "std")]
+pub mod __private {
+    pub use crate::stream::clone_entries_from;
+}

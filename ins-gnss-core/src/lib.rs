@@ -3,12 +3,12 @@
 //! tools. No command-line, plotting or configuration-file dependencies: the `ins-gnss`
 //! program and the `ins-gnss-sim` simulator are crates of their own built on this one.
 //!
-//! | module | what |
+//! | module or item | what |
 //! |---|---|
 //! | [`wgs84`] | the ellipsoid: constants, radii of curvature, trigonometry near a cached latitude |
 //! | [`earth`] | WGS-84 gravity, Earth and transport rates, geodetic ↔ ECEF ↔ NED, [`earth::LocalEarth`] |
-//! | [`position`] | [`GeoPos`], the geodetic position as a manifold with NED-metre tangent |
-//! | [`state`] | [`InsState`]: attitude, velocity, position, biases; 15-dimensional error state |
+//! | [`GeoPos`] | the geodetic position as a manifold with NED-metre tangent |
+//! | [`InsState`] | attitude, velocity, position, biases; 15-dimensional error state |
 //! | [`imu`] | [`ImuSample`] (increments), [`ImuNoise`] and [`BiasModel`] |
 //! | [`mechanization`] | WGS-84 NED (coning, sculling) and flat-earth mechanizations |
 //! | [`model`] | [`InsModel`]: mechanization, `F`, `G Q_c Gᵀ`, `Φ`, `Q_d`, block-sparse `Φ P Φᵀ` |
@@ -17,7 +17,6 @@
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`] |
 //! | [`tight`] | tight coupling: [`tight::InsStateTc`] (15 + clock + inter-system biases) and [`tight::InsStateTc21`] (21 + clock + biases), per-satellite pseudorange and range-rate models |
 //! | [`vehicle`] | land-vehicle aiding: [`vehicle::Nhc`], [`vehicle::Zupt`], [`vehicle::Zaru`], the stationary detector |
-//! | [`spill`] | the states and IMU inputs as exact rows of numbers for the smoother's storage |
 //! | [`align`] | initialisation from the data: the static start (levelling, gyro biases, noise), the in-motion alignment |
 //! | [`init`] | static coarse alignment, heading from the GNSS track |
 //! | [`raw`] | raw GNSS: RINEX observations and ephemerides, satellite and atmosphere models, single point |
@@ -37,20 +36,29 @@ pub mod io;
 pub mod mechanization;
 pub mod model;
 pub mod navigator;
-pub mod position;
+mod position;
 pub mod raw;
 pub mod scale;
-pub mod spill;
-pub mod state;
+mod spill;
+mod state;
 pub mod tight;
 pub mod vehicle;
 pub mod wgs84;
 
-pub use gnss::{GnssEpoch, GnssPosVel, GnssPosition, GnssVelocity};
-pub use imu::{BiasModel, ImuNoise, ImuSample};
-pub use mechanization::Mechanization;
-pub use model::{ImuInput, InsModel};
-pub use navigator::{GnssConfig, InitialState, InitialStd, NavError, Navigator};
 pub use position::GeoPos;
 pub use state::InsState;
+
+// The main items of the modules above, at the root for short paths; their documentation
+// is the module's (`no_inline`: one page per item).
+#[doc(no_inline)]
+pub use gnss::{GnssEpoch, GnssPosVel, GnssPosition, GnssVelocity};
+#[doc(no_inline)]
+pub use imu::{BiasModel, ImuNoise, ImuSample};
+#[doc(no_inline)]
+pub use mechanization::Mechanization;
+#[doc(no_inline)]
+pub use model::{ImuInput, InsModel};
+#[doc(no_inline)]
+pub use navigator::{GnssConfig, InitialState, InitialStd, NavError, Navigator};
+#[doc(no_inline)]
 pub use vehicle::VehicleAiding;

@@ -1,7 +1,7 @@
 //! The IMU inputs as exact rows of numbers, for the segment smoother's storage
 //! ([`estimator_core::SegmentSmoother`]). The states need no code here: they are stored as
 //! their coefficients ([`manifolds::Coeffs`], which `composite_state!` derives from the
-//! fields' and [`GeoPos`](crate::position::GeoPos) implements).
+//! fields' and [`GeoPos`](crate::GeoPos) implements).
 
 use estimator_core::Spill;
 use nalgebra::Vector3;

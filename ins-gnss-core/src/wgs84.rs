@@ -1,7 +1,7 @@
 //! The WGS-84 ellipsoid: defining constants, radii of curvature and the trigonometry of a
 //! latitude near a cached one. Everything here is a function of the latitude alone; the
 //! Earth model built on it ([`crate::earth`]) and the geodetic position
-//! ([`crate::position`]) both use it.
+//! ([`GeoPos`](crate::GeoPos)) both use it.
 //!
 //! Constants: NIMA TR8350.2 (WGS-84), 3rd ed.
 

@@ -19,7 +19,7 @@ use rand::SeedableRng;
 use ins_gnss_core::earth::{earth_rate_ned, transport_rate};
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
-use ins_gnss_core::state::InsState;
+use ins_gnss_core::InsState;
 
 pub use sensors::{GnssSim, GnssWindow, GnssWindowKind, ImuCorruptor, ImuErrors, VIBRATION_SPEED};
 pub use trajectory::{Kinematics, Segment, Start, Trajectory, TrajectoryError, GRID};

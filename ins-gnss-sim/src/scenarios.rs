@@ -3,7 +3,7 @@
 use nalgebra::Vector3;
 
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
-use ins_gnss_core::position::GeoPos;
+use ins_gnss_core::GeoPos;
 
 use super::sensors::ImuErrors;
 use super::trajectory::{Segment, Start};

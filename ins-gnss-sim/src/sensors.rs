@@ -239,11 +239,11 @@ impl GnssSim {
     /// Noisy antenna position for a true antenna position.
     pub fn corrupt_position(
         &self,
-        truth: &ins_gnss_core::position::GeoPos,
+        truth: &ins_gnss_core::GeoPos,
         factor: f64,
         outliers: Option<(f64, f64)>,
         rng: &mut StdRng,
-    ) -> ins_gnss_core::position::GeoPos {
+    ) -> ins_gnss_core::GeoPos {
         let mut e = normal3(rng).component_mul(&self.pos_sigma) * factor;
         if let Some((p, k)) = outliers {
             if rng.random::<f64>() < p {

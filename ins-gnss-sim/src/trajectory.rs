@@ -6,7 +6,7 @@ use manifolds::So3;
 use nalgebra::Vector3;
 
 use ins_gnss_core::earth::{earth_rate_ned, gravity_ned, radii, transport_rate};
-use ins_gnss_core::position::GeoPos;
+use ins_gnss_core::GeoPos;
 
 /// One piece of motion; rates are constant within it.
 #[derive(Clone, Copy, Debug, PartialEq)]

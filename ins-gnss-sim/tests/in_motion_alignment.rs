@@ -4,7 +4,7 @@
 
 use ins_gnss_core::align::align_in_motion;
 use ins_gnss_core::imu::DEG_PER_H;
-use ins_gnss_core::position::GeoPos;
+use ins_gnss_core::GeoPos;
 use ins_gnss_sim::scenarios::{gnss_1hz, mems_imu};
 use ins_gnss_sim::simulate;
 use ins_gnss_sim::{Segment, Start, Trajectory};

@@ -18,6 +18,13 @@
 //! Right (body-frame) perturbation everywhere: `R ⊕ δθ = R·Exp(δθ)`,
 //! `S ⊖ R = Log(R⁻¹·S)`, Euclidean blocks additive, `true = nominal ⊕ δx`.
 //!
+//! # Products
+//!
+//! The tangent of a product (a tuple, or a [`composite_state!`]) is the concatenation of its
+//! parts' tangents, in order, and its dimension is their type-level sum (`(So3, R3, R3, R3,
+//! R3)` has `Dim = Const<15>`). ⊕ and ⊖ act block by block, so every Jacobian is block
+//! diagonal; a composite names its blocks with [`Block`] constants.
+//!
 //! # Scalar
 //!
 //! Every type takes its scalar as a parameter that defaults to `f64`: `So3` is
@@ -54,7 +61,7 @@
 mod coeffs;
 mod euclid;
 pub mod numdiff;
-pub mod product;
+mod product;
 mod scalar;
 mod so2;
 mod so3;
@@ -63,9 +70,9 @@ mod traits;
 #[cfg(feature = "testing")]
 pub mod testing;
 
-pub use coeffs::Coeffs;
 #[cfg(feature = "serde")]
 pub use coeffs::serde_coeffs;
+pub use coeffs::Coeffs;
 pub use euclid::{Rn, R1, R2, R3};
 pub use product::Block;
 pub use scalar::Real;
@@ -80,3 +87,9 @@ pub use nalgebra;
 #[cfg(feature = "serde")]
 #[doc(hidden)]
 pub use serde as __serde;
+
+/// What `composite_state!` expands to calls (not an API).
+#[doc(hidden)]
+pub mod __private {
+    pub use crate::product::{set_block, set_diagonal_block};
+}

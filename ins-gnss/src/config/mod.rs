@@ -18,12 +18,12 @@ use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
 use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
 use ins_gnss_core::mechanization::Mechanization;
 use ins_gnss_core::navigator::{GnssConfig, InitialState, InitialStd, ScaleInit};
-use ins_gnss_core::position::GeoPos;
 use ins_gnss_core::scale::ScaleFactorNoise;
-use ins_gnss_core::state::InsState;
 use ins_gnss_core::vehicle::{
     DetectorConfig, NhcConfig, OdometerConfig, VehicleAiding, ZuptConfig, VEHICLE_STREAMS,
 };
+use ins_gnss_core::GeoPos;
+use ins_gnss_core::InsState;
 
 mod convert;
 mod data;

@@ -68,14 +68,14 @@ impl RefReader {
             11 => NavRecord {
                 week: r[0],
                 t: r[1],
-                pos: ins_gnss_core::position::GeoPos::from_degrees(r[2], r[3], r[4]),
+                pos: ins_gnss_core::GeoPos::from_degrees(r[2], r[3], r[4]),
                 vel: Vector3::new(r[5], r[6], r[7]),
                 att: Vector3::new(r[8] * d, r[9] * d, r[10] * d),
             },
             4 => NavRecord {
                 week: 0.0,
                 t: r[0],
-                pos: ins_gnss_core::position::GeoPos::from_degrees(r[1], r[2], r[3]),
+                pos: ins_gnss_core::GeoPos::from_degrees(r[1], r[2], r[3]),
                 vel: Vector3::repeat(f64::NAN),
                 att: Vector3::repeat(f64::NAN),
             },
@@ -111,7 +111,7 @@ pub fn interpolate(a: &NavRecord, b: &NavRecord, t: f64) -> NavRecord {
     NavRecord {
         week: a.week,
         t,
-        pos: ins_gnss_core::position::GeoPos {
+        pos: ins_gnss_core::GeoPos {
             lat: lerp(a.pos.lat, b.pos.lat),
             lon: lerp(a.pos.lon, b.pos.lon),
             h: lerp(a.pos.h, b.pos.h),

@@ -12,7 +12,7 @@ use crate::eval::{errors, interpolate, RefReader, MAX_REFERENCE_GAP};
 use ins_gnss_core::earth::geodetic_to_local_ned;
 use ins_gnss_core::io::formats::open;
 use ins_gnss_core::io::{NavReader, NumericLines};
-use ins_gnss_core::position::GeoPos;
+use ins_gnss_core::GeoPos;
 
 mod data;
 mod draw;

@@ -37,9 +37,9 @@ use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts}
 use ins_gnss_core::model::{ImuInput, InsModel};
 use ins_gnss_core::navigator::{ClockInit, NavError, NavState, Navigator, RawEpoch, TightConfig};
 use ins_gnss_core::scale::{InsModel21, InsState21};
-use ins_gnss_core::state::InsState;
 use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21};
 use ins_gnss_core::vehicle::VEHICLE_STREAMS;
+use ins_gnss_core::InsState;
 use nalgebra::DefaultAllocator;
 
 mod error;
@@ -252,7 +252,7 @@ where
     std::thread::scope(|scope| -> Result<(), RunError> {
         // States, not records: the writer thread does the Euler conversion.
         let (nav_tx, nav_rx) =
-            std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::state::InsState)>>(4);
+            std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::InsState)>>(4);
         let writer = scope.spawn(move || -> Result<O::Nav, RunError> {
             let mut w = nav_sink;
             for batch in nav_rx {

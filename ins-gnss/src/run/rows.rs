@@ -52,7 +52,7 @@ pub(crate) fn raise_position_sigma(sigma: &mut [f64], floor: &[f64; 3]) {
 }
 
 /// The navigation record of a state.
-pub fn nav_record(t: f64, x: &ins_gnss_core::state::InsState) -> NavRecord {
+pub fn nav_record(t: f64, x: &ins_gnss_core::InsState) -> NavRecord {
     let (r, p, y) = x.euler();
     NavRecord { week: 0.0, t, pos: x.pos, vel: x.vel, att: Vector3::new(r, p, y) }
 }

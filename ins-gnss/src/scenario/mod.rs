@@ -16,7 +16,7 @@ use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M
 use ins_gnss_core::io::formats::{
     create_partial, partial_path, publish, write_gnss, write_imu, write_nav,
 };
-use ins_gnss_core::position::GeoPos;
+use ins_gnss_core::GeoPos;
 
 mod monte_carlo;
 mod spec;

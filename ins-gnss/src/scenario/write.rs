@@ -110,11 +110,11 @@ impl Scenario {
     }
 
     /// The configuration matching this scenario (paths relative to the dataset).
-    pub fn config(&self, truth0: &ins_gnss_core::state::InsState, t0: f64) -> Config {
+    pub fn config(&self, truth0: &ins_gnss_core::InsState, t0: f64) -> Config {
         use manifolds::Manifold;
         let d = 180.0 / core::f64::consts::PI;
         let ie = &self.init;
-        let mut delta = manifolds::Tangent::<ins_gnss_core::state::InsState>::zeros();
+        let mut delta = manifolds::Tangent::<ins_gnss_core::InsState>::zeros();
         for k in 0..3 {
             delta[k] = ie.attitude_error[k] / d;
             delta[3 + k] = ie.velocity_error[k];

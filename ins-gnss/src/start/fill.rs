@@ -93,7 +93,7 @@ pub(super) fn fill_init(
                 let offset = m.att.rotate(&lever);
                 let (lat, lon, h) =
                     ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
-                (ins_gnss_core::position::GeoPos::new(lat, lon, h), e.pos_std, e.t)
+                (ins_gnss_core::GeoPos::new(lat, lon, h), e.pos_std, e.t)
             }
             None => {
                 let (pos, std) = m.position_from_first_fix(&lever);

@@ -24,7 +24,7 @@ macro_rules! __composite_law_sampler {
                 let tangents = ($($field.tangents,)+)
                     .prop_map(|($($field,)+)| {
                         let mut t = $crate::Tangent::<Self>::zeros();
-                        $( $crate::product::set_block(&mut t, Self::$BLOCK.start(), &$field); )+
+                        $( $crate::__private::set_block(&mut t, Self::$BLOCK.start(), &$field); )+
                         t
                     })
                     .boxed();
@@ -134,7 +134,7 @@ macro_rules! __composite_coeffs {
 }
 
 /// Define a named composite state whose tangent dimension is the sum of its fields',
-/// known at compile time, with a typed [`Block`](crate::product::Block) constant per field.
+/// known at compile time, with a typed [`Block`](crate::Block) constant per field.
 ///
 /// ```
 /// use manifolds::{composite_state, Manifold, So3, R3};
@@ -263,7 +263,7 @@ macro_rules! composite_state {
             fn ominus(&self, origin: &Self) -> $crate::Tangent<Self, $S> {
                 let mut out = $crate::Tangent::<Self, $S>::zeros();
                 $(
-                    $crate::product::set_block(
+                    $crate::__private::set_block(
                         &mut out,
                         Self::$BLOCK.start(),
                         &self.$field.ominus(&origin.$field),
@@ -284,8 +284,8 @@ macro_rules! composite_state {
                 let mut J_y_delta = $crate::TangentMatrix::<Self, $S>::zeros();
                 $(
                     let j = self.$field.oplus_jacobians(&Self::$BLOCK.of(delta));
-                    $crate::product::set_diagonal_block(&mut J_y_x, Self::$BLOCK.start(), &j.J_y_x);
-                    $crate::product::set_diagonal_block(
+                    $crate::__private::set_diagonal_block(&mut J_y_x, Self::$BLOCK.start(), &j.J_y_x);
+                    $crate::__private::set_diagonal_block(
                         &mut J_y_delta,
                         Self::$BLOCK.start(),
                         &j.J_y_delta,
@@ -300,7 +300,7 @@ macro_rules! composite_state {
             ) -> $crate::TangentMatrix<Self, $S> {
                 let mut J_y_delta = $crate::TangentMatrix::<Self, $S>::zeros();
                 $(
-                    $crate::product::set_diagonal_block(
+                    $crate::__private::set_diagonal_block(
                         &mut J_y_delta,
                         Self::$BLOCK.start(),
                         &self.$field.oplus_jacobian_delta(&Self::$BLOCK.of(delta)),
@@ -342,8 +342,8 @@ macro_rules! composite_state {
                 let mut J_d_x = $crate::TangentMatrix::<Self, $S>::zeros();
                 $(
                     let j = self.$field.ominus_jacobians(&origin.$field);
-                    $crate::product::set_diagonal_block(&mut J_d_y, Self::$BLOCK.start(), &j.J_d_y);
-                    $crate::product::set_diagonal_block(&mut J_d_x, Self::$BLOCK.start(), &j.J_d_x);
+                    $crate::__private::set_diagonal_block(&mut J_d_y, Self::$BLOCK.start(), &j.J_d_y);
+                    $crate::__private::set_diagonal_block(&mut J_d_x, Self::$BLOCK.start(), &j.J_d_x);
                 )+
                 $crate::OminusJacobians { J_d_y, J_d_x }
             }

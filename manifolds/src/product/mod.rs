@@ -1,8 +1,4 @@
-//! Product states: tuples of manifolds and named composite states.
-//!
-//! The tangent of a product is the concatenation of its parts' tangents, in order, and its
-//! dimension is their type-level sum (`(So3, R3, R3, R3, R3)` has `Dim = Const<15>`).
-//! ⊕ and ⊖ act block by block, so every Jacobian is block diagonal.
+//! Product states: tuples of manifolds and named composite states (the crate's "Products").
 
 use core::marker::PhantomData;
 use core::ops::Range;
@@ -14,8 +10,7 @@ use crate::scalar::Real;
 use crate::traits::{DimAlloc, Manifold, Tangent, TangentMatrix};
 
 /// Copy of the block of `v` that starts at `offset` and has `B::DIM` rows.
-#[doc(hidden)]
-pub fn block_of<D, B, T: Real>(v: &OVector<T, D>, offset: usize) -> OVector<T, B>
+pub(crate) fn block_of<D, B, T: Real>(v: &OVector<T, D>, offset: usize) -> OVector<T, B>
 where
     D: DimName,
     B: DimName,
