@@ -114,3 +114,136 @@ fn a_composite_state_round_trips_exactly() {
     let back: AhrsState = serde_json::from_str(&serde_json::to_string(&x).unwrap()).unwrap();
     assert_eq!(back, x);
 }
+
+type Late = estimator::estimator_core::Replay<
+    Pose2,
+    GrossErrorGate<SageHusa>,
+    estimator::estimator_core::StaticCov,
+    Unicycle,
+>;
+
+const UNICYCLE: Unicycle = Unicycle { sigma_v: 0.1, sigma_w: 0.02 };
+
+/// Step `k` of a smoothed `Replay`: a model prediction on even steps, an unscented one
+/// (with its statistical transition) on odd ones; an on-time unscented range-bearing
+/// update every fourth step; a fix measured every fifth step and delivered three steps
+/// late, applied iterated at its stamp by replay. The measurements come from the
+/// noise-free path `truth`, so they do not depend on the filter.
+fn late_step(r: &mut Late, k: usize, truth: &[Pose2], pending: &mut Vec<(f64, usize)>) -> Vec<u64> {
+    use estimator::estimator_core::SigmaPoints;
+    let u = (5.0, 0.3 + 0.2 * (0.05 * k as f64).sin());
+    let sp = SigmaPoints::default();
+    if k % 2 == 0 {
+        r.predict(&u, 0.1).unwrap();
+    } else {
+        r.predict_with_transition(0.1, move |f, dt| {
+            f.predict_unscented_transition(&UNICYCLE, &u, dt, &sp)
+        })
+        .unwrap();
+    }
+    let t = r.filter().time();
+    let landmarks = [Vector2::new(-30.0, 0.05), Vector2::new(-25.0, -5.0), Vector2::new(5.0, 40.0)];
+    let rb = Matrix2::new(0.25, 0.0, 0.0, 4e-4);
+    let wobble =
+        |j: usize| Vector2::new(0.4 * (1.3 * j as f64).sin(), 0.015 * (0.7 * j as f64).cos());
+    if k % 4 == 1 {
+        let sensor = RangeBearing { landmark: landmarks[k % 3] };
+        let z = sensor.predict(&truth[k]).oplus(&wobble(k));
+        r.update_with_at(t, move |f| f.update_unscented(&sensor, &z, &(rb * 2.0), &sp).map(|_| ()))
+            .unwrap();
+    }
+    if k % 5 == 0 {
+        pending.push((t, k));
+    }
+    while let Some(&(stamp, j)) = pending.first() {
+        if j + 3 > k {
+            break;
+        }
+        let sensor = RangeBearing { landmark: landmarks[(j + 1) % 3] };
+        let z = sensor.predict(&truth[j]).oplus(&wobble(j + 7));
+        r.update_with_at(stamp, move |f| f.update_iterated(&sensor, &z, &rb, 5, 1e-12).map(|_| ()))
+            .unwrap();
+        pending.remove(0);
+    }
+    bits(r.filter(), 0.0)
+}
+
+fn late_start() -> Late {
+    let c = start();
+    Late::new(c.filter, UNICYCLE, 1.0).with_smoother()
+}
+
+fn noise_free_path(n: usize) -> Vec<Pose2> {
+    use estimator::estimator_core::ProcessModel;
+    let mut path = vec![(Vector2::new(0.5, -19.0), So2::new(3.05))];
+    for k in 1..n {
+        let u = (5.0, 0.3 + 0.2 * (0.05 * k as f64).sin());
+        let next = UNICYCLE.propagate(&path[k - 1], &u, 0.1);
+        path.push(next);
+    }
+    path
+}
+
+/// A `Replay` with its smoother — model and unscented predictions, on-time unscented
+/// updates, fixes three steps late applied iterated by replay — written to JSON at step
+/// 100 (`Replay::checkpoint`) and resumed with the model (`Replay::resume`): at every later
+/// step the filter equals the run that never stopped, bit for bit, and so does the
+/// smoothed trajectory at the end. The checkpoint closes the history: a fix stamped
+/// before step 100 is refused by the resumed run (`TooLate`) and taken by the other.
+#[test]
+fn a_replay_resumes_bit_for_bit_from_a_checkpoint() {
+    use estimator::estimator_core::{FilterError, Replay, ReplayCheckpoint};
+    let truth = noise_free_path(201);
+    let (mut straight, mut pending_a) = (late_start(), Vec::new());
+    let through: Vec<_> =
+        (1..=200).map(|k| late_step(&mut straight, k, &truth, &mut pending_a)).collect();
+    assert!(straight.replays() >= 35, "{}", straight.replays());
+
+    let (mut first, mut pending_b) = (late_start(), Vec::new());
+    let mut resumed: Vec<_> =
+        (1..=100).map(|k| late_step(&mut first, k, &truth, &mut pending_b)).collect();
+    let text = serde_json::to_string(&first.checkpoint().unwrap()).unwrap();
+    let before = first.filter().clone();
+    // (the checkpoint leaves the Replay as it was)
+    assert_eq!(bits(first.filter(), 0.0), bits(&before, 0.0));
+    let t_checkpoint = first.filter().time();
+    drop(first);
+    let back: ReplayCheckpoint<Pose2, GrossErrorGate<SageHusa>, _> =
+        serde_json::from_str(&text).unwrap();
+    let mut second = Replay::resume(back, UNICYCLE);
+    assert_eq!(second.oldest(), t_checkpoint);
+
+    // a fix stamped before the checkpoint: refused after the resume, taken without it
+    let sensor = RangeBearing { landmark: Vector2::new(5.0, 40.0) };
+    let (z, r) = (sensor.predict(&truth[99]), Matrix2::new(0.25, 0.0, 0.0, 4e-4));
+    let stamp = t_checkpoint - 0.1;
+    let mut again: Late = Replay::resume(serde_json::from_str(&text).unwrap(), UNICYCLE);
+    let refused = again.update_at(sensor, z, r, stamp);
+    assert!(matches!(refused, Err(FilterError::TooLate { .. })), "{refused:?}");
+    let (mut third, mut pending_c) = (late_start(), Vec::new());
+    (1..=100).for_each(|k| drop(late_step(&mut third, k, &truth, &mut pending_c)));
+    assert!(third.update_at(sensor, z, r, stamp).is_ok());
+
+    resumed.extend((101..=200).map(|k| late_step(&mut second, k, &truth, &mut pending_b)));
+    for (k, (a, b)) in through.iter().zip(&resumed).enumerate() {
+        assert_eq!(a, b, "step {}", k + 1);
+    }
+    let smoothed = |r: &Late| -> Vec<u64> {
+        let mut v = Vec::new();
+        for s in r.smooth().unwrap() {
+            v.extend([
+                s.time.to_bits(),
+                s.x.0.x.to_bits(),
+                s.x.0.y.to_bits(),
+                s.x.1.angle().to_bits(),
+            ]);
+            v.extend(s.p.iter().map(|p| p.to_bits()));
+        }
+        v
+    };
+    let (a, b) = (smoothed(&straight), smoothed(&second));
+    assert_eq!((a.len(), b.len()), (201 * (4 + 9), 201 * (4 + 9)));
+    if let Some(i) = a.iter().zip(&b).position(|(p, q)| p != q) {
+        panic!("the smoothed trajectories differ first at epoch {}", i / 13);
+    }
+}

@@ -143,6 +143,48 @@ where
     smoother: Option<RtsSmoother<X>>,
 }
 
+/// A [`Replay`] as it can be written and read back ([`Replay::checkpoint`],
+/// [`Replay::resume`]; with the feature `serde` it implements `Serialize` and
+/// `Deserialize`): the filter up to date, the smoother's recording with the history's
+/// events in it, the history's length and the replay count.
+///
+/// The history's events hold the caller's closures, which no format can write, so a
+/// checkpoint *closes* the history: the resumed `Replay` starts its history at the
+/// checkpoint's time and refuses ([`FilterError::TooLate`]) a measurement stamped before
+/// it, which the run that never stopped could still have applied. Everything else is the
+/// same, bit for bit: the filter, and the smoothed trajectory when the smoother records
+/// (`tests/checkpoint.rs`). Checkpoint where no measurement older than now is still on its
+/// way (after a GNSS outage, at a pause), or keep the late ones for the resumed run's
+/// history by stamping them no earlier than the checkpoint.
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "ErrorStateFilter<X, A, B>: serde::Serialize, \
+                     RtsSmoother<X>: serde::Serialize",
+        deserialize = "ErrorStateFilter<X, A, B>: serde::Deserialize<'de>, \
+                       RtsSmoother<X>: serde::Deserialize<'de>"
+    ))
+)]
+#[derive(Clone, Debug)]
+pub struct ReplayCheckpoint<X, A, B>
+where
+    X: Manifold,
+    A: NoiseStrategy,
+    B: CovBackend<X::Dim>,
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    /// The filter, up to date.
+    pub filter: ErrorStateFilter<X, A, B>,
+    /// The smoother's recording, the history's predictions included (`None` without
+    /// [`Replay::with_smoother`]).
+    pub smoother: Option<RtsSmoother<X>>,
+    /// The history's length, s.
+    pub history: f64,
+    /// How many times the history was replayed.
+    pub replays: u64,
+}
+
 impl<X, A, B, PM> Replay<X, A, B, PM>
 where
     X: Manifold + 'static,
@@ -208,6 +250,40 @@ where
     /// The filter (up to date) and the model back; the history is dropped.
     pub fn into_inner(self) -> (ErrorStateFilter<X, A, B>, PM) {
         (self.filter, self.model)
+    }
+
+    /// The `Replay` as it can be written and read back ([`ReplayCheckpoint`]): the
+    /// history's events are applied to a copy of its start (the smoother records them),
+    /// so resuming closes the history at now. The `Replay` itself is unchanged.
+    pub fn checkpoint(&self) -> Result<ReplayCheckpoint<X, A, B>, FilterError> {
+        let mut smoother = self.smoother.clone();
+        if smoother.is_some() {
+            let mut f = self.start.clone();
+            for e in &self.events {
+                run(&mut f, &self.model, e, smoother.as_mut())?;
+            }
+        }
+        Ok(ReplayCheckpoint {
+            filter: self.filter.clone(),
+            smoother,
+            history: self.history,
+            replays: self.replays,
+        })
+    }
+
+    /// Resume from a [`checkpoint`](Self::checkpoint) with the process model: the history
+    /// starts at the checkpoint's time.
+    pub fn resume(checkpoint: ReplayCheckpoint<X, A, B>, model: PM) -> Self {
+        let ReplayCheckpoint { filter, smoother, history, replays } = checkpoint;
+        Self {
+            model,
+            history,
+            start: filter.clone(),
+            events: VecDeque::new(),
+            filter,
+            replays,
+            smoother,
+        }
     }
 
     /// The time at the start of the history: the oldest time a measurement may carry.
