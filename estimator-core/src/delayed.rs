@@ -12,7 +12,7 @@ use crate::backend::CovBackend;
 use crate::dims::{Cov, FilterAlloc, StateDim};
 use crate::error::FilterError;
 use crate::filter::ErrorStateFilter;
-use crate::smoother::{RtsSmoother, Smoothed};
+use crate::smoother::{FixedLagSmoother, Lag, RtsSmoother, Smoothed};
 use crate::traits::{MeasurementModel, ProcessModel};
 
 /// An update as the history keeps it.
@@ -34,6 +34,81 @@ pub const STAMP_TOLERANCE: f64 = 1e-9;
 /// Whether `a` and `b` are the same epoch ([`STAMP_TOLERANCE`]).
 fn same_epoch(a: f64, b: f64) -> bool {
     (a - b).abs() <= STAMP_TOLERANCE * a.abs().max(b.abs()).max(1.0)
+}
+
+/// The smoother a [`Replay`] records its final predictions in: the whole run
+/// ([`Replay::with_smoother`]) or a window ([`Replay::with_fixed_lag`]).
+#[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(bound(
+        serialize = "X: serde::Serialize, Cov<X::Dim>: serde::Serialize",
+        deserialize = "X: serde::Deserialize<'de>, Cov<X::Dim>: serde::Deserialize<'de>"
+    ))
+)]
+pub enum ReplaySmoother<X: Manifold>
+where
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    /// Fixed interval: every prediction since the start.
+    Interval(RtsSmoother<X>),
+    /// Fixed lag: the predictions of the last lag.
+    FixedLag(FixedLagSmoother<X>),
+}
+
+impl<X: Manifold> ReplaySmoother<X>
+where
+    DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
+{
+    fn predict<A, B, PM>(
+        &mut self,
+        f: &mut ErrorStateFilter<X, A, B>,
+        model: &PM,
+        u: &PM::Input,
+        dt: f64,
+    ) -> Result<(), FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+        PM: ProcessModel<State = X>,
+    {
+        match self {
+            ReplaySmoother::Interval(s) => s.predict(f, model, u, dt),
+            ReplaySmoother::FixedLag(s) => s.predict(f, model, u, dt),
+        }
+    }
+
+    fn predict_with<A, B>(
+        &mut self,
+        f: &mut ErrorStateFilter<X, A, B>,
+        step: impl FnOnce(&mut ErrorStateFilter<X, A, B>) -> Result<Cov<X::Dim>, FilterError>,
+    ) -> Result<(), FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+    {
+        match self {
+            ReplaySmoother::Interval(s) => s.predict_with(f, step),
+            ReplaySmoother::FixedLag(s) => s.predict_with(f, step),
+        }
+    }
+
+    /// The smoothed estimates from `f`'s posterior: every one since the start (fixed
+    /// interval) or the window's, oldest first (fixed lag).
+    pub fn smooth<A, B>(
+        &self,
+        f: &ErrorStateFilter<X, A, B>,
+    ) -> Result<Vec<Smoothed<X>>, FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+    {
+        match self {
+            ReplaySmoother::Interval(s) => s.smooth(f),
+            ReplaySmoother::FixedLag(s) => s.smooth(f),
+        }
+    }
 }
 
 enum Event<X: Manifold, A: NoiseStrategy, B: CovBackend<X::Dim>, U>
@@ -114,7 +189,10 @@ where
 /// A smoother composes with it: [`Replay::with_smoother`] records each prediction in an
 /// [`RtsSmoother`] when it leaves the history (final: no late measurement can change it),
 /// and [`Replay::smooth`] smooths everything so far — the on-time filter's smoothed
-/// trajectory, bit for bit (`tests/delayed.rs`).
+/// trajectory, bit for bit (`tests/delayed.rs`). [`Replay::with_fixed_lag`] records in a
+/// [`FixedLagSmoother`] instead: [`Replay::lagged`] is then the on-time filter's
+/// `x(t − lag | t)`, late measurements included, bit for bit. [`Replay::checkpoint`] and
+/// [`Replay::resume`] write and read it back ([`ReplayCheckpoint`]).
 ///
 /// Time stamps are compared within [`STAMP_TOLERANCE`] (relative): the filter's clock sums
 /// its intervals (200 steps of 0.1 s make 20.000000000000014), so a measurement stamped
@@ -140,7 +218,7 @@ where
     filter: ErrorStateFilter<X, A, B>,
     replays: u64,
     /// The smoother's recording of the events that left the history (final).
-    smoother: Option<RtsSmoother<X>>,
+    smoother: Option<ReplaySmoother<X>>,
 }
 
 /// A [`Replay`] as it can be written and read back ([`Replay::checkpoint`],
@@ -161,9 +239,9 @@ where
     derive(serde::Serialize, serde::Deserialize),
     serde(bound(
         serialize = "ErrorStateFilter<X, A, B>: serde::Serialize, \
-                     RtsSmoother<X>: serde::Serialize",
+                     ReplaySmoother<X>: serde::Serialize",
         deserialize = "ErrorStateFilter<X, A, B>: serde::Deserialize<'de>, \
-                       RtsSmoother<X>: serde::Deserialize<'de>"
+                       ReplaySmoother<X>: serde::Deserialize<'de>"
     ))
 )]
 #[derive(Clone, Debug)]
@@ -177,8 +255,8 @@ where
     /// The filter, up to date.
     pub filter: ErrorStateFilter<X, A, B>,
     /// The smoother's recording, the history's predictions included (`None` without
-    /// [`Replay::with_smoother`]).
-    pub smoother: Option<RtsSmoother<X>>,
+    /// [`Replay::with_smoother`] or [`Replay::with_fixed_lag`]).
+    pub smoother: Option<ReplaySmoother<X>>,
     /// The history's length, s.
     pub history: f64,
     /// How many times the history was replayed.
@@ -214,27 +292,50 @@ where
     /// prediction must then give its transition
     /// ([`predict_with_transition`](Self::predict_with_transition)).
     pub fn with_smoother(mut self) -> Self {
-        self.smoother = Some(RtsSmoother::new());
+        self.smoother = Some(ReplaySmoother::Interval(RtsSmoother::new()));
         self
     }
 
-    /// The smoother's recording of the predictions that left the history (`None` without
-    /// [`with_smoother`](Self::with_smoother)).
-    pub fn smoother(&self) -> Option<&RtsSmoother<X>> {
-        self.smoother.as_ref()
+    /// Record for a fixed-lag smoother ([`FixedLagSmoother`]) as
+    /// [`with_smoother`](Self::with_smoother) does for the fixed-interval one: the window
+    /// of the last `lag`, whose estimates [`smooth`](Self::smooth) gives (the oldest,
+    /// `x(t − lag | t)`, is [`lagged`](Self::lagged)), those of the on-time filter's
+    /// fixed-lag smoother, late measurements included. Call it before the first event.
+    pub fn with_fixed_lag(mut self, lag: Lag) -> Self {
+        self.smoother = Some(ReplaySmoother::FixedLag(FixedLagSmoother::new(lag)));
+        self
     }
 
-    /// The fixed-interval smoothed trajectory of everything so far
-    /// ([`RtsSmoother::smooth`]): the recording, with the events still in the history
-    /// recorded on a copy. Without [`with_smoother`](Self::with_smoother), the history's
-    /// events alone, from its start.
+    /// The fixed-interval smoother's recording of the predictions that left the history
+    /// (`None` without [`with_smoother`](Self::with_smoother)).
+    pub fn smoother(&self) -> Option<&RtsSmoother<X>> {
+        match &self.smoother {
+            Some(ReplaySmoother::Interval(s)) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// The smoothed trajectory of everything so far: the recording, with the events still
+    /// in the history recorded on a copy, smoothed ([`RtsSmoother::smooth`]); with
+    /// [`with_fixed_lag`](Self::with_fixed_lag), the window's estimates
+    /// ([`FixedLagSmoother::smooth`]). Without either, the history's events alone, from
+    /// its start.
     pub fn smooth(&self) -> Result<Vec<Smoothed<X>>, FilterError> {
-        let mut rts = self.smoother.clone().unwrap_or_default();
+        let mut rec = match &self.smoother {
+            Some(s) => s.clone(),
+            None => ReplaySmoother::Interval(RtsSmoother::new()),
+        };
         let mut f = self.start.clone();
         for e in &self.events {
-            run(&mut f, &self.model, e, Some(&mut rts))?;
+            run(&mut f, &self.model, e, Some(&mut rec))?;
         }
-        rts.smooth(&f)
+        rec.smooth(&f)
+    }
+
+    /// The oldest estimate of [`smooth`](Self::smooth): with
+    /// [`with_fixed_lag`](Self::with_fixed_lag), `x(t − lag | t)`.
+    pub fn lagged(&self) -> Result<Smoothed<X>, FilterError> {
+        Ok(self.smooth()?.swap_remove(0))
     }
 
     /// The filter, up to date.
@@ -452,7 +553,7 @@ fn run<X, A, B, PM>(
     f: &mut ErrorStateFilter<X, A, B>,
     model: &PM,
     e: &Event<X, A, B, PM::Input>,
-    rts: Option<&mut RtsSmoother<X>>,
+    rts: Option<&mut ReplaySmoother<X>>,
 ) -> Result<(), FilterError>
 where
     X: Manifold,

@@ -97,7 +97,7 @@ pub use backend::{CovBackend, StaticCov, UpdateForm};
 #[cfg(feature = "std")]
 pub use backend::{DenseCov, DynamicCov};
 #[cfg(feature = "std")]
-pub use delayed::{Replay, ReplayCheckpoint, STAMP_TOLERANCE};
+pub use delayed::{Replay, ReplayCheckpoint, ReplaySmoother, STAMP_TOLERANCE};
 pub use dims::{Cov, FilterAlloc, StateDim};
 pub use error::FilterError;
 pub use filter::{ErrorStateFilter, ResetMode};

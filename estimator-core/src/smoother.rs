@@ -369,6 +369,25 @@ where
         Ok(())
     }
 
+    /// A prediction of the caller's, `step(filter)`, which moves the filter and returns
+    /// the step's transition (as [`RtsSmoother::predict_with`]), recorded; the steps that
+    /// left the window are dropped. On `Err` nothing is recorded and the filter is
+    /// unchanged.
+    pub fn predict_with<A, B>(
+        &mut self,
+        filter: &mut ErrorStateFilter<X, A, B>,
+        step: impl FnOnce(&mut ErrorStateFilter<X, A, B>) -> Result<Cov<X::Dim>, FilterError>,
+    ) -> Result<(), FilterError>
+    where
+        A: NoiseStrategy,
+        B: CovBackend<X::Dim>,
+    {
+        let before = filter.time();
+        let step = record_with(filter, step)?;
+        self.push(before, step, filter.time());
+        Ok(())
+    }
+
     /// A recorded step into the window (which started at `before`; the filter is now at
     /// `now`), dropping the steps that left it.
     fn push(&mut self, before: f64, step: RtsStep<X>, now: f64) {

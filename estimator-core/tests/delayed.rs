@@ -230,13 +230,17 @@ fn predict_to_lands_on_the_stamp() {
 /// with nothing changed.
 #[test]
 fn a_smoothed_replay_gives_the_on_time_smoothed_trajectory() {
-    use estimator_core::RtsSmoother;
+    use estimator_core::{FixedLagSmoother, Lag, RtsSmoother};
     let R = Matrix2::identity() * 0.25;
     let (delay, offset) = (0.25, 0.5);
     // fixes at 0.5, 1.005, 1.5, 2.005, …: on an epoch, then inside a step
     let mut on_time = filter();
     let mut rts = RtsSmoother::new();
+    // (the same on-time filter again, recorded by a fixed-lag smoother of 0.3 s)
+    let (mut on_lag, mut lag) = (filter(), FixedLagSmoother::new(Lag::Seconds(0.3)));
     let mut by_model = Replay::new(filter(), process(), 1.0).with_smoother();
+    let mut by_lag = Replay::new(filter(), process(), 1.0).with_fixed_lag(Lag::Seconds(0.3));
+    let mut lagged_checked = 0;
     let mut by_step = Replay::new(filter(), process(), 1.0).with_smoother();
     let step = |f: &mut ErrorStateFilter<Vector4<f64>>, dt: f64| {
         f.predict(&process(), &(), dt)?;
@@ -248,17 +252,23 @@ fn a_smoothed_replay_gives_the_on_time_smoothed_trajectory() {
         let t0 = on_time.time();
         if next_fix > t0 + 1e-9 && next_fix < t0 + DT - 1e-9 {
             rts.predict(&mut on_time, &process(), &(), next_fix - t0).unwrap();
+            lag.predict(&mut on_lag, &process(), &(), next_fix - t0).unwrap();
             on_time.update(&gps(), &truth(next_fix), &R).unwrap();
+            on_lag.update(&gps(), &truth(next_fix), &R).unwrap();
             rts.predict(&mut on_time, &process(), &(), DT - (next_fix - t0)).unwrap();
+            lag.predict(&mut on_lag, &process(), &(), DT - (next_fix - t0)).unwrap();
             pending.push((next_fix, truth(next_fix)));
             next_fix += if next_fix.fract() < 0.1 { 0.505 } else { 0.495 };
         } else {
             rts.predict(&mut on_time, &process(), &(), DT).unwrap();
+            lag.predict(&mut on_lag, &process(), &(), DT).unwrap();
         }
         by_model.predict(&(), DT).unwrap();
+        by_lag.predict(&(), DT).unwrap();
         by_step.predict_with_transition(DT, step).unwrap();
         if (next_fix - on_time.time()).abs() < 1e-9 {
             on_time.update(&gps(), &truth(next_fix), &R).unwrap();
+            on_lag.update(&gps(), &truth(next_fix), &R).unwrap();
             pending.push((by_model.filter().time(), truth(next_fix)));
             next_fix += if next_fix.fract() < 0.1 { 0.505 } else { 0.495 };
         }
@@ -268,14 +278,30 @@ fn a_smoothed_replay_gives_the_on_time_smoothed_trajectory() {
             }
             by_model.update_at(gps(), z, R, t).unwrap();
             by_step.update_at(gps(), z, R, t).unwrap();
+            by_lag.update_at(gps(), z, R, t).unwrap();
             pending.remove(0);
+        }
+        // with no fix on its way, the fixed-lag window, late fixes and all, is the
+        // on-time one's
+        if pending.is_empty() {
+            let (got, want) = (by_lag.lagged().unwrap(), lag.lagged(&on_lag).unwrap());
+            assert_eq!((got.time, got.x, got.p), (want.time, want.x, want.p));
+            lagged_checked += 1;
         }
     }
     // the fixes still on their way arrive
     for (t, z) in pending {
         by_model.update_at(gps(), z, R, t).unwrap();
         by_step.update_at(gps(), z, R, t).unwrap();
+        by_lag.update_at(gps(), z, R, t).unwrap();
     }
+    let (got, want) = (by_lag.smooth().unwrap(), lag.smooth(&on_lag).unwrap());
+    assert_eq!(got.len(), want.len());
+    assert!((30..=33).contains(&got.len()), "{}", got.len());
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!((g.time, g.x, g.p), (w.time, w.x, w.p));
+    }
+    assert!(lagged_checked > 100, "{lagged_checked}");
     assert!(by_model.replays() > 0 && by_model.smoother().unwrap().steps().len() > 300);
     let want = rts.smooth(&on_time).unwrap();
     for replay in [&by_model, &by_step] {
