@@ -274,15 +274,8 @@ where
 {
     /// Keep `history` seconds of events for `filter` propagated by `model`.
     pub fn new(filter: ErrorStateFilter<X, A, B>, model: PM, history: f64) -> Self {
-        Self {
-            model,
-            history,
-            start: filter.clone(),
-            events: VecDeque::new(),
-            filter,
-            replays: 0,
-            smoother: None,
-        }
+        let empty = ReplayCheckpoint { filter, smoother: None, history, replays: 0 };
+        Self::resume(empty, model)
     }
 
     /// Record for a fixed-interval smoother ([`RtsSmoother`]): every prediction is
