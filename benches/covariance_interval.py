@@ -6,30 +6,35 @@ Each configuration runs forward (`ins-gnss run CONFIG --covariance-interval C
 README scores it: navego, horizontal RMS against `truth.nav.zst` after 60 s; drive-0708,
 the RMS over the ten 15 s outages of each one's largest horizontal error against
 `ref_rtkfix.txt.zst`. Prints a Markdown table, the change against the exact mode (0) in
-brackets. Run from the repository root after `cargo build --release -p ins-gnss`:
+brackets. With `--smooth` the runs smooth and `nav_smoothed.txt` is scored the same way.
+Run from the repository root after `cargo build --release -p ins-gnss`:
 
-    python3 benches/covariance_interval.py [BINARY]
+    python3 benches/covariance_interval.py [BINARY] [--smooth]
 """
 import json, os, subprocess, sys, tempfile
-B = sys.argv[1] if len(sys.argv) > 1 else "target/release/ins-gnss"
+SMOOTH = "--smooth" in sys.argv[1:]
+ARGS = [a for a in sys.argv[1:] if a != "--smooth"]
+B = ARGS[0] if ARGS else "target/release/ins-gnss"
 intervals = [0, 0.01, 0.02, 0.05, 0.1]
+NAV = "/nav_smoothed.txt" if SMOOTH else "/nav.txt"
 W = json.load(open("data/drive-0708/outage_windows_15s.json"))
 def run(cfg, ci, extra=()):
     out = os.path.join(tempfile.gettempdir(), "covariance-interval", f"{abs(hash((cfg, ci, extra)))}")
     r = subprocess.run([B, "run", cfg, "--accept-inconsistent", "--quiet", "--out", out,
-                        "--covariance-interval", str(ci), *extra], capture_output=True, text=True)
+                        "--covariance-interval", str(ci), *extra, *(["--smooth"] if SMOOTH else [])],
+                       capture_output=True, text=True)
     if r.returncode != 0:
         return None, r.stderr[-300:]
     return out, None
 def navego(cfg, ci):
     out, e = run(cfg, ci)
     if e: return e
-    j = json.loads(subprocess.run([B, "eval", out + "/nav.txt", "data/navego/truth.nav.zst", "--skip", "60", "--json"], capture_output=True, text=True).stdout)
+    j = json.loads(subprocess.run([B, "eval", out + NAV, "data/navego/truth.nav.zst", "--skip", "60", "--json"], capture_output=True, text=True).stdout)
     return j["overall"]["horizontal"]["rms"]
 def drive(cfg, ci):
     out, e = run(cfg, ci)
     if e: return e
-    args = [B, "eval", out + "/nav.txt", "data/drive-0708/ref_rtkfix.txt.zst", "--json"]
+    args = [B, "eval", out + NAV, "data/drive-0708/ref_rtkfix.txt.zst", "--json"]
     for a, b in W: args += ["--window", f"{a},{b}"]
     j = json.loads(subprocess.run(args, capture_output=True, text=True).stdout)
     return j["windows_rms_of_max_horizontal"]

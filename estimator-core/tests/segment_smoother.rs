@@ -80,23 +80,42 @@ struct Recording {
     priors: bool,
     /// Variances asked every this many steps (0: never).
     variances_every: usize,
+    /// Where the recorder says it will not read the covariance (`reads_covariance`), it is
+    /// shown a filter whose covariance is garbage.
+    garble_unread: bool,
 }
 
 /// The forward pass feeding both smoothers.
 fn both<A: NoiseStrategy>(c: &Case, strategy: A, max_steps: usize) -> Both {
-    let how = Recording { max_steps, priors: true, variances_every: 1 };
+    let how = Recording { max_steps, priors: true, variances_every: 1, garble_unread: false };
     both_recorded(c, strategy, how)
 }
 
 fn both_recorded<A: NoiseStrategy>(c: &Case, strategy: A, how: Recording) -> Both {
+    both_counted(c, strategy, how).0
+}
+
+/// [`both_recorded`], and how many predictions the recorder said it would not read the
+/// covariance of.
+fn both_counted<A: NoiseStrategy>(c: &Case, strategy: A, how: Recording) -> (Both, usize) {
     let sensor = LinearMeasurement::new(c.H);
     let mut f =
         ErrorStateFilter::new(Vector2::new(0.5, -0.2), Matrix2::new(4.0, 0.5, 0.5, 1.0), strategy)
             .unwrap();
     let mut rts = RtsSmoother::new();
     let mut seg = SegmentSmoother::new(Cursor::new(Vec::new()), how.max_steps);
+    let mut unread = 0;
     for (k, z) in c.z.iter().enumerate() {
-        seg.before_predict(&f, &(), c.dt, true);
+        if seg.reads_covariance(f.epoch()) {
+            seg.before_predict(&f, &(), c.dt, true);
+        } else {
+            unread += 1;
+            let mut shown = f.clone();
+            if how.garble_unread {
+                shown.set_covariance(Matrix2::new(1e6, -3.0, -3.0, 7e4)).unwrap();
+            }
+            seg.before_predict(&shown, &(), c.dt, true);
+        }
         rts.predict(&mut f, &c.process, &(), c.dt).unwrap();
         if let Some(z) = z {
             if how.priors {
@@ -119,7 +138,35 @@ fn both_recorded<A: NoiseStrategy>(c: &Case, strategy: A, how: Recording) -> Bot
     })
     .unwrap();
     let rows: Vec<_> = chunks.into_iter().rev().flatten().collect();
-    (rts.smooth(&f).unwrap(), rows, segments)
+    ((rts.smooth(&f).unwrap(), rows, segments), unread)
+}
+
+/// `reads_covariance` tells the truth: where it says the next `before_predict` does not
+/// read the filter's covariance, a garbled covariance there changes no smoothed row (bit
+/// for bit), whatever the segment length, the variance epochs and whether the covariances
+/// before the updates are recorded; it says so on a share of the steps (which a caller with
+/// a covariance at a lower rate than the state then need not bring to now).
+#[test]
+fn the_covariance_is_read_only_where_the_recorder_says() {
+    let c = case();
+    let mut unread_total = 0;
+    for max_steps in [3, 100] {
+        for priors in [true, false] {
+            for variances_every in [0, 4] {
+                let how = Recording { max_steps, priors, variances_every, garble_unread: false };
+                let ((_, clean, _), unread) = both_counted(&c, Quirky, how);
+                let how = Recording { garble_unread: true, ..how };
+                let ((_, garbled, _), again) = both_counted(&c, Quirky, how);
+                assert_eq!(unread, again);
+                assert_eq!(clean.len(), garbled.len());
+                for (a, b) in clean.iter().zip(&garbled) {
+                    assert_eq!((a.time, a.x, a.var), (b.time, b.x, b.var), "{how:?}");
+                }
+                unread_total += unread;
+            }
+        }
+    }
+    assert!(unread_total > 40, "{unread_total}");
 }
 
 #[test]
@@ -128,7 +175,7 @@ fn segments_replayed_from_storage_give_the_step_by_step_smoother() {
     for max_steps in [1, 3, 1000] {
         for priors in [true, false] {
             for variances_every in [1, 3, 0] {
-                let how = Recording { max_steps, priors, variances_every };
+                let how = Recording { max_steps, priors, variances_every, garble_unread: false };
                 let (rts, rows, segments) = both_recorded(&c, Quirky, how);
                 assert!(segments > 10, "{segments} segments");
                 // rts has the start too; rows are the step ends

@@ -544,6 +544,15 @@ where
         }
     }
 
+    /// A stretch opens (and its covariance is stored) after an update, after the most
+    /// steps a segment holds and after an epoch of variances.
+    fn reads_covariance(&self, epoch: u64) -> bool {
+        self.open_steps == 0
+            || self.last_epoch != Some(epoch)
+            || self.open_steps >= self.max_steps
+            || self.close_next
+    }
+
     fn mark_variances(&mut self) {
         if self.open_steps > 0 {
             let flags = &mut self.open[self.last_flags];

@@ -39,6 +39,16 @@ where
     fn records(&self) -> bool {
         true
     }
+
+    /// Whether the next [`before_predict`](Self::before_predict), with the filter at update
+    /// count `epoch`, reads the filter's covariance (a recorder that stores one where a
+    /// stretch of predictions opens). A caller that propagates the covariance at a lower
+    /// rate than the state brings it to now first when this says so, and may skip it
+    /// otherwise. Default: [`records`](Self::records) (every time).
+    fn reads_covariance(&self, epoch: u64) -> bool {
+        let _ = epoch;
+        self.records()
+    }
 }
 
 impl<X: Manifold, U> StepRecorder<X, U> for ()
@@ -98,5 +108,10 @@ where
     #[inline]
     fn records(&self) -> bool {
         self.as_ref().is_some_and(|r| r.records())
+    }
+
+    #[inline]
+    fn reads_covariance(&self, epoch: u64) -> bool {
+        self.as_ref().is_some_and(|r| r.reads_covariance(epoch))
     }
 }

@@ -53,9 +53,13 @@ where
     /// always before an update. The state is propagated at every sample either way.
     /// Between covariance steps [`covariance`](Self::covariance) and
     /// [`sigma`](Self::sigma) are those of the last step (call
-    /// [`settle_covariance`](Self::settle_covariance) to bring them to now). A run
-    /// recorded for a smoother ([`process_recorded`](Self::process_recorded) with a
-    /// recorder that [records](StepRecorder::records)) takes exact steps.
+    /// [`settle_covariance`](Self::settle_covariance) to bring them to now; do before a
+    /// smoother's backward pass). A run recorded for a smoother
+    /// ([`process_recorded`](Self::process_recorded)) records every sample and brings the
+    /// covariance to now wherever the recorder reads it
+    /// ([`StepRecorder::reads_covariance`]: where a stretch opens, after an update, a
+    /// variance epoch or a full segment); the backward pass replays the samples' exact
+    /// transitions.
     pub fn with_covariance_interval(mut self, interval: f64) -> Self {
         self.coarse = (interval > 0.0).then(|| Coarse::new(interval));
         self

@@ -386,14 +386,24 @@ where
         self.filter.set_time(s.t - s.dt);
         let err = |source| NavError::Filter { t: s.t, source };
         match &mut self.coarse {
-            Some(c) if !recorder.records() => {
-                let full = c.add(self.filter.state(), s);
+            Some(_) => {
+                if recorder.records() {
+                    // the recorder stores the covariance where a stretch opens: now's
+                    if recorder.reads_covariance(self.filter.epoch()) {
+                        coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
+                    }
+                    recorder.before_predict(&self.filter, &input, s.dt, mark);
+                }
+                let full = match &mut self.coarse {
+                    Some(c) => c.add(self.filter.state(), s),
+                    None => false,
+                };
                 self.filter.predict_state(&self.model, &input, s.dt).map_err(err)?;
                 if full {
                     coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 }
             }
-            _ => {
+            None => {
                 recorder.before_predict(&self.filter, &input, s.dt, mark);
                 self.filter.predict(&self.model, &input, s.dt).map_err(err)?;
             }

@@ -64,7 +64,7 @@ enum Command {
         states: Option<String>,
         /// Propagate the covariance at most once per this many seconds, over the IMU
         /// samples combined, and before every update; 0: at every sample (overrides
-        /// `filter.covariance_interval`; a smoothed run takes exact steps).
+        /// `filter.covariance_interval`; a smoothed run too).
         #[arg(long, value_name = "SECONDS")]
         covariance_interval: Option<f64>,
         /// Land vehicle: the odometer speed of the IMU file's 8th column, with the

@@ -34,8 +34,10 @@ pub struct FilterSection {
     /// the state is propagated at every sample. Default 0.02 s (4 samples at 200 Hz):
     /// on navego, drive-0708 and the campaigns it moves no RMS by more than 0.4 % and
     /// cuts the filter's IMU epoch by about 40 % (`benches/README.md`). `0`: at every
-    /// sample, the exact mode. A smoothed run (`smooth`) takes exact steps whatever this
-    /// says. The σ written between covariance steps are the last step's.
+    /// sample, the exact mode. A smoothed run (`smooth`) records every sample and brings the
+    /// covariance to now where the smoother stores one; its smoothed RMS moves by at most
+    /// 0.8 % on those data sets. The σ written between covariance steps are the last
+    /// step's.
     #[serde(default = "default_covariance_interval")]
     pub covariance_interval: f64,
 }

@@ -392,6 +392,8 @@ where
     summary.odometer_reversed = nav.odometer_reversed();
     if let Some(recorder) = recorder {
         let backward = Instant::now();
+        // (a covariance at a lower rate than the state: the backward pass starts from now's)
+        nav.settle_covariance()?;
         let rows = out.smoothed(recorder, &nav, &floors)?;
         summary.smoothed = Some((rows, backward.elapsed().as_secs_f64()));
     }
