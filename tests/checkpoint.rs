@@ -133,7 +133,7 @@ fn late_step(r: &mut Late, k: usize, truth: &[Pose2], pending: &mut Vec<(f64, us
     use estimator::estimator_core::SigmaPoints;
     let u = (5.0, 0.3 + 0.2 * (0.05 * k as f64).sin());
     let sp = SigmaPoints::default();
-    if k % 2 == 0 {
+    if k.is_multiple_of(2) {
         r.predict(&u, 0.1).unwrap();
     } else {
         r.predict_with_transition(0.1, move |f, dt| {
@@ -152,7 +152,7 @@ fn late_step(r: &mut Late, k: usize, truth: &[Pose2], pending: &mut Vec<(f64, us
         r.update_with_at(t, move |f| f.update_unscented(&sensor, &z, &(rb * 2.0), &sp).map(|_| ()))
             .unwrap();
     }
-    if k % 5 == 0 {
+    if k.is_multiple_of(5) {
         pending.push((t, k));
     }
     while let Some(&(stamp, j)) = pending.first() {
