@@ -318,11 +318,21 @@ where
             Some(s) => s.clone(),
             None => ReplaySmoother::Interval(RtsSmoother::new()),
         };
+        let f = self.record_history(&mut rec)?;
+        rec.smooth(&f)
+    }
+
+    /// The history's events run on a copy of its start and recorded in `rec`: the
+    /// up-to-date filter, as a smoother sees it.
+    fn record_history(
+        &self,
+        rec: &mut ReplaySmoother<X>,
+    ) -> Result<ErrorStateFilter<X, A, B>, FilterError> {
         let mut f = self.start.clone();
         for e in &self.events {
-            run(&mut f, &self.model, e, Some(&mut rec))?;
+            run(&mut f, &self.model, e, Some(&mut *rec))?;
         }
-        rec.smooth(&f)
+        Ok(f)
     }
 
     /// The oldest estimate of [`smooth`](Self::smooth): with
@@ -351,11 +361,8 @@ where
     /// so resuming closes the history at now. The `Replay` itself is unchanged.
     pub fn checkpoint(&self) -> Result<ReplayCheckpoint<X, A, B>, FilterError> {
         let mut smoother = self.smoother.clone();
-        if smoother.is_some() {
-            let mut f = self.start.clone();
-            for e in &self.events {
-                run(&mut f, &self.model, e, smoother.as_mut())?;
-            }
+        if let Some(rec) = smoother.as_mut() {
+            self.record_history(rec)?;
         }
         Ok(ReplayCheckpoint {
             filter: self.filter.clone(),

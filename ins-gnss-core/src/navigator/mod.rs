@@ -385,28 +385,22 @@ where
         // smoothed rows are reported at the filter's time)
         self.filter.set_time(s.t - s.dt);
         let err = |source| NavError::Filter { t: s.t, source };
-        match &mut self.coarse {
-            Some(_) => {
-                if recorder.records() {
-                    // the recorder stores the covariance where a stretch opens: now's
-                    if recorder.reads_covariance(self.filter.epoch()) {
-                        coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
-                    }
-                    recorder.before_predict(&self.filter, &input, s.dt, mark);
-                }
-                let full = match &mut self.coarse {
-                    Some(c) => c.add(self.filter.state(), s),
-                    None => false,
-                };
-                self.filter.predict_state(&self.model, &input, s.dt).map_err(err)?;
-                if full {
+        if self.coarse.is_some() {
+            if recorder.records() {
+                // the recorder stores the covariance where a stretch opens: now's
+                if recorder.reads_covariance(self.filter.epoch()) {
                     coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 }
-            }
-            None => {
                 recorder.before_predict(&self.filter, &input, s.dt, mark);
-                self.filter.predict(&self.model, &input, s.dt).map_err(err)?;
             }
+            let full = self.coarse.as_mut().is_some_and(|c| c.add(self.filter.state(), s));
+            self.filter.predict_state(&self.model, &input, s.dt).map_err(err)?;
+            if full {
+                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
+            }
+        } else {
+            recorder.before_predict(&self.filter, &input, s.dt, mark);
+            self.filter.predict(&self.model, &input, s.dt).map_err(err)?;
         }
         self.filter.set_time(s.t);
         self.prev = Some(*s);
