@@ -172,20 +172,21 @@ where
         self.step_covariance(x, u, dt, P, out)
     }
 
-    /// The nominal step and the transition's transpose `Φᵀ` (written into `phi_t`), without
-    /// a covariance: what a smoother's replay needs of a step whose covariance it does not
-    /// propagate. The default is [`transition`](Self::transition) then
-    /// [`propagate`](Self::propagate); override it when they share work (the harness
-    /// checks it against `step`).
-    fn step_transition(
+    /// The transition's transpose `Φᵀ` alone, written into `phi_t`: what a smoother's
+    /// backward pass needs of a replayed step, whose nominal states the replay gives
+    /// ([`propagate`](Self::propagate)). The default transposes
+    /// [`transition`](Self::transition); override it when `Φ` costs less than the
+    /// Jacobians (the harness checks it against them). The backward pass forms it on the
+    /// thread that uses it: `Φᵀ` handed from a replay thread to the recursion's cost more
+    /// in moving its cache lines between cores than forming it (`benches/README.md`).
+    fn transition_transposed(
         &self,
         x: &Self::State,
         u: &Self::Input,
         dt: T,
         phi_t: &mut Cov<StateDim<Self::State, T>, T>,
-    ) -> Self::State {
+    ) {
         self.transition(x, u, dt).transpose_to(phi_t);
-        self.propagate(x, u, dt)
     }
 
     /// `out ← Q_d v` for the step from `x` over `dt` whose transition's transpose is

@@ -180,16 +180,10 @@ impl ProcessModel for InsModel21 {
     }
 
     /// `Φᵀ` of [`step`](ProcessModel::step) from the 15-state model's, without `Q_d`.
-    fn step_transition(
-        &self,
-        x: &InsState21,
-        u: &ImuInput,
-        dt: f64,
-        phi_t: &mut M21,
-    ) -> InsState21 {
+    fn transition_transposed(&self, x: &InsState21, u: &ImuInput, dt: f64, phi_t: &mut M21) {
         let v = Self::scale_corrected(x, u);
         let mut t15 = SMatrix::<f64, 15, 15>::zeros();
-        let nav = self.base.step_transition(&x.nav, &v, dt, &mut t15);
+        self.base.transition_transposed(&x.nav, &v, dt, &mut t15);
         let (w, f, decay) = self.scale_terms(x, &v);
         // Φᵀ[(c, r)] = Φ[(r, c)]: step's Φ, transposed
         phi_t.fill(0.0);
@@ -202,7 +196,6 @@ impl ProcessModel for InsModel21 {
             phi_t[(15 + k, 15 + k)] = decay;
             phi_t[(18 + k, 18 + k)] = decay;
         }
-        self.next(x, u, nav)
     }
 
     /// `Q_d v`: the 15-state model's product on the navigation block, the scale

@@ -36,6 +36,10 @@ where
     pub(super) rows: Vec<SmoothedRow<X>>,
     /// `λᵢ` of the segment being smoothed.
     pub(super) lambdas: Vec<OVector<f64, X::Dim>>,
+    /// `Φᵢᵀ` of the segment being smoothed, formed here when the replay did not form
+    /// them (on this thread, where they are used: see
+    /// [`ProcessModel::transition_transposed`]).
+    pub(super) phi_ts: Vec<Cov<X::Dim>>,
 }
 
 impl<X: Manifold> Backward<X>
@@ -53,6 +57,7 @@ where
             pl: Cov::<X::Dim>::zeros(),
             rows: Vec::new(),
             lambdas: Vec::new(),
+            phi_ts: Vec::new(),
         }
     }
 
@@ -65,8 +70,15 @@ where
     where
         PM: ProcessModel<State = X, Input = U>,
     {
-        let (xs, phi_ts) = (&seg.xs, &seg.phi_ts);
+        let xs = &seg.xs;
         let count = seg.steps.len();
+        // the transitions the replay formed, or this segment's own buffer to form them in
+        // (taken out of `self` for the segment: it is borrowed beside `self`'s other parts)
+        let formed = seg.phi_ts.len() == count;
+        let mut own = core::mem::take(&mut self.phi_ts);
+        if !formed {
+            own.resize(count, Cov::<X::Dim>::zeros());
+        }
         let end_flags = seg.steps[count - 1].2;
         let zero = OVector::<f64, X::Dim>::zeros();
         self.lambdas.resize(count + 1, zero.clone());
@@ -102,6 +114,11 @@ where
         // backwards: λᵢ = Φᵢᵀ λᵢ₊₁ and Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ, Λ in one of two buffers, the
         // next one written into the other (no swap: swapping two covariances copies three)
         for k in (0..count).rev() {
+            if !formed {
+                let (_, dt, _, u) = &seg.steps[k];
+                model.transition_transposed(&xs[k], u, *dt, &mut own[k]);
+            }
+            let phi_ts = if formed { &seg.phi_ts } else { &own };
             let (done, later) = self.lambdas.split_at_mut(k + 1);
             kernels::mat_mul(&phi_ts[k], &later[0], &mut done[k]);
             let [a, b] = &mut self.bigs;
@@ -109,6 +126,7 @@ where
             model.adjoint_sandwich(&phi_ts[k], from, to);
             self.cur = 1 - self.cur;
         }
+        let phi_ts = if formed { &seg.phi_ts } else { &own };
         // the start: δ₀ = P₀ λ₀, and what goes into the segment before (Λ₀ stays in
         // `bigs[cur]`)
         let (x0, p0) = (&xs[0], &seg.ps[0]);
@@ -156,6 +174,7 @@ where
                 self.rows.push(SmoothedRow { time: *t, x: xs[k + 1].oplus(&mu), var: None });
             }
         }
+        self.phi_ts = own;
         if end_flags & MARKED != 0 {
             let time = seg.steps[count - 1].0;
             self.rows.push(SmoothedRow { time, x: end_x, var: end_var });

@@ -162,8 +162,10 @@ const END_REPLAY: f64 = 2.0;
 /// without `before_update`) is replayed with its covariance, as the filter predicted it.
 ///
 /// What keeps the second pass close to the cost of the first:
-/// - the replay forms each step's nominal and `Φᵀ` only
-///   ([`ProcessModel::step_transition`]); the recursion's `Φᵀ Λ Φ` is the model's
+/// - the replay forms each step's nominal state only ([`ProcessModel::propagate`]), the
+///   recursion each step's `Φᵀ` as it comes to it
+///   ([`ProcessModel::transition_transposed`]: formed on the thread that uses it, not
+///   handed between cores); its `Φᵀ Λ Φ` is the model's
 ///   structured product ([`ProcessModel::adjoint_sandwich`]; the INS model runs its
 ///   prediction kernel on the transposed pattern), the rest products with vectors;
 /// - a segment closed for length, not by an update, is *continued*: `λ` and `Λ` go through

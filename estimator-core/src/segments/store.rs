@@ -41,7 +41,9 @@ where
     /// does (or why `Pₙ` has no inverse); formed by the replay, which has a core to spare,
     /// not by the recursion, which is the backward pass's longest thread.
     pub(super) p_end_inv: Option<Result<Cov<X::Dim>, FilterError>>,
-    /// `Φᵢᵀ`, `i < n`.
+    /// `Φᵢᵀ`, `i < n`, when the segment was replayed with its covariance ([`END_REPLAY`]),
+    /// which forms them anyway; empty otherwise (the recursion forms them, see
+    /// [`ProcessModel::transition_transposed`]).
     pub(super) phi_ts: Vec<Cov<X::Dim>>,
     /// End time, interval, flags and input of each step.
     pub(super) steps: Vec<(f64, f64, u8, U)>,
@@ -175,7 +177,7 @@ impl<S: Read + Seek> Store<'_, S> {
         // reused: they grow to the longest segment once, then are only overwritten)
         let replay = end == END_REPLAY;
         seg.ps.resize(if replay { count + 1 } else { 1 }, Cov::<X::Dim>::zeros());
-        seg.phi_ts.resize(count, Cov::<X::Dim>::zeros());
+        seg.phi_ts.resize(if replay { count } else { 0 }, Cov::<X::Dim>::zeros());
         read_upper(&v[at..], &mut seg.ps[0]);
         at += tri;
         for _ in 0..count {
@@ -244,9 +246,9 @@ impl<S: Read + Seek> Store<'_, S> {
             }
             p_end = Some(seg.ps[count].clone());
         } else {
-            // the nominal states and the transitions only
+            // the nominal states only
             for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
-                let x_next = model.step_transition(&seg.xs[k], u, *dt, &mut seg.phi_ts[k]);
+                let x_next = model.propagate(&seg.xs[k], u, *dt);
                 seg.xs.push(x_next);
             }
         }

@@ -74,6 +74,23 @@ impl ErrorBlocks {
         self.columns(dt, [1.0, 1.0 + self.bias * dt])
     }
 
+    /// `Φᵀ` (see [`phi`](Self::phi)) written straight into `out`: each column of `Φ`,
+    /// formed in registers, stored as a row of `Φᵀ`, with no padded copy of `Φ` to
+    /// transpose afterwards. The same numbers as `phi`'s.
+    pub(super) fn phi_transposed_into(&self, dt: f64, out: &mut M15) {
+        let diag = [1.0, 1.0 + self.bias * dt];
+        let rows = &mut out.data.0;
+        macro_rules! rows_of_phi_t {
+            ($($j:literal)*) => {$(
+                let col = self.column::<$j>(dt, diag);
+                for (r, row) in rows.iter_mut().enumerate() {
+                    row[$j] = col[r];
+                }
+            )*};
+        }
+        rows_of_phi_t!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14);
+    }
+
     /// `F` as a dense matrix.
     pub(super) fn dense(&self) -> M15 {
         let cols = self.columns(1.0, [0.0, self.bias]);

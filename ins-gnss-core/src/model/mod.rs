@@ -446,19 +446,16 @@ impl ProcessModel for InsModel {
         self.fused_step(x, u, P, out, Some(phi_t))
     }
 
-    /// Mechanization and `Φᵀ` sharing the corrected increments, `R̂` and the Earth
-    /// functions, without the covariance kernel.
-    fn step_transition(
+    /// `Φᵀ` from the error blocks (no `Q_d`, no mechanization).
+    fn transition_transposed(
         &self,
         x: &InsState,
         u: &ImuInput,
         _dt: f64,
         phi_t: &mut Cov<Const<15>>,
-    ) -> InsState {
+    ) {
         let (inc, c, earth) = Self::shared(x, u);
-        let phi = self.transition_blocks(x, &inc, &c, &earth).phi(inc.dt);
-        copy_transposed(&phi, phi_t);
-        self.propagate_with(x, &inc, &c, &earth)
+        self.transition_blocks(x, &inc, &c, &earth).phi_transposed_into(inc.dt, phi_t);
     }
 
     /// `Q_d v = Φ (E (Φᵀ v)) + E v`: one product with `Φ` and two with the
