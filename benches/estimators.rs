@@ -16,7 +16,7 @@ use estimator::estimator_core::{
     ErrorStateFilter, FixedNoise, MeasurementJacobians, MeasurementModel, ProcessJacobians,
     ProcessModel, SigmaPoints,
 };
-use estimator::ins_gnss::align::{align_in_motion, detect_static};
+use estimator::ins_gnss::align::{align_in_motion, detect_static, time_offset, turn_ratio};
 use estimator::ins_gnss::imu::DEG_PER_H;
 use estimator::ins_gnss::GeoPos;
 use ins_gnss_sim::scenarios::{gnss_1hz, mems_imu};
@@ -154,6 +154,12 @@ fn start_checks(c: &mut Criterion) {
                 100.0 * DEG_PER_H,
             ))
         })
+    });
+    g.bench_function("time_offset_70s_within_10s", |b| {
+        b.iter(|| black_box(time_offset(&data.imu, &data.gnss, 30.0, 100.0, 10.0)))
+    });
+    g.bench_function("turn_ratio_70s", |b| {
+        b.iter(|| black_box(turn_ratio(&data.imu, &data.gnss, 30.0, 100.0)))
     });
     g.finish();
 }
