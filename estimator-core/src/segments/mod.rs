@@ -407,8 +407,11 @@ where
     }
 
     /// [`smooth`](Self::smooth) with the segments read and replayed on a second thread
-    /// while this one runs the recursion (the same numbers; about half the time on two
-    /// cores).
+    /// while this one runs the recursion (the same numbers). The replay is the lighter
+    /// part (the nominal states; the recursion forms the transitions): on two cores
+    /// beside a thread that writes the rows, the program's runs take as long as with
+    /// [`smooth`](Self::smooth) (`benches/README.md`); with cores to spare the replay
+    /// runs ahead.
     pub fn smooth_threaded<A, B, PM>(
         mut self,
         filter: &ErrorStateFilter<X, A, B>,
