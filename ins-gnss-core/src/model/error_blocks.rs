@@ -71,14 +71,21 @@ impl ErrorBlocks {
     /// `Φ = I + F dt` (with `1 + bias·dt` on the bias diagonal) as padded columns.
     #[inline(always)]
     pub(super) fn phi(&self, dt: f64) -> Cols16 {
-        self.columns(dt, [1.0, 1.0 + self.bias * dt])
+        self.columns(dt, self.phi_diagonal(dt))
+    }
+
+    /// What `Φ = I + F dt` adds on the diagonal: 1 on the first nine states, `1 + bias·dt`
+    /// on the biases (the `diag` of [`column`](Self::column)).
+    #[inline(always)]
+    fn phi_diagonal(&self, dt: f64) -> [f64; 2] {
+        [1.0, 1.0 + self.bias * dt]
     }
 
     /// `Φᵀ` (see [`phi`](Self::phi)) written straight into `out`: each column of `Φ`,
     /// formed in registers, stored as a row of `Φᵀ`, with no padded copy of `Φ` to
     /// transpose afterwards. The same numbers as `phi`'s.
     pub(super) fn phi_transposed_into(&self, dt: f64, out: &mut M15) {
-        let diag = [1.0, 1.0 + self.bias * dt];
+        let diag = self.phi_diagonal(dt);
         let rows = &mut out.data.0;
         macro_rules! rows_of_phi_t {
             ($($j:literal)*) => {$(
