@@ -190,10 +190,16 @@ pub fn push_exact_row(out: &mut Vec<u8>, values: &[(f64, usize)]) {
 const ROW_VALUES: usize = 32;
 
 /// Append space-separated fixed-point values and a newline (the row is built on the stack
-/// and copied once).
+/// and copied once). Each value's text is moved into the row as a whole [`ROOM`] bytes,
+/// a copy of fixed size that compiles to a few register moves (the text's own length made
+/// it a call of `memcpy`, 2.7 % of a forward run's samples); the bytes past the text are
+/// overwritten by the next value or left out of the row.
 pub fn push_row(out: &mut Vec<u8>, values: &[(f64, usize)]) {
-    let mut line = [0u8; ROW_VALUES * (ROOM + 1) + 1];
+    // (room after the last value for a whole `ROOM`-byte copy)
+    let mut line = [0u8; ROW_VALUES * (ROOM + 1) + ROOM];
     let mut len = 0;
+    // a value's text right-aligned in the first half, copied from where it starts
+    let mut buf = [[0u8; ROOM]; 2];
     for (i, (v, d)) in values.iter().enumerate() {
         if i >= ROW_VALUES {
             out.extend_from_slice(&line[..len]);
@@ -208,12 +214,10 @@ pub fn push_row(out: &mut Vec<u8>, values: &[(f64, usize)]) {
             line[len] = b' ';
             len += 1;
         }
-        let mut buf = [0u8; ROOM];
-        match fixed_into(&mut buf, *v, (*d).min(15)) {
+        match fixed_into(&mut buf[0], *v, (*d).min(15)) {
             Some(at) => {
-                let text = &buf[at..];
-                line[len..len + text.len()].copy_from_slice(text);
-                len += text.len();
+                line[len..len + ROOM].copy_from_slice(&buf.as_flattened()[at..at + ROOM]);
+                len += ROOM - at;
             }
             None => {
                 out.extend_from_slice(&line[..len]);
@@ -335,6 +339,17 @@ mod tests {
         let mut row = Vec::new();
         push_row(&mut row, &odd);
         assert_eq!(row, reference_row(&odd));
+        // the longest texts the fast path writes (a sign, 19 digits, the point), up to and
+        // past a full row: each value's whole-`ROOM` copy stays inside the line
+        let longest = [(-8_990.123_456_789_012, 15); 40];
+        let mut one = Vec::new();
+        push_fixed(&mut one, longest[0].0, 15);
+        assert_eq!(one.len(), 21, "{}", String::from_utf8_lossy(&one));
+        for n in [1, 31, 32, 33, 40] {
+            let mut row = Vec::new();
+            push_row(&mut row, &longest[..n]);
+            assert_eq!(row, reference_row(&longest[..n]), "{n}");
+        }
     }
 
     proptest::proptest! {
