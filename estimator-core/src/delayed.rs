@@ -61,7 +61,9 @@ impl<X: Manifold> ReplaySmoother<X>
 where
     DefaultAllocator: FilterAlloc<X::Dim, X::Dim>,
 {
-    fn predict<A, B, PM>(
+    /// `f.predict(model, u, dt)`, recorded in the smoother (its
+    /// [`RtsSmoother::predict`] or [`FixedLagSmoother::predict`]).
+    pub fn predict<A, B, PM>(
         &mut self,
         f: &mut ErrorStateFilter<X, A, B>,
         model: &PM,

@@ -10,7 +10,7 @@
 use adaptive::AnyStrategy;
 use estimator_core::{
     ErrorStateFilter, FixedLagSmoother, Lag, MeasurementJacobians, MeasurementModel,
-    ProcessJacobians, ProcessModel, RtsSmoother,
+    ProcessJacobians, ProcessModel, ReplaySmoother, RtsSmoother,
 };
 use nalgebra::{Const, SMatrix, SVector};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
@@ -108,16 +108,10 @@ trait Core: Send + Sync {
     fn strategy(&self) -> &'static str;
 }
 
-/// Which smoother records the predictions.
-enum Recorder<const N: usize> {
-    None,
-    Rts(RtsSmoother<SVector<f64, N>>),
-    FixedLag(FixedLagSmoother<SVector<f64, N>>),
-}
-
 struct Filter<const N: usize> {
     f: ErrorStateFilter<SVector<f64, N>, AnyStrategy>,
-    rec: Recorder<N>,
+    /// The smoother that records the predictions, if one was asked for.
+    rec: Option<ReplaySmoother<SVector<f64, N>>>,
 }
 
 impl<const N: usize> Filter<N> {
@@ -194,9 +188,8 @@ impl<const N: usize> Core for Filter<N> {
             Q: SMatrix::from_row_slice(Q),
         };
         match &mut self.rec {
-            Recorder::Rts(rts) => rts.predict(&mut self.f, &step, &(), dt),
-            Recorder::FixedLag(fl) => fl.predict(&mut self.f, &step, &(), dt),
-            Recorder::None => self.f.predict(&step, &(), dt),
+            Some(rec) => rec.predict(&mut self.f, &step, &(), dt),
+            None => self.f.predict(&step, &(), dt),
         }
         .map_err(|e| e.to_string())?;
         Ok(rowmajor(&self.f.covariance()))
@@ -214,9 +207,8 @@ impl<const N: usize> Core for Filter<N> {
 
     fn smooth(&self) -> Result<(Vec<f64>, Vec<f64>), String> {
         let s = match &self.rec {
-            Recorder::Rts(rts) => rts.smooth(&self.f),
-            Recorder::FixedLag(fl) => fl.smooth(&self.f),
-            Recorder::None => return Err("the filter was made without smooth or lag".into()),
+            Some(rec) => rec.smooth(&self.f),
+            None => return Err("the filter was made without smooth or lag".into()),
         }
         .map_err(|e| e.to_string())?;
         let xs = s.iter().flat_map(|e| e.x.iter().copied()).collect();
@@ -238,9 +230,9 @@ fn build<const N: usize>(
         .map_err(|e| e.to_string())?;
     let rec = match (smooth, lag) {
         (true, Some(_)) => return Err("smooth and lag: one smoother or the other".into()),
-        (true, None) => Recorder::Rts(RtsSmoother::new()),
-        (false, Some(k)) => Recorder::FixedLag(FixedLagSmoother::new(Lag::Steps(k))),
-        (false, None) => Recorder::None,
+        (true, None) => Some(ReplaySmoother::Interval(RtsSmoother::new())),
+        (false, Some(k)) => Some(ReplaySmoother::FixedLag(FixedLagSmoother::new(Lag::Steps(k)))),
+        (false, None) => None,
     };
     Ok(Box::new(Filter { f, rec }))
 }
