@@ -190,7 +190,7 @@ pub fn push_exact_row(out: &mut Vec<u8>, values: &[(f64, usize)]) {
 const ROW_VALUES: usize = 32;
 
 /// Append space-separated fixed-point values and a newline (the row is built on the stack
-/// and copied once). Each value's text is moved into the row as a whole [`ROOM`] bytes,
+/// and copied once). Each value's text is moved into the row as a whole `ROOM` (24) bytes,
 /// a copy of fixed size that compiles to a few register moves (the text's own length made
 /// it a call of `memcpy`, 2.7 % of a forward run's samples); the bytes past the text are
 /// overwritten by the next value or left out of the row.
