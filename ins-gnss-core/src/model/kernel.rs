@@ -283,7 +283,7 @@ fn sandwich_padded_kernel<const FMA: bool>(phi: &Cols16, m: &Cols16, e: &HalfNoi
 }
 
 /// A matrix as padded columns, each written once (zeroing the whole block first and then
-/// copying the columns into it was a `memset` and a `memmove` per call: 1.3 % of a
+/// copying the columns into it was a `memset` and a `memmove` per call: 1.8 % of a
 /// smoothed run's samples, on the backward recursion's thread).
 #[inline(always)]
 fn padded(m: &M15) -> Cols16 {
