@@ -293,24 +293,7 @@ fn padded(m: &M15) -> Cols16 {
         d[..15].copy_from_slice(s);
         d
     }
-    let m = &m.data.0;
-    [
-        col(&m[0]),
-        col(&m[1]),
-        col(&m[2]),
-        col(&m[3]),
-        col(&m[4]),
-        col(&m[5]),
-        col(&m[6]),
-        col(&m[7]),
-        col(&m[8]),
-        col(&m[9]),
-        col(&m[10]),
-        col(&m[11]),
-        col(&m[12]),
-        col(&m[13]),
-        col(&m[14]),
-    ]
+    m.data.0.each_ref().map(col)
 }
 
 fma_kernel! {
