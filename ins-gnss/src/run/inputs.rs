@@ -174,31 +174,33 @@ pub(crate) struct ImuFeed {
 }
 
 impl ImuFeed {
-    /// Start reading `imu`. With a `tee`, the samples up to the first after
-    /// `align.max_time` from the start go to it too (for [`Checks`]).
+    /// Start reading `imu`. With a `tee`, the samples go to it too, a batch at a time,
+    /// until [`Checks`] has what it looks at (it hangs up) or up to the first sample past
+    /// [`start_span`]'s end.
     pub(crate) fn spawn(mut imu: ImuReader<FileReader>, tee: Option<(Tee, Config)>) -> Self {
         let (tx, batches) = std::sync::mpsc::sync_channel::<ImuBatch>(4);
         let reader = std::thread::spawn(move || {
             let mut batch = Vec::with_capacity(BATCH);
-            // the checks' samples go in one message when their span ends (or the data
-            // does): one wake-up of the checks' thread instead of one per sample
+            // the checks' samples go with the filter's batches: one wake-up of the checks'
+            // thread per batch instead of one per sample
             let mut tee = tee.map(|(to, config)| (to, config, Vec::new()));
             let mut t_end = f64::NAN;
             loop {
                 match imu.next_sample() {
                     Ok(Some(s)) => {
-                        if let Some((_, config, span)) = &mut tee {
+                        batch.push((s, imu.line()));
+                        if let Some((to, config, chunk)) = &mut tee {
                             if t_end.is_nan() {
                                 t_end = start_span(config, s.t).1;
                             }
-                            span.push(s);
-                            if s.t > t_end {
-                                if let Some((to, _, span)) = tee.take() {
-                                    let _ = to.send(span);
-                                }
+                            chunk.push(s);
+                            let past = s.t > t_end;
+                            if (past || batch.len() == BATCH)
+                                && (to.send(std::mem::take(chunk)).is_err() || past)
+                            {
+                                tee = None;
                             }
                         }
-                        batch.push((s, imu.line()));
                         if batch.len() == BATCH
                             && tx
                                 .send(Ok(std::mem::replace(&mut batch, Vec::with_capacity(BATCH))))
@@ -218,8 +220,8 @@ impl ImuFeed {
                     }
                 }
             }
-            if let Some((to, _, span)) = tee {
-                let _ = to.send(span);
+            if let Some((to, _, chunk)) = tee {
+                let _ = to.send(chunk);
             }
             imu.skipped
         });
@@ -234,12 +236,14 @@ impl ImuFeed {
     }
 }
 
-/// The IMU samples [`Checks`] look at, in one message (none if the reader stopped early).
+/// The IMU samples [`Checks`] look at, a batch per message (none if the reader stopped
+/// early).
 pub(crate) type Tee = std::sync::mpsc::Sender<Vec<ImuSample>>;
 
 /// [`crate::start::prepare`] run beside the filter when it only checks (the initial state
 /// and noise are given): on the IMU samples the reader tees to it and the GNSS epochs of
-/// the same span, read from a reader of its own.
+/// the same span, read from a reader of its own. It starts once the samples reach what
+/// `prepare` looks at ([`StartSpan`]).
 pub(crate) struct Checks(std::thread::JoinHandle<Result<(), RunError>>);
 
 impl Checks {
@@ -251,18 +255,32 @@ impl Checks {
         let mut gnss = open_aid(config, inputs)?;
         let config = config.clone();
         Ok(Self(std::thread::spawn(move || {
-            let samples = imu.recv().unwrap_or_default();
-            let Some(first) = samples.first() else {
-                return Ok(());
-            };
-            let (t0, t_end) = start_span(&config, first.t);
-            let mut epochs = Vec::new();
-            while let Some(a) = gnss.next_epoch()? {
-                epochs.extend(a.fix);
-                if a.t > t_end {
+            let (mut samples, mut epochs) = (Vec::new(), Vec::new());
+            let (mut span, mut gnss_t, mut gnss_ended) = (None, f64::NEG_INFINITY, false);
+            while let Ok(chunk) = imu.recv() {
+                samples.extend(chunk);
+                let Some(&last) = samples.last() else { continue };
+                // the GNSS epochs up to the first past the last sample
+                while !gnss_ended && gnss_t <= last.t {
+                    match gnss.next_epoch()? {
+                        Some(a) => {
+                            gnss_t = a.t;
+                            epochs.extend(a.fix);
+                        }
+                        None => gnss_ended = true,
+                    }
+                }
+                let span = span.get_or_insert_with(|| StartSpan::new(&config, samples[0].t));
+                if span.reached(&config, &samples, &epochs) {
                     break;
                 }
             }
+            // (the reader stops teeing)
+            drop(imu);
+            let Some(first) = samples.first() else {
+                return Ok(());
+            };
+            let (t0, _) = start_span(&config, first.t);
             crate::start::prepare(&config, &samples, &epochs, t0)
                 .map(|_| ())
                 .map_err(RunError::Start)
@@ -280,15 +298,16 @@ impl Checks {
 }
 
 /// The first seconds of the inputs, read before the filter starts ([`crate::start`]):
-/// IMU samples and GNSS epochs (with their lines) up to `align.max_time` after the start.
+/// IMU samples and GNSS epochs (with their lines) up to the end of what
+/// [`crate::start::prepare`] looks at ([`StartSpan`]).
 pub struct Prefix {
     /// IMU batches as the reader sent them (the filter takes them first); they hold the
     /// samples [`crate::start::prepare`] looks at and may run on past them.
     pub(crate) batches: Vec<Vec<(ImuSample, usize)>>,
-    /// How many of the batches' samples `prepare` looks at.
-    pub(crate) looked_at: usize,
     /// GNSS epochs and their lines.
     pub(crate) gnss: std::collections::VecDeque<(AidEpoch, usize)>,
+    /// The IMU samples `prepare` looks at, and the GNSS fixes.
+    looked_at: (Vec<ImuSample>, Vec<GnssEpoch>),
 }
 
 /// How much of the data's start [`run`] reads before the filter starts.
@@ -298,82 +317,119 @@ pub(crate) enum Look {
     First,
     /// Until the static start ends ([`crate::start::prepare_floor`]).
     StaticStart,
-    /// `align.max_time` ([`crate::start::prepare`]).
+    /// All [`crate::start::prepare`] looks at ([`StartSpan`]).
     Span,
 }
 
-/// Read the [`Prefix`] (`look`): from the start time up to the first IMU sample past
-/// its end, and the GNSS epochs up to the first past that sample.
+/// Whether the start of the data, as it is read, holds all [`crate::start::prepare`]
+/// looks at: up to [`crate::start::span_end`] (known once the static start has ended:
+/// `align.max_time` after the start or after the static start) as
+/// [`crate::start::reaches`] says, and at most up to the first sample past
+/// [`start_span`]'s end.
+pub(crate) struct StartSpan {
+    t0: f64,
+    cap: f64,
+    end: Option<f64>,
+    /// The sample count at which `span_end` (which reads every sample so far) is next
+    /// asked: at doubling counts, its work over a long static start stays linear.
+    next: usize,
+}
+
+impl StartSpan {
+    pub(crate) fn new(config: &Config, first_t: f64) -> Self {
+        let (t0, cap) = start_span(config, first_t);
+        Self { t0, cap, end: None, next: 0 }
+    }
+
+    /// Whether `imu` (every sample from the first) and `gnss` (the fixes up to the first
+    /// epoch past the last sample) hold all `prepare` looks at.
+    pub(crate) fn reached(
+        &mut self,
+        config: &Config,
+        imu: &[ImuSample],
+        gnss: &[GnssEpoch],
+    ) -> bool {
+        let Some(last) = imu.last() else { return false };
+        if last.t > self.cap {
+            return true;
+        }
+        if self.end.is_none() && imu.len() >= self.next {
+            self.next = 2 * imu.len();
+            self.end = crate::start::span_end(config, imu, gnss, self.t0);
+        }
+        self.end.is_some_and(|end| crate::start::reaches(imu, self.t0, end))
+    }
+}
+
+/// Read the [`Prefix`] (`look`): from the start time up to the first IMU batch that
+/// holds what `look` needs, and the GNSS epochs up to the first past its last sample.
 pub(crate) fn read_prefix(
     config: &Config,
     imu: &mut ImuFeed,
     gnss: &mut AidReader,
     look: Look,
 ) -> Result<Prefix, RunError> {
-    let mut p = Prefix { batches: Vec::new(), looked_at: 0, gnss: Default::default() };
-    let mut span = None;
+    let mut p = Prefix {
+        batches: Vec::new(),
+        gnss: Default::default(),
+        looked_at: (Vec::new(), Vec::new()),
+    };
+    let mut span: Option<StartSpan> = None;
     let mut read_gnss = |p: &mut Prefix, t: f64| -> Result<(), RunError> {
         while p.gnss.back().is_none_or(|(g, _)| g.t <= t) {
             match gnss.next_epoch()? {
-                Some(g) => p.gnss.push_back((g, gnss.line())),
+                Some(g) => {
+                    p.looked_at.1.extend(g.fix);
+                    p.gnss.push_back((g, gnss.line()));
+                }
                 None => break,
             }
         }
         Ok(())
     };
-    'batches: for batch in imu.batches.iter() {
+    for batch in imu.batches.iter() {
         let batch = batch?;
-        if batch.is_empty() {
+        let (Some(&(first, _)), Some(&(last, _))) = (batch.first(), batch.last()) else {
             // (the reader's last message before an error, or at the end of the data)
             continue;
-        }
-        let (t0, t_end) = *span.get_or_insert_with(|| {
-            let first = batch.first().map_or(f64::NAN, |(s, _)| s.t);
-            let (t0, t_end) = start_span(config, first);
-            (t0, if look == Look::First { f64::NEG_INFINITY } else { t_end })
-        });
-        for (s, _) in &batch {
-            p.looked_at += 1;
-            if s.t > t_end {
-                p.batches.push(batch);
-                break 'batches;
-            }
-        }
+        };
+        let span = span.get_or_insert_with(|| StartSpan::new(config, first.t));
+        // the samples looked at: up to the first past the cap
+        let n = match look {
+            Look::First => 1,
+            _ => batch.iter().position(|(s, _)| s.t > span.cap).map_or(batch.len(), |k| k + 1),
+        };
+        p.looked_at.0.extend(batch[..n].iter().map(|(s, _)| *s));
         p.batches.push(batch);
-        if look == Look::StaticStart {
-            // stop once the static start has ended inside what was read
-            let last = p.batches.iter().flatten().last().map_or(f64::NAN, |(s, _)| s.t);
-            read_gnss(&mut p, last)?;
-            let (imu, gnss) = p.samples();
-            let (still, _) = crate::start::static_start(config, &imu, &gnss, t0);
-            if still.samples == 0 || still.span.1 < last - config.align.static_window {
-                break;
-            }
+        if look == Look::First {
+            read_gnss(&mut p, f64::NEG_INFINITY)?;
+            break;
+        }
+        read_gnss(&mut p, last.t)?;
+        let (imu, fixes) = &p.looked_at;
+        let done = p.batches.last().is_some_and(|b| n < b.len())
+            || match look {
+                Look::Span => span.reached(config, imu, fixes),
+                // once the static start has ended inside what was read
+                _ => {
+                    let (still, _) = crate::start::static_start(config, imu, fixes, span.t0);
+                    still.samples == 0 || still.span.1 < last.t - config.align.static_window
+                }
+            };
+        if done {
+            break;
         }
     }
-    let Some((_, t_end)) = span else {
+    if span.is_none() {
         return Err(RunError::NoData("the IMU file has no samples".into()));
-    };
-    let t_gnss = match look {
-        Look::StaticStart => p.batches.iter().flatten().last().map_or(t_end, |(s, _)| s.t),
-        _ => t_end,
-    };
-    read_gnss(&mut p, t_gnss)?;
+    }
     Ok(p)
 }
 
-impl Prefix {
-    /// The IMU samples looked at, and the GNSS epochs.
-    pub(crate) fn samples(&self) -> (Vec<ImuSample>, Vec<GnssEpoch>) {
-        let imu = self.batches.iter().flatten().take(self.looked_at).map(|(s, _)| *s).collect();
-        (imu, self.gnss.iter().filter_map(|(g, _)| g.fix).collect())
-    }
-}
-
 /// The run's start time (the configured one, or the first IMU sample's `first_t`) and the
-/// end of the data [`crate::start::prepare`] looks at (`align.max_time` later, and a
-/// static start's [`crate::start::STATIC_ALLOWANCE`]: the alignment's span counts from
-/// the motion's start).
+/// furthest [`crate::start::prepare`] may look (`align.max_time` later, and a static
+/// start's [`crate::start::STATIC_ALLOWANCE`]: the alignment's span counts from the
+/// motion's start). [`StartSpan`] finds where it stops looking.
 pub(crate) fn start_span(config: &Config, first_t: f64) -> (f64, f64) {
     let t0 = config.data.start_time.unwrap_or(first_t);
     (t0, t0 + config.align.max_time + crate::start::STATIC_ALLOWANCE)
@@ -385,11 +441,129 @@ pub(crate) fn prepare_start(
     prefix: &Prefix,
     look: Look,
 ) -> Result<crate::start::Start, RunError> {
-    let (imu, gnss) = prefix.samples();
+    let (imu, gnss) = &prefix.looked_at;
     let (t0, _) = start_span(config, imu.first().map_or(0.0, |s| s.t));
     match look {
-        Look::Span => crate::start::prepare(config, &imu, &gnss, t0).map_err(RunError::Start),
-        Look::StaticStart => Ok(crate::start::prepare_floor(config, &imu, &gnss, t0)),
+        Look::Span => crate::start::prepare(config, imu, gnss, t0).map_err(RunError::Start),
+        Look::StaticStart => Ok(crate::start::prepare_floor(config, imu, gnss, t0)),
         Look::First => Ok(crate::start::Start { config: config.clone(), report: Vec::new() }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::{Scenario, SegmentSpec};
+
+    /// The samples and fixes [`Checks`] hands to `prepare`: batches of [`BATCH`] samples,
+    /// the fixes up to the first epoch past each batch, until [`StartSpan`] says they hold
+    /// all it looks at.
+    fn read_as_checks(
+        config: &Config,
+        imu: &[ImuSample],
+        gnss: &[GnssEpoch],
+    ) -> (Vec<ImuSample>, Vec<GnssEpoch>) {
+        let mut span = StartSpan::new(config, imu[0].t);
+        let (mut n, mut g) = (0, 0);
+        for chunk in imu.chunks(BATCH) {
+            n += chunk.len();
+            let last = chunk[chunk.len() - 1].t;
+            while g < gnss.len() && (g == 0 || gnss[g - 1].t <= last) {
+                g += 1;
+            }
+            if span.reached(config, &imu[..n], &gnss[..g]) {
+                break;
+            }
+        }
+        (imu[..n].to_vec(), gnss[..g].to_vec())
+    }
+
+    /// `prepare` on the span the program reads gives what it gives on the whole span
+    /// (as [`crate::run::run_slices`] reads it), over static starts from none to past
+    /// the cap, configurations that only check and that fill `[init]` or the noise, and
+    /// data a check refuses (GNSS gross errors, an IMU stamped late, increments in g);
+    /// and the span read is shorter than the whole wherever the data run on past it.
+    #[test]
+    fn the_start_read_gives_prepare_s_answer_on_the_whole_span() {
+        let text = include_str!("../../scenarios/drive.toml");
+        let base = Scenario::parse(text, "drive.toml").unwrap();
+        let seg = |kind: &str, duration: f64| SegmentSpec {
+            kind: kind.into(),
+            duration,
+            rate: if kind == "turn" { 6.0 } else { 0.0 },
+            accel: if kind == "stop" || kind == "turn" || kind == "straight" { 0.0 } else { 1.5 },
+        };
+        let (mut shorter, mut cases) = (0, 0);
+        for (k, still) in [0.0, 3.0, 30.0, 650.0, 760.0].into_iter().enumerate() {
+            let mut s = base.clone();
+            s.imu.rate = 50.0;
+            s.seed = 4000 + k as u64;
+            s.start.speed = if still > 0.0 { 0.0 } else { 10.0 };
+            s.segments = Vec::new();
+            if still > 0.0 {
+                s.segments.extend([seg("stop", still), seg("accelerate", 6.0)]);
+            }
+            for _ in 0..3 {
+                s.segments.extend([
+                    seg("straight", 30.0),
+                    seg("turn", 15.0),
+                    seg("straight", 30.0),
+                ]);
+            }
+            let traj = s.trajectory().unwrap();
+            let data = ins_gnss_sim::simulate(
+                &traj,
+                s.imu.rate,
+                &s.imu_errors(),
+                &s.gnss_sim().unwrap(),
+                s.seed,
+            );
+            let given = s.config(&data.truth[0].state, data.truth[0].t);
+            let mut no_init = given.clone();
+            (no_init.init.attitude, no_init.init.velocity, no_init.init.position) =
+                (None, None, None);
+            let mut from_static = given.clone();
+            from_static.imu_noise.from_static = true;
+            let mut outliers = data.gnss.clone();
+            for (i, e) in outliers.iter_mut().enumerate() {
+                if i % 5 == 2 {
+                    e.pos.lat += 1e3 / 6.4e6;
+                }
+            }
+            let late: Vec<ImuSample> =
+                data.imu.iter().map(|x| ImuSample { t: x.t + 0.4, ..*x }).collect();
+            let in_g: Vec<ImuSample> =
+                data.imu.iter().map(|x| ImuSample { dvel: x.dvel / 9.80665, ..*x }).collect();
+            let runs: [(&str, &Config, &[ImuSample], &[GnssEpoch]); 6] = [
+                ("given", &given, &data.imu, &data.gnss),
+                ("no init", &no_init, &data.imu, &data.gnss),
+                ("from static", &from_static, &data.imu, &data.gnss),
+                ("outliers", &no_init, &data.imu, &outliers),
+                ("late", &given, &late, &data.gnss),
+                ("in g", &given, &in_g, &data.gnss),
+            ];
+            for (name, config, imu, gnss) in runs {
+                let (t0, t_end) = start_span(config, imu[0].t);
+                let n_imu = imu.partition_point(|s| s.t <= t_end + 1e-9);
+                let n_gnss = gnss.partition_point(|e| e.t <= t_end + 1e-9);
+                let whole = crate::start::prepare(config, &imu[..n_imu], &gnss[..n_gnss], t0);
+                let (read, fixes) = read_as_checks(config, imu, gnss);
+                let part = crate::start::prepare(config, &read, &fixes, t0);
+                assert_eq!(
+                    format!("{part:?}"),
+                    format!("{whole:?}"),
+                    "static {still} s, {name}: {} of {n_imu} samples read",
+                    read.len()
+                );
+                cases += 1;
+                shorter += usize::from(read.len() < n_imu);
+                if still < 600.0 {
+                    // (the motion's 120 s and a static start end well before the data)
+                    assert!(read.len() < n_imu, "static {still} s, {name}: the whole span read");
+                }
+            }
+        }
+        assert_eq!(cases, 30);
+        assert!(shorter >= 18, "{shorter} of {cases} runs read less than the whole span");
     }
 }

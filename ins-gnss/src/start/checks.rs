@@ -12,9 +12,16 @@ pub(super) fn axes_key(config: &Config) -> &'static str {
     }
 }
 
+/// How many sample intervals after the first the IMU rate check takes the median of.
+pub const RATE_SAMPLES: usize = 1000;
+
+/// The span (s) from the first sample over which a start in motion has its mean specific
+/// force checked against gravity (a car's accelerations are a fraction of it).
+pub const ACCEL_SPAN: f64 = 5.0;
+
 /// The median sample interval against `data.imu_rate`.
 pub(super) fn check_rate(config: &Config, imu: &[ImuSample]) -> Result<(), String> {
-    let mut dts: Vec<f64> = imu.iter().skip(1).take(1000).map(|s| s.dt).collect();
+    let mut dts: Vec<f64> = imu.iter().skip(1).take(RATE_SAMPLES).map(|s| s.dt).collect();
     if dts.len() < 10 {
         return Ok(());
     }
@@ -64,7 +71,7 @@ pub(super) fn check_accel_unit(
     } else {
         // moving from the start: |mean f| over the first 5 s still sits near g (a car's
         // accelerations are a fraction of it); only factors beyond 1.5 are judged
-        let t_end = imu[0].t + 5.0;
+        let t_end = imu[0].t + ACCEL_SPAN;
         let (sum, n) = imu
             .iter()
             .take_while(|s| s.t <= t_end)

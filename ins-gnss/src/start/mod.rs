@@ -30,7 +30,7 @@ mod checks;
 mod fill;
 
 use checks::*;
-pub use checks::{MAX_TIME_OFFSET, TIME_OFFSET_REFUSED};
+pub use checks::{ACCEL_SPAN, MAX_TIME_OFFSET, RATE_SAMPLES, TIME_OFFSET_REFUSED};
 use fill::*;
 
 /// The gyro bias 1σ without a static start to measure it, deg/h. On navego (no static
@@ -47,9 +47,10 @@ pub const DEFAULT_GYRO_BIAS_STD: f64 = 100.0;
 pub const FLOOR_FACTOR: f64 = 1.5;
 
 /// The longest static start (s) after which `align.max_time` still counts: the start's
-/// data are read up to `align.max_time` + this after the start, so that a vehicle that
-/// stands still for up to ten minutes before it drives (an alignment practice) aligns on
-/// its first minutes of motion.
+/// data are read up to `align.max_time` after the static start's end ([`span_end`]), at
+/// most this + `align.max_time` after the start, so that a vehicle that stands still for
+/// up to ten minutes before it drives (an alignment practice) aligns on its first
+/// minutes of motion.
 pub const STATIC_ALLOWANCE: f64 = 600.0;
 
 /// The largest heading σ (rad) the self-start accepts: the error-state filter's
@@ -114,8 +115,7 @@ pub fn prepare(
     // `align.max_time` counts from the motion's start: a vehicle that stands still for
     // minutes before it drives (an alignment practice) is aligned on its first minutes of
     // motion, the static span included
-    let max_time =
-        if is_static { a.max_time + still.duration().min(STATIC_ALLOWANCE) } else { a.max_time };
+    let max_time = motion_span(&config, &still, is_static);
     let fit = |scale: f64| {
         align_in_motion(
             imu,
@@ -203,6 +203,49 @@ pub fn prepare(
         fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), gnss, t0)?;
     }
     Ok(Start { config, report })
+}
+
+/// How long after the start [`prepare`] looks: `align.max_time`, counted from the end of
+/// a static start (of up to [`STATIC_ALLOWANCE`]).
+fn motion_span(config: &Config, still: &StaticStart, is_static: bool) -> f64 {
+    let a = &config.align;
+    if is_static {
+        a.max_time + still.duration().min(STATIC_ALLOWANCE)
+    } else {
+        a.max_time
+    }
+}
+
+/// Where the data [`prepare`] looks at end, from the data read so far (`imu` and `gnss`
+/// from the first sample on, the GNSS epochs up to one past the last sample): `t0` (the
+/// start time) + `align.max_time`, or later by the static start's duration, and at least
+/// the first [`ACCEL_SPAN`] s. `None` while the samples may still end inside the static
+/// start (the end is known once the first window after it was read) or hold no GNSS
+/// epoch after `t0` (gravity comes from the first). [`prepare`] gives the same answer on
+/// data that reach past this end ([`reaches`]) as on any longer span: it looks at nothing
+/// later. The program reads the start this far, not [`STATIC_ALLOWANCE`] further.
+pub fn span_end(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Option<f64> {
+    let after = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
+    let (first, last) = (after.first()?, after.last()?);
+    if gnss.last().is_none_or(|e| e.t <= t0 + 1e-9) {
+        return None;
+    }
+    let (still, is_static) = static_start(config, imu, gnss, t0);
+    // the static start (or its absence) is final once the window after its last sample
+    // is complete: `detect_static` stops at the first window that is not still
+    let next = after.get(still.samples)?;
+    if last.t <= next.t + config.align.static_window + 1e-9 {
+        return None;
+    }
+    Some((t0 + motion_span(config, &still, is_static)).max(first.t + ACCEL_SPAN))
+}
+
+/// Whether `imu` (from the first sample on) holds all [`prepare`] looks at up to `end`
+/// ([`span_end`]): a sample whose interval starts after `end`, and the first
+/// [`RATE_SAMPLES`] + 1 after `t0`.
+pub fn reaches(imu: &[ImuSample], t0: f64, end: f64) -> bool {
+    let after = imu.len() - imu.partition_point(|s| s.t <= t0 + 1e-9);
+    after > RATE_SAMPLES && imu.last().is_some_and(|s| s.t - s.dt > end)
 }
 
 /// The static start of the data after `t0` (the start time), with the configuration's
