@@ -195,10 +195,12 @@ impl ImuFeed {
                             }
                             chunk.push(s);
                             let past = s.t > t_end;
-                            if (past || batch.len() == BATCH)
-                                && (to.send(std::mem::take(chunk)).is_err() || past)
-                            {
-                                tee = None;
+                            if past || batch.len() == BATCH {
+                                // (an error: the checks have what they look at)
+                                let sent = to.send(std::mem::take(chunk)).is_ok();
+                                if past || !sent {
+                                    tee = None;
+                                }
                             }
                         }
                         if batch.len() == BATCH
@@ -299,7 +301,7 @@ impl Checks {
 
 /// The first seconds of the inputs, read before the filter starts ([`crate::start`]):
 /// IMU samples and GNSS epochs (with their lines) up to the end of what
-/// [`crate::start::prepare`] looks at ([`StartSpan`]).
+/// [`crate::start::prepare`] looks at ([`crate::start::span_end`]).
 pub struct Prefix {
     /// IMU batches as the reader sent them (the filter takes them first); they hold the
     /// samples [`crate::start::prepare`] looks at and may run on past them.
