@@ -174,56 +174,45 @@ pub(crate) struct ImuFeed {
 }
 
 impl ImuFeed {
-    /// Start reading `imu`. With a `tee`, the samples go to it too, a batch at a time,
-    /// until [`Checks`] has what it looks at (it hangs up) or up to the first sample past
-    /// [`start_span`]'s end.
-    pub(crate) fn spawn(mut imu: ImuReader<FileReader>, tee: Option<(Tee, Config)>) -> Self {
+    /// Start reading `imu`. With a `tee`, each batch's samples go to it too, until
+    /// [`Checks`] has what it looks at and hangs up.
+    pub(crate) fn spawn(mut imu: ImuReader<FileReader>, mut tee: Option<Tee>) -> Self {
         let (tx, batches) = std::sync::mpsc::sync_channel::<ImuBatch>(4);
         let reader = std::thread::spawn(move || {
             let mut batch = Vec::with_capacity(BATCH);
-            // the checks' samples go with the filter's batches: one wake-up of the checks'
-            // thread per batch instead of one per sample
-            let mut tee = tee.map(|(to, config)| (to, config, Vec::new()));
-            let mut t_end = f64::NAN;
+            // (the checks' samples go with the filter's batches: one wake-up of the
+            // checks' thread per batch instead of one per sample)
+            let mut tee_batch = |batch: &[(ImuSample, usize)]| {
+                if let Some(to) = &tee {
+                    if to.send(batch.iter().map(|(s, _)| *s).collect()).is_err() {
+                        tee = None;
+                    }
+                }
+            };
             loop {
                 match imu.next_sample() {
                     Ok(Some(s)) => {
                         batch.push((s, imu.line()));
-                        if let Some((to, config, chunk)) = &mut tee {
-                            if t_end.is_nan() {
-                                t_end = start_span(config, s.t).1;
+                        if batch.len() == BATCH {
+                            tee_batch(&batch);
+                            let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH));
+                            if tx.send(Ok(full)).is_err() {
+                                break;
                             }
-                            chunk.push(s);
-                            let past = s.t > t_end;
-                            if past || batch.len() == BATCH {
-                                // (an error: the checks have what they look at)
-                                let sent = to.send(std::mem::take(chunk)).is_ok();
-                                if past || !sent {
-                                    tee = None;
-                                }
-                            }
-                        }
-                        if batch.len() == BATCH
-                            && tx
-                                .send(Ok(std::mem::replace(&mut batch, Vec::with_capacity(BATCH))))
-                                .is_err()
-                        {
-                            break;
                         }
                     }
                     Ok(None) => {
+                        tee_batch(&batch);
                         let _ = tx.send(Ok(batch));
                         break;
                     }
                     Err(e) => {
+                        tee_batch(&batch);
                         let _ = tx.send(Ok(std::mem::take(&mut batch)));
                         let _ = tx.send(Err(e));
                         break;
                     }
                 }
-            }
-            if let Some((to, _, chunk)) = tee {
-                let _ = to.send(chunk);
             }
             imu.skipped
         });
@@ -231,14 +220,14 @@ impl ImuFeed {
     }
 
     /// Stop reading (if not at the end yet) and return the reader's skipped lines.
-    /// (A tee still open closes with the reader: the data ended before `align.max_time`.)
+    /// (A tee still open closes with the reader: the data ended before the checks' span.)
     pub(crate) fn finish(self) -> Result<SkipCounts, RunError> {
         drop(self.batches);
         self.reader.join().map_err(|_| RunError::NoData("the reader thread panicked".into()))
     }
 }
 
-/// The IMU samples [`Checks`] look at, a batch per message (none if the reader stopped
+/// The IMU samples for [`Checks`], a batch per message (none if the reader stopped
 /// early).
 pub(crate) type Tee = std::sync::mpsc::Sender<Vec<ImuSample>>;
 
@@ -258,32 +247,23 @@ impl Checks {
         let config = config.clone();
         Ok(Self(std::thread::spawn(move || {
             let (mut samples, mut epochs) = (Vec::new(), Vec::new());
-            let (mut span, mut gnss_t, mut gnss_ended) = (None, f64::NEG_INFINITY, false);
+            let (mut span, mut gnss_t) = (None, f64::NEG_INFINITY);
             while let Ok(chunk) = imu.recv() {
-                samples.extend(chunk);
-                let Some(&last) = samples.last() else { continue };
-                // the GNSS epochs up to the first past the last sample
-                while !gnss_ended && gnss_t <= last.t {
-                    match gnss.next_epoch()? {
-                        Some(a) => {
-                            gnss_t = a.t;
-                            epochs.extend(a.fix);
-                        }
-                        None => gnss_ended = true,
-                    }
-                }
-                let span = span.get_or_insert_with(|| StartSpan::new(&config, samples[0].t));
+                let Some(first) = chunk.first() else { continue };
+                let span = span.get_or_insert_with(|| StartSpan::new(&config, first.t));
+                span.extend(&mut samples, chunk);
+                let last = samples.last().map_or(f64::NAN, |s| s.t);
+                read_gnss_past(&mut gnss, last, &mut gnss_t, |a, _| epochs.extend(a.fix))?;
                 if span.reached(&config, &samples, &epochs) {
                     break;
                 }
             }
             // (the reader stops teeing)
             drop(imu);
-            let Some(first) = samples.first() else {
+            let Some(span) = span else {
                 return Ok(());
             };
-            let (t0, _) = start_span(&config, first.t);
-            crate::start::prepare(&config, &samples, &epochs, t0)
+            crate::start::prepare(&config, &samples, &epochs, span.t0)
                 .map(|_| ())
                 .map_err(RunError::Start)
         })))
@@ -343,6 +323,22 @@ impl StartSpan {
         Self { t0, cap, end: None, next: 0 }
     }
 
+    /// Append to `imu` the samples of `batch` up to the first past the cap; whether the
+    /// cap was passed.
+    pub(crate) fn extend(
+        &self,
+        imu: &mut Vec<ImuSample>,
+        batch: impl IntoIterator<Item = ImuSample>,
+    ) -> bool {
+        for s in batch {
+            imu.push(s);
+            if s.t > self.cap {
+                return true;
+            }
+        }
+        false
+    }
+
     /// Whether `imu` (every sample from the first) and `gnss` (the fixes up to the first
     /// epoch past the last sample) hold all `prepare` looks at.
     pub(crate) fn reached(
@@ -377,17 +373,12 @@ pub(crate) fn read_prefix(
         looked_at: (Vec::new(), Vec::new()),
     };
     let mut span: Option<StartSpan> = None;
-    let mut read_gnss = |p: &mut Prefix, t: f64| -> Result<(), RunError> {
-        while p.gnss.back().is_none_or(|(g, _)| g.t <= t) {
-            match gnss.next_epoch()? {
-                Some(g) => {
-                    p.looked_at.1.extend(g.fix);
-                    p.gnss.push_back((g, gnss.line()));
-                }
-                None => break,
-            }
-        }
-        Ok(())
+    let mut gnss_t = f64::NEG_INFINITY;
+    let mut read_gnss = |p: &mut Prefix, t: f64| {
+        read_gnss_past(gnss, t, &mut gnss_t, |g, line| {
+            p.looked_at.1.extend(g.fix);
+            p.gnss.push_back((g, line));
+        })
     };
     for batch in imu.batches.iter() {
         let batch = batch?;
@@ -396,12 +387,14 @@ pub(crate) fn read_prefix(
             continue;
         };
         let span = span.get_or_insert_with(|| StartSpan::new(config, first.t));
-        // the samples looked at: up to the first past the cap
-        let n = match look {
-            Look::First => 1,
-            _ => batch.iter().position(|(s, _)| s.t > span.cap).map_or(batch.len(), |k| k + 1),
+        let imu = &mut p.looked_at.0;
+        let capped = match look {
+            Look::First => {
+                imu.push(first);
+                true
+            }
+            _ => span.extend(imu, batch.iter().map(|(s, _)| *s)),
         };
-        p.looked_at.0.extend(batch[..n].iter().map(|(s, _)| *s));
         p.batches.push(batch);
         if look == Look::First {
             read_gnss(&mut p, f64::NEG_INFINITY)?;
@@ -409,7 +402,7 @@ pub(crate) fn read_prefix(
         }
         read_gnss(&mut p, last.t)?;
         let (imu, fixes) = &p.looked_at;
-        let done = p.batches.last().is_some_and(|b| n < b.len())
+        let done = capped
             || match look {
                 Look::Span => span.reached(config, imu, fixes),
                 // once the static start has ended inside what was read
@@ -426,6 +419,27 @@ pub(crate) fn read_prefix(
         return Err(RunError::NoData("the IMU file has no samples".into()));
     }
     Ok(p)
+}
+
+/// Read `gnss` on until an epoch past `t` has been read or the stream has ended, each
+/// epoch to `keep` with its line. `last` is the time of the last epoch read (−∞ before
+/// the first, +∞ once the stream has ended).
+fn read_gnss_past(
+    gnss: &mut AidReader,
+    t: f64,
+    last: &mut f64,
+    mut keep: impl FnMut(AidEpoch, usize),
+) -> Result<(), RunError> {
+    while *last <= t {
+        match gnss.next_epoch()? {
+            Some(g) => {
+                *last = g.t;
+                keep(g, gnss.line());
+            }
+            None => *last = f64::INFINITY,
+        }
+    }
+    Ok(())
 }
 
 /// The run's start time (the configured one, or the first IMU sample's `first_t`) and the
@@ -457,27 +471,27 @@ mod tests {
     use super::*;
     use crate::scenario::{Scenario, SegmentSpec};
 
-    /// The samples and fixes [`Checks`] hands to `prepare`: batches of [`BATCH`] samples,
-    /// the fixes up to the first epoch past each batch, until [`StartSpan`] says they hold
-    /// all it looks at.
+    /// The samples and fixes [`Checks`] hands to `prepare`: batches of [`BATCH`] samples
+    /// (up to the first past the cap), the fixes up to the first epoch past each batch,
+    /// until [`StartSpan`] says they hold all it looks at.
     fn read_as_checks(
         config: &Config,
         imu: &[ImuSample],
         gnss: &[GnssEpoch],
     ) -> (Vec<ImuSample>, Vec<GnssEpoch>) {
         let mut span = StartSpan::new(config, imu[0].t);
-        let (mut n, mut g) = (0, 0);
+        let (mut read, mut g) = (Vec::new(), 0);
         for chunk in imu.chunks(BATCH) {
-            n += chunk.len();
-            let last = chunk[chunk.len() - 1].t;
+            span.extend(&mut read, chunk.iter().copied());
+            let last = read[read.len() - 1].t;
             while g < gnss.len() && (g == 0 || gnss[g - 1].t <= last) {
                 g += 1;
             }
-            if span.reached(config, &imu[..n], &gnss[..g]) {
+            if span.reached(config, &read, &gnss[..g]) {
                 break;
             }
         }
-        (imu[..n].to_vec(), gnss[..g].to_vec())
+        (read, gnss[..g].to_vec())
     }
 
     /// `prepare` on the span the program reads gives what it gives on the whole span

@@ -156,7 +156,7 @@ fn run_with<O: Sink>(
     let (mut feed, checks) = if beside {
         let (tee, prefix) = std::sync::mpsc::channel();
         let checks = Checks::spawn(config, inputs, prefix).map_err(|e| (e, false))?;
-        (ImuFeed::spawn(imu, Some((tee, config.clone()))), Some(checks))
+        (ImuFeed::spawn(imu, Some(tee)), Some(checks))
     } else {
         (ImuFeed::spawn(imu, None), None)
     };

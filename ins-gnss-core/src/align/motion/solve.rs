@@ -151,7 +151,10 @@ pub(super) fn linearise(fixes: &[Fix], x: &Params, estimate_bias: bool, prior: f
         let (tau, w) = (f.tau, f.w);
         cost += r.norm_squared() * w;
         let a = -(x.c * body).cross_matrix();
-        let b = (x.c * f.jac).fixed_columns::<2>(0).into_owned();
+        let b = match estimate_bias {
+            true => (x.c * f.jac).fixed_columns::<2>(0).into_owned(),
+            false => SMatrix::<f64, 3, 2>::zeros(),
+        };
         let ac = |i: usize| [a[(0, i)], a[(1, i)], a[(2, i)]];
         let bc = |n: usize| [b[(0, n)], b[(1, n)], b[(2, n)]];
         let mut add = |i: usize, j: usize, v: f64| {
