@@ -350,6 +350,11 @@ fn smoother(c: &mut Criterion) {
             )
         })
     });
+    // the accumulated form's step (`AdjointForm::Accumulated`): `Ψ ← Ψ Φ`
+    let psi = SMatrix::<f64, 15, 15>::from_fn(|i, j| 1.0 / (2.0 + i as f64 - 0.5 * j as f64));
+    g.bench_function("times_transition", |b| {
+        b.iter(|| d.model.times_transition(black_box(&psi), black_box(&phi_t), &mut out))
+    });
     g.finish();
 }
 

@@ -206,7 +206,8 @@ where
 /// only a first-order approximation of its `propagate` (the INS model): `step` agrees
 /// with `propagate` and `jacobians`, and `propagate_covariance` and `step_covariance`
 /// with the dense `Φ P Φᵀ + Q` (to 1e-9 relative, and exactly symmetric when the model
-/// says so).
+/// says so), and the smoother's products (`adjoint_sandwich`, `times_transition`,
+/// `transition_transposed`, `noise_times`) with their dense forms.
 pub fn check_combined_calls<PM: ProcessModel>(
     model: &PM,
     x: &PM::State,
@@ -294,6 +295,13 @@ where
     let dense = jac.Phi.transpose() * &P * &jac.Phi;
     compare("adjoint_sandwich vs Φᵀ Λ Φ", &adjoint, &dense, agree)?;
     compare("adjoint_sandwich symmetric", &adjoint, &adjoint.transpose(), 0.0)?;
+    // `times_transition` must be M Φ for any M (here a non-symmetric one)
+    let m = OMatrix::<T, StateDim<PM::State, T>, StateDim<PM::State, T>>::from_fn(|r, c| {
+        T::lit(((r * 7 + c * 3 + 1) % 11) as f64 * 0.2 - 1.0)
+    });
+    let mut m_phi = P.clone() * T::lit(f64::NAN);
+    model.times_transition(&m, &phi_t, &mut m_phi);
+    compare("times_transition vs M Φ", &m_phi, &(&m * &jac.Phi), agree)?;
     // a replay without covariances: `transition_transposed` must hand over the
     // Jacobians' Φᵀ; `noise_times` must be Q_d v
     let mut phi_t2 = P.clone() * T::lit(f64::NAN);

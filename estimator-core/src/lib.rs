@@ -111,7 +111,9 @@ pub use report::UpdateLog;
 pub use report::{NoObserver, Observer, UpdateReport, UpdateSummary};
 pub use scalar::FilterScalar;
 #[cfg(feature = "std")]
-pub use segments::{SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder, AFTER_FORMS};
+pub use segments::{
+    AdjointForm, SegmentSmoother, SmoothedRow, SmootherError, Spill, StepRecorder, AFTER_FORMS,
+};
 #[cfg(feature = "std")]
 pub use smoother::{FixedLagSmoother, Lag, RtsSmoother, RtsStep, Smoothed};
 pub use stream::StreamId;

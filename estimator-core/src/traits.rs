@@ -221,6 +221,19 @@ where
     ) {
         T::dense_sandwich(phi_t, lambda, &Cov::<StateDim<Self::State, T>, T>::zeros(), out);
     }
+
+    /// `out ← M Φ` for any square `M`, given `Φᵀ` (`phi_t`): a smoother's product of a
+    /// segment's transitions `Ψ = Φₙ₋₁ ⋯ Φ₀`, accumulated backwards one step at a time
+    /// (the segment smoother's `AdjointForm::Accumulated`). The dense default
+    /// costs `N³` multiply-adds; override it to skip the zeros of `Φ` (the INS model does).
+    fn times_transition(
+        &self,
+        m: &Cov<StateDim<Self::State, T>, T>,
+        phi_t: &Cov<StateDim<Self::State, T>, T>,
+        out: &mut Cov<StateDim<Self::State, T>, T>,
+    ) {
+        T::mat_mul(m, &phi_t.transpose(), out);
+    }
 }
 
 /// The [`ProcessJacobians`] of a process model (over the scalar `T`).

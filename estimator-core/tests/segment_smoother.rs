@@ -11,8 +11,8 @@ use std::io::Cursor;
 
 use estimator_core::linear::{LinearMeasurement, LinearProcess};
 use estimator_core::{
-    Adaptation, ErrorStateFilter, FixedNoise, NoiseStrategy, QAdjust, RtsSmoother, SegmentSmoother,
-    SmoothedRow, StepRecorder, Verdict,
+    Adaptation, AdjointForm, ErrorStateFilter, FixedNoise, NoiseStrategy, QAdjust, RtsSmoother,
+    SegmentSmoother, SmoothedRow, StepRecorder, Verdict,
 };
 use nalgebra::{Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
 
@@ -83,11 +83,19 @@ struct Recording {
     /// Where the recorder says it will not read the covariance (`reads_covariance`), it is
     /// shown a filter whose covariance is garbage.
     garble_unread: bool,
+    /// How the backward pass carries `Λ`.
+    adjoint: AdjointForm,
 }
 
 /// The forward pass feeding both smoothers.
 fn both<A: NoiseStrategy>(c: &Case, strategy: A, max_steps: usize) -> Both {
-    let how = Recording { max_steps, priors: true, variances_every: 1, garble_unread: false };
+    let how = Recording {
+        max_steps,
+        priors: true,
+        variances_every: 1,
+        garble_unread: false,
+        adjoint: AdjointForm::PerStep,
+    };
     both_recorded(c, strategy, how)
 }
 
@@ -103,7 +111,8 @@ fn both_counted<A: NoiseStrategy>(c: &Case, strategy: A, how: Recording) -> (Bot
         ErrorStateFilter::new(Vector2::new(0.5, -0.2), Matrix2::new(4.0, 0.5, 0.5, 1.0), strategy)
             .unwrap();
     let mut rts = RtsSmoother::new();
-    let mut seg = SegmentSmoother::new(Cursor::new(Vec::new()), how.max_steps);
+    let mut seg =
+        SegmentSmoother::new(Cursor::new(Vec::new()), how.max_steps).with_adjoint_form(how.adjoint);
     let mut unread = 0;
     for (k, z) in c.z.iter().enumerate() {
         if seg.reads_covariance(f.epoch()) {
@@ -153,7 +162,9 @@ fn the_covariance_is_read_only_where_the_recorder_says() {
     for max_steps in [3, 100] {
         for priors in [true, false] {
             for variances_every in [0, 4] {
-                let how = Recording { max_steps, priors, variances_every, garble_unread: false };
+                let adjoint = AdjointForm::PerStep;
+                let how =
+                    Recording { max_steps, priors, variances_every, garble_unread: false, adjoint };
                 let ((_, clean, _), unread) = both_counted(&c, Quirky, how);
                 let how = Recording { garble_unread: true, ..how };
                 let ((_, garbled, _), again) = both_counted(&c, Quirky, how);
@@ -172,10 +183,12 @@ fn the_covariance_is_read_only_where_the_recorder_says() {
 #[test]
 fn segments_replayed_from_storage_give_the_step_by_step_smoother() {
     let c = case();
-    for max_steps in [1, 3, 1000] {
+    let forms = [AdjointForm::PerStep, AdjointForm::Accumulated];
+    for (max_steps, adjoint) in [1, 3, 1000].into_iter().flat_map(|m| forms.map(|f| (m, f))) {
         for priors in [true, false] {
             for variances_every in [1, 3, 0] {
-                let how = Recording { max_steps, priors, variances_every, garble_unread: false };
+                let how =
+                    Recording { max_steps, priors, variances_every, garble_unread: false, adjoint };
                 let (rts, rows, segments) = both_recorded(&c, Quirky, how);
                 assert!(segments > 10, "{segments} segments");
                 // rts has the start too; rows are the step ends

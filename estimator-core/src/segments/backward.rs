@@ -40,6 +40,11 @@ where
     /// them (on this thread, where they are used: see
     /// [`ProcessModel::transition_transposed`]).
     pub(super) phi_ts: Vec<Cov<X::Dim>>,
+    /// How `Λ` goes through a segment.
+    pub(super) form: AdjointForm,
+    /// `Ψ`, the product of the segment's transitions so far, in one of the two
+    /// (`psis[1]` after an odd number of steps), for [`AdjointForm::Accumulated`].
+    pub(super) psis: [Cov<X::Dim>; 2],
 }
 
 impl<X: Manifold> Backward<X>
@@ -48,6 +53,7 @@ where
 {
     pub(super) fn start<A: NoiseStrategy, B: CovBackend<X::Dim>>(
         filter: &ErrorStateFilter<X, A, B>,
+        form: AdjointForm,
     ) -> Self {
         Self {
             carried: Carried::Smoothed { x: filter.state().clone() },
@@ -58,6 +64,8 @@ where
             rows: Vec::new(),
             lambdas: Vec::new(),
             phi_ts: Vec::new(),
+            form,
+            psis: [Cov::<X::Dim>::zeros(), Cov::<X::Dim>::zeros()],
         }
     }
 
@@ -111,8 +119,10 @@ where
                 (x.clone(), var)
             }
         };
-        // backwards: λᵢ = Φᵢᵀ λᵢ₊₁ and Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ, Λ in one of two buffers, the
-        // next one written into the other (no swap: swapping two covariances copies three)
+        // backwards: λᵢ = Φᵢᵀ λᵢ₊₁, and Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ step by step or Ψ ← Ψ Φᵢ (from
+        // Ψ = Φₙ₋₁); each covariance-sized value in one of two buffers, the next one written
+        // into the other (no swap: swapping two covariances copies three)
+        let accumulate = self.form == AdjointForm::Accumulated;
         for k in (0..count).rev() {
             if !formed {
                 let (_, dt, _, u) = &seg.steps[k];
@@ -121,9 +131,27 @@ where
             let phi_ts = if formed { &seg.phi_ts } else { &own };
             let (done, later) = self.lambdas.split_at_mut(k + 1);
             kernels::mat_mul(&phi_ts[k], &later[0], &mut done[k]);
+            if accumulate {
+                let [a, b] = &mut self.psis;
+                let (from, to) = if (count - 1 - k).is_multiple_of(2) { (a, b) } else { (b, a) };
+                if k + 1 == count {
+                    phi_ts[k].transpose_to(to); // (I Φ)
+                } else {
+                    model.times_transition(from, &phi_ts[k], to);
+                }
+            } else {
+                let [a, b] = &mut self.bigs;
+                let (from, to) = if self.cur == 0 { (a, b) } else { (b, a) };
+                model.adjoint_sandwich(&phi_ts[k], from, to);
+                self.cur = 1 - self.cur;
+            }
+        }
+        if accumulate {
+            // Λ₀ = Ψᵀ Λₙ Ψ
+            let psi_t = self.psis[count % 2].transpose();
             let [a, b] = &mut self.bigs;
             let (from, to) = if self.cur == 0 { (a, b) } else { (b, a) };
-            model.adjoint_sandwich(&phi_ts[k], from, to);
+            kernels::dense_sandwich(&psi_t, from, &Cov::<X::Dim>::zeros(), to);
             self.cur = 1 - self.cur;
         }
         let phi_ts = if formed { &seg.phi_ts } else { &own };

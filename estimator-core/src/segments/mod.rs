@@ -105,6 +105,19 @@ const END_PRIOR: f64 = 1.0;
 /// backward pass replays the covariance through the segment.
 const END_REPLAY: f64 = 2.0;
 
+/// How the backward recursion carries `Λ` through a segment (the smoothed states are the
+/// same either way; the smoothed variances agree to rounding).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AdjointForm {
+    /// `Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ` at every step ([`ProcessModel::adjoint_sandwich`]).
+    #[default]
+    PerStep,
+    /// The segment's transition `Ψ = Φₙ₋₁ ⋯ Φ₀` accumulated backwards (`Ψ ← Ψ Φᵢ`,
+    /// [`ProcessModel::times_transition`]), then `Λ₀ = Ψᵀ Λₙ Ψ` once per segment: one
+    /// product a step instead of two (a sandwich), the same `Λ₀` in exact arithmetic.
+    Accumulated,
+}
+
 /// The segment-wise fixed-interval smoother.
 ///
 /// `S` is the storage: a file for long runs ([`SegmentSmoother::on_file`]), or a
@@ -167,7 +180,10 @@ const END_REPLAY: f64 = 2.0;
 ///   ([`ProcessModel::transition_transposed`]: formed on the thread that uses it, not
 ///   handed between cores); its `Φᵀ Λ Φ` is the model's
 ///   structured product ([`ProcessModel::adjoint_sandwich`]; the INS model runs its
-///   prediction kernel on the transposed pattern), the rest products with vectors;
+///   prediction kernel on the transposed pattern), the rest products with vectors; with
+///   [`AdjointForm::Accumulated`] the recursion carries the segment's transition `Ψ`
+///   instead (`Ψ ← Ψ Φᵢ`, [`ProcessModel::times_transition`]: one structured product a
+///   step instead of a sandwich's two) and forms `Λ₀ = Ψᵀ Λₙ Ψ` once per segment;
 /// - a segment closed for length, not by an update, is *continued*: `λ` and `Λ` go through
 ///   its boundary as they are, without the smoothed covariance and the Cholesky factor an
 ///   update boundary needs;
@@ -215,6 +231,8 @@ pub struct SegmentSmoother<X, U, S = std::fs::File> {
     /// The storage file again ([`on_file`](Self::on_file)): the backward pass cuts off
     /// what it has read ([`Store::shrink`]).
     shrink: Option<std::fs::File>,
+    /// How the backward pass carries `Λ` ([`with_adjoint_form`](Self::with_adjoint_form)).
+    adjoint: AdjointForm,
     _types: PhantomData<fn(X, U)>,
 }
 
@@ -253,8 +271,16 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
             pending: Vec::new(),
             error: None,
             shrink: None,
+            adjoint: AdjointForm::PerStep,
             _types: PhantomData,
         }
+    }
+
+    /// How the backward pass carries `Λ` through a segment (default
+    /// [`AdjointForm::PerStep`]).
+    pub fn with_adjoint_form(mut self, form: AdjointForm) -> Self {
+        self.adjoint = form;
+        self
     }
 
     /// Number of segments recorded so far (closed ones).
@@ -369,7 +395,7 @@ where
             at: 0,
             shrink: self.shrink.as_ref(),
         };
-        Ok((Backward::start(filter), store))
+        Ok((Backward::start(filter, self.adjoint), store))
     }
 
     /// End the forward pass: the storage error that stopped recording, if any.

@@ -272,6 +272,23 @@ fn mirror_block<const CB: usize, const RB: usize, A: Addend>(
 }
 
 fma_kernel! {
+    /// `out ← M Φ` for the INS `Φ`, given `Φᵀ` (`phi_t`), and any `M`: column `j` over the
+    /// non-zeros of `Φ`'s column `j` only (90 of 225 entries), the smoother's product of a
+    /// segment's transitions.
+    pub fn times_phi_into(m: &M15, phi_t: &M15, out: &mut M15) =
+        times_phi_kernel / times_phi_avx2 / times_phi_portable
+}
+
+#[inline(always)]
+fn times_phi_kernel<const FMA: bool>(m: &M15, phi_t: &M15, out: &mut M15) {
+    let (m, phi_t) = (padded(m), padded(phi_t));
+    for (j, col) in out.data.0.iter_mut().enumerate() {
+        let c = PhiTransposed::times_row::<FMA>(&m, &phi_t, j);
+        col.copy_from_slice(&c[..15]);
+    }
+}
+
+fma_kernel! {
     /// `out ← Φ M Φᵀ + E` for `Φ` and `M` in padded columns.
     pub(super) fn sandwich_padded(phi: &Cols16, m: &Cols16, e: &HalfNoise, out: &mut M15) =
         sandwich_padded_kernel / sandwich_padded_avx2 / sandwich_padded_portable

@@ -50,7 +50,9 @@ mod kernel;
 mod noise;
 
 use error_blocks::ErrorBlocks;
-pub use kernel::{adjoint_sandwich_into, phi_sandwich, phi_sandwich_into, phi_times};
+pub use kernel::{
+    adjoint_sandwich_into, phi_sandwich, phi_sandwich_into, phi_times, times_phi_into,
+};
 pub use kernel::{phi_sandwich_avx2, phi_sandwich_portable, phi_times_avx2, phi_times_portable};
 use kernel::{sandwich_padded, Cols, Cols16};
 use noise::HalfNoise;
@@ -487,5 +489,15 @@ impl ProcessModel for InsModel {
         out: &mut Cov<Const<15>>,
     ) {
         adjoint_sandwich_into(phi_t, lambda, out);
+    }
+
+    /// `M Φ` over the non-zeros of `Φ`'s columns.
+    fn times_transition(
+        &self,
+        m: &Cov<Const<15>>,
+        phi_t: &Cov<Const<15>>,
+        out: &mut Cov<Const<15>>,
+    ) {
+        times_phi_into(m, phi_t, out);
     }
 }

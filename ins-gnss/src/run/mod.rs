@@ -230,7 +230,17 @@ where
         .find_map(|(a, _)| a.raw.as_ref().and_then(|r| r.1));
     let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t, clock)?;
     let start = summary.span.0;
-    let mut recorder = if config.filter.smooth { Some(out.recorder::<S>()?) } else { None };
+    // (the exact mode keeps the step-by-step adjoint: its outputs stay those of earlier
+    // builds byte for byte; the two agree to rounding, `benches/README.md`)
+    let adjoint = if config.filter.covariance_interval > 0.0 {
+        estimator_core::AdjointForm::Accumulated
+    } else {
+        estimator_core::AdjointForm::PerStep
+    };
+    let mut recorder = match config.filter.smooth {
+        true => Some(out.recorder::<S>()?.with_adjoint_form(adjoint)),
+        false => None,
+    };
     // (tight coupling, smoothing) the reported position σ floors over time
     let mut floors = Floors::default();
     let (imu_path, gnss_path) = names;
