@@ -290,8 +290,9 @@ fn whole_run(c: &mut Criterion) {
 
 /// The segment smoother on the 40 s of [`ins_setup`] at 200 Hz (8,000 epochs, no update:
 /// segments of 128 steps, continued): the forward pass recording into memory, the
-/// backward pass from that recording (one thread, and the replay on a second), and the
-/// adjoint product alone, structured against dense.
+/// backward pass from that recording (one thread, the replay on a second, and one thread
+/// with the segments' products of transitions, `AdjointForm::Accumulated`), and the
+/// adjoint products alone (structured, dense, and the accumulated form's `Ψ Φ`).
 fn smoother(c: &mut Criterion) {
     type Recorder = SegmentSmoother<InsState, ImuInput, std::io::Cursor<Vec<u8>>>;
     let d = ins_setup();
@@ -308,12 +309,20 @@ fn smoother(c: &mut Criterion) {
     g.throughput(Throughput::Elements(d.inputs.len() as u64));
     g.sample_size(10);
     g.bench_function("forward_recorded_8000_epochs", |b| b.iter(|| black_box(record().0.time())));
-    for (name, threaded) in
-        [("backward_8000_epochs", false), ("backward_threaded_8000_epochs", true)]
-    {
+    // (the step-by-step adjoint, and the segments' products of transitions that the
+    // program uses with a covariance interval)
+    use estimator::estimator_core::AdjointForm::{Accumulated, PerStep};
+    for (name, threaded, form) in [
+        ("backward_8000_epochs", false, PerStep),
+        ("backward_threaded_8000_epochs", true, PerStep),
+        ("backward_accumulated_8000_epochs", false, Accumulated),
+    ] {
         g.bench_function(name, |b| {
             b.iter_batched(
-                record,
+                || {
+                    let (f, seg) = record();
+                    (f, seg.with_adjoint_form(form))
+                },
                 |(f, seg)| {
                     let mut rows = 0;
                     let sink = |r: &[_]| {
