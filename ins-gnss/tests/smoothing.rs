@@ -196,7 +196,7 @@ fn the_accumulated_adjoint_gives_the_step_by_step_variances() {
         assert_eq!(step.smoothed, acc.smoothed);
         assert_eq!(step.variances.len(), acc.variances.len());
         assert!(step.variances.len() > 500, "{}", step.variances.len());
-        // (per component: the largest gap over the largest variance of that component)
+        // (per component: the largest gap relative to the step-by-step variance itself)
         let mut worst = [0.0f64; 15];
         for (a, b) in step.variances.iter().zip(&acc.variances) {
             for (i, w) in worst.iter_mut().enumerate() {

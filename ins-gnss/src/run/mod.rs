@@ -237,9 +237,10 @@ where
     } else {
         estimator_core::AdjointForm::PerStep
     };
-    let mut recorder = match config.filter.smooth {
-        true => Some(out.recorder::<S>()?.with_adjoint_form(adjoint)),
-        false => None,
+    let mut recorder = if config.filter.smooth {
+        Some(out.recorder::<S>()?.with_adjoint_form(adjoint))
+    } else {
+        None
     };
     // (tight coupling, smoothing) the reported position σ floors over time
     let mut floors = Floors::default();
