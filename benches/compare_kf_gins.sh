@@ -12,6 +12,11 @@
 # times (default 10), file to file. It prints the median wall and CPU (user + sys) time of
 # each and their ratios. A run of either program that fails, or a KF-GINS run that writes
 # no navigation file, stops the script with its output and a non-zero status.
+#
+# Both programs write into an emptied output folder before each run (emptied outside the
+# timing), the same condition for both. With RERUN=1 in the environment both write over
+# their own earlier result instead: KF-GINS truncates its files, ins-gnss keeps the earlier
+# result aside until its verdict (and frees it after), so each pays for the earlier files.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 if [ $# -ge 1 ] && [[ "$1" != *.yaml && "$1" != *.yml ]]; then
@@ -52,15 +57,18 @@ sed -e 's|^imupath:.*|imupath: "imu.txt"|' -e 's|^gnsspath:.*|gnsspath: "gnss.tx
 cd "$work"
 run() {
   # run NAME COMMAND...: time it, stop the script with its output when it fails
-  local name=$1; shift
-  if ! /usr/bin/time -f "$name %e %U %S" -a -o "$log" "$@" >"$work/$name.out" 2>&1; then
-    echo "compare_kf_gins: $name failed: $*" >&2
+  # (bash's `time` to the millisecond: GNU time's %e has 10 ms steps, a tenth of a run)
+  local name=$1 status=0 times TIMEFORMAT='%3R %3U %3S'; shift
+  times=$({ time "$@" >"$work/$name.out" 2>&1; } 2>&1) || status=$?
+  if [ "$status" != 0 ]; then
+    echo "compare_kf_gins: $name failed (exit $status): $*" >&2
     tail -20 "$work/$name.out" >&2
     exit 1
   fi
+  echo "$name $times" >>"$log"
 }
 for _ in $(seq "$pairs"); do
-  rm -f kf-out/*
+  [ "${RERUN:-0}" = 1 ] || rm -rf kf-out/* "$work/ours"
   run kf-gins "$kf" config.yaml
   [ -s kf-out/KF_GINS_Navresult.nav ] || ls kf-out/*.nav >/dev/null 2>&1 || {
     echo "compare_kf_gins: KF-GINS wrote no navigation file into kf-out/" >&2
