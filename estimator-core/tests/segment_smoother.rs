@@ -498,9 +498,22 @@ fn inputs_with_their_own_times_and_short_forms_replay_exactly() {
 /// recorded into `seg` and smoothed on one thread or two: the rows in time order and the
 /// bytes recorded.
 fn long_run<S: std::io::Read + std::io::Write + std::io::Seek + Send>(
-    mut seg: SegmentSmoother<Vector2<f64>, (), S>,
+    seg: SegmentSmoother<Vector2<f64>, (), S>,
     threaded: bool,
 ) -> (Vec<SmoothedRow<Vector2<f64>>>, u64) {
+    let (result, stored) = long_run_into(seg, threaded, usize::MAX);
+    (result.unwrap(), stored)
+}
+
+/// The smoothed rows of a run, or why its backward pass failed.
+type Smoothed = Result<Vec<SmoothedRow<Vector2<f64>>>, estimator_core::SmootherError>;
+
+/// [`long_run`] with a sink that fails at its `fail_at`-th call.
+fn long_run_into<S: std::io::Read + std::io::Write + std::io::Seek + Send>(
+    mut seg: SegmentSmoother<Vector2<f64>, (), S>,
+    threaded: bool,
+    fail_at: usize,
+) -> (Smoothed, u64) {
     let dt = 0.01;
     let process = LinearProcess {
         F: Matrix2::new(1.0, dt, 0.0, 1.0),
@@ -523,17 +536,43 @@ fn long_run<S: std::io::Read + std::io::Write + std::io::Seek + Send>(
     }
     let mut chunks = Vec::new();
     let sink = |rows: &[SmoothedRow<Vector2<f64>>]| {
+        if chunks.len() == fail_at {
+            // (time for a threaded replay to get as far ahead as it goes, and wait)
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            return Err(std::io::Error::other("the sink fails"));
+        }
         chunks.push(rows.to_vec());
         Ok(())
     };
     seg.finish_recording().unwrap();
     let stored = seg.stored_bytes();
-    if threaded {
-        seg.smooth_threaded(&f, &process, sink).unwrap();
+    let done = if threaded {
+        seg.smooth_threaded(&f, &process, sink)
     } else {
-        seg.smooth(&f, &process, sink).unwrap();
+        seg.smooth(&f, &process, sink)
+    };
+    (done.map(|()| chunks.into_iter().rev().flatten().collect()), stored)
+}
+
+/// A sink that fails stops the threaded backward pass with its error, early and late in
+/// the pass: the replay, which waits whenever it is far enough ahead, is released (the
+/// pass is run on a thread of its own and must end within a minute).
+#[test]
+fn a_failing_sink_stops_the_threaded_pass() {
+    for fail_at in [0, 1, 500, 14_990] {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let seg = SegmentSmoother::new(Cursor::new(Vec::new()), 64);
+            let _ = tx.send(long_run_into(seg, true, fail_at).0.map(|rows| rows.len()));
+        });
+        let done = rx.recv_timeout(std::time::Duration::from_secs(60));
+        match done {
+            Ok(Err(estimator_core::SmootherError::Io(e))) => {
+                assert_eq!(e.to_string(), "the sink fails", "failing at call {fail_at}")
+            }
+            other => panic!("failing at call {fail_at}: {other:?}"),
+        }
     }
-    (chunks.into_iter().rev().flatten().collect(), stored)
 }
 
 /// A file's storage is read back about a megabyte at a time and cut behind each read:

@@ -1,6 +1,7 @@
 //! [`SegmentSmoother`] and what serves it (the documentation is on the item).
 
 use core::marker::PhantomData;
+use core::sync::atomic::Ordering;
 use std::io::{Read, Seek, SeekFrom, Write};
 
 use nalgebra::{DefaultAllocator, DimName, OVector};
@@ -434,10 +435,10 @@ where
 
     /// [`smooth`](Self::smooth) with the segments read and replayed on a second thread
     /// while this one runs the recursion (the same numbers). The replay is the lighter
-    /// part (the nominal states; the recursion forms the transitions): on two cores
-    /// beside a thread that writes the rows, the program's runs take as long as with
-    /// [`smooth`](Self::smooth) (`benches/README.md`); with cores to spare the replay
-    /// runs ahead.
+    /// part (the nominal states; the recursion forms the transitions). It runs up to 16
+    /// batches of about 256 steps ahead, then waits until the recursion has taken all but
+    /// 4: woken once per batch instead, the scheduler put it on the recursion's core each
+    /// time, before the recursion, with the other core idle (`benches/README.md`).
     pub fn smooth_threaded<A, B, PM>(
         mut self,
         filter: &ErrorStateFilter<X, A, B>,
@@ -455,15 +456,20 @@ where
     {
         let (mut back, mut store) = self.backward(filter)?;
         let segments = store.offsets.len() - 1;
+        // batches the replay is ahead by (sent, not yet taken by the recursion), and whether
+        // the recursion has stopped (a parked replay then goes on, to find it gone)
+        let ahead = std::sync::atomic::AtomicUsize::new(0);
+        let done = std::sync::atomic::AtomicBool::new(false);
         std::thread::scope(|scope| -> Result<(), SmootherError> {
             // replayed segments one way in batches of about `BATCH_STEPS` steps (a thread
             // wake-up per segment costs more than a short segment's work), the batches back
             // for reuse; a batch is replayed into in place, its first `used` segments
             // filled (a segment moved by value copies its covariances, several kilobytes)
             type Batch<X, U> = (Vec<Replayed<X, U>>, usize);
-            let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Batch<X, U>, _>>(2);
+            let (tx, rx) = std::sync::mpsc::channel::<Result<Batch<X, U>, _>>();
             let (back_tx, back_rx) = std::sync::mpsc::channel::<Vec<Replayed<X, U>>>();
-            scope.spawn(move || {
+            let (ahead, done) = (&ahead, &done);
+            let replay = scope.spawn(move || {
                 let mut batch: Vec<Replayed<X, U>> = Vec::new();
                 let (mut used, mut steps) = (0, 0);
                 for k in (0..segments).rev() {
@@ -483,14 +489,28 @@ where
                     steps += seg.steps.len();
                     used += 1;
                     if steps >= BATCH_STEPS || k == 0 {
+                        ahead.fetch_add(1, Ordering::SeqCst);
                         if tx.send(Ok((core::mem::take(&mut batch), used))).is_err() {
                             return;
                         }
                         (used, steps) = (0, 0);
+                        // far enough ahead: wait until the recursion has taken all but
+                        // `AHEAD_LOW` (a wake-up per batch put the replay on the
+                        // recursion's core, before it, each time: 30 % of its time)
+                        while ahead.load(Ordering::SeqCst) >= AHEAD_HIGH
+                            && !done.load(Ordering::SeqCst)
+                        {
+                            std::thread::park();
+                        }
                     }
                 }
             });
+            let waker = replay.thread().clone();
+            let _release = Release(done, waker.clone());
             for batch in rx {
+                if ahead.fetch_sub(1, Ordering::SeqCst) == AHEAD_LOW + 1 {
+                    waker.unpark();
+                }
                 let (batch, used) = batch?;
                 for seg in &batch[..used] {
                     back.segment(seg, model)?;
@@ -500,6 +520,17 @@ where
             }
             Ok(())
         })
+    }
+}
+
+/// Sets its flag and wakes its thread when dropped: the recursion of
+/// [`SegmentSmoother::smooth_threaded`], however it ends, releases a replay that waits.
+struct Release<'a>(&'a std::sync::atomic::AtomicBool, std::thread::Thread);
+
+impl Drop for Release<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::SeqCst);
+        self.1.unpark();
     }
 }
 

@@ -9,6 +9,12 @@ pub(super) const WRITE_BYTES: usize = 1 << 20;
 /// Steps per batch between the threads of [`SegmentSmoother::smooth_threaded`].
 pub(super) const BATCH_STEPS: usize = 256;
 
+/// Batches the replay of [`SegmentSmoother::smooth_threaded`] runs ahead of the recursion
+/// before it waits, and the number it waits for the recursion to come down to.
+pub(super) const AHEAD_HIGH: usize = 16;
+/// See [`AHEAD_HIGH`].
+pub(super) const AHEAD_LOW: usize = 4;
+
 /// The storage and the segment offsets, for reading segments back: a window of about
 /// [`WRITE_BYTES`] that ends at the segment asked for (the backward pass reads the
 /// segments last to first, so one read serves many).
