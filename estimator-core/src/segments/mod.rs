@@ -483,6 +483,7 @@ where
                     }
                     let seg = &mut batch[used];
                     if let Err(e) = store.replay(k, model, seg) {
+                        ahead.fetch_add(1, Ordering::SeqCst);
                         let _ = tx.send(Err(e));
                         return;
                     }

@@ -90,9 +90,9 @@ pub fn create_partial(path: &Path) -> std::io::Result<BufWriter<File>> {
 ///
 /// On Unix, a `path` with another hard link (the program keeps an earlier result aside
 /// that way while a run writes) is unlinked first when the finished file is there, which
-/// loses nothing: its data stays under the other name. Renaming onto a free name spares the rename's flush that ext4
-/// (`auto_da_alloc`) does when a file replaces another, about 2 ms per 10 MB written
-/// here, on the run's critical path.
+/// loses nothing: its data stays under the other name. Renaming onto a free name spares
+/// the flush that ext4 (`auto_da_alloc`) does when a rename replaces a file, about 2 ms
+/// per 10 MB written here, on the run's critical path.
 pub fn publish(path: &Path) -> std::io::Result<()> {
     let partial = partial_path(path);
     #[cfg(unix)]
