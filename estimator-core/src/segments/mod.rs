@@ -456,10 +456,9 @@ where
     {
         let (mut back, mut store) = self.backward(filter)?;
         let segments = store.offsets.len() - 1;
-        // batches the replay is ahead by (sent, not yet taken by the recursion), and whether
-        // the recursion has stopped (a parked replay then goes on, to find it gone)
+        // batches the replay is ahead by (sent, not yet taken by the recursion; a stopped
+        // recursion sets none, and a parked replay goes on, to find it gone)
         let ahead = std::sync::atomic::AtomicUsize::new(0);
-        let done = std::sync::atomic::AtomicBool::new(false);
         std::thread::scope(|scope| -> Result<(), SmootherError> {
             // replayed segments one way in batches of about `BATCH_STEPS` steps (a thread
             // wake-up per segment costs more than a short segment's work), the batches back
@@ -468,7 +467,7 @@ where
             type Batch<X, U> = (Vec<Replayed<X, U>>, usize);
             let (tx, rx) = std::sync::mpsc::channel::<Result<Batch<X, U>, _>>();
             let (back_tx, back_rx) = std::sync::mpsc::channel::<Vec<Replayed<X, U>>>();
-            let (ahead, done) = (&ahead, &done);
+            let ahead = &ahead;
             let replay = scope.spawn(move || {
                 let mut batch: Vec<Replayed<X, U>> = Vec::new();
                 let (mut used, mut steps) = (0, 0);
@@ -498,19 +497,16 @@ where
                         // far enough ahead: wait until the recursion has taken all but
                         // `AHEAD_LOW` (a wake-up per batch put the replay on the
                         // recursion's core, before it, each time: 30 % of its time)
-                        while ahead.load(Ordering::SeqCst) >= AHEAD_HIGH
-                            && !done.load(Ordering::SeqCst)
-                        {
+                        while ahead.load(Ordering::SeqCst) >= AHEAD_HIGH {
                             std::thread::park();
                         }
                     }
                 }
             });
-            let waker = replay.thread().clone();
-            let _release = Release(done, waker.clone());
+            let release = Release(ahead, replay.thread().clone());
             for batch in rx {
                 if ahead.fetch_sub(1, Ordering::SeqCst) == AHEAD_LOW + 1 {
-                    waker.unpark();
+                    release.1.unpark();
                 }
                 let (batch, used) = batch?;
                 for seg in &batch[..used] {
@@ -524,13 +520,13 @@ where
     }
 }
 
-/// Sets its flag and wakes its thread when dropped: the recursion of
+/// Clears its count and wakes its thread when dropped: the recursion of
 /// [`SegmentSmoother::smooth_threaded`], however it ends, releases a replay that waits.
-struct Release<'a>(&'a std::sync::atomic::AtomicBool, std::thread::Thread);
+struct Release<'a>(&'a std::sync::atomic::AtomicUsize, std::thread::Thread);
 
 impl Drop for Release<'_> {
     fn drop(&mut self) {
-        self.0.store(true, Ordering::SeqCst);
+        self.0.store(0, Ordering::SeqCst);
         self.1.unpark();
     }
 }
