@@ -234,6 +234,18 @@ where
     ) {
         T::mat_mul(m, &phi_t.transpose(), out);
     }
+
+    /// Fold input `u` into `sum`, the combined input of a stretch of steps whose
+    /// covariance is propagated as one step ([`ErrorStateFilter::predict_covariance`]
+    /// over the stretch's summed interval; `sum` is `None` at the stretch's first step).
+    /// Returns `false` when the model has no such combined step (the default, which
+    /// leaves `sum` alone): a smoother then takes every step of such a stretch on its own.
+    ///
+    /// [`ErrorStateFilter::predict_covariance`]: crate::ErrorStateFilter::predict_covariance
+    fn fold_input(&self, sum: &mut Option<Self::Input>, u: &Self::Input) -> bool {
+        let _ = (sum, u);
+        false
+    }
 }
 
 /// The [`ProcessJacobians`] of a process model (over the scalar `T`).

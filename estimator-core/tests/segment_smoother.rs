@@ -338,7 +338,7 @@ fn corrupt_flags_in_the_storage_are_refused() {
     let cases = [
         (continuation, 0.5),
         (end, 3.0),
-        (first_flags, 256.0),
+        (first_flags, 512.0),
         (first_flags, 1.5),
         (first_flags, 2.0),
         (first_flags, 8.0),
@@ -598,5 +598,167 @@ fn a_long_run_on_file_is_read_back_window_by_window_and_cut_behind() {
             assert_eq!(r.x, e.x, "threaded {threaded}: at {}", r.time);
             assert_eq!(r.var, e.var, "threaded {threaded}: at {}", r.time);
         }
+    }
+}
+
+/// A constant velocity whose inputs fold (there are none: a stretch's step is the model's
+/// over the stretch's interval), for a covariance propagated once per stretch of steps.
+struct Folding;
+
+impl estimator_core::ProcessModel for Folding {
+    type State = Vector2<f64>;
+    type Input = ();
+    fn propagate(&self, x: &Vector2<f64>, _: &(), dt: f64) -> Vector2<f64> {
+        Vector2::new(x[0] + dt * x[1], x[1])
+    }
+    fn jacobians(
+        &self,
+        _: &Vector2<f64>,
+        _: &(),
+        dt: f64,
+    ) -> estimator_core::ProcessJacobians<nalgebra::U2> {
+        estimator_core::ProcessJacobians {
+            Phi: Matrix2::new(1.0, dt, 0.0, 1.0),
+            Q: Matrix2::new(dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt) * 0.05,
+        }
+    }
+    fn fold_input(&self, sum: &mut Option<()>, _: &()) -> bool {
+        *sum = Some(());
+        true
+    }
+}
+
+/// The forward pass of [`case`] with the covariance propagated once per `stretch` steps
+/// (and before each update, and wherever the recorder reads it), told to a segment
+/// smoother (`covariance_continues` inside a stretch); beside it a filter that takes one
+/// step per stretch, told to the step-by-step RTS smoother. Returns the segment smoother's
+/// rows, the RTS smoother's estimates and, per step, the forward pass's nominal state after
+/// it and the state its stretch started from (with the time there).
+#[allow(clippy::type_complexity)]
+fn stretched(
+    c: &Case,
+    stretch: usize,
+    max_steps: usize,
+    adjoint: AdjointForm,
+) -> (
+    Vec<SmoothedRow<Vector2<f64>>>,
+    Vec<estimator_core::Smoothed<Vector2<f64>>>,
+    Vec<(Vector2<f64>, f64, Vector2<f64>)>,
+) {
+    let sensor = LinearMeasurement::new(c.H);
+    let (x0, p0) = (Vector2::new(0.5, -0.2), Matrix2::new(4.0, 0.5, 0.5, 1.0));
+    let mut f = ErrorStateFilter::new(x0, p0, Quirky).unwrap();
+    let mut g = ErrorStateFilter::new(x0, p0, Quirky).unwrap();
+    let mut rts = RtsSmoother::new();
+    let mut seg =
+        SegmentSmoother::new(Cursor::new(Vec::new()), max_steps).with_adjoint_form(adjoint);
+    // the open stretch: the state and time it started from, its interval and steps
+    let mut pending: Option<(Vector2<f64>, f64, f64, u32)> = None;
+    let settle = |f: &mut ErrorStateFilter<_, Quirky>,
+                  g: &mut ErrorStateFilter<_, Quirky>,
+                  rts: &mut RtsSmoother<Vector2<f64>>,
+                  pending: &mut Option<(Vector2<f64>, f64, f64, u32)>| {
+        if let Some((x, _, dt, n)) = pending.take() {
+            f.predict_covariance(&Folding, &x, &(), dt, n).unwrap();
+            rts.predict(g, &Folding, &(), dt).unwrap();
+        }
+    };
+    let mut nominal = Vec::new();
+    for (k, z) in c.z.iter().enumerate() {
+        if seg.reads_covariance(f.epoch()) {
+            settle(&mut f, &mut g, &mut rts, &mut pending);
+        }
+        seg.before_predict(&f, &(), c.dt, true);
+        let open = pending.get_or_insert((*f.state(), f.time(), 0.0, 0));
+        open.2 += c.dt;
+        open.3 += 1;
+        let (start, start_time, full) = (open.0, open.1, open.3 as usize == stretch);
+        if !full {
+            seg.covariance_continues();
+        }
+        f.predict_state(&Folding, &(), c.dt).unwrap();
+        nominal.push((*f.state(), start_time, start));
+        if full {
+            settle(&mut f, &mut g, &mut rts, &mut pending);
+        }
+        if let Some(z) = z {
+            settle(&mut f, &mut g, &mut rts, &mut pending);
+            seg.before_update(&f);
+            f.update(&sensor, &Vector1::new(*z), &c.R).unwrap();
+            g.update(&sensor, &Vector1::new(*z), &c.R).unwrap();
+        }
+        if k % 10 == 9 {
+            // (the segment ends here, so the stretch does: the next step reads the
+            // covariance)
+            seg.mark_variances();
+        }
+    }
+    settle(&mut f, &mut g, &mut rts, &mut pending);
+    let mut chunks = Vec::new();
+    seg.smooth(&f, &Folding, |rows| {
+        chunks.push(rows.to_vec());
+        Ok(())
+    })
+    .unwrap();
+    let rows: Vec<_> = chunks.into_iter().rev().flatten().collect();
+    (rows, rts.smooth(&g).unwrap(), nominal)
+}
+
+/// A forward pass that propagated the covariance once per stretch of steps is smoothed
+/// with the same stretches: at each stretch's end the segment smoother gives the RTS
+/// smoother of a filter that took one step per stretch (states and variances to 1e-9),
+/// and inside a stretch the nominal state plus the smoothed correction interpolated in
+/// time between the stretch's ends; whatever the segment length and the adjoint's form,
+/// with refusals and an adapted process noise.
+#[test]
+fn stretches_of_steps_are_smoothed_as_the_forward_pass_took_them() {
+    // an update every fourth step (an update ends a stretch), none for a while in the middle
+    let mut c = case();
+    for (k, z) in c.z.iter_mut().enumerate() {
+        if k % 4 != 3 {
+            *z = None;
+        }
+    }
+    let forms = [AdjointForm::PerStep, AdjointForm::Accumulated];
+    for (stretch, max_steps, adjoint) in [(3, 1000), (3, 2), (2, 7), (5, 1000)]
+        .into_iter()
+        .flat_map(|(s, m)| forms.map(|f| (s, m, f)))
+    {
+        let (rows, rts, nominal) = stretched(&c, stretch, max_steps, adjoint);
+        assert_eq!(rows.len(), c.z.len());
+        let at = |t: f64| rts.iter().find(|s| (s.time - t).abs() < 1e-9);
+        let (mut ends, mut inside, mut variances) = (0, 0, 0);
+        for (r, (x_nominal, start_time, x_start)) in rows.iter().zip(&nominal) {
+            let scale = r.x.abs().max().max(1.0);
+            let expected = match at(r.time) {
+                Some(s) => {
+                    ends += 1;
+                    if let Some(var) = &r.var {
+                        variances += 1;
+                        for i in 0..2 {
+                            let v = s.p[(i, i)];
+                            assert!((var[i] - v).abs() < 1e-9 * v.max(1e-3), "{var} vs {v}");
+                        }
+                    }
+                    s.x
+                }
+                None => {
+                    // δ at the stretch's ends, and the time between
+                    inside += 1;
+                    let a = at(*start_time).expect("a stretch starts at an RTS epoch");
+                    let (end_row, end_nominal) = rows
+                        .iter()
+                        .zip(&nominal)
+                        .find(|(e, _)| e.time > r.time && at(e.time).is_some())
+                        .expect("the stretch ends");
+                    let b = at(end_row.time).unwrap();
+                    let (da, db) = (a.x - x_start, b.x - end_nominal.0);
+                    let w = (r.time - start_time) / (end_row.time - start_time);
+                    x_nominal + da + (db - da) * w
+                }
+            };
+            assert!((r.x - expected).norm() < 1e-9 * scale, "{}: {} vs {expected}", r.time, r.x);
+        }
+        assert!(ends > 20 && inside > 20 && variances > 5, "{ends} {inside} {variances}");
     }
 }

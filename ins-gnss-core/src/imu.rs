@@ -46,6 +46,27 @@ impl ImuSample {
         Self { t, dt, dtheta: w * dt, dvel: f * dt, odometer: None }
     }
 
+    /// The combined sample of a stretch of samples that opens with this one, before any
+    /// is added ([`add_to_stretch`](Self::add_to_stretch)): nothing integrated yet.
+    pub fn stretch_opening(&self) -> Self {
+        ImuSample { dt: 0.0, dtheta: Vector3::zeros(), dvel: Vector3::zeros(), ..*self }
+    }
+
+    /// Add sample `s` to this combined sample of a stretch: the interval `Σ dt_k`, the
+    /// angle `Σ Δθ_k` and the velocity increment `Σ (I + [θ_{<k}]×) Δv_k` (each sample's
+    /// `Δv` turned into the stretch's first body frame by the angle turned before it, to
+    /// first order), ending at `s`'s time. A covariance propagated at a lower rate than
+    /// the state takes one step over it (`Navigator::with_covariance_interval`), and so
+    /// does the smoother's backward pass ([`ProcessModel::fold_input`]).
+    ///
+    /// [`ProcessModel::fold_input`]: estimator_core::ProcessModel::fold_input
+    pub fn add_to_stretch(&mut self, s: &ImuSample) {
+        self.dvel += s.dvel + self.dtheta.cross(&s.dvel);
+        self.dtheta += s.dtheta;
+        self.dt += s.dt;
+        self.t = s.t;
+    }
+
     /// Mean angular rate over the interval, rad/s.
     pub fn rate(&self) -> Vector3<f64> {
         self.dtheta / self.dt

@@ -149,6 +149,11 @@ impl ProcessModel for InsModel21 {
         self.step(x, u, dt).1
     }
 
+    fn fold_input(&self, sum: &mut Option<ImuInput>, u: &ImuInput) -> bool {
+        u.fold_into(sum);
+        true
+    }
+
     fn step(
         &self,
         x: &InsState21,

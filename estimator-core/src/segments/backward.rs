@@ -70,6 +70,12 @@ where
     }
 
     /// Smooth through one replayed segment (rows in time order in `self.rows`).
+    ///
+    /// The recursion takes the steps the forward pass propagated the covariance over:
+    /// every step, or the stretches of several where it did so at a lower rate than the
+    /// state (`seg.units`: one transition and one noise over each stretch's inputs folded,
+    /// as the forward pass took them). Inside a stretch the smoothed correction is
+    /// interpolated in time between the stretch's ends.
     pub(super) fn segment<U, PM>(
         &mut self,
         seg: &Replayed<X, U>,
@@ -80,26 +86,33 @@ where
     {
         let xs = &seg.xs;
         let count = seg.steps.len();
+        let taken = seg.taken();
+        let stretched = !seg.units.is_empty();
         // the transitions the replay formed, or this segment's own buffer to form them in
         // (taken out of `self` for the segment: it is borrowed beside `self`'s other parts)
-        let formed = seg.phi_ts.len() == count;
+        let formed = seg.phi_ts.len() == count && !stretched;
         let mut own = core::mem::take(&mut self.phi_ts);
         if !formed {
-            own.resize(count, Cov::<X::Dim>::zeros());
+            own.resize(taken, Cov::<X::Dim>::zeros());
         }
         let end_flags = seg.steps[count - 1].2;
         let zero = OVector::<f64, X::Dim>::zeros();
-        self.lambdas.resize(count + 1, zero.clone());
+        self.lambdas.resize(taken + 1, zero.clone());
+        // the smoothed correction at the end, which a stretch's interpolation reaches
+        let mut end_delta = None;
         // the segment's end: λₙ, Λₙ (into `bigs[cur]`), and its row's state and variances
         let p = &mut self.carried_p;
         let (end_x, end_var) = match &self.carried {
             Carried::Adjoint { lambda, delta } => {
                 // (Λₙ is the later segment's Λ₀, left in `bigs[cur]`)
-                self.lambdas[count].copy_from(lambda);
+                self.lambdas[taken].copy_from(lambda);
                 let var = (end_flags & VARIANCES != 0).then(|| {
                     kernels::mat_mul(&*p, &self.bigs[self.cur], &mut self.pl); // Pₙ Λₙ
                     variances_out_of(&xs[count], delta, p, &self.pl)
                 });
+                if stretched {
+                    end_delta = Some(delta.clone());
+                }
                 (xs[count].oplus(delta), var)
             }
             Carried::Smoothed { x } => {
@@ -111,44 +124,47 @@ where
                 let d = x.ominus(&xs[count]);
                 reframe(&xs[count], &d, p, Reframe::Into)?;
                 let inv = inv.as_ref().map_err(|e| e.clone())?;
-                kernels::mat_mul(inv, &d, &mut self.lambdas[count]);
+                kernels::mat_mul(inv, &d, &mut self.lambdas[taken]);
                 // −(Pₙ⁻¹ Σ Pₙ⁻¹ − Pₙ⁻¹) as one sandwich (Pₙ⁻¹ is symmetric), exactly symmetric
                 let big = &mut self.bigs[self.cur];
                 kernels::dense_sandwich(inv, &*p, &negated(inv), big);
                 negate(big);
+                if stretched {
+                    end_delta = Some(d);
+                }
                 (x.clone(), var)
             }
         };
-        // backwards: λᵢ = Φᵢᵀ λᵢ₊₁, and Λᵢ = Φᵢᵀ Λᵢ₊₁ Φᵢ step by step or Ψ ← Ψ Φᵢ (from
-        // Ψ = Φₙ₋₁); each covariance-sized value in one of two buffers, the next one written
+        // backwards: λⱼ = Φⱼᵀ λⱼ₊₁, and Λⱼ = Φⱼᵀ Λⱼ₊₁ Φⱼ step by step or Ψ ← Ψ Φⱼ (from
+        // Ψ = Φₘ₋₁); each covariance-sized value in one of two buffers, the next one written
         // into the other (no swap: swapping two covariances copies three)
         let accumulate = self.form == AdjointForm::Accumulated;
-        for k in (0..count).rev() {
+        for j in (0..taken).rev() {
             if !formed {
-                let (_, dt, _, u) = &seg.steps[k];
-                model.transition_transposed(&xs[k], u, *dt, &mut own[k]);
+                let (first, _, u, dt) = seg.taken_step(j);
+                model.transition_transposed(&xs[first], u, dt, &mut own[j]);
             }
             let phi_ts = if formed { &seg.phi_ts } else { &own };
-            let (done, later) = self.lambdas.split_at_mut(k + 1);
-            kernels::mat_mul(&phi_ts[k], &later[0], &mut done[k]);
+            let (done, later) = self.lambdas.split_at_mut(j + 1);
+            kernels::mat_mul(&phi_ts[j], &later[0], &mut done[j]);
             if accumulate {
                 let [a, b] = &mut self.psis;
-                let (from, to) = if (count - 1 - k).is_multiple_of(2) { (a, b) } else { (b, a) };
-                if k + 1 == count {
-                    phi_ts[k].transpose_to(to); // (I Φ)
+                let (from, to) = if (taken - 1 - j).is_multiple_of(2) { (a, b) } else { (b, a) };
+                if j + 1 == taken {
+                    phi_ts[j].transpose_to(to); // (I Φ)
                 } else {
-                    model.times_transition(from, &phi_ts[k], to);
+                    model.times_transition(from, &phi_ts[j], to);
                 }
             } else {
                 let [a, b] = &mut self.bigs;
                 let (from, to) = if self.cur == 0 { (a, b) } else { (b, a) };
-                model.adjoint_sandwich(&phi_ts[k], from, to);
+                model.adjoint_sandwich(&phi_ts[j], from, to);
                 self.cur = 1 - self.cur;
             }
         }
         if accumulate {
             // Λ₀ = Ψᵀ Λₙ Ψ
-            let psi_t = self.psis[count % 2].transpose();
+            let psi_t = self.psis[taken % 2].transpose();
             let [a, b] = &mut self.bigs;
             let (from, to) = if self.cur == 0 { (a, b) } else { (b, a) };
             kernels::dense_sandwich(&psi_t, from, &Cov::<X::Dim>::zeros(), to);
@@ -175,31 +191,70 @@ where
             }
             Carried::Smoothed { x: x_s }
         };
-        // forwards: δᵢ₊₁ = Pᵢ₊₁ λᵢ₊₁ = α Φᵢ δᵢ + Q̃ᵢ λᵢ₊₁ (Pᵢ₊₁ = Φᵢ (α Pᵢ) Φᵢᵀ + Q̃ᵢ, and
-        // Pᵢ Φᵢᵀ λᵢ₊₁ = Pᵢ λᵢ = δᵢ), the marked steps' states x̂ᵢ ⊕ δᵢ
+        if seg.steps[..count - 1].iter().any(|(_, _, flags, _)| flags & VARIANCES != 0) {
+            return Err(SmootherError::Corrupt("variances asked inside a segment"));
+        }
+        // forwards: δⱼ₊₁ = Pⱼ₊₁ λⱼ₊₁ = α Φⱼ δⱼ + Q̃ⱼ λⱼ₊₁ (Pⱼ₊₁ = Φⱼ (α Pⱼ) Φⱼᵀ + Q̃ⱼ, and
+        // Pⱼ Φⱼᵀ λⱼ₊₁ = Pⱼ λⱼ = δⱼ; over a stretch of n steps the fading is αⁿ), the marked
+        // steps' states x̂ᵢ ⊕ δᵢ
         self.rows.clear();
-        let (mut phi_mu, mut q_lambda, mut extra) = (zero.clone(), zero.clone(), zero);
-        for (k, (t, dt, flags, u)) in seg.steps.iter().enumerate().take(count - 1) {
-            if flags & VARIANCES != 0 {
-                return Err(SmootherError::Corrupt("variances asked inside a segment"));
+        let (mut phi_mu, mut q_lambda, mut extra) = (zero.clone(), zero.clone(), zero.clone());
+        // δ at the start of a stretch, and at a step inside it
+        let (mut before, mut inside) = (zero.clone(), zero);
+        for j in 0..taken {
+            let (first, n, u, dt) = seg.taken_step(j);
+            if stretched {
+                before.copy_from(&mu);
             }
-            let next = &self.lambdas[k + 1];
-            phi_ts[k].tr_mul_to(&mu, &mut phi_mu);
-            let here = &self.lambdas[k]; // Φᵢᵀ λᵢ₊₁
-            model.noise_times(&xs[k], u, *dt, &phi_ts[k], next, here, &mut q_lambda);
-            match &seg.q {
-                QAdjust::Keep | QAdjust::Model => {}
-                QAdjust::Scale(s) => q_lambda *= *s,
-                QAdjust::AddRate(rate) => {
-                    rate.mul_to(next, &mut extra);
-                    q_lambda.axpy(*dt, &extra, 1.0);
+            if j + 1 < taken {
+                let next = &self.lambdas[j + 1];
+                phi_ts[j].tr_mul_to(&mu, &mut phi_mu);
+                let here = &self.lambdas[j]; // Φⱼᵀ λⱼ₊₁
+                model.noise_times(&xs[first], u, dt, &phi_ts[j], next, here, &mut q_lambda);
+                match &seg.q {
+                    QAdjust::Keep | QAdjust::Model => {}
+                    QAdjust::Scale(s) => q_lambda *= *s,
+                    QAdjust::AddRate(rate) => {
+                        rate.mul_to(next, &mut extra);
+                        q_lambda.axpy(dt, &extra, 1.0);
+                    }
                 }
+                let fading = if n == 1 { seg.fading } else { seg.fading.powi(n as i32) };
+                for ((m, a), b) in mu.iter_mut().zip(phi_mu.iter()).zip(q_lambda.iter()) {
+                    *m = fading * a + b;
+                }
+            } else if let Some(end) = &end_delta {
+                mu.copy_from(end);
             }
-            for ((m, a), b) in mu.iter_mut().zip(phi_mu.iter()).zip(q_lambda.iter()) {
-                *m = seg.fading * a + b;
+            if !stretched {
+                if j + 1 < taken && seg.steps[j].2 & MARKED != 0 {
+                    self.rows.push(SmoothedRow {
+                        time: seg.steps[j].0,
+                        x: xs[j + 1].oplus(&mu),
+                        var: None,
+                    });
+                }
+                continue;
             }
-            if flags & MARKED != 0 {
-                self.rows.push(SmoothedRow { time: *t, x: xs[k + 1].oplus(&mu), var: None });
+            // the marked steps the stretch covers (the segment's last is the end's, below):
+            // δ in time between the stretch's ends
+            let mut elapsed = 0.0;
+            for k in first..(first + n).min(count - 1) {
+                let (t, step_dt, flags, _) = &seg.steps[k];
+                elapsed += step_dt;
+                if flags & MARKED == 0 {
+                    continue;
+                }
+                let x = if k + 1 == first + n {
+                    xs[k + 1].oplus(&mu)
+                } else {
+                    let w = if dt > 0.0 { elapsed / dt } else { 1.0 };
+                    for ((v, a), b) in inside.iter_mut().zip(before.iter()).zip(mu.iter()) {
+                        *v = a + w * (b - a);
+                    }
+                    xs[k + 1].oplus(&inside)
+                };
+                self.rows.push(SmoothedRow { time: *t, x, var: None });
             }
         }
         self.phi_ts = own;

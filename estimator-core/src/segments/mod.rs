@@ -83,21 +83,28 @@ where
 /// whether the segment continues the one before it (no update between them), and what
 /// its end holds ([`END_OPEN`], [`END_PRIOR`], [`END_REPLAY`]).
 const HEAD: usize = 6;
-// A step is stored as its flags ([`MARKED`], [`AFTER`], [`VARIANCES`], [`STAMPED`], and
-// the input's form over [`FORM_SHIFT`]), its end time and interval unless [`STAMPED`], and
-// its input ([`Spill::spill`], or [`Spill::spill_after`] when [`AFTER`]).
+// A step is stored as its flags ([`MARKED`], [`AFTER`], [`VARIANCES`], [`STAMPED`],
+// [`CONTINUES`], and the input's form over [`FORM_SHIFT`]), its end time and interval
+// unless [`STAMPED`], and its input ([`Spill::spill`], or [`Spill::spill_after`] when
+// [`AFTER`]).
 
 /// Step flag: the step ends at an output epoch.
-const MARKED: u8 = 1;
+const MARKED: u16 = 1;
 /// Step flag: the input is stored after the step before it ([`Spill::spill_after`]).
-const AFTER: u8 = 2;
+const AFTER: u16 = 2;
 /// Step flag: the output epoch wants the smoothed variances too (the segment ends there).
-const VARIANCES: u8 = 4;
+const VARIANCES: u16 = 4;
 /// Step flag: the step's end time and interval are its input's ([`Spill::stamp`]) and are
 /// not stored.
-const STAMPED: u8 = 8;
+const STAMPED: u16 = 8;
 /// The input's form ([`Spill::spill_after`]) is the flags over this.
 const FORM_SHIFT: u32 = 4;
+/// Step flag (above the forms): the forward pass did not propagate the covariance at the
+/// step's end, but over a stretch of steps that goes on past it
+/// ([`StepRecorder::covariance_continues`]).
+const CONTINUES: u16 = 1 << (FORM_SHIFT + 4);
+/// Flags are below this.
+const FLAGS_END: u16 = CONTINUES << 1;
 /// Segment end: the next segment continues this one (its start covariance is this end's).
 const END_OPEN: f64 = 0.0;
 /// Segment end: an update follows; the covariance before it is stored after the steps.
@@ -174,6 +181,21 @@ pub enum AdjointForm {
 /// where [`StepRecorder::mark_variances`] asked for them (such a step ends its segment, so
 /// its covariance is stored). A segment whose end covariance was not given (an update
 /// without `before_update`) is replayed with its covariance, as the filter predicted it.
+///
+/// A forward pass that propagates the covariance at a lower rate than the state (one
+/// covariance step over a stretch of predictions: [`ErrorStateFilter::predict_state`] at
+/// each, [`ErrorStateFilter::predict_covariance`] over their inputs folded) says so with
+/// [`StepRecorder::covariance_continues`] at each prediction its stretch goes on past; a
+/// stretch also ends with its segment. When the model folds inputs
+/// ([`ProcessModel::fold_input`]) the recursion then takes the stretches as the forward
+/// pass did: in the equations above a step `i` is a stretch of `n` predictions, with the
+/// transition and noise over its folded input and summed interval and the fading `αⁿ`,
+/// and the smoothed correction at a prediction inside a stretch is interpolated in time
+/// between the stretch's ends (`δ = δₐ + w (δ_b − δₐ)`, `w` the share of the stretch's
+/// interval elapsed; the nominal state there is replayed as it was). Each stretch's end
+/// is then the step-by-step smoother of the filter as it ran
+/// (`tests/segment_smoother.rs`), at the cost of one transition per stretch instead of
+/// one per prediction.
 ///
 /// What keeps the second pass close to the cost of the first:
 /// - the replay forms each step's nominal state only ([`ProcessModel::propagate`]), the
@@ -579,7 +601,7 @@ where
         };
         match form {
             Some(form) if form < AFTER_FORMS => {
-                flags |= AFTER | (form << FORM_SHIFT);
+                flags |= AFTER | (u16::from(form) << FORM_SHIFT);
                 self.open.truncate(payload + U::after_len(form));
             }
             _ => {
@@ -612,10 +634,17 @@ where
             || self.close_next
     }
 
+    fn covariance_continues(&mut self) {
+        if self.open_steps > 0 {
+            let flags = &mut self.open[self.last_flags];
+            *flags = f64::from(*flags as u16 | CONTINUES);
+        }
+    }
+
     fn mark_variances(&mut self) {
         if self.open_steps > 0 {
             let flags = &mut self.open[self.last_flags];
-            *flags = f64::from(*flags as u8 | MARKED | VARIANCES);
+            *flags = f64::from(*flags as u16 | MARKED | VARIANCES);
             self.close_next = true;
         }
     }

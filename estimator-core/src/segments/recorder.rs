@@ -33,6 +33,14 @@ where
     /// variances are wanted too (the prediction is marked as well). Default: nothing.
     fn mark_variances(&mut self) {}
 
+    /// The caller did not propagate the covariance at the end of the last recorded
+    /// prediction, but takes it over a stretch of predictions that goes on past it, as
+    /// one step of the inputs folded ([`ProcessModel::fold_input`],
+    /// [`ErrorStateFilter::predict_covariance`]); a stretch also ends wherever a recorder
+    /// reads the covariance ([`reads_covariance`](Self::reads_covariance)) and before an
+    /// update. A smoother's backward pass then takes the same stretches. Default: nothing.
+    fn covariance_continues(&mut self) {}
+
     /// Whether this recorder keeps the predictions (a smoother's replay needs every one
     /// as [`ErrorStateFilter::predict`] takes it); `false` lets the caller take
     /// shortcuts such as a covariance at a lower rate. Default: `true`.
@@ -102,6 +110,13 @@ where
     fn mark_variances(&mut self) {
         if let Some(r) = self {
             r.mark_variances();
+        }
+    }
+
+    #[inline]
+    fn covariance_continues(&mut self) {
+        if let Some(r) = self {
+            r.covariance_continues();
         }
     }
 

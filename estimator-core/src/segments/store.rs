@@ -52,7 +52,12 @@ where
     /// [`ProcessModel::transition_transposed`]).
     pub(super) phi_ts: Vec<Cov<X::Dim>>,
     /// End time, interval, flags and input of each step.
-    pub(super) steps: Vec<(f64, f64, u8, U)>,
+    pub(super) steps: Vec<(f64, f64, u16, U)>,
+    /// The stretches the recursion takes as one step each, where the forward pass
+    /// propagated the covariance over several ([`CONTINUES`]) and the model folds inputs
+    /// ([`ProcessModel::fold_input`]): the step each ends before, its folded input and its
+    /// interval. Empty: every step on its own.
+    pub(super) units: Vec<(usize, U, f64)>,
     /// The segment continues the one before it (no update at its start).
     pub(super) continues: bool,
     /// The prediction fading and noise adjustment of the segment's steps.
@@ -71,9 +76,38 @@ where
             p_end_inv: None,
             phi_ts: Vec::new(),
             steps: Vec::new(),
+            units: Vec::new(),
             continues: false,
             fading: 1.0,
             q: QAdjust::Keep,
+        }
+    }
+}
+
+impl<X: Manifold, U> Replayed<X, U>
+where
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    /// How many steps the recursion takes: the stretches ([`units`](Self::units)), or
+    /// every step.
+    pub(super) fn taken(&self) -> usize {
+        if self.units.is_empty() {
+            self.steps.len()
+        } else {
+            self.units.len()
+        }
+    }
+
+    /// Step `j` of those the recursion takes: the point it starts from, how many of the
+    /// segment's steps it covers, its input and its interval.
+    pub(super) fn taken_step(&self, j: usize) -> (usize, usize, &U, f64) {
+        if self.units.is_empty() {
+            let (_, dt, _, u) = &self.steps[j];
+            (j, 1, u, *dt)
+        } else {
+            let first = if j == 0 { 0 } else { self.units[j - 1].0 };
+            let (last, u, dt) = &self.units[j];
+            (first, last - first, u, *dt)
         }
     }
 }
@@ -188,12 +222,12 @@ impl<S: Read + Seek> Store<'_, S> {
         at += tri;
         for _ in 0..count {
             let flags = *v.get(at).ok_or(corrupt("segment length"))?;
-            if !((0.0..256.0).contains(&flags) && flags.fract() == 0.0) {
+            if !((0.0..f64::from(FLAGS_END)).contains(&flags) && flags.fract() == 0.0) {
                 return Err(corrupt("step flags"));
             }
-            let flags = flags as u8;
+            let flags = flags as u16;
             let (after, stamped) = (flags & AFTER != 0, flags & STAMPED != 0);
-            let form = flags >> FORM_SHIFT;
+            let form = ((flags & (CONTINUES - 1)) >> FORM_SHIFT) as u8;
             if form != 0 && !after {
                 return Err(corrupt("step flags"));
             }
@@ -215,7 +249,7 @@ impl<S: Read + Seek> Store<'_, S> {
                 Some(times) => times,
                 None => return Err(corrupt("step without its times")),
             };
-            seg.steps.push((end, dt, flags & (MARKED | VARIANCES), u));
+            seg.steps.push((end, dt, flags & (MARKED | VARIANCES | CONTINUES), u));
             at += len;
         }
         let mut p_end = None;
@@ -258,10 +292,45 @@ impl<S: Read + Seek> Store<'_, S> {
                 seg.xs.push(x_next);
             }
         }
+        seg.units.clear();
+        if !replay && seg.steps.iter().any(|(_, _, flags, _)| flags & CONTINUES != 0) {
+            fold_stretches(model, &seg.steps, &mut seg.units);
+        }
         seg.p_end_inv = p_end.map(|p| {
             cholesky("smoother: predicted covariance Pₙ", p)
                 .map(|chol| inverse_from_cholesky(&chol))
         });
         Ok(())
+    }
+}
+
+/// The stretches of `steps` (each ends at a step without [`CONTINUES`], or at the last
+/// step), their inputs folded ([`ProcessModel::fold_input`]), into `units` (left empty
+/// when the model does not fold).
+fn fold_stretches<X, U, PM>(
+    model: &PM,
+    steps: &[(f64, f64, u16, U)],
+    units: &mut Vec<(usize, U, f64)>,
+) where
+    X: Manifold,
+    PM: ProcessModel<State = X, Input = U>,
+    DefaultAllocator: DimAlloc<X::Dim>,
+{
+    let (mut sum, mut interval) = (None, 0.0);
+    for (k, (_, dt, flags, u)) in steps.iter().enumerate() {
+        if !model.fold_input(&mut sum, u) {
+            units.clear();
+            return;
+        }
+        // (summed in the order the forward pass sums them)
+        interval += dt;
+        if flags & CONTINUES == 0 || k + 1 == steps.len() {
+            let Some(folded) = sum.take() else {
+                units.clear();
+                return;
+            };
+            units.push((k + 1, folded, interval));
+            interval = 0.0;
+        }
     }
 }

@@ -80,6 +80,18 @@ pub struct ImuInput {
     pub cur: ImuSample,
 }
 
+impl ImuInput {
+    /// Fold this input into `sum`, the combined input of a stretch of samples taken as
+    /// one covariance step (`None` at the stretch's first sample; the combination is
+    /// [`ImuSample::add_to_stretch`], with no sample before): the INS models'
+    /// [`ProcessModel::fold_input`].
+    pub fn fold_into(&self, sum: &mut Option<ImuInput>) {
+        let s = &self.cur;
+        let open = || ImuInput { prev: None, cur: s.stretch_opening() };
+        sum.get_or_insert_with(open).cur.add_to_stretch(s);
+    }
+}
+
 /// The INS process model: mechanization, error model and noise.
 #[derive(Clone, Debug)]
 pub struct InsModel {
@@ -489,6 +501,11 @@ impl ProcessModel for InsModel {
         out: &mut Cov<Const<15>>,
     ) {
         adjoint_sandwich_into(phi_t, lambda, out);
+    }
+
+    fn fold_input(&self, sum: &mut Option<ImuInput>, u: &ImuInput) -> bool {
+        u.fold_into(sum);
+        true
     }
 
     /// `M Φ` over the non-zeros of `Φ`'s columns.

@@ -30,16 +30,9 @@ impl<S: Clone> Coarse<S> {
     /// Add sample `s`, taken from state `x` (used when it opens a stretch). Returns whether
     /// the stretch has reached the interval.
     pub(super) fn add(&mut self, x: &S, s: &ImuSample) -> bool {
-        let (_, sum, n) = self.pending.get_or_insert_with(|| {
-            let open =
-                ImuSample { dt: 0.0, dtheta: Vector3::zeros(), dvel: Vector3::zeros(), ..*s };
-            (x.clone(), open, 0)
-        });
+        let (_, sum, n) = self.pending.get_or_insert_with(|| (x.clone(), s.stretch_opening(), 0));
         *n += 1;
-        sum.dvel += s.dvel + sum.dtheta.cross(&s.dvel);
-        sum.dtheta += s.dtheta;
-        sum.dt += s.dt;
-        sum.t = s.t;
+        sum.add_to_stretch(s);
         sum.dt >= self.interval - TIME_EPSILON
     }
 }
@@ -58,8 +51,9 @@ where
     /// ([`process_recorded`](Self::process_recorded)) records every sample and brings the
     /// covariance to now wherever the recorder reads it
     /// ([`StepRecorder::reads_covariance`]: where a stretch opens, after an update, a
-    /// variance epoch or a full segment); the backward pass replays the samples' exact
-    /// transitions.
+    /// variance epoch or a full segment), and tells it where a stretch goes on past a
+    /// sample ([`StepRecorder::covariance_continues`]): the backward pass takes the same
+    /// stretches.
     pub fn with_covariance_interval(mut self, interval: f64) -> Self {
         self.coarse = (interval > 0.0).then(|| Coarse::new(interval));
         self

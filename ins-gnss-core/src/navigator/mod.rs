@@ -394,6 +394,10 @@ where
                 recorder.before_predict(&self.filter, &input, s.dt, mark);
             }
             let full = self.coarse.as_mut().is_some_and(|c| c.add(self.filter.state(), s));
+            if !full {
+                // (the smoother's backward pass takes the same stretches)
+                recorder.covariance_continues();
+            }
             self.filter.predict_state(&self.model, &input, s.dt).map_err(err)?;
             if full {
                 coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;

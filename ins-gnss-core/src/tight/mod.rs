@@ -150,6 +150,11 @@ impl ProcessModel for InsModelTc {
         self.step(x, u, dt).1
     }
 
+    fn fold_input(&self, sum: &mut Option<ImuInput>, u: &ImuInput) -> bool {
+        u.fold_into(sum);
+        true
+    }
+
     fn step(
         &self,
         x: &InsStateTc,
@@ -256,6 +261,11 @@ impl ProcessModel for InsModelTc21 {
 
     fn jacobians(&self, x: &InsStateTc21, u: &ImuInput, dt: f64) -> ProcessJacobians<Const<26>> {
         self.step(x, u, dt).1
+    }
+
+    fn fold_input(&self, sum: &mut Option<ImuInput>, u: &ImuInput) -> bool {
+        u.fold_into(sum);
+        true
     }
 
     /// The 21-state model's `Φ` and `Q_d` in the first 21 rows and columns, the clock's
