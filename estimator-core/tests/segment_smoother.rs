@@ -633,25 +633,28 @@ impl estimator_core::ProcessModel for Folding {
 /// smoother (`covariance_continues` inside a stretch); beside it a filter that takes one
 /// step per stretch, told to the step-by-step RTS smoother. Returns the segment smoother's
 /// rows, the RTS smoother's estimates and, per step, the forward pass's nominal state after
-/// it and the state its stretch started from (with the time there).
+/// it and the state its stretch started from (with the time there), and the bytes stored.
 #[allow(clippy::type_complexity)]
 fn stretched(
     c: &Case,
     stretch: usize,
     max_steps: usize,
     adjoint: AdjointForm,
+    replayed_priors: bool,
 ) -> (
     Vec<SmoothedRow<Vector2<f64>>>,
     Vec<estimator_core::Smoothed<Vector2<f64>>>,
     Vec<(Vector2<f64>, f64, Vector2<f64>)>,
+    u64,
 ) {
     let sensor = LinearMeasurement::new(c.H);
     let (x0, p0) = (Vector2::new(0.5, -0.2), Matrix2::new(4.0, 0.5, 0.5, 1.0));
     let mut f = ErrorStateFilter::new(x0, p0, Quirky).unwrap();
     let mut g = ErrorStateFilter::new(x0, p0, Quirky).unwrap();
     let mut rts = RtsSmoother::new();
-    let mut seg =
-        SegmentSmoother::new(Cursor::new(Vec::new()), max_steps).with_adjoint_form(adjoint);
+    let mut seg = SegmentSmoother::new(Cursor::new(Vec::new()), max_steps)
+        .with_adjoint_form(adjoint)
+        .with_replayed_priors(replayed_priors);
     // the open stretch: the state and time it started from, its interval and steps
     let mut pending: Option<(Vector2<f64>, f64, f64, u32)> = None;
     let settle = |f: &mut ErrorStateFilter<_, Quirky>,
@@ -694,6 +697,8 @@ fn stretched(
         }
     }
     settle(&mut f, &mut g, &mut rts, &mut pending);
+    seg.finish_recording().unwrap();
+    let bytes = seg.stored_bytes();
     let mut chunks = Vec::new();
     seg.smooth(&f, &Folding, |rows| {
         chunks.push(rows.to_vec());
@@ -701,7 +706,7 @@ fn stretched(
     })
     .unwrap();
     let rows: Vec<_> = chunks.into_iter().rev().flatten().collect();
-    (rows, rts.smooth(&g).unwrap(), nominal)
+    (rows, rts.smooth(&g).unwrap(), nominal, bytes)
 }
 
 /// A forward pass that propagated the covariance once per stretch of steps is smoothed
@@ -712,19 +717,13 @@ fn stretched(
 /// with refusals and an adapted process noise.
 #[test]
 fn stretches_of_steps_are_smoothed_as_the_forward_pass_took_them() {
-    // an update every fourth step (an update ends a stretch), none for a while in the middle
-    let mut c = case();
-    for (k, z) in c.z.iter_mut().enumerate() {
-        if k % 4 != 3 {
-            *z = None;
-        }
-    }
+    let c = sparse_case();
     let forms = [AdjointForm::PerStep, AdjointForm::Accumulated];
     for (stretch, max_steps, adjoint) in [(3, 1000), (3, 2), (2, 7), (5, 1000)]
         .into_iter()
         .flat_map(|(s, m)| forms.map(|f| (s, m, f)))
     {
-        let (rows, rts, nominal) = stretched(&c, stretch, max_steps, adjoint);
+        let (rows, rts, nominal, _) = stretched(&c, stretch, max_steps, adjoint, false);
         assert_eq!(rows.len(), c.z.len());
         let at = |t: f64| rts.iter().find(|s| (s.time - t).abs() < 1e-9);
         let (mut ends, mut inside, mut variances) = (0, 0, 0);
@@ -760,5 +759,46 @@ fn stretches_of_steps_are_smoothed_as_the_forward_pass_took_them() {
             assert!((r.x - expected).norm() < 1e-9 * scale, "{}: {} vs {expected}", r.time, r.x);
         }
         assert!(ends > 20 && inside > 20 && variances > 5, "{ends} {inside} {variances}");
+    }
+}
+
+/// [`case`] with an update every fourth step only (an update ends a stretch), none for a
+/// while in the middle.
+fn sparse_case() -> Case {
+    let mut c = case();
+    for (k, z) in c.z.iter_mut().enumerate() {
+        if k % 4 != 3 {
+            *z = None;
+        }
+    }
+    c
+}
+
+/// A smoother that stores no covariance before the updates (`with_replayed_priors`)
+/// rebuilds it from the update before as the forward pass propagated it, step by step or
+/// over its stretches: every smoothed row, state and variances, is the stored priors' bit
+/// for bit, whatever the stretch, the segment length and the adjoint's form.
+#[test]
+fn replayed_priors_give_the_stored_priors_rows_bit_for_bit() {
+    let c = sparse_case();
+    let forms = [AdjointForm::PerStep, AdjointForm::Accumulated];
+    for (stretch, max_steps, adjoint) in [(1, 1000), (3, 1000), (3, 2), (5, 7)]
+        .into_iter()
+        .flat_map(|(s, m)| forms.map(|f| (s, m, f)))
+    {
+        let (stored, .., stored_bytes) = stretched(&c, stretch, max_steps, adjoint, false);
+        let (replayed, .., replayed_bytes) = stretched(&c, stretch, max_steps, adjoint, true);
+        // (one covariance of three numbers less per update)
+        assert!(replayed_bytes < stored_bytes, "{replayed_bytes} of {stored_bytes} bytes");
+        assert_eq!(stored.len(), c.z.len());
+        assert_eq!(replayed.len(), stored.len());
+        let bits = |r: &SmoothedRow<Vector2<f64>>| {
+            let var = r.var.map(|v| [v[0].to_bits(), v[1].to_bits()]);
+            (r.time.to_bits(), [r.x[0].to_bits(), r.x[1].to_bits()], var)
+        };
+        for (a, b) in stored.iter().zip(&replayed) {
+            assert_eq!(bits(a), bits(b), "stretch {stretch}, {max_steps} steps, {adjoint:?}");
+        }
+        assert!(stored.iter().filter(|r| r.var.is_some()).count() > 5);
     }
 }

@@ -166,6 +166,15 @@ fn kf_gins_yaml_as_it_is_on_navego() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     assert!(names.iter().all(|n| !n.ends_with(".tmp") && !n.ends_with(".partial")), "{names:?}");
+    // one covariance per update in the scratch file: the same smoothed files, byte for byte
+    let low = temp("navego-low-scratch");
+    run_quiet(&data.join("kf-gins-ADIS16488.yaml"), &low, &["--smooth", "--smooth-low-scratch"]);
+    for name in ["nav_smoothed.txt", "std_smoothed.txt", "nav_smoothed.pos"] {
+        let (a, b) =
+            (std::fs::read(dir.join(name)).unwrap(), std::fs::read(low.join(name)).unwrap());
+        assert!(a == b, "{name} differs with --smooth-low-scratch");
+    }
+    std::fs::remove_dir_all(&low).unwrap();
     // a later run without smoothing removes the smoothed files, which would not match it
     run_quiet(&data.join("kf-gins-ADIS16488.yaml"), &dir, &[]);
     assert!(!dir.join("nav_smoothed.txt").exists() && !dir.join("std_smoothed.txt").exists());

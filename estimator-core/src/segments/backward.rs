@@ -88,9 +88,10 @@ where
         let count = seg.steps.len();
         let taken = seg.taken();
         let stretched = !seg.units.is_empty();
-        // the transitions the replay formed, or this segment's own buffer to form them in
+        // the transitions the replay formed (one per step taken, when it replayed the
+        // covariance), or this segment's own buffer to form them in
         // (taken out of `self` for the segment: it is borrowed beside `self`'s other parts)
-        let formed = seg.phi_ts.len() == count && !stretched;
+        let formed = !seg.phi_ts.is_empty();
         let mut own = core::mem::take(&mut self.phi_ts);
         if !formed {
             own.resize(taken, Cov::<X::Dim>::zeros());

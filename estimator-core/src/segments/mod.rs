@@ -256,6 +256,9 @@ pub struct SegmentSmoother<X, U, S = std::fs::File> {
     shrink: Option<std::fs::File>,
     /// How the backward pass carries `Λ` ([`with_adjoint_form`](Self::with_adjoint_form)).
     adjoint: AdjointForm,
+    /// The covariances before the updates are not stored but replayed
+    /// ([`with_replayed_priors`](Self::with_replayed_priors)).
+    replay_priors: bool,
     _types: PhantomData<fn(X, U)>,
 }
 
@@ -295,6 +298,7 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
             error: None,
             shrink: None,
             adjoint: AdjointForm::PerStep,
+            replay_priors: false,
             _types: PhantomData,
         }
     }
@@ -303,6 +307,17 @@ impl<X, U, S> SegmentSmoother<X, U, S> {
     /// [`AdjointForm::PerStep`]).
     pub fn with_adjoint_form(mut self, form: AdjointForm) -> Self {
         self.adjoint = form;
+        self
+    }
+
+    /// Store no covariance before an update ([`StepRecorder::before_update`] takes none):
+    /// the backward pass rebuilds it by replaying the segment's covariance from its start,
+    /// as the forward pass propagated it (every step, or its stretches: see
+    /// [`StepRecorder::covariance_continues`]), on the replay's side. One covariance per
+    /// update in the storage instead of two, for a covariance step per step taken in the
+    /// backward pass (default: stored).
+    pub fn with_replayed_priors(mut self, replay: bool) -> Self {
+        self.replay_priors = replay;
         self
     }
 
@@ -618,7 +633,7 @@ where
         &mut self,
         filter: &ErrorStateFilter<X, A, B>,
     ) {
-        if self.open_steps > 0 && !self.prior_taken {
+        if self.open_steps > 0 && !self.prior_taken && !self.replay_priors {
             self.prior.clear();
             push_upper(&mut self.prior, &filter.covariance());
             self.prior_taken = true;

@@ -216,8 +216,7 @@ impl<S: Read + Seek> Store<'_, S> {
         // the covariances and transitions are written in place (a segment's buffers are
         // reused: they grow to the longest segment once, then are only overwritten)
         let replay = end == END_REPLAY;
-        seg.ps.resize(if replay { count + 1 } else { 1 }, Cov::<X::Dim>::zeros());
-        seg.phi_ts.resize(if replay { count } else { 0 }, Cov::<X::Dim>::zeros());
+        seg.ps.resize(1, Cov::<X::Dim>::zeros());
         read_upper(&v[at..], &mut seg.ps[0]);
         at += tri;
         for _ in 0..count {
@@ -263,7 +262,16 @@ impl<S: Read + Seek> Store<'_, S> {
         if at != v.len() {
             return Err(corrupt("segment length"));
         }
-        if replay {
+        seg.units.clear();
+        if seg.steps.iter().any(|(_, _, flags, _)| flags & CONTINUES != 0) {
+            fold_stretches(model, &seg.steps, &mut seg.units);
+        }
+        let taken = seg.taken();
+        seg.ps.resize(if replay { taken + 1 } else { 1 }, Cov::<X::Dim>::zeros());
+        // (over stretches the recursion forms its own transitions, on its thread)
+        let formed = replay && seg.units.is_empty();
+        seg.phi_ts.resize(if formed { taken } else { 0 }, Cov::<X::Dim>::zeros());
+        if replay && seg.units.is_empty() {
             // the covariance is not stored at the end: replayed by the static back-end's
             // path (the model's fused product where it has one), with the segment's fading
             // and noise adjustment, Φᵀ on the side
@@ -284,17 +292,38 @@ impl<S: Read + Seek> Store<'_, S> {
                 )?;
                 seg.xs.push(x_next);
             }
-            p_end = Some(seg.ps[count].clone());
         } else {
-            // the nominal states only
+            // the nominal states
             for (k, (_, dt, _, u)) in seg.steps.iter().enumerate() {
                 let x_next = model.propagate(&seg.xs[k], u, *dt);
                 seg.xs.push(x_next);
             }
+            if replay {
+                // and the covariance over the forward pass's stretches, as it propagated
+                // it (`ErrorStateFilter::predict_covariance`: at the stretch's first state,
+                // over its folded input and interval, the fading once per step)
+                let mut first = 0;
+                for (j, (last, u, dt)) in seg.units.iter().enumerate() {
+                    let n = (last - first) as i32;
+                    let fading = if seg.fading != 1.0 { seg.fading.powi(n) } else { seg.fading };
+                    let (done, next) = seg.ps.split_at_mut(j + 1);
+                    static_predict(
+                        model,
+                        &seg.xs[first],
+                        u,
+                        *dt,
+                        &done[j],
+                        fading,
+                        &seg.q,
+                        &mut next[0],
+                        None,
+                    )?;
+                    first = *last;
+                }
+            }
         }
-        seg.units.clear();
-        if !replay && seg.steps.iter().any(|(_, _, flags, _)| flags & CONTINUES != 0) {
-            fold_stretches(model, &seg.steps, &mut seg.units);
+        if replay {
+            p_end = Some(seg.ps[taken].clone());
         }
         seg.p_end_inv = p_end.map(|p| {
             cholesky("smoother: predicted covariance Pₙ", p)

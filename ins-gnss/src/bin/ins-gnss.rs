@@ -67,6 +67,11 @@ enum Command {
         /// `filter.covariance_interval`; a smoothed run too).
         #[arg(long, value_name = "SECONDS")]
         covariance_interval: Option<f64>,
+        /// Smooth with one covariance per update in the scratch file instead of two (the
+        /// backward pass replays the other; the same smoothed files, byte for byte; sets
+        /// `filter.smooth_low_scratch`).
+        #[arg(long)]
+        smooth_low_scratch: bool,
         /// Land vehicle: the odometer speed of the IMU file's 8th column, with the
         /// configuration's `[vehicle.odometer]` settings or the defaults.
         #[arg(long)]
@@ -223,6 +228,7 @@ fn main() -> ExitCode {
             odometer,
             states,
             covariance_interval,
+            smooth_low_scratch,
             no_vehicle,
             smooth,
             report,
@@ -243,6 +249,7 @@ fn main() -> ExitCode {
                 no_vehicle,
                 states: states.as_deref().and_then(|s| s.parse().ok()),
                 covariance_interval,
+                smooth_low_scratch,
                 smooth,
                 report,
                 accept_inconsistent,

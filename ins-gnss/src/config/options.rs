@@ -36,6 +36,9 @@ pub struct RunOptions<'a> {
     pub smooth: bool,
     /// Override `filter.covariance_interval` (s).
     pub covariance_interval: Option<f64>,
+    /// Smooth with one covariance per update in the scratch file (sets
+    /// `filter.smooth_low_scratch`).
+    pub smooth_low_scratch: bool,
     /// Write `report.html` (with the plots when there is a truth).
     pub report: bool,
     /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
@@ -81,6 +84,9 @@ impl Config {
         }
         if let Some(c) = o.covariance_interval {
             cfg.filter.covariance_interval = c;
+        }
+        if o.smooth_low_scratch {
+            cfg.filter.smooth_low_scratch = true;
         }
         // the options are checked as the file's keys were
         cfg.validate()?;

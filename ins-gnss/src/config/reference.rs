@@ -169,6 +169,7 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("filter.states", "—", "21"),
     ("filter.smooth", "—", "true"),
     ("filter.covariance_interval", "s", "0"),
+    ("filter.smooth_low_scratch", "—", "true"),
     ("filter.gate.enabled", "—", "false"),
     ("filter.gate.probability", "probability", "1e-6"),
     ("filter.gate.readmit_after", "refusals", "10"),

@@ -238,7 +238,11 @@ where
         estimator_core::AdjointForm::PerStep
     };
     let mut recorder = if config.filter.smooth {
-        Some(out.recorder::<S>()?.with_adjoint_form(adjoint))
+        Some(
+            out.recorder::<S>()?
+                .with_adjoint_form(adjoint)
+                .with_replayed_priors(config.filter.smooth_low_scratch),
+        )
     } else {
         None
     };
