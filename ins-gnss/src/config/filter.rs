@@ -48,7 +48,7 @@ pub struct FilterSection {
     /// of two: the backward pass rebuilds the covariance before each update by replaying
     /// it from the update before, as the forward pass propagated it. The smoothed files
     /// are the same, byte for byte. On the simulated day (100 Hz, NHC at 10 Hz) the
-    /// scratch goes from 2.68 to 1.77 GB; navego's smoothed run takes 3–9 % longer
+    /// scratch goes from 2.68 to 1.77 GB; navego's smoothed run takes 7–9 % longer
     /// (`benches/README.md`). Default false.
     #[serde(default)]
     pub smooth_low_scratch: bool,
