@@ -26,6 +26,9 @@ use crate::traits::{MeasurementModel, ProcessModel};
 mod predict;
 mod update;
 
+#[cfg(feature = "std")]
+pub(crate) use predict::fading_over;
+
 /// How the covariance is reset after injecting the correction.
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

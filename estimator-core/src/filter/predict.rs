@@ -107,8 +107,7 @@ where
             return Err(FilterError::NonFinite { what: "strategy prediction fading λ" });
         }
         let (x, fading) = match x_ref {
-            Some((x, steps)) if fading != 1.0 => (x, T::lit(fading.powi(steps.max(1) as i32))),
-            Some((x, _)) => (x, T::lit(fading)),
+            Some((x, steps)) => (x, T::lit(fading_over(fading, steps))),
             None => (&self.x, T::lit(fading)),
         };
         let (P, next, aux) = Self::split(&mut self.bufs, self.cur);
@@ -162,5 +161,16 @@ where
         self.commit();
         self.time += dt;
         Ok(())
+    }
+}
+
+/// A strategy's prediction fading `λ` over one covariance step that stands for `steps`
+/// state steps: `λⁿ` (the fading is per prediction). The smoother's backward pass takes
+/// it so too, where it replays or sweeps such a stretch.
+pub(crate) fn fading_over(fading: f64, steps: u32) -> f64 {
+    if fading != 1.0 {
+        fading.powi(steps.max(1) as i32)
+    } else {
+        fading
     }
 }

@@ -220,7 +220,7 @@ where
                         q_lambda.axpy(dt, &extra, 1.0);
                     }
                 }
-                let fading = if n == 1 { seg.fading } else { seg.fading.powi(n as i32) };
+                let fading = fading_over(seg.fading, n as u32);
                 for ((m, a), b) in mu.iter_mut().zip(phi_mu.iter()).zip(q_lambda.iter()) {
                     *m = fading * a + b;
                 }

@@ -12,7 +12,7 @@ use crate::adapt::{NoiseStrategy, QAdjust};
 use crate::backend::{static_predict, CovBackend};
 use crate::dims::Cov;
 use crate::error::FilterError;
-use crate::filter::ErrorStateFilter;
+use crate::filter::{fading_over, ErrorStateFilter};
 use crate::kernels;
 use crate::linalg::cholesky;
 use crate::smoother::{reframe, Reframe};

@@ -271,7 +271,7 @@ impl<S: Read + Seek> Store<'_, S> {
         // (over stretches the recursion forms its own transitions, on its thread)
         let formed = replay && seg.units.is_empty();
         seg.phi_ts.resize(if formed { taken } else { 0 }, Cov::<X::Dim>::zeros());
-        if replay && seg.units.is_empty() {
+        if formed {
             // the covariance is not stored at the end: replayed by the static back-end's
             // path (the model's fused product where it has one), with the segment's fading
             // and noise adjustment, Φᵀ on the side
@@ -304,8 +304,7 @@ impl<S: Read + Seek> Store<'_, S> {
                 // over its folded input and interval, the fading once per step)
                 let mut first = 0;
                 for (j, (last, u, dt)) in seg.units.iter().enumerate() {
-                    let n = (last - first) as i32;
-                    let fading = if seg.fading != 1.0 { seg.fading.powi(n) } else { seg.fading };
+                    let fading = fading_over(seg.fading, (last - first) as u32);
                     let (done, next) = seg.ps.split_at_mut(j + 1);
                     static_predict(
                         model,
