@@ -62,13 +62,17 @@ impl Clone for AnyStrategy {
 }
 
 /// The names [`AnyStrategy::from_str`] accepts.
-pub const STRATEGY_NAMES: [&str; 14] = [
+pub const STRATEGY_NAMES: [&str; 18] = [
     "fixed",
     "iae",
     "iae-qr",
+    "iae-qr-faithful",
     "afkf",
     "afkf-xia",
+    "afkf-faithful",
+    "afkf-xia-faithful",
     "fused",
+    "fused-faithful",
     "fused-nominal",
     "fused-window-test",
     "fused-uncensored",
@@ -107,6 +111,10 @@ impl FromStr for AnyStrategy {
             "iae-qr" => AnyStrategy::Iae(Iae::default().with_q_adaptation()),
             "afkf" => AnyStrategy::Afkf(Afkf::default()),
             "afkf-xia" => AnyStrategy::Afkf(Afkf::default().xia()),
+            "afkf-faithful" => AnyStrategy::Afkf(Afkf::default().faithful()),
+            "afkf-xia-faithful" => AnyStrategy::Afkf(Afkf::default().xia().faithful()),
+            "fused-faithful" => AnyStrategy::Fused(FusedDualWindow::default().faithful()),
+            "iae-qr-faithful" => AnyStrategy::Iae(Iae::default().with_q_adaptation().faithful()),
             "fused" | "fused-cumulative" => AnyStrategy::Fused(FusedDualWindow::default()),
             "fused-nominal" => {
                 AnyStrategy::Fused(FusedDualWindow::default().with_r_reading(RReading::Nominal))

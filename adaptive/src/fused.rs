@@ -3,6 +3,7 @@
 use estimator_core::{Adaptation, FilterAlloc, NoiseStrategy, PriorScaling, StreamMap, Verdict};
 use nalgebra::{DefaultAllocator, DimName, OMatrix};
 
+use crate::guard::{FadingGuard, GuardStream, Judgement};
 use crate::window::InnovationWindow;
 
 /// The fused dual-window filter: a degree of mismatch (DOM) over two windows drives a
@@ -38,6 +39,17 @@ use crate::window::InnovationWindow;
 /// - `refused_in_windows`: whether refused innovations still enter both windows (keeping
 ///   them out censors the windows: λ stays low exactly where the noise is large).
 ///
+/// # Guarded (the default) and faithful
+///
+/// By default a [`FadingGuard`] decides whether the process loop inflates `P⁻` at all:
+/// `λ_P > 1` only while the nominal NIS over the `N_P` window is significantly above a
+/// consistent filter's, and held off (reported `not_helping`) when a window of it has not
+/// made the innovations smaller; the measurement loop (`λ_R`) is the paper's. The paper's
+/// filter as written, `λ_P = max(1, DOM)` at every epoch, is `fused-faithful`
+/// ([`faithful`](Self::faithful)); on a user's attitude filter with a magnetic disturbance
+/// it reads the disturbance as model mismatch through λ_P and runs several degrees off
+/// (`docs/results.md`).
+///
 /// Names for configurations and `--strategy` (see [`crate::AnyStrategy`]): `fused`
 /// (cumulative R, single-epoch test, refused kept out; also `fused-cumulative`),
 /// `fused-nominal`, `fused-window-test`, `fused-uncensored` (refused innovations in the
@@ -71,6 +83,9 @@ pub struct FusedDualWindow {
     pub gross_test: GrossTest,
     /// Refused innovations enter both windows too. Default false.
     pub refused_in_windows: bool,
+    /// Whether and how the process loop is guarded. Default
+    /// `Some(FadingGuard::default())`; `None` is the paper's filter as written.
+    pub guard: Option<FadingGuard>,
     streams: StreamMap<FusedStream>,
 }
 
@@ -85,6 +100,7 @@ clone_in_place!(FusedDualWindow {
     r_reading,
     gross_test,
     refused_in_windows,
+    guard,
     streams
 });
 
@@ -125,9 +141,10 @@ struct FusedStream {
     /// The cumulative reading's `R*_{k−1} / R₀` (a scalar factor: every step multiplies
     /// `R₀` by a scalar).
     r_factor: f64,
+    guard: GuardStream,
 }
 
-clone_in_place!(FusedStream { w_p, w_r, rejections, r_factor });
+clone_in_place!(FusedStream { w_p, w_r, rejections, r_factor, guard });
 
 impl Default for FusedDualWindow {
     fn default() -> Self {
@@ -142,6 +159,7 @@ impl Default for FusedDualWindow {
             r_reading: RReading::default(),
             gross_test: GrossTest::default(),
             refused_in_windows: false,
+            guard: Some(FadingGuard::default()),
             streams: StreamMap::new(),
         }
     }
@@ -165,6 +183,13 @@ impl FusedDualWindow {
         self
     }
 
+    /// The paper's filter as written: the process loop unguarded (see [the type's
+    /// documentation](Self)).
+    pub fn faithful(mut self) -> Self {
+        self.guard = None;
+        self
+    }
+
     /// The same filter with refused innovations entering the windows (or not).
     pub fn with_refused_in_windows(mut self, yes: bool) -> Self {
         self.refused_in_windows = yes;
@@ -174,7 +199,11 @@ impl FusedDualWindow {
 
 impl NoiseStrategy for FusedDualWindow {
     fn name(&self) -> &'static str {
-        "fused"
+        if self.guard.is_some() {
+            "fused"
+        } else {
+            "fused-faithful"
+        }
     }
 
     fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
@@ -187,6 +216,7 @@ impl NoiseStrategy for FusedDualWindow {
             w_r: InnovationWindow::new(n_r, M::DIM),
             rejections: 0,
             r_factor: 1.0,
+            guard: GuardStream::new(n_p, M::DIM),
         });
         // S against which the mismatch is measured: H P⁻ Hᵀ + R₀, or + R*_{k−1}
         let cumulative = self.r_reading == RReading::Cumulative;
@@ -221,8 +251,16 @@ impl NoiseStrategy for FusedDualWindow {
         // DOM(N) = tr(Ĉ(N)) / tr(S)
         let dom_p = s.w_p.trace() / tr_s;
         let dom_r = s.w_r.trace() / tr_s;
-        let lambda_p =
+        let mut lambda_p =
             if dom_p.is_finite() { dom_p.clamp(1.0, self.lambda_p_max.max(1.0)) } else { 1.0 };
+        let judgement = match &self.guard {
+            Some(guard) => s.guard.judge(guard, &crate::guard::Epoch::of(a), M::DIM),
+            None => Judgement::Adapt,
+        };
+        if judgement != Judgement::Adapt {
+            lambda_p = 1.0;
+        }
+        a.not_helping = judgement == Judgement::NotHelping;
         let (lo, hi) = self.lambda_r_bounds;
         // the factor on R₀: λ_R afresh, or the running product, inside the bounds
         let r_factor = if cumulative { s.r_factor * dom_r } else { dom_r };

@@ -38,8 +38,9 @@ fn z(k: usize) -> Vector1<f64> {
 fn xia_factor_scales_the_propagated_part_only() {
     let (process, H, R, x0, P0) = setup();
     let (F, Q) = (process.F, process.Q);
-    let strategy = Afkf::windowed(10).xia().with_scaling(PriorScaling::Full);
-    assert_eq!(strategy.name(), "afkf-xia");
+    // Xia's formula as written (the guard would hold λ off on part of this sequence)
+    let strategy = Afkf::windowed(10).xia().faithful().with_scaling(PriorScaling::Full);
+    assert_eq!(strategy.name(), "afkf-xia-faithful");
     assert!(strategy.tracks_process_noise());
     let mut f = ErrorStateFilter::new(x0, P0, strategy).unwrap();
     let sensor = LinearMeasurement::new(H);
@@ -83,11 +84,14 @@ fn xia_factor_scales_the_propagated_part_only() {
     assert!(inflated >= 10, "the noisy stretch must inflate: {inflated} updates did");
 
     // The plain AFKF scales Q_Σ too: its covariance differs while it inflates.
-    let plain = Afkf::windowed(10).with_scaling(PriorScaling::Full);
+    let plain = Afkf::windowed(10).faithful().with_scaling(PriorScaling::Full);
     let mut plain = ErrorStateFilter::new(x0, P0, plain).unwrap();
-    let mut xia =
-        ErrorStateFilter::new(x0, P0, Afkf::windowed(10).xia().with_scaling(PriorScaling::Full))
-            .unwrap();
+    let mut xia = ErrorStateFilter::new(
+        x0,
+        P0,
+        Afkf::windowed(10).xia().faithful().with_scaling(PriorScaling::Full),
+    )
+    .unwrap();
     let mut largest = 0.0f64;
     for k in 0..120 {
         for _ in 0..STEPS_PER_UPDATE {

@@ -27,10 +27,12 @@ fn no_harm_when_the_model_is_right() {
     }
     for ((name, _), rms) in all_strategies().iter().zip(&others) {
         eprintln!("{name:10} RMS {rms:.4} m (fixed {fixed:.4})");
-        if *name == "iae-qr" {
-            // Adapting Q from the gain (the paper's IAE) adds process noise the model did
-            // not need: measured 1.48 m against 0.87 m here. That is its documented cost.
-            assert!(*rms > 1.2 * fixed, "iae-qr: RMS {rms:.4} vs fixed {fixed:.4}");
+        if *name == "iae-qr-faithful" {
+            // Adapting Q from the gain at every update (the paper's IAE) adds process noise
+            // the model did not need: measured 1.48 m against 0.87 m here. That is its
+            // documented cost; the guarded `iae-qr` adds it only on a significant mismatch
+            // (0.90 m).
+            assert!(*rms > 1.2 * fixed, "iae-qr-faithful: RMS {rms:.4} vs fixed {fixed:.4}");
             continue;
         }
         assert!(*rms <= 1.10 * fixed, "{name}: RMS {rms:.4} vs fixed {fixed:.4}");

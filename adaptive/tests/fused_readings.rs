@@ -35,6 +35,7 @@ fn decide(s: &mut FusedDualWindow, r: Vector3<f64>, hph: f64) -> (Verdict, f64, 
         reason: "",
         factors: Default::default(),
         q: QAdjust::Keep,
+        not_helping: false,
     };
     s.adapt(&mut a);
     (a.verdict, a.R[(0, 0)], a.prior_scale)

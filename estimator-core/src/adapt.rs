@@ -195,6 +195,10 @@ where
     pub factors: Factors,
     /// Output: process-noise change for the following predictions.
     pub q: QAdjust<N, T>,
+    /// Output: the strategy's adaptation has run without making the innovations smaller,
+    /// and the strategy holds it off (it is not helping on this stream). Reported in
+    /// [`UpdateReport::not_helping`](crate::UpdateReport::not_helping). Default `false`.
+    pub not_helping: bool,
 }
 
 /// After a successful update: the gain, for strategies that adapt `Q` from it.

@@ -12,6 +12,16 @@ pub enum FilterError {
         /// The matrix, e.g. `"measurement noise R"`.
         what: &'static str,
     },
+    /// The filter's own covariance `P` lost its positive definiteness in a step: the
+    /// filter refused the step and was left as it was before it (the invariant that `P`
+    /// is symmetric positive definite after every prediction and update holds for every
+    /// strategy, or the step fails with this error).
+    CovarianceLost {
+        /// The step: `"prediction"` or `"update"`.
+        step: &'static str,
+        /// The noise strategy in force (its [`name`](crate::NoiseStrategy::name)).
+        strategy: &'static str,
+    },
     /// A covariance is not symmetric within tolerance.
     NotSymmetric {
         /// The matrix.
@@ -74,6 +84,13 @@ impl fmt::Display for FilterError {
                 f,
                 "{what} is not positive definite (Cholesky failed); check the noise settings \
                  and the initial covariance — the filter was left unchanged"
+            ),
+            FilterError::CovarianceLost { step, strategy } => write!(
+                f,
+                "the covariance P after this {step} (strategy `{strategy}`) would not be \
+                 positive definite, so the {step} was refused — the filter was left unchanged; \
+                 the model's Jacobians and noise, or the strategy's scaling, made P indefinite: \
+                 try the `fixed` strategy to tell which"
             ),
             FilterError::NotSymmetric { what, asymmetry } => write!(
                 f,

@@ -38,11 +38,17 @@ where
     /// The strategy's factors.
     pub factors: Factors,
     /// True when the strategy asked for
-    /// [`MeasurementSubspace`](crate::PriorScaling::MeasurementSubspace) scaling but
-    /// `H P⁻ Hᵀ` had no Cholesky factor, so the filter scaled
-    /// the whole prior (`P⁻* = λ_P P⁻`) instead: the gain is the same, but directions the
-    /// measurement cannot see were inflated too.
+    /// [`MeasurementSubspace`](crate::PriorScaling::MeasurementSubspace) scaling but the
+    /// prior has no variance the measurement sees (`H P⁻ Hᵀ` zero to rounding), so there
+    /// was nothing to scale: the prior was used as it is. (A rank-deficient `H P⁻ Hᵀ`, a
+    /// unit vector's measurement, is scaled along the directions it has; it is no
+    /// fallback.)
     pub prior_scaling_fallback: bool,
+    /// True when the strategy held its adaptation off because adapting had not made the
+    /// innovations smaller (see `adaptive`'s fading guard): the update used the nominal
+    /// prior, and the stream's innovations are larger than the filter expects for a
+    /// reason the strategy cannot cure.
+    pub not_helping: bool,
     /// Gaussian log-likelihood of the innovation, `ln N(r; 0, S) = −½ (m ln 2π + ln det S
     /// + rᵀ S⁻¹ r)`, with the innovation covariance actually used (`S*` when the strategy
     /// adapted it; the nominal `S` for a plain accept and for a rejected measurement,
@@ -67,6 +73,7 @@ where
             reason: self.reason,
             factors: self.factors,
             prior_scaling_fallback: self.prior_scaling_fallback,
+            not_helping: self.not_helping,
         }
     }
 }
@@ -94,6 +101,8 @@ pub struct UpdateSummary {
     pub factors: Factors,
     /// See [`UpdateReport::prior_scaling_fallback`].
     pub prior_scaling_fallback: bool,
+    /// See [`UpdateReport::not_helping`].
+    pub not_helping: bool,
 }
 
 /// Receives telemetry from the filter:

@@ -215,9 +215,10 @@ fn a_failed_update_restores_the_strategy() {
 }
 
 #[test]
-fn fallback_from_subspace_to_full_scaling_is_reported() {
-    // A sensor that sees nothing of the state: H P⁻ Hᵀ = 0 has no Cholesky factor, so the
-    // subspace form cannot be built and the whole prior is scaled.
+fn a_prior_the_measurement_cannot_see_is_left_as_it_is_and_reported() {
+    // A sensor that sees nothing of the state: H P⁻ Hᵀ = 0, so the prior has nothing to
+    // scale along the measurement's subspace; it is used as it is (the gain is zero
+    // whatever λ is), and the report says so.
     let blind = LinearMeasurement::new(Matrix1x2::new(0.0, 0.0)).on_stream("blind");
     let strategy = TestStrategy { gate: 1e9, ..Default::default() };
     let mut f = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), strategy).unwrap();
@@ -225,13 +226,41 @@ fn fallback_from_subspace_to_full_scaling_is_reported() {
     assert!(!first.prior_scaling_fallback, "first update: λ = 1, nothing scaled");
     let second = f.update(&blind, &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
     assert_eq!(second.verdict, Verdict::Inflated);
-    assert!(second.prior_scaling_fallback, "the subspace scaling fell back to full scaling");
+    assert!(second.prior_scaling_fallback, "nothing to scale along the subspace");
     assert!(second.summary().prior_scaling_fallback);
-    assert!((f.covariance()[(1, 1)] - 1.5).abs() < 1e-12, "P scaled whole by λ_P = 1.5");
+    assert!((f.covariance()[(1, 1)] - 1.0).abs() < 1e-12, "P unchanged, not scaled whole");
     // with a sensor that sees the state, no fallback
     let third = f.update(&pos(), &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
     let fourth = f.update(&pos(), &Vector1::new(0.0), &Matrix1::new(1.0)).unwrap();
     assert!(!third.prior_scaling_fallback && !fourth.prior_scaling_fallback);
+}
+
+#[test]
+fn a_rank_deficient_measurement_is_scaled_along_what_it_sees() {
+    // Two rows that see the same combination: H P Hᵀ has rank 1. The subspace scaling
+    // inflates that direction by λ (so H P⁻* Hᵀ = λ H P⁻ Hᵀ) and leaves the unseen one,
+    // with no fallback.
+    let twice = LinearMeasurement::new(nalgebra::Matrix2::new(1.0, 0.0, 1.0, 0.0));
+    let strategy = TestStrategy { gate: 1e9, ..Default::default() };
+    let p0 = Matrix2::new(2.0, 0.5, 0.5, 1.0);
+    let mut f = ErrorStateFilter::new(Vector2::zeros(), p0, strategy).unwrap();
+    f.update(&twice, &Vector2::new(1.0, 1.0), &Matrix2::identity()).unwrap();
+    let p1 = f.covariance().into_owned();
+    // the second update: λ = 1.5 and R* = 2 R (the test strategy's even update)
+    let r = f.update(&twice, &Vector2::new(1.0, 1.0), &Matrix2::identity()).unwrap();
+    assert!(!r.prior_scaling_fallback);
+    assert_eq!(r.factors.lambda_p, 1.5);
+    // the posterior equals the textbook update of P⁻* = P⁻ + (λ − 1) P⁻Hᵀ(HP⁻Hᵀ)⁺HP⁻,
+    // here the one-row form P⁻* = P⁻ + (λ − 1) p pᵀ / p₁₁ with p = P⁻ e₁
+    let p = p1.column(0).into_owned();
+    let prior = p1 + p * p.transpose() * (0.5 / p1[(0, 0)]);
+    let h = nalgebra::Matrix2::new(1.0, 0.0, 1.0, 0.0);
+    let rr = Matrix2::identity() * 2.0;
+    let s = h * prior * h.transpose() + rr;
+    let k = prior * h.transpose() * s.try_inverse().unwrap();
+    let ikh = Matrix2::identity() - k * h;
+    let post = ikh * prior * ikh.transpose() + k * rr * k.transpose();
+    assert!((f.covariance().into_owned() - post).abs().max() < 1e-12, "{}", f.covariance());
 }
 
 /// A strategy that replaces R by `factor` × R and says "inflated".

@@ -333,13 +333,10 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
         }
         if a.nis <= gate * scale {
             st.refusals = 0;
-            self.inner.adapt(a);
-            if scale > 1.0 && a.verdict != Verdict::Rejected {
-                // R* = R + (s − 1) S: S* = s S
-                a.R += a.S * (scale - 1.0);
-                a.factors.lambda_r *= scale;
-                a.verdict = Verdict::Inflated;
-                a.reason = "gate: R matched to the stream's innovations";
+            if scale > 1.0 {
+                adapt_matched(&mut self.inner, a, scale);
+            } else {
+                self.inner.adapt(a);
             }
             return;
         }
@@ -378,6 +375,65 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
         if !self.bypassed {
             self.inner.after_update(p)
         }
+    }
+}
+
+/// The inner strategy's decision on a stream whose `R` the gate matched by `scale`: it
+/// sees the matched noise as the stream's declared one, `R' = R + (s − 1) S` (so that
+/// `S' = s S` and its NIS is `NIS / s`), and adapts from there. A strategy behind the gate
+/// thus adapts to what the matched noise leaves unexplained instead of reading the
+/// stream's noise a second time (a fading strategy would otherwise take noise the gate
+/// has matched for a prior too confident). With [`FixedNoise`](estimator_core::FixedNoise)
+/// the result is the matched `R` itself.
+fn adapt_matched<A: NoiseStrategy, N: DimName, M: DimName>(
+    inner: &mut A,
+    a: &mut Adaptation<'_, N, M>,
+    scale: f64,
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    // R' = R + (s − 1) S: S' = s S
+    let r_matched = a.R_nominal + a.S * (scale - 1.0);
+    let s_matched = a.S * scale;
+    let mut b = Adaptation {
+        stream: a.stream,
+        epoch: a.epoch,
+        time: a.time,
+        innovation: a.innovation,
+        H: a.H,
+        P_prior: a.P_prior,
+        HPHt: a.HPHt,
+        HQHt: a.HQHt,
+        R_nominal: &r_matched,
+        S: &s_matched,
+        nis: a.nis / scale,
+        prior_scale: a.prior_scale,
+        prior_scaling: a.prior_scaling,
+        scale_propagated_only: a.scale_propagated_only,
+        R: r_matched.clone(),
+        verdict: a.verdict,
+        reason: a.reason,
+        factors: a.factors,
+        q: estimator_core::QAdjust::Keep,
+        not_helping: a.not_helping,
+    };
+    inner.adapt(&mut b);
+    a.prior_scale = b.prior_scale;
+    a.prior_scaling = b.prior_scaling;
+    a.scale_propagated_only = b.scale_propagated_only;
+    a.factors = b.factors;
+    a.q = b.q;
+    a.not_helping = b.not_helping;
+    a.verdict = b.verdict;
+    a.reason = b.reason;
+    a.R = b.R;
+    if a.verdict != Verdict::Rejected {
+        // the factor on the declared R the matching stands for
+        a.factors.lambda_r *= scale;
+        if a.reason.is_empty() || a.verdict == Verdict::Accepted {
+            a.reason = "gate: R matched to the stream's innovations";
+        }
+        a.verdict = Verdict::Inflated;
     }
 }
 

@@ -89,6 +89,8 @@ where
     pub(crate) q: QAdjust<N, T>,
     /// `R*`.
     pub(crate) R: OMatrix<T, M, M>,
+    /// The strategy holds its adaptation off: it was not helping.
+    pub(crate) not_helping: bool,
 }
 
 /// A user-supplied covariance, checked (finite, symmetric within the tolerance, positive
@@ -291,6 +293,29 @@ where
             1 => (b, c, a),
             _ => (c, a, b),
         }
+    }
+
+    /// The invariant after a step: the covariance `P` (the step's result, not yet
+    /// committed) has a Cholesky factor; otherwise [`FilterError::CovarianceLost`] naming
+    /// the step and the strategy `name`. `full = false` checks only that the diagonal is
+    /// positive (`O(N)`, for a prediction no strategy touched: `Φ P Φᵀ + Q_d` with `P`
+    /// positive definite and `Q_d` checked positive semi-definite loses nothing but by
+    /// rounding).
+    pub(crate) fn check_positive_definite(
+        P: &B::Cov,
+        full: bool,
+        step: &'static str,
+        strategy: &A,
+    ) -> Result<(), FilterError> {
+        let lost = if full {
+            B::as_static(P).into_owned().cholesky().is_none()
+        } else {
+            (0..X::Dim::DIM).any(|i| !(B::diag(P, i) > T::zero()))
+        };
+        if lost {
+            return Err(FilterError::CovarianceLost { step, strategy: strategy.name() });
+        }
+        Ok(())
     }
 
     /// Make the next buffer the current one.

@@ -118,6 +118,10 @@ where
             return Err(FilterError::NonFinite { what: "propagated state" });
         }
         B::check_finite("propagated covariance P", next)?;
+        // the invariant: in full when the strategy changed the prediction (a fading λ, an
+        // adapted Q), else on the diagonal
+        let touched = fading != T::one() || !matches!(self.q_adjust, QAdjust::Keep);
+        Self::check_positive_definite(next, touched, "prediction", &self.strategy)?;
         if self.strategy.tracks_process_noise() {
             // Q_Σ ← Φ Q_Σ Φᵀ + Q_d, by the same path (into the auxiliary buffer, swapped in
             // only when it succeeded, so that `Err` leaves Q_Σ as it was)

@@ -110,6 +110,7 @@ where
             reason: d.reason,
             factors: d.factors,
             prior_scaling_fallback: false,
+            not_helping: d.not_helping,
             log_likelihood: log_likelihood(&inn.chol_S, inn.nis),
         }
     }
@@ -211,6 +212,7 @@ where
             reason: "",
             factors: Default::default(),
             q: QAdjust::Keep,
+            not_helping: false,
         };
         // The strategy's windows change in `adapt`; a failure after it restores them, so that
         // `Err` leaves the strategy unchanged too (a copy of a zero-sized strategy is free;
@@ -235,6 +237,7 @@ where
             factors: a.factors,
             q: a.q.clone(),
             R: a.R,
+            not_helping: a.not_helping,
         }
     }
 
@@ -307,6 +310,12 @@ where
             return Err(FilterError::NonFinite { what: "updated state" });
         }
         B::check_finite("updated covariance P", &self.bufs[(self.cur + 1) % 3])?;
+        Self::check_positive_definite(
+            &self.bufs[(self.cur + 1) % 3],
+            true,
+            "update",
+            &self.strategy,
+        )?;
         Ok((x_new, K))
     }
 
@@ -363,18 +372,19 @@ where
         if prior_scale == 1.0 {
             return (false, false);
         }
-        let HB = BHt.transpose();
         let subspace = match d.prior_scaling {
-            PriorScaling::MeasurementSubspace => HBHt.clone().cholesky().map(|c| c.solve(&HB)),
+            PriorScaling::MeasurementSubspace => Some(subspace_factor(HBHt, BHt)),
             PriorScaling::Full => None,
         };
-        let mut fallback = false;
         match subspace {
-            Some(A) => backend.scale_add(P, T::one(), T::lit(prior_scale - 1.0), &HB, &A, aux),
+            Some(Some(U)) => backend.scale_add(P, T::one(), T::lit(prior_scale - 1.0), &U, &U, aux),
+            Some(None) => {
+                // the prior has no variance the measurement sees (H B Hᵀ = 0): there is
+                // nothing to scale along its subspace, and the gain is zero whatever λ is
+                return (false, true);
+            }
             None => {
-                // H B Hᵀ has no Cholesky factor (a measurement direction the prior does not
-                // constrain): the whole of B is scaled, and the report says so.
-                fallback = d.prior_scaling == PriorScaling::MeasurementSubspace;
+                let HB = BHt.transpose();
                 backend.scale_add(P, T::lit(prior_scale), T::zero(), &HB, &HB, aux);
                 if let (true, Some(q_sum)) = (d.propagated_only, q_sum) {
                     // λ P⁻ − (λ − 1) Q_Σ = P⁻ + (λ − 1)(P⁻ − Q_Σ)
@@ -382,7 +392,7 @@ where
                 }
             }
         }
-        (true, fallback)
+        (true, false)
     }
 
     /// The last step: the new state and covariance become current, the process noise
@@ -442,6 +452,60 @@ where
             other => self.q_adjust = other.clone(),
         }
     }
+}
+
+/// `U` (`M × N`) with `Uᵀ U = (HB)ᵀ (HBHᵀ)⁺ HB`, the part of `B` the measurement sees,
+/// by a pivoted elimination that stops at the directions `B` does not constrain; `None`
+/// when it constrains none.
+///
+/// The elimination runs on `[[HBHᵀ, HB], [BHᵀ, ·]]`: each pivot, the largest remaining
+/// diagonal of the Schur complement of `HBHᵀ`, contributes one row `gᵀ` of `U` (the
+/// cross-covariance's column over the pivot's square root) and is eliminated. Pivots below
+/// `√ε / 100` of the largest diagonal of `HBHᵀ` are left: along them the prior has no
+/// variance the measurement sees (`HBHᵀu ≈ 0` gives `BHᵀu ≈ 0`), and dividing by them only
+/// multiplies rounding. So `P⁻* = P⁻ + (λ − 1) Uᵀ U` adds a positive semi-definite term
+/// whatever the rank of `H B Hᵀ`.
+///
+/// Why: a measurement whose `H P Hᵀ` is rank-deficient — a unit vector in R³ (`H = [h×]`,
+/// the vector's own axis unseen), two rows that see the same combination — has an
+/// eigenvalue that is zero to rounding. A Cholesky solve with it either fails (the filter
+/// then scaled all of `P⁻`, inflating what no measurement sees) or, with a pivot of rounding
+/// size, multiplies the rounding of `H B` by ~1/ε into `P` (on an attitude and gyro-bias
+/// model the bias σ grew from 0.009 to 17 rad/s and `P` lost its positive definiteness:
+/// `adaptive/examples/attitude_campaign.rs`).
+#[allow(non_snake_case)]
+fn subspace_factor<T: FilterScalar, N: DimName, M: DimName>(
+    HBHt: &OMatrix<T, M, M>,
+    BHt: &OMatrix<T, N, M>,
+) -> Option<OMatrix<T, M, N>>
+where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
+    let m = M::DIM;
+    let mut a = HBHt.clone();
+    let mut c = BHt.clone();
+    let mut u = OMatrix::<T, M, N>::zeros();
+    let largest = (0..m).map(|i| a[(i, i)]).fold(T::zero(), |x, d| if d > x { d } else { x });
+    let floor = largest * T::default_epsilon().sqrt() * T::lit(0.01);
+    let mut rank = 0;
+    for k in 0..m {
+        // the largest remaining pivot (an eliminated one is zero, below the floor)
+        let j = (0..m).fold(0, |b, i| if a[(i, i)] > a[(b, b)] { i } else { b });
+        let d = a[(j, j)];
+        if !(d > floor) {
+            break;
+        }
+        let s = T::one() / d.sqrt();
+        let la = a.column(j) * s;
+        let lc = c.column(j) * s;
+        // Schur complements: A ← A − l lᵀ, C ← C − g lᵀ
+        a -= &la * la.transpose();
+        c -= &lc * la.transpose();
+        u.row_mut(k).copy_from(&lc.transpose());
+        a[(j, j)] = T::zero();
+        rank += 1;
+    }
+    (rank > 0).then_some(u)
 }
 
 /// `out ← out − a Q` for two `n × n` column-major covariances.
