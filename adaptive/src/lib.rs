@@ -70,7 +70,10 @@ pub use afkf::{Afkf, FadingAt, MismatchEstimate};
 pub use any::{AnyStrategy, UnknownStrategy, STRATEGY_NAMES};
 pub use estimator_core::FixedNoise;
 pub use fused::{FusedDualWindow, GrossTest, RReading};
-pub use gate::{ChiSquareGate, GateMode, GrossErrorGate, GATE_WINDOW, MAX_R_FACTOR};
+pub use gate::{
+    ChiSquareGate, GateMode, GrossErrorGate, DEFAULT_PROBABILITY, DEFAULT_READMIT_AFTER,
+    GATE_WINDOW, MAX_R_FACTOR,
+};
 pub use guard::FadingGuard;
 pub use iae::Iae;
 pub use iakf::{Iakf, Inflation};

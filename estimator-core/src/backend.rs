@@ -216,6 +216,13 @@ where
     DefaultAllocator: DimAlloc<N>,
 {
     let (x_next, mut jac) = model.step(x, u, dt);
+    // a non-finite input (a NaN gyro sample) shows first in the propagated state and Φ:
+    // named as such, not as the model's noise
+    if !x_next.is_finite() || T::non_finite_in(jac.Phi.as_slice()) {
+        return Err(FilterError::NonFinite {
+            what: "propagated state or transition Φ (a NaN or infinite input sample?)",
+        });
+    }
     match q {
         QAdjust::Keep | QAdjust::Model => {}
         QAdjust::Scale(s) => jac.Q *= *s,

@@ -102,6 +102,34 @@ fn nan_in_process_noise_leaves_filter_unchanged() {
 }
 
 #[test]
+fn a_nan_input_sample_is_named_as_a_non_finite_input() {
+    // a gyro-like model: x' = x + u dt, Φ = I, Q from the model's own noise
+    struct Integrates;
+    impl estimator_core::ProcessModel for Integrates {
+        type State = Vector3<f64>;
+        type Input = Vector3<f64>;
+        fn propagate(&self, x: &Vector3<f64>, u: &Vector3<f64>, dt: f64) -> Vector3<f64> {
+            x + u * dt
+        }
+        fn jacobians(
+            &self,
+            _: &Vector3<f64>,
+            u: &Vector3<f64>,
+            dt: f64,
+        ) -> estimator_core::ProcessJacobians<nalgebra::U3> {
+            // a model whose Φ depends on the input, as a rotation's does
+            let phi = Matrix3::identity() + Matrix3::from_diagonal(&u) * (dt * 1e-3);
+            estimator_core::ProcessJacobians { Phi: phi, Q: Matrix3::identity() * 1e-4 * dt }
+        }
+    }
+    let mut f = filter();
+    let e = f.predict(&Integrates, &Vector3::new(0.1, f64::NAN, 0.0), 0.01).unwrap_err();
+    assert!(matches!(e, FilterError::NonFinite { .. }), "{e}");
+    assert!(e.to_string().contains("input sample"), "{e}");
+    assert_unchanged(&f);
+}
+
+#[test]
 fn wrong_sized_runtime_matrix_is_a_typed_error() {
     let d = DMatrix::<f64>::identity(3, 2);
     let e =

@@ -231,6 +231,13 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
         }
     }
 
+    /// The program's default gate in front of `inner`: `χ²_{1−10⁻⁶}(m)`, re-admitting after
+    /// [`DEFAULT_READMIT_AFTER`] refusals in a row, adapting before it refuses
+    /// ([`GateMode::Adapt`]) — what [`Default`] gives with `A`'s default.
+    pub fn around(inner: A) -> Self {
+        Self::new(inner, DEFAULT_PROBABILITY, DEFAULT_READMIT_AFTER)
+    }
+
     /// `inner` with the gate open (every innovation goes to `inner`): KF-GINS's
     /// behaviour.
     pub fn disabled(inner: A) -> Self {
@@ -251,6 +258,21 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
     /// The gate for an `m`-dimensional innovation.
     pub fn threshold(&mut self, m: usize) -> f64 {
         self.thresholds.get(m, self.probability)
+    }
+}
+
+/// The gate's default probability that a consistent innovation is refused (the program's
+/// `filter.gate.probability`).
+pub const DEFAULT_PROBABILITY: f64 = 1e-6;
+
+/// The gate's default count of refusals in a row before a re-admission (the program's
+/// `filter.gate.readmit_after`).
+pub const DEFAULT_READMIT_AFTER: u32 = 20;
+
+/// [`GrossErrorGate::around`] the inner strategy's default: the documented values.
+impl<A: NoiseStrategy + Default> Default for GrossErrorGate<A> {
+    fn default() -> Self {
+        Self::around(A::default())
     }
 }
 

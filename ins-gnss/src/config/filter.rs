@@ -109,10 +109,10 @@ impl From<GateModeName> for adaptive::GateMode {
 pub const MAX_LEVER_ARM: f64 = 50.0;
 
 pub(crate) fn default_gate_probability() -> f64 {
-    1e-6
+    adaptive::DEFAULT_PROBABILITY
 }
 pub(crate) fn default_readmit() -> u32 {
-    20
+    adaptive::DEFAULT_READMIT_AFTER
 }
 
 impl Default for GateSection {
