@@ -28,7 +28,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
 /// The strategies compared: every name the program accepts.
-pub const STRATEGIES: [&str; 14] = estimator::adaptive::STRATEGY_NAMES;
+pub const STRATEGIES: [&str; 18] = estimator::adaptive::STRATEGY_NAMES;
 
 /// The injected interference: window (seconds after the first GNSS epoch) and the extra
 /// noise in multiples of each epoch's reported σ.

@@ -26,7 +26,8 @@ enum Command {
         /// Configuration file (.toml, or KF-GINS .yaml).
         config: PathBuf,
         /// Noise strategy: fixed, iae, iae-qr, afkf, fused (fused-nominal, fused-window-test,
-        /// fused-uncensored, fused-nominal-uncensored), iakf, iakf-raw, sage-husa, chi2-gate.
+        /// fused-uncensored, fused-nominal-uncensored), iakf, iakf-raw, sage-husa, chi2-gate;
+        /// iae-qr-faithful, afkf-faithful, afkf-xia-faithful, fused-faithful (unguarded).
         #[arg(long)]
         strategy: Option<String>,
         /// Output directory (default: the configuration's output path).
