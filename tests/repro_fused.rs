@@ -19,33 +19,44 @@ fn fused_paper_conclusion_as_measured() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("ins-gnss/scenarios/fused-iae-afkf.toml");
     let mc = MonteCarlo::new(Scenario::load(&path).unwrap()).unwrap();
-    let names: Vec<String> = ["iae-qr", "afkf", "afkf-xia", "fused", "fused-nominal"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    // the paper's baselines as written (the `-faithful` readings: the defaults are guarded)
+    let names: Vec<String> = [
+        "iae-qr-faithful",
+        "afkf-faithful",
+        "afkf-xia-faithful",
+        "fused-faithful",
+        "fused",
+        "fused-nominal",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
     let seeds = 4;
     let runs = repro::run_all(&mc, 0..seeds, &names, 30.0).unwrap();
     let mean = |name: &str, col: usize| {
         repro::mean_std(runs.iter().filter(|r| r.1 == name).map(|r| r.2[col])).0
     };
     for (col, what) in [(0, "roll"), (1, "pitch"), (2, "heading")] {
-        let (iae, afkf, fused) = (mean("iae-qr", col), mean("afkf", col), mean("fused", col));
+        let (iae, afkf) = (mean("iae-qr-faithful", col), mean("afkf-faithful", col));
+        let (fused, guarded) = (mean("fused-faithful", col), mean("fused", col));
         eprintln!(
-            "{what} RMS over {seeds} seeds: iae-qr {iae:.3}°, afkf {afkf:.3}°, fused {fused:.3}°"
+            "{what} RMS over {seeds} seeds: iae-qr {iae:.3}°, afkf {afkf:.3}°, fused as written \
+             {fused:.3}°, fused guarded (default) {guarded:.3}°"
         );
         assert!(fused < iae, "{what}: fused {fused} is not below the paper's IAE {iae}");
         assert!(fused < afkf, "{what}: fused {fused} is not below AFKF {afkf}");
-        let xia = mean("afkf-xia", col);
+        let xia = mean("afkf-xia-faithful", col);
         assert!(fused < xia, "{what}: fused {fused} is not below Xia's AFKF {xia}");
     }
     // Xia's process-noise term changes nothing that matters here (50 seeds: attitude RMS
     // within 1.5 %, horizontal RMS equal to the millimetre)
-    let (afkf, xia) = (mean("afkf", 6), mean("afkf-xia", 6));
+    let (afkf, xia) = (mean("afkf-faithful", 6), mean("afkf-xia-faithful", 6));
     assert!((afkf - xia).abs() < 0.01 * afkf, "horizontal RMS: afkf {afkf}, afkf-xia {xia}");
     // horizontal RMS (column 6): the nominal reading lets the gain open
     let (cumulative, nominal) = (mean("fused", 6), mean("fused-nominal", 6));
     eprintln!("horizontal RMS: fused {cumulative:.2} m, fused-nominal {nominal:.2} m");
-    assert!(nominal > 2.0 * cumulative, "nominal {nominal} vs cumulative {cumulative}");
+    // (both guarded, 4 seeds: 5.53 m against 2.84 m; unguarded, before the guard: > 2×)
+    assert!(nominal > 1.5 * cumulative, "nominal {nominal} vs cumulative {cumulative}");
 }
 
 /// With an unmodelled 3000 ppm scale-factor error the R-only estimators run away
