@@ -118,7 +118,7 @@ fn a_nan_input_sample_is_named_as_a_non_finite_input() {
             dt: f64,
         ) -> estimator_core::ProcessJacobians<nalgebra::U3> {
             // a model whose Φ depends on the input, as a rotation's does
-            let phi = Matrix3::identity() + Matrix3::from_diagonal(&u) * (dt * 1e-3);
+            let phi = Matrix3::identity() + Matrix3::from_diagonal(u) * (dt * 1e-3);
             estimator_core::ProcessJacobians { Phi: phi, Q: Matrix3::identity() * 1e-4 * dt }
         }
     }

@@ -36,7 +36,7 @@ impl ProcessModel for Gyro {
     type Input = Vector3<f64>;
 
     fn propagate(&self, x: &Att, w: &Vector3<f64>, dt: f64) -> Att {
-        (x.0.clone() * So3::exp(&((w - x.1) * dt)), x.1)
+        (x.0 * So3::exp(&((w - x.1) * dt)), x.1)
     }
 
     // δθ' = Exp(−ω̂dt) δθ − J_r(ω̂dt) dt (δb + n_g),  δb' = δb + n_b
@@ -204,7 +204,7 @@ pub fn simulate(sc: &Scenario) -> Data {
     let mut att = So3::from_euler(0.1, -0.05, 0.7);
     let mut bias = gauss3(&mut rng) * sc.bias_sigma;
     // the filter starts off by one draw of its own P0
-    let x0 = (att.clone() * So3::exp(&(gauss3(&mut rng) * sc.att_sigma)), Vector3::zeros());
+    let x0 = (att * So3::exp(&(gauss3(&mut rng) * sc.att_sigma)), Vector3::zeros());
     let mut p0 = SMatrix::<f64, 6, 6>::zeros();
     for i in 0..3 {
         p0[(i, i)] = sc.att_sigma.powi(2);
@@ -226,14 +226,14 @@ pub fn simulate(sc: &Scenario) -> Data {
         gyro.push(w + bias + gauss3(&mut rng) * (sc.arw / dt.sqrt()));
         att = att * So3::exp(&(w * dt));
         bias += gauss3(&mut rng) * (sc.bias_walk * dt.sqrt());
-        truth.push((att.clone(), bias));
+        truth.push((att, bias));
         if (k + 1) % every != 0 {
             aid.push(None);
             continue;
         }
         let epoch = (k + 1) / every - 1;
         let t_aid = (k + 1) as f64 * dt;
-        let x = (att.clone(), bias);
+        let x = (att, bias);
         let mut mag_sigma = sc.sigma_mag * sc.true_sigma_factor;
         if t_aid >= sc.disturbance.0 && t_aid < sc.disturbance.1 {
             mag_sigma = sc.sigma_mag * sc.disturbance_factor;
@@ -297,7 +297,7 @@ pub fn run<A: NoiseStrategy>(
     let Ra = Matrix3::identity() * sc.sigma_acc.powi(2);
     let Rm = Matrix3::identity() * sc.sigma_mag.powi(2);
     let dt = 1.0 / sc.imu_hz;
-    let mut f = ErrorStateFilter::new(data.x0.clone(), data.p0, strategy).unwrap();
+    let mut f = ErrorStateFilter::new(data.x0, data.p0, strategy).unwrap();
     let mut out = Outcome::default();
     let (mut se, mut nees, mut count) = (0.0, 0.0, 0usize);
     let note = |out: &mut Outcome, e: FilterError| {

@@ -310,7 +310,9 @@ where
         let lost = if full {
             B::as_static(P).into_owned().cholesky().is_none()
         } else {
-            (0..X::Dim::DIM).any(|i| !(B::diag(P, i) > T::zero()))
+            (0..X::Dim::DIM).any(|i| {
+                B::diag(P, i).partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater)
+            })
         };
         if lost {
             return Err(FilterError::CovarianceLost { step, strategy: strategy.name() });

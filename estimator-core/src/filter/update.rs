@@ -492,7 +492,8 @@ where
         // the largest remaining pivot (an eliminated one is zero, below the floor)
         let j = (0..m).fold(0, |b, i| if a[(i, i)] > a[(b, b)] { i } else { b });
         let d = a[(j, j)];
-        if !(d > floor) {
+        // (a NaN pivot stops too)
+        if d.partial_cmp(&floor) != Some(core::cmp::Ordering::Greater) {
             break;
         }
         let s = T::one() / d.sqrt();
