@@ -85,7 +85,7 @@ proptest! {
                 let s: AnyStrategy = name.parse().unwrap();
                 let s = if gated { GrossErrorGate::new(s, 1e-6, 10) } else { GrossErrorGate::disabled(s) };
                 let model = InsModel::wgs84(scenarios::mems_imu().noise);
-                let mut nav = Navigator::new(&init, model, s, cfg.clone()).unwrap();
+                let mut nav = Navigator::new(&init, model, s, cfg).unwrap();
                 let mut out = Vec::new();
                 for (k, (imu, fixes)) in data.replay().enumerate() {
                     out.clear();
