@@ -9,10 +9,11 @@ use std::sync::Mutex;
 
 use estimator::adaptive::{AnyStrategy, STRATEGY_NAMES};
 use estimator::estimator_core::{FixedNoise, NoObserver, NoiseStrategy};
-use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, Navigator};
+use estimator::ins_gnss::{InsModel, Navigator};
 use ins_gnss::config::{Config, ConfigKind};
-use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
-use nalgebra::Vector3;
+use ins_gnss_sim::scenarios;
+
+mod simulated_drive;
 
 struct Counting;
 
@@ -45,28 +46,9 @@ fn allocations_over_10000_epochs<A: NoiseStrategy>(strategy: A) -> (usize, usize
     // count is the process's)
     static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs[..8]).unwrap();
-    let gnss = GnssSim {
-        rate_hz: 10.0,
-        pos_sigma: Vector3::repeat(1.0),
-        vel_sigma: Some(Vector3::repeat(0.05)),
-        lever_arm: Vector3::new(0.3, 0.0, -1.0),
-        windows: vec![],
-    };
-    let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &gnss, 1);
+    let data = simulated_drive::drive(8, 200.0, 1);
     assert!(data.imu.len() >= 10_100);
-    let t0 = &data.truth[0];
-    let deg = core::f64::consts::PI / 180.0;
-    let std = InitialStd {
-        att: Vector3::repeat(deg),
-        vel: Vector3::repeat(0.1),
-        pos: Vector3::repeat(1.0),
-        bg: Vector3::repeat(1e-4),
-        ba: Vector3::repeat(1e-2),
-    };
-    let init = InitialState { time: t0.t, state: t0.state.clone(), std };
-    let cfg = GnssConfig { lever_arm: gnss.lever_arm, ..GnssConfig::default() };
+    let (init, cfg) = simulated_drive::start_at_truth(&data);
     let mut nav =
         Navigator::new(&init, InsModel::wgs84(scenarios::mems_imu().noise), strategy, cfg).unwrap();
     let mut out = Vec::with_capacity(16);

@@ -6,13 +6,15 @@
 
 use estimator::adaptive::{AnyStrategy, GrossErrorGate, STRATEGY_NAMES};
 use estimator::estimator_core::NoObserver;
-use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, InsModel, Navigator};
-use ins_gnss_sim::{scenarios, simulate, GnssSim, SimDataset, Trajectory};
+use estimator::ins_gnss::{InsModel, Navigator};
+use ins_gnss_sim::{scenarios, SimDataset};
 use nalgebra::Vector3;
 use proptest::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
+
+mod simulated_drive;
 
 fn spd(p: &nalgebra::SMatrix<f64, 15, 15>) -> bool {
     let scale = p.abs().max().max(f64::MIN_POSITIVE);
@@ -58,28 +60,9 @@ proptest! {
         noisy in 1.0f64..10.0,
         gross in 0.0f64..0.1,
     ) {
-        let (start, segs) = scenarios::drive_600s();
-        let traj = Trajectory::new(start, &segs[..4]).unwrap();
-        let gnss = GnssSim {
-            rate_hz: 10.0,
-            pos_sigma: Vector3::repeat(1.0),
-            vel_sigma: Some(Vector3::repeat(0.05)),
-            lever_arm: Vector3::new(0.3, 0.0, -1.0),
-            windows: vec![],
-        };
-        let mut data = simulate(&traj, 100.0, &scenarios::mems_imu(), &gnss, seed);
+        let mut data = simulated_drive::drive(4, 100.0, seed);
         corrupt(&mut data, seed, declared, noisy, gross);
-        let t0 = &data.truth[0];
-        let deg = core::f64::consts::PI / 180.0;
-        let std = InitialStd {
-            att: Vector3::repeat(deg),
-            vel: Vector3::repeat(0.1),
-            pos: Vector3::repeat(1.0),
-            bg: Vector3::repeat(1e-4),
-            ba: Vector3::repeat(1e-2),
-        };
-        let init = InitialState { time: t0.t, state: t0.state.clone(), std };
-        let cfg = GnssConfig { lever_arm: gnss.lever_arm, ..GnssConfig::default() };
+        let (init, cfg) = simulated_drive::start_at_truth(&data);
         for name in STRATEGY_NAMES {
             for gated in [false, true] {
                 let s: AnyStrategy = name.parse().unwrap();

@@ -65,10 +65,11 @@ pub enum FadingAt {
 ///
 /// # Guarded (the default) and faithful
 ///
-/// By default a [`FadingGuard`] decides whether to fade at all: λ is formed only while
-/// the window's NIS is significantly above what a consistent filter gives, and fading
-/// that has run for a window without making the innovations smaller is held off and
-/// reported (`not_helping`). Xia's algorithm read faithfully (`afkf-faithful`,
+/// By default a [`FadingGuard`] decides whether to fade at all: λ is applied only while
+/// the window's NIS is significantly above what a consistent filter gives and its
+/// whitened innovations correlate from one update to the next (a state error, not
+/// noise), and fading that has run for a window without making the innovations smaller is
+/// held off and reported (`not_helping`). Xia's algorithm read faithfully (`afkf-faithful`,
 /// `afkf-xia-faithful`; [`faithful`](Self::faithful)) fades whenever the estimate of λ
 /// exceeds 1. On a user's attitude filter (gyro bias; gravity and magnetic directions,
 /// `cargo run --release -p adaptive --example attitude_campaign`) the faithful reading

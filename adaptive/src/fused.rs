@@ -43,8 +43,9 @@ use crate::window::InnovationWindow;
 ///
 /// By default a [`FadingGuard`] decides whether the process loop inflates `P⁻` at all:
 /// `λ_P > 1` only while the nominal NIS over the `N_P` window is significantly above a
-/// consistent filter's, and held off (reported `not_helping`) when a window of it has not
-/// made the innovations smaller; the measurement loop (`λ_R`) is the paper's. The paper's
+/// consistent filter's and its whitened innovations correlate from one update to the next
+/// (a state error, not noise), and held off (reported `not_helping`) when a window of it
+/// has not made the innovations smaller; the measurement loop (`λ_R`) is the paper's. The paper's
 /// filter as written, `λ_P = max(1, DOM)` at every epoch, is `fused-faithful`
 /// ([`faithful`](Self::faithful)); on a user's attitude filter with a magnetic disturbance
 /// it reads the disturbance as model mismatch through λ_P and runs several degrees off

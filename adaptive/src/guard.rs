@@ -6,13 +6,12 @@ use estimator_core::consistency::chi2_quantile;
 use estimator_core::{Adaptation, FilterAlloc};
 use nalgebra::{DefaultAllocator, DimName};
 
-/// Largest measurement dimension whose whitened innovations the guard correlates (a
-/// larger stream is judged on its NIS alone).
-const WHITE_DIMS: usize = 16;
+use crate::gate::{whiten, WHITE_DIMS};
 
 /// What the guard reads of one epoch: the nominal NIS, `|r|² / tr R` with the declared
 /// `R` (the innovation's size in the measurement's own units, which no scaling of the
-/// prior changes), and the whitened innovation `L⁻¹ r` (`S = L Lᵀ`, nominal).
+/// prior changes), and the whitened innovation `L⁻¹ r` (`S = L Lᵀ`, nominal; the gate's
+/// own whitening, for streams of up to [`WHITE_DIMS`] rows).
 pub(crate) struct Epoch {
     nis: f64,
     raw: f64,
@@ -27,21 +26,8 @@ impl Epoch {
     {
         let raw = a.innovation.norm_squared() / a.R_nominal.trace();
         let mut white = [0.0; WHITE_DIMS];
-        let m = M::DIM;
-        let mut whitened = false;
-        if m <= WHITE_DIMS {
-            if let Some(chol) = a.S.clone_owned().cholesky() {
-                let l = chol.l_dirty();
-                for i in 0..m {
-                    let mut v = a.innovation[i];
-                    for j in 0..i {
-                        v -= l[(i, j)] * white[j];
-                    }
-                    white[i] = v / l[(i, i)];
-                }
-                whitened = white[..m].iter().all(|v| v.is_finite());
-            }
-        }
+        let whitened =
+            whiten(a.S, a.innovation, &mut white).is_some_and(|w| w.iter().all(|v| v.is_finite()));
         Self { nis: a.nis, raw, white, whitened }
     }
 }

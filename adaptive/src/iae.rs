@@ -36,9 +36,9 @@ use crate::window::{project_noise, trace_ratio, InnovationWindow, NoiseBounds};
 /// `K S Kᵀ = P⁻ − P`, the update's own reduction, even for a filter whose `Q` is right —
 /// so adding it at every update roughly doubles the process noise of a consistent filter
 /// (on the attitude campaign, 2.5× the fixed filter's attitude error on clean data). By
-/// default a [`FadingGuard`](crate::FadingGuard) on the nominal NIS lets the process loop
-/// add `Q̂` only while the innovations are significantly larger than a consistent filter's
-/// and adding it makes them smaller; otherwise the model's `Q` stands (and a loop held
+/// default a [`FadingGuard`](crate::FadingGuard) lets the process loop add `Q̂` only while
+/// the innovations are significantly larger than a consistent filter's, correlate from one
+/// update to the next, and adding it makes them smaller; otherwise the model's `Q` stands (and a loop held
 /// off is reported `not_helping`). The reading that adds `Q̂` at every update is
 /// `iae-qr-faithful` ([`faithful`](Self::faithful)). The `R` loop is the same in both.
 ///

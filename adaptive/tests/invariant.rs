@@ -124,10 +124,10 @@ proptest! {
                 let mut f = ErrorStateFilter::new(SVector::<f64, 6>::zeros(), SMatrix::identity() * 10.0, behind(s, gated)).unwrap();
                 for (k, z) in zs.iter().enumerate() {
                     f.predict(&process, &(), dt).map_err(|e| TestCaseError::fail(format!("{name} predict {k}: {e}")))?;
-                    prop_assert!(common::is_spd(&f.covariance()), "{} gated={}: P after predict {}", name, gated, k);
+                    prop_assert!(attitude::is_pd(&f.covariance()), "{} gated={}: P after predict {}", name, gated, k);
                     let r = f.update(&sensor, z, &R).map_err(|e| TestCaseError::fail(format!("{name} update {k}: {e}")))?;
                     prop_assert!(!r.prior_scaling_fallback, "{} gated={}: fallback at {}", name, gated, k);
-                    prop_assert!(common::is_spd(&f.covariance()), "{} gated={}: P after update {}", name, gated, k);
+                    prop_assert!(attitude::is_pd(&f.covariance()), "{} gated={}: P after update {}", name, gated, k);
                 }
             }
         }

@@ -107,7 +107,8 @@ impl Default for Factors {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum PriorScaling {
     /// Along the measurement subspace only:
-    /// `P⁻* = P⁻ + (λ − 1) P⁻Hᵀ (H P⁻ Hᵀ)⁻¹ H P⁻` (default). `H P⁻* = λ H P⁻`, so the gain
+    /// `P⁻* = P⁻ + (λ − 1) P⁻Hᵀ (H P⁻ Hᵀ)⁺ H P⁻` (default; `⁺` the pseudo-inverse, over
+    /// the directions the prior constrains, when `H P⁻ Hᵀ` is rank-deficient). `H P⁻* = λ H P⁻`, so the gain
     /// and the state correction are exactly those of full scaling, but directions the
     /// measurement cannot see are not inflated — with full scaling they grow by λ at every
     /// update and the covariance eventually overflows.

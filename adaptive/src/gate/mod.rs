@@ -70,7 +70,7 @@ pub const GATE_WINDOW: usize = 10;
 
 /// Largest measurement dimension whose whitened innovation the adaptive gate keeps (larger
 /// streams are gated without the direction test).
-const WHITE_DIMS: usize = 16;
+pub(crate) const WHITE_DIMS: usize = 16;
 
 /// Probability that a consistent stream is judged too noisy in one window (the
 /// order-statistic test below).
@@ -475,7 +475,7 @@ where
 
 /// `L⁻¹ r` with `S = L Lᵀ`, in `buf`; `None` when `S` is not positive definite or the
 /// dimension is beyond [`WHITE_DIMS`].
-fn whiten<'b, M: DimName>(
+pub(crate) fn whiten<'b, M: DimName>(
     s: &nalgebra::OMatrix<f64, M, M>,
     r: &OVector<f64, M>,
     buf: &'b mut [f64; WHITE_DIMS],

@@ -149,12 +149,3 @@ pub fn count(log: &UpdateLog, v: Verdict) -> usize {
 pub fn all_strategies() -> Vec<(&'static str, adaptive::AnyStrategy)> {
     adaptive::STRATEGY_NAMES.iter().map(|n| (*n, n.parse().unwrap())).collect()
 }
-
-/// Finite, symmetric to rounding, with a Cholesky factor and no eigenvalue at or below zero.
-pub fn is_spd(m: &SMatrix<f64, 6, 6>) -> bool {
-    let scale = m.abs().max().max(f64::MIN_POSITIVE);
-    m.iter().all(|v| v.is_finite())
-        && (m - m.transpose()).abs().max() <= 1e-9 * scale
-        && m.cholesky().is_some()
-        && m.symmetric_eigenvalues().min() > 0.0
-}
