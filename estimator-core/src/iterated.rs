@@ -29,6 +29,11 @@ pub struct IteratedReport {
     /// The strategy's verdict on the innovation at the prior (`Rejected`: nothing changed,
     /// no iteration).
     pub verdict: crate::Verdict,
+    /// The update's report as a plain update gives it (stream, adapted NIS, reason, the
+    /// strategy's factors, the subspace fallback and `not_helping` flags), dimension-free;
+    /// [`update_iterated_observed`](ErrorStateFilter::update_iterated_observed) returns it
+    /// whole.
+    pub update: crate::UpdateSummary,
 }
 
 impl<X, A, B> ErrorStateFilter<X, A, B>
@@ -109,6 +114,7 @@ where
             nis: inn.nis,
             post_fit: f64::NAN,
             verdict: decision.verdict,
+            update: update.summary(),
         };
         if decision.verdict == Verdict::Rejected {
             self.reject(&decision, &update, observer);
@@ -123,6 +129,7 @@ where
             self.restore_strategy();
             return Err(e);
         }
+        report.update = update.summary();
         match self.iterate(model, z, &decision.R, lambda, max_iterations, tolerance, &mut report) {
             Ok(k) => {
                 self.after_correction(&k, &decision, &update, observer);

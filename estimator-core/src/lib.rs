@@ -59,6 +59,8 @@
 
 mod adapt;
 mod backend;
+#[cfg(feature = "bench")]
+pub mod bench;
 #[cfg(feature = "std")]
 pub mod consistency;
 #[cfg(feature = "std")]

@@ -248,5 +248,13 @@ fn the_iterated_update_is_gated_adapted_and_observed() {
     );
     assert!(update.nis_adapted < update.nis, "{} vs {}", update.nis_adapted, update.nis);
     assert_eq!(adapted.strategy().gains, 1);
+    // the plain call's report is as full as the observed one's (dimension-free)
+    let mut again = ErrorStateFilter::new(x0, p0, Quadruple::default()).unwrap();
+    let short = again.update_iterated(&RangeBearing, &good, &r, 30, 1e-10).unwrap();
+    let full = update.summary();
+    assert_eq!(short.update.nis_adapted, full.nis_adapted);
+    assert_eq!((short.update.verdict, short.update.reason), (full.verdict, full.reason));
+    assert_eq!(short.update.factors.lambda_r, full.factors.lambda_r);
+    assert_eq!(short.update.dim, 2);
     assert_eq!(log.entries.len(), 3);
 }

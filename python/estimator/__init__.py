@@ -141,7 +141,8 @@ class Navigation:
             (``std.txt``).
         imu_errors: estimated IMU biases (and scale factors) at the same epochs.
         updates: one row per update (``updates.csv``): time, stream, dim, nis,
-            nis_adapted, decision, reason, dom, lambda_p, lambda_r, scaling_fallback.
+            nis_adapted, decision, reason, dom, lambda_p, lambda_r, scaling_fallback,
+            not_helping (the strategy held its adaptation off: it was not helping).
         smoothed, smoothed_std: the smoother's ``nav`` (every IMU epoch) and ``std``
             (at the epochs of ``std``; ``None`` unless ``smooth=True``).
         summary: the run's summary (counts, span, mean NIS and its band, the lines the

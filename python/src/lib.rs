@@ -223,6 +223,8 @@ fn navigate<'py>(
     u.set_item("lambda_r", PyArray1::from_vec(py, col(&|u| u.factors.lambda_r)))?;
     let fallback: Vec<bool> = results.updates.iter().map(|u| u.prior_scaling_fallback).collect();
     u.set_item("scaling_fallback", fallback)?;
+    let not_helping: Vec<bool> = results.updates.iter().map(|u| u.not_helping).collect();
+    u.set_item("not_helping", not_helping)?;
     out.set_item("updates", u)?;
     out.set_item("summary", summary_dict(py, &summary, warning)?)?;
     Ok(out)

@@ -88,8 +88,8 @@ def test_python_gives_the_programs_updates_on_navego(both):
     text = lambda v: "NaN" if math.isnan(v) else f"{v:.6f}"  # noqa: E731
     for col in ["time", "nis", "nis_adapted", "dom", "lambda_p", "lambda_r"]:
         assert (csv[col] == py.updates[col].map(text)).all(), col
-    assert (csv["scaling_fallback"] == py.updates["scaling_fallback"].map(
-        lambda b: str(int(b)))).all()
+    for col in ["scaling_fallback", "not_helping"]:
+        assert (csv[col] == py.updates[col].map(lambda b: str(int(b)))).all(), col
 
 
 def test_python_rms_equals_the_programs_to_the_printed_digit(both, cli):

@@ -177,7 +177,7 @@ impl Outputs {
         .map_err(|e| out(dir.join("nav.pos"), e))?;
         writeln!(
             files.updates,
-            "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r,scaling_fallback"
+            "time,stream,dim,nis,nis_adapted,decision,reason,dom,lambda_p,lambda_r,scaling_fallback,not_helping"
         )
         .map_err(|e| out(dir.join("updates.csv"), e))?;
         let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(4);
@@ -329,7 +329,7 @@ impl EpochFiles {
             push_exact(l, v, 0, 6);
             l.push(b',');
         }
-        let _ = writeln!(l, "{}", u8::from(u.prior_scaling_fallback));
+        let _ = writeln!(l, "{},{}", u8::from(u.prior_scaling_fallback), u8::from(u.not_helping));
         self.updates.write_all(&self.line).map_err(|e| self.err("updates.csv", e))
     }
 
