@@ -16,16 +16,18 @@ use adaptive::{AnyStrategy, GrossErrorGate, STRATEGY_NAMES};
 use attitude::{run, simulate, Outcome, Scenario};
 use estimator_core::PriorScaling;
 
-fn summary(outs: &[Outcome]) -> (f64, f64, usize, usize, usize, usize, f64) {
+#[allow(clippy::type_complexity)]
+fn summary(outs: &[Outcome]) -> (f64, f64, f64, usize, usize, usize, usize, f64) {
     let n = outs.len() as f64;
     let rms = outs.iter().map(|o| o.rms_deg).sum::<f64>() / n;
     let nees = outs.iter().map(|o| o.nees).sum::<f64>() / n;
+    let beyond = outs.iter().map(|o| o.beyond99).sum::<f64>() / n * 100.0;
     let not_pd = outs.iter().filter(|o| o.not_pd > 0).count();
     let errs = outs.iter().map(|o| o.errors).sum();
     let fb = outs.iter().map(|o| o.fallbacks).sum();
     let nh = outs.iter().map(|o| o.not_helping).sum();
     let bias = outs.iter().map(|o| o.max_bias_sigma).fold(0.0, f64::max);
-    (rms, nees, not_pd, errs, fb, nh, bias)
+    (rms, nees, beyond, not_pd, errs, fb, nh, bias)
 }
 
 /// A strategy by name; `NAME+full` scales the whole prior instead of its measurement
@@ -58,8 +60,8 @@ fn main() {
     let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(50);
     let only: Option<String> = std::env::args().nth(2);
     println!(
-        "{:<26} {:>6} {:>8} {:>9} {:>6} {:>6} {:>7} {:>7} {:>9}",
-        "strategy", "case", "gate", "rms °", "NEES", "¬PD", "errors", "fallbk", "¬helping"
+        "{:<26} {:>6} {:>8} {:>9} {:>6} {:>7} {:>6} {:>7} {:>7} {:>9}",
+        "strategy", "case", "gate", "rms °", "NEES", ">χ²99", "¬PD", "errors", "fallbk", "¬helping"
     );
     for case in ["clean", "disturbed"] {
         let data: Vec<_> = (1..=seeds)
@@ -86,9 +88,9 @@ fn main() {
                         }
                     })
                     .collect();
-                let (rms, nees, not_pd, errs, fb, nh, bias) = summary(&outs);
+                let (rms, nees, beyond, not_pd, errs, fb, nh, bias) = summary(&outs);
                 println!(
-                    "{name:<26} {case:>6} {:>8} {rms:>9.3} {nees:>6.2} {not_pd:>6} {errs:>7} {fb:>7} {nh:>9}  max σ_b {bias:.3}",
+                    "{name:<26} {case:>6} {:>8} {rms:>9.3} {nees:>6.2} {beyond:>6.1}% {not_pd:>6} {errs:>7} {fb:>7} {nh:>9}  max σ_b {bias:.3}",
                     if gated { "gated" } else { "open" },
                 );
             }

@@ -259,6 +259,9 @@ pub struct Outcome {
     pub rms_deg: f64,
     /// Mean NEES of the 6 states after `skip` s.
     pub nees: f64,
+    /// Share of the epochs after `skip` s whose NEES is beyond χ²₆ at 99 % (16.81): 1 %
+    /// for a covariance that covers the error.
+    pub beyond99: f64,
     /// Steps (predictions and updates) after which P had no Cholesky factor.
     pub not_pd: usize,
     /// Updates that returned an error, and the first error.
@@ -299,7 +302,7 @@ pub fn run<A: NoiseStrategy>(
     let dt = 1.0 / sc.imu_hz;
     let mut f = ErrorStateFilter::new(data.x0, data.p0, strategy).unwrap();
     let mut out = Outcome::default();
-    let (mut se, mut nees, mut count) = (0.0, 0.0, 0usize);
+    let (mut se, mut nees, mut count, mut beyond) = (0.0, 0.0, 0usize, 0usize);
     let note = |out: &mut Outcome, e: FilterError| {
         out.errors += 1;
         out.first_error.get_or_insert(e);
@@ -337,14 +340,17 @@ pub fn run<A: NoiseStrategy>(
             // true = estimate ⊕ δ: δ = truth ⊖ estimate, over both blocks
             let de = data.truth[k].ominus(f.state());
             se += de.fixed_rows::<3>(0).norm_squared();
-            nees += match p.cholesky() {
+            let e = match p.cholesky() {
                 Some(c) => de.dot(&c.solve(&de)),
                 None => f64::INFINITY,
             };
+            nees += e;
+            beyond += usize::from(e > 16.81);
             count += 1;
         }
     }
     out.rms_deg = (se / count.max(1) as f64).sqrt().to_degrees();
     out.nees = nees / count.max(1) as f64;
+    out.beyond99 = beyond as f64 / count.max(1) as f64;
     out
 }
