@@ -6,8 +6,10 @@ use super::*;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterSection {
-    /// Noise strategy name (`fixed`, `iae`, `afkf`, `fused`, `iakf`, `iakf-raw`,
-    /// `sage-husa`). Default `fixed`; `--strategy` overrides it.
+    /// Noise strategy name (`fixed`, `iae`, `iae-qr`, `afkf`, `fused` and its readings,
+    /// `iakf`, `iakf-raw`, `sage-husa`, `chi2-gate`; the papers' algorithms as written,
+    /// unguarded: `afkf-faithful`, `afkf-xia-faithful`, `fused-faithful`,
+    /// `iae-qr-faithful`). Default `fixed`; `--strategy` overrides it.
     #[serde(default = "fixed")]
     pub strategy: String,
     /// `wgs84` (default) or `flat-earth`.
