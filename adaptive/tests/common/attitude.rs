@@ -169,6 +169,23 @@ impl Scenario {
     }
 }
 
+/// A random case of the corpus the property tests and `examples/attitude_corpus.rs` draw:
+/// 30 s at 50 Hz, the true direction σ 0.3–3× the declared one, the magnetometer's noise
+/// 1–20× for 10–20 s, 0–7 magnetometer outliers of 60°, angular rates 0.05–1.5 rad/s.
+pub fn corpus_case(rng: &mut StdRng) -> Scenario {
+    Scenario {
+        duration: 30.0,
+        imu_hz: 50.0,
+        true_sigma_factor: rng.random_range(0.3..3.0),
+        disturbance: (10.0, 20.0),
+        disturbance_factor: rng.random_range(1.0..20.0),
+        outliers: rng.random_range(0..8),
+        rate: rng.random_range(0.05..1.5),
+        seed: rng.random_range(0..10_000),
+        ..Scenario::default()
+    }
+}
+
 /// One aiding epoch: both directions as measured.
 #[derive(Clone, Debug)]
 pub struct Aid {
