@@ -162,13 +162,17 @@ fn guarded_fading_degrades_gracefully_over_a_corpus() {
 
 /// The typed error: a model whose own covariance propagation breaks `P` (a structured
 /// `Φ P Φᵀ + Q` with a slip, here an indefinite result with a positive diagonal) is caught
-/// at the step it happens — in full after a prediction a strategy touched (fading), at the
-/// next update otherwise — with `CovarianceLost` naming the step and the strategy, and the
-/// filter is left as it was.
+/// at the first step a strategy touched — the prediction a fading strategy scaled, the
+/// update whose `R` a strategy changed — with `CovarianceLost` naming the step and the
+/// strategy, and the filter is left as it was. (A plain step is checked on its diagonal
+/// only: it is positive definite by construction; the model's slip is
+/// `harness::check_combined_calls`'s to find.)
 #[test]
 fn a_step_that_would_lose_positive_definiteness_is_refused_and_undone() {
-    use estimator_core::{FilterError, FixedNoise, ProcessJacobians, ProcessModel};
-    use nalgebra::{Matrix2, Vector2, U2};
+    use estimator_core::{
+        Adaptation, FilterAlloc, FilterError, ProcessJacobians, ProcessModel, Verdict,
+    };
+    use nalgebra::{DefaultAllocator, DimName, Matrix2, Vector2, U2};
     struct Slips;
     impl ProcessModel for Slips {
         type State = Vector2<f64>;
@@ -189,6 +193,21 @@ fn a_step_that_would_lose_positive_definiteness_is_refused_and_undone() {
             *out = Matrix2::new(1.0, 2.0, 2.0, 1.0);
         }
     }
+    /// Doubles `R`: a strategy that changes the update.
+    #[derive(Clone)]
+    struct DoublesR;
+    impl NoiseStrategy for DoublesR {
+        fn name(&self) -> &'static str {
+            "doubles-r"
+        }
+        fn adapt<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+        where
+            DefaultAllocator: FilterAlloc<N, M>,
+        {
+            a.R = a.R_nominal * 2.0;
+            a.verdict = Verdict::Inflated;
+        }
+    }
     let lost = |e: FilterError| match e {
         FilterError::CovarianceLost { step, strategy } => (step, strategy),
         other => panic!("another error: {other}"),
@@ -206,14 +225,14 @@ fn a_step_that_would_lose_positive_definiteness_is_refused_and_undone() {
     assert_eq!(f.time(), 0.0);
     let text = e.to_string();
     assert!(text.contains("afkf") && text.contains("unchanged"), "{text}");
-    // the plain prediction keeps its O(N) check (a positive diagonal passes); the update
-    // that follows is checked in full and refused
-    let mut g = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), FixedNoise).unwrap();
+    // a plain prediction passes its diagonal check; the update a strategy changes is
+    // checked in full and refused
+    let mut g = ErrorStateFilter::new(Vector2::zeros(), Matrix2::identity(), DoublesR).unwrap();
     g.predict(&Slips, &(), 0.1).unwrap();
     let sensor = LinearMeasurement::<1, 2>::new(nalgebra::Matrix1x2::new(1.0, 0.0));
     let before = (*g.state(), g.covariance().into_owned());
     let e =
         g.update(&sensor, &nalgebra::Vector1::new(0.5), &nalgebra::Matrix1::new(1.0)).unwrap_err();
-    assert_eq!(lost(e), ("update", "fixed"));
+    assert_eq!(lost(e), ("update", "doubles-r"));
     assert_eq!((*g.state(), g.covariance().into_owned()), before, "left as it was");
 }

@@ -15,7 +15,9 @@ pub enum FilterError {
     /// The filter's own covariance `P` lost its positive definiteness in a step: the
     /// filter refused the step and was left as it was before it (the invariant that `P`
     /// is symmetric positive definite after every prediction and update holds for every
-    /// strategy, or the step fails with this error).
+    /// strategy, or the step fails with this error). Checked in full after a step the
+    /// strategy changed (a fading λ, a scaled prior, an adapted `Q` or `R`), on the
+    /// diagonal after a plain one, which is positive definite by construction.
     CovarianceLost {
         /// The step: `"prediction"` or `"update"`.
         step: &'static str,

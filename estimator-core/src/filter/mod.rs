@@ -298,9 +298,13 @@ where
     /// The invariant after a step: the covariance `P` (the step's result, not yet
     /// committed) has a Cholesky factor; otherwise [`FilterError::CovarianceLost`] naming
     /// the step and the strategy `name`. `full = false` checks only that the diagonal is
-    /// positive (`O(N)`, for a prediction no strategy touched: `Φ P Φᵀ + Q_d` with `P`
-    /// positive definite and `Q_d` checked positive semi-definite loses nothing but by
-    /// rounding).
+    /// positive (`O(N)`), for a step no strategy touched: `Φ P Φᵀ + Q_d` with `P` positive
+    /// definite and `Q_d` checked positive semi-definite, and a Joseph update of a positive
+    /// definite prior with a positive definite `R`, lose nothing but by rounding. (A full
+    /// check after every plain update cost a 15-state GNSS update half its time: criterion
+    /// `gnss_update/pos_vel_15_states` 1.51–1.75 µs against 1.02–1.20 µs. A model's own
+    /// `propagate_covariance` or `step_covariance` is checked by
+    /// `harness::check_combined_calls`, not here.)
     pub(crate) fn check_positive_definite(
         P: &B::Cov,
         full: bool,

@@ -310,9 +310,12 @@ where
             return Err(FilterError::NonFinite { what: "updated state" });
         }
         B::check_finite("updated covariance P", &self.bufs[(self.cur + 1) % 3])?;
+        // the invariant: in full when the strategy changed the update (a scaled prior, an
+        // adapted R), else on the diagonal (a Joseph update of a positive definite prior
+        // with a positive definite R is positive definite)
         Self::check_positive_definite(
             &self.bufs[(self.cur + 1) % 3],
-            true,
+            adapted.is_some(),
             "update",
             &self.strategy,
         )?;
