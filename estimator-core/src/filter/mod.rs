@@ -312,7 +312,8 @@ where
         strategy: &A,
     ) -> Result<(), FilterError> {
         let lost = if full {
-            B::as_static(P).into_owned().cholesky().is_none()
+            // (a static copy from the entries: the back-ends' `as_static` needs `std`)
+            Cov::<X::Dim, T>::from_fn(|r, c| P.at(r, c)).cholesky().is_none()
         } else {
             (0..X::Dim::DIM).any(|i| {
                 B::diag(P, i).partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater)
