@@ -71,8 +71,8 @@ pub use any::{AnyStrategy, UnknownStrategy, STRATEGY_NAMES};
 pub use estimator_core::FixedNoise;
 pub use fused::{FusedDualWindow, GrossTest, RReading};
 pub use gate::{
-    ChiSquareGate, GateMode, GrossErrorGate, DEFAULT_PROBABILITY, DEFAULT_READMIT_AFTER,
-    GATE_WINDOW, MAX_R_FACTOR,
+    ChiSquareGate, GateMode, GrossErrorGate, LearnedNoise, CORRELATED, DEFAULT_PROBABILITY,
+    DEFAULT_READMIT_AFTER, GATE_WINDOW, LEARN_WINDOW, MAX_R_FACTOR, TRUST, TRUST_DOWN, WHITE_LAG,
 };
 pub use guard::FadingGuard;
 pub use iae::Iae;

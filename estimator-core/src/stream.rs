@@ -145,6 +145,11 @@ impl<T> StreamMap<T> {
         self.entries.iter().find(|(k, _)| *k == id).map(|(_, v)| v)
     }
 
+    /// Every stream seen with its entry, in the order first seen.
+    pub fn iter(&self) -> impl Iterator<Item = (StreamId, &T)> {
+        self.entries.iter().map(|(k, v)| (*k, v))
+    }
+
     /// Number of streams seen.
     pub fn len(&self) -> usize {
         self.entries.len()

@@ -114,7 +114,7 @@ fn summary_dict<'py>(
 #[pyfunction]
 #[pyo3(signature = (
     config, kind="path", base=".", imu=None, gnss=None, imu_format=None, strategy=None,
-    bias_model=None, states=None, smooth=false, no_gate=false, nhc=false, zupt=false,
+    bias_model=None, states=None, smooth=false, no_gate=false, declared_noise=false, nhc=false, zupt=false,
     odometer=false, no_vehicle=false, accept_inconsistent=false
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -131,6 +131,7 @@ fn navigate<'py>(
     states: Option<u32>,
     smooth: bool,
     no_gate: bool,
+    declared_noise: bool,
     nhc: bool,
     zupt: bool,
     odometer: bool,
@@ -174,6 +175,7 @@ fn navigate<'py>(
         states,
         smooth,
         no_gate,
+        declared_noise,
         nhc,
         zupt,
         odometer,

@@ -7,10 +7,13 @@ use estimator_core::{
 use nalgebra::{DefaultAllocator, DimName, OVector};
 
 mod chi_square;
+mod learn;
 mod scale;
 mod stream;
 
 pub use chi_square::*;
+use learn::*;
+pub use learn::{CORRELATED, LEARN_WINDOW, TRUST, TRUST_DOWN, WHITE_LAG};
 use scale::*;
 use stream::*;
 
@@ -189,6 +192,12 @@ pub struct GrossErrorGate<A> {
     pub readmit_after: u32,
     /// Whether a stream is adapted to before it is refused. Default [`GateMode::Adapt`].
     pub mode: GateMode,
+    /// Whether, in [`GateMode::Adapt`], each stream's noise is learned from its inliers'
+    /// residuals and the declared `R` lowered where the data show it more than [`TRUST`]×
+    /// too large (see [`GrossErrorGate::learned`]). Default true.
+    pub learn: bool,
+    /// Streams whose noise is never learned (a constraint's tuning, not a sensor's noise).
+    unlearned: Vec<estimator_core::StreamId>,
     streams: StreamMap<GateStream>,
     // caches of values computed from the dimension alone: not state, not serialised
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -207,6 +216,8 @@ clone_in_place!(GrossErrorGate<A> {
     probability,
     readmit_after,
     mode,
+    learn,
+    unlearned,
     streams,
     thresholds,
     scale_tests,
@@ -223,6 +234,8 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
             probability,
             readmit_after: readmit_after.max(1),
             mode: GateMode::Adapt,
+            learn: true,
+            unlearned: Vec::new(),
             streams: StreamMap::new(),
             thresholds: Thresholds::new(),
             scale_tests: ScaleTests(Vec::new()),
@@ -248,6 +261,38 @@ impl<A: NoiseStrategy> GrossErrorGate<A> {
     pub fn with_mode(mut self, mode: GateMode) -> Self {
         self.mode = mode;
         self
+    }
+
+    /// The same gate, learning each stream's noise or not ([`learn`](Self::learn)).
+    pub fn with_learning(mut self, learn: bool) -> Self {
+        self.learn = learn;
+        self
+    }
+
+    /// The same gate, never learning the noise of `streams` (the vehicle's constraints:
+    /// their noise is a tuning, not a sensor's).
+    pub fn without_learning_on(mut self, streams: &[estimator_core::StreamId]) -> Self {
+        self.unlearned.extend_from_slice(streams);
+        self
+    }
+
+    /// Per stream seen: its name, the variance factor `λ̂` its inliers show on the
+    /// declared `R` (`√λ̂` is the σ factor), the factor applied, and the updates it was
+    /// learned from.
+    pub fn learned(&self) -> impl Iterator<Item = LearnedNoise> + '_ {
+        self.streams.iter().filter(|(id, _)| !self.unlearned.contains(id)).map(|(id, st)| {
+            LearnedNoise {
+                stream: id.name(),
+                factor: st.learned.factor(),
+                applied: if self.learn && self.mode == GateMode::Adapt {
+                    st.learned.applied()
+                } else {
+                    1.0
+                },
+                updates: st.learned.seen(),
+                lag_one: st.learned.lag_one(),
+            }
+        })
     }
 
     /// Whether the gate refuses anything.
@@ -290,6 +335,141 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
         if !self.is_enabled() {
             return self.inner.adapt(a);
         }
+        if !self.learn
+            || self.mode != GateMode::Adapt
+            || a.nis.is_nan()
+            || self.unlearned.contains(&a.stream)
+        {
+            return self.decide(a);
+        }
+        let c = self.streams.get_or_insert_with(a.stream, GateStream::new).learned.applied();
+        if c == 1.0 {
+            self.decide(a);
+            self.learn_from(a.stream, a.innovation, a.HPHt, a.R_nominal, 1.0);
+            return;
+        }
+        // the learned noise stands for the declared one: the gate judges against it
+        let r_learned = a.R_nominal * c;
+        let s_learned = a.HPHt + &r_learned;
+        let Some(chol) = s_learned.clone().cholesky() else {
+            return self.decide(a);
+        };
+        let nis = a.innovation.dot(&chol.solve(a.innovation));
+        let mut b = Adaptation {
+            stream: a.stream,
+            epoch: a.epoch,
+            time: a.time,
+            innovation: a.innovation,
+            H: a.H,
+            P_prior: a.P_prior,
+            HPHt: a.HPHt,
+            HQHt: a.HQHt,
+            R_nominal: &r_learned,
+            S: &s_learned,
+            nis,
+            prior_scale: a.prior_scale,
+            prior_scaling: a.prior_scaling,
+            scale_propagated_only: a.scale_propagated_only,
+            R: r_learned.clone(),
+            verdict: a.verdict,
+            reason: a.reason,
+            factors: a.factors,
+            q: estimator_core::QAdjust::Keep,
+            not_helping: a.not_helping,
+        };
+        self.decide(&mut b);
+        self.learn_from(a.stream, a.innovation, a.HPHt, &r_learned, c);
+        a.prior_scale = b.prior_scale;
+        a.prior_scaling = b.prior_scaling;
+        a.scale_propagated_only = b.scale_propagated_only;
+        a.factors = b.factors;
+        a.q = b.q;
+        a.not_helping = b.not_helping;
+        a.verdict = b.verdict;
+        a.reason = b.reason;
+        a.R = b.R;
+        if a.verdict != Verdict::Rejected {
+            a.factors.lambda_r *= c;
+            if a.reason.is_empty() || a.verdict == Verdict::Accepted {
+                a.reason = "gate: R learned from the stream's residuals";
+            }
+            a.verdict = Verdict::Inflated;
+        }
+    }
+
+    fn prediction_fading(&self) -> f64 {
+        self.inner.prediction_fading()
+    }
+
+    fn tracks_process_noise(&self) -> bool {
+        self.inner.tracks_process_noise()
+    }
+
+    fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
+        // a gross error the gate re-admitted is not the inner strategy's to learn from
+        if !self.bypassed {
+            self.inner.after_update(p)
+        }
+    }
+}
+
+/// What a stream's inliers show of its noise ([`GrossErrorGate::learned`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LearnedNoise {
+    /// The stream's name.
+    pub stream: &'static str,
+    /// `λ̂`: the variance factor the stream's residuals show on its declared `R` (its
+    /// square root is the σ factor).
+    pub factor: f64,
+    /// The factor applied on the declared `R` (1: the declared noise was kept).
+    pub applied: f64,
+    /// Updates it was learned from.
+    pub updates: u64,
+    /// The lag-one autocorrelation of its whitened innovations (0 for white ones).
+    pub lag_one: f64,
+}
+
+impl<A: NoiseStrategy> GrossErrorGate<A> {
+    /// Feed a stream's learner with an update judged at the applied noise `R = c R₀`
+    /// (an inlier at that noise only: the gate's decision on it was not a refusal, a
+    /// re-admission or a doubted state).
+    fn learn_from<M: DimName>(
+        &mut self,
+        stream: estimator_core::StreamId,
+        r: &OVector<f64, M>,
+        hpht: &nalgebra::OMatrix<f64, M, M>,
+        applied_r: &nalgebra::OMatrix<f64, M, M>,
+        c: f64,
+    ) where
+        DefaultAllocator: nalgebra::allocator::Allocator<M, M> + nalgebra::allocator::Allocator<M>,
+    {
+        let bypassed = self.bypassed;
+        let st = self.streams.get_or_insert_with(stream, GateStream::new);
+        let before = core::mem::replace(&mut st.learned_before, false);
+        if bypassed || st.doubting {
+            return;
+        }
+        // q at the learned noise, not the applied one: the applied one stays above it by
+        // up to TRUST, and q at a noise above the stream's is biased up by the prior
+        let l = st.learned.factor().clamp(1.0 / MAX_R_FACTOR, MAX_R_FACTOR);
+        let r_l = applied_r * (l / c);
+        let s_l = hpht + &r_l;
+        if let Some(q) = residual_factor(r, hpht, &s_l, &r_l, l) {
+            let pair = if before { Some(st.last_pair) } else { None };
+            st.learned.push(q, pair);
+            st.learned_before = true;
+        }
+    }
+
+    /// The gate's decision on one innovation at the noise `a` declares (see the type's
+    /// documentation).
+    fn decide<N: DimName, M: DimName>(&mut self, a: &mut Adaptation<'_, N, M>)
+    where
+        DefaultAllocator: FilterAlloc<N, M>,
+    {
         let m = M::DIM;
         let gate = self.threshold(m);
         let adapt = self.mode == GateMode::Adapt;
@@ -379,24 +559,6 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
         }
         st.refusals = 0;
         doubt_prior(a, gate, "gate: re-admitted after refusals in a row, prior inflated");
-    }
-
-    fn prediction_fading(&self) -> f64 {
-        self.inner.prediction_fading()
-    }
-
-    fn tracks_process_noise(&self) -> bool {
-        self.inner.tracks_process_noise()
-    }
-
-    fn after_update<N: DimName, M: DimName>(&mut self, p: &mut PostUpdate<'_, N, M>)
-    where
-        DefaultAllocator: FilterAlloc<N, M>,
-    {
-        // a gross error the gate re-admitted is not the inner strategy's to learn from
-        if !self.bypassed {
-            self.inner.after_update(p)
-        }
     }
 }
 

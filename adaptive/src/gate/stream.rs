@@ -23,6 +23,13 @@ pub(super) struct GateStream {
     pub(super) matching: bool,
     /// The state is being doubted.
     pub(super) doubting: bool,
+    /// The noise its inliers show.
+    pub(super) learned: Learned,
+    /// The last push's whitened innovation's dot product with the one before, its own
+    /// squared norm and the one before's (NaN when there was none before).
+    pub(super) last_pair: (f64, f64, f64),
+    /// Whether the update before the last push was learned from.
+    pub(super) learned_before: bool,
 }
 
 impl GateStream {
@@ -39,6 +46,9 @@ impl GateStream {
             has_white: false,
             matching: false,
             doubting: false,
+            learned: Learned::default(),
+            last_pair: (f64::NAN, f64::NAN, f64::NAN),
+            learned_before: false,
         }
     }
 
@@ -56,6 +66,7 @@ impl GateStream {
                     let na = w.iter().map(|a| a * a).sum::<f64>().sqrt();
                     let nb = prev.iter().map(|a| a * a).sum::<f64>().sqrt();
                     self.cos[i] = if na > 0.0 && nb > 0.0 { dot / (na * nb) } else { 0.0 };
+                    self.last_pair = (dot, na * na, nb * nb);
                     let d2: f64 = w.iter().zip(prev).map(|(a, b)| (a - b) * (a - b)).sum();
                     self.agree[i] =
                         d2 <= (AGREE_FRACTION * na).powi(2) + AGREE_NOISE * w.len() as f64;
@@ -63,11 +74,13 @@ impl GateStream {
                 } else {
                     self.cos[i] = 0.0;
                     self.agree[i] = false;
+                    self.last_pair = (f64::NAN, f64::NAN, f64::NAN);
                 }
                 self.white[..w.len()].copy_from_slice(w);
                 self.has_white = true;
             }
             None => {
+                self.last_pair = (f64::NAN, f64::NAN, f64::NAN);
                 self.has_white = false;
                 self.cos_filled = 0;
             }

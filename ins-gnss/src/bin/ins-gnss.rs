@@ -42,6 +42,10 @@ enum Command {
         /// Open the gross-error gate (every fix used, as KF-GINS does).
         #[arg(long)]
         no_gate: bool,
+        /// Keep every GNSS stream's declared noise instead of learning it from the data
+        /// (sets `filter.gate.learn = false`).
+        #[arg(long)]
+        declared_noise: bool,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -221,6 +225,7 @@ fn main() -> ExitCode {
             truth,
             skip,
             no_gate,
+            declared_noise,
             quiet,
             plots,
             bias_model,
@@ -244,6 +249,7 @@ fn main() -> ExitCode {
                 progress: !quiet,
                 plots,
                 no_gate,
+                declared_noise,
                 nhc,
                 zupt,
                 odometer,

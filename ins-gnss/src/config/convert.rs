@@ -16,6 +16,8 @@ impl Config {
         Ok(if g.enabled {
             adaptive::GrossErrorGate::new(inner, g.probability, g.readmit_after)
                 .with_mode(g.mode.into())
+                .with_learning(g.learn)
+                .without_learning_on(&VEHICLE_STREAMS)
         } else {
             adaptive::GrossErrorGate::disabled(inner)
         })

@@ -85,6 +85,15 @@ pub struct GateSection {
     /// the gate (the behaviour before; see [`adaptive::GateMode`]).
     #[serde(default)]
     pub mode: GateModeName,
+    /// With `mode = "adapt"`: learn each GNSS stream's noise from its inliers' residuals
+    /// (the declared σ is a prior, not a fact): raised as far as the data show it too
+    /// small; lowered where they show it too large, all the way for white innovations and
+    /// to at most 5× what they show for innovations correlated from one epoch to the next
+    /// (errors that persist over minutes, which the filter follows). The vehicle's
+    /// constraints keep their configured noise. Default true; the factors learned are in
+    /// the summary ([`adaptive::GrossErrorGate::learned`]).
+    #[serde(default = "yes")]
+    pub learn: bool,
 }
 
 /// `filter.gate.mode`.
@@ -124,6 +133,7 @@ impl Default for GateSection {
             probability: default_gate_probability(),
             readmit_after: default_readmit(),
             mode: GateModeName::default(),
+            learn: true,
         }
     }
 }

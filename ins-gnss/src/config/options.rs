@@ -22,6 +22,8 @@ pub struct RunOptions<'a> {
     pub plots: bool,
     /// Open the gross-error gate (KF-GINS's behaviour: every fix used).
     pub no_gate: bool,
+    /// Keep every stream's declared noise (sets `filter.gate.learn = false`).
+    pub declared_noise: bool,
     /// Turn on NHC (configured settings or defaults).
     pub nhc: bool,
     /// Turn on ZUPT/ZARU (configured settings or defaults).
@@ -63,6 +65,9 @@ impl Config {
         }
         if o.no_gate {
             cfg.filter.gate.enabled = false;
+        }
+        if o.declared_noise {
+            cfg.filter.gate.learn = false;
         }
         if o.nhc && cfg.vehicle.nhc.is_none() {
             cfg.vehicle.nhc = Some(Default::default());

@@ -174,6 +174,7 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("filter.gate.probability", "probability", "1e-6"),
     ("filter.gate.readmit_after", "refusals", "10"),
     ("filter.gate.mode", "—", r#""refuse""#),
+    ("filter.gate.learn", "—", "false"),
     ("vehicle.nhc.mounting", "deg", "[0.0, 0.0, 1.2]"),
     ("vehicle.nhc.lever_arm", "m (FRD)", "[-1.2, 0.0, 0.8]"),
     ("vehicle.nhc.std", "m/s", "[0.1, 0.1]"),

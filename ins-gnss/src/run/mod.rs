@@ -405,6 +405,7 @@ where
     summary.gnss_skipped = gnss.skipped();
     summary.stationary_time = nav.stationary_time();
     summary.odometer_reversed = nav.odometer_reversed();
+    summary.learned = nav.filter().strategy().learned().collect();
     if let Some(recorder) = recorder {
         let backward = Instant::now();
         // (a covariance at a lower rate than the state: the backward pass starts from now's)

@@ -96,6 +96,7 @@ where
     check_gnss_overlap(&summary, Path::new("(GNSS data)"))?;
     summary.stationary_time = nav.stationary_time();
     summary.odometer_reversed = nav.odometer_reversed();
+    summary.learned = nav.filter().strategy().learned().collect();
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }

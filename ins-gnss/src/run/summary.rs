@@ -58,6 +58,90 @@ pub struct RunSummary {
     pub streams: Vec<StreamStats>,
     /// The first GNSS epoch the filter used.
     pub first_fix: Option<GnssEpoch>,
+    /// What each GNSS stream's inliers showed of its noise, at the end of the run
+    /// ([`adaptive::GrossErrorGate::learned`]; empty with `filter.gate.learn = false`).
+    pub learned: Vec<adaptive::LearnedNoise>,
+}
+
+/// A declared σ the data contradict by more than this factor, either way, is named with
+/// its key in the summary.
+pub const CONTRADICTED: f64 = 3.0;
+
+/// The configuration key that declares a stream's noise.
+pub fn noise_key(stream: &str) -> &'static str {
+    if stream.starts_with("rr ") {
+        "gnss.tight.doppler_std"
+    } else if stream.starts_with("pr ") {
+        "the pseudoranges' elevation model"
+    } else if stream == "tdcp" {
+        "gnss.tight.phase_std"
+    } else if stream == "gnss-velocity" {
+        "gnss.velocity_std or the file's velocity σ columns"
+    } else if stream == "gnss-position-velocity" {
+        "gnss.position_std, gnss.velocity_std or the file's σ columns"
+    } else {
+        "gnss.position_std or the file's σ columns"
+    }
+}
+
+impl RunSummary {
+    /// The summary's line on the noise learned: each stream's σ factor (what its
+    /// inliers' residuals show over the declared σ) and the factor applied; satellites'
+    /// streams of one kind as their median and range. Streams the data contradict by more
+    /// than [`CONTRADICTED`]× are named with their key. `None` without learning.
+    pub fn learned_line(&self) -> Option<String> {
+        let seen: Vec<&adaptive::LearnedNoise> =
+            self.learned.iter().filter(|l| l.updates >= 20).collect();
+        if seen.is_empty() {
+            return None;
+        }
+        let mut parts = Vec::new();
+        let mut contradicted = Vec::new();
+        for (kind, label) in [("pr ", "pseudoranges"), ("rr ", "Dopplers")] {
+            let mut f: Vec<f64> = seen
+                .iter()
+                .filter(|l| l.stream.starts_with(kind))
+                .map(|l| l.factor.sqrt())
+                .collect();
+            if f.is_empty() {
+                continue;
+            }
+            f.sort_by(f64::total_cmp);
+            let med = f[f.len() / 2];
+            parts.push(format!(
+                "{label} σ × {med:.2} (median of {} satellites, {:.2}–{:.2})",
+                f.len(),
+                f[0],
+                f[f.len() - 1]
+            ));
+            if !(1.0 / CONTRADICTED..=CONTRADICTED).contains(&med) {
+                contradicted.push(format!("{} ({med:.2}×)", noise_key(kind)));
+            }
+        }
+        for l in
+            seen.iter().filter(|l| !l.stream.starts_with("pr ") && !l.stream.starts_with("rr "))
+        {
+            let f = l.factor.sqrt();
+            parts.push(format!(
+                "{} σ × {f:.2} (applied × {:.2}, {} updates, lag-one autocorrelation {:.2})",
+                l.stream,
+                l.applied.sqrt(),
+                l.updates,
+                l.lag_one
+            ));
+            if !(1.0 / CONTRADICTED..=CONTRADICTED).contains(&f) {
+                contradicted.push(format!("`{}` ({f:.2}×)", noise_key(l.stream)));
+            }
+        }
+        let mut line = format!("noise learned: {}", parts.join("; "));
+        if !contradicted.is_empty() {
+            line += &format!(
+                "; the data contradict the declared σ by more than {CONTRADICTED}×: {}",
+                contradicted.join(", ")
+            );
+        }
+        Some(line)
+    }
 }
 
 /// A GNSS gap longer than this (s) is an outage for [`StreamStats::refused_after_outage`].
@@ -429,6 +513,7 @@ impl RunSummary {
         if !s.noise.is_empty() {
             lines.push(s.noise.clone());
         }
+        lines.extend(s.learned_line());
         if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
             let [n, z, r, o] = s.aiding;
             lines.push(format!(
