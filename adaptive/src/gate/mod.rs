@@ -355,46 +355,16 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
             return self.decide(a);
         };
         let nis = a.innovation.dot(&chol.solve(a.innovation));
-        let mut b = Adaptation {
-            stream: a.stream,
-            epoch: a.epoch,
-            time: a.time,
-            innovation: a.innovation,
-            H: a.H,
-            P_prior: a.P_prior,
-            HPHt: a.HPHt,
-            HQHt: a.HQHt,
-            R_nominal: &r_learned,
-            S: &s_learned,
+        on_noise(
+            a,
+            &r_learned,
+            &s_learned,
             nis,
-            prior_scale: a.prior_scale,
-            prior_scaling: a.prior_scaling,
-            scale_propagated_only: a.scale_propagated_only,
-            R: r_learned.clone(),
-            verdict: a.verdict,
-            reason: a.reason,
-            factors: a.factors,
-            q: estimator_core::QAdjust::Keep,
-            not_helping: a.not_helping,
-        };
-        self.decide(&mut b);
+            c,
+            "gate: R learned from the stream's residuals",
+            |b| self.decide(b),
+        );
         self.learn_from(a.stream, a.innovation, a.HPHt, &r_learned, c);
-        a.prior_scale = b.prior_scale;
-        a.prior_scaling = b.prior_scaling;
-        a.scale_propagated_only = b.scale_propagated_only;
-        a.factors = b.factors;
-        a.q = b.q;
-        a.not_helping = b.not_helping;
-        a.verdict = b.verdict;
-        a.reason = b.reason;
-        a.R = b.R;
-        if a.verdict != Verdict::Rejected {
-            a.factors.lambda_r *= c;
-            if a.reason.is_empty() || a.verdict == Verdict::Accepted {
-                a.reason = "gate: R learned from the stream's residuals";
-            }
-            a.verdict = Verdict::Inflated;
-        }
     }
 
     fn prediction_fading(&self) -> f64 {
@@ -579,6 +549,33 @@ fn adapt_matched<A: NoiseStrategy, N: DimName, M: DimName>(
     // R' = R + (s − 1) S: S' = s S
     let r_matched = a.R_nominal + a.S * (scale - 1.0);
     let s_matched = a.S * scale;
+    let nis = a.nis / scale;
+    on_noise(
+        a,
+        &r_matched,
+        &s_matched,
+        nis,
+        scale,
+        "gate: R matched to the stream's innovations",
+        |b| inner.adapt(b),
+    );
+}
+
+/// `decide` on `a` as if its declared noise were `r` (`S = s`, NIS `nis`), the outcome
+/// copied back into `a` with `factor` on its `R` factor (the declared `R` the noise stands
+/// for) and, unless refused, the verdict `Inflated` with `why` where `decide` gave none
+/// (the filter tells a noise below the declared one apart, as `Deflated`).
+fn on_noise<N: DimName, M: DimName>(
+    a: &mut Adaptation<'_, N, M>,
+    r: &nalgebra::OMatrix<f64, M, M>,
+    s: &nalgebra::OMatrix<f64, M, M>,
+    nis: f64,
+    factor: f64,
+    why: &'static str,
+    decide: impl FnOnce(&mut Adaptation<'_, N, M>),
+) where
+    DefaultAllocator: FilterAlloc<N, M>,
+{
     let mut b = Adaptation {
         stream: a.stream,
         epoch: a.epoch,
@@ -588,20 +585,20 @@ fn adapt_matched<A: NoiseStrategy, N: DimName, M: DimName>(
         P_prior: a.P_prior,
         HPHt: a.HPHt,
         HQHt: a.HQHt,
-        R_nominal: &r_matched,
-        S: &s_matched,
-        nis: a.nis / scale,
+        R_nominal: r,
+        S: s,
+        nis,
         prior_scale: a.prior_scale,
         prior_scaling: a.prior_scaling,
         scale_propagated_only: a.scale_propagated_only,
-        R: r_matched.clone(),
+        R: r.clone(),
         verdict: a.verdict,
         reason: a.reason,
         factors: a.factors,
         q: estimator_core::QAdjust::Keep,
         not_helping: a.not_helping,
     };
-    inner.adapt(&mut b);
+    decide(&mut b);
     a.prior_scale = b.prior_scale;
     a.prior_scaling = b.prior_scaling;
     a.scale_propagated_only = b.scale_propagated_only;
@@ -612,10 +609,9 @@ fn adapt_matched<A: NoiseStrategy, N: DimName, M: DimName>(
     a.reason = b.reason;
     a.R = b.R;
     if a.verdict != Verdict::Rejected {
-        // the factor on the declared R the matching stands for
-        a.factors.lambda_r *= scale;
+        a.factors.lambda_r *= factor;
         if a.reason.is_empty() || a.verdict == Verdict::Accepted {
-            a.reason = "gate: R matched to the stream's innovations";
+            a.reason = why;
         }
         a.verdict = Verdict::Inflated;
     }
