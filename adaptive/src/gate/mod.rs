@@ -193,8 +193,9 @@ pub struct GrossErrorGate<A> {
     /// Whether a stream is adapted to before it is refused. Default [`GateMode::Adapt`].
     pub mode: GateMode,
     /// Whether, in [`GateMode::Adapt`], each stream's noise is learned from its inliers'
-    /// residuals and the declared `R` lowered where the data show it more than [`TRUST`]×
-    /// too large (see [`GrossErrorGate::learned`]). Default true.
+    /// residuals and the declared `R` moved toward it: raised to what white innovations
+    /// show, lowered where they show it more than [`TRUST_DOWN`]× too large, kept within
+    /// [`TRUST`]× for correlated ones (see [`GrossErrorGate::learned`]). Default true.
     pub learn: bool,
     /// Streams whose noise is never learned (a constraint's tuning, not a sensor's noise).
     unlearned: Vec<estimator_core::StreamId>,
