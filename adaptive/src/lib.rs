@@ -72,7 +72,8 @@ pub use estimator_core::FixedNoise;
 pub use fused::{FusedDualWindow, GrossTest, RReading};
 pub use gate::{
     ChiSquareGate, GateMode, GrossErrorGate, LearnedNoise, CORRELATED, DEFAULT_PROBABILITY,
-    DEFAULT_READMIT_AFTER, GATE_WINDOW, LEARN_WINDOW, MAX_R_FACTOR, TRUST, TRUST_DOWN, WHITE_LAG,
+    DEFAULT_READMIT_AFTER, GATE_WINDOW, LEARNED_REASON, LEARN_WINDOW, MAX_R_FACTOR, TRUST,
+    TRUST_DOWN, WHITE_LAG,
 };
 pub use guard::FadingGuard;
 pub use iae::Iae;

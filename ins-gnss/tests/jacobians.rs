@@ -470,3 +470,51 @@ fn bad_imu_input_is_a_typed_error_through_the_fused_epoch() {
         assert!(gaps.iter().all(|g| g.abs() < 1e-300), "{gaps:?}");
     }
 }
+
+/// The fixes' persisting error as states (18 and 24): Φ of the fix block against central
+/// differences (its decay), the fused step and `step` against the separate calls, and the
+/// fix model's H (the identity on the fix block's position rows) against numerical
+/// differences, for a position and a position + velocity fix.
+#[test]
+fn fix_error_states_match_numerical_jacobians() {
+    use ins_gnss_core::fix_error::{
+        FixErrorModel, InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe,
+    };
+    use ins_gnss_core::navigator::OnFixError;
+    use ins_gnss_core::scale::{InsModel21, InsState21, ScaleFactorNoise};
+    let fix = FixErrorModel { sigma: Vector3::new(1.5, 1.5, 3.0), tau: 100.0 };
+    let model = InsModelFe { base: InsModel::wgs84(scenarios::mems_imu().noise), fix };
+    let lever = Vector3::new(0.8, -0.3, -1.2);
+    for (x, u) in states() {
+        let dt = u.cur.dt;
+        let x = InsStateFe { nav: x, fix: Vector3::new(0.7, -1.1, 2.3) };
+        let numeric = numerical_jacobian(&x, |xp| model.propagate(xp, &u, dt), 1e-4);
+        let phi = model.jacobians(&x, &u, dt).Phi;
+        let block = |m: &SMatrix<f64, 18, 18>| m.fixed_view::<3, 3>(15, 15).into_owned();
+        compare("Φ fix block", &block(&phi), &block(&numeric), 1e-6).unwrap();
+        check_combined_calls(&model, &x, &u, dt).unwrap();
+        let rate = u.cur.rate();
+        let pos = GnssPosition { lever_arm: lever };
+        let pv = GnssPosVel { lever_arm: lever, gyro_rate: rate };
+        check_measurement_model_with_step(&OnFixError::<InsStateFe, _>::new(&pos), &x, 1e-6, 1e-3)
+            .unwrap();
+        check_measurement_model_with_step(&OnFixError::<InsStateFe, _>::new(&pv), &x, 1e-6, 1e-3)
+            .unwrap();
+    }
+    let scale = ScaleFactorNoise { gyro: Vector3::repeat(1e-4), accel: Vector3::repeat(1e-4) };
+    let base = InsModel21 { base: InsModel::wgs84(scenarios::mems_imu().noise), scale };
+    let model = InsModel21Fe { base, fix };
+    for (x, u) in states() {
+        let nav = InsState21 { nav: x, sg: Vector3::new(2e-3, -1e-3, 3e-3), sa: Vector3::zeros() };
+        let x = InsState21Fe { nav, fix: Vector3::new(-0.4, 0.9, -1.6) };
+        check_combined_calls(&model, &x, &u, u.cur.dt).unwrap();
+        let pos = GnssPosition { lever_arm: lever };
+        check_measurement_model_with_step(
+            &OnFixError::<InsState21Fe, _>::new(&pos),
+            &x,
+            1e-6,
+            1e-3,
+        )
+        .unwrap();
+    }
+}

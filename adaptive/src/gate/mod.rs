@@ -117,6 +117,10 @@ const MIN_AGREE_PAIRS: usize = 7;
 /// the 4th to the 8th fix: 0.330 → 1.115 m).
 const GROSS_BEYOND: f64 = 10.0;
 
+/// The reason of an update whose noise the gate learned from the stream's residuals (and
+/// nothing else changed): its adapted NIS is the one at the learned noise.
+pub const LEARNED_REASON: &str = "gate: R learned from the stream's residuals";
+
 /// Upper bound on the `R` factor (σ × 100).
 pub const MAX_R_FACTOR: f64 = 1e4;
 
@@ -356,15 +360,7 @@ impl<A: NoiseStrategy> NoiseStrategy for GrossErrorGate<A> {
             return self.decide(a);
         };
         let nis = a.innovation.dot(&chol.solve(a.innovation));
-        on_noise(
-            a,
-            &r_learned,
-            &s_learned,
-            nis,
-            c,
-            "gate: R learned from the stream's residuals",
-            |b| self.decide(b),
-        );
+        on_noise(a, &r_learned, &s_learned, nis, c, LEARNED_REASON, |b| self.decide(b));
         self.learn_from(a.stream, a.innovation, a.HPHt, &r_learned, c);
     }
 

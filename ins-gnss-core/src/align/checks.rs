@@ -120,6 +120,20 @@ pub struct TimeOffset {
     pub misfit_best: f64,
     /// `Σ |Δχ|` over the pairs: how far the course turned, rad.
     pub turned: f64,
+    /// The lag-one autocorrelation of the residuals `Δχ − Δψ` at
+    /// [`offset`](Self::offset), in pair order: fixes whose errors wander (a single-point
+    /// receiver's) leave course errors that persist from pair to pair, and the pairs are
+    /// then fewer independent samples than they number (`(1 − ρ)/(1 + ρ)` of them).
+    pub lag_one: f64,
+}
+
+impl TimeOffset {
+    /// The pairs' worth as independent samples, `n (1 − ρ)/(1 + ρ)` with the residuals'
+    /// lag-one autocorrelation `ρ` (taken in `[0, 0.95]`).
+    pub fn effective_pairs(&self) -> f64 {
+        let rho = if self.lag_one.is_finite() { self.lag_one.clamp(0.0, 0.95) } else { 0.0 };
+        self.pairs as f64 * (1.0 - rho) / (1.0 + rho)
+    }
 }
 
 /// The first index `k` of the ascending `ts` with `ts[k] ≥ t` (`ts.len()` when none):
@@ -259,6 +273,25 @@ pub fn time_offset(
             curvature = c;
         }
     }
+    // the residuals' lag-one autocorrelation at the offset found
+    let residuals: Vec<f64> = pairs
+        .iter()
+        .filter_map(|&(dchi, t0, t1)| Some(dchi - (psi_at(t1 + offset)? - psi_at(t0 + offset)?)))
+        .collect();
+    let lag_one = {
+        let (mut dot, mut sq) = (0.0, 0.0);
+        for w in residuals.windows(2) {
+            dot += w[0] * w[1];
+        }
+        for r in &residuals {
+            sq += r * r;
+        }
+        if sq > 0.0 {
+            dot / sq
+        } else {
+            0.0
+        }
+    };
     // var(δ) = 2 s² / f'' for a least-squares misfit f with residual variance s²
     let s2 = best / (pairs.len() - 1) as f64;
     let std = if curvature > 0.0 { (2.0 * s2 / curvature).sqrt() } else { f64::INFINITY };
@@ -269,6 +302,7 @@ pub fn time_offset(
         misfit_zero: misfit(0.0)?,
         misfit_best: best,
         turned: pairs.iter().map(|p| p.0.abs()).sum(),
+        lag_one,
     })
 }
 

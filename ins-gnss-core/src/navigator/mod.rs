@@ -25,6 +25,7 @@ use nalgebra::{
     Vector3,
 };
 
+use crate::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
 use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
 use crate::imu::ImuNoise;
 use crate::imu::ImuSample;
@@ -47,7 +48,7 @@ mod tight;
 mod vehicle;
 
 pub use setup::*;
-pub use state::{NavState, OnNav};
+pub use state::{NavAlloc, NavState, OnFixError, OnNav};
 pub use tight::{
     satellite_error_floor, ClockInit, RawEpoch, TightConfig, TightState, CARRIER_MAX_GAP, SLIP_RATE,
 };
@@ -82,6 +83,11 @@ where
     carrier: Option<CarrierEpoch>,
     /// The covariance at a lower rate than the state (`None`: at every sample).
     coarse: Option<coarse::Coarse<S>>,
+    /// The fixes' noise scale learned from their innovations (a state with the fixes'
+    /// persisting error only).
+    fix_split: crate::fix_error::FixSplitLearner,
+    /// The last fix's time (for the split's memory).
+    fix_split_time: Option<f64>,
 }
 
 /// What the time-differenced carrier phase needs of the last raw epoch.
@@ -164,6 +170,8 @@ where
             floor: None,
             carrier: None,
             coarse: None,
+            fix_split: Default::default(),
+            fix_split_time: None,
         })
     }
 
@@ -419,15 +427,48 @@ where
         g: &GnssEpoch,
         observer: &mut O,
     ) -> Result<UpdateSummary, NavError> {
-        let err = |source| NavError::Measurement { t: g.t, source };
-        self.vehicle.last_gnss = g.t;
         // the file's covariance (its correlations included), unless the configuration
         // states the σ
-        let r_pos = match self.gnss.pos_std {
+        let mut r_pos = match self.gnss.pos_std {
             Some(s) => diag3(&s.component_mul(&s)),
             None => g.position_covariance(),
         };
+        let stream = match (self.gnss.use_velocity, g.vel) {
+            (true, Some(_)) => crate::gnss::GNSS_POSITION_VELOCITY,
+            _ => crate::gnss::GNSS_POSITION,
+        };
         let lever = self.gnss.lever_arm;
+        let mut white = None;
+        if self.filter.state().fix_error().is_some() {
+            r_pos = self.split_fix_error(&r_pos, stream);
+            white = Some(self.fix_innovation_stats(g, &r_pos, lever));
+        }
+        self.vehicle.last_gnss = g.t;
+        let summary = self.update_fix(g, r_pos, lever, observer)?;
+        if let Some(w) = white {
+            // (refused fixes too: the white factor's influence is bounded, and a cosine
+            // of gross errors is noise about 0)
+            let dt = match self.fix_split_time {
+                Some(t0) if g.t > t0 => g.t - t0,
+                _ => 1.0,
+            };
+            self.fix_split_time = Some(g.t);
+            let memory = (-4.0 * dt / self.gnss.fix_errors.tau).exp();
+            self.fix_split.push(w.map(|w| w.0), memory);
+            self.fix_split.push_white(w.map(|w| w.1));
+        }
+        Ok(summary)
+    }
+
+    /// The fix update proper, with the position noise `r_pos`.
+    fn update_fix<O: Observer>(
+        &mut self,
+        g: &GnssEpoch,
+        r_pos: Matrix3<f64>,
+        lever: Vector3<f64>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, NavError> {
+        let err = |source| NavError::Measurement { t: g.t, source };
         match (self.gnss.use_velocity, g.vel) {
             (true, Some((v, _))) => {
                 let r_vel = match self.gnss.vel_std {
@@ -438,15 +479,112 @@ where
                 r.fixed_view_mut::<3, 3>(0, 0).copy_from(&r_pos);
                 r.fixed_view_mut::<3, 3>(3, 3).copy_from(&r_vel);
                 let model = GnssPosVel { lever_arm: lever, gyro_rate: self.rate };
-                S::update::<A, GnssPosVel, O>(&mut self.filter, &model, &(g.pos, v), &r, observer)
-                    .map_err(err)
+                S::update_fix::<A, GnssPosVel, O>(
+                    &mut self.filter,
+                    &model,
+                    &(g.pos, v),
+                    &r,
+                    observer,
+                )
+                .map_err(err)
             }
             _ => {
                 let model = GnssPosition { lever_arm: lever };
-                S::update::<A, GnssPosition, O>(&mut self.filter, &model, &g.pos, &r_pos, observer)
-                    .map_err(err)
+                S::update_fix::<A, GnssPosition, O>(
+                    &mut self.filter,
+                    &model,
+                    &g.pos,
+                    &r_pos,
+                    observer,
+                )
+                .map_err(err)
             }
         }
+    }
+}
+
+impl<A: NoiseStrategy, S: NavState> Navigator<A, S>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    /// On a state with the fixes' persisting error: set its σ from a fix's declared
+    /// position covariance `r` ([`FixErrorSplit`]) and the σ factor the strategy learned on
+    /// the fixes, and return the white noise's covariance.
+    fn split_fix_error(&mut self, r: &Matrix3<f64>, stream: StreamId) -> Matrix3<f64> {
+        let split = self.gnss.fix_errors;
+        let (fix, r_w) = match split.sigma {
+            Some(sigma) => (crate::fix_error::FixErrorModel { sigma, tau: split.tau }, *r),
+            None => {
+                let share = split.share.clamp(0.0, 1.0);
+                let r_w = r * (1.0 - share);
+                // σ_b² = κ r: the declared ratio share / (1 − share), times what the
+                // innovations' whiteness says, on the white part as the gate applies it
+                let _ = stream;
+                let mut kappa = share / (1.0 - share).max(1e-9);
+                let mut r_w = r_w;
+                if split.learn {
+                    kappa *= self.fix_split.factor();
+                    r_w *= self.fix_split.white();
+                }
+                let sigma = Vector3::new(r_w[(0, 0)], r_w[(1, 1)], r_w[(2, 2)])
+                    .map(|v| (v.max(0.0) * kappa).sqrt());
+                (crate::fix_error::FixErrorModel { sigma, tau: split.tau }, r_w)
+            }
+        };
+        S::set_fix_error(&mut self.model, fix);
+        r_w
+    }
+
+    /// The fix's position innovation `ν = z ⊖ p̂_a − b̂` before the update, whitened by its
+    /// covariance `S = H P⁻ Hᵀ + R_w` (`r_w`: the white part as applied), and the white
+    /// part's residual-based `q` at the learned factor
+    /// ([`FixSplitLearner::white`](crate::fix_error::FixSplitLearner::white)); `None` when
+    /// a covariance is not positive definite.
+    fn fix_innovation_stats(
+        &self,
+        g: &GnssEpoch,
+        r_w: &Matrix3<f64>,
+        lever: Vector3<f64>,
+    ) -> Option<(Vector3<f64>, f64)> {
+        let (b, f) = self.filter.state().fix_error()?;
+        let (res, j) =
+            GnssPosition { lever_arm: lever }.innovation(self.filter.state().nav(), &g.pos);
+        let nu = res - b;
+        let p = self.filter.covariance_raw();
+        let p_nn = M15::from_fn(|r, c| p[(r, c)]);
+        let p_nf = SMatrix::<f64, 15, 3>::from_fn(|r, c| p[(r, f + c)]);
+        let p_ff = Matrix3::from_fn(|r, c| p[(f + r, f + c)]);
+        let h = &j.H;
+        let hn = h * p_nf;
+        let hph = h * p_nn * h.transpose() + hn + hn.transpose() + p_ff;
+        let white = (hph + r_w).cholesky()?.l().solve_lower_triangular(&nu)?;
+        // q at the learned factor λ (the applied r_w is the declared one times white()):
+        // R = λ R₀, S = HPHᵀ + R, q = λ (uᵀ R u + tr(S⁻¹ HPHᵀ)) / 3
+        let (applied, learned) = (self.fix_split.white(), self.fix_split.learned_white());
+        let r = r_w * (learned / applied);
+        let chol = (hph + r).cholesky()?;
+        let u = chol.solve(&nu);
+        let q = learned * (u.dot(&(r * u)) + chol.solve(&hph).trace()) / 3.0;
+        Some((white, q))
+    }
+
+    /// The same navigator with the fixes' noise prior scaled: `factor` on the declared
+    /// variance of both parts of the split (what a white model's innovations showed of
+    /// the declared σ), as the white part's learned factor starts.
+    pub fn with_fix_noise_prior(mut self, factor: f64) -> Self {
+        self.fix_split = crate::fix_error::FixSplitLearner::with_white_prior(factor);
+        self
+    }
+
+    /// The model of the fixes' persisting error now (a state that carries it).
+    pub fn fix_error_model(&self) -> Option<crate::fix_error::FixErrorModel> {
+        S::fix_error_model(&self.model)
+    }
+
+    /// The split of the fixes' error learned so far (a state with the fixes' persisting
+    /// error).
+    pub fn fix_split(&self) -> Option<&crate::fix_error::FixSplitLearner> {
+        self.filter.state().fix_error().map(|_| &self.fix_split)
     }
 }
 

@@ -68,13 +68,56 @@ pub struct GnssConfig {
     pub pos_std: Option<Vector3<f64>>,
     /// Replace the file's velocity σ, m/s.
     pub vel_std: Option<Vector3<f64>>,
+    /// How the fixes' error splits into a persisting part (states of a navigation state
+    /// that carries them, [`InsStateFe`](crate::fix_error::InsStateFe)) and white noise;
+    /// ignored by the other states.
+    pub fix_errors: FixErrorSplit,
 }
 
 impl Default for GnssConfig {
     fn default() -> Self {
-        Self { lever_arm: Vector3::zeros(), use_velocity: true, pos_std: None, vel_std: None }
+        Self {
+            lever_arm: Vector3::zeros(),
+            use_velocity: true,
+            pos_std: None,
+            vel_std: None,
+            fix_errors: FixErrorSplit::default(),
+        }
     }
 }
+
+/// How a fix's declared position error splits into a persisting Gauss–Markov part, the
+/// states of [`fix_error`](crate::fix_error), and white noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixErrorSplit {
+    /// The persisting part's share of the declared variance (0–1), the prior of the
+    /// split: the white part is `(1 − share)` of the declared variance times the factor
+    /// learned from the fixes' residuals, the persisting part's variance `κ` times the
+    /// white part's, `κ` from `share / (1 − share)` and the innovations' whiteness
+    /// ([`FixSplitLearner`](crate::fix_error::FixSplitLearner)). Ignored when `sigma` is
+    /// given.
+    pub share: f64,
+    /// The persisting part's correlation time, s.
+    pub tau: f64,
+    /// The persisting part's σ (N, E, D), m, stated apart from the declared σ, which is
+    /// then the white noise's (`None`: the share of the declared σ).
+    pub sigma: Option<Vector3<f64>>,
+    /// Whether both parts follow the noise scale learned from the fixes' innovations
+    /// ([`FixSplitLearner`](crate::fix_error::FixSplitLearner)).
+    pub learn: bool,
+}
+
+impl Default for FixErrorSplit {
+    fn default() -> Self {
+        Self { share: FIX_ERROR_SHARE, tau: FIX_ERROR_TAU, sigma: None, learn: true }
+    }
+}
+
+/// The default share of a fix's declared variance taken as persisting.
+pub const FIX_ERROR_SHARE: f64 = 0.9;
+
+/// The default correlation time of the fixes' persisting error, s.
+pub const FIX_ERROR_TAU: f64 = 300.0;
 
 /// A failure of the navigator, with the time it happened.
 #[derive(Clone, Debug, PartialEq)]

@@ -33,10 +33,67 @@ where
         A: NoiseStrategy,
         MM: MeasurementModel<State = InsState>,
         O: Observer,
-        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>;
+        DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>;
+
+    /// Update `filter` with a GNSS fix model of the 15-state navigation state (position,
+    /// or position and velocity): as [`update`](Self::update), and on a state that
+    /// carries the fixes' persisting error through [`OnFixError`] (the error added to the
+    /// prediction).
+    fn update_fix<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: MeasurementModel<State = InsState>,
+        O: Observer,
+        DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
+    {
+        Self::update(filter, model, z, r, observer)
+    }
+
+    /// The fixes' persisting error and the index of its block in the error state, on a
+    /// state that carries it.
+    fn fix_error(&self) -> Option<(&Vector3<f64>, usize)> {
+        None
+    }
+
+    /// Set the model of the fixes' persisting error in `model` (from the next prediction
+    /// on), on a state that carries it; nothing otherwise.
+    fn set_fix_error(model: &mut Self::Model, fix: crate::fix_error::FixErrorModel) {
+        let _ = (model, fix);
+    }
+
+    /// The model of the fixes' persisting error in `model`, on a state that carries it.
+    fn fix_error_model(model: &Self::Model) -> Option<crate::fix_error::FixErrorModel> {
+        let _ = model;
+        None
+    }
+}
+
+/// The allocations the navigation states' updates with a measurement of dimension `M`
+/// need: one bound for every state dimension the [`Navigator`] runs.
+pub trait NavAlloc<M: DimName>:
+    FilterAlloc<Const<15>, M>
+    + FilterAlloc<Const<18>, M>
+    + FilterAlloc<Const<20>, M>
+    + FilterAlloc<Const<21>, M>
+    + FilterAlloc<Const<24>, M>
+    + FilterAlloc<Const<26>, M>
+{
+}
+
+impl<M: DimName, T> NavAlloc<M> for T where
+    T: FilterAlloc<Const<15>, M>
+        + FilterAlloc<Const<18>, M>
+        + FilterAlloc<Const<20>, M>
+        + FilterAlloc<Const<21>, M>
+        + FilterAlloc<Const<24>, M>
+        + FilterAlloc<Const<26>, M>
+{
 }
 
 /// A measurement model of the 15-state navigation state applied to a larger navigation
@@ -107,6 +164,97 @@ where
     }
 }
 
+/// A GNSS fix model of the 15-state INS (position, or position and velocity; the first
+/// three dimensions of its tangent are the NED-metre position) applied to a state with
+/// the fixes' persisting error: `ẑ = h(x) ⊕ b`, residual `z ⊖ h(x) − b`, `H = [H_nav, E]`
+/// with `E` the identity on the position rows.
+#[derive(Debug)]
+pub struct OnFixError<'a, S, M> {
+    model: &'a M,
+    _state: core::marker::PhantomData<fn() -> S>,
+}
+
+impl<'a, S, M> OnFixError<'a, S, M> {
+    /// `model` on the state `S`.
+    pub fn new(model: &'a M) -> Self {
+        Self { model, _state: core::marker::PhantomData }
+    }
+}
+
+impl<S, M> Clone for OnFixError<'_, S, M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<S, M> Copy for OnFixError<'_, S, M> {}
+
+/// `h` (the 15-state model's `H`) in the first 15 columns of an `R × C` matrix, the
+/// identity on the first three rows at the fix block's columns from `f` (none without).
+fn with_fix_columns<R: DimName, C: DimName, St: RawStorage<f64, R, Const<15>>>(
+    h: &Matrix<f64, R, Const<15>, St>,
+    f: Option<usize>,
+) -> OMatrix<f64, R, C>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    OMatrix::<f64, R, C>::from_fn(|r, c| {
+        if c < 15 {
+            h[(r, c)]
+        } else if f.is_some_and(|f| r < 3 && c == f + r) {
+            1.0
+        } else {
+            0.0
+        }
+    })
+}
+
+impl<S, M> MeasurementModel for OnFixError<'_, S, M>
+where
+    S: NavState,
+    M: MeasurementModel<State = InsState>,
+    DefaultAllocator: DimAlloc<S::Dim>
+        + FilterAlloc<Const<15>, StateDim<M::Measurement>>
+        + FilterAlloc<S::Dim, StateDim<M::Measurement>>,
+{
+    type State = S;
+    type Measurement = M::Measurement;
+
+    fn predict(&self, x: &S) -> M::Measurement {
+        let mut b = Tangent::<M::Measurement>::zeros();
+        if let Some((e, _)) = x.fix_error() {
+            for k in 0..3 {
+                b[k] = e[k];
+            }
+        }
+        self.model.predict(x.nav()).oplus(&b)
+    }
+
+    fn jacobian(&self, x: &S) -> JacobiansOf<Self> {
+        let start = x.fix_error().map(|(_, s)| s);
+        MeasurementJacobians { H: with_fix_columns(&self.model.jacobian(x.nav()).H, start) }
+    }
+
+    fn innovation(
+        &self,
+        x: &S,
+        z: &M::Measurement,
+    ) -> (Tangent<M::Measurement>, JacobiansOf<Self>) {
+        let (mut r, j) = self.model.innovation(x.nav(), z);
+        let start = x.fix_error().map(|(e, s)| {
+            for k in 0..3 {
+                r[k] -= e[k];
+            }
+            s
+        });
+        (r, MeasurementJacobians { H: with_fix_columns(&j.H, start) })
+    }
+
+    fn stream(&self) -> StreamId {
+        self.model.stream()
+    }
+}
+
 impl NavState for InsState {
     type Model = InsModel;
 
@@ -129,10 +277,7 @@ impl NavState for InsState {
         A: NoiseStrategy,
         MM: MeasurementModel<State = InsState>,
         O: Observer,
-        DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
-            + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
+        DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
     {
         filter.update_observed(model, z, r, observer).map(|r| r.summary())
     }
@@ -165,10 +310,7 @@ macro_rules! on_nav_state {
                 A: NoiseStrategy,
                 MM: MeasurementModel<State = InsState>,
                 O: Observer,
-                DefaultAllocator: FilterAlloc<Const<15>, StateDim<MM::Measurement>>
-                    + FilterAlloc<Const<20>, StateDim<MM::Measurement>>
-                    + FilterAlloc<Const<21>, StateDim<MM::Measurement>>
-                    + FilterAlloc<Const<26>, StateDim<MM::Measurement>>,
+                DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
             {
                 filter
                     .update_observed(&OnNav::<Self, MM>::new(model), z, r, observer)
@@ -181,3 +323,73 @@ macro_rules! on_nav_state {
 on_nav_state!(InsState21, InsModel21, nav: nav, noise: base.noise);
 on_nav_state!(InsStateTc, InsModelTc, nav: nav, noise: base.noise);
 on_nav_state!(InsStateTc21, InsModelTc21, nav: nav.nav, noise: base.base.noise);
+
+/// A navigation state with the fixes' persisting error ([`InsStateFe`],
+/// [`InsState21Fe`]): the 15-state models apply through [`OnNav`], the GNSS fixes through
+/// [`OnFixError`].
+macro_rules! fix_error_state {
+    ($state:ty, $model:ty, nav: $($nav:ident).+, noise: $($noise:ident).+) => {
+        impl NavState for $state {
+            type Model = $model;
+
+            fn nav(&self) -> &InsState {
+                &self.$($nav).+
+            }
+
+            fn imu_noise(model: &$model) -> &ImuNoise {
+                &model.$($noise).+
+            }
+
+            fn update<A, MM, O>(
+                filter: &mut ErrorStateFilter<Self, A>,
+                model: &MM,
+                z: &MM::Measurement,
+                r: &Cov<StateDim<MM::Measurement>>,
+                observer: &mut O,
+            ) -> Result<UpdateSummary, FilterError>
+            where
+                A: NoiseStrategy,
+                MM: MeasurementModel<State = InsState>,
+                O: Observer,
+                DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
+            {
+                filter
+                    .update_observed(&OnNav::<Self, MM>::new(model), z, r, observer)
+                    .map(|r| r.summary())
+            }
+
+            fn update_fix<A, MM, O>(
+                filter: &mut ErrorStateFilter<Self, A>,
+                model: &MM,
+                z: &MM::Measurement,
+                r: &Cov<StateDim<MM::Measurement>>,
+                observer: &mut O,
+            ) -> Result<UpdateSummary, FilterError>
+            where
+                A: NoiseStrategy,
+                MM: MeasurementModel<State = InsState>,
+                O: Observer,
+                DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
+            {
+                filter
+                    .update_observed(&OnFixError::<Self, MM>::new(model), z, r, observer)
+                    .map(|r| r.summary())
+            }
+
+            fn fix_error(&self) -> Option<(&Vector3<f64>, usize)> {
+                Some((&self.fix, <$state>::FIX.start()))
+            }
+
+            fn set_fix_error(model: &mut $model, fix: crate::fix_error::FixErrorModel) {
+                model.fix = fix;
+            }
+
+            fn fix_error_model(model: &$model) -> Option<crate::fix_error::FixErrorModel> {
+                Some(model.fix)
+            }
+        }
+    };
+}
+
+fix_error_state!(InsStateFe, InsModelFe, nav: nav, noise: base.noise);
+fix_error_state!(InsState21Fe, InsModel21Fe, nav: nav.nav, noise: base.base.noise);

@@ -143,6 +143,7 @@ impl Config {
             use_velocity: self.gnss.use_velocity,
             pos_std: self.gnss.position_std.map(v3),
             vel_std: self.gnss.velocity_std.map(v3),
+            fix_errors: self.gnss.errors.split(),
         }
     }
 

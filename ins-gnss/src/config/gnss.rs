@@ -29,6 +29,139 @@ pub struct GnssSection {
     /// Tight coupling's models ([`TightSection`]).
     #[serde(default, skip_serializing_if = "TightSection::is_default")]
     pub tight: TightSection,
+    /// The fixes' errors: white, or with a persisting part as states ([`ErrorsSection`]).
+    #[serde(default, skip_serializing_if = "ErrorsSection::is_default")]
+    pub errors: ErrorsSection,
+}
+
+/// `[gnss.errors]`: how the fixes' errors are modelled (loose coupling). A receiver
+/// without corrections gives fixes whose errors wander by metres over minutes; taken as
+/// white, the filter averages them away and reports a σ their error leaves behind. With a
+/// persisting part, the fixes' error is split into a first-order Gauss–Markov process per
+/// NED axis, three states of the filter (18 or 24 states), and white noise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ErrorsSection {
+    /// `auto` (default: when the fixes' declared horizontal σ is above 0.1 m, i.e. not an
+    /// RTK fix, the run starts white and the first 100 fixes' innovations decide: if
+    /// they are correlated from fix to fix, it starts again with the persisting part as
+    /// states), `white` (the fixes' errors independent from fix to fix) or `persisting`.
+    #[serde(default)]
+    pub model: ErrorModel,
+    /// The persisting part's share of the declared variance, 0–1. Default 0.9.
+    #[serde(default = "default_error_share")]
+    pub share: f64,
+    /// The persisting part's correlation time, s. Default 300.
+    #[serde(default = "default_error_tau")]
+    pub tau: f64,
+    /// The persisting part's σ (N, E, D), m, stated apart from the declared σ (which is
+    /// then the white part's). Default: the share of the declared σ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<[f64; 3]>,
+    /// Learn the white part's σ from the fixes' residuals and the split from the
+    /// whiteness of the innovations (the declared σ and share are the prior). Default true.
+    #[serde(default = "yes")]
+    pub learn: bool,
+}
+
+/// `gnss.errors.model`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ErrorModel {
+    /// Probed: white for fixes that declare an RTK fix's σ; otherwise white until the
+    /// first fixes' innovations show their errors persisting.
+    #[default]
+    Auto,
+    /// Independent from fix to fix.
+    White,
+    /// A persisting part, always.
+    Persisting,
+}
+
+/// How a run models the fixes' errors (`gnss.errors`, [`ErrorsSection::plan`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FixErrorPlan {
+    /// White: independent from fix to fix.
+    White,
+    /// White at first; the first [`PROBE_FIXES`] fixes' innovations decide: correlated
+    /// (lag-one autocorrelation above [`adaptive::WHITE_LAG`]), the run starts again with
+    /// the persisting part as states.
+    Probe,
+    /// With the persisting part as states.
+    Persisting,
+}
+
+/// The fixes whose innovations decide a probing run's model of the fixes' errors.
+pub const PROBE_FIXES: u64 = 100;
+
+/// The declared horizontal σ (m) above which `gnss.errors.model = "auto"` probes for a
+/// persisting part: an RTK fix declares centimetres, a float solution decimetres, a
+/// single point metres.
+pub const PERSISTING_ABOVE: f64 = 0.1;
+
+fn default_error_share() -> f64 {
+    ins_gnss_core::navigator::FIX_ERROR_SHARE
+}
+
+fn default_error_tau() -> f64 {
+    ins_gnss_core::navigator::FIX_ERROR_TAU
+}
+
+impl Default for ErrorsSection {
+    fn default() -> Self {
+        Self {
+            model: ErrorModel::Auto,
+            share: default_error_share(),
+            tau: default_error_tau(),
+            sigma: None,
+            learn: true,
+        }
+    }
+}
+
+impl ErrorsSection {
+    pub(crate) fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// How a run models the fixes' errors, for fixes that declare a horizontal σ of
+    /// `declared` m (the larger of north and east; `None`: not known).
+    pub fn plan(&self, declared: Option<f64>) -> FixErrorPlan {
+        match self.model {
+            ErrorModel::White => FixErrorPlan::White,
+            ErrorModel::Persisting => FixErrorPlan::Persisting,
+            ErrorModel::Auto if declared.is_some_and(|s| s > PERSISTING_ABOVE) => {
+                FixErrorPlan::Probe
+            }
+            ErrorModel::Auto => FixErrorPlan::White,
+        }
+    }
+
+    /// The navigator's split of the fixes' error.
+    pub fn split(&self) -> ins_gnss_core::navigator::FixErrorSplit {
+        ins_gnss_core::navigator::FixErrorSplit {
+            share: self.share,
+            tau: self.tau,
+            sigma: self.sigma.map(nalgebra::Vector3::from),
+            learn: self.learn,
+        }
+    }
+
+    /// The section's values checked (`gnss.errors.*` named in errors).
+    pub(crate) fn check(&self) -> Result<(), String> {
+        if !(0.0..=1.0).contains(&self.share) {
+            return Err(format!("`gnss.errors.share = {}`: a fraction in 0…1", self.share));
+        }
+        if !(self.tau.is_finite() && self.tau > 0.0) {
+            return Err(format!("`gnss.errors.tau = {}`: seconds, positive", self.tau));
+        }
+        if let Some(s) = &self.sigma {
+            if !s.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                return Err(format!("`gnss.errors.sigma = {s:?}`: metres, not negative"));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// How the GNSS aids the filter.
@@ -205,6 +338,7 @@ impl Default for GnssSection {
             quality: QualitySection::default(),
             coupling: Coupling::Loose,
             tight: TightSection::default(),
+            errors: ErrorsSection::default(),
         }
     }
 }

@@ -163,6 +163,11 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("gnss.tight.carrier", "—", "true"),
     ("gnss.tight.phase_std", "m", "0.003"),
     ("gnss.tight.systems", "—", r#"["G", "C"]"#),
+    ("gnss.errors.model", "—", r#""persisting""#),
+    ("gnss.errors.share", "fraction", "0.95"),
+    ("gnss.errors.tau", "s", "100.0"),
+    ("gnss.errors.sigma", "m (N, E, D)", "[1.5, 1.5, 3.0]"),
+    ("gnss.errors.learn", "—", "false"),
     ("filter.strategy", "—", r#""fused""#),
     ("filter.mechanization", "—", r#""flat-earth""#),
     ("filter.streams", "—", r#"{ gnss-position = "fused" }"#),
@@ -251,10 +256,13 @@ fn minimal() -> String {
 pub fn defaults() -> Result<std::collections::BTreeMap<String, String>, String> {
     let cfg: super::Config = toml::from_str(&minimal()).map_err(|e| e.to_string())?;
     let mut value = toml::Value::try_from(&cfg).map_err(|e| e.to_string())?;
-    // the tight section is left out of a written configuration while it is the default
+    // the tight and errors sections are left out of a written configuration while they are
+    // the default
     if let Some(gnss) = value.get_mut("gnss").and_then(toml::Value::as_table_mut) {
         let tight = toml::Value::try_from(&cfg.gnss.tight).map_err(|e| e.to_string())?;
         gnss.insert("tight".into(), tight);
+        let errors = toml::Value::try_from(&cfg.gnss.errors).map_err(|e| e.to_string())?;
+        gnss.insert("errors".into(), errors);
     }
     let mut out = std::collections::BTreeMap::new();
     for k in KEYS {

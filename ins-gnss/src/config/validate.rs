@@ -90,6 +90,7 @@ impl Config {
             c.map(rates).map_err(|e| format!("`data.imu_columns`: {e}"))?;
         }
         self.gnss.quality.factors()?;
+        self.gnss.errors.check()?;
         self.validate_tight()?;
         if d.gnss_columns.is_some() && d.gnss_format == GnssFormatName::Rtklib {
             return Err("`data.gnss_format = \"rtklib\"` and `data.gnss_columns` exclude each \

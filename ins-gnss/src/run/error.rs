@@ -35,6 +35,9 @@ pub enum RunError {
     /// The data do not match the configuration (units, axes, rate), or the initial state
     /// cannot be found from them; the message names the key to change.
     Start(String),
+    /// The fixes' errors were probed and found persisting: the run starts again with them
+    /// as states ([`run`] does; never returned to a caller).
+    FixErrorsPersist(FixErrorProbe),
     /// The run failed after it had started writing: its outputs stay as `*.partial` in
     /// `dir`, earlier results there are untouched.
     Incomplete {
@@ -59,6 +62,11 @@ impl fmt::Display for RunError {
             }
             RunError::Raw(e) => write!(f, "{e}"),
             RunError::NoData(m) => write!(f, "{m}"),
+            RunError::FixErrorsPersist(p) => write!(
+                f,
+                "the fixes' errors persist (lag-one autocorrelation {:.2} over {} fixes)",
+                p.lag_one, p.fixes
+            ),
             RunError::Start(m) => write!(f, "{m}"),
             RunError::Incomplete { error, dir } => write!(
                 f,

@@ -235,7 +235,7 @@ pub(crate) type Tee = std::sync::mpsc::Sender<Vec<ImuSample>>;
 /// and noise are given): on the IMU samples the reader tees to it and the GNSS epochs of
 /// the same span, read from a reader of its own. It starts once the samples reach what
 /// `prepare` looks at ([`StartSpan`]).
-pub(crate) struct Checks(std::thread::JoinHandle<Result<(), RunError>>);
+pub(crate) struct Checks(std::thread::JoinHandle<Result<Vec<String>, RunError>>);
 
 impl Checks {
     pub(crate) fn spawn(
@@ -261,10 +261,10 @@ impl Checks {
             // (the reader stops teeing)
             drop(imu);
             let Some(span) = span else {
-                return Ok(());
+                return Ok(Vec::new());
             };
             crate::start::prepare(&config, &samples, &epochs, span.t0)
-                .map(|_| ())
+                .map(|start| start.report)
                 .map_err(RunError::Start)
         })))
     }
@@ -274,7 +274,8 @@ impl Checks {
         self.0.is_finished()
     }
 
-    pub(crate) fn join(self) -> Result<(), RunError> {
+    /// The checks' verdict: a refusal, or what they report (an offset named, not refused).
+    pub(crate) fn join(self) -> Result<Vec<String>, RunError> {
         self.0.join().map_err(|_| RunError::NoData("the checks' thread panicked".into()))?
     }
 }
@@ -290,6 +291,13 @@ pub struct Prefix {
     pub(crate) gnss: std::collections::VecDeque<(AidEpoch, usize)>,
     /// The IMU samples `prepare` looks at, and the GNSS fixes.
     looked_at: (Vec<ImuSample>, Vec<GnssEpoch>),
+}
+
+impl Prefix {
+    /// The fixes read with the prefix.
+    pub(crate) fn fixes(&self) -> &[GnssEpoch] {
+        &self.looked_at.1
+    }
 }
 
 /// How much of the data's start [`run`] reads before the filter starts.

@@ -26,8 +26,9 @@ use estimator_core::{NoObserver, NoiseStrategy, SmoothedRow, UpdateSummary, Verd
 use nalgebra::Vector3;
 
 use crate::aiding::{AidEpoch, AidReader};
-use crate::config::Config;
+use crate::config::{Config, FixErrorPlan, PROBE_FIXES};
 use estimator_core::DimAlloc;
+use ins_gnss_core::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
 use ins_gnss_core::imu::{DEG_PER_H, MGAL};
@@ -124,12 +125,41 @@ pub fn run_in_memory(
 
 /// [`run`]'s work on any inputs into any sink, created by `create` once the start is
 /// known (a refused start creates nothing). An error says whether the sink was created.
+///
+/// A run whose fixes' errors are probed ([`FixErrorPlan::Probe`]) and found persisting
+/// starts again, from the beginning, with their persisting part as states (the sink
+/// created anew).
 fn run_with<O: Sink>(
     config: &Config,
     strategy: AnyStrategy,
     inputs: &Inputs,
+    mut progress: Option<Progress<'_>>,
+    mut create: impl FnMut() -> Result<(O, O::Nav), RunError>,
+) -> Result<(RunSummary, O), (RunError, bool)> {
+    let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
+    let first = attempt(config, strategy.clone(), inputs, again, &mut create, None);
+    match first {
+        Err((RunError::FixErrorsPersist(probe), _)) => {
+            let (mut summary, out) =
+                attempt(config, strategy, inputs, progress, &mut create, Some(probe))?;
+            if let Some(f) = summary.fix_errors.as_mut() {
+                f.probe = Some(probe);
+            }
+            Ok((summary, out))
+        }
+        other => other,
+    }
+}
+
+/// One attempt of [`run_with`]: `persisting` is the probe that found the fixes' errors
+/// persisting (`None`: the plan the configuration and the first fixes make).
+fn attempt<O: Sink>(
+    config: &Config,
+    strategy: AnyStrategy,
+    inputs: &Inputs,
     progress: Option<Progress<'_>>,
-    create: impl FnOnce() -> Result<(O, O::Nav), RunError>,
+    create: &mut impl FnMut() -> Result<(O, O::Nav), RunError>,
+    persisting: Option<FixErrorProbe>,
 ) -> Result<(RunSummary, O), (RunError, bool)> {
     // a recording is read once, into rows, and completes the configuration
     let recording;
@@ -176,22 +206,29 @@ fn run_with<O: Sink>(
         Inputs::Recording { notes, .. } => notes.clone(),
         _ => Vec::new(),
     };
-    let inputs = ((feed, gnss, prefix, checks), (&mut out, nav));
     let tight = config.gnss.coupling == crate::config::Coupling::Tight;
+    let plan = match persisting {
+        Some(_) => FixErrorPlan::Persisting,
+        None => GnssAtStart::of_fixes(config, prefix.fixes().iter()).plan(config),
+    };
+    let probe = plan == FixErrorPlan::Probe;
+    let persisting_probe = persisting;
+    let persisting = plan == FixErrorPlan::Persisting;
+    let inputs =
+        Opened { feed, gnss, prefix, checks, out: &mut out, nav, probe, found: persisting_probe };
     let result = match config.filter.states {
-        21 if tight => {
-            run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs.0, inputs.1)
-        }
-        _ if tight => {
-            run_into::<InsStateTc, O>(config, strategy, names, progress, inputs.0, inputs.1)
-        }
-        21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs.0, inputs.1),
-        _ => run_into::<InsState, O>(config, strategy, names, progress, inputs.0, inputs.1),
+        21 if tight => run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs),
+        _ if tight => run_into::<InsStateTc, O>(config, strategy, names, progress, inputs),
+        21 if persisting => run_into::<InsState21Fe, O>(config, strategy, names, progress, inputs),
+        _ if persisting => run_into::<InsStateFe, O>(config, strategy, names, progress, inputs),
+        21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs),
+        _ => run_into::<InsState, O>(config, strategy, names, progress, inputs),
     };
     match result {
         Ok(mut summary) => {
-            summary.start = start.report;
-            summary.start.splice(0..0, notes);
+            // the recording's notes, the start's report, then the checks' run beside
+            let beside = std::mem::take(&mut summary.start);
+            summary.start = notes.into_iter().chain(start.report).chain(beside).collect();
             Ok((summary, out))
         }
         Err(e) => Err((e, true)),
@@ -199,19 +236,37 @@ fn run_with<O: Sink>(
 }
 
 /// [`run`] with its inputs open and its outputs created.
+/// What [`run_into`] runs on: the inputs opened and the outputs created, and whether
+/// the fixes' errors are probed.
+struct Opened<'o, O: Sink> {
+    feed: ImuFeed,
+    gnss: AidReader,
+    prefix: Prefix,
+    checks: Option<Checks>,
+    out: &'o mut O,
+    nav: O::Nav,
+    probe: bool,
+    /// The probe that found the fixes' errors persisting (a restarted run).
+    found: Option<FixErrorProbe>,
+}
+
+/// `probe`: the fixes' errors are probed ([`FixErrorPlan::Probe`]): once the first
+/// [`PROBE_FIXES`] fixes have been learned from, innovations correlated from fix to fix
+/// stop the run with [`RunError::FixErrorsPersist`].
 fn run_into<S: RunState, O: Sink>(
     config: &Config,
     strategy: AnyStrategy,
     names: (PathBuf, PathBuf),
     mut progress: Option<Progress<'_>>,
-    (feed, mut gnss, prefix, mut checks): (ImuFeed, AidReader, Prefix, Option<Checks>),
-    (out, nav_sink): (&mut O, O::Nav),
+    opened: Opened<'_, O>,
 ) -> Result<RunSummary, RunError>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
     estimator_core::Cov<S::Dim>: Send,
 {
     let wall = Instant::now();
+    let Opened { feed, mut gnss, prefix, mut checks, out, nav: nav_sink, mut probe, found } =
+        opened;
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
     let Prefix { batches: first_batches, gnss: mut first_epochs, .. } = prefix;
@@ -228,7 +283,12 @@ where
         .iter()
         .filter(|(a, _)| a.t > t0 + 1e-9)
         .find_map(|(a, _)| a.raw.as_ref().and_then(|r| r.1));
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t, clock)?;
+    let at = GnssAtStart {
+        clock,
+        fix_factor: found.map(|f| f.factor),
+        ..GnssAtStart::of_fixes(config, first_epochs.iter().filter_map(|(a, _)| a.fix.as_ref()))
+    };
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t, &at)?;
     let start = summary.span.0;
     // (the exact mode keeps the step-by-step adjoint: its outputs stay those of earlier
     // builds byte for byte; the two agree to rounding, `benches/README.md`)
@@ -264,6 +324,8 @@ where
         _ => RunError::Located { path: imu_path.clone(), line: imu_line, error: e },
     };
 
+    // what the checks beside the filter report (an offset named, not refused)
+    let mut beside = Vec::new();
     std::thread::scope(|scope| -> Result<(), RunError> {
         // States, not records: the writer thread does the Euler conversion.
         let (nav_tx, nav_rx) =
@@ -305,7 +367,7 @@ where
             'outer: for message in messages {
                 // a refusal by the checks stops the run
                 if checks.as_ref().is_some_and(Checks::done) {
-                    checks.take().map_or(Ok(()), Checks::join)?;
+                    beside.extend(checks.take().map_or(Ok(Vec::new()), Checks::join)?);
                 }
                 for (sample, imu_line) in message? {
                     if sample.t <= start + 1e-9 {
@@ -359,6 +421,15 @@ where
                     for u in &updates {
                         out.update(u)?;
                     }
+                    if probe && !updates.is_empty() {
+                        if let Some(found) = probe_fix_errors(nav.filter().strategy()) {
+                            probe = false;
+                            if found.lag_one > adaptive::WHITE_LAG {
+                                return Err(RunError::FixErrorsPersist(found));
+                            }
+                            summary.fix_probe = Some(found);
+                        }
+                    }
                     // after every update, and once a second without (an outage's σ)
                     if !updates.is_empty() || sample.t >= last_std + STD_EVERY - 1e-9 {
                         let fix = updates.iter().any(|u| {
@@ -385,7 +456,7 @@ where
             writer.join().map_err(|_| RunError::NoData("the writer thread panicked".into()))?;
         summary.imu_skipped = feed.finish()?;
         // the checks' verdict first: a refused input explains a failed run
-        checks.take().map_or(Ok(()), Checks::join)?;
+        beside.extend(checks.take().map_or(Ok(Vec::new()), Checks::join)?);
         result?;
         out.nav_done(written?);
         Ok(())
@@ -397,6 +468,7 @@ where
             imu_path.display()
         )));
     }
+    summary.start = beside;
     summary.finish_streams();
     check_gnss_overlap(&summary, &gnss_path)?;
     out.epoch(summary.span.1, &nav, false)?;
@@ -406,6 +478,7 @@ where
     summary.stationary_time = nav.stationary_time();
     summary.odometer_reversed = nav.odometer_reversed();
     summary.learned = nav.filter().strategy().learned().collect();
+    summary.fix_errors = fix_errors_learned(&nav);
     if let Some(recorder) = recorder {
         let backward = Instant::now();
         // (a covariance at a lower rate than the state: the backward pass starts from now's)
@@ -458,4 +531,48 @@ fn time_scale_hint(offset: f64, imu0: f64, gnss0: f64) -> String {
     } else {
         String::new()
     }
+}
+
+/// The fixes' errors as the navigator learned them (a state with their persisting part).
+pub(crate) fn fix_errors_learned<S: NavState>(
+    nav: &Navigator<RunStrategy, S>,
+) -> Option<FixErrorsLearned>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    let (model, split) = (nav.fix_error_model()?, nav.fix_split()?);
+    Some(FixErrorsLearned {
+        persisting: (model.sigma, model.tau),
+        white: split.white(),
+        split: split.factor(),
+        lag_one: split.lag_one(),
+        fixes: split.fixes(),
+        probe: None,
+    })
+}
+
+/// What the probe of the fixes' errors found ([`FixErrorPlan::Probe`]): the lag-one
+/// autocorrelation of the first fixes' whitened innovations, over how many.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixErrorProbe {
+    /// The lag-one autocorrelation.
+    pub lag_one: f64,
+    /// Fixes.
+    pub fixes: u64,
+    /// The variance factor the white model's innovations showed on the declared σ (the
+    /// restart's prior for both parts of the split).
+    pub factor: f64,
+}
+
+/// The probe's finding once the GNSS fix stream has been learned from over
+/// [`PROBE_FIXES`] fixes (`None` before).
+fn probe_fix_errors(strategy: &RunStrategy) -> Option<FixErrorProbe> {
+    strategy
+        .learned()
+        .filter(|l| {
+            ins_gnss_core::gnss::GNSS_STREAMS.iter().any(|s| s.name() == l.stream)
+                && l.updates >= PROBE_FIXES
+        })
+        .map(|l| FixErrorProbe { lag_one: l.lag_one, fixes: l.updates, factor: l.factor })
+        .next()
 }

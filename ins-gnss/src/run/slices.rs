@@ -34,7 +34,12 @@ pub fn run_slices(
     gnss: &[GnssEpoch],
     each: impl FnMut(usize, f64, &InsState),
 ) -> Result<RunSummary, RunError> {
+    // (slices run once: a probed plan stays white here; `run` probes)
+    let plan = GnssAtStart::of_fixes(config, gnss.iter()).plan(config);
+    let persisting = plan == crate::config::FixErrorPlan::Persisting;
     match config.filter.states {
+        21 if persisting => run_slices_on::<InsState21Fe>(config, strategy, imu, gnss, each),
+        _ if persisting => run_slices_on::<InsStateFe>(config, strategy, imu, gnss, each),
         21 => run_slices_on::<InsState21>(config, strategy, imu, gnss, each),
         _ => run_slices_on::<InsState>(config, strategy, imu, gnss, each),
     }
@@ -58,7 +63,8 @@ where
     let start = crate::start::prepare(config, &imu[..n_imu], &gnss[..n_gnss], t0)
         .map_err(RunError::Start)?;
     let config = &start.config;
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.t, None)?;
+    let at = GnssAtStart::of_fixes(config, gnss.iter());
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.t, &at)?;
     summary.start = start.report;
     let start = summary.span.0;
     let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
@@ -97,6 +103,7 @@ where
     summary.stationary_time = nav.stationary_time();
     summary.odometer_reversed = nav.odometer_reversed();
     summary.learned = nav.filter().strategy().learned().collect();
+    summary.fix_errors = fix_errors_learned(&nav);
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
 }

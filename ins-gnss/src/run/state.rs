@@ -11,13 +11,12 @@ where
     /// The error states written to `std.txt` (the first ones).
     const SIGMA_COLUMNS: usize;
 
-    /// The navigator at `start`; `clock`: the receiver clock `c·dt` (m) of the first
-    /// raw epoch's single point (tight coupling).
+    /// The navigator at `start`, with what the GNSS said at the start (`at`).
     fn navigator(
         config: &Config,
         strategy: RunStrategy,
         start: f64,
-        clock: Option<f64>,
+        at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError>;
 
     /// The scale factors (gyro, accelerometer), when the state has them.
@@ -59,7 +58,7 @@ impl RunState for InsState {
         config: &Config,
         strategy: RunStrategy,
         start: f64,
-        _clock: Option<f64>,
+        _at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
         Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())
@@ -77,7 +76,7 @@ impl RunState for InsState21 {
         config: &Config,
         strategy: RunStrategy,
         start: f64,
-        _clock: Option<f64>,
+        _at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
         let model = InsModel21 { base, scale: config.scale_factor_noise() };
@@ -88,6 +87,121 @@ impl RunState for InsState21 {
     fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
         Some((self.sg, self.sa))
     }
+}
+
+/// The 15-state INS with the fixes' persisting error (`gnss.errors`).
+impl RunState for InsStateFe {
+    const SIGMA_COLUMNS: usize = 15;
+
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+        at: &GnssAtStart,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let init = config.initial_state(start);
+        let (fix, p_fix) = fix_error_start(config, at);
+        let model = InsModelFe { base, fix };
+        let x = InsStateFe { nav: init.state.clone(), fix: Vector3::zeros() };
+        let mut p = estimator_core::Cov::<nalgebra::Const<18>>::zeros();
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
+        p.fixed_view_mut::<3, 3>(15, 15).copy_from(&p_fix);
+        let strategy = strategy.without_learning_on(&ins_gnss_core::gnss::GNSS_STREAMS);
+        Navigator::from_parts(x, p, init.time, model, strategy, config.gnss_config())
+            .map(|n| n.with_fix_noise_prior(at.fix_factor.unwrap_or(1.0)))
+    }
+
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        None
+    }
+}
+
+/// The 21-state INS with the fixes' persisting error (`gnss.errors`).
+impl RunState for InsState21Fe {
+    const SIGMA_COLUMNS: usize = 21;
+
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+        at: &GnssAtStart,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let base = InsModel21 { base, scale: config.scale_factor_noise() };
+        let init = config.initial_state(start);
+        let scale = config.scale_init();
+        let (fix, p_fix) = fix_error_start(config, at);
+        let model = InsModel21Fe { base, fix };
+        let nav = InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa };
+        let x = InsState21Fe { nav, fix: Vector3::zeros() };
+        let mut p = estimator_core::Cov::<nalgebra::Const<24>>::zeros();
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
+        for k in 0..3 {
+            p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
+            p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
+        }
+        p.fixed_view_mut::<3, 3>(21, 21).copy_from(&p_fix);
+        let strategy = strategy.without_learning_on(&ins_gnss_core::gnss::GNSS_STREAMS);
+        Navigator::from_parts(x, p, init.time, model, strategy, config.gnss_config())
+            .map(|n| n.with_fix_noise_prior(at.fix_factor.unwrap_or(1.0)))
+    }
+
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        Some((self.nav.sg, self.nav.sa))
+    }
+}
+
+/// What the GNSS said at the start: the receiver clock `c·dt` (m) of the first raw
+/// epoch's single point (tight coupling), and the σ (N, E, D; m) the fixes declare
+/// (`gnss.position_std`, or the first fixes' own; loose coupling).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GnssAtStart {
+    /// The first raw epoch's receiver clock, m.
+    pub clock: Option<f64>,
+    /// The σ the fixes declare, m.
+    pub fix_std: Option<Vector3<f64>>,
+    /// The variance factor a white model's innovations showed on the declared σ (a
+    /// restarted run: the prior of both parts of the fixes' error split).
+    pub fix_factor: Option<f64>,
+}
+
+impl GnssAtStart {
+    /// From the configuration and the first fixes (their median σ per axis).
+    pub fn of_fixes<'a>(config: &Config, fixes: impl Iterator<Item = &'a GnssEpoch>) -> Self {
+        let fix_std = config.gnss.position_std.map(Vector3::from).or_else(|| {
+            let mut s: Vec<Vector3<f64>> = fixes.take(20).map(|g| g.pos_std).collect();
+            (!s.is_empty()).then(|| {
+                Vector3::from_fn(|i, _| {
+                    s.sort_by(|a, b| a[i].total_cmp(&b[i]));
+                    s[s.len() / 2][i]
+                })
+            })
+        });
+        Self { clock: None, fix_std, fix_factor: None }
+    }
+
+    /// How the run models the fixes' errors (`gnss.errors`; tight coupling: white).
+    pub fn plan(&self, config: &Config) -> crate::config::FixErrorPlan {
+        if config.gnss.coupling == crate::config::Coupling::Tight {
+            return crate::config::FixErrorPlan::White;
+        }
+        config.gnss.errors.plan(self.fix_std.map(|s| s[0].max(s[1])))
+    }
+}
+
+/// The fixes' persisting error at the start: its model (from the split of the declared
+/// σ) and its covariance (the model's steady state).
+fn fix_error_start(
+    config: &Config,
+    at: &GnssAtStart,
+) -> (ins_gnss_core::fix_error::FixErrorModel, nalgebra::Matrix3<f64>) {
+    let split = config.gnss.errors.split();
+    let declared =
+        at.fix_std.unwrap_or_else(|| Vector3::repeat(1.0)) * at.fix_factor.unwrap_or(1.0).sqrt();
+    let sigma = split.sigma.unwrap_or(declared * split.share.sqrt());
+    let fix = ins_gnss_core::fix_error::FixErrorModel { sigma, tau: split.tau };
+    (fix, ins_gnss_core::fix_error::initial_fix_covariance(&fix))
 }
 
 /// The receiver clock a tight run starts with: the single point's clock (its σ a few
@@ -144,8 +258,9 @@ impl RunState for InsStateTc {
         config: &Config,
         strategy: RunStrategy,
         start: f64,
-        clock: Option<f64>,
+        at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let clock = at.clock;
         let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
         let model = InsModelTc { base, clock: clock_noise(config) };
         let init = config.initial_state(start);
@@ -167,8 +282,9 @@ impl RunState for InsStateTc21 {
         config: &Config,
         strategy: RunStrategy,
         start: f64,
-        clock: Option<f64>,
+        at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let clock = at.clock;
         let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
         let base = InsModel21 { base, scale: config.scale_factor_noise() };
         let model = InsModelTc21 { base, clock: clock_noise(config) };
@@ -190,7 +306,7 @@ pub(crate) fn start_navigator<S: RunState>(
     config: &Config,
     strategy: AnyStrategy,
     first_t: f64,
-    clock: Option<f64>,
+    at: &GnssAtStart,
 ) -> Result<(Navigator<RunStrategy, S>, RunSummary, f64), RunError>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
@@ -200,7 +316,7 @@ where
     // the name of the strategy the user chose (the vehicle streams' fixed noise aside)
     let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
     let strategy = config.strategy(strategy).map_err(RunError::Config)?;
-    let nav = S::navigator(config, strategy, start, clock)?
+    let nav = S::navigator(config, strategy, start, at)?
         .with_vehicle_aiding(config.vehicle_aiding())
         .with_covariance_interval(config.filter.covariance_interval);
     let summary = RunSummary {

@@ -61,6 +61,30 @@ pub struct RunSummary {
     /// What each GNSS stream's inliers showed of its noise, at the end of the run
     /// ([`adaptive::GrossErrorGate::learned`]; empty with `filter.gate.learn = false`).
     pub learned: Vec<adaptive::LearnedNoise>,
+    /// The fixes' errors as learned, when their persisting part was modelled
+    /// (`gnss.errors`).
+    pub fix_errors: Option<FixErrorsLearned>,
+    /// The probe of the fixes' errors that found them white (`gnss.errors.model =
+    /// "auto"`; one that found them persisting is in [`fix_errors`](Self::fix_errors)).
+    pub fix_probe: Option<super::FixErrorProbe>,
+}
+
+/// The fixes' errors at the end of a run that modelled their persisting part.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixErrorsLearned {
+    /// The persisting part's σ (N, E, D), m, and its correlation time, s.
+    pub persisting: (nalgebra::Vector3<f64>, f64),
+    /// The white part's variance factor on its declared share.
+    pub white: f64,
+    /// The factor learned on the declared ratio of the persisting variance to the white.
+    pub split: f64,
+    /// The whitened innovations' lag-one autocorrelation.
+    pub lag_one: f64,
+    /// Fixes learned from.
+    pub fixes: u64,
+    /// The probe that found the errors persisting (`gnss.errors.model = "auto"`), when
+    /// one did.
+    pub probe: Option<super::FixErrorProbe>,
 }
 
 /// A declared σ the data contradict by more than this factor, either way, is named with
@@ -141,6 +165,40 @@ impl RunSummary {
             );
         }
         Some(line)
+    }
+}
+
+impl RunSummary {
+    /// The summary's line on the fixes' errors, when their persisting part was modelled:
+    /// its σ and correlation time, the white part's σ factor on its declared share, the
+    /// split's factor and the innovations' whiteness.
+    pub fn fix_errors_line(&self) -> Option<String> {
+        if let (None, Some(p)) = (self.fix_errors, self.fix_probe) {
+            return Some(format!(
+                "fix errors: white (the first {} fixes' whitened innovations have a lag-one \
+                 autocorrelation of {:.2}, at most {} for white errors)",
+                p.fixes,
+                p.lag_one,
+                adaptive::WHITE_LAG
+            ));
+        }
+        let f = self.fix_errors?;
+        let (sigma, tau) = f.persisting;
+        Some(format!(
+            concat!(
+                "fix errors: persisting σ [{:.2}, {:.2}, {:.2}] m (N, E, D; Gauss–Markov, ",
+                "τ {:.0} s, states of the filter), white σ × {:.2} of its declared share, the ",
+                "declared ratio of the two × {:.2}; {} fixes, whiteness of the innovations {:.2}"
+            ),
+            sigma[0],
+            sigma[1],
+            sigma[2],
+            tau,
+            f.white.sqrt(),
+            f.split,
+            f.fixes,
+            f.lag_one
+        ))
     }
 }
 
@@ -295,10 +353,13 @@ impl StreamStats {
         self.last_t = u.time;
         self.epochs += 1;
         if u.verdict != Verdict::Rejected {
-            self.nis_sum += u.nis;
+            // judged at the noise the gate learned from the data, where it stands for the
+            // declared one (the declared σ's factor is the summary's `noise learned` line)
+            let nis = if u.reason == adaptive::LEARNED_REASON { u.nis_adapted } else { u.nis };
+            self.nis_sum += nis;
             self.dof += u.dim;
-            self.above_median += usize::from(u.nis > median);
-            self.ratios.push((u.nis / median) as f32);
+            self.above_median += usize::from(nis > median);
+            self.ratios.push((nis / median) as f32);
         }
         match u.verdict {
             Verdict::Rejected => {
@@ -514,6 +575,7 @@ impl RunSummary {
             lines.push(s.noise.clone());
         }
         lines.extend(s.learned_line());
+        lines.extend(s.fix_errors_line());
         if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
             let [n, z, r, o] = s.aiding;
             lines.push(format!(
