@@ -14,7 +14,7 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
 
-mod simulated_drive;
+use crate::simulated_drive;
 
 fn spd(p: &nalgebra::SMatrix<f64, 15, 15>) -> bool {
     let scale = p.abs().max().max(f64::MIN_POSITIVE);

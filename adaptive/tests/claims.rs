@@ -1,6 +1,6 @@
 //! What each strategy must show on seeded simulations (issue: adaptive strategies).
 
-mod common;
+use crate::common;
 
 use adaptive::{Afkf, AnyStrategy, FixedNoise, FusedDualWindow, Iae, Iakf, SageHusa};
 use common::{all_strategies, count, run, simulate, Scenario};

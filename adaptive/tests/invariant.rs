@@ -19,7 +19,7 @@
 
 #[path = "common/attitude.rs"]
 mod attitude;
-mod common;
+use crate::common;
 
 use adaptive::{AnyStrategy, GrossErrorGate, STRATEGY_NAMES};
 use estimator_core::linear::{LinearMeasurement, LinearProcess};

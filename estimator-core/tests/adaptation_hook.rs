@@ -3,7 +3,7 @@
 
 #![allow(non_snake_case)]
 
-mod common;
+use crate::common;
 
 use common::close;
 use estimator_core::linear::{LinearMeasurement, LinearProcess};

@@ -3,7 +3,7 @@
 
 #![allow(non_snake_case)]
 
-mod common;
+use crate::common;
 
 use common::rng;
 use estimator_core::consistency::{averaged_chi2_band, fraction_inside, normalized_squared};

@@ -17,8 +17,7 @@ use std::process::Command;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-#[path = "../../tests/sample_data/mod.rs"]
-mod sample_data;
+use crate::sample_data;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_ins-gnss"))

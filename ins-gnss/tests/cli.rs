@@ -14,8 +14,7 @@ fn temp(name: &str) -> PathBuf {
     d
 }
 
-#[path = "../../tests/sample_data/mod.rs"]
-mod sample_data;
+use crate::sample_data;
 
 /// The sample data directory `name` (the repository's copy unless `ESTIMATOR_DATA_DIR`
 /// names another).

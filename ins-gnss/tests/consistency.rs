@@ -3,7 +3,7 @@
 
 #![allow(non_snake_case)]
 
-mod common;
+use crate::common;
 
 fn at(r: &common::RunOutput, t: f64) -> &common::Record {
     r.records.iter().find(|x| (x.t - t).abs() < 1e-6).unwrap()

@@ -1,6 +1,6 @@
 //! Fuzzing the readers with proptest: random bytes and random near-valid lines must give
 //! records or typed errors, never a panic. (The target for the project's fuzzing; run
-//! with more cases via `PROPTEST_CASES=100000 cargo test -p ins-gnss --test fuzz_readers`.)
+//! with more cases via `PROPTEST_CASES=100000 cargo test -p ins-gnss --test main fuzz_readers::`.)
 
 use std::io::Cursor;
 use std::path::Path;

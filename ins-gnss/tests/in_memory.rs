@@ -12,8 +12,7 @@ use ins_gnss_core::io::fixed::push_row;
 use ins_gnss_core::io::formats::open;
 use ins_gnss_core::io::lines::NumericLines;
 
-#[path = "../../tests/sample_data/mod.rs"]
-mod sample_data;
+use crate::sample_data;
 
 /// A numeric text file's rows and their width.
 fn rows(path: &Path) -> (Arc<[f64]>, usize) {

@@ -9,8 +9,7 @@ use ins_gnss::config::Config;
 use ins_gnss::eval::{evaluate, Evaluation};
 use ins_gnss::run::run;
 
-#[path = "../../tests/sample_data/mod.rs"]
-mod sample_data;
+use crate::sample_data;
 
 fn data_dir() -> PathBuf {
     sample_data::dir(env!("CARGO_MANIFEST_DIR"), "navego")

@@ -3,7 +3,7 @@
 
 #![allow(non_snake_case)]
 
-mod common;
+use crate::common;
 
 use adaptive::{FixedNoise, Iakf};
 use estimator_core::UpdateLog;

@@ -4,7 +4,7 @@
 //! changing rate) — and the filter on the rate-type car against the same car given as
 //! increments, with the same sensor errors.
 
-mod common;
+use crate::common;
 
 use estimator_core::{FixedNoise, NoObserver};
 use ins_gnss_core::imu::ImuSample;

@@ -4,7 +4,7 @@
 //! 60 s outage is not smaller here (measured and printed): the 15-state filter's biases
 //! absorb the scale-factor error well enough for the drive's motion.
 
-mod common;
+use crate::common;
 
 use estimator_core::consistency::normalized_squared;
 use estimator_core::{FixedNoise, NoObserver};

@@ -4,7 +4,7 @@
 //! filter, and its reported σ is honest — the squared errors normalised by the smoothed
 //! variances average to 1 per component, as the forward filter's do.
 
-mod common;
+use crate::common;
 
 use std::io::Cursor;
 

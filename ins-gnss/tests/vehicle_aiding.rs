@@ -4,7 +4,7 @@
 //! filter. The IMU is mounted square at the constraint point, so the simulated car obeys
 //! NHC exactly.
 
-mod common;
+use crate::common;
 
 use estimator_core::consistency::normalized_squared;
 use estimator_core::{FixedNoise, NoObserver};

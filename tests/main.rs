@@ -1,0 +1,17 @@
+//! The crate's integration tests in one binary (one link of the whole stack instead
+//! of one per file): each module is one file of `tests/`, run as before with
+//! `cargo test -p estimator --test main MODULE::` (a module's tests) or a test's name.
+
+mod backends;
+mod checkpoint;
+mod custom_manifold;
+mod custom_strategy;
+mod everyday_gnss;
+mod repro_fused;
+mod repro_iakf;
+mod repro_sample_data;
+mod simulated_drive;
+mod strategy_invariant;
+mod tight_coupling;
+mod ubx;
+mod ukf_filterpy;
