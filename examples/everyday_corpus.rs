@@ -3,14 +3,14 @@
 //! noise learned — on fixes whose errors are white or wander like a single-point
 //! receiver's, declared with their true σ, ten times too small or ten times too large.
 //!
-//! `cargo run --release --example everyday_corpus [SEEDS] [FILTER]` prints one row per cell:
+//! `cargo run --release --example everyday_corpus [SEEDS] [FILTER]` (`SEEDS`: `N` for 1 to N, or `A-B`) prints one row per cell:
 //! the horizontal RMS against the truth (drive-0708: the outages' score against its RTK
 //! reference), the same run given the true noise model (the oracle: the errors' true
 //! split as states, `gnss.errors.learn = false`, the gate's learning off), their ratio,
 //! the share of epochs whose horizontal error lies beyond the run's own 99 % ellipse
 //! (σ N and E of `std.txt`, χ²₂ 9.21), the runs refused before they started, flagged
 //! (exit 3) and restarted with the fixes' persisting error as states, and the causes the
-//! flagged runs named. `FILTER` keeps the cells whose name contains it (ends with
+//! flagged runs named (`VERBOSE=1`: each seed's on stderr). `FILTER` keeps the cells whose name contains it (ends with
 //! it, when it ends in `$`).
 //!
 //! The data: the simulator's 600 s drive (a MEMS IMU, standing 20 s first, fixes at 1
@@ -28,7 +28,12 @@ use everyday::*;
 use rayon::prelude::*;
 
 fn main() {
-    let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(20);
+    // (`N`: seeds 1 to N; `A-B`: seeds A to B)
+    let arg = std::env::args().nth(1).unwrap_or_else(|| "20".into());
+    let (first, seeds): (u64, u64) = match arg.split_once('-') {
+        Some((a, b)) => (a.parse().unwrap_or(1), b.parse().unwrap_or(20)),
+        None => (1, arg.parse().unwrap_or(20)),
+    };
     let only = std::env::args().nth(2).unwrap_or_default();
     let errors = [
         Errors::White([1.0, 1.0, 2.0]),
@@ -52,7 +57,7 @@ fn main() {
                 if !wanted {
                     continue;
                 }
-                let outs: Vec<(Outcome, Outcome)> = (1..=seeds)
+                let outs: Vec<(Outcome, Outcome)> = (first..=seeds)
                     .into_par_iter()
                     .map(|seed| {
                         let sim;
@@ -69,6 +74,13 @@ fn main() {
                         }
                         let o = run(d, g.clone(), "");
                         let truth_run = run(d, gnss_rows(d, e, 1.0, seed), &e.oracle());
+                        // (VERBOSE: each seed's score, the oracle's, and whether it restarted)
+                        if std::env::var_os("VERBOSE").is_some() {
+                            eprintln!(
+                                "{name} seed {seed}: {:.3} m (oracle {:.3} m), persisting {}, lag {:.2}",
+                                o.score, truth_run.score, o.persisting, o.lag
+                            );
+                        }
                         (o, truth_run)
                     })
                     .collect();

@@ -80,3 +80,68 @@ fn a_vehicle_at_rest_with_rtk_fixes_that_wander_stays_static() {
         assert!(s.duration() >= 149.0, "seed {seed}: static only {:?}", s.span);
     }
 }
+
+/// `seconds` of the same level IMU at rest, and fixes at `rate` Hz whose errors wander as
+/// a single-point receiver's (a first-order Gauss–Markov error of σ `wander` m and
+/// correlation time `tau` s per axis, over white noise of σ `white` m), declaring σ
+/// `declared` m.
+fn wandering_log(
+    seed: u64,
+    seconds: f64,
+    rate: f64,
+    (wander, tau, white): (f64, f64, f64),
+    declared: f64,
+) -> (Vec<ImuSample>, Vec<GnssEpoch>) {
+    let (imu, _) = log(seed, seconds, 0.0, 0.0);
+    let mut n = Normal(seed.wrapping_mul(0xd1b5_4a32_d192_ed03) | 1);
+    let origin = (28.5f64.to_radians(), -16.3f64.to_radians(), 2300.0);
+    let dt = 1.0 / rate;
+    let decay = (-dt / tau).exp();
+    let mut b = Vector3::new(n.next(), n.next(), n.next()) * wander;
+    let gnss = (0..=(seconds * rate) as usize)
+        .map(|k| {
+            let t = k as f64 * dt;
+            b = b * decay
+                + Vector3::new(n.next(), n.next(), n.next())
+                    * wander
+                    * (1.0 - decay * decay).sqrt();
+            let ned = b + Vector3::new(n.next(), n.next(), n.next()) * white;
+            let (lat, lon, h) = local_ned_to_geodetic(origin, &ned);
+            GnssEpoch::new(t, GeoPos::new(lat, lon, h), Vector3::repeat(declared), None)
+        })
+        .collect();
+    (imu, gnss)
+}
+
+/// The everyday-GNSS issue's single-point fixes (1.5 m wander, τ 100 s, 0.3 m white, at 4
+/// Hz as drive-0708's) under an IMU at rest for 35 s. Declared with their true σ, the
+/// start is static on at least 19 of 20 seeds (before, each fix was held to 3σ of the
+/// first and the fitted line to a white-noise slope: drive-0708's 33 s stand was "static
+/// for 0.0 s" on 1 of 20 seeds of the corpus with the true σ, and on 20 of 20 with σ
+/// 0.15 m). Declared 10× too small, on at least 10 of 20 (measured: 11): a wander of
+/// 0.1 m/s over 35 s is then many times what the declared σ allows, and the fixes alone
+/// cannot tell it from a creep from the first sample — not met; the bank of hypotheses
+/// (the decisions issue) is the way.
+#[test]
+fn a_vehicle_at_rest_with_single_point_fixes_that_wander_stays_static() {
+    for (declared, least) in [(1.55, 19), (0.155, 10)] {
+        let found = (0..20)
+            .filter(|&seed| {
+                let (imu, gnss) = wandering_log(300 + seed, 35.0, 4.0, (1.5, 100.0, 0.3), declared);
+                detect_static(&imu, &gnss, 1.0).duration() >= 34.0
+            })
+            .count();
+        assert!(found >= least, "declared σ {declared} m: static on {found} of 20 seeds");
+    }
+}
+
+/// White fixes of σ 1.4 m declared as 0.14 m under an IMU at rest: static throughout on
+/// every seed (the fixes jump beyond their declared σ; the IMU shows no motion).
+#[test]
+fn a_vehicle_at_rest_with_fixes_ten_times_noisier_than_declared_stays_static() {
+    for seed in 0..20 {
+        let (imu, gnss) = wandering_log(400 + seed, 35.0, 1.0, (0.0, 100.0, 1.4), 0.14);
+        let s = detect_static(&imu, &gnss, 1.0);
+        assert!(s.duration() >= 34.0, "seed {seed}: static only {:?}", s.span);
+    }
+}

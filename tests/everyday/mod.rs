@@ -356,6 +356,10 @@ pub fn run(d: &Data, gnss: Arc<[f64]>, extra: &str) -> Outcome {
             Ok(r) => r,
             Err(e) => return Outcome { refused: Some(e.to_string()), ..Default::default() },
         };
+    // (VERBOSE=2: the run's summary on stderr)
+    if std::env::var("VERBOSE").is_ok_and(|v| v == "2") {
+        eprintln!("{}", summary.lines().join("\n"));
+    }
     let flagged = ins_gnss::health::assess(&summary, &cfg).err().map(|u| u.diagnosis);
     let t0 = results.nav.first().map_or(0.0, |x| x[0]);
     let (score, beyond) = score(d, &results, t0);

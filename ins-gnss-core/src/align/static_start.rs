@@ -1,6 +1,7 @@
 //! The static start: found in the IMU and GNSS streams, its noise and gyro biases.
 
 use super::*;
+use crate::navigator::{FIX_ERROR_SHARE, FIX_ERROR_TAU};
 
 /// What the start of a log shows while it stands still: the span, and the mean and
 /// per-axis standard deviation of the rates and specific forces over it.
@@ -57,7 +58,9 @@ const DRIFT_SPEED: f64 = 0.1;
 
 /// Whether the GNSS fixes after `t0` up to `tb` drift: the horizontal velocity of a
 /// straight-line least-squares fit to them, significant by [`DRIFT_CHI2`] against its σ
-/// from the fixes' own σ, and faster than [`DRIFT_SPEED`]. Fixes 5 m apart in σ do not
+/// (from the fixes' σ or their scatter about the line, the larger, inflated by their
+/// errors' persistence from fix to fix, plus the slope a single point's slow wander
+/// gives), and faster than [`DRIFT_SPEED`]. Fixes 5 m apart in σ do not
 /// move beyond 3σ of the first for 100 s at 0.42 m/s (a slow rover), and a window that
 /// long is no static start; their line tells the motion within about 40 s.
 fn drifting(gnss: &[GnssEpoch], t0: f64, tb: f64) -> bool {
@@ -74,13 +77,37 @@ fn drifting(gnss: &[GnssEpoch], t0: f64, tb: f64) -> bool {
         return false;
     }
     // (north, east): the slope of the line and the fixes' mean variance
-    let (mut slope, mut var) = (Vector2::zeros(), Vector2::zeros());
-    for e in &span {
-        let d = geodetic_to_local_ned(first.pos.tuple(), e.pos.tuple());
-        slope += d.xy() * ((e.t - t_mean) / stt);
+    let (mut slope, mut mean, mut var) = (Vector2::zeros(), Vector2::zeros(), Vector2::zeros());
+    let d: Vec<Vector2<f64>> =
+        span.iter().map(|e| geodetic_to_local_ned(first.pos.tuple(), e.pos.tuple()).xy()).collect();
+    for (e, d) in span.iter().zip(&d) {
+        slope += d * ((e.t - t_mean) / stt);
+        mean += d / n;
         var += e.pos_std.xy().map(|s| s * s / n);
     }
-    let chi2 = slope.component_mul(&slope).component_div(&(var / stt).map(|v| v.max(1e-12))).sum();
+    // the fixes' noise as they show it about the line (the larger of it and their σ, a
+    // prior), and the share of it that persists from fix to fix: errors that wander (a
+    // single point's) make a line's slope as many times less certain as the fixes are
+    // fewer independent samples than they number, `(1 + ρ)/(1 − ρ)` with their lag-one
+    // autocorrelation ρ
+    let r: Vec<Vector2<f64>> =
+        span.iter().zip(&d).map(|(e, d)| d - mean - slope * (e.t - t_mean)).collect();
+    let shown = r.iter().map(|r| r.component_mul(r)).sum::<Vector2<f64>>() / (n - 2.0);
+    let lag = r.windows(2).map(|w| w[0].component_mul(&w[1])).sum::<Vector2<f64>>();
+    let sq = r.iter().map(|r| r.component_mul(r)).sum::<Vector2<f64>>();
+    let inflation = Vector2::from_fn(|k, _| {
+        let rho = if sq[k] > 0.0 { (lag[k] / sq[k]).clamp(0.0, 0.95) } else { 0.0 };
+        (1.0 + rho) / (1.0 - rho)
+    });
+    // and a line's slope through fixes whose declared variance persists as the
+    // navigator's prior says ([`FIX_ERROR_SHARE`] of it, over [`FIX_ERROR_TAU`]): over a
+    // span `T ≪ τ` a random walk of intensity `2 share σ² / τ`, whose least-squares slope
+    // has the variance `1.2 q / T`
+    let span_t = span[span.len() - 1].t - span[0].t;
+    let wander = var * (1.2 * 2.0 * FIX_ERROR_SHARE / FIX_ERROR_TAU / span_t.max(1e-9));
+    let var = var.zip_map(&shown, f64::max).component_mul(&inflation);
+    let slope_var = (var / stt + wander).map(|v| v.max(1e-12));
+    let chi2 = slope.component_mul(&slope).component_div(&slope_var).sum();
     chi2 > DRIFT_CHI2 && slope.norm() > DRIFT_SPEED
 }
 
@@ -119,11 +146,12 @@ impl Window {
 /// look like the first one (rates and specific force with the same mean and spread, to
 /// within what the first window's noise explains plus 0.1 deg/s and 0.05 m/s²) while the
 /// specific force stays near gravity (|f| within 0.5 m/s² of normal gravity at the first
-/// fix, or of 9.8 without one) and the GNSS fixes of the span show no motion (speed below
-/// 0.3 m/s, positions within 3σ + 0.3 m of the first). When the fixes of a span whose IMU
-/// never changed drift (a straight line fitted to them moves faster than 0.1 m/s, beyond
-/// what their σ explains at a probability of 1e-6), nothing was static: a constant velocity from the
-/// first sample looks like rest to the IMU. A vibrating vehicle (engine
+/// fix, or of 9.8 without one) and the GNSS fixes of the span measure no speed of 0.3
+/// m/s or more (their positions alone do not make motion: they jump and wander beyond
+/// their declared σ while the IMU shows rest). When the fixes of a span whose IMU never
+/// changed drift (a straight line fitted to them moves faster than 0.1 m/s, beyond what
+/// their noise and its persistence explain at a probability of 1e-6), nothing was static:
+/// a constant velocity from the first sample looks like rest to the IMU. A vibrating vehicle (engine
 /// running) is static too: the test is relative to the first window. Returns a span of
 /// zero samples when the first window already moves.
 pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
@@ -176,18 +204,15 @@ pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> Stat
         windows.push(cur);
     }
     let Some(w0) = windows.first().copied() else { return none(t0) };
+    // (the IMU first: a fix's position far from the first one is no motion while the IMU
+    // shows none — fixes jump and wander by more than their declared σ says, and a
+    // vehicle does not move without accelerating; a constant velocity from the first
+    // sample, which the IMU cannot see, is the fixes' drift below; a measured velocity
+    // is motion)
     let moving_gnss = |ta: f64, tb: f64| {
-        let mut first_fix: Option<&GnssEpoch> = None;
-        gnss.iter().filter(|e| e.t > t0 - 1e-9 && e.t <= tb + 1e-9).any(|e| {
-            let f = *first_fix.get_or_insert(e);
-            if e.t < ta - 1e-9 {
-                return false;
-            }
-            let fast = e.vel.is_some_and(|(v, _)| v.xy().norm() > 0.3);
-            let d = geodetic_to_local_ned(f.pos.tuple(), e.pos.tuple());
-            let tol = 3.0 * (f.pos_std.xy().norm() + e.pos_std.xy().norm()) + 0.3;
-            fast || d.xy().norm() > tol
-        })
+        gnss.iter()
+            .filter(|e| e.t >= ta - 1e-9 && e.t <= tb + 1e-9)
+            .any(|e| e.vel.is_some_and(|(v, _)| v.xy().norm() > 0.3))
     };
     let (m0w, m0f, s0w, s0f) = (w0.mean_w(), w0.mean_f(), w0.std_w(), w0.std_f());
     let deg = core::f64::consts::PI / 180.0;

@@ -226,8 +226,10 @@ fn attempt<O: Sink>(
     };
     match result {
         Ok(mut summary) => {
-            // the recording's notes, the start's report, then the checks' run beside
-            let beside = std::mem::take(&mut summary.start);
+            // the recording's notes, the start's report, then what the checks run beside
+            // add to it (they repeat the static start's lines)
+            let mut beside = std::mem::take(&mut summary.start);
+            beside.retain(|l| !start.report.contains(l));
             summary.start = notes.into_iter().chain(start.report).chain(beside).collect();
             Ok((summary, out))
         }
