@@ -285,9 +285,10 @@ impl NavState for InsState {
 
 /// A navigation state larger than the 15-state one (its error state begins with those
 /// 15): the 15-state measurement models apply through [`OnNav`]. `nav` and `noise` are
-/// the field paths to its [`InsState`] and to its model's [`ImuNoise`].
+/// the field paths to its [`InsState`] and to its model's [`ImuNoise`]; a trailing
+/// `{ … }` holds the impl's further items.
 macro_rules! on_nav_state {
-    ($state:ty, $model:ty, nav: $($nav:ident).+, noise: $($noise:ident).+) => {
+    ($state:ty, $model:ty, nav: $($nav:ident).+, noise: $($noise:ident).+ $({ $($more:tt)* })?) => {
         impl NavState for $state {
             type Model = $model;
 
@@ -316,6 +317,8 @@ macro_rules! on_nav_state {
                     .update_observed(&OnNav::<Self, MM>::new(model), z, r, observer)
                     .map(|r| r.summary())
             }
+
+            $($($more)*)?
         }
     };
 }
@@ -329,35 +332,7 @@ on_nav_state!(InsStateTc21, InsModelTc21, nav: nav.nav, noise: base.base.noise);
 /// [`OnFixError`].
 macro_rules! fix_error_state {
     ($state:ty, $model:ty, nav: $($nav:ident).+, noise: $($noise:ident).+) => {
-        impl NavState for $state {
-            type Model = $model;
-
-            fn nav(&self) -> &InsState {
-                &self.$($nav).+
-            }
-
-            fn imu_noise(model: &$model) -> &ImuNoise {
-                &model.$($noise).+
-            }
-
-            fn update<A, MM, O>(
-                filter: &mut ErrorStateFilter<Self, A>,
-                model: &MM,
-                z: &MM::Measurement,
-                r: &Cov<StateDim<MM::Measurement>>,
-                observer: &mut O,
-            ) -> Result<UpdateSummary, FilterError>
-            where
-                A: NoiseStrategy,
-                MM: MeasurementModel<State = InsState>,
-                O: Observer,
-                DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
-            {
-                filter
-                    .update_observed(&OnNav::<Self, MM>::new(model), z, r, observer)
-                    .map(|r| r.summary())
-            }
-
+        on_nav_state!($state, $model, nav: $($nav).+, noise: $($noise).+ {
             fn update_fix<A, MM, O>(
                 filter: &mut ErrorStateFilter<Self, A>,
                 model: &MM,
@@ -387,7 +362,7 @@ macro_rules! fix_error_state {
             fn fix_error_model(model: &$model) -> Option<crate::fix_error::FixErrorModel> {
                 Some(model.fix)
             }
-        }
+        });
     };
 }
 
