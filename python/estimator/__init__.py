@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from . import _native
+from . import common
 from ._native import EstimatorError
 from .filterpy import (ExtendedKalmanFilter, KalmanFilter, MerweScaledSigmaPoints,
                        UnscentedKalmanFilter, unscented_transform)
@@ -52,6 +53,10 @@ __all__ = [
     "ahrs",
     "ahrs_flight",
     "EstimatorError",
+    "EstimatorFileNotFoundError",
+    "read_truth",
+    "plot",
+    "common",
     "NAV_COLUMNS",
     "STRATEGIES",
 ]
@@ -80,6 +85,36 @@ STRATEGIES = ["fixed", "iae", "iae-qr", "iae-qr-faithful", "afkf", "afkf-xia",
               "fused-nominal-uncensored", "iakf", "iakf-raw", "sage-husa", "chi2-gate"]
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+class EstimatorFileNotFoundError(EstimatorError, FileNotFoundError):
+    """A file the run needs (the configuration, an input it names, a truth) is missing:
+    both an :class:`EstimatorError` (a ``ValueError``) and a ``FileNotFoundError``."""
+
+    def __init__(self, message: str, filename: Optional[str] = None):
+        super().__init__(message)
+        self.errno, self.strerror, self.filename = 2, message, filename
+
+    def __str__(self) -> str:
+        return f"{self.strerror}: {self.filename}" if self.filename else str(self.strerror)
+
+
+def _missing(path: PathLike, what: str):
+    if not os.path.exists(os.fspath(path)):
+        raise EstimatorFileNotFoundError(f"{what} not found", os.fspath(path))
+
+
+def _native_call(f, *args, **kwargs):
+    """Call the library; a missing file it names becomes a ``FileNotFoundError``."""
+    try:
+        return f(*args, **kwargs)
+    except EstimatorFileNotFoundError:
+        raise
+    except EstimatorError as e:
+        text = str(e)
+        if "No such file or directory" in text or "os error 2" in text:
+            raise EstimatorFileNotFoundError(text) from e
+        raise
 
 # pyins-style column names: increments or rates, and the GNSS fields
 _INCREMENTS = ["theta_x", "theta_y", "theta_z", "dv_x", "dv_y", "dv_z"]
@@ -166,14 +201,45 @@ class Navigation:
         self.summary = dict(raw["summary"])
 
     def evaluate(self, truth: PathLike, skip: float = 0.0, smoothed: bool = False) -> dict:
-        """Errors against a truth file (11-column navigation or ``t lat lon h``), as
-        ``ins-gnss eval``: a dict of statistics (``overall``: RMS, max, mean of N, E, D,
-        horizontal, 3-D, velocity and attitude errors), after ``skip`` seconds."""
+        """Errors against a truth file (11-column navigation or ``t lat lon h``, plain or
+        compressed), as ``ins-gnss eval``: a dict of statistics (``overall``: RMS, max,
+        mean of N, E, D, horizontal, 3-D, velocity and attitude errors), after ``skip``
+        seconds, and ``epochs``: a DataFrame of every compared epoch — ``time``, the
+        errors ``north``, ``east``, ``down``, ``horizontal`` (m), ``vn``, ``ve``, ``vd``
+        (m/s), ``roll``, ``pitch``, ``yaw`` (deg; result minus truth), the run's 1σ at
+        that epoch (``sigma_n`` …, the last ``std`` row at or before it) and
+        ``nees_pos``, the position NEES (χ² with 3 degrees of freedom when the σ is
+        honest), and ``nees_att`` (attitude, 3)."""
         nav = self.smoothed if smoothed else self.nav
+        std = self.smoothed_std if smoothed else self.std
         if nav is None:
             raise ValueError("the run did not smooth (smooth=True)")
+        _missing(truth, "the truth file")
         rows = np.ascontiguousarray(nav[NAV_COLUMNS].to_numpy(dtype=float))
-        return json.loads(_native.evaluate(rows, os.fspath(truth), float(skip)))
+        text, per = _native_call(_native.evaluate, rows, os.fspath(truth), float(skip))
+        out = json.loads(text)
+        cols = ["time", "north", "east", "down", "vn", "ve", "vd", "roll", "pitch", "yaw"]
+        ep = pd.DataFrame(per, columns=cols)
+        ep.insert(4, "horizontal", np.hypot(ep["north"], ep["east"]))
+        sig = ["sigma_n", "sigma_e", "sigma_d", "sigma_vn", "sigma_ve", "sigma_vd",
+               "sigma_roll", "sigma_pitch", "sigma_yaw"]
+        if std is not None and len(std) and len(ep):
+            s = std[["time"] + sig].sort_values("time")
+            ep = pd.merge_asof(ep.sort_values("time"), s, on="time", direction="backward")
+        else:
+            for c in sig:
+                ep[c] = np.nan
+        ep["nees_pos"] = sum((ep[a] / ep[b]) ** 2 for a, b in
+                             (("north", "sigma_n"), ("east", "sigma_e"), ("down", "sigma_d")))
+        ep["nees_att"] = sum((ep[a] / ep[b]) ** 2 for a, b in
+                             (("roll", "sigma_roll"), ("pitch", "sigma_pitch"),
+                              ("yaw", "sigma_yaw")))
+        out["epochs"] = ep
+        return out
+
+    def plot(self, truth: Optional[PathLike] = None, smoothed: bool = False):
+        """The usual three figures (:func:`plot`): track, errors with ±3σ, NIS."""
+        return plot(self, truth, smoothed=smoothed)
 
     def __repr__(self) -> str:
         return "Navigation(\n  " + "\n  ".join(self.summary.get("lines", [])) + "\n)"
@@ -238,8 +304,10 @@ def navigate(
     if isinstance(config, Mapping):
         text, kind = json.dumps(config), "json"
     else:
+        _missing(config, "the configuration")
         text, kind = os.fspath(config), "path"
-    raw = _native.navigate(
+    raw = _native_call(
+        _native.navigate,
         text,
         kind=kind,
         base=os.fspath(base) if base is not None else os.getcwd(),
@@ -258,6 +326,60 @@ def navigate(
         accept_inconsistent=accept_inconsistent,
     )
     return Navigation(raw)
+
+
+def read_truth(path: PathLike) -> pd.DataFrame:
+    """A truth or reference file (11-column navigation, or ``t lat lon h``; plain,
+    ``.gz``, ``.zst`` or ``.xz``, read by the library: no extra package) as a DataFrame
+    with ``NAV_COLUMNS`` (NaN where the file has no velocity or attitude)."""
+    _missing(path, "the truth file")
+    return pd.DataFrame(_native_call(_native.read_truth, os.fspath(path)), columns=NAV_COLUMNS)
+
+
+def plot(result: "Navigation", truth: Optional[PathLike] = None, smoothed: bool = False):
+    """Three figures of a run, with matplotlib (an optional dependency: ``pip install
+    matplotlib``): the horizontal track (and the truth's), the position and yaw errors
+    against the truth with the run's ±3σ (σ alone without a truth), and the NIS of every
+    update with its stream. Returns the three ``Figure`` objects."""
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError("plot needs matplotlib: pip install matplotlib") from e
+    nav = result.smoothed if smoothed else result.nav
+    if nav is None:
+        raise ValueError("the run did not smooth (smooth=True)")
+    lat0, lon0 = np.radians(nav["lat"].iloc[0]), np.radians(nav["lon"].iloc[0])
+    radius = 6378137.0
+
+    def local(lat, lon):
+        return ((np.radians(lon) - lon0) * radius * np.cos(lat0),
+                (np.radians(lat) - lat0) * radius)
+
+    track, ax = plt.subplots()
+    e, n = local(nav["lat"], nav["lon"])
+    ax.plot(e, n, label="estimate")
+    ev = None
+    if truth is not None:
+        tr = read_truth(truth)
+        te, tn = local(tr["lat"], tr["lon"])
+        ax.plot(te, tn, "--", label="truth")
+        ev = result.evaluate(truth, smoothed=smoothed)["epochs"]
+    ax.set_xlabel("east (m)"), ax.set_ylabel("north (m)"), ax.axis("equal"), ax.legend()
+    errors, axes = plt.subplots(4, 1, sharex=True)
+    std = result.smoothed_std if smoothed else result.std
+    for a, (err, sig, unit) in zip(axes, (("north", "sigma_n", "m"), ("east", "sigma_e", "m"),
+                                          ("down", "sigma_d", "m"),
+                                          ("yaw", "sigma_yaw", "deg"))):
+        if ev is not None:
+            a.plot(ev["time"], ev[err], label="error")
+        a.plot(std["time"], 3 * std[sig], "k:", std["time"], -3 * std[sig], "k:")
+        a.set_ylabel(f"{err} ({unit})")
+    axes[-1].set_xlabel("time (s)")
+    nis, ax = plt.subplots()
+    for stream, rows in result.updates.groupby("stream"):
+        ax.semilogy(rows["time"], rows["nis"] / rows["dim"], ".", label=str(stream))
+    ax.set_xlabel("time (s)"), ax.set_ylabel("NIS / dim"), ax.legend()
+    return track, errors, nis
 
 
 def _f64(a: Any) -> np.ndarray:

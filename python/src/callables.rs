@@ -16,7 +16,7 @@ use nalgebra::{Const, SMatrix, SVector};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 
 use crate::fail;
 
@@ -77,15 +77,15 @@ impl<const M: usize, const N: usize> MeasurementModel for Given<M, N> {
 
 /// What an update gives back, row-major.
 #[derive(Default)]
-struct Updated {
-    x: Vec<f64>,
-    P: Vec<f64>,
-    K: Vec<f64>,
-    S: Vec<f64>,
-    nis: f64,
-    nis_adapted: f64,
-    log_likelihood: f64,
-    verdict: &'static str,
+pub(crate) struct Updated {
+    pub(crate) x: Vec<f64>,
+    pub(crate) P: Vec<f64>,
+    pub(crate) K: Vec<f64>,
+    pub(crate) S: Vec<f64>,
+    pub(crate) nis: f64,
+    pub(crate) nis_adapted: f64,
+    pub(crate) log_likelihood: f64,
+    pub(crate) verdict: &'static str,
 }
 
 fn rowmajor<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<f64> {
@@ -93,7 +93,7 @@ fn rowmajor<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<f64> 
 }
 
 /// The operations of a core, whatever its dimension.
-trait Core: Send + Sync {
+pub(crate) trait Core: Send + Sync {
     fn set(&mut self, x: &[f64], P: &[f64]) -> Result<(), String>;
     fn predict(&mut self, x: &[f64], F: &[f64], Q: &[f64], dt: f64) -> Result<Vec<f64>, String>;
     /// `stats`: `H` holds `P_xz` (`n × m`) and `Pzz` the points' spread of `h`.
@@ -106,12 +106,33 @@ trait Core: Send + Sync {
     ) -> Result<Updated, String>;
     fn smooth(&self) -> Result<(Vec<f64>, Vec<f64>), String>;
     fn strategy(&self) -> &'static str;
+    /// The whole core (state, covariance, strategy state, smoothing history) as bytes
+    /// (postcard: every float bit for bit, NaN included).
+    fn save(&self) -> Result<Vec<u8>, String>;
+    /// The core [`save`](Core::save) wrote.
+    fn restore(&mut self, state: &[u8]) -> Result<(), String>;
+    /// Forget the recorded predictions: the next one starts a new smoothing history.
+    fn reset_history(&mut self);
 }
 
+#[derive(serde::Serialize, serde::Deserialize)]
 struct Filter<const N: usize> {
     f: ErrorStateFilter<SVector<f64, N>, AnyStrategy>,
     /// The smoother that records the predictions, if one was asked for.
     rec: Option<ReplaySmoother<SVector<f64, N>>>,
+    /// The fixed-lag smoother's lag (to start it again).
+    lag: Option<usize>,
+}
+
+fn recorder<const N: usize>(
+    smooth: bool,
+    lag: Option<usize>,
+) -> Option<ReplaySmoother<SVector<f64, N>>> {
+    match (smooth, lag) {
+        (true, _) => Some(ReplaySmoother::Interval(RtsSmoother::new())),
+        (false, Some(k)) => Some(ReplaySmoother::FixedLag(FixedLagSmoother::new(Lag::Steps(k)))),
+        (false, None) => None,
+    }
 }
 
 impl<const N: usize> Filter<N> {
@@ -170,7 +191,10 @@ macro_rules! update_dispatch {
     ($self:ident, $m:expr, $y:ident, $H:ident, $R:ident, $Pzz:ident, [$($mm:literal),*]) => {
         match $m {
             $($mm => $self.update_m::<$mm>($y, $H, $R, $Pzz),)*
-            m => Err(format!("measurement dimension {m}: 1 to {MAX_M}")),
+            m => Err(format!(
+                "a measurement of {m} rows on a filter made for at most {MAX_M}: make it with \
+                 dim_z = {m} (larger measurements run on the dynamic core)"
+            )),
         }
     };
 }
@@ -219,6 +243,21 @@ impl<const N: usize> Core for Filter<N> {
     fn strategy(&self) -> &'static str {
         estimator_core::NoiseStrategy::name(self.f.strategy())
     }
+
+    fn save(&self) -> Result<Vec<u8>, String> {
+        postcard::to_allocvec(self).map_err(|e| e.to_string())
+    }
+
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        *self = postcard::from_bytes(state).map_err(|e| e.to_string())?;
+        Ok(())
+    }
+
+    fn reset_history(&mut self) {
+        if self.rec.is_some() {
+            self.rec = recorder(self.lag.is_none(), self.lag);
+        }
+    }
 }
 
 fn build<const N: usize>(
@@ -228,22 +267,24 @@ fn build<const N: usize>(
 ) -> Result<Box<dyn Core>, String> {
     let f = ErrorStateFilter::new(SVector::<f64, N>::zeros(), SMatrix::identity(), strategy)
         .map_err(|e| e.to_string())?;
-    let rec = match (smooth, lag) {
-        (true, Some(_)) => return Err("smooth and lag: one smoother or the other".into()),
-        (true, None) => Some(ReplaySmoother::Interval(RtsSmoother::new())),
-        (false, Some(k)) => Some(ReplaySmoother::FixedLag(FixedLagSmoother::new(Lag::Steps(k)))),
-        (false, None) => None,
-    };
-    Ok(Box::new(Filter { f, rec }))
+    if smooth && lag.is_some() {
+        return Err("smooth and lag: one smoother or the other".into());
+    }
+    Ok(Box::new(Filter { f, rec: recorder(smooth, lag), lag }))
 }
 
 /// The filter core of the Python callables: created for a state dimension, a strategy by
 /// name, and which smoother records (`smooth`: the RTS smoother over the whole run; `lag`:
-/// the fixed-lag smoother over the last `lag` predictions).
+/// the fixed-lag smoother over the last `lag` predictions). `m`: the largest measurement
+/// it will take. States of 1 to `MAX_N` with measurements of 1 to `MAX_M` rows run on the
+/// library's compiled instances; larger ones (or `dynamic=True`) on the heap core of
+/// `dynamic.rs`.
 #[pyclass(module = "estimator._native")]
 pub struct CallableCore {
     core: Box<dyn Core>,
     n: usize,
+    /// What it was made with (for pickling): strategy, smooth, lag, m, dynamic.
+    made: (String, bool, Option<usize>, usize, bool),
 }
 
 fn flat(name: &str, a: &PyReadonlyArrayDyn<'_, f64>, len: usize) -> PyResult<Vec<f64>> {
@@ -273,23 +314,67 @@ impl CallableCore {
 #[pymethods]
 impl CallableCore {
     #[new]
-    #[pyo3(signature = (n, strategy="fixed", smooth=false, lag=None))]
-    fn new(n: usize, strategy: &str, smooth: bool, lag: Option<usize>) -> PyResult<Self> {
-        let s: AnyStrategy = strategy.parse().map_err(fail)?;
-        let core = match n {
-            1 => build::<1>(s, smooth, lag),
-            2 => build::<2>(s, smooth, lag),
-            3 => build::<3>(s, smooth, lag),
-            4 => build::<4>(s, smooth, lag),
-            5 => build::<5>(s, smooth, lag),
-            6 => build::<6>(s, smooth, lag),
-            7 => build::<7>(s, smooth, lag),
-            8 => build::<8>(s, smooth, lag),
-            9 => build::<9>(s, smooth, lag),
-            n => Err(format!("state dimension {n}: 1 to {MAX_N}")),
+    #[pyo3(signature = (n, strategy="fixed", smooth=false, lag=None, m=1, dynamic=false))]
+    fn new(
+        n: usize,
+        strategy: &str,
+        smooth: bool,
+        lag: Option<usize>,
+        m: usize,
+        dynamic: bool,
+    ) -> PyResult<Self> {
+        if n == 0 {
+            return Err(PyValueError::new_err("dim_x must be at least 1"));
+        }
+        let dynamic = dynamic || n > MAX_N || m > MAX_M;
+        let core = if dynamic {
+            strategy.parse::<AnyStrategy>().map_err(fail)?;
+            crate::dynamic::DynFilter::new(n, strategy, smooth, lag)
+                .map(|f| Box::new(f) as Box<dyn Core>)
+        } else {
+            let s: AnyStrategy = strategy.parse().map_err(fail)?;
+            match n {
+                1 => build::<1>(s, smooth, lag),
+                2 => build::<2>(s, smooth, lag),
+                3 => build::<3>(s, smooth, lag),
+                4 => build::<4>(s, smooth, lag),
+                5 => build::<5>(s, smooth, lag),
+                6 => build::<6>(s, smooth, lag),
+                7 => build::<7>(s, smooth, lag),
+                8 => build::<8>(s, smooth, lag),
+                _ => build::<9>(s, smooth, lag),
+            }
         }
         .map_err(fail)?;
-        Ok(Self { core, n })
+        Ok(Self { core, n, made: (strategy.to_owned(), smooth, lag, m, dynamic) })
+    }
+
+    /// True when this core runs on the heap (dynamic dimensions).
+    #[getter]
+    fn dynamic(&self) -> bool {
+        self.made.4
+    }
+
+    /// The arguments it was made with, for pickle.
+    fn __getnewargs__(&self) -> (usize, String, bool, Option<usize>, usize, bool) {
+        let (s, smooth, lag, m, dynamic) = self.made.clone();
+        (self.n, s, smooth, lag, m, dynamic)
+    }
+
+    /// State, covariance, the strategy's state and the smoothing history, as bytes
+    /// (every float bit for bit).
+    fn __getstate__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        Ok(PyBytes::new(py, &self.core.save().map_err(fail)?))
+    }
+
+    fn __setstate__(&mut self, state: &[u8]) -> PyResult<()> {
+        self.core.restore(state).map_err(fail)
+    }
+
+    /// Forget the recorded predictions: the next prediction starts a new smoothing
+    /// history (a new run on the same filter).
+    fn reset_history(&mut self) {
+        self.core.reset_history();
     }
 
     /// Set the state and covariance (as the Python object holds them).

@@ -16,6 +16,7 @@
 
 mod ahrs;
 mod callables;
+mod dynamic;
 mod filter;
 
 use std::path::Path;
@@ -23,7 +24,7 @@ use std::sync::Arc;
 
 use numpy::ndarray::ArrayView2;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
-use pyo3::exceptions::{PyException, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -34,7 +35,7 @@ use ins_gnss::run::{run_in_memory, Inputs, RunSummary, GNSS_ARRAY, IMU_ARRAY};
 pyo3::create_exception!(
     _native,
     EstimatorError,
-    PyException,
+    PyValueError,
     "A run, a configuration or an input refused, with the program's message (file or array, line or row)."
 );
 
@@ -237,12 +238,12 @@ fn navigate<'py>(
 /// the statistics as JSON text.
 #[pyfunction]
 #[pyo3(signature = (nav, truth, skip=0.0))]
-fn evaluate(
-    py: Python<'_>,
-    nav: PyReadonlyArray2<'_, f64>,
+fn evaluate<'py>(
+    py: Python<'py>,
+    nav: PyReadonlyArray2<'py, f64>,
     truth: &str,
     skip: f64,
-) -> PyResult<String> {
+) -> PyResult<(String, Bound<'py, PyAny>)> {
     let nav = nav.as_array();
     if nav.ncols() != 10 {
         return Err(PyValueError::new_err(format!("nav has {} columns, 10 expected", nav.ncols())));
@@ -262,9 +263,40 @@ fn evaluate(
     let truth = Path::new(truth);
     let ev = py.allow_threads(|| -> Result<_, String> {
         let reference = ins_gnss::eval::read_reference(truth).map_err(|e| e.to_string())?;
-        Ok(ins_gnss::eval::evaluate_records(&records, &reference, skip, &[]))
+        Ok(ins_gnss::eval::evaluate_records_per_epoch(&records, &reference, skip))
     });
-    serde_json::to_string(&ev.map_err(fail)?).map_err(fail)
+    let ev = ev.map_err(fail)?;
+    let rows: Vec<f64> = ev.epochs.iter().flatten().copied().collect();
+    let json = serde_json::to_string(&ev).map_err(fail)?;
+    Ok((json, matrix(py, rows, 10)?))
+}
+
+/// A truth or reference file (11-column navigation, `t lat lon h`, plain or `.gz`/`.zst`/
+/// `.xz`) as rows `t, lat, lon (deg), h (m), vN, vE, vD (m/s; NaN without), roll, pitch,
+/// yaw (deg; NaN without)`.
+#[pyfunction]
+fn read_truth<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, PyAny>> {
+    let path = Path::new(path);
+    let recs = py.allow_threads(|| ins_gnss::eval::read_reference(path)).map_err(fail)?;
+    let r = 180.0 / std::f64::consts::PI;
+    let rows: Vec<f64> = recs
+        .iter()
+        .flat_map(|n| {
+            [
+                n.t,
+                n.pos.lat * r,
+                n.pos.lon * r,
+                n.pos.h,
+                n.vel.x,
+                n.vel.y,
+                n.vel.z,
+                n.att.x * r,
+                n.att.y * r,
+                n.att.z * r,
+            ]
+        })
+        .collect();
+    matrix(py, rows, 10)
 }
 
 /// The extension module.
@@ -273,6 +305,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("EstimatorError", m.py().get_type::<EstimatorError>())?;
     m.add_function(wrap_pyfunction!(navigate, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(read_truth, m)?)?;
     filter::register(m)?;
     callables::register(m)?;
     ahrs::register(m)?;

@@ -109,6 +109,29 @@ def test_python_rms_equals_the_programs_to_the_printed_digit(both, cli):
     assert summary["gnss_epochs"] == 2186 and summary["smoothed_rows"] == len(py.smoothed)
 
 
+def test_per_epoch_errors_and_the_truth_reader_agree_with_independent_paths(both):
+    """``evaluate()``'s per-epoch DataFrame against its own statistics, the truth read by
+    the library (no zstandard) against the test's own reader, and NEES against the run's
+    σ (navego's shipped YAML: hand-written ``[init]``, the gate on)."""
+    _, py = both
+    truth = estimator.read_truth(TRUTH)
+    raw = read_zst(TRUTH)
+    assert len(truth) == len(raw)
+    np.testing.assert_allclose(truth[["time", "lat", "lon", "height"]].to_numpy(),
+                               raw[:, 1:5], rtol=0, atol=1e-9)
+    for smoothed in (False, True):
+        ev = py.evaluate(TRUTH, skip=30.0, smoothed=smoothed)
+        ep = ev["epochs"]
+        assert len(ep) == ev["overall"]["epochs"] > 10000
+        for col in ["north", "east", "down", "horizontal", "yaw"]:
+            rms = float(np.sqrt(np.mean(ep[col] ** 2)))
+            assert abs(rms - ev["overall"][col]["rms"]) <= 1e-9 * max(1.0, rms), col
+        assert ep["sigma_n"].notna().mean() > 0.99
+        # the position NEES is a χ²(3) when the σ covers the error: its mean is finite
+        # and positive; the per-epoch column is what a user plots, not judged here
+        assert np.isfinite(ep["nees_pos"]).mean() > 0.99 and ep["nees_pos"].median() > 0
+
+
 def test_arrays_run_exactly_as_the_files(navego_arrays):
     imu, gnss = navego_arrays
     files = estimator.navigate(NAVEGO, smooth=True, accept_inconsistent=True)

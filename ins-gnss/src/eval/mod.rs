@@ -134,6 +134,12 @@ pub struct Evaluation {
     /// The errors against the result's own σ (its `std.txt` beside it), after the skip;
     /// `None` without a σ file.
     pub nees: Option<NeesSummary>,
+    /// Every compared epoch after the skip (only when asked for,
+    /// [`evaluate_records_per_epoch`]): time,
+    /// position error N, E, D (m), velocity error N, E, D (m/s), attitude error roll,
+    /// pitch, yaw (deg), the result minus the truth.
+    #[serde(skip)]
+    pub epochs: Vec<[f64; 10]>,
 }
 
 impl Stats {
@@ -197,9 +203,17 @@ pub fn evaluate_with(
                 None => reference_columns(truth)? == 4,
             };
             if positions_only {
-                evaluate_at_reference(|| res.next_record(), || refs.next_record(), skip, windows)
+                evaluate_at_reference(
+                    || res.next_record(),
+                    || refs.next_record(),
+                    Evaluator::new(skip, windows),
+                )
             } else {
-                evaluate_at_result(|| res.next_record(), || refs.next_record(), skip, windows)
+                evaluate_at_result(
+                    || res.next_record(),
+                    || refs.next_record(),
+                    Evaluator::new(skip, windows),
+                )
             }
         };
         let ev = errors();
@@ -219,6 +233,7 @@ pub struct Evaluator {
     skip: f64,
     windows: Vec<(f64, f64)>,
     start: Option<f64>,
+    keep: bool,
 }
 
 impl Evaluator {
@@ -234,10 +249,12 @@ impl Evaluator {
                 windows_rms_of_max_vertical: f64::NAN,
                 unmatched: 0,
                 nees: None,
+                epochs: Vec::new(),
             },
             skip,
             windows: windows.to_vec(),
             start: None,
+            keep: false,
         }
     }
 
@@ -255,6 +272,9 @@ impl Evaluator {
         let start = *self.start.get_or_insert(t);
         let (dp, dv, da) = errors(result, reference);
         if t - start >= self.skip {
+            if self.keep {
+                self.ev.epochs.push([t, dp.x, dp.y, dp.z, dv.x, dv.y, dv.z, da.x, da.y, da.z]);
+            }
             self.ev.overall.push(&dp, &dv, &da);
         }
         for (w, (a, b)) in self.ev.windows.iter_mut().zip(&self.windows) {
@@ -291,12 +311,28 @@ pub fn evaluate_records(
     skip: f64,
     windows: &[(f64, f64)],
 ) -> Evaluation {
+    records(results, reference, Evaluator::new(skip, windows))
+}
+
+/// [`evaluate_records`] without windows, keeping every compared epoch's errors
+/// ([`Evaluation::epochs`]).
+pub fn evaluate_records_per_epoch(
+    results: &[NavRecord],
+    reference: &[NavRecord],
+    skip: f64,
+) -> Evaluation {
+    let mut ev = Evaluator::new(skip, &[]);
+    ev.keep = true;
+    records(results, reference, ev)
+}
+
+fn records(results: &[NavRecord], reference: &[NavRecord], ev: Evaluator) -> Evaluation {
     let (mut res, mut refs) = (results.iter().copied(), reference.iter().copied());
     let positions_only = reference.first().is_some_and(|r| r.vel.x.is_nan());
     let out = if positions_only {
-        evaluate_at_reference(|| Ok(res.next()), || Ok(refs.next()), skip, windows)
+        evaluate_at_reference(|| Ok(res.next()), || Ok(refs.next()), ev)
     } else {
-        evaluate_at_result(|| Ok(res.next()), || Ok(refs.next()), skip, windows)
+        evaluate_at_result(|| Ok(res.next()), || Ok(refs.next()), ev)
     };
     // In memory nothing can fail to read.
     out.unwrap_or_default()
@@ -306,11 +342,10 @@ pub fn evaluate_records(
 fn evaluate_at_reference(
     result: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     mut reference: impl FnMut() -> Result<Option<NavRecord>, LineError>,
-    skip: f64,
-    windows: &[(f64, f64)],
+    ev: Evaluator,
 ) -> Result<Evaluation, LineError> {
     let mut res = Bracket::new(result)?;
-    let mut ev = Evaluator::new(skip, windows).with_start(res.first_t().unwrap_or(0.0));
+    let mut ev = ev.with_start(res.first_t().unwrap_or(0.0));
     while let Some(f) = reference()? {
         match res.at(f.t)? {
             Some(here) => ev.add(&here, &f),
@@ -324,11 +359,9 @@ fn evaluate_at_reference(
 fn evaluate_at_result(
     mut result: impl FnMut() -> Result<Option<NavRecord>, LineError>,
     truth: impl FnMut() -> Result<Option<NavRecord>, LineError>,
-    skip: f64,
-    windows: &[(f64, f64)],
+    mut ev: Evaluator,
 ) -> Result<Evaluation, LineError> {
     let mut tru = Bracket::new(truth)?;
-    let mut ev = Evaluator::new(skip, windows);
     while let Some(r) = result()? {
         ev.start.get_or_insert(r.t);
         match tru.at(r.t)?.or_else(|| tru.exact(r.t)) {
