@@ -404,9 +404,11 @@ def kalman(
     step (a leading axis of length ``steps``). ``strategy`` is any of ``STRATEGIES``.
 
     Returns a dict of arrays: ``x``, ``P`` (posteriors), ``x_prior``, ``P_prior``,
-    ``nis``, ``log_likelihood``, ``verdict`` (accepted, inflated, deflated, rejected,
-    none), and with ``smooth=True`` the RTS smoother's ``xs``, ``Ps``. States of 1 to
-    ``MAX_N`` (9), measurements of 1 to ``MAX_M`` (6) dimensions.
+    ``nis``, ``log_likelihood`` (with the covariance the strategy used), ``verdict``
+    (accepted, inflated, deflated, rejected, none), and with ``smooth=True`` the RTS
+    smoother's ``xs``, ``Ps``. Any size: states of 1 to ``MAX_N`` (9) with 1 to ``MAX_M``
+    (8) rows run on the compiled instances, larger ones on the dynamic core (``fixed``
+    or ``chi2-gate`` there).
     """
     z = _f64(z)
     if z.ndim == 1:

@@ -273,6 +273,33 @@ fn build<const N: usize>(
     Ok(Box::new(Filter { f, rec: recorder(smooth, lag), lag }))
 }
 
+/// A core of `n` states: one of the compiled instances, or with `dynamic` the heap core.
+pub(crate) fn make_core(
+    n: usize,
+    strategy: &str,
+    smooth: bool,
+    lag: Option<usize>,
+    dynamic: bool,
+) -> Result<Box<dyn Core>, String> {
+    let s: AnyStrategy = strategy.parse().map_err(|e| format!("{e}"))?;
+    if dynamic {
+        return crate::dynamic::DynFilter::new(n, strategy, smooth, lag)
+            .map(|f| Box::new(f) as Box<dyn Core>);
+    }
+    match n {
+        1 => build::<1>(s, smooth, lag),
+        2 => build::<2>(s, smooth, lag),
+        3 => build::<3>(s, smooth, lag),
+        4 => build::<4>(s, smooth, lag),
+        5 => build::<5>(s, smooth, lag),
+        6 => build::<6>(s, smooth, lag),
+        7 => build::<7>(s, smooth, lag),
+        8 => build::<8>(s, smooth, lag),
+        9 => build::<9>(s, smooth, lag),
+        n => Err(format!("state dimension {n}: 1 to {MAX_N} compiled")),
+    }
+}
+
 /// The filter core of the Python callables: created for a state dimension, a strategy by
 /// name, and which smoother records (`smooth`: the RTS smoother over the whole run; `lag`:
 /// the fixed-lag smoother over the last `lag` predictions). `m`: the largest measurement
@@ -327,25 +354,7 @@ impl CallableCore {
             return Err(PyValueError::new_err("dim_x must be at least 1"));
         }
         let dynamic = dynamic || n > MAX_N || m > MAX_M;
-        let core = if dynamic {
-            strategy.parse::<AnyStrategy>().map_err(fail)?;
-            crate::dynamic::DynFilter::new(n, strategy, smooth, lag)
-                .map(|f| Box::new(f) as Box<dyn Core>)
-        } else {
-            let s: AnyStrategy = strategy.parse().map_err(fail)?;
-            match n {
-                1 => build::<1>(s, smooth, lag),
-                2 => build::<2>(s, smooth, lag),
-                3 => build::<3>(s, smooth, lag),
-                4 => build::<4>(s, smooth, lag),
-                5 => build::<5>(s, smooth, lag),
-                6 => build::<6>(s, smooth, lag),
-                7 => build::<7>(s, smooth, lag),
-                8 => build::<8>(s, smooth, lag),
-                _ => build::<9>(s, smooth, lag),
-            }
-        }
-        .map_err(fail)?;
+        let core = make_core(n, strategy, smooth, lag, dynamic).map_err(fail)?;
         Ok(Self { core, n, made: (strategy.to_owned(), smooth, lag, m, dynamic) })
     }
 

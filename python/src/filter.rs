@@ -1,13 +1,12 @@
 //! The generic filter for Python: the error-state Kalman filter (on a Euclidean state,
 //! exactly the linear Kalman filter) with any adaptive strategy by name, its RTS smoother,
 //! and the built-in kinematic models' matrices. Dimensions are compile-time in the
-//! library; a call dispatches on its `(n, m)` to one of the instances built here
-//! (`n ≤ MAX_N`, `m ≤ MAX_M`).
+//! library; a call runs on the callables' cores (`callables.rs`): a compiled instance for
+//! `n ≤ MAX_N`, `m ≤ MAX_M`, the dynamic heap core beyond (fixed noise or the χ² gate).
 
 use adaptive::AnyStrategy;
-use estimator_core::linear::{LinearMeasurement, LinearProcess};
-use estimator_core::{ErrorStateFilter, ProcessModel, RtsSmoother};
-use nalgebra::{SMatrix, SVector};
+use estimator_core::ProcessModel;
+use nalgebra::SVector;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -15,10 +14,10 @@ use pyo3::types::PyDict;
 
 use crate::{fail, matrix};
 
-/// Largest state dimension of the instances built.
-pub const MAX_N: usize = 9;
-/// Largest measurement dimension of the instances built.
-pub const MAX_M: usize = 6;
+/// Largest state dimension of the compiled instances.
+pub const MAX_N: usize = crate::callables::MAX_N;
+/// Largest measurement dimension of the compiled instances.
+pub const MAX_M: usize = crate::callables::MAX_M;
 
 /// One run's inputs, row-major; `F`, `Q`, `H`, `R` hold one matrix (constant) or one per
 /// step.
@@ -34,7 +33,7 @@ struct Problem {
     R: Vec<f64>,
     /// `steps × m`; a row with a NaN is a step without a measurement.
     z: Vec<f64>,
-    strategy: AnyStrategy,
+    strategy: String,
     smooth: bool,
 }
 
@@ -53,92 +52,64 @@ struct Output {
 }
 
 impl Problem {
-    /// Matrix `k` of a constant (one matrix) or per-step sequence.
-    fn at<const R: usize, const C: usize>(seq: &[f64], k: usize) -> SMatrix<f64, R, C> {
-        let size = R * C;
+    /// Matrix `k` (`size` entries) of a constant (one matrix) or per-step sequence.
+    fn at(seq: &[f64], size: usize, k: usize) -> &[f64] {
         let k = if seq.len() == size { 0 } else { k };
-        SMatrix::from_row_slice(&seq[k * size..(k + 1) * size])
+        &seq[k * size..(k + 1) * size]
     }
 }
 
-fn push<const R: usize, const C: usize>(out: &mut Vec<f64>, m: &SMatrix<f64, R, C>) {
-    // row-major, as numpy
-    out.extend(m.transpose().iter());
+/// `A v` for a row-major `rows × v.len()` matrix.
+fn times(a: &[f64], v: &[f64]) -> Vec<f64> {
+    a.chunks(v.len()).map(|row| row.iter().zip(v).map(|(a, b)| a * b).sum()).collect()
 }
 
 /// Predict then update at every step (FilterPy's `batch_filter` order), recording for the
-/// smoother.
-fn run<const N: usize, const M: usize>(p: &Problem) -> Result<Output, String> {
-    let x0 = SVector::<f64, N>::from_row_slice(&p.x0);
-    let P0 = SMatrix::<f64, N, N>::from_row_slice(&p.P0);
-    let mut f = ErrorStateFilter::new(x0, P0, p.strategy.clone()).map_err(|e| e.to_string())?;
-    let mut rts = RtsSmoother::new();
+/// smoother. The same cores as the callables' (`callables.rs`): one of the compiled
+/// instances for states of 1 to 9 and measurements of 1 to 8 rows, the heap core beyond.
+fn run(p: &Problem) -> Result<Output, String> {
+    let (n, m) = (p.n, p.m);
+    let dynamic = n > crate::callables::MAX_N || m > crate::callables::MAX_M;
+    let mut core = crate::callables::make_core(n, &p.strategy, p.smooth, None, dynamic)?;
+    core.set(&p.x0, &p.P0).map_err(|e| format!("the start: {e}"))?;
+    let mut x = p.x0.clone();
     let mut out = Output::default();
-    let ln2pi = (2.0 * std::f64::consts::PI).ln();
     for k in 0..p.steps {
-        let process = LinearProcess::<N> { F: Problem::at(&p.F, k), Q: Problem::at(&p.Q, k) };
-        let step = if p.smooth {
-            rts.predict(&mut f, &process, &(), 1.0)
-        } else {
-            f.predict(&process, &(), 1.0)
-        };
-        step.map_err(|e| format!("step {k}: prediction: {e}"))?;
-        push(&mut out.x_prior, f.state());
-        push(&mut out.P_prior, &f.covariance());
-        let z = &p.z[k * M..(k + 1) * M];
+        let F = Problem::at(&p.F, n * n, k);
+        x = times(F, &x);
+        let P = core
+            .predict(&x, F, Problem::at(&p.Q, n * n, k), 1.0)
+            .map_err(|e| format!("step {k}: prediction: {e}"))?;
+        out.x_prior.extend(&x);
+        out.P_prior.extend(&P);
+        let z = &p.z[k * m..(k + 1) * m];
+        let mut P_post = P;
         if z.iter().all(|v| v.is_finite()) {
-            let sensor = LinearMeasurement::<M, N>::new(Problem::at(&p.H, k));
-            let R = Problem::at::<M, M>(&p.R, k);
-            let report = f
-                .update(&sensor, &SVector::<f64, M>::from_row_slice(z), &R)
+            let H = Problem::at(&p.H, m * n, k);
+            let y: Vec<f64> = z.iter().zip(times(H, &x)).map(|(z, h)| z - h).collect();
+            let u = core
+                .update(&y, H, Problem::at(&p.R, m * m, k), None)
                 .map_err(|e| format!("step {k}: update: {e}"))?;
-            // ln det S from its Cholesky factor (S was checked positive definite)
-            let ln_det = nalgebra::linalg::Cholesky::new(report.S)
-                .map_or(f64::NAN, |c| 2.0 * c.l_dirty().diagonal().map(f64::ln).sum());
-            out.nis.push(report.nis);
-            out.log_likelihood.push(-0.5 * (M as f64 * ln2pi + ln_det + report.nis));
-            out.verdict.push(report.verdict.as_str());
+            out.nis.push(u.nis);
+            out.log_likelihood.push(u.log_likelihood);
+            out.verdict.push(u.verdict);
+            x = u.x;
+            P_post = u.P;
         } else {
             out.nis.push(f64::NAN);
             out.log_likelihood.push(f64::NAN);
             out.verdict.push("none");
         }
-        push(&mut out.x, f.state());
-        push(&mut out.P, &f.covariance());
+        out.x.extend(&x);
+        out.P.extend(&P_post);
     }
     if p.smooth {
         // the smoothed estimates after every step (the first is at the start: dropped)
-        for s in rts.smooth(&f).map_err(|e| format!("smoother: {e}"))?.iter().skip(1) {
-            push(&mut out.xs, &s.x);
-            push(&mut out.Ps, &s.p);
-        }
+        let (xs, ps) = core.smooth().map_err(|e| format!("smoother: {e}"))?;
+        out.xs = xs[n..].to_vec();
+        out.Ps = ps[n * n..].to_vec();
     }
     Ok(out)
-}
-
-macro_rules! for_m {
-    ($p:expr, $n:literal, [$($m:literal),*]) => {
-        match $p.m {
-            $($m => run::<$n, $m>($p),)*
-            m => Err(format!("measurement dimension {m}: 1 to {MAX_M}")),
-        }
-    };
-}
-
-/// [`run`] at the problem's dimensions.
-fn dispatch(p: &Problem) -> Result<Output, String> {
-    match p.n {
-        1 => for_m!(p, 1, [1, 2, 3, 4, 5, 6]),
-        2 => for_m!(p, 2, [1, 2, 3, 4, 5, 6]),
-        3 => for_m!(p, 3, [1, 2, 3, 4, 5, 6]),
-        4 => for_m!(p, 4, [1, 2, 3, 4, 5, 6]),
-        5 => for_m!(p, 5, [1, 2, 3, 4, 5, 6]),
-        6 => for_m!(p, 6, [1, 2, 3, 4, 5, 6]),
-        7 => for_m!(p, 7, [1, 2, 3, 4, 5, 6]),
-        8 => for_m!(p, 8, [1, 2, 3, 4, 5, 6]),
-        9 => for_m!(p, 9, [1, 2, 3, 4, 5, 6]),
-        n => Err(format!("state dimension {n}: 1 to {MAX_N}")),
-    }
 }
 
 /// A constant matrix (`rows × cols`) or one per step (`steps × rows × cols`), row-major.
@@ -196,10 +167,13 @@ fn kalman<'py>(
         H: sequence("H", &H, m, n, steps)?,
         R: sequence("R", &R, m, m, steps)?,
         z: za.iter().copied().collect(),
-        strategy: strategy.parse().map_err(fail)?,
+        strategy: {
+            strategy.parse::<AnyStrategy>().map_err(fail)?;
+            strategy.to_owned()
+        },
         smooth,
     };
-    let out = py.allow_threads(|| dispatch(&p)).map_err(fail)?;
+    let out = py.allow_threads(|| run(&p)).map_err(fail)?;
     let d = PyDict::new(py);
     let cube = |py, v: Vec<f64>| -> PyResult<Bound<'py, PyAny>> {
         let k = v.len() / (n * n).max(1);

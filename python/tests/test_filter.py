@@ -119,8 +119,32 @@ def test_bad_shapes_and_dimensions_are_refused():
     with pytest.raises(ValueError, match="F has shape"):
         estimator.kalman(c["x0"], c["P0"], np.eye(3), c["Q"], c["H"], c["R"], c["z"])
     n = estimator.MAX_N + 1
-    with pytest.raises(estimator.EstimatorError, match="state dimension"):
+    with pytest.raises(estimator.EstimatorError, match="iae"):
         estimator.kalman(np.zeros(n), np.eye(n), np.eye(n), np.eye(n), np.ones((1, n)),
-                         np.eye(1), np.zeros((3, 1)))
+                         np.eye(1), np.zeros((3, 1)), strategy="iae")
     with pytest.raises(estimator.EstimatorError, match="P0|positive"):
         estimator.kalman(c["x0"], -np.eye(4), c["F"], c["Q"], c["H"], c["R"], c["z"])
+
+
+def test_beyond_the_compiled_sizes_kalman_runs_on_the_dynamic_core_and_equals_filterpy():
+    """12 states and 10 rows (compiled: 9 and 8): FilterPy's batch_filter and
+    rts_smoother to 1e-9."""
+    from filterpy.kalman import KalmanFilter as FpKF
+
+    n, m, steps = 12, 10, 40
+    rng = np.random.default_rng(8)
+    F = np.eye(n) + 0.05 * rng.normal(size=(n, n))
+    A = rng.normal(size=(n, n)) * 0.1
+    Q = A @ A.T + 1e-3 * np.eye(n)
+    H = rng.normal(size=(m, n))
+    R = np.eye(m) * 0.5
+    z = rng.normal(size=(steps, m))
+    z[7] = np.nan
+    out = estimator.kalman(np.zeros(n), np.eye(n), F, Q, H, R, z, smooth=True)
+    fp = FpKF(n, m)
+    fp.x, fp.P, fp.F, fp.Q, fp.H, fp.R = np.zeros(n), np.eye(n), F, Q, H, R
+    zs = [None if np.isnan(row).any() else row for row in z]
+    mu, cov, _, _ = fp.batch_filter(zs)
+    xs, Ps, _, _ = fp.rts_smoother(mu, cov)
+    for a, b in ((out["x"], mu), (out["P"], cov), (out["xs"], xs), (out["Ps"], Ps)):
+        assert np.abs(a - b).max() <= 1e-9 * max(1.0, np.abs(b).max())
