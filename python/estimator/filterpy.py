@@ -225,7 +225,8 @@ class _Core:
     def _no_update(self):
         """``update(None)``: FilterPy's attributes of a step without a measurement."""
         self.z = _none_z(self.dim_z)
-        self.y = np.zeros_like(self.y) if np.size(self.y) == self.dim_z else np.zeros((self.dim_z, 1))
+        keep = np.size(self.y) == self.dim_z
+        self.y = np.zeros_like(self.y) if keep else np.zeros((self.dim_z, 1))
         self._save_post()
 
     def _native_predict(self, x_new, F, Q, dt):
@@ -745,8 +746,7 @@ class UnscentedKalmanFilter(_Core):
 
     def update(self, z, R=None, UT=None, hx=None, **hx_args):
         if z is None:
-            self.z = _none_z(self.dim_z)
-            self._save_post()
+            self._no_update()  # (FilterPy's UKF leaves y as it was; its KF zeroes it)
             return
         hx = self.hx if hx is None else hx
         UT = unscented_transform if UT is None else UT

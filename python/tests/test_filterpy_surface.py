@@ -200,6 +200,39 @@ def test_shapes_none_updates_and_dimension_checks():
         two.update(3.0)
 
 
+def test_the_books_radar_ekf_with_a_flat_state_and_a_range_dependent_r():
+    """Chapter 11's radar (FilterPy's ``test_ekf.py`` scenario): a 1-D ``x`` (position,
+    velocity, altitude), a scalar range, ``R`` passed per update."""
+    from filterpy.kalman import ExtendedKalmanFilter as FpEKF
+
+    def h_jac(x):
+        d = np.hypot(x[0], x[2])
+        return np.array([[x[0] / d, 0.0, x[2] / d]])
+
+    def h(x):
+        return np.hypot(x[0], x[2])
+
+    dt = 0.05
+    fs = []
+    for cls in (ExtendedKalmanFilter, FpEKF):
+        f = cls(dim_x=3, dim_z=1)
+        f.x = np.array([-10.0, 90.0, 1100.0])
+        f.F = np.eye(3) + np.array([[0, 1, 0], [0, 0, 0], [0, 0, 0.0]]) * dt
+        f.Q = np.diag([0.1, 0.1, 0.1]) * dt
+        f.P *= 50
+        fs.append(f)
+    rng = np.random.default_rng(21)
+    pos, alt = 0.0, 1000.0
+    for k in range(300):
+        pos += 100 * dt
+        z = np.hypot(pos, alt) + rng.normal() * 5
+        for f in fs:
+            f.update(np.array([z]), h_jac, h, R=h(f.x) * 0.05)
+            f.predict()
+        assert_close(fs[0].x, fs[1].x, what=f"x at {k}")
+        assert_close(fs[0].P, fs[1].P, what=f"P at {k}")
+
+
 # --- the unscented filter ------------------------------------------------------------
 
 def cv2_fx(x, dt):
