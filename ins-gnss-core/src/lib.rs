@@ -29,6 +29,7 @@
 #![allow(non_snake_case)]
 
 pub mod align;
+pub mod allan;
 pub mod earth;
 pub mod fix_error;
 pub mod gnss;

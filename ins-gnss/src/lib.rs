@@ -29,6 +29,7 @@ macro_rules! out {
 }
 
 pub mod aiding;
+pub mod allan;
 mod checks;
 pub mod cli;
 pub mod columns;

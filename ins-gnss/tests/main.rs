@@ -2,6 +2,7 @@
 //! of one per file): each module is one file of `tests/`, run as before with
 //! `cargo test -p ins-gnss --test main MODULE::` (a module's tests) or a test's name.
 
+mod allan;
 mod bad_input;
 mod campaign;
 mod cli;

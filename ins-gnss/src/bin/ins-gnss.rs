@@ -120,6 +120,26 @@ enum Command {
         #[arg(long)]
         config: Option<PathBuf>,
     },
+    /// The IMU's noise from a static record by the overlapping Allan deviation: per axis
+    /// white noise, bias instability and rate random walk with their 1σ, an SVG of the
+    /// curves, and the `[imu_noise]` block to paste.
+    Allan {
+        /// A configuration (its IMU input: file, column map or ROS recording), or an IMU
+        /// file in KF-GINS's format (with --rate).
+        input: PathBuf,
+        /// The IMU file's rate, Hz (a configuration gives its own).
+        #[arg(long)]
+        rate: Option<f64>,
+        /// The IMU file holds rates (rad/s, m/s²) instead of increments.
+        #[arg(long)]
+        rates: bool,
+        /// Write the curves with the fitted model here (SVG).
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Only the first SECONDS of the record (a static start).
+        #[arg(long, value_name = "SECONDS")]
+        first: Option<f64>,
+    },
     /// Simulate a dataset (IMU, GNSS, truth, config) from a scenario file.
     Simulate {
         /// Scenario file (TOML; see `ins-gnss/scenarios/`).
@@ -267,6 +287,11 @@ fn main() -> ExitCode {
             cli::eval(&result, &truth, skip, &windows, json, config.as_deref())
         }
         Some(Command::Simulate { scenario, out }) => cli::simulate(&scenario, &out),
+        Some(Command::Allan { input, rate, rates, svg, first }) => {
+            ins_gnss::allan::run(&input, rate, rates, first, svg.as_deref())
+                .map(|text| print!("{text}"))
+                .map_err(Into::into)
+        }
         Some(Command::Spp { obs, nav, out, iono, tropo, mask, raim, systems, against }) => {
             let opt = ins_gnss_core::raw::SppOptions {
                 ionosphere: iono,

@@ -10,13 +10,22 @@ pub(crate) fn open_inputs(
     config: &Config,
     inputs: &Inputs,
 ) -> Result<(ImuReader<FileReader>, AidReader), RunError> {
+    if matches!(inputs, Inputs::Files) {
+        config.require_inputs().map_err(RunError::Config)?;
+    }
+    Ok((open_imu(config, inputs)?, open_aid(config, inputs)?))
+}
+
+/// The configured IMU reader alone (format, rate, gap limit, skip policy, column map,
+/// mounting, time offset) on the file or rows of `inputs`.
+pub(crate) fn open_imu(
+    config: &Config,
+    inputs: &Inputs,
+) -> Result<ImuReader<FileReader>, RunError> {
     let (format, rate, gap, policy) =
         (config.imu_format(), config.data.imu_rate, config.data.max_gap, config.bad_lines());
     let mut imu = match inputs {
-        Inputs::Files => {
-            config.require_inputs().map_err(RunError::Config)?;
-            ImuReader::open(&config.data.imu, format, rate, gap, policy)?
-        }
+        Inputs::Files => ImuReader::open(&config.data.imu, format, rate, gap, policy)?,
         Inputs::Arrays { imu, imu_width, .. } | Inputs::Recording { imu, imu_width, .. } => {
             let name = inputs.imu_name(config);
             ImuReader::from_rows(imu.clone(), *imu_width, &name, format, rate, gap, policy)
@@ -32,7 +41,7 @@ pub(crate) fn open_inputs(
     if let Some(m) = &config.imu.mounting {
         imu = imu.with_mounting(m.matrix().map_err(|e| bad_map("imu.mounting", e))?);
     }
-    Ok((imu, open_aid(config, inputs)?))
+    Ok(imu)
 }
 
 /// The configured GNSS input: fixes, or raw observations (tight coupling, files only).

@@ -58,6 +58,7 @@ pub use error::*;
 pub use inputs::*;
 pub use memory::*;
 pub use outputs::*;
+pub(crate) use recording::open_recording as open_recording_for_imu;
 use recording::*;
 pub use rows::*;
 pub use slices::*;
