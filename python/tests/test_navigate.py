@@ -269,3 +269,20 @@ def test_a_tight_run_from_a_ubx_log_runs_from_python_as_from_the_program(cli, tm
     streams = json.dumps(py.summary)
     for sat in ["C01", "C02", "C03", "C09", "C19", "C24"]:
         assert f"pr {sat}" in streams, sat
+
+
+def test_the_three_figures_are_drawn(both):
+    """``plot``: the track with the truth's, the errors with ±3σ, the NIS per stream
+    (matplotlib, a FilterPy dependency, draws off-screen)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    _, py = both
+    track, errors, nis = py.plot(TRUTH)
+    assert len(track.axes[0].lines) == 2  # estimate and truth
+    assert len(errors.axes) == 4 and all(len(a.lines) >= 3 for a in errors.axes)
+    assert len(nis.axes[0].lines) >= 1
+    # the north error drawn is evaluate()'s
+    ep = py.evaluate(TRUTH)["epochs"]
+    drawn = errors.axes[0].lines[0].get_ydata()
+    assert np.allclose(drawn, ep["north"].to_numpy())
