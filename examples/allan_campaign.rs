@@ -67,7 +67,7 @@ fn main() {
         let c = FLICKER_FLOOR * b * b / floor;
         let (mut white, mut inst, mut walk) = (Vec::new(), Vec::new(), Vec::new());
         for seed in 0..seeds {
-            let mut g = Rng(0x9e37_79b9_7f4a_7c15 ^ (seed + 1) * 0x2545_f491);
+            let mut g = Rng(0x9e37_79b9_7f4a_7c15 ^ ((seed + 1) * 0x2545_f491));
             let decay: Vec<(f64, f64)> = consts
                 .iter()
                 .map(|t| {
