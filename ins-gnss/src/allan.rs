@@ -15,10 +15,14 @@ use ins_gnss_core::io::formats::ImuReader;
 use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
 
 const DEG: f64 = 180.0 / std::f64::consts::PI;
-/// Largest departure of a 1 s mean from the record's mean in a static record: rate
-/// (rad/s, 0.57 °/s) and specific force (m/s²).
-const STATIC_RATE: f64 = 0.01;
-const STATIC_FORCE: f64 = 0.3;
+/// The slow drift a 1 s mean of a static record may show beyond its noise: rate (rad/s,
+/// 0.57 °/s) and specific force (m/s²).
+pub const STATIC_RATE: f64 = 0.01;
+/// See [`STATIC_RATE`].
+pub const STATIC_FORCE: f64 = 0.3;
+/// How many σ of a 1 s mean's white noise a static record's 1 s means may depart (the
+/// largest of 3 × 86,400 Gaussian draws, a day's axes, is about 5σ).
+pub const NOISE_SIGMAS: f64 = 6.0;
 
 /// The six axes' increments (gyro x, y, z in rad; accelerometer x, y, z in m/s) and the
 /// sample interval.
@@ -45,7 +49,7 @@ pub fn read(
     let mut reader = if matches!(ext, "toml" | "yaml" | "yml") {
         let config = Config::load(path).map_err(RunError::Config)?;
         let (config, inputs) = if config.data.ros.is_some() {
-            crate::run::open_recording_for_imu(&config)?
+            crate::run::open_recording(&config)?
         } else {
             (config, Inputs::Files)
         };
@@ -79,21 +83,51 @@ pub fn read(
     Ok(Record { axes, dt, source: path.display().to_string() })
 }
 
-/// The record's largest departure of a 1 s mean from the whole mean, per sensor
-/// (rate rad/s, specific force m/s²).
-pub fn motion(r: &Record) -> (f64, f64) {
+/// How far the record's 1 s means depart from its mean, against what rest allows, per
+/// sensor (gyros, accelerometers): `(largest departure, its allowance)` of the axis whose
+/// ratio is largest. At rest a 1 s mean departs by its white noise — the samples'
+/// point-to-point scatter (`sd(xᵢ₊₁ − xᵢ)/√2`, which slow motion does not inflate) over
+/// √(samples per second), up to [`NOISE_SIGMAS`] of it over a long record — plus a slow
+/// drift of the bias below [`STATIC_RATE`] / [`STATIC_FORCE`].
+pub fn motion(r: &Record) -> [(f64, f64); 2] {
     let per = ((1.0 / r.dt).round() as usize).max(1);
-    let worst = |axes: &[Vec<f64>]| {
-        let mut w = 0.0_f64;
+    let worst = |axes: &[Vec<f64>], floor: f64| {
+        let mut out = (0.0, floor);
         for a in axes {
-            let mean = a.iter().sum::<f64>() / a.len().max(1) as f64 / r.dt;
+            let n = a.len().max(2) as f64;
+            let mean = a.iter().sum::<f64>() / n / r.dt;
+            let jitter = a.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (n - 1.0);
+            let white = (jitter / 2.0).sqrt() / r.dt / (per as f64).sqrt();
+            let allowed = floor + NOISE_SIGMAS * white;
             for c in a.chunks_exact(per) {
-                w = w.max((c.iter().sum::<f64>() / (per as f64 * r.dt) - mean).abs());
+                let d = (c.iter().sum::<f64>() / (per as f64 * r.dt) - mean).abs();
+                if d / allowed > out.0 / out.1 {
+                    out = (d, allowed);
+                }
             }
         }
-        w
+        out
     };
-    (worst(&r.axes[..3]), worst(&r.axes[3..]))
+    [worst(&r.axes[..3], STATIC_RATE), worst(&r.axes[3..], STATIC_FORCE)]
+}
+
+/// A record at rest, or why not.
+pub fn check_static(r: &Record) -> Result<(), String> {
+    let [(w, wa), (f, fa)] = motion(r);
+    if w <= wa && f <= fa {
+        return Ok(());
+    }
+    Err(format!(
+        "{}: the record moves (a 1 s mean departs from the record's mean by {:.3} °/s and \
+         {:.3} m/s², where rest allows {:.3} °/s and {:.3} m/s²: the sensors' own noise and a \
+         slow drift): the Allan deviation of a moving IMU measures its motion, not its \
+         noise — give a static record",
+        r.source,
+        w * DEG,
+        f,
+        wa * DEG,
+        fa
+    ))
 }
 
 /// The analysis of every axis.
@@ -295,19 +329,7 @@ pub fn run(
             ins_gnss_core::allan::MIN_SAMPLES
         ));
     }
-    let (w, f) = motion(&r);
-    if w > STATIC_RATE || f > STATIC_FORCE {
-        return Err(format!(
-            "{}: the record moves (a 1 s mean departs from the record's mean by {:.3} °/s \
-             and {:.3} m/s²; at rest both stay below {:.2} °/s and {STATIC_FORCE} m/s²): the \
-             Allan deviation of a moving IMU measures its motion, not its noise — give a \
-             static record",
-            r.source,
-            w * DEG,
-            f,
-            STATIC_RATE * DEG
-        ));
-    }
+    check_static(&r)?;
     let fits = analyse_record(&r)?;
     if let Some(p) = svg {
         plot(p, &fits)?;
