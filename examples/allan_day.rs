@@ -5,20 +5,14 @@
 use std::time::Instant;
 
 use ins_gnss_core::allan::analyse;
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
 
 fn main() {
     let (dt, n_true, k_true, samples) = (0.005_f64, 2e-3, 1e-6, 86_400 * 200);
-    let mut state = 0x2545_f491_4f6c_dd1d_u64;
-    let mut gauss = move || {
-        let mut u = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let (a, b) = (u().max(1e-300), u());
-        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-    };
+    let mut rng = StdRng::seed_from_u64(86_400);
+    let mut gauss = move || -> f64 { StandardNormal.sample(&mut rng) };
     let axes: Vec<Vec<f64>> = (0..6)
         .map(|_| {
             let mut bias = 0.0;

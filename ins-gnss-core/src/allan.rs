@@ -185,17 +185,17 @@ pub fn fit(curve: &[AdevPoint], span: f64) -> AxisNoise {
     let tau_min = curve.iter().min_by(|a, b| a.adev.total_cmp(&b.adev)).map_or(f64::NAN, |p| p.tau);
     let (coef, sig) = best.map_or(([0.0; 3], [0.0; 3]), |b| (b.0, b.1));
     // a coefficient c = x² with 1σ s: x = √c, σₓ = s / (2 x); resolved when c > 2 s
-    let term = |c: f64, s: f64, scale: f64| {
+    let term = |c: f64, s: f64| {
         (c > 0.0 && c > 2.0 * s).then(|| {
-            let x = (c / scale).sqrt();
-            Term { value: x, sigma: s / scale / (2.0 * x) }
+            let x = c.sqrt();
+            Term { value: x, sigma: s / (2.0 * x) }
         })
     };
     AxisNoise {
         curve: curve.to_vec(),
-        white: term(coef[0], sig[0], 1.0),
-        instability: term(coef[1], sig[1], 1.0),
-        rate_random_walk: term(coef[2], sig[2], 1.0),
+        white: term(coef[0], sig[0]),
+        instability: term(coef[1], sig[1]),
+        rate_random_walk: term(coef[2], sig[2]),
         tau_min,
         span,
     }
@@ -254,19 +254,18 @@ pub fn analyse(increments: &[f64], dt: f64) -> Result<AxisNoise, AllanError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::rngs::StdRng;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
 
-    /// A small deterministic generator (xorshift, Box–Muller): the tests need no crate.
-    struct Gauss(u64);
+    /// Reproducible standard normal draws.
+    struct Gauss(StdRng);
     impl Gauss {
-        fn uniform(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        fn new(seed: u64) -> Self {
+            Self(StdRng::seed_from_u64(seed))
         }
         fn next(&mut self) -> f64 {
-            let (u, v) = (self.uniform().max(1e-300), self.uniform());
-            (-2.0 * u.ln()).sqrt() * (2.0 * core::f64::consts::PI * v).cos()
+            StandardNormal.sample(&mut self.0)
         }
     }
 
@@ -274,7 +273,7 @@ mod tests {
     fn white_noise_has_the_slope_minus_half_and_its_density() {
         // N = 0.01 /√s at 100 Hz: increments N √dt · w
         let (dt, n_true) = (0.01_f64, 0.01);
-        let mut g = Gauss(7);
+        let mut g = Gauss::new(7);
         let x: Vec<f64> = (0..200_000).map(|_| n_true * dt.sqrt() * g.next()).collect();
         let a = analyse(&x, dt).unwrap();
         let w = a.white.expect("white noise resolved");
@@ -290,7 +289,7 @@ mod tests {
     #[test]
     fn a_rate_random_walk_and_white_noise_are_told_apart() {
         let (dt, n_true, k_true) = (0.01_f64, 0.005, 2e-4);
-        let mut g = Gauss(3);
+        let mut g = Gauss::new(3);
         let mut bias = 0.0;
         let x: Vec<f64> = (0..1_000_000)
             .map(|_| {

@@ -98,6 +98,13 @@ def _psd(Q: np.ndarray) -> np.ndarray:
     return (V * np.maximum(w, 0.0)) @ V.T
 
 
+def _log_normal(y, S) -> float:
+    """ln N(y; 0, S)."""
+    y = np.ravel(y)
+    _, logdet = np.linalg.slogdet(S)
+    return float(-0.5 * (y.size * log(2 * np.pi) + logdet + y @ np.linalg.solve(S, y)))
+
+
 def _z(z, rows: int, ndim: int, what: str = "dim_z") -> np.ndarray:
     """A measurement as ``rows`` values, a column when ``x`` is one (FilterPy's
     ``reshape_z``), or a ValueError naming ``z``."""
@@ -378,12 +385,11 @@ class KalmanFilter(_Core):
         if np.ndim(self.y) != 2 or np.size(self.y) != self.dim_z:
             self.y = np.zeros((self.dim_z, 1))
         y_i = z_i - H_i @ np.ravel(self.x)
-        self._y_before = np.copy(self.y)
+        y = np.array(self.y, dtype=float).reshape(self.dim_z, 1)
         S, SI, K = self.S, self._SI, np.copy(self.K)
         self._native_update(y_i, H_i, R_i)
         K[:, start:stop] = self.K
         self.K, self.S, self._SI = K, S, SI
-        y = np.array(self._y_before, dtype=float).reshape(self.dim_z, 1)
         y[start:stop, 0] = y_i
         self.y = y
 
@@ -413,17 +419,10 @@ class KalmanFilter(_Core):
         self.S, self.SI, self.K = S, SI, K
         self.y = np.reshape(y, zz.shape)
         self.nis = self.nis_adapted = float(y @ SI @ y)
-        self._log_likelihood = self.log_likelihood_of_innovation(y, S)
+        self._log_likelihood = _log_normal(y, S)
         self.verdict = "accepted"
         self.z = deepcopy(z)
         self._save_post()
-
-    @staticmethod
-    def log_likelihood_of_innovation(y, S) -> float:
-        """ln N(y; 0, S)."""
-        y = np.ravel(y)
-        sign, logdet = np.linalg.slogdet(S)
-        return float(-0.5 * (y.size * log(2 * np.pi) + logdet + y @ np.linalg.solve(S, y)))
 
     def log_likelihood_of(self, z) -> float:
         """ln N(z − H x; 0, S) of a measurement with the last update's ``S`` (as
@@ -431,7 +430,7 @@ class KalmanFilter(_Core):
         if z is None:
             return log(sys.float_info.min)
         y = np.ravel(z) - self.H @ np.ravel(self.x)
-        return self.log_likelihood_of_innovation(y, self.S)
+        return _log_normal(y, self.S)
 
     def get_prediction(self, u=None, B=None, F=None, Q=None):
         """``(x, P)`` of a prediction (with ``alpha``), the filter unchanged."""

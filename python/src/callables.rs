@@ -88,6 +88,16 @@ pub(crate) struct Updated {
     pub(crate) verdict: &'static str,
 }
 
+/// A core as bytes (postcard: every float bit for bit, NaN included), for pickle.
+pub(crate) fn to_bytes<T: serde::Serialize>(core: &T) -> Result<Vec<u8>, String> {
+    postcard::to_allocvec(core).map_err(|e| e.to_string())
+}
+
+/// A core from [`to_bytes`]'s bytes.
+pub(crate) fn from_bytes<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
+    postcard::from_bytes(bytes).map_err(|e| e.to_string())
+}
+
 fn rowmajor<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<f64> {
     m.transpose().iter().copied().collect()
 }
@@ -245,11 +255,11 @@ impl<const N: usize> Core for Filter<N> {
     }
 
     fn save(&self) -> Result<Vec<u8>, String> {
-        postcard::to_allocvec(self).map_err(|e| e.to_string())
+        crate::callables::to_bytes(self)
     }
 
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        *self = postcard::from_bytes(state).map_err(|e| e.to_string())?;
+        *self = crate::callables::from_bytes(state)?;
         Ok(())
     }
 

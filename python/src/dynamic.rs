@@ -238,11 +238,11 @@ impl Core for DynFilter {
     }
 
     fn save(&self) -> Result<Vec<u8>, String> {
-        postcard::to_allocvec(self).map_err(|e| e.to_string())
+        crate::callables::to_bytes(self)
     }
 
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        *self = postcard::from_bytes(state).map_err(|e| e.to_string())?;
+        *self = crate::callables::from_bytes(state)?;
         Ok(())
     }
 
