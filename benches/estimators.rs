@@ -156,7 +156,9 @@ fn start_checks(c: &mut Criterion) {
         })
     });
     g.bench_function("time_offset_70s_within_10s", |b| {
-        b.iter(|| black_box(time_offset(&data.imu, &data.gnss, 30.0, 100.0, 10.0)))
+        b.iter(|| {
+            black_box(time_offset(&data.imu, &data.gnss, 30.0, 100.0, 10.0, &Vector3::zeros()))
+        })
     });
     g.bench_function("turn_ratio_70s", |b| {
         b.iter(|| black_box(turn_ratio(&data.imu, &data.gnss, 30.0, 100.0)))

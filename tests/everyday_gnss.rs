@@ -10,10 +10,7 @@
 //! as states; the share of epochs beyond the run's own 99 % ellipse at most 5 %; the
 //! horizontal RMS within 1.2× of the runs given the true noise model.
 
-#[path = "everyday/mod.rs"]
-mod everyday;
-
-use everyday::*;
+use crate::everyday::*;
 use rayon::prelude::*;
 
 fn cell(errors: Errors, declared: f64) -> Vec<(Outcome, Outcome)> {

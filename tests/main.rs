@@ -3,9 +3,11 @@
 //! `cargo test -p estimator --test main MODULE::` (a module's tests) or a test's name.
 
 mod backends;
+mod calibration;
 mod checkpoint;
 mod custom_manifold;
 mod custom_strategy;
+mod everyday;
 mod everyday_gnss;
 mod repro_fused;
 mod repro_iakf;

@@ -24,11 +24,11 @@
 //! are (a receiver's Doppler velocity has errors of centimetres per second that do not
 //! wander).
 
-use estimator_core::{Cov, ProcessJacobians, ProcessModel};
+use crate::augment::augmented_process;
 use manifolds::{composite_state, R3};
-use nalgebra::{Const, SMatrix, SVector, Vector3};
+use nalgebra::{SMatrix, Vector3};
 
-use crate::model::{ImuInput, InsModel};
+use crate::model::InsModel;
 use crate::scale::{InsModel21, InsState21};
 use crate::state::InsState;
 
@@ -108,162 +108,26 @@ pub type InsModelFe = FixErrorProcess<InsModel>;
 /// The 24-state model.
 pub type InsModel21Fe = FixErrorProcess<InsModel21>;
 
-/// `[Φ_nav 0; 0 a I]` and `[Q_nav 0; 0 diag(q)]` from the base model's Jacobians.
-fn augmented<const B: usize, const N: usize>(
-    j: &ProcessJacobians<Const<B>>,
-    a: f64,
-    q: &Vector3<f64>,
-) -> ProcessJacobians<Const<N>> {
-    let mut Phi = SMatrix::<f64, N, N>::zeros();
-    let mut Q = SMatrix::<f64, N, N>::zeros();
-    Phi.fixed_view_mut::<B, B>(0, 0).copy_from(&j.Phi);
-    Q.fixed_view_mut::<B, B>(0, 0).copy_from(&j.Q);
-    for k in 0..3 {
-        Phi[(B + k, B + k)] = a;
-        Q[(B + k, B + k)] = q[k];
-    }
-    ProcessJacobians { Phi, Q }
-}
-
-/// The fix block's and cross blocks' part of `Φ P Φᵀ + Q`, given the navigation block's
-/// `Φ_navᵀ` (`phi_t`): `out_nf = Φ_nav P_nf a`, `out_ff = a² P_ff + diag(q)`.
-fn fix_blocks<const B: usize, const N: usize>(
-    phi_t: &SMatrix<f64, B, B>,
-    p: &SMatrix<f64, N, N>,
-    a: f64,
-    q: &Vector3<f64>,
-    out: &mut SMatrix<f64, N, N>,
-) {
-    let cross = phi_t.tr_mul(&p.fixed_view::<B, 3>(0, B)) * a;
-    out.fixed_view_mut::<B, 3>(0, B).copy_from(&cross);
-    out.fixed_view_mut::<3, B>(B, 0).copy_from(&cross.transpose());
-    let mut ff: SMatrix<f64, 3, 3> = p.fixed_view::<3, 3>(B, B) * (a * a);
-    for k in 0..3 {
-        ff[(k, k)] += q[k];
-    }
-    out.fixed_view_mut::<3, 3>(B, B).copy_from(&ff);
-}
-
-/// `ProcessModel` for a fix-error process over a base model whose error state has `B`
-/// dimensions (`N = B + 3`).
-macro_rules! fix_error_process {
-    ($state:ident, $base_state:ty, $base_model:ty, $B:literal, $N:literal) => {
-        impl ProcessModel for FixErrorProcess<$base_model> {
-            type State = $state;
-            type Input = ImuInput;
-
-            fn propagate(&self, x: &$state, u: &ImuInput, dt: f64) -> $state {
-                let a = self.fix.decay(u.cur.dt);
-                $state { nav: self.base.propagate(&x.nav, u, dt), fix: x.fix * a }
-            }
-
-            fn jacobians(&self, x: &$state, u: &ImuInput, dt: f64) -> ProcessJacobians<Const<$N>> {
-                self.step(x, u, dt).1
-            }
-
-            fn step(
-                &self,
-                x: &$state,
-                u: &ImuInput,
-                dt: f64,
-            ) -> ($state, ProcessJacobians<Const<$N>>) {
-                let (nav, j) = self.base.step(&x.nav, u, dt);
-                let h = u.cur.dt;
-                let a = self.fix.decay(h);
-                let next = $state { nav, fix: x.fix * a };
-                (next, augmented::<$B, $N>(&j, a, &self.fix.added_variance(h)))
-            }
-
-            /// `Φ P Φᵀ + Q` by blocks: the navigation block by the base model's fused
-            /// step (which hands over its `Φᵀ`), the fix and cross blocks directly.
-            fn step_covariance(
-                &self,
-                x: &$state,
-                u: &ImuInput,
-                dt: f64,
-                P: &Cov<Const<$N>>,
-                out: &mut Cov<Const<$N>>,
-            ) -> $state {
-                let mut phi_t = Cov::<Const<$N>>::zeros();
-                self.step_covariance_adjoint(x, u, dt, P, out, &mut phi_t)
-            }
-
-            fn step_covariance_adjoint(
-                &self,
-                x: &$state,
-                u: &ImuInput,
-                dt: f64,
-                P: &Cov<Const<$N>>,
-                out: &mut Cov<Const<$N>>,
-                phi_t: &mut Cov<Const<$N>>,
-            ) -> $state {
-                let pn: SMatrix<f64, $B, $B> = P.fixed_view::<$B, $B>(0, 0).into_owned();
-                let mut on = SMatrix::<f64, $B, $B>::zeros();
-                let mut tn = SMatrix::<f64, $B, $B>::zeros();
-                let nav = self.base.step_covariance_adjoint(&x.nav, u, dt, &pn, &mut on, &mut tn);
-                out.fixed_view_mut::<$B, $B>(0, 0).copy_from(&on);
-                let h = u.cur.dt;
-                let a = self.fix.decay(h);
-                fix_blocks::<$B, $N>(&tn, P, a, &self.fix.added_variance(h), out);
-                phi_t.fill(0.0);
-                phi_t.fixed_view_mut::<$B, $B>(0, 0).copy_from(&tn);
-                for k in 0..3 {
-                    phi_t[($B + k, $B + k)] = a;
-                }
-                $state { nav, fix: x.fix * a }
-            }
-
-            const FUSED_STEP_COVARIANCE: bool = true;
-
-            fn transition_transposed(
-                &self,
-                x: &$state,
-                u: &ImuInput,
-                dt: f64,
-                phi_t: &mut Cov<Const<$N>>,
-            ) {
-                let mut tn = SMatrix::<f64, $B, $B>::zeros();
-                self.base.transition_transposed(&x.nav, u, dt, &mut tn);
-                phi_t.fill(0.0);
-                phi_t.fixed_view_mut::<$B, $B>(0, 0).copy_from(&tn);
-                let a = self.fix.decay(u.cur.dt);
-                for k in 0..3 {
-                    phi_t[($B + k, $B + k)] = a;
-                }
-            }
-
-            fn noise_times(
-                &self,
-                x: &$state,
-                u: &ImuInput,
-                dt: f64,
-                phi_t: &Cov<Const<$N>>,
-                v: &SVector<f64, $N>,
-                phi_t_v: &SVector<f64, $N>,
-                out: &mut SVector<f64, $N>,
-            ) {
-                let tn: SMatrix<f64, $B, $B> = phi_t.fixed_view::<$B, $B>(0, 0).into_owned();
-                let vn: SVector<f64, $B> = v.fixed_rows::<$B>(0).into_owned();
-                let wn: SVector<f64, $B> = phi_t_v.fixed_rows::<$B>(0).into_owned();
-                let mut on = SVector::<f64, $B>::zeros();
-                self.base.noise_times(&x.nav, u, dt, &tn, &vn, &wn, &mut on);
-                out.fixed_rows_mut::<$B>(0).copy_from(&on);
-                let q = self.fix.added_variance(u.cur.dt);
-                for k in 0..3 {
-                    out[$B + k] = q[k] * v[$B + k];
-                }
-            }
-
-            fn fold_input(&self, sum: &mut Option<ImuInput>, u: &ImuInput) -> bool {
-                u.fold_into(sum);
-                true
-            }
-        }
-    };
-}
-
-fix_error_process!(InsStateFe, InsState, InsModel, 15, 18);
-fix_error_process!(InsState21Fe, InsState21, InsModel21, 21, 24);
+augmented_process!(
+    InsModelFe,
+    InsStateFe,
+    fix,
+    15,
+    3,
+    18,
+    decay: |m: &InsModelFe, h| Vector3::repeat(m.fix.decay(h)),
+    added: |m: &InsModelFe, h| m.fix.added_variance(h)
+);
+augmented_process!(
+    InsModel21Fe,
+    InsState21Fe,
+    fix,
+    21,
+    3,
+    24,
+    decay: |m: &InsModel21Fe, h| Vector3::repeat(m.fix.decay(h)),
+    added: |m: &InsModel21Fe, h| m.fix.added_variance(h)
+);
 
 /// The initial covariance of the fix block: the model's steady state.
 pub fn initial_fix_covariance(model: &FixErrorModel) -> nalgebra::Matrix3<f64> {

@@ -7,9 +7,9 @@
 //! `H = [−R̂[(ω×l)×] + [ω_in×] R̂ [l×], I, 0, R̂[l×], 0]` (the dependence of `ω_in` on
 //! velocity and position, below 1e-6 of the other terms, is left out).
 
-use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};
+use estimator_core::{FilterAlloc, MeasurementJacobians, MeasurementModel, StateDim, StreamId};
 use manifolds::{hat, R3};
-use nalgebra::{Const, Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Const, Matrix3, OMatrix, SMatrix, SVector, Vector3};
 
 use crate::earth::LocalEarth;
 
@@ -253,4 +253,122 @@ fn pos_vel_h(g: &Geometry) -> SMatrix<f64, 6, 15> {
     H.fixed_view_mut::<3, 15>(0, 0).copy_from(&g.h_position());
     H.fixed_view_mut::<3, 15>(3, 0).copy_from(&g.h_velocity());
     H
+}
+
+/// The Jacobian of a fix model's prediction (measurement `M`) in the 15 error states.
+pub type FixJacobian<M> = OMatrix<f64, StateDim<M>, Const<15>>;
+
+/// What a GNSS fix model offers the calibration states ([`crate::calibration`]): its lever
+/// arm, the Jacobian of its prediction in the lever arm, and the rate of change of its
+/// prediction (the antenna's velocity; with velocity rows, the acceleration), which a
+/// time offset between the IMU's and the receiver's clocks multiplies.
+pub trait GnssFixModel: MeasurementModel<State = InsState> + Copy
+where
+    nalgebra::DefaultAllocator: FilterAlloc<Const<15>, StateDim<Self::Measurement>>
+        + FilterAlloc<Const<3>, StateDim<Self::Measurement>>,
+{
+    /// The antenna lever arm (body FRD), m.
+    fn lever_arm(&self) -> Vector3<f64>;
+
+    /// The same model with another lever arm.
+    fn with_lever_arm(&self, lever: Vector3<f64>) -> Self;
+
+    /// `∂h/∂l`: the prediction's Jacobian in the body-frame lever arm (position rows
+    /// `R_nb`; velocity rows `R_nb [ω×] − [ω_in×] R_nb`).
+    fn lever_jacobian(&self, x: &InsState) -> OMatrix<f64, StateDim<Self::Measurement>, Const<3>>;
+
+    /// `∂ḣ/∂l`: the rate of change's Jacobian in the lever arm (the lever arm's own
+    /// velocity on position rows; zero where [`rate`](Self::rate) leaves it out).
+    fn rate_lever_jacobian(
+        &self,
+        x: &InsState,
+    ) -> OMatrix<f64, StateDim<Self::Measurement>, Const<3>>;
+
+    /// `ḣ`, the prediction's rate of change at `x` (antenna velocity NED, m/s; with
+    /// velocity rows, the acceleration `R_nb (f − b_a) + g − (2ω_ie + ω_en) × v`, m/s²,
+    /// from the specific force `f` of the epoch), and its Jacobian in the 15 error states
+    /// (the transport rate's own dependence on velocity and position, below 1e-6 of the
+    /// others, left out).
+    fn rate(
+        &self,
+        x: &InsState,
+        force: &Vector3<f64>,
+    ) -> (manifolds::Tangent<Self::Measurement>, FixJacobian<Self::Measurement>);
+}
+
+/// The navigation-frame acceleration `R_nb (f − b_a) + g − (2ω_ie + ω_en) × v` and its
+/// Jacobian in the 15 error states (attitude, velocity — the Coriolis term with its rate
+/// held — and accelerometer-bias columns).
+fn acceleration(x: &InsState, force: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, 15>) {
+    let c = x.att.matrix();
+    let e = LocalEarth::at(&x.pos);
+    let f = force - x.ba;
+    let w = 2.0 * e.earth_rate() + e.transport_rate(&x.vel);
+    let a = c * f + Vector3::new(0.0, 0.0, e.gravity()) - w.cross(&x.vel);
+    let mut H = SMatrix::<f64, 3, 15>::zeros();
+    H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-c * hat(&f)));
+    H.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-hat(&w)));
+    H.fixed_view_mut::<3, 3>(0, 12).copy_from(&(-c));
+    (a, H)
+}
+
+impl GnssFixModel for GnssPosition {
+    fn lever_arm(&self) -> Vector3<f64> {
+        self.lever_arm
+    }
+
+    fn with_lever_arm(&self, lever: Vector3<f64>) -> Self {
+        Self { lever_arm: lever }
+    }
+
+    fn lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 3, 3> {
+        x.att.matrix()
+    }
+
+    fn rate_lever_jacobian(&self, _x: &InsState) -> SMatrix<f64, 3, 3> {
+        SMatrix::zeros()
+    }
+
+    /// The INS velocity (the model has no gyro rate for the lever arm's own velocity,
+    /// centimetres per second on a car).
+    fn rate(&self, x: &InsState, _force: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, 15>) {
+        let mut H = SMatrix::<f64, 3, 15>::zeros();
+        H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+        (x.vel, H)
+    }
+}
+
+impl GnssFixModel for GnssPosVel {
+    fn lever_arm(&self) -> Vector3<f64> {
+        self.lever_arm
+    }
+
+    fn with_lever_arm(&self, lever: Vector3<f64>) -> Self {
+        Self { lever_arm: lever, ..*self }
+    }
+
+    fn lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 6, 3> {
+        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        let mut H = SMatrix::<f64, 6, 3>::zeros();
+        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&g.c);
+        H.fixed_view_mut::<3, 3>(3, 0).copy_from(&(g.c * hat(&g.w) - hat(&g.w_in) * g.c));
+        H
+    }
+
+    fn rate_lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 6, 3> {
+        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        let mut H = SMatrix::<f64, 6, 3>::zeros();
+        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(g.c * hat(&g.w) - hat(&g.w_in) * g.c));
+        H
+    }
+
+    fn rate(&self, x: &InsState, force: &Vector3<f64>) -> (SVector<f64, 6>, SMatrix<f64, 6, 15>) {
+        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        let (a, h_a) = acceleration(x, force);
+        let v = g.antenna_velocity(x);
+        let mut H = SMatrix::<f64, 6, 15>::zeros();
+        H.fixed_view_mut::<3, 15>(0, 0).copy_from(&g.h_velocity());
+        H.fixed_view_mut::<3, 15>(3, 0).copy_from(&h_a);
+        (SVector::<f64, 6>::new(v.x, v.y, v.z, a.x, a.y, a.z), H)
+    }
 }

@@ -518,3 +518,37 @@ fn fix_error_states_match_numerical_jacobians() {
         .unwrap();
     }
 }
+
+/// The calibration states (19): the fused step and `step` against the separate calls, the
+/// random walks' Φ block the identity against central differences, and the fix models on
+/// them (the state's lever arm, the prediction moved by the time offset along its rate)
+/// against numerical differences, for a position and a position + velocity fix, with
+/// both items estimated; an item switched off has a zero column.
+#[test]
+fn calibration_states_match_numerical_jacobians() {
+    use estimator_core::MeasurementModel;
+    use ins_gnss_core::calibration::{Calibration, InsModelCal, InsStateCal, OnCalibration};
+    use manifolds::Rn;
+    let calibration = Calibration::default();
+    let model = InsModelCal { base: InsModel::wgs84(scenarios::mems_imu().noise), calibration };
+    let lever = Vector3::new(0.1, 0.2, -0.3);
+    for (x, u) in states() {
+        let dt = u.cur.dt;
+        let x = InsStateCal { nav: x, cal: Rn::<4>::new(0.8, -0.3, -1.2, 0.04) };
+        let numeric = numerical_jacobian(&x, |xp| model.propagate(xp, &u, dt), 1e-4);
+        let phi = model.jacobians(&x, &u, dt).Phi;
+        let block = |m: &SMatrix<f64, 19, 19>| m.fixed_view::<4, 4>(15, 15).into_owned();
+        compare("Φ calibration block", &block(&phi), &block(&numeric), 1e-9).unwrap();
+        check_combined_calls(&model, &x, &u, dt).unwrap();
+        let (rate, force) = (u.cur.rate(), u.cur.specific_force());
+        let pos = GnssPosition { lever_arm: lever };
+        let pv = GnssPosVel { lever_arm: lever, gyro_rate: rate };
+        let on_pos = OnCalibration::new(&pos, force, calibration);
+        let on_pv = OnCalibration::new(&pv, force, calibration);
+        check_measurement_model_with_step(&on_pos, &x, 1e-6, 1e-3).unwrap();
+        check_measurement_model_with_step(&on_pv, &x, 1e-6, 1e-3).unwrap();
+        let off = Calibration { lever_arm: false, time_offset: false, ..calibration };
+        let h = OnCalibration::new(&pv, force, off).jacobian(&x).H;
+        assert_eq!(h.fixed_columns::<4>(15).abs().max(), 0.0);
+    }
+}

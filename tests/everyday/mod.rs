@@ -156,6 +156,50 @@ pub fn sim_drive(seed: u64) -> Data {
     }
 }
 
+/// The antenna's true lever arm in [`calibration_drive`] (body FRD), m: 1.0 m from the
+/// IMU.
+pub const LEVER: [f64; 3] = [0.6, -0.5, -0.62];
+
+/// The simulator's drive with the antenna at [`LEVER`] and the IMU's stamps late by
+/// `late` s (the calibration campaign and its CI subset); the configuration gives the
+/// IMU's noise and no lever arm.
+pub fn calibration_drive(seed: u64, late: f64) -> Data {
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs).unwrap();
+    let gnss = GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::zeros(),
+        vel_sigma: None,
+        lever_arm: Vector3::from(LEVER),
+        windows: vec![],
+    };
+    let d = simulate(&traj, 100.0, &scenarios::mems_imu(), &gnss, seed);
+    let imu: Vec<f64> = d
+        .imu
+        .iter()
+        .flat_map(|s| {
+            [s.t + late, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2]]
+        })
+        .collect();
+    let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
+    let truth =
+        d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
+    let config = "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
+         [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
+         gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
+         corr_time = 1.0\n"
+        .to_string();
+    Data {
+        name: "calibration drive",
+        imu: imu.into(),
+        fixes,
+        truth,
+        config: Source::Toml(config),
+        outages: None,
+        skip: 60.0,
+    }
+}
+
 /// drive-0708's IMU and RTK fixes (the outage file's epochs), scored in its outages
 /// against the RTK-fixed reference; `config` one of its shipped configurations.
 pub fn drive_0708(config: &str) -> Data {

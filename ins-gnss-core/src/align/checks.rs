@@ -187,6 +187,11 @@ fn first_at_or_after(ts: &[f64], t: f64) -> usize {
     lo + ts[lo..hi].partition_point(|&x| x < t)
 }
 
+/// What a course stands for in [`time_offset`]: the span of the heading it averages
+/// (start, end, s; one instant for a velocity's course) and its sideslip factor (the
+/// antenna's lever arm ahead over the speed, s).
+type CourseSpan = (f64, f64, f64);
+
 /// Grid step of [`time_offset`]'s search, s (refined by a parabola through the best
 /// point and its neighbours).
 const OFFSET_STEP: f64 = 0.02;
@@ -194,17 +199,25 @@ const OFFSET_STEP: f64 = 0.02;
 /// The offset between the IMU's and the GNSS's time stamps within `±max_offset` s: the
 /// GNSS course changes `Δχ` between consecutive moving fixes of `(t_a + max_offset,
 /// t_b − max_offset]` (about a second apart, as [`turn_ratio`]) against the gyro's turn
-/// about the down axis over the same interval shifted by the candidate offset, `Δψ(δ) =
-/// ψ(tᵢ + δ) − ψ(tᵢ₋₁ + δ)` (`ψ` the gyro's rotation about down integrated sample by
-/// sample and interpolated); the offset minimises `Σ (Δχ − Δψ(δ))²`. The course turns
+/// about the down axis shifted by the candidate offset, `Δψ(δ) = ψ̄ᵢ(δ) − ψ̄ᵢ₋₁(δ)` (`ψ`
+/// the gyro's rotation about down integrated sample by sample and interpolated; `ψ̄ᵢ(δ)`
+/// the heading fix `i`'s course stands for: `ψ(tᵢ + δ)` for a velocity's course, the mean
+/// of `ψ` over `(tᵢ₋₁ + δ, tᵢ₊₁ + δ)` for a chord's); the offset minimises
+/// `Σ (Δχ − Δψ(δ))²`. The course turns
 /// with the vehicle whatever its mounting, so the check needs no attitude. `None` when
 /// fewer than 10 pairs move or the IMU does not cover the shifted intervals.
+///
+/// The antenna's course is its own, not the body's: an antenna `l_x` ahead of the IMU
+/// (`lever`, body FRD) slips sideways by `r l_x` in a turn at rate `r`, its course leading
+/// the heading by `r l_x / u` at speed `u` — an apparent offset of `l_x / u` (0.04 s for
+/// 0.6 m at 15 m/s, decisive on fixes of centimetres); the headings are moved by it.
 pub fn time_offset(
     imu: &[ImuSample],
     gnss: &[GnssEpoch],
     t_a: f64,
     t_b: f64,
     max_offset: f64,
+    lever: &Vector3<f64>,
 ) -> Option<TimeOffset> {
     let (lo, hi) = (t_a + max_offset, t_b - max_offset);
     if hi <= lo {
@@ -215,14 +228,20 @@ pub fn time_offset(
     let first = imu.first()?;
     let f_sum: Vector3<f64> = imu.iter().map(|s| s.dvel).sum();
     let down = -f_sum.try_normalize(1e-12)?;
-    // ψ at each sample's end, from the first sample's start
+    // ψ at each sample's end, from the first sample's start, and its integral Ψ
+    // (trapezoids: ψ is linear within a sample)
     let mut ts = Vec::with_capacity(imu.len() + 1);
     let mut psi = Vec::with_capacity(imu.len() + 1);
+    let mut big = Vec::with_capacity(imu.len() + 1);
     ts.push(first.t - first.dt);
     psi.push(0.0);
+    big.push(0.0);
     for s in &imu {
+        let (t0, p0) = (ts[ts.len() - 1], psi[psi.len() - 1]);
+        let p1 = p0 + s.dtheta.dot(&down);
         ts.push(s.t);
-        psi.push(psi[psi.len() - 1] + s.dtheta.dot(&down));
+        psi.push(p1);
+        big.push(big[big.len() - 1] + 0.5 * (p0 + p1) * (s.t - t0));
     }
     let psi_at = |t: f64| -> Option<f64> {
         let k = first_at_or_after(&ts, t);
@@ -232,13 +251,46 @@ pub fn time_offset(
         let a = (t - ts[k - 1]) / (ts[k] - ts[k - 1]);
         Some(psi[k - 1] + a * (psi[k] - psi[k - 1]))
     };
+    let integral_at = |t: f64| -> Option<f64> {
+        let k = first_at_or_after(&ts, t);
+        if k == 0 || k >= ts.len() {
+            return None;
+        }
+        let h = t - ts[k - 1];
+        let slope = (psi[k] - psi[k - 1]) / (ts[k] - ts[k - 1]);
+        Some(big[k - 1] + h * (psi[k - 1] + 0.5 * slope * h))
+    };
+    // the heading a course stands for: the instant's for a velocity's course, the mean
+    // over the chord's span for a chord's (a chord of a turn points along the mean
+    // heading, not the middle instant's: compared with the instant's, the rounding of
+    // the turn's corners looks like an offset of a quarter of the span, ±0.25 s for fixes
+    // 1 s apart, decisive on fixes of centimetres)
+    // (`slip`: the lever arm ahead over the speed, s: the antenna's course leads by
+    // `slip` times the turn rate)
+    let heading = |(a, b, slip): (f64, f64, f64), d: f64| -> Option<f64> {
+        if b - a < 1e-9 {
+            let rate = (psi_at(a + d + 0.05)? - psi_at(a + d - 0.05)?) / 0.1;
+            Some(psi_at(a + d)? + slip * rate)
+        } else {
+            let turn = psi_at(b + d)? - psi_at(a + d)?;
+            Some((integral_at(b + d)? - integral_at(a + d)?) / (b - a) + slip * turn / (b - a))
+        }
+    };
     let fixes = fixes_a_second_apart(gnss, lo, hi);
     let course = courses(&fixes);
-    let mut pairs: Vec<(f64, f64, f64)> = Vec::new();
+    let span = |i: usize| match fixes[i].vel {
+        Some((v, _)) => (fixes[i].t, fixes[i].t, lever.x / v.xy().norm()),
+        None => {
+            let (a, b) = (fixes[i - 1], fixes[i + 1]);
+            let chord = geodetic_to_local_ned(a.pos.tuple(), b.pos.tuple()).xy().norm();
+            (a.t, b.t, lever.x * (b.t - a.t) / chord)
+        }
+    };
+    let mut pairs: Vec<(f64, CourseSpan, CourseSpan)> = Vec::new();
     for i in 1..fixes.len() {
         if let (Some(a), Some(b)) = (course[i - 1], course[i]) {
             if fixes[i].t - fixes[i - 1].t <= 2.5 {
-                pairs.push((wrapped(b - a), fixes[i - 1].t, fixes[i].t));
+                pairs.push((wrapped(b - a), span(i - 1), span(i)));
             }
         }
     }
@@ -247,8 +299,8 @@ pub fn time_offset(
     }
     let misfit = |d: f64| -> Option<f64> {
         let mut sum = 0.0;
-        for &(dchi, t0, t1) in &pairs {
-            let dpsi = psi_at(t1 + d)? - psi_at(t0 + d)?;
+        for &(dchi, s0, s1) in &pairs {
+            let dpsi = heading(s1, d)? - heading(s0, d)?;
             sum += (dchi - dpsi).powi(2);
         }
         Some(sum)
@@ -276,7 +328,7 @@ pub fn time_offset(
     // the residuals' lag-one autocorrelation at the offset found
     let residuals: Vec<f64> = pairs
         .iter()
-        .filter_map(|&(dchi, t0, t1)| Some(dchi - (psi_at(t1 + offset)? - psi_at(t0 + offset)?)))
+        .filter_map(|&(dchi, s0, s1)| Some(dchi - (heading(s1, offset)? - heading(s0, offset)?)))
         .collect();
     let lag_one = {
         let (mut dot, mut sq) = (0.0, 0.0);

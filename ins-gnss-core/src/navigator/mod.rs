@@ -25,8 +25,9 @@ use nalgebra::{
     Vector3,
 };
 
+use crate::calibration::{Calibration, InsModelCal, InsStateCal};
 use crate::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
-use crate::gnss::{GnssEpoch, GnssPosVel, GnssPosition};
+use crate::gnss::{GnssEpoch, GnssFixModel, GnssPosVel, GnssPosition};
 use crate::imu::ImuNoise;
 use crate::imu::ImuSample;
 use crate::model::{ImuInput, InsModel, M15};
@@ -48,7 +49,7 @@ mod tight;
 mod vehicle;
 
 pub use setup::*;
-pub use state::{NavAlloc, NavState, OnFixError, OnNav};
+pub use state::{FixContext, NavAlloc, NavState, OnFixError, OnNav};
 pub use tight::{
     satellite_error_floor, ClockInit, RawEpoch, TightConfig, TightState, CARRIER_MAX_GAP, SLIP_RATE,
 };
@@ -469,6 +470,10 @@ where
         observer: &mut O,
     ) -> Result<UpdateSummary, NavError> {
         let err = |source| NavError::Measurement { t: g.t, source };
+        let context = FixContext {
+            force: self.prev.map_or_else(Vector3::zeros, |p| p.specific_force()),
+            calibration: S::calibration(&self.model),
+        };
         match (self.gnss.use_velocity, g.vel) {
             (true, Some((v, _))) => {
                 let r_vel = match self.gnss.vel_std {
@@ -484,6 +489,7 @@ where
                     &model,
                     &(g.pos, v),
                     &r,
+                    &context,
                     observer,
                 )
                 .map_err(err)
@@ -495,6 +501,7 @@ where
                     &model,
                     &g.pos,
                     &r_pos,
+                    &context,
                     observer,
                 )
                 .map_err(err)

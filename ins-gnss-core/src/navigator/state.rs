@@ -44,14 +44,16 @@ where
         model: &MM,
         z: &MM::Measurement,
         r: &Cov<StateDim<MM::Measurement>>,
+        context: &FixContext,
         observer: &mut O,
     ) -> Result<UpdateSummary, FilterError>
     where
         A: NoiseStrategy,
-        MM: MeasurementModel<State = InsState>,
+        MM: GnssFixModel,
         O: Observer,
         DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
     {
+        let _ = context;
         Self::update(filter, model, z, r, observer)
     }
 
@@ -72,13 +74,38 @@ where
         let _ = model;
         None
     }
+
+    /// The calibration items `model` estimates, on a state that carries them
+    /// ([`InsStateCal`](crate::calibration::InsStateCal)).
+    fn calibration(model: &Self::Model) -> Option<Calibration> {
+        let _ = model;
+        None
+    }
+
+    /// The calibration states (lever arm, m; time offset, s) and the index of their block
+    /// in the error state, on a state that carries them.
+    fn calibration_states(&self) -> Option<(Vector3<f64>, f64, usize)> {
+        None
+    }
+}
+
+/// What a GNSS fix's update needs beyond the fix: the epoch's specific force (body,
+/// m/s²; the time offset's acceleration rows) and the calibration items estimated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixContext {
+    /// Specific force of the IMU sample the fix falls in, m/s².
+    pub force: Vector3<f64>,
+    /// The calibration estimated (a state that carries it).
+    pub calibration: Option<Calibration>,
 }
 
 /// The allocations the navigation states' updates with a measurement of dimension `M`
 /// need: one bound for every state dimension the [`Navigator`] runs.
 pub trait NavAlloc<M: DimName>:
-    FilterAlloc<Const<15>, M>
+    FilterAlloc<Const<3>, M>
+    + FilterAlloc<Const<15>, M>
     + FilterAlloc<Const<18>, M>
+    + FilterAlloc<Const<19>, M>
     + FilterAlloc<Const<20>, M>
     + FilterAlloc<Const<21>, M>
     + FilterAlloc<Const<24>, M>
@@ -87,8 +114,10 @@ pub trait NavAlloc<M: DimName>:
 }
 
 impl<M: DimName, T> NavAlloc<M> for T where
-    T: FilterAlloc<Const<15>, M>
+    T: FilterAlloc<Const<3>, M>
+        + FilterAlloc<Const<15>, M>
         + FilterAlloc<Const<18>, M>
+        + FilterAlloc<Const<19>, M>
         + FilterAlloc<Const<20>, M>
         + FilterAlloc<Const<21>, M>
         + FilterAlloc<Const<24>, M>
@@ -338,11 +367,12 @@ macro_rules! fix_error_state {
                 model: &MM,
                 z: &MM::Measurement,
                 r: &Cov<StateDim<MM::Measurement>>,
+                _context: &FixContext,
                 observer: &mut O,
             ) -> Result<UpdateSummary, FilterError>
             where
                 A: NoiseStrategy,
-                MM: MeasurementModel<State = InsState>,
+                MM: GnssFixModel,
                 O: Observer,
                 DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
             {
@@ -368,3 +398,34 @@ macro_rules! fix_error_state {
 
 fix_error_state!(InsStateFe, InsModelFe, nav: nav, noise: base.noise);
 fix_error_state!(InsState21Fe, InsModel21Fe, nav: nav.nav, noise: base.base.noise);
+
+// The 15-state INS with the rig's calibration (`InsStateCal`): the 15-state models apply
+// through `OnNav`, the GNSS fixes through `OnCalibration`.
+on_nav_state!(InsStateCal, InsModelCal, nav: nav, noise: base.noise {
+    fn update_fix<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        context: &FixContext,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: GnssFixModel,
+        O: Observer,
+        DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
+    {
+        let calibration = context.calibration.unwrap_or_default();
+        let on = crate::calibration::OnCalibration::new(model, context.force, calibration);
+        filter.update_observed(&on, z, r, observer).map(|r| r.summary())
+    }
+
+    fn calibration(model: &InsModelCal) -> Option<Calibration> {
+        Some(model.calibration)
+    }
+
+    fn calibration_states(&self) -> Option<(Vector3<f64>, f64, usize)> {
+        Some((self.lever_arm(), self.time_offset(), InsStateCal::CAL.start()))
+    }
+});

@@ -98,6 +98,11 @@ enum Command {
         /// status 0 instead of the diagnosis and exit status 3
         #[arg(long)]
         accept_inconsistent: bool,
+        /// Estimate the rig's calibration as states of the filter: `lever-arm`,
+        /// `time-offset`, or both separated by a comma (sets `gnss.calibrate`; loose
+        /// coupling, 15 states).
+        #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset"]))]
+        calibrate: Vec<String>,
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
@@ -259,6 +264,7 @@ fn main() -> ExitCode {
             smooth,
             report,
             accept_inconsistent,
+            calibrate,
         }) => {
             let o = cli::RunOptions {
                 strategy: strategy.as_deref(),
@@ -280,6 +286,8 @@ fn main() -> ExitCode {
                 smooth,
                 report,
                 accept_inconsistent,
+                calibrate_lever_arm: calibrate.iter().any(|c| c == "lever-arm"),
+                calibrate_time_offset: calibrate.iter().any(|c| c == "time-offset"),
             };
             cli::run(&config, &o)
         }

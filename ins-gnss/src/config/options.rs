@@ -46,6 +46,10 @@ pub struct RunOptions<'a> {
     /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
     /// of an error.
     pub accept_inconsistent: bool,
+    /// Estimate the lever arm (sets `gnss.calibrate.lever_arm`).
+    pub calibrate_lever_arm: bool,
+    /// Estimate the IMU–GNSS time offset (sets `gnss.calibrate.time_offset`).
+    pub calibrate_time_offset: bool,
 }
 
 impl Config {
@@ -92,6 +96,12 @@ impl Config {
         }
         if o.smooth_low_scratch {
             cfg.filter.smooth_low_scratch = true;
+        }
+        if o.calibrate_lever_arm {
+            cfg.gnss.calibrate.lever_arm = true;
+        }
+        if o.calibrate_time_offset {
+            cfg.gnss.calibrate.time_offset = true;
         }
         // the options are checked as the file's keys were
         cfg.validate()?;

@@ -168,6 +168,10 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("gnss.errors.tau", "s", "100.0"),
     ("gnss.errors.sigma", "m (N, E, D)", "[1.5, 1.5, 3.0]"),
     ("gnss.errors.learn", "—", "false"),
+    ("gnss.calibrate.lever_arm", "—", "true"),
+    ("gnss.calibrate.lever_arm_std", "m", "0.5"),
+    ("gnss.calibrate.time_offset", "—", "true"),
+    ("gnss.calibrate.time_offset_std", "s", "0.05"),
     ("filter.strategy", "—", r#""fused""#),
     ("filter.mechanization", "—", r#""flat-earth""#),
     ("filter.streams", "—", r#"{ gnss-position = "fused" }"#),
@@ -256,13 +260,15 @@ fn minimal() -> String {
 pub fn defaults() -> Result<std::collections::BTreeMap<String, String>, String> {
     let cfg: super::Config = toml::from_str(&minimal()).map_err(|e| e.to_string())?;
     let mut value = toml::Value::try_from(&cfg).map_err(|e| e.to_string())?;
-    // the tight and errors sections are left out of a written configuration while they are
+    // the tight, errors and calibrate sections are left out of a written configuration while they are
     // the default
     if let Some(gnss) = value.get_mut("gnss").and_then(toml::Value::as_table_mut) {
         let tight = toml::Value::try_from(&cfg.gnss.tight).map_err(|e| e.to_string())?;
         gnss.insert("tight".into(), tight);
         let errors = toml::Value::try_from(&cfg.gnss.errors).map_err(|e| e.to_string())?;
         gnss.insert("errors".into(), errors);
+        let calibrate = toml::Value::try_from(&cfg.gnss.calibrate).map_err(|e| e.to_string())?;
+        gnss.insert("calibrate".into(), calibrate);
     }
     let mut out = std::collections::BTreeMap::new();
     for k in KEYS {

@@ -91,6 +91,26 @@ impl Config {
         }
         self.gnss.quality.factors()?;
         self.gnss.errors.check()?;
+        self.gnss.calibrate.check()?;
+        if self.gnss.calibrate.any() {
+            let with = if self.gnss.coupling == Coupling::Tight {
+                Some("`gnss.coupling = \"tight\"`")
+            } else if self.filter.states == 21 {
+                Some("`filter.states = 21`")
+            } else if self.gnss.errors.model == ErrorModel::Persisting {
+                Some("`gnss.errors.model = \"persisting\"`")
+            } else {
+                None
+            };
+            if let Some(with) = with {
+                return Err(format!(
+                    "`gnss.calibrate` runs with loose coupling, 15 states and white fix errors; \
+                     not yet with {with}: calibrate the rig on such a run first, then write \
+                     its lever arm and time offset into `gnss.lever_arm` and \
+                     `data.imu_time_offset`"
+                ));
+            }
+        }
         self.validate_tight()?;
         if d.gnss_columns.is_some() && d.gnss_format == GnssFormatName::Rtklib {
             return Err("`data.gnss_format = \"rtklib\"` and `data.gnss_columns` exclude each \

@@ -38,6 +38,10 @@ pub enum RunError {
     /// The fixes' errors were probed and found persisting: the run starts again with them
     /// as states ([`run`] does; never returned to a caller).
     FixErrorsPersist(FixErrorProbe),
+    /// The start's search found the IMU's stamps off and `gnss.calibrate.time_offset`
+    /// applies it: the run starts again with this `data.imu_time_offset` ([`run`] does;
+    /// never returned to a caller), the start's line on it kept.
+    TimeOffsetApplied(f64, Vec<String>),
     /// The run failed after it had started writing: its outputs stay as `*.partial` in
     /// `dir`, earlier results there are untouched.
     Incomplete {
@@ -67,6 +71,9 @@ impl fmt::Display for RunError {
                 "the fixes' errors persist (lag-one autocorrelation {:.2} over {} fixes)",
                 p.lag_one, p.fixes
             ),
+            RunError::TimeOffsetApplied(offset, _) => {
+                write!(f, "the IMU's stamps are shifted by {offset:.3} s (`data.imu_time_offset`)")
+            }
             RunError::Start(m) => write!(f, "{m}"),
             RunError::Incomplete { error, dir } => write!(
                 f,

@@ -28,6 +28,7 @@ use nalgebra::Vector3;
 use crate::aiding::{AidEpoch, AidReader};
 use crate::config::{Config, FixErrorPlan, PROBE_FIXES};
 use estimator_core::DimAlloc;
+use ins_gnss_core::calibration::{Calibration, InsModelCal, InsStateCal};
 use ins_gnss_core::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
@@ -138,18 +139,70 @@ fn run_with<O: Sink>(
 ) -> Result<(RunSummary, O), (RunError, bool)> {
     let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
     let first = attempt(config, strategy.clone(), inputs, again, &mut create, None);
-    match first {
+    // the start's lines of the attempts that started again
+    let mut lines = Vec::new();
+    // a time offset the start found and calibration applies: again, on shifted stamps
+    let mut shifted = None;
+    let first = match first {
+        Err((RunError::TimeOffsetApplied(offset, found), _)) => {
+            let mut c = config.clone();
+            c.data.imu_time_offset = offset;
+            lines.extend(found);
+            let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
+            let run = attempt(&c, strategy.clone(), inputs, again, &mut create, None);
+            shifted = Some(c);
+            run
+        }
+        other => other,
+    };
+    let config = shifted.as_ref().unwrap_or(config);
+    let result = match first {
         Err((RunError::FixErrorsPersist(probe), _)) => {
+            let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
             let (mut summary, out) =
-                attempt(config, strategy, inputs, progress, &mut create, Some(probe))?;
+                attempt(config, strategy.clone(), inputs, again, &mut create, Some(probe))?;
             if let Some(f) = summary.fix_errors.as_mut() {
                 f.probe = Some(probe);
             }
             Ok((summary, out))
         }
         other => other,
-    }
+    };
+    // The time offset the filter estimated: its outputs are on the IMU's stamps as
+    // shifted, off the receiver's clock by what the state found. Beyond its 3σ and
+    // `TIME_OFFSET_REFINED`, the run is made again with it applied to the stamps, so that
+    // `nav.txt` and the rest are on the receiver's clock.
+    let result = match result {
+        Ok((summary, out)) => match summary.calibration.and_then(|c| c.time_offset) {
+            Some((late, sigma, _, applied))
+                if (late + applied).abs() > (3.0 * sigma).max(TIME_OFFSET_REFINED) =>
+            {
+                let mut c = config.clone();
+                c.data.imu_time_offset = -late;
+                lines.push(format!(
+                    "IMU–GNSS time offset: the filter found the IMU's stamps {:.4} s (σ {:.4} s) \
+                     off the receiver's clock after the {applied:.3} s applied: run again with \
+                     `data.imu_time_offset = {:.4}`, its outputs on the receiver's clock",
+                    late + applied,
+                    sigma,
+                    -late
+                ));
+                attempt(&c, strategy, inputs, progress, &mut create, None)
+            }
+            _ => Ok((summary, out)),
+        },
+        other => other,
+    };
+    result.map(|(mut summary, out)| {
+        summary.start.splice(0..0, lines);
+        (summary, out)
+    })
 }
+
+/// The time offset (s) the calibration state must find beyond its 3σ for a run to be
+/// made again with it applied to the IMU's stamps (a millisecond moves a car's position
+/// by 2 cm at 20 m/s).
+pub const TIME_OFFSET_REFINED: f64 = 0.001;
 
 /// One attempt of [`run_with`]: `persisting` is the probe that found the fixes' errors
 /// persisting (`None`: the plan the configuration and the first fixes make).
@@ -175,7 +228,9 @@ fn attempt<O: Sink>(
     // checked (`start::prepare` changes nothing but the noise floor, which needs only the
     // static start): the checks run beside the filter on a copy of them, and a refusal
     // stops the run. Otherwise the filter waits for `prepare`.
-    let look = if crate::start::fills(config) {
+    // (calibrating the time offset: the start's search runs before the filter, which
+    // starts on the stamps it corrects)
+    let look = if crate::start::fills(config) || config.gnss.calibrate.time_offset {
         Look::Span
     } else if crate::start::floors(config) {
         Look::StaticStart
@@ -192,7 +247,13 @@ fn attempt<O: Sink>(
     };
     let ready = read_prefix(config, &mut feed, &mut gnss, look)
         .and_then(|prefix| Ok((prepare_start(config, &prefix, look)?, prefix)))
-        .and_then(|(start, prefix)| Ok((start, prefix, create()?)));
+        .and_then(|(start, prefix)| {
+            let offset = start.config.data.imu_time_offset;
+            if offset != config.data.imu_time_offset {
+                return Err(RunError::TimeOffsetApplied(offset, start.report));
+            }
+            Ok((start, prefix, create()?))
+        });
     let (start, prefix, (mut out, nav)) = match ready {
         Ok(ready) => ready,
         Err(e) => {
@@ -216,7 +277,9 @@ fn attempt<O: Sink>(
     let persisting = plan == FixErrorPlan::Persisting;
     let inputs =
         Opened { feed, gnss, prefix, checks, out: &mut out, nav, probe, found: persisting_probe };
+    let calibrate = config.gnss.calibrate.any();
     let result = match config.filter.states {
+        _ if calibrate => run_into::<InsStateCal, O>(config, strategy, names, progress, inputs),
         21 if tight => run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs),
         _ if tight => run_into::<InsStateTc, O>(config, strategy, names, progress, inputs),
         21 if persisting => run_into::<InsState21Fe, O>(config, strategy, names, progress, inputs),
@@ -481,6 +544,7 @@ where
     summary.odometer_reversed = nav.odometer_reversed();
     summary.learned = nav.filter().strategy().learned().collect();
     summary.fix_errors = fix_errors_learned(&nav);
+    summary.calibration = calibration_learned(config, &nav);
     if let Some(recorder) = recorder {
         let backward = Instant::now();
         // (a covariance at a lower rate than the state: the backward pass starts from now's)
@@ -550,6 +614,30 @@ where
         lag_one: split.lag_one(),
         fixes: split.fixes(),
         probe: None,
+    })
+}
+
+/// The calibration states as the navigator estimated them (a state that carries them).
+pub(crate) fn calibration_learned<S: NavState>(
+    config: &Config,
+    nav: &Navigator<RunStrategy, S>,
+) -> Option<CalibrationLearned>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    let (lever, offset, k) = nav.state().calibration_states()?;
+    let c = &config.gnss.calibrate;
+    let sigma = |i: usize| nav.covariance()[(k + i, k + i)].max(0.0).sqrt();
+    let applied = config.data.imu_time_offset;
+    Some(CalibrationLearned {
+        lever_arm: c
+            .lever_arm
+            .then(|| (lever, Vector3::new(sigma(0), sigma(1), sigma(2)), c.lever_arm_std)),
+        // (the stamps as read are the file's shifted by `applied`: late by `offset` on
+        // them, late by `offset − applied` as the file has them)
+        time_offset: c
+            .time_offset
+            .then(|| (offset - applied, sigma(3), c.time_offset_std, applied)),
     })
 }
 

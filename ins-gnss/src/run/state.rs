@@ -152,6 +152,61 @@ impl RunState for InsState21Fe {
     }
 }
 
+/// The 15-state INS with the rig's calibration (`gnss.calibrate`): the lever arm starts
+/// at `gnss.lever_arm`, the time offset at 0 on the (shifted) stamps, each with its prior
+/// σ; an item off is never updated.
+impl RunState for InsStateCal {
+    const SIGMA_COLUMNS: usize = 15;
+
+    fn navigator(
+        config: &Config,
+        strategy: RunStrategy,
+        start: f64,
+        _at: &GnssAtStart,
+    ) -> Result<Navigator<RunStrategy, Self>, NavError> {
+        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let c = &config.gnss.calibrate;
+        let calibration = Calibration {
+            lever_arm: c.lever_arm,
+            time_offset: c.time_offset,
+            ..Default::default()
+        };
+        let model = InsModelCal { base, calibration };
+        let init = config.initial_state(start);
+        let l = config.gnss.lever_arm;
+        let cal = manifolds::Rn::<4>::new(l[0], l[1], l[2], 0.0);
+        let x = InsStateCal { nav: init.state.clone(), cal };
+        let mut p = estimator_core::Cov::<nalgebra::Const<19>>::zeros();
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
+        // the start's position is a fix's less the declared lever arm, `p = z − R l`: a
+        // lever arm known to σ_l leaves the position known only to it too, and the two
+        // correlated (`P_pp += σ_l² I`, `P_pl = −σ_l² R`). Left out, the prior says the
+        // IMU sits at the antenna to the fix's σ, that is `l ≈ 0`, and the filter stays
+        // between that and the data (the simulated drive's 1 m lever arm settled at half
+        // its value, σ 2 cm).
+        let var = c.lever_arm_std.powi(2);
+        if c.lever_arm {
+            let r = init.state.att.matrix();
+            for i in 0..3 {
+                p[(6 + i, 6 + i)] += var;
+                for j in 0..3 {
+                    p[(6 + i, 15 + j)] = -var * r[(i, j)];
+                    p[(15 + j, 6 + i)] = -var * r[(i, j)];
+                }
+            }
+        }
+        for k in 0..3 {
+            p[(15 + k, 15 + k)] = var;
+        }
+        p[(18, 18)] = c.time_offset_std.powi(2);
+        Navigator::from_parts(x, p, init.time, model, strategy, config.gnss_config())
+    }
+
+    fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        None
+    }
+}
+
 /// What the GNSS said at the start: the receiver clock `c·dt` (m) of the first raw
 /// epoch's single point (tight coupling), and the σ (N, E, D; m) the fixes declare
 /// (`gnss.position_std`, or the first fixes' own; loose coupling).
@@ -183,7 +238,9 @@ impl GnssAtStart {
 
     /// How the run models the fixes' errors (`gnss.errors`; tight coupling: white).
     pub fn plan(&self, config: &Config) -> crate::config::FixErrorPlan {
-        if config.gnss.coupling == crate::config::Coupling::Tight {
+        // (the calibration states run on the white model: `validate` refuses
+        // `persisting` with them)
+        if config.gnss.coupling == crate::config::Coupling::Tight || config.gnss.calibrate.any() {
             return crate::config::FixErrorPlan::White;
         }
         config.gnss.errors.plan(self.fix_std.map(|s| s[0].max(s[1])))

@@ -67,6 +67,83 @@ pub struct RunSummary {
     /// The probe of the fixes' errors that found them white (`gnss.errors.model =
     /// "auto"`; one that found them persisting is in [`fix_errors`](Self::fix_errors)).
     pub fix_probe: Option<super::FixErrorProbe>,
+    /// The rig's calibration as the filter estimated it (`gnss.calibrate`).
+    pub calibration: Option<CalibrationLearned>,
+}
+
+/// The calibration states at the end of a run (`gnss.calibrate`): each estimate, its σ
+/// and its prior σ (the data's share in it: the ratio of the two).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CalibrationLearned {
+    /// The lever arm (body FRD, m), its σ and the prior σ per axis, when estimated.
+    pub lever_arm: Option<(Vector3<f64>, Vector3<f64>, f64)>,
+    /// How late the IMU's stamps, as the file has them, are on the receiver's clock (s),
+    /// its σ, the prior σ, and the offset applied to the stamps
+    /// (`data.imu_time_offset`, the start's search included), when estimated.
+    pub time_offset: Option<(f64, f64, f64, f64)>,
+}
+
+/// The share of its prior σ above which a calibration state is reported as not
+/// observable by the run's data: they did not reduce its σ to a fifth.
+pub const UNOBSERVED: f64 = 0.2;
+
+impl CalibrationLearned {
+    /// The summary's line: each estimate with its σ, how far the data reduced the prior,
+    /// and what the data could not tell.
+    pub fn line(&self) -> String {
+        let mut parts = Vec::new();
+        let share = |s: f64, p: f64| format!("{:.0} %", 100.0 * s / p);
+        if let Some((l, s, p)) = self.lever_arm {
+            let blind: Vec<&str> = ["x", "y", "z"]
+                .into_iter()
+                .zip(s.iter())
+                .filter(|(_, s)| **s > UNOBSERVED * p)
+                .map(|(a, _)| a)
+                .collect();
+            let mut part = format!(
+                "lever arm [{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, \
+                 reduced to {}, {}, {})",
+                l.x,
+                l.y,
+                l.z,
+                s.x,
+                s.y,
+                s.z,
+                share(s.x, p),
+                share(s.y, p),
+                share(s.z, p)
+            );
+            if !blind.is_empty() {
+                part += &format!(
+                    "; not observable by these data on {} (σ not reduced to a fifth of the \
+                     prior: a drive level and straight does not tell it; measure it, or \
+                     calibrate on a drive that turns, climbs and changes speed)",
+                    blind.join(", ")
+                );
+            } else {
+                part += &format!(" (`gnss.lever_arm = [{:.3}, {:.3}, {:.3}]`)", l.x, l.y, l.z);
+            }
+            parts.push(part);
+        }
+        if let Some((d, s, p, applied)) = self.time_offset {
+            let mut part = format!(
+                "time offset: the IMU's stamps {:.4} s {} σ {:.4} s (prior σ {p:.3} s about the \
+                 stamps shifted by {applied:.3} s, reduced to {})",
+                d.abs(),
+                if d >= 0.0 { "late" } else { "early" },
+                s,
+                share(s, p)
+            );
+            if s > UNOBSERVED * p {
+                part += "; not observable by these data (σ not reduced to a fifth of the prior: \
+                         a drive that turns and changes speed tells it)";
+            } else {
+                part += &format!(" (`data.imu_time_offset = {:.4}`)", -d);
+            }
+            parts.push(part);
+        }
+        format!("calibration: {}", parts.join("; "))
+    }
 }
 
 /// The fixes' errors at the end of a run that modelled their persisting part.
@@ -576,6 +653,7 @@ impl RunSummary {
         }
         lines.extend(s.learned_line());
         lines.extend(s.fix_errors_line());
+        lines.extend(s.calibration.map(|c| c.line()));
         if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
             let [n, z, r, o] = s.aiding;
             lines.push(format!(

@@ -146,8 +146,10 @@ pub fn prepare(
         if let Some(t) = turns {
             check_turns(&config, &t, a.max_time)?;
         }
-        if let Some(t) = time_offset(imu, gnss, t0, t0 + max_time, MAX_TIME_OFFSET) {
-            check_time_offset(&config, &t, &mut report)?;
+        if let Some(t) = time_offset(imu, gnss, t0, t0 + max_time, MAX_TIME_OFFSET, &lever) {
+            if let Some(applied) = check_time_offset(&config, &t, &mut report)? {
+                config.data.imu_time_offset = applied;
+            }
         }
         let (roll, _) = match (&motion, is_static) {
             (_, true) => level(&still.mean_f),

@@ -1,0 +1,213 @@
+//! The rig's calibration as states of the filter: the GNSS antenna's lever arm and the
+//! offset between the IMU's and the receiver's clocks, each switched on on its own.
+//!
+//! A lever arm measured with a tape, or not at all, and an IMU stamped a few hundred
+//! milliseconds late are the two errors users of loosely coupled INS/GNSS most often
+//! carry without knowing (KF-GINS #15, OB_GINS #17, rtklibexplorer's GNSS_IMU with its
+//! hand-set `imu_t_off`). Both are constants of the rig, observable from the fixes when
+//! the vehicle turns and accelerates (Groves, *Principles of GNSS, Inertial and
+//! Multisensor Integrated Navigation Systems*, 2nd ed., §14.2.7 for the lever arm and
+//! §14.1.4 on time synchronisation; Li et al., *IEEE Sensors Journal* 2019 on the time
+//! offset as a state): the fix at receiver time `t` is the antenna at the IMU's time
+//! `t + δ` (`δ` the IMU stamps' lateness), so with the body-frame lever arm `l`
+//!
+//! ```text
+//! ẑ = h(x; l) ⊕ ḣ(x) δ,          residual  z ⊖ h(x; l) − ḣ δ
+//! H = [ H_nav + δ ∂ḣ/∂x,  ∂h/∂l + δ ∂ḣ/∂l,  ḣ ]
+//! ```
+//!
+//! `ḣ` the antenna's velocity on position rows and its acceleration on velocity rows
+//! ([`GnssFixModel::rate`]), linear in `δ`: a large offset is found first by the start's
+//! search (the gyro's turns against the GNSS course) and applied to the stamps, the state
+//! refining what is left. Both are random walks of small driving noise (a rig is
+//! constant; the noise keeps the filter from freezing them).
+//!
+//! [`InsStateCal`] is the 15-state INS with the four states (19). An item switched off
+//! keeps its column of `H` zero: its state is never updated and stays the configured
+//! value, exactly.
+
+use estimator_core::{
+    FilterAlloc, JacobiansOf, MeasurementJacobians, MeasurementModel, StateDim, StreamId,
+};
+use manifolds::{composite_state, Manifold, Rn, Tangent};
+use nalgebra::{Const, DefaultAllocator, OMatrix, SVector, Vector3};
+
+use crate::augment::augmented_process;
+use crate::gnss::{FixJacobian, GnssFixModel};
+use crate::model::InsModel;
+use crate::state::InsState;
+
+composite_state! {
+    /// The 15-state INS state and the rig's calibration: the nominal state of the
+    /// 19-state loosely coupled filter. Blocks `NAV` (15) and `CAL`: the antenna lever
+    /// arm (body FRD, m) and the IMU stamps' lateness on the receiver's clock (s).
+    pub struct InsStateCal {
+        /// Attitude, velocity, position, biases.
+        pub nav: InsState => NAV,
+        /// Lever arm x, y, z (m), time offset (s).
+        pub cal: Rn<4> => CAL,
+    }
+}
+
+impl InsStateCal {
+    /// The antenna lever arm (body FRD), m.
+    pub fn lever_arm(&self) -> Vector3<f64> {
+        Vector3::new(self.cal[0], self.cal[1], self.cal[2])
+    }
+
+    /// How late the IMU's stamps are on the receiver's clock, s.
+    pub fn time_offset(&self) -> f64 {
+        self.cal[3]
+    }
+}
+
+/// Which calibration items are estimated, and their driving noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Calibration {
+    /// Estimate the lever arm.
+    pub lever_arm: bool,
+    /// Estimate the time offset.
+    pub time_offset: bool,
+    /// Random-walk density of the lever arm, m/√s.
+    pub lever_arm_walk: f64,
+    /// Random-walk density of the time offset, s/√s.
+    pub time_offset_walk: f64,
+}
+
+impl Default for Calibration {
+    fn default() -> Self {
+        Self { lever_arm: true, time_offset: true, lever_arm_walk: 1e-4, time_offset_walk: 1e-5 }
+    }
+}
+
+impl Calibration {
+    /// The variance the random walks add over `h` seconds (zero for an item off).
+    pub fn added_variance(&self, h: f64) -> SVector<f64, 4> {
+        let l = if self.lever_arm { self.lever_arm_walk.powi(2) * h } else { 0.0 };
+        let o = if self.time_offset { self.time_offset_walk.powi(2) * h } else { 0.0 };
+        SVector::<f64, 4>::new(l, l, l, o)
+    }
+}
+
+/// The process model of an INS with the calibration states.
+#[derive(Clone, Debug)]
+pub struct CalibrationProcess<M> {
+    /// The INS model.
+    pub base: M,
+    /// What is estimated, and how it wanders.
+    pub calibration: Calibration,
+}
+
+/// The 19-state model.
+pub type InsModelCal = CalibrationProcess<InsModel>;
+
+augmented_process!(
+    InsModelCal,
+    InsStateCal,
+    cal,
+    15,
+    4,
+    19,
+    decay: |_: &InsModelCal, _| SVector::<f64, 4>::repeat(1.0),
+    added: |m: &InsModelCal, h| m.calibration.added_variance(h)
+);
+
+/// A GNSS fix model of the 15-state INS applied to [`InsStateCal`]: the lever arm the
+/// state's, the prediction moved by the time offset along its rate of change (module
+/// documentation). `force` is the epoch's specific force (body, m/s²), for the
+/// acceleration on velocity rows; `calibration` says which columns are live.
+#[derive(Debug)]
+pub struct OnCalibration<'a, M> {
+    model: &'a M,
+    force: Vector3<f64>,
+    calibration: Calibration,
+}
+
+impl<'a, M> OnCalibration<'a, M> {
+    /// `model` on [`InsStateCal`].
+    pub fn new(model: &'a M, force: Vector3<f64>, calibration: Calibration) -> Self {
+        Self { model, force, calibration }
+    }
+}
+
+impl<M> Clone for OnCalibration<'_, M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<M> Copy for OnCalibration<'_, M> {}
+
+impl<M> OnCalibration<'_, M>
+where
+    M: GnssFixModel,
+    DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
+        + FilterAlloc<Const<3>, StateDim<M::Measurement>>,
+{
+    /// The model at the state's lever arm, the shift `ḣ δ` and `H`, given the base
+    /// model's `H`.
+    fn parts(&self, x: &InsStateCal) -> (M, FixJacobian<M::Measurement>, Tangent<M::Measurement>) {
+        let m = self.model.with_lever_arm(x.lever_arm());
+        let delta = x.time_offset();
+        let (rate, h_rate) = m.rate(&x.nav, &self.force);
+        (m, h_rate * delta, rate * delta)
+    }
+
+    fn h(
+        &self,
+        x: &InsStateCal,
+        m: &M,
+        h_nav: FixJacobian<M::Measurement>,
+    ) -> OMatrix<f64, StateDim<M::Measurement>, Const<19>>
+    where
+        DefaultAllocator: FilterAlloc<Const<19>, StateDim<M::Measurement>>,
+    {
+        let mut H = OMatrix::<f64, StateDim<M::Measurement>, Const<19>>::zeros();
+        H.fixed_columns_mut::<15>(0).copy_from(&h_nav);
+        if self.calibration.lever_arm {
+            let delta = x.time_offset();
+            let h_l = m.lever_jacobian(&x.nav) + m.rate_lever_jacobian(&x.nav) * delta;
+            H.fixed_columns_mut::<3>(15).copy_from(&h_l);
+        }
+        if self.calibration.time_offset {
+            let (rate, _) = m.rate(&x.nav, &self.force);
+            H.column_mut(18).copy_from(&rate);
+        }
+        H
+    }
+}
+
+impl<M> MeasurementModel for OnCalibration<'_, M>
+where
+    M: GnssFixModel,
+    DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
+        + FilterAlloc<Const<3>, StateDim<M::Measurement>>
+        + FilterAlloc<Const<19>, StateDim<M::Measurement>>,
+{
+    type State = InsStateCal;
+    type Measurement = M::Measurement;
+
+    fn predict(&self, x: &InsStateCal) -> M::Measurement {
+        let (m, _, shift) = self.parts(x);
+        m.predict(&x.nav).oplus(&shift)
+    }
+
+    fn jacobian(&self, x: &InsStateCal) -> JacobiansOf<Self> {
+        let (m, h_shift, _) = self.parts(x);
+        MeasurementJacobians { H: self.h(x, &m, m.jacobian(&x.nav).H + h_shift) }
+    }
+
+    fn innovation(
+        &self,
+        x: &InsStateCal,
+        z: &M::Measurement,
+    ) -> (Tangent<M::Measurement>, JacobiansOf<Self>) {
+        let (m, h_shift, shift) = self.parts(x);
+        let (r, j) = m.innovation(&x.nav, z);
+        (r - shift, MeasurementJacobians { H: self.h(x, &m, j.H + h_shift) })
+    }
+
+    fn stream(&self) -> StreamId {
+        self.model.stream()
+    }
+}

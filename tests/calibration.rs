@@ -1,0 +1,120 @@
+//! The calibration states' CI subset (`examples/calibration_campaign.rs` runs the table):
+//! the simulator's drive with RTK-grade fixes (white, 2/2/5 cm), the antenna 1.0 m from
+//! the IMU, seeds 1–3, each run as a user makes it (no `[init]`, the default gate).
+//!
+//! The laws: the lever arm declared `[0, 0, 0]` is found within 5 cm on the horizontal
+//! axes with its error within 3σ on every axis, and the vertical one — which a drive on
+//! the level cannot tell — is reported not observable; an IMU 0.3 s and 5 s late is
+//! found within 5 and 10 ms; an IMU on time gives an offset within 3σ of 0 and no line
+//! of the start on it. And the 19-state filter with both items off is the 15-state one.
+
+use crate::everyday::*;
+use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, Navigator};
+use estimator_core::{FixedNoise, NoObserver};
+use ins_gnss::run::{run_in_memory, Inputs, RunSummary};
+use ins_gnss_core::calibration::{Calibration, InsModelCal, InsStateCal};
+use ins_gnss_core::model::InsModel;
+use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
+use manifolds::Manifold;
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+fn runs(late: f64, extra: &str) -> Vec<RunSummary> {
+    (1..=3u64)
+        .into_par_iter()
+        .map(|seed| {
+            let d = calibration_drive(seed, late);
+            let g = gnss_rows(&d, Errors::White([0.02, 0.02, 0.05]), 1.0, seed);
+            let cfg = config_of(&d, extra);
+            let inputs =
+                Inputs::Arrays { imu: d.imu.clone(), imu_width: 7, gnss: g, gnss_width: 7 };
+            run_in_memory(&cfg, "fixed".parse().unwrap(), &inputs).unwrap().0
+        })
+        .collect()
+}
+
+#[test]
+fn an_unknown_lever_arm_is_found_where_the_drive_tells_it() {
+    let extra = "[gnss]\nlever_arm = [0.0, 0.0, 0.0]\n[gnss.calibrate]\nlever_arm = true\n";
+    for s in runs(0.0, extra) {
+        let c = s.calibration.expect("a calibration line");
+        let (l, sigma, _) = c.lever_arm.expect("the lever arm estimated");
+        let err = l - Vector3::from(LEVER);
+        eprintln!("lever arm error {err:?} m, σ {sigma:?}");
+        assert!(err.x.abs() <= 0.05 && err.y.abs() <= 0.05, "{err:?}");
+        for k in 0..3 {
+            assert!(err[k].abs() <= 3.0 * sigma[k], "axis {k}: {err:?} against σ {sigma:?}");
+        }
+        let line = c.line();
+        assert!(line.contains("not observable by these data on z"), "{line}");
+    }
+}
+
+#[test]
+fn a_late_imu_is_found_to_milliseconds() {
+    let lever = format!("[gnss]\nlever_arm = [{}, {}, {}]\n", LEVER[0], LEVER[1], LEVER[2]);
+    let extra = format!("{lever}[gnss.calibrate]\ntime_offset = true\n");
+    for (late, bar) in [(0.3, 0.005), (5.0, 0.010), (0.0, f64::NAN)] {
+        for s in runs(late, &extra) {
+            let (offset, sigma, _, _) = s.calibration.and_then(|c| c.time_offset).unwrap();
+            eprintln!("late {late} s: found {offset:.4} s, σ {sigma:.4} s");
+            if late == 0.0 {
+                assert!(offset.abs() <= 3.0 * sigma, "on time: {offset} s, σ {sigma} s");
+                assert!(!s.start.iter().any(|l| l.contains("time offset")), "{:?}", s.start);
+            } else {
+                assert!((offset - late).abs() <= bar, "{late} s late: found {offset} s");
+                assert!(s.start.iter().any(|l| l.contains("applied to the IMU's stamps")));
+            }
+        }
+    }
+}
+
+/// The calibration states switched off change nothing: their columns of `H` are zero,
+/// their block never correlates, and the navigation states follow the 15-state filter's
+/// to rounding.
+#[test]
+fn the_calibration_states_off_are_the_15_state_filter() {
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs[..6]).unwrap();
+    let gnss = GnssSim {
+        rate_hz: 5.0,
+        pos_sigma: Vector3::repeat(0.5),
+        vel_sigma: Some(Vector3::repeat(0.05)),
+        lever_arm: Vector3::new(0.3, 0.0, -1.0),
+        windows: vec![],
+    };
+    let data = simulate(&traj, 100.0, &scenarios::mems_imu(), &gnss, 7);
+    let t0 = &data.truth[0];
+    let std = InitialStd {
+        att: Vector3::repeat(0.01),
+        vel: Vector3::repeat(0.1),
+        pos: Vector3::repeat(1.0),
+        bg: Vector3::repeat(1e-4),
+        ba: Vector3::repeat(1e-2),
+    };
+    let init = InitialState { time: t0.t, state: t0.state.clone(), std };
+    let config = GnssConfig { lever_arm: gnss.lever_arm, ..GnssConfig::default() };
+    let base = InsModel::wgs84(scenarios::mems_imu().noise);
+    let mut plain = Navigator::new(&init, base.clone(), FixedNoise, config).unwrap();
+    let off = Calibration { lever_arm: false, time_offset: false, ..Calibration::default() };
+    let model = InsModelCal { base, calibration: off };
+    let l = gnss.lever_arm;
+    let x =
+        InsStateCal { nav: init.state.clone(), cal: manifolds::Rn::<4>::new(l.x, l.y, l.z, 0.0) };
+    let mut p = estimator_core::Cov::<nalgebra::Const<19>>::identity();
+    p.fixed_view_mut::<15, 15>(0, 0).copy_from(&std.covariance());
+    let mut cal = Navigator::from_parts(x, p, init.time, model, FixedNoise, config).unwrap();
+    let mut worst: f64 = 0.0;
+    for (s, g) in data.replay() {
+        plain.process(s, g, &mut NoObserver).unwrap();
+        cal.process(s, g, &mut NoObserver).unwrap();
+        let (a, b) = (plain.state(), &cal.state().nav);
+        let dp = a.pos.ominus(&b.pos).norm();
+        worst = worst.max(dp).max((a.vel - b.vel).norm()).max(a.att.ominus(&b.att).norm());
+    }
+    assert!(worst < 1e-9, "the 19-state run left the 15-state one by {worst}");
+    assert_eq!(cal.state().cal, manifolds::Rn::<4>::new(l.x, l.y, l.z, 0.0));
+    let p = cal.covariance();
+    assert_eq!(p.fixed_view::<15, 4>(0, 15).abs().max(), 0.0);
+    assert_eq!(p.fixed_view::<4, 4>(15, 15), nalgebra::SMatrix::<f64, 4, 4>::identity());
+}
