@@ -5,19 +5,23 @@
 //! fixes' errors.
 //!
 //! `cargo run --release --example calibration_campaign [SEEDS]` (default 20) prints, per
-//! cell, the calibration's errors at the end against the truth (the lever arm per axis;
-//! the time offset), the share of seeds within the issue's bars, the σ the run reports
+//! cell, the calibration's errors at the end against the truth (the lever arm and the
+//! mounting per axis; the time offset), the share of seeds within the issue's bars, the σ the run reports
 //! and the horizontal RMS against the truth beside the run given the true values by hand:
 //!
 //! - `lever`: the antenna 1.0 m from the IMU, `(0.6, −0.5, −0.62)` m, declared `[0, 0, 0]`,
-//!   `gnss.calibrate.lever_arm` on; and the same run without the state (the error a
+//!   `calibrate.lever_arm` on; and the same run without the state (the error a
 //!   wrong lever arm leaves);
 //! - `late 0.3 s`, `late 5 s`: the IMU's stamps late by that much, the lever arm known,
-//!   `gnss.calibrate.time_offset` on (the start's search applies the coarse offset, the
+//!   `calibrate.time_offset` on (the start's search applies the coarse offset, the
 //!   state refines it);
 //! - `on time`: the stamps right, the time offset estimated: is it within 3σ of 0, and
 //!   does the start name an offset (an alarm)?
-//! - `both`: the lever arm unknown and the stamps 0.3 s late.
+//! - `both`: the lever arm unknown and the stamps 0.3 s late;
+//! - `NHC, mounting …`: the IMU mounted at roll 0°, pitch 1°, yaw 2° in a car without
+//!   sideslip, the non-holonomic constraint on: the mounting given by hand, declared
+//!   zero, and declared zero with `calibrate.mounting` (the bar: pitch and yaw within
+//!   0.2°; the roll, which the constraint cannot see, reported as such).
 
 #[path = "../tests/everyday/mod.rs"]
 mod everyday;
@@ -37,12 +41,14 @@ struct Cal {
     lever: Option<(Vector3<f64>, Vector3<f64>)>,
     /// Time-offset error (s) and its σ.
     offset: Option<(f64, f64)>,
+    /// Mounting error per angle (deg) and its σ.
+    mount: Option<(Vector3<f64>, Vector3<f64>)>,
     /// The start named or applied an offset.
     alarm: bool,
     rms: f64,
 }
 
-fn one(d: &Data, gnss: Arc<[f64]>, extra: &str, late: f64) -> Cal {
+fn one(d: &Data, gnss: Arc<[f64]>, extra: &str, late: f64, mounting: Vector3<f64>) -> Cal {
     let cfg = config_of(d, extra);
     let inputs = Inputs::Arrays { imu: d.imu.clone(), imu_width: 7, gnss, gnss_width: 7 };
     let (summary, results) = match run_in_memory(&cfg, "fixed".parse().unwrap(), &inputs) {
@@ -61,6 +67,7 @@ fn one(d: &Data, gnss: Arc<[f64]>, extra: &str, late: f64) -> Cal {
         refused: None,
         lever: c.and_then(|c| c.lever_arm).map(|(l, s, _)| (l - Vector3::from(LEVER), s)),
         offset: c.and_then(|c| c.time_offset).map(|(o, s, _, _)| (o - late, s)),
+        mount: c.and_then(|c| c.mounting).map(|(m, s, _)| (m - mounting.map(f64::to_degrees), s)),
         alarm: summary.start.iter().any(|l| l.contains("time offset")),
         rms,
     }
@@ -78,33 +85,53 @@ fn main() {
     let seeds: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(20);
     let lever = format!("[gnss]\nlever_arm = [{}, {}, {}]\n", LEVER[0], LEVER[1], LEVER[2]);
     let zero = "[gnss]\nlever_arm = [0.0, 0.0, 0.0]\n".to_string();
-    let cal_lever = "[gnss.calibrate]\nlever_arm = true\n";
-    let cal_time = "[gnss.calibrate]\ntime_offset = true\n";
-    let cal_both = "[gnss.calibrate]\nlever_arm = true\ntime_offset = true\n";
-    // (name, IMU lateness, configuration, the bar on the offset's error)
-    let cells: Vec<(&str, f64, String, f64)> = vec![
-        ("lever known (by hand)", 0.0, lever.clone(), f64::NAN),
-        ("lever declared 0, no state", 0.0, zero.clone(), f64::NAN),
-        ("lever declared 0, state on", 0.0, format!("{zero}{cal_lever}"), f64::NAN),
-        ("lever declared true, state on", 0.0, format!("{lever}{cal_lever}"), f64::NAN),
-        ("late 0.3 s, offset state", 0.3, format!("{lever}{cal_time}"), 0.005),
-        ("late 5 s, offset state", 5.0, format!("{lever}{cal_time}"), 0.010),
-        ("on time, offset state", 0.0, format!("{lever}{cal_time}"), f64::NAN),
-        ("lever 0 + late 0.3 s, both", 0.3, format!("{zero}{cal_both}"), 0.005),
+    let cal_lever = "[calibrate]\nlever_arm = true\n";
+    let cal_time = "[calibrate]\ntime_offset = true\n";
+    let cal_both = "[calibrate]\nlever_arm = true\ntime_offset = true\n";
+    let nhc = "[vehicle.nhc]\n";
+    let cal_mount = "[calibrate]\nmounting = true\n";
+    let mount = Vector3::new(0.0, 1.0, 2.0).map(f64::to_radians);
+    let none = Vector3::zeros();
+    // (name, IMU lateness, mounting, configuration, the bar on the offset's error)
+    let cells: Vec<(&str, f64, Vector3<f64>, String, f64)> = vec![
+        ("lever known (by hand)", 0.0, none, lever.clone(), f64::NAN),
+        ("lever declared 0, no state", 0.0, none, zero.clone(), f64::NAN),
+        ("lever declared 0, state on", 0.0, none, format!("{zero}{cal_lever}"), f64::NAN),
+        ("lever declared true, state on", 0.0, none, format!("{lever}{cal_lever}"), f64::NAN),
+        ("late 0.3 s, offset state", 0.3, none, format!("{lever}{cal_time}"), 0.005),
+        ("late 5 s, offset state", 5.0, none, format!("{lever}{cal_time}"), 0.010),
+        ("on time, offset state", 0.0, none, format!("{lever}{cal_time}"), f64::NAN),
+        ("lever 0 + late 0.3 s, both", 0.3, none, format!("{zero}{cal_both}"), 0.005),
+        (
+            "NHC, mounting 0/1/2° known",
+            0.0,
+            mount,
+            format!("{lever}{nhc}mounting = [0.0, 1.0, 2.0]\n"),
+            f64::NAN,
+        ),
+        ("NHC, mounting declared 0, no state", 0.0, mount, format!("{lever}{nhc}"), f64::NAN),
+        (
+            "NHC, mounting declared 0, state on",
+            0.0,
+            mount,
+            format!("{lever}{nhc}{cal_mount}"),
+            f64::NAN,
+        ),
     ];
     println!(
         "| cell | refused | lever |err| x / y / z (median, cm) | x, y within 5 cm | within 3σ (all axes) | \
          reported σ x / y / z (median, cm) | offset |err| (median, ms) | within bar | \
-         |offset| ≤ 3σ | start named an offset | horizontal RMS (median, m) |"
+         |offset| ≤ 3σ | mounting |err| roll / pitch / yaw (median, °) | pitch, yaw within 0.2° | \
+         reported σ roll / pitch / yaw (median, °) | start named an offset | horizontal RMS (median, m) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    for (name, late, extra, bar) in &cells {
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for (name, late, mounting, extra, bar) in &cells {
         let outs: Vec<Cal> = (1..=seeds)
             .into_par_iter()
             .map(|seed| {
-                let d = calibration_drive(seed, *late);
+                let d = mounted_drive(seed, *late, *mounting);
                 let g = gnss_rows(&d, Errors::White([0.02, 0.02, 0.05]), 1.0, seed);
-                one(&d, g, extra, *late)
+                one(&d, g, extra, *late, *mounting)
             })
             .collect();
         let ok: Vec<&Cal> = outs.iter().filter(|c| c.refused.is_none()).collect();
@@ -129,10 +156,18 @@ fn main() {
         let in_bar = ok.iter().filter(|c| c.offset.is_some_and(|o| o.0.abs() <= *bar)).count();
         let in_3s = ok.iter().filter(|c| c.offset.is_some_and(|o| o.0.abs() <= 3.0 * o.1)).count();
         let alarms = ok.iter().filter(|c| c.alarm).count();
+        let has_mount = ok.iter().any(|c| c.mount.is_some());
+        let m_err =
+            |k: usize| median(ok.iter().filter_map(|c| c.mount.map(|m| m.0[k].abs())).collect());
+        let m_sig = |k: usize| median(ok.iter().filter_map(|c| c.mount.map(|m| m.1[k])).collect());
+        let m_in = ok
+            .iter()
+            .filter(|c| c.mount.is_some_and(|m| m.0.y.abs() <= 0.2 && m.0.z.abs() <= 0.2))
+            .count();
         let rms = median(ok.iter().map(|c| c.rms).collect());
         let dash = || "—".to_string();
         println!(
-            "| {name} | {} of {seeds} | {} | {} | {} | {} | {} | {} | {} | {alarms}/{n} | {rms:.3} |",
+            "| {name} | {} of {seeds} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {alarms}/{n} | {rms:.3} |",
             seeds as usize - n,
             if has_lever {
                 format!("{:.1} / {:.1} / {:.1}", 100.0 * axis(0), 100.0 * axis(1), 100.0 * axis(2))
@@ -149,6 +184,17 @@ fn main() {
             if has_offset { format!("{:.2}", 1e3 * off) } else { dash() },
             if has_offset && bar.is_finite() { format!("{in_bar}/{n}") } else { dash() },
             if has_offset { format!("{in_3s}/{n}") } else { dash() },
+            if has_mount {
+                format!("{:.2} / {:.2} / {:.2}", m_err(0), m_err(1), m_err(2))
+            } else {
+                dash()
+            },
+            if has_mount { format!("{m_in}/{n}") } else { dash() },
+            if has_mount {
+                format!("{:.2} / {:.2} / {:.2}", m_sig(0), m_sig(1), m_sig(2))
+            } else {
+                dash()
+            },
         );
     }
 }

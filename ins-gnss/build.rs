@@ -12,7 +12,7 @@ use std::path::Path;
 
 use syn::{Attribute, Expr, Fields, GenericArgument, Item, Lit, Meta, PathArguments, Type};
 
-const FILES: [&str; 8] = [
+const FILES: [&str; 9] = [
     "src/config/mod.rs",
     "src/config/data.rs",
     "src/config/init.rs",
@@ -20,6 +20,7 @@ const FILES: [&str; 8] = [
     "src/config/gnss.rs",
     "src/config/filter.rs",
     "src/config/vehicle.rs",
+    "src/config/calibrate.rs",
     "src/columns.rs",
 ];
 

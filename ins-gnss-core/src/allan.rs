@@ -238,6 +238,45 @@ fn solve(rows: &[([f64; 3], f64, f64)], cols: &[usize]) -> Option<([f64; 3], [f6
     Some((coef, sig, res))
 }
 
+/// [`analyse`] on each of `axes` (same `dt`), the axes shared among the machine's cores
+/// (`std::thread::available_parallelism`; each axis' cumulative sum is as long as its
+/// series, so at most that many are held at once). The results in the axes' order.
+pub fn analyse_axes<A: AsRef<[f64]> + Sync>(
+    axes: &[A],
+    dt: f64,
+) -> Vec<Result<AxisNoise, AllanError>> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(axes.len());
+    if threads <= 1 {
+        return axes.iter().map(|a| analyse(a.as_ref(), dt)).collect();
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut out: Vec<Option<Result<AxisNoise, AllanError>>> =
+        (0..axes.len()).map(|_| None).collect();
+    let done: Vec<Vec<(usize, Result<AxisNoise, AllanError>)>> = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(a) = axes.get(k) else { break mine };
+                        mine.push((k, analyse(a.as_ref(), dt)));
+                    }
+                })
+            })
+            .collect();
+        workers.into_iter().filter_map(|w| w.join().ok()).collect()
+    });
+    for (k, r) in done.into_iter().flatten() {
+        out[k] = Some(r);
+    }
+    // (a worker that panicked leaves its axes to this thread)
+    out.into_iter()
+        .enumerate()
+        .map(|(k, r)| r.unwrap_or_else(|| analyse(axes[k].as_ref(), dt)))
+        .collect()
+}
+
 /// The curve and fit of one axis' increments (`dt` the sample interval): cluster sizes
 /// where at least 3 clusters fit, the fit over those with at least 9.
 pub fn analyse(increments: &[f64], dt: f64) -> Result<AxisNoise, AllanError> {

@@ -14,7 +14,7 @@
 //! | [`model`] | [`InsModel`]: mechanization, `F`, `G Q_c Gᵀ`, `Φ`, `Q_d`, block-sparse `Φ P Φᵀ` |
 //! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
-//! | [`calibration`] | the rig's calibration as states: the antenna lever arm and the IMU–GNSS time offset, [`calibration::InsStateCal`] (19) |
+//! | [`calibration`] | the rig's calibration as states: the antenna lever arm, the IMU–GNSS time offset, the mounting in the vehicle, [`calibration::InsStateCal`] (22) |
 //! | [`fix_error`] | the GNSS fixes' persisting (Gauss–Markov) error as states: [`fix_error::InsStateFe`] (18), [`fix_error::InsState21Fe`] (24) |
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`] |
 //! | [`tight`] | tight coupling: [`tight::InsStateTc`] (15 + clock + inter-system biases) and [`tight::InsStateTc21`] (21 + clock + biases), per-satellite pseudorange and range-rate models |

@@ -150,6 +150,75 @@ impl MeasurementModel for Odometer {
     }
 }
 
+/// A vehicle-frame velocity model (the NHC, the odometer) that the mounting states of
+/// [`crate::calibration`] apply to: its `C_vb`, the same model with another, and the
+/// Jacobian of its prediction in a mounting correction `μ` with `C_vb = Exp(μ) C₀`.
+pub trait VehicleModel: MeasurementModel<State = InsState> + Copy
+where
+    nalgebra::DefaultAllocator: estimator_core::FilterAlloc<Const<15>, estimator_core::StateDim<Self::Measurement>>
+        + estimator_core::FilterAlloc<Const<3>, estimator_core::StateDim<Self::Measurement>>,
+{
+    /// The model's `C_vb`.
+    fn c_vb(&self) -> Matrix3<f64>;
+
+    /// The same model with `c_vb`.
+    fn with_c_vb(&self, c_vb: Matrix3<f64>) -> Self;
+
+    /// `∂h/∂μ` at `μ` for the model's `C₀ = self.c_vb()`: with `w = C₀ u_b` (`u_b` the
+    /// point's body-frame velocity) and `Exp(μ + δ) = Exp(μ) Exp(J_r(μ) δ)`, the rows of
+    /// `−Exp(μ) [w×] J_r(μ)` the model measures.
+    fn mounting_jacobian(
+        &self,
+        x: &InsState,
+        mu: &Vector3<f64>,
+    ) -> nalgebra::OMatrix<f64, estimator_core::StateDim<Self::Measurement>, Const<3>>;
+}
+
+/// `−Exp(μ) [w×] J_r(μ)` with `w = C₀ (R_nbᵀ v + (ω̃ − b_g) × l)`: the vehicle-frame
+/// velocity's Jacobian in the mounting correction.
+fn mounting_rows(
+    c0: &Matrix3<f64>,
+    lever: &Vector3<f64>,
+    gyro: &Vector3<f64>,
+    x: &InsState,
+    mu: &Vector3<f64>,
+) -> Matrix3<f64> {
+    let w = point_velocity(c0, lever, gyro, x);
+    -So3::exp(mu).matrix() * hat(&w) * manifolds::right_jacobian(mu)
+}
+
+impl VehicleModel for Nhc {
+    fn c_vb(&self) -> Matrix3<f64> {
+        self.c_vb
+    }
+
+    fn with_c_vb(&self, c_vb: Matrix3<f64>) -> Self {
+        Self { c_vb, ..*self }
+    }
+
+    fn mounting_jacobian(&self, x: &InsState, mu: &Vector3<f64>) -> SMatrix<f64, 2, 3> {
+        mounting_rows(&self.c_vb, &self.lever_arm, &self.gyro_rate, x, mu)
+            .fixed_rows::<2>(1)
+            .into_owned()
+    }
+}
+
+impl VehicleModel for Odometer {
+    fn c_vb(&self) -> Matrix3<f64> {
+        self.c_vb
+    }
+
+    fn with_c_vb(&self, c_vb: Matrix3<f64>) -> Self {
+        Self { c_vb, ..*self }
+    }
+
+    fn mounting_jacobian(&self, x: &InsState, mu: &Vector3<f64>) -> SMatrix<f64, 1, 3> {
+        mounting_rows(&self.c_vb, &self.lever_arm, &self.gyro_rate, x, mu)
+            .fixed_rows::<1>(0)
+            .into_owned()
+    }
+}
+
 /// The odometer's scale `r` (reading = r × true speed), calibrated against the filter's
 /// forward speed while GNSS keeps that speed right: an exponentially weighted least
 /// squares `r = Σ w v_odo v̂ / Σ w v̂²` over samples above `min_speed`, with time constant

@@ -10,7 +10,7 @@ use plotters::prelude::*;
 
 use crate::config::Config;
 use crate::run::{Inputs, RunError};
-use ins_gnss_core::allan::{analyse, AxisNoise, Term, FLICKER_FLOOR};
+use ins_gnss_core::allan::{AxisNoise, Term, FLICKER_FLOOR};
 use ins_gnss_core::io::formats::ImuReader;
 use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
 
@@ -132,7 +132,10 @@ pub fn check_static(r: &Record) -> Result<(), String> {
 
 /// The analysis of every axis.
 pub fn analyse_record(r: &Record) -> Result<Vec<AxisNoise>, String> {
-    r.axes.iter().map(|a| analyse(a, r.dt).map_err(|e| format!("{}: {e}", r.source))).collect()
+    ins_gnss_core::allan::analyse_axes(&r.axes, r.dt)
+        .into_iter()
+        .map(|f| f.map_err(|e| format!("{}: {e}", r.source)))
+        .collect()
 }
 
 const NAMES: [&str; 6] = ["gyro x", "gyro y", "gyro z", "accel x", "accel y", "accel z"];

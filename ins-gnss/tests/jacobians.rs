@@ -519,25 +519,31 @@ fn fix_error_states_match_numerical_jacobians() {
     }
 }
 
-/// The calibration states (19): the fused step and `step` against the separate calls, the
-/// random walks' Φ block the identity against central differences, and the fix models on
+/// The calibration states (22): the fused step and `step` against the separate calls, the
+/// random walks' Φ block the identity against central differences, the fix models on
 /// them (the state's lever arm, the prediction moved by the time offset along its rate)
-/// against numerical differences, for a position and a position + velocity fix, with
-/// both items estimated; an item switched off has a zero column.
+/// and the NHC and odometer on them (`C_vb` corrected by the mounting state; the roll's
+/// column zero, the others) against numerical differences, every item estimated; an item
+/// switched off has zero columns.
 #[test]
 fn calibration_states_match_numerical_jacobians() {
     use estimator_core::MeasurementModel;
-    use ins_gnss_core::calibration::{Calibration, InsModelCal, InsStateCal, OnCalibration};
+    use ins_gnss_core::calibration::{
+        Calibration, InsModelCal, InsStateCal, OnCalibration, OnMounting,
+    };
+    use ins_gnss_core::vehicle::{mounting_matrix, Nhc, Odometer};
     use manifolds::Rn;
     let calibration = Calibration::default();
     let model = InsModelCal { base: InsModel::wgs84(scenarios::mems_imu().noise), calibration };
     let lever = Vector3::new(0.1, 0.2, -0.3);
+    let c0 = mounting_matrix(&Vector3::new(0.01, -0.02, 0.03));
     for (x, u) in states() {
         let dt = u.cur.dt;
-        let x = InsStateCal { nav: x, cal: Rn::<4>::new(0.8, -0.3, -1.2, 0.04) };
+        let cal = Rn::<7>::from([0.8, -0.3, -1.2, 0.04, 0.02, -0.03, 0.05]);
+        let x = InsStateCal { nav: x, cal };
         let numeric = numerical_jacobian(&x, |xp| model.propagate(xp, &u, dt), 1e-4);
         let phi = model.jacobians(&x, &u, dt).Phi;
-        let block = |m: &SMatrix<f64, 19, 19>| m.fixed_view::<4, 4>(15, 15).into_owned();
+        let block = |m: &SMatrix<f64, 22, 22>| m.fixed_view::<7, 7>(15, 15).into_owned();
         compare("Φ calibration block", &block(&phi), &block(&numeric), 1e-9).unwrap();
         check_combined_calls(&model, &x, &u, dt).unwrap();
         let (rate, force) = (u.cur.rate(), u.cur.specific_force());
@@ -547,8 +553,34 @@ fn calibration_states_match_numerical_jacobians() {
         let on_pv = OnCalibration::new(&pv, force, calibration);
         check_measurement_model_with_step(&on_pos, &x, 1e-6, 1e-3).unwrap();
         check_measurement_model_with_step(&on_pv, &x, 1e-6, 1e-3).unwrap();
-        let off = Calibration { lever_arm: false, time_offset: false, ..calibration };
+        let wheel = Vector3::new(-1.2, 0.1, 0.4);
+        let nhc = Nhc { c_vb: c0, lever_arm: wheel, gyro_rate: rate };
+        let odo = Odometer { c_vb: c0, lever_arm: wheel, gyro_rate: rate };
+        // (central differences on every column but the roll's, which is zero by design)
+        let h_nhc = OnMounting::new(&nhc, calibration).jacobian(&x).H;
+        let h_odo = OnMounting::new(&odo, calibration).jacobian(&x).H;
+        for k in 0..22 {
+            let mut d = SVector::<f64, 22>::zeros();
+            d[k] = 1e-6;
+            let (xp, xm) = (x.oplus(&d), x.oplus(&(-d)));
+            let on = OnMounting::new(&nhc, calibration);
+            let num = (on.predict(&xp) - on.predict(&xm)) / 2e-6;
+            let on = OnMounting::new(&odo, calibration);
+            let num_odo = (on.predict(&xp) - on.predict(&xm)) / 2e-6;
+            if k == 19 {
+                assert_eq!(h_nhc.column(k).abs().max() + h_odo.column(k).abs().max(), 0.0);
+                continue;
+            }
+            let scale = 1.0 + num.abs().max().max(num_odo.abs().max());
+            let err =
+                (h_nhc.column(k) - num).abs().max().max((h_odo.column(k) - num_odo).abs().max());
+            assert!(err <= 1e-5 * scale, "column {k}: {err}");
+        }
+        let off =
+            Calibration { lever_arm: false, time_offset: false, mounting: false, ..calibration };
         let h = OnCalibration::new(&pv, force, off).jacobian(&x).H;
-        assert_eq!(h.fixed_columns::<4>(15).abs().max(), 0.0);
+        assert_eq!(h.fixed_columns::<7>(15).abs().max(), 0.0);
+        let h = OnMounting::new(&nhc, off).jacobian(&x).H;
+        assert_eq!(h.fixed_columns::<7>(15).abs().max(), 0.0);
     }
 }

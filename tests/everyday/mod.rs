@@ -164,6 +164,13 @@ pub const LEVER: [f64; 3] = [0.6, -0.5, -0.62];
 /// `late` s (the calibration campaign and its CI subset); the configuration gives the
 /// IMU's noise and no lever arm.
 pub fn calibration_drive(seed: u64, late: f64) -> Data {
+    mounted_drive(seed, late, Vector3::zeros())
+}
+
+/// [`calibration_drive`] with the IMU mounted at `mounting` (roll, pitch, yaw of its axes
+/// in the vehicle's, rad) and the car moving without sideslip (what the non-holonomic
+/// constraint assumes).
+pub fn mounted_drive(seed: u64, late: f64, mounting: Vector3<f64>) -> Data {
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs).unwrap();
     let gnss = GnssSim {
@@ -173,7 +180,8 @@ pub fn calibration_drive(seed: u64, late: f64) -> Data {
         lever_arm: Vector3::from(LEVER),
         windows: vec![],
     };
-    let d = simulate(&traj, 100.0, &scenarios::mems_imu(), &gnss, seed);
+    let imu = ins_gnss_sim::ImuErrors { mounting, ..scenarios::mems_imu() };
+    let d = simulate(&traj, 100.0, &imu, &gnss, seed);
     let imu: Vec<f64> = d
         .imu
         .iter()

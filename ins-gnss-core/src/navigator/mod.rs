@@ -41,6 +41,7 @@ use crate::tight::{
     Antenna, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21, OnTc, Pseudorange, RangeRate, M20,
     M26,
 };
+use crate::vehicle::VehicleModel;
 
 mod coarse;
 mod setup;

@@ -57,6 +57,28 @@ where
         Self::update(filter, model, z, r, observer)
     }
 
+    /// Update `filter` with a vehicle-frame velocity model (the NHC, the odometer): as
+    /// [`update`](Self::update), and on a state that carries the mounting
+    /// ([`InsStateCal`](crate::calibration::InsStateCal)) through
+    /// [`OnMounting`](crate::calibration::OnMounting) with `calibration`.
+    fn update_vehicle<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        calibration: Option<Calibration>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: VehicleModel,
+        O: Observer,
+        DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
+    {
+        let _ = calibration;
+        Self::update(filter, model, z, r, observer)
+    }
+
     /// The fixes' persisting error and the index of its block in the error state, on a
     /// state that carries it.
     fn fix_error(&self) -> Option<(&Vector3<f64>, usize)> {
@@ -82,9 +104,9 @@ where
         None
     }
 
-    /// The calibration states (lever arm, m; time offset, s) and the index of their block
-    /// in the error state, on a state that carries them.
-    fn calibration_states(&self) -> Option<(Vector3<f64>, f64, usize)> {
+    /// The state with the calibration states, on a state that carries them (their block
+    /// in the error state is [`InsStateCal::CAL`](crate::calibration::InsStateCal)).
+    fn calibration_states(&self) -> Option<&InsStateCal> {
         None
     }
 }
@@ -105,7 +127,7 @@ pub trait NavAlloc<M: DimName>:
     FilterAlloc<Const<3>, M>
     + FilterAlloc<Const<15>, M>
     + FilterAlloc<Const<18>, M>
-    + FilterAlloc<Const<19>, M>
+    + FilterAlloc<Const<22>, M>
     + FilterAlloc<Const<20>, M>
     + FilterAlloc<Const<21>, M>
     + FilterAlloc<Const<24>, M>
@@ -117,7 +139,7 @@ impl<M: DimName, T> NavAlloc<M> for T where
     T: FilterAlloc<Const<3>, M>
         + FilterAlloc<Const<15>, M>
         + FilterAlloc<Const<18>, M>
-        + FilterAlloc<Const<19>, M>
+        + FilterAlloc<Const<22>, M>
         + FilterAlloc<Const<20>, M>
         + FilterAlloc<Const<21>, M>
         + FilterAlloc<Const<24>, M>
@@ -421,11 +443,29 @@ on_nav_state!(InsStateCal, InsModelCal, nav: nav, noise: base.noise {
         filter.update_observed(&on, z, r, observer).map(|r| r.summary())
     }
 
+    fn update_vehicle<A, MM, O>(
+        filter: &mut ErrorStateFilter<Self, A>,
+        model: &MM,
+        z: &MM::Measurement,
+        r: &Cov<StateDim<MM::Measurement>>,
+        calibration: Option<Calibration>,
+        observer: &mut O,
+    ) -> Result<UpdateSummary, FilterError>
+    where
+        A: NoiseStrategy,
+        MM: VehicleModel,
+        O: Observer,
+        DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
+    {
+        let on = crate::calibration::OnMounting::new(model, calibration.unwrap_or_default());
+        filter.update_observed(&on, z, r, observer).map(|r| r.summary())
+    }
+
     fn calibration(model: &InsModelCal) -> Option<Calibration> {
         Some(model.calibration)
     }
 
-    fn calibration_states(&self) -> Option<(Vector3<f64>, f64, usize)> {
-        Some((self.lever_arm(), self.time_offset(), InsStateCal::CAL.start()))
+    fn calibration_states(&self) -> Option<&InsStateCal> {
+        Some(self)
     }
 });

@@ -72,8 +72,15 @@ where
                 let r = nalgebra::Matrix1::new(o.std * o.std);
                 coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 recorder.before_update(&self.filter);
-                let report =
-                    S::update::<A, Odometer, O>(&mut self.filter, &model, &z, &r, observer);
+                let cal = S::calibration(&self.model);
+                let report = S::update_vehicle::<A, Odometer, O>(
+                    &mut self.filter,
+                    &model,
+                    &z,
+                    &r,
+                    cal,
+                    observer,
+                );
                 out.push(report.map_err(err)?);
             }
         }
@@ -130,7 +137,9 @@ where
                 let z = nalgebra::Vector2::zeros();
                 coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 recorder.before_update(&self.filter);
-                let report = S::update::<A, Nhc, O>(&mut self.filter, &model, &z, &r, observer);
+                let cal = S::calibration(&self.model);
+                let report =
+                    S::update_vehicle::<A, Nhc, O>(&mut self.filter, &model, &z, &r, cal, observer);
                 out.push(report.map_err(err)?);
             }
         }

@@ -99,9 +99,9 @@ enum Command {
         #[arg(long)]
         accept_inconsistent: bool,
         /// Estimate the rig's calibration as states of the filter: `lever-arm`,
-        /// `time-offset`, or both separated by a comma (sets `gnss.calibrate`; loose
-        /// coupling, 15 states).
-        #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset"]))]
+        /// `time-offset`, `mounting` (with NHC or the odometer), several separated by
+        /// commas (sets `[calibrate]`; loose coupling, 15 states).
+        #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset", "mounting"]))]
         calibrate: Vec<String>,
     },
     /// Evaluate a navigation result against a truth file.
@@ -288,6 +288,7 @@ fn main() -> ExitCode {
                 accept_inconsistent,
                 calibrate_lever_arm: calibrate.iter().any(|c| c == "lever-arm"),
                 calibrate_time_offset: calibrate.iter().any(|c| c == "time-offset"),
+                calibrate_mounting: calibrate.iter().any(|c| c == "mounting"),
             };
             cli::run(&config, &o)
         }

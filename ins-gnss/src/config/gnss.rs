@@ -32,82 +32,6 @@ pub struct GnssSection {
     /// The fixes' errors: white, or with a persisting part as states ([`ErrorsSection`]).
     #[serde(default, skip_serializing_if = "ErrorsSection::is_default")]
     pub errors: ErrorsSection,
-    /// The rig's calibration estimated as states: the lever arm, the time offset
-    /// ([`CalibrateSection`]).
-    #[serde(default, skip_serializing_if = "CalibrateSection::is_default")]
-    pub calibrate: CalibrateSection,
-}
-
-/// `[gnss.calibrate]`: the antenna lever arm and the IMU–GNSS time offset estimated by
-/// the filter (loose coupling, 15 states: four states more, 19), each on its own. The
-/// configured `gnss.lever_arm` and `data.imu_time_offset` are where they start; the run
-/// summary gives what the data made of them, their σ and how much the data reduced it,
-/// or says that the data could not tell. With the time offset on, an offset the start's
-/// search finds decisively (the gyro's turns against the GNSS course) is applied to the
-/// IMU's stamps instead of refusing the run, the state refining what is left.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CalibrateSection {
-    /// Estimate the antenna lever arm. Default false.
-    #[serde(default)]
-    pub lever_arm: bool,
-    /// The lever arm's prior 1σ per axis about `gnss.lever_arm`, m. Default 1.0.
-    #[serde(default = "default_lever_arm_std")]
-    pub lever_arm_std: f64,
-    /// Estimate the IMU–GNSS time offset. Default false.
-    #[serde(default)]
-    pub time_offset: bool,
-    /// The time offset's prior 1σ about `data.imu_time_offset` (after the start's search
-    /// applied what it found), s. Default 0.1.
-    #[serde(default = "default_time_offset_std")]
-    pub time_offset_std: f64,
-}
-
-fn default_lever_arm_std() -> f64 {
-    1.0
-}
-
-fn default_time_offset_std() -> f64 {
-    0.1
-}
-
-impl Default for CalibrateSection {
-    fn default() -> Self {
-        Self {
-            lever_arm: false,
-            lever_arm_std: default_lever_arm_std(),
-            time_offset: false,
-            time_offset_std: default_time_offset_std(),
-        }
-    }
-}
-
-impl CalibrateSection {
-    pub(crate) fn is_default(&self) -> bool {
-        *self == Self::default()
-    }
-
-    /// Whether any item is estimated.
-    pub fn any(&self) -> bool {
-        self.lever_arm || self.time_offset
-    }
-
-    /// The section's values checked (`gnss.calibrate.*` named in errors).
-    pub(crate) fn check(&self) -> Result<(), String> {
-        if !(self.lever_arm_std.is_finite() && self.lever_arm_std > 0.0) {
-            return Err(format!(
-                "`gnss.calibrate.lever_arm_std = {}`: metres, positive",
-                self.lever_arm_std
-            ));
-        }
-        if !(self.time_offset_std.is_finite() && self.time_offset_std > 0.0) {
-            return Err(format!(
-                "`gnss.calibrate.time_offset_std = {}`: seconds, positive",
-                self.time_offset_std
-            ));
-        }
-        Ok(())
-    }
 }
 
 /// `[gnss.errors]`: how the fixes' errors are modelled (loose coupling). A receiver
@@ -415,7 +339,6 @@ impl Default for GnssSection {
             coupling: Coupling::Loose,
             tight: TightSection::default(),
             errors: ErrorsSection::default(),
-            calibrate: CalibrateSection::default(),
         }
     }
 }

@@ -178,5 +178,6 @@ pub fn from_yaml(text_in: &str) -> Result<Config, String> {
         align: AlignSection::default(),
         filter: FilterSection::default(),
         vehicle: VehicleSection::default(),
+        calibrate: CalibrateSection::default(),
     })
 }

@@ -25,6 +25,7 @@ use ins_gnss_core::vehicle::{
 use ins_gnss_core::GeoPos;
 use ins_gnss_core::InsState;
 
+mod calibrate;
 mod convert;
 mod data;
 mod filter;
@@ -37,6 +38,7 @@ pub mod reference;
 mod validate;
 mod vehicle;
 
+pub use calibrate::*;
 pub use data::*;
 pub use filter::*;
 pub use gnss::*;
@@ -99,6 +101,10 @@ pub struct Config {
     /// Land-vehicle aiding (off unless a subsection is present).
     #[serde(default)]
     pub vehicle: VehicleSection,
+    /// The rig's calibration estimated as states: the lever arm, the time offset, the
+    /// mounting ([`CalibrateSection`]).
+    #[serde(default, skip_serializing_if = "CalibrateSection::is_default")]
+    pub calibrate: CalibrateSection,
 }
 
 /// The languages of a configuration's text ([`Config::parse`]).

@@ -46,10 +46,12 @@ pub struct RunOptions<'a> {
     /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
     /// of an error.
     pub accept_inconsistent: bool,
-    /// Estimate the lever arm (sets `gnss.calibrate.lever_arm`).
+    /// Estimate the lever arm (sets `calibrate.lever_arm`).
     pub calibrate_lever_arm: bool,
-    /// Estimate the IMU–GNSS time offset (sets `gnss.calibrate.time_offset`).
+    /// Estimate the IMU–GNSS time offset (sets `calibrate.time_offset`).
     pub calibrate_time_offset: bool,
+    /// Estimate the IMU's mounting (sets `calibrate.mounting`).
+    pub calibrate_mounting: bool,
 }
 
 impl Config {
@@ -98,10 +100,13 @@ impl Config {
             cfg.filter.smooth_low_scratch = true;
         }
         if o.calibrate_lever_arm {
-            cfg.gnss.calibrate.lever_arm = true;
+            cfg.calibrate.lever_arm = true;
         }
         if o.calibrate_time_offset {
-            cfg.gnss.calibrate.time_offset = true;
+            cfg.calibrate.time_offset = true;
+        }
+        if o.calibrate_mounting {
+            cfg.calibrate.mounting = true;
         }
         // the options are checked as the file's keys were
         cfg.validate()?;

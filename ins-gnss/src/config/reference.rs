@@ -168,10 +168,12 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("gnss.errors.tau", "s", "100.0"),
     ("gnss.errors.sigma", "m (N, E, D)", "[1.5, 1.5, 3.0]"),
     ("gnss.errors.learn", "—", "false"),
-    ("gnss.calibrate.lever_arm", "—", "true"),
-    ("gnss.calibrate.lever_arm_std", "m", "0.5"),
-    ("gnss.calibrate.time_offset", "—", "true"),
-    ("gnss.calibrate.time_offset_std", "s", "0.05"),
+    ("calibrate.lever_arm", "—", "true"),
+    ("calibrate.lever_arm_std", "m", "0.5"),
+    ("calibrate.time_offset", "—", "true"),
+    ("calibrate.time_offset_std", "s", "0.05"),
+    ("calibrate.mounting", "—", "true"),
+    ("calibrate.mounting_std", "deg", "5.0"),
     ("filter.strategy", "—", r#""fused""#),
     ("filter.mechanization", "—", r#""flat-earth""#),
     ("filter.streams", "—", r#"{ gnss-position = "fused" }"#),
@@ -267,8 +269,10 @@ pub fn defaults() -> Result<std::collections::BTreeMap<String, String>, String> 
         gnss.insert("tight".into(), tight);
         let errors = toml::Value::try_from(&cfg.gnss.errors).map_err(|e| e.to_string())?;
         gnss.insert("errors".into(), errors);
-        let calibrate = toml::Value::try_from(&cfg.gnss.calibrate).map_err(|e| e.to_string())?;
-        gnss.insert("calibrate".into(), calibrate);
+    }
+    if let Some(top) = value.as_table_mut() {
+        let calibrate = toml::Value::try_from(&cfg.calibrate).map_err(|e| e.to_string())?;
+        top.insert("calibrate".into(), calibrate);
     }
     let mut out = std::collections::BTreeMap::new();
     for k in KEYS {

@@ -91,8 +91,8 @@ impl Config {
         }
         self.gnss.quality.factors()?;
         self.gnss.errors.check()?;
-        self.gnss.calibrate.check()?;
-        if self.gnss.calibrate.any() {
+        self.calibrate.check()?;
+        if self.calibrate.any() {
             let with = if self.gnss.coupling == Coupling::Tight {
                 Some("`gnss.coupling = \"tight\"`")
             } else if self.filter.states == 21 {
@@ -102,12 +102,21 @@ impl Config {
             } else {
                 None
             };
+            if self.calibrate.mounting
+                && self.vehicle.nhc.is_none()
+                && self.vehicle.odometer.is_none()
+            {
+                return Err("`calibrate.mounting` needs `[vehicle.nhc]` or `[vehicle.odometer]`: \
+                            the mounting is seen through the vehicle-frame velocity they \
+                            measure"
+                    .into());
+            }
             if let Some(with) = with {
                 return Err(format!(
-                    "`gnss.calibrate` runs with loose coupling, 15 states and white fix errors; \
+                    "`calibrate` runs with loose coupling, 15 states and white fix errors; \
                      not yet with {with}: calibrate the rig on such a run first, then write \
-                     its lever arm and time offset into `gnss.lever_arm` and \
-                     `data.imu_time_offset`"
+                     what it found into `gnss.lever_arm`, `data.imu_time_offset` and \
+                     `vehicle.nhc.mounting`"
                 ));
             }
         }

@@ -38,7 +38,7 @@ pub enum RunError {
     /// The fixes' errors were probed and found persisting: the run starts again with them
     /// as states ([`run`] does; never returned to a caller).
     FixErrorsPersist(FixErrorProbe),
-    /// The start's search found the IMU's stamps off and `gnss.calibrate.time_offset`
+    /// The start's search found the IMU's stamps off and `calibrate.time_offset`
     /// applies it: the run starts again with this `data.imu_time_offset` ([`run`] does;
     /// never returned to a caller), the start's line on it kept.
     TimeOffsetApplied(f64, Vec<String>),

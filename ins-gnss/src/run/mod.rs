@@ -230,7 +230,7 @@ fn attempt<O: Sink>(
     // stops the run. Otherwise the filter waits for `prepare`.
     // (calibrating the time offset: the start's search runs before the filter, which
     // starts on the stamps it corrects)
-    let look = if crate::start::fills(config) || config.gnss.calibrate.time_offset {
+    let look = if crate::start::fills(config) || config.calibrate.time_offset {
         Look::Span
     } else if crate::start::floors(config) {
         Look::StaticStart
@@ -277,7 +277,7 @@ fn attempt<O: Sink>(
     let persisting = plan == FixErrorPlan::Persisting;
     let inputs =
         Opened { feed, gnss, prefix, checks, out: &mut out, nav, probe, found: persisting_probe };
-    let calibrate = config.gnss.calibrate.any();
+    let calibrate = config.calibrate.any();
     let result = match config.filter.states {
         _ if calibrate => run_into::<InsStateCal, O>(config, strategy, names, progress, inputs),
         21 if tight => run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs),
@@ -625,10 +625,22 @@ pub(crate) fn calibration_learned<S: NavState>(
 where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
-    let (lever, offset, k) = nav.state().calibration_states()?;
-    let c = &config.gnss.calibrate;
+    let x = nav.state().calibration_states()?;
+    let k = InsStateCal::CAL.start();
+    let (lever, offset) = (x.lever_arm(), x.time_offset());
+    let c = &config.calibrate;
     let sigma = |i: usize| nav.covariance()[(k + i, k + i)].max(0.0).sqrt();
     let applied = config.data.imu_time_offset;
+    // the mounting as the configuration writes it: `C_vb = Exp(μ) C₀`, its roll, pitch, yaw
+    let mounting = c.mounting.then(|| {
+        let c0 = config.vehicle.nhc.as_ref().map_or([0.0; 3], |n| n.mounting);
+        let c0 = ins_gnss_core::vehicle::mounting_matrix(&Vector3::from(c0).map(f64::to_radians));
+        let rot = manifolds::So3::exp(&x.mounting()).matrix() * c0;
+        let (r, p, y) = manifolds::So3::from_matrix(&rot).euler();
+        let deg = |v: f64| v.to_degrees();
+        let s = Vector3::new(deg(sigma(4)), deg(sigma(5)), deg(sigma(6)));
+        (Vector3::new(deg(r), deg(p), deg(y)), s, c.mounting_std)
+    });
     Some(CalibrationLearned {
         lever_arm: c
             .lever_arm
@@ -638,6 +650,7 @@ where
         time_offset: c
             .time_offset
             .then(|| (offset - applied, sigma(3), c.time_offset_std, applied)),
+        mounting,
     })
 }
 

@@ -38,7 +38,7 @@ pub fn run_slices(
     let plan = GnssAtStart::of_fixes(config, gnss.iter()).plan(config);
     let persisting = plan == crate::config::FixErrorPlan::Persisting;
     match config.filter.states {
-        _ if config.gnss.calibrate.any() => {
+        _ if config.calibrate.any() => {
             run_slices_on::<InsStateCal>(config, strategy, imu, gnss, each)
         }
         21 if persisting => run_slices_on::<InsState21Fe>(config, strategy, imu, gnss, each),

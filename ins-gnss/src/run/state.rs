@@ -152,9 +152,10 @@ impl RunState for InsState21Fe {
     }
 }
 
-/// The 15-state INS with the rig's calibration (`gnss.calibrate`): the lever arm starts
-/// at `gnss.lever_arm`, the time offset at 0 on the (shifted) stamps, each with its prior
-/// σ; an item off is never updated.
+/// The 15-state INS with the rig's calibration (`calibrate`): the lever arm starts
+/// at `gnss.lever_arm`, the time offset at 0 on the (shifted) stamps, the mounting's
+/// correction at 0 about `vehicle.nhc.mounting`, each with its prior σ; an item off is
+/// never updated.
 impl RunState for InsStateCal {
     const SIGMA_COLUMNS: usize = 15;
 
@@ -165,18 +166,18 @@ impl RunState for InsStateCal {
         _at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
-        let c = &config.gnss.calibrate;
+        let c = &config.calibrate;
         let calibration = Calibration {
             lever_arm: c.lever_arm,
             time_offset: c.time_offset,
+            mounting: c.mounting,
             ..Default::default()
         };
         let model = InsModelCal { base, calibration };
         let init = config.initial_state(start);
         let l = config.gnss.lever_arm;
-        let cal = manifolds::Rn::<4>::new(l[0], l[1], l[2], 0.0);
-        let x = InsStateCal { nav: init.state.clone(), cal };
-        let mut p = estimator_core::Cov::<nalgebra::Const<19>>::zeros();
+        let x = InsStateCal::new(init.state.clone(), Vector3::from(l));
+        let mut p = estimator_core::Cov::<nalgebra::Const<22>>::zeros();
         p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
         // the start's position is a fix's less the declared lever arm, `p = z − R l`: a
         // lever arm known to σ_l leaves the position known only to it too, and the two
@@ -199,6 +200,9 @@ impl RunState for InsStateCal {
             p[(15 + k, 15 + k)] = var;
         }
         p[(18, 18)] = c.time_offset_std.powi(2);
+        for k in 19..22 {
+            p[(k, k)] = c.mounting_std.to_radians().powi(2);
+        }
         Navigator::from_parts(x, p, init.time, model, strategy, config.gnss_config())
     }
 
@@ -240,7 +244,7 @@ impl GnssAtStart {
     pub fn plan(&self, config: &Config) -> crate::config::FixErrorPlan {
         // (the calibration states run on the white model: `validate` refuses
         // `persisting` with them)
-        if config.gnss.coupling == crate::config::Coupling::Tight || config.gnss.calibrate.any() {
+        if config.gnss.coupling == crate::config::Coupling::Tight || config.calibrate.any() {
             return crate::config::FixErrorPlan::White;
         }
         config.gnss.errors.plan(self.fix_std.map(|s| s[0].max(s[1])))

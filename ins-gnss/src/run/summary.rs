@@ -67,11 +67,11 @@ pub struct RunSummary {
     /// The probe of the fixes' errors that found them white (`gnss.errors.model =
     /// "auto"`; one that found them persisting is in [`fix_errors`](Self::fix_errors)).
     pub fix_probe: Option<super::FixErrorProbe>,
-    /// The rig's calibration as the filter estimated it (`gnss.calibrate`).
+    /// The rig's calibration as the filter estimated it (`calibrate`).
     pub calibration: Option<CalibrationLearned>,
 }
 
-/// The calibration states at the end of a run (`gnss.calibrate`): each estimate, its σ
+/// The calibration states at the end of a run (`calibrate`): each estimate, its σ
 /// and its prior σ (the data's share in it: the ratio of the two).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CalibrationLearned {
@@ -81,6 +81,10 @@ pub struct CalibrationLearned {
     /// its σ, the prior σ, and the offset applied to the stamps
     /// (`data.imu_time_offset`, the start's search included), when estimated.
     pub time_offset: Option<(f64, f64, f64, f64)>,
+    /// The mounting (roll, pitch, yaw of the body in the vehicle frame, degrees, as
+    /// `vehicle.nhc.mounting` takes it), the σ of its correction and the prior σ
+    /// (degrees), when estimated.
+    pub mounting: Option<(Vector3<f64>, Vector3<f64>, f64)>,
 }
 
 /// The share of its prior σ above which a calibration state is reported as not
@@ -140,6 +144,35 @@ impl CalibrationLearned {
             } else {
                 part += &format!(" (`data.imu_time_offset = {:.4}`)", -d);
             }
+            parts.push(part);
+        }
+        if let Some((m, s, p)) = self.mounting {
+            let blind: Vec<&str> = ["pitch", "yaw"]
+                .into_iter()
+                .zip(s.iter().skip(1))
+                .filter(|(_, s)| **s > UNOBSERVED * p)
+                .map(|(a, _)| a)
+                .collect();
+            let mut part = format!(
+                "mounting pitch {:.2}° σ {:.2}°, yaw {:.2}° σ {:.2}° (prior σ {p:.1}°, reduced to \
+                 {}, {}; the roll, which the non-holonomic constraint cannot see, kept at \
+                 {:.2}°)",
+                m.y,
+                s.y,
+                m.z,
+                s.z,
+                share(s.y, p),
+                share(s.z, p),
+                m.x
+            );
+            if !blind.is_empty() {
+                part += &format!(
+                    "; not observable by these data on {} (σ not reduced to a fifth of the \
+                     prior: a drive at speed tells it)",
+                    blind.join(", ")
+                );
+            }
+            part += &format!(" (`vehicle.nhc.mounting = [{:.2}, {:.2}, {:.2}]`)", m.x, m.y, m.z);
             parts.push(part);
         }
         format!("calibration: {}", parts.join("; "))

@@ -194,6 +194,7 @@ impl Scenario {
             imu: Default::default(),
             align: Default::default(),
             vehicle: Default::default(),
+            calibrate: Default::default(),
         }
     }
 }

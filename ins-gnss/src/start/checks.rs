@@ -239,7 +239,7 @@ pub const TIME_OFFSET_REPORTED: f64 = 1e2;
 /// that fits; a smaller one, or one whose ratio is only beyond [`TIME_OFFSET_REPORTED`],
 /// is reported and the run goes on as stamped.
 ///
-/// With `gnss.calibrate.time_offset` on, a decisive offset is not refused: the value
+/// With `calibrate.time_offset` on, a decisive offset is not refused: the value
 /// that fits is returned, for the run to apply to the IMU's stamps (the filter's state
 /// refines what is left).
 pub(super) fn check_time_offset(
@@ -273,16 +273,16 @@ pub(super) fn check_time_offset(
         t.misfit_zero,
         log_ratio.min(700.0).exp()
     );
-    if config.gnss.calibrate.any() && t.offset.abs() < TIME_OFFSET_REFUSED {
+    if config.calibrate.any() && t.offset.abs() < TIME_OFFSET_REFUSED {
         // (the filter's state estimates an offset this small, its line the summary's; and
         // a lever arm being calibrated slips the antenna's course in turns, `l_x / u`
         // seconds of apparent offset that the declared lever arm does not explain)
         return Ok(None);
     }
-    if decisive && config.gnss.calibrate.time_offset {
+    if decisive && config.calibrate.time_offset {
         report.push(format!(
             "IMU–GNSS time offset: {what}: applied to the IMU's stamps (`data.imu_time_offset = \
-             {fix:.3}`; `gnss.calibrate.time_offset` refines it)"
+             {fix:.3}`; `calibrate.time_offset` refines it)"
         ));
         return Ok(Some(fix));
     }
