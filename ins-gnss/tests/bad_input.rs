@@ -395,6 +395,19 @@ fn cases(base: &Base) -> Vec<Case> {
         let name = format!("toml-{}", key.replace('.', "-"));
         s.toml(&name, "[vehicle]\n", &format!("[vehicle]\n{section}\n"), &[key]);
     }
+    // the calibration states: a prior that is no σ, a mounting nothing sees
+    s.toml(
+        "toml-calibrate-lever-arm-std",
+        "[vehicle]\n",
+        "[calibrate]\nlever_arm = true\nlever_arm_std = -1.0\n[vehicle]\n",
+        &["calibrate.lever_arm_std"],
+    );
+    s.toml(
+        "toml-calibrate-mounting-unseen",
+        "[vehicle]\n",
+        "[calibrate]\nmounting = true\n[vehicle]\n",
+        &["calibrate.mounting", "vehicle.nhc"],
+    );
     s.toml(
         "toml-unknown-stream",
         "[filter.streams]\n",

@@ -120,40 +120,12 @@ pub fn data_dir(name: &str) -> PathBuf {
 
 /// The simulator's drive: truth at every IMU epoch, fixes at 1 Hz.
 pub fn sim_drive(seed: u64) -> Data {
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs).unwrap();
     let lever = Vector3::new(0.3, 0.0, -1.0);
-    let gnss = GnssSim {
-        rate_hz: 1.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: lever,
-        windows: vec![],
-    };
-    let d = simulate(&traj, 100.0, &scenarios::mems_imu(), &gnss, seed);
-    let imu: Vec<f64> = d
-        .imu
-        .iter()
-        .flat_map(|s| [s.t, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2]])
-        .collect();
-    let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
-    let truth =
-        d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
-    // the simulator's MEMS (scenarios::mems_imu) in the configuration's units
-    let config = "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
-         [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
-         gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
-         corr_time = 1.0\n[gnss]\nlever_arm = [0.3, 0.0, -1.0]\n"
-        .to_string();
-    Data {
-        name: "sim drive",
-        imu: imu.into(),
-        fixes,
-        truth,
-        config: Source::Toml(config),
-        outages: None,
-        skip: 60.0,
+    let mut d = simulated("sim drive", seed, lever, 0.0, Vector3::zeros());
+    if let Source::Toml(c) = &mut d.config {
+        c.push_str("[gnss]\nlever_arm = [0.3, 0.0, -1.0]\n");
     }
+    d
 }
 
 /// The antenna's true lever arm in [`calibration_drive`] (body FRD), m: 1.0 m from the
@@ -171,13 +143,26 @@ pub fn calibration_drive(seed: u64, late: f64) -> Data {
 /// in the vehicle's, rad) and the car moving without sideslip (what the non-holonomic
 /// constraint assumes).
 pub fn mounted_drive(seed: u64, late: f64, mounting: Vector3<f64>) -> Data {
+    simulated("calibration drive", seed, Vector3::from(LEVER), late, mounting)
+}
+
+/// The simulator's 600 s drive with the simulator's MEMS mounted at `mounting`, error-free
+/// fixes at 1 Hz from an antenna at `lever`, the IMU's stamps late by `late` s; the
+/// configuration gives the IMU's noise in its units and nothing else.
+fn simulated(
+    name: &'static str,
+    seed: u64,
+    lever: Vector3<f64>,
+    late: f64,
+    mounting: Vector3<f64>,
+) -> Data {
     let (start, segs) = scenarios::drive_600s();
     let traj = Trajectory::new(start, &segs).unwrap();
     let gnss = GnssSim {
         rate_hz: 1.0,
         pos_sigma: Vector3::zeros(),
         vel_sigma: None,
-        lever_arm: Vector3::from(LEVER),
+        lever_arm: lever,
         windows: vec![],
     };
     let imu = ins_gnss_sim::ImuErrors { mounting, ..scenarios::mems_imu() };
@@ -192,13 +177,14 @@ pub fn mounted_drive(seed: u64, late: f64, mounting: Vector3<f64>) -> Data {
     let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
     let truth =
         d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
+    // the simulator's MEMS (scenarios::mems_imu) in the configuration's units
     let config = "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
          [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
          gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
          corr_time = 1.0\n"
         .to_string();
     Data {
-        name: "calibration drive",
+        name,
         imu: imu.into(),
         fixes,
         truth,

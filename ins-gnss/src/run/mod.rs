@@ -149,7 +149,7 @@ fn run_with<O: Sink>(
             c.data.imu_time_offset = offset;
             lines.extend(found);
             let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
-            let run = attempt(&c, strategy.clone(), inputs, again, &mut create, None);
+            let run = settled(attempt(&c, strategy.clone(), inputs, again, &mut create, None));
             shifted = Some(c);
             run
         }
@@ -187,7 +187,7 @@ fn run_with<O: Sink>(
                     sigma,
                     -late
                 ));
-                attempt(&c, strategy, inputs, progress, &mut create, None)
+                settled(attempt(&c, strategy, inputs, progress, &mut create, None))
             }
             _ => Ok((summary, out)),
         },
@@ -197,6 +197,23 @@ fn run_with<O: Sink>(
         summary.start.splice(0..0, lines);
         (summary, out)
     })
+}
+
+/// An attempt on stamps already shifted: a start that would shift them again (its search
+/// and the filter disagree, or the turns fit two offsets) is refused, not run a third way.
+fn settled<T>(r: Result<T, (RunError, bool)>) -> Result<T, (RunError, bool)> {
+    match r {
+        Err((RunError::TimeOffsetApplied(offset, _), created)) => Err((
+            RunError::Start(format!(
+                "`calibrate.time_offset`: on the IMU's stamps shifted by the offset found, the \
+                 start's search finds another ({offset:.3} s for `data.imu_time_offset`): the \
+                 gyro's turns fit the GNSS course at two offsets; set `data.imu_time_offset` \
+                 to the right one"
+            )),
+            created,
+        )),
+        other => other,
+    }
 }
 
 /// The time offset (s) the calibration state must find beyond its 3σ for a run to be

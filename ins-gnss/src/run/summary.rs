@@ -91,6 +91,15 @@ pub struct CalibrationLearned {
 /// observable by the run's data: they did not reduce its σ to a fifth.
 pub const UNOBSERVED: f64 = 0.2;
 
+/// The names of the axes whose σ stays above [`UNOBSERVED`] of the prior `prior`.
+fn unobserved<'a, 'b>(
+    names: &[&'a str],
+    sigma: impl Iterator<Item = &'b f64>,
+    prior: f64,
+) -> Vec<&'a str> {
+    names.iter().zip(sigma).filter(|(_, s)| **s > UNOBSERVED * prior).map(|(a, _)| *a).collect()
+}
+
 impl CalibrationLearned {
     /// The summary's line: each estimate with its σ, how far the data reduced the prior,
     /// and what the data could not tell.
@@ -98,12 +107,7 @@ impl CalibrationLearned {
         let mut parts = Vec::new();
         let share = |s: f64, p: f64| format!("{:.0} %", 100.0 * s / p);
         if let Some((l, s, p)) = self.lever_arm {
-            let blind: Vec<&str> = ["x", "y", "z"]
-                .into_iter()
-                .zip(s.iter())
-                .filter(|(_, s)| **s > UNOBSERVED * p)
-                .map(|(a, _)| a)
-                .collect();
+            let blind = unobserved(&["x", "y", "z"], s.iter(), p);
             let mut part = format!(
                 "lever arm [{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, \
                  reduced to {}, {}, {})",
@@ -147,12 +151,7 @@ impl CalibrationLearned {
             parts.push(part);
         }
         if let Some((m, s, p)) = self.mounting {
-            let blind: Vec<&str> = ["pitch", "yaw"]
-                .into_iter()
-                .zip(s.iter().skip(1))
-                .filter(|(_, s)| **s > UNOBSERVED * p)
-                .map(|(a, _)| a)
-                .collect();
+            let blind = unobserved(&["pitch", "yaw"], s.iter().skip(1), p);
             let mut part = format!(
                 "mounting pitch {:.2}° σ {:.2}°, yaw {:.2}° σ {:.2}° (prior σ {p:.1}°, reduced to \
                  {}, {}; the roll, which the non-holonomic constraint cannot see, kept at \
