@@ -84,7 +84,9 @@ impl InsStateCal {
 /// The calibration block's size.
 pub const CAL_STATES: usize = 7;
 
-/// Which calibration items are estimated, and their driving noise.
+/// Which calibration items are estimated, and their driving noise. The default estimates
+/// every item, the lever arm walking 1e-4 m/√s, the time offset 1e-5 s/√s, the mounting
+/// 1e-5 rad/√s.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Calibration {
     /// Estimate the lever arm.
@@ -179,34 +181,35 @@ where
     DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
         + FilterAlloc<Const<3>, StateDim<M::Measurement>>,
 {
-    /// The model at the state's lever arm, the shift `ḣ δ` and `H`, given the base
-    /// model's `H`.
-    fn parts(&self, x: &InsStateCal) -> (M, FixJacobian<M::Measurement>, Tangent<M::Measurement>) {
+    /// The model at the state's lever arm and its rate of change `ḣ` with the rate's
+    /// Jacobian (the prediction is moved by `ḣ δ`).
+    fn parts(&self, x: &InsStateCal) -> (M, Tangent<M::Measurement>, FixJacobian<M::Measurement>) {
         let m = self.model.with_lever_arm(x.lever_arm());
-        let delta = x.time_offset();
         let (rate, h_rate) = m.rate(&x.nav, &self.force);
-        (m, h_rate * delta, rate * delta)
+        (m, rate, h_rate)
     }
 
+    /// `H` from the base model's `H_nav` at the state's lever arm: `[H_nav + δ ∂ḣ/∂x,
+    /// ∂/∂l (h + δ ḣ), ḣ, 0]`, the columns of an item off zero.
     fn h(
         &self,
         x: &InsStateCal,
         m: &M,
         h_nav: FixJacobian<M::Measurement>,
+        rate: &Tangent<M::Measurement>,
+        h_rate: FixJacobian<M::Measurement>,
     ) -> OMatrix<f64, StateDim<M::Measurement>, Const<22>>
     where
         DefaultAllocator: FilterAlloc<Const<22>, StateDim<M::Measurement>>,
     {
+        let delta = x.time_offset();
         let mut H = OMatrix::<f64, StateDim<M::Measurement>, Const<22>>::zeros();
-        H.fixed_columns_mut::<15>(0).copy_from(&h_nav);
+        H.fixed_columns_mut::<15>(0).copy_from(&(h_nav + h_rate * delta));
         if self.calibration.lever_arm {
-            let delta = x.time_offset();
-            let h_l = m.lever_jacobian(&x.nav) + m.rate_lever_jacobian(&x.nav) * delta;
-            H.fixed_columns_mut::<3>(15).copy_from(&h_l);
+            H.fixed_columns_mut::<3>(15).copy_from(&m.lever_jacobian(&x.nav, delta));
         }
         if self.calibration.time_offset {
-            let (rate, _) = m.rate(&x.nav, &self.force);
-            H.column_mut(18).copy_from(&rate);
+            H.column_mut(18).copy_from(rate);
         }
         H
     }
@@ -223,13 +226,13 @@ where
     type Measurement = M::Measurement;
 
     fn predict(&self, x: &InsStateCal) -> M::Measurement {
-        let (m, _, shift) = self.parts(x);
-        m.predict(&x.nav).oplus(&shift)
+        let (m, rate, _) = self.parts(x);
+        m.predict(&x.nav).oplus(&(rate * x.time_offset()))
     }
 
     fn jacobian(&self, x: &InsStateCal) -> JacobiansOf<Self> {
-        let (m, h_shift, _) = self.parts(x);
-        MeasurementJacobians { H: self.h(x, &m, m.jacobian(&x.nav).H + h_shift) }
+        let (m, rate, h_rate) = self.parts(x);
+        MeasurementJacobians { H: self.h(x, &m, m.jacobian(&x.nav).H, &rate, h_rate) }
     }
 
     fn innovation(
@@ -237,9 +240,10 @@ where
         x: &InsStateCal,
         z: &M::Measurement,
     ) -> (Tangent<M::Measurement>, JacobiansOf<Self>) {
-        let (m, h_shift, shift) = self.parts(x);
+        let (m, rate, h_rate) = self.parts(x);
         let (r, j) = m.innovation(&x.nav, z);
-        (r - shift, MeasurementJacobians { H: self.h(x, &m, j.H + h_shift) })
+        let shift = &rate * x.time_offset();
+        (r - shift, MeasurementJacobians { H: self.h(x, &m, j.H, &rate, h_rate) })
     }
 
     fn stream(&self) -> StreamId {

@@ -120,6 +120,12 @@ impl Geometry {
         H
     }
 
+    /// `∂v_a/∂l = R_nb [ω×] − [ω_in×] R_nb`: the antenna velocity's Jacobian in the
+    /// lever arm.
+    fn lever_velocity(&self) -> Matrix3<f64> {
+        self.c * hat(&self.w) - hat(&self.w_in) * self.c
+    }
+
     fn h_velocity(&self) -> SMatrix<f64, 3, 15> {
         let c_l = self.c * hat(&self.lever);
         let mut H = SMatrix::<f64, 3, 15>::zeros();
@@ -267,21 +273,17 @@ where
     nalgebra::DefaultAllocator: FilterAlloc<Const<15>, StateDim<Self::Measurement>>
         + FilterAlloc<Const<3>, StateDim<Self::Measurement>>,
 {
-    /// The antenna lever arm (body FRD), m.
-    fn lever_arm(&self) -> Vector3<f64>;
-
     /// The same model with another lever arm.
     fn with_lever_arm(&self, lever: Vector3<f64>) -> Self;
 
-    /// `∂h/∂l`: the prediction's Jacobian in the body-frame lever arm (position rows
-    /// `R_nb`; velocity rows `R_nb [ω×] − [ω_in×] R_nb`).
-    fn lever_jacobian(&self, x: &InsState) -> OMatrix<f64, StateDim<Self::Measurement>, Const<3>>;
-
-    /// `∂ḣ/∂l`: the rate of change's Jacobian in the lever arm (the lever arm's own
-    /// velocity on position rows; zero where [`rate`](Self::rate) leaves it out).
-    fn rate_lever_jacobian(
+    /// `∂/∂l (h + δ ḣ)`: the Jacobian in the body-frame lever arm of the prediction moved
+    /// by a time offset `delta` along its rate (position rows `R_nb`; velocity rows, and
+    /// `δ` times the position rows' rate, the lever arm's own velocity
+    /// `R_nb [ω×] − [ω_in×] R_nb`, where the model has a gyro rate).
+    fn lever_jacobian(
         &self,
         x: &InsState,
+        delta: f64,
     ) -> OMatrix<f64, StateDim<Self::Measurement>, Const<3>>;
 
     /// `ḣ`, the prediction's rate of change at `x` (antenna velocity NED, m/s; with
@@ -313,20 +315,12 @@ fn acceleration(x: &InsState, force: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f6
 }
 
 impl GnssFixModel for GnssPosition {
-    fn lever_arm(&self) -> Vector3<f64> {
-        self.lever_arm
-    }
-
     fn with_lever_arm(&self, lever: Vector3<f64>) -> Self {
         Self { lever_arm: lever }
     }
 
-    fn lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 3, 3> {
+    fn lever_jacobian(&self, x: &InsState, _delta: f64) -> SMatrix<f64, 3, 3> {
         x.att.matrix()
-    }
-
-    fn rate_lever_jacobian(&self, _x: &InsState) -> SMatrix<f64, 3, 3> {
-        SMatrix::zeros()
     }
 
     /// The INS velocity (the model has no gyro rate for the lever arm's own velocity,
@@ -339,26 +333,16 @@ impl GnssFixModel for GnssPosition {
 }
 
 impl GnssFixModel for GnssPosVel {
-    fn lever_arm(&self) -> Vector3<f64> {
-        self.lever_arm
-    }
-
     fn with_lever_arm(&self, lever: Vector3<f64>) -> Self {
         Self { lever_arm: lever, ..*self }
     }
 
-    fn lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 6, 3> {
+    fn lever_jacobian(&self, x: &InsState, delta: f64) -> SMatrix<f64, 6, 3> {
         let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
+        let own = g.lever_velocity();
         let mut H = SMatrix::<f64, 6, 3>::zeros();
-        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&g.c);
-        H.fixed_view_mut::<3, 3>(3, 0).copy_from(&(g.c * hat(&g.w) - hat(&g.w_in) * g.c));
-        H
-    }
-
-    fn rate_lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 6, 3> {
-        let g = Geometry::new(x, &self.lever_arm, &self.gyro_rate);
-        let mut H = SMatrix::<f64, 6, 3>::zeros();
-        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(g.c * hat(&g.w) - hat(&g.w_in) * g.c));
+        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(g.c + own * delta));
+        H.fixed_view_mut::<3, 3>(3, 0).copy_from(&own);
         H
     }
 

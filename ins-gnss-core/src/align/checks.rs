@@ -243,23 +243,17 @@ pub fn time_offset(
         psi.push(p1);
         big.push(big[big.len() - 1] + 0.5 * (p0 + p1) * (s.t - t0));
     }
-    let psi_at = |t: f64| -> Option<f64> {
+    // ψ and Ψ at `t`, from one search
+    let at = |t: f64| -> Option<(f64, f64)> {
         let k = first_at_or_after(&ts, t);
         if k == 0 || k >= ts.len() {
             return None;
         }
-        let a = (t - ts[k - 1]) / (ts[k] - ts[k - 1]);
-        Some(psi[k - 1] + a * (psi[k] - psi[k - 1]))
+        let (h, dt, dpsi) = (t - ts[k - 1], ts[k] - ts[k - 1], psi[k] - psi[k - 1]);
+        let slope = dpsi / dt;
+        Some((psi[k - 1] + h / dt * dpsi, big[k - 1] + h * (psi[k - 1] + 0.5 * slope * h)))
     };
-    let integral_at = |t: f64| -> Option<f64> {
-        let k = first_at_or_after(&ts, t);
-        if k == 0 || k >= ts.len() {
-            return None;
-        }
-        let h = t - ts[k - 1];
-        let slope = (psi[k] - psi[k - 1]) / (ts[k] - ts[k - 1]);
-        Some(big[k - 1] + h * (psi[k - 1] + 0.5 * slope * h))
-    };
+    let psi_at = |t: f64| at(t).map(|(p, _)| p);
     // the heading a course stands for: the instant's for a velocity's course, the mean
     // over the chord's span for a chord's (a chord of a turn points along the mean
     // heading, not the middle instant's: compared with the instant's, the rounding of
@@ -272,8 +266,8 @@ pub fn time_offset(
             let rate = (psi_at(a + d + 0.05)? - psi_at(a + d - 0.05)?) / 0.1;
             Some(psi_at(a + d)? + slip * rate)
         } else {
-            let turn = psi_at(b + d)? - psi_at(a + d)?;
-            Some((integral_at(b + d)? - integral_at(a + d)?) / (b - a) + slip * turn / (b - a))
+            let ((pa, ia), (pb, ib)) = (at(a + d)?, at(b + d)?);
+            Some((ib - ia + slip * (pb - pa)) / (b - a))
         }
     };
     let fixes = fixes_a_second_apart(gnss, lo, hi);

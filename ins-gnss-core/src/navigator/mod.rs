@@ -25,7 +25,7 @@ use nalgebra::{
     Vector3,
 };
 
-use crate::calibration::{Calibration, InsModelCal, InsStateCal};
+use crate::calibration::{InsModelCal, InsStateCal};
 use crate::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
 use crate::gnss::{GnssEpoch, GnssFixModel, GnssPosVel, GnssPosition};
 use crate::imu::ImuNoise;
@@ -50,7 +50,7 @@ mod tight;
 mod vehicle;
 
 pub use setup::*;
-pub use state::{FixContext, NavAlloc, NavState, OnFixError, OnNav};
+pub use state::{NavAlloc, NavState, OnFixError, OnNav};
 pub use tight::{
     satellite_error_floor, ClockInit, RawEpoch, TightConfig, TightState, CARRIER_MAX_GAP, SLIP_RATE,
 };
@@ -471,10 +471,7 @@ where
         observer: &mut O,
     ) -> Result<UpdateSummary, NavError> {
         let err = |source| NavError::Measurement { t: g.t, source };
-        let context = FixContext {
-            force: self.prev.map_or_else(Vector3::zeros, |p| p.specific_force()),
-            calibration: S::calibration(&self.model),
-        };
+        let force = self.prev.map_or_else(Vector3::zeros, |p| p.specific_force());
         match (self.gnss.use_velocity, g.vel) {
             (true, Some((v, _))) => {
                 let r_vel = match self.gnss.vel_std {
@@ -487,10 +484,11 @@ where
                 let model = GnssPosVel { lever_arm: lever, gyro_rate: self.rate };
                 S::update_fix::<A, GnssPosVel, O>(
                     &mut self.filter,
+                    &self.model,
                     &model,
                     &(g.pos, v),
                     &r,
-                    &context,
+                    &force,
                     observer,
                 )
                 .map_err(err)
@@ -499,10 +497,11 @@ where
                 let model = GnssPosition { lever_arm: lever };
                 S::update_fix::<A, GnssPosition, O>(
                     &mut self.filter,
+                    &self.model,
                     &model,
                     &g.pos,
                     &r_pos,
-                    &context,
+                    &force,
                     observer,
                 )
                 .map_err(err)

@@ -36,15 +36,19 @@ where
         DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>;
 
     /// Update `filter` with a GNSS fix model of the 15-state navigation state (position,
-    /// or position and velocity): as [`update`](Self::update), and on a state that
-    /// carries the fixes' persisting error through [`OnFixError`] (the error added to the
-    /// prediction).
+    /// or position and velocity): as [`update`](Self::update); on a state that carries
+    /// the fixes' persisting error through [`OnFixError`] (the error added to the
+    /// prediction), on one that carries the calibration through
+    /// [`OnCalibration`](crate::calibration::OnCalibration) with the items `process`
+    /// estimates and the epoch's specific force `force` (body, m/s²).
+    #[allow(clippy::too_many_arguments)]
     fn update_fix<A, MM, O>(
         filter: &mut ErrorStateFilter<Self, A>,
+        process: &Self::Model,
         model: &MM,
         z: &MM::Measurement,
         r: &Cov<StateDim<MM::Measurement>>,
-        context: &FixContext,
+        force: &Vector3<f64>,
         observer: &mut O,
     ) -> Result<UpdateSummary, FilterError>
     where
@@ -53,20 +57,20 @@ where
         O: Observer,
         DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
     {
-        let _ = context;
+        let _ = (process, force);
         Self::update(filter, model, z, r, observer)
     }
 
     /// Update `filter` with a vehicle-frame velocity model (the NHC, the odometer): as
     /// [`update`](Self::update), and on a state that carries the mounting
     /// ([`InsStateCal`](crate::calibration::InsStateCal)) through
-    /// [`OnMounting`](crate::calibration::OnMounting) with `calibration`.
+    /// [`OnMounting`](crate::calibration::OnMounting) with the items `process` estimates.
     fn update_vehicle<A, MM, O>(
         filter: &mut ErrorStateFilter<Self, A>,
+        process: &Self::Model,
         model: &MM,
         z: &MM::Measurement,
         r: &Cov<StateDim<MM::Measurement>>,
-        calibration: Option<Calibration>,
         observer: &mut O,
     ) -> Result<UpdateSummary, FilterError>
     where
@@ -75,7 +79,7 @@ where
         O: Observer,
         DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
     {
-        let _ = calibration;
+        let _ = process;
         Self::update(filter, model, z, r, observer)
     }
 
@@ -97,28 +101,11 @@ where
         None
     }
 
-    /// The calibration items `model` estimates, on a state that carries them
-    /// ([`InsStateCal`](crate::calibration::InsStateCal)).
-    fn calibration(model: &Self::Model) -> Option<Calibration> {
-        let _ = model;
-        None
-    }
-
     /// The state with the calibration states, on a state that carries them (their block
     /// in the error state is [`InsStateCal::CAL`](crate::calibration::InsStateCal)).
     fn calibration_states(&self) -> Option<&InsStateCal> {
         None
     }
-}
-
-/// What a GNSS fix's update needs beyond the fix: the epoch's specific force (body,
-/// m/s²; the time offset's acceleration rows) and the calibration items estimated.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FixContext {
-    /// Specific force of the IMU sample the fix falls in, m/s².
-    pub force: Vector3<f64>,
-    /// The calibration estimated (a state that carries it).
-    pub calibration: Option<Calibration>,
 }
 
 /// The allocations the navigation states' updates with a measurement of dimension `M`
@@ -386,10 +373,11 @@ macro_rules! fix_error_state {
         on_nav_state!($state, $model, nav: $($nav).+, noise: $($noise).+ {
             fn update_fix<A, MM, O>(
                 filter: &mut ErrorStateFilter<Self, A>,
+                _process: &$model,
                 model: &MM,
                 z: &MM::Measurement,
                 r: &Cov<StateDim<MM::Measurement>>,
-                _context: &FixContext,
+                _force: &Vector3<f64>,
                 observer: &mut O,
             ) -> Result<UpdateSummary, FilterError>
             where
@@ -426,10 +414,11 @@ fix_error_state!(InsState21Fe, InsModel21Fe, nav: nav.nav, noise: base.base.nois
 on_nav_state!(InsStateCal, InsModelCal, nav: nav, noise: base.noise {
     fn update_fix<A, MM, O>(
         filter: &mut ErrorStateFilter<Self, A>,
+        process: &InsModelCal,
         model: &MM,
         z: &MM::Measurement,
         r: &Cov<StateDim<MM::Measurement>>,
-        context: &FixContext,
+        force: &Vector3<f64>,
         observer: &mut O,
     ) -> Result<UpdateSummary, FilterError>
     where
@@ -438,17 +427,16 @@ on_nav_state!(InsStateCal, InsModelCal, nav: nav, noise: base.noise {
         O: Observer,
         DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
     {
-        let calibration = context.calibration.unwrap_or_default();
-        let on = crate::calibration::OnCalibration::new(model, context.force, calibration);
+        let on = crate::calibration::OnCalibration::new(model, *force, process.calibration);
         filter.update_observed(&on, z, r, observer).map(|r| r.summary())
     }
 
     fn update_vehicle<A, MM, O>(
         filter: &mut ErrorStateFilter<Self, A>,
+        process: &InsModelCal,
         model: &MM,
         z: &MM::Measurement,
         r: &Cov<StateDim<MM::Measurement>>,
-        calibration: Option<Calibration>,
         observer: &mut O,
     ) -> Result<UpdateSummary, FilterError>
     where
@@ -457,12 +445,8 @@ on_nav_state!(InsStateCal, InsModelCal, nav: nav, noise: base.noise {
         O: Observer,
         DefaultAllocator: NavAlloc<StateDim<MM::Measurement>>,
     {
-        let on = crate::calibration::OnMounting::new(model, calibration.unwrap_or_default());
+        let on = crate::calibration::OnMounting::new(model, process.calibration);
         filter.update_observed(&on, z, r, observer).map(|r| r.summary())
-    }
-
-    fn calibration(model: &InsModelCal) -> Option<Calibration> {
-        Some(model.calibration)
     }
 
     fn calibration_states(&self) -> Option<&InsStateCal> {

@@ -72,13 +72,12 @@ where
                 let r = nalgebra::Matrix1::new(o.std * o.std);
                 coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 recorder.before_update(&self.filter);
-                let cal = S::calibration(&self.model);
                 let report = S::update_vehicle::<A, Odometer, O>(
                     &mut self.filter,
+                    &self.model,
                     &model,
                     &z,
                     &r,
-                    cal,
                     observer,
                 );
                 out.push(report.map_err(err)?);
@@ -137,9 +136,14 @@ where
                 let z = nalgebra::Vector2::zeros();
                 coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
                 recorder.before_update(&self.filter);
-                let cal = S::calibration(&self.model);
-                let report =
-                    S::update_vehicle::<A, Nhc, O>(&mut self.filter, &model, &z, &r, cal, observer);
+                let report = S::update_vehicle::<A, Nhc, O>(
+                    &mut self.filter,
+                    &self.model,
+                    &model,
+                    &z,
+                    &r,
+                    observer,
+                );
                 out.push(report.map_err(err)?);
             }
         }

@@ -68,6 +68,17 @@ impl CalibrateSection {
         *self == Self::default()
     }
 
+    /// The navigator's calibration: the items estimated (the driving noises the
+    /// library's).
+    pub fn calibration(&self) -> ins_gnss_core::calibration::Calibration {
+        ins_gnss_core::calibration::Calibration {
+            lever_arm: self.lever_arm,
+            time_offset: self.time_offset,
+            mounting: self.mounting,
+            ..Default::default()
+        }
+    }
+
     /// Whether any item is estimated.
     pub fn any(&self) -> bool {
         self.lever_arm || self.time_offset || self.mounting

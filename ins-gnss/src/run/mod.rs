@@ -28,7 +28,7 @@ use nalgebra::Vector3;
 use crate::aiding::{AidEpoch, AidReader};
 use crate::config::{Config, FixErrorPlan, PROBE_FIXES};
 use estimator_core::DimAlloc;
-use ins_gnss_core::calibration::{Calibration, InsModelCal, InsStateCal};
+use ins_gnss_core::calibration::{InsModelCal, InsStateCal};
 use ins_gnss_core::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;

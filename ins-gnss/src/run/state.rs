@@ -167,13 +167,7 @@ impl RunState for InsStateCal {
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
         let c = &config.calibrate;
-        let calibration = Calibration {
-            lever_arm: c.lever_arm,
-            time_offset: c.time_offset,
-            mounting: c.mounting,
-            ..Default::default()
-        };
-        let model = InsModelCal { base, calibration };
+        let model = InsModelCal { base, calibration: c.calibration() };
         let init = config.initial_state(start);
         let l = config.gnss.lever_arm;
         let x = InsStateCal::new(init.state.clone(), Vector3::from(l));
