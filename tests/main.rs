@@ -15,5 +15,6 @@ mod repro_sample_data;
 mod simulated_drive;
 mod strategy_invariant;
 mod tight_coupling;
+mod two_antennas;
 mod ubx;
 mod ukf_filterpy;

@@ -41,6 +41,8 @@ pub struct GnssEpoch {
     pub pos_cov: Option<Matrix3<f64>>,
     /// The same for the velocity (m²/s²).
     pub vel_cov: Option<Matrix3<f64>>,
+    /// A moving-base receiver's heading of its antennas' baseline at this epoch.
+    pub heading: Option<crate::heading::AntennaHeading>,
 }
 
 impl GnssEpoch {
@@ -51,7 +53,7 @@ impl GnssEpoch {
         pos_std: Vector3<f64>,
         vel: Option<(Vector3<f64>, Vector3<f64>)>,
     ) -> Self {
-        Self { t, pos, pos_std, vel, pos_cov: None, vel_cov: None }
+        Self { t, pos, pos_std, vel, pos_cov: None, vel_cov: None, heading: None }
     }
 
     /// The position covariance (NED, m²): the file's, or the σ's diagonal.

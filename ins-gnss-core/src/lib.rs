@@ -13,6 +13,7 @@
 //! | [`mechanization`] | WGS-84 NED (coning, sculling) and flat-earth mechanizations |
 //! | [`model`] | [`InsModel`]: mechanization, `F`, `G Q_c Gᵀ`, `Φ`, `Q_d`, block-sparse `Φ P Φᵀ` |
 //! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
+//! | [`heading`] | heading (and pitch) from two antennas: [`heading::BaselineHeading`], [`heading::AntennaHeading`] |
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
 //! | [`calibration`] | the rig's calibration as states: the antenna lever arm, the IMU–GNSS time offset, the mounting in the vehicle, [`calibration::InsStateCal`] (22) |
 //! | [`fix_error`] | the GNSS fixes' persisting (Gauss–Markov) error as states: [`fix_error::InsStateFe`] (18), [`fix_error::InsState21Fe`] (24) |
@@ -36,6 +37,7 @@ pub mod calibration;
 pub mod earth;
 pub mod fix_error;
 pub mod gnss;
+pub mod heading;
 pub mod imu;
 pub mod init;
 pub mod io;

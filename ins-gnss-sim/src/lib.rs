@@ -183,6 +183,45 @@ fn gnss_epochs<E>(
     Ok(())
 }
 
+/// A moving-base receiver's headings at `times` (the fixes' epochs): the heading (and
+/// elevation) of the baseline `baseline` (body frame, FRD, m, from the primary antenna to
+/// the secondary) of the IMU's attitude on `traj` (mounted at `mounting`, roll, pitch, yaw
+/// in rad, as [`ImuErrors::mounting`]), with white noise of σ `sigma` rad on the heading
+/// and `pitch_sigma` rad on the elevation, each stating its σ. Seed `seed + 3`.
+pub fn antenna_headings(
+    traj: &Trajectory,
+    times: &[f64],
+    baseline: &Vector3<f64>,
+    mounting: &Vector3<f64>,
+    sigma: f64,
+    pitch_sigma: f64,
+    seed: u64,
+) -> Vec<ins_gnss_core::heading::AntennaHeading> {
+    use rand_distr::{Distribution, StandardNormal};
+    let mut rng = StdRng::seed_from_u64(seed.wrapping_add(3));
+    let mount = (mounting.norm() > 0.0)
+        .then(|| manifolds::So3::from_euler(mounting.x, mounting.y, mounting.z));
+    times
+        .iter()
+        .map(|&t| {
+            let k = traj.at(t);
+            let k = mount.as_ref().map_or(k, |r| k.mounted(r));
+            let b = k.att.rotate(baseline);
+            let n1: f64 = StandardNormal.sample(&mut rng);
+            let n2: f64 = StandardNormal.sample(&mut rng);
+            let psi = b.y.atan2(b.x) + sigma * n1;
+            let theta = (-b.z).atan2(b.xy().norm()) + pitch_sigma * n2;
+            ins_gnss_core::heading::AntennaHeading {
+                t,
+                heading: ins_gnss_core::heading::wrap(psi),
+                heading_std: Some(sigma),
+                pitch: Some((theta, Some(pitch_sigma))),
+                length: Some(baseline.norm()),
+            }
+        })
+        .collect()
+}
+
 /// [`simulate`] without holding the dataset: the truth at the start, then every IMU
 /// sample with the truth at its end, then every GNSS epoch, each handed to a callback as
 /// it is generated (the same numbers as [`simulate`] with the same seed). Memory does not

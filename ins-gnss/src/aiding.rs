@@ -225,6 +225,14 @@ impl AidReader {
         }
     }
 
+    /// The heading file's headings that found no fix at their time (0 without one).
+    pub fn headings_unmatched(&self) -> usize {
+        match self {
+            AidReader::Fixes(r) => r.headings_unmatched(),
+            AidReader::Raw(_) => 0,
+        }
+    }
+
     /// Malformed lines skipped (fixes; raw files refuse them).
     pub fn skipped(&self) -> SkipCounts {
         match self {

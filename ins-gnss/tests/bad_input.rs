@@ -408,6 +408,19 @@ fn cases(base: &Base) -> Vec<Case> {
         "[calibrate]\nmounting = true\n[vehicle]\n",
         &["calibrate.mounting", "vehicle.nhc"],
     );
+    // two antennas: a baseline with no heading, a σ that is none
+    s.toml(
+        "toml-heading-vertical-baseline",
+        "[vehicle]\n",
+        "[gnss.heading]\nbaseline = [0.0, 0.0, 1.0]\n[vehicle]\n",
+        &["gnss.heading.baseline"],
+    );
+    s.toml(
+        "toml-heading-std",
+        "[vehicle]\n",
+        "[gnss.heading]\nstd = 0.0\n[vehicle]\n",
+        &["gnss.heading.std"],
+    );
     s.toml(
         "toml-unknown-stream",
         "[filter.streams]\n",

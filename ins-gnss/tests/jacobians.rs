@@ -297,6 +297,22 @@ fn vehicle_aiding_h_matches_numerical_jacobians() {
 }
 
 #[test]
+fn baseline_heading_h_matches_numerical_jacobians() {
+    use ins_gnss_core::heading::{BaselineAttitude, BaselineHeading};
+    // forward, oblique with a vertical part, backward-left (every state's attitude)
+    let baselines =
+        [Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.3, -1.1, 0.2), Vector3::new(-0.8, 0.4, -0.1)];
+    for (x, _) in states() {
+        for b in baselines {
+            check_measurement_model_with_step(&BaselineHeading { baseline: b }, &x, 1e-6, 1e-5)
+                .unwrap_or_else(|e| panic!("heading {b:?}: {e:?}"));
+            check_measurement_model_with_step(&BaselineAttitude { baseline: b }, &x, 1e-6, 1e-5)
+                .unwrap_or_else(|e| panic!("heading and pitch {b:?}: {e:?}"));
+        }
+    }
+}
+
+#[test]
 fn structured_propagation_equals_dense() {
     let model = InsModel::wgs84(scenarios::mems_imu().noise);
     for (x, u) in states() {

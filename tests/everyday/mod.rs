@@ -481,3 +481,127 @@ pub fn dump(dir: &str, d: &Data, g: &[f64], seed: u64) {
         let _ = std::fs::write(Path::new(dir).join(format!("config-{name}-{seed}.toml")), cfg);
     }
 }
+
+/// The outages of [`antenna_drive`]: 60 s each, on straights, turns and a stop.
+pub const ANTENNA_OUTAGES: [(f64, f64); 4] =
+    [(100.0, 160.0), (230.0, 290.0), (360.0, 420.0), (480.0, 540.0)];
+
+/// The simulator's 600 s drive (standing 20 s first) with a moving-base receiver: the
+/// fixes at 1 Hz from the antenna at [`LEVER`] (white errors drawn by [`gnss_rows`]), the
+/// baseline `baseline` (body FRD, m) measured at every fix with white noise σ `sigma` deg
+/// on the heading and `2 sigma` on the elevation, both lost in [`ANTENNA_OUTAGES`]; a share
+/// `wrong` of the headings moved by 5–30° either way (a moving-base receiver's wrong
+/// integer fix), their stated σ unchanged. The
+/// headings' file is written under the system's temporary directory; the configuration
+/// names it, the lever arm and the baseline.
+pub struct AntennaDrive {
+    pub data: Data,
+    /// `t`, yaw (rad) of the truth at every IMU epoch.
+    pub yaw: Vec<(f64, f64)>,
+    /// The headings' file.
+    pub headings: PathBuf,
+}
+
+pub fn antenna_drive(seed: u64, baseline: Vector3<f64>, sigma: f64, wrong: f64) -> AntennaDrive {
+    use ins_gnss_sim::{GnssWindow, GnssWindowKind};
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs).unwrap();
+    let windows = ANTENNA_OUTAGES
+        .iter()
+        .map(|&(start, end)| GnssWindow { start, end, kind: GnssWindowKind::Outage })
+        .collect();
+    let lever = Vector3::from(LEVER);
+    let gnss = GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::zeros(),
+        vel_sigma: None,
+        lever_arm: lever,
+        windows,
+    };
+    let d = simulate(&traj, 100.0, &scenarios::mems_imu(), &gnss, seed);
+    let times: Vec<f64> = d.gnss.iter().map(|g| g.t).collect();
+    let s = sigma.to_radians();
+    let headings = ins_gnss_sim::antenna_headings(
+        &traj,
+        &times,
+        &baseline,
+        &Vector3::zeros(),
+        s,
+        2.0 * s,
+        seed,
+    );
+    let mut rng = StdRng::seed_from_u64(seed.wrapping_add(17));
+    let mut headings = headings;
+    for h in headings.iter_mut() {
+        let u: f64 = rand::Rng::random(&mut rng);
+        if u < wrong {
+            let size: f64 = 5.0 + 25.0 * rand::Rng::random::<f64>(&mut rng);
+            let sign = if rand::Rng::random::<bool>(&mut rng) { 1.0 } else { -1.0 };
+            h.heading = ins_gnss_core::heading::wrap(h.heading + sign * size.to_radians());
+        }
+    }
+    let path = std::env::temp_dir().join(format!(
+        "antenna-drive-{}-{seed}-{:.0}-{:.0}-{:.0}.txt",
+        std::process::id(),
+        baseline.y.atan2(baseline.x).to_degrees(),
+        sigma * 1000.0,
+        wrong * 1000.0
+    ));
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    ins_gnss_core::io::write_headings(&mut f, &headings).unwrap();
+    drop(f);
+    let imu: Vec<f64> = d
+        .imu
+        .iter()
+        .flat_map(|s| [s.t, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2]])
+        .collect();
+    let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
+    let truth =
+        d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
+    let yaw = d.truth.iter().map(|r| (r.t, r.state.att.euler().2)).collect();
+    let config = format!(
+        "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\nheading = {:?}\n\
+         [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
+         gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
+         corr_time = 1.0\n[gnss]\nlever_arm = [{}, {}, {}]\n\
+         [gnss.heading]\nbaseline = [{}, {}, {}]\n",
+        path.to_string_lossy(),
+        LEVER[0],
+        LEVER[1],
+        LEVER[2],
+        baseline.x,
+        baseline.y,
+        baseline.z
+    );
+    let data = Data {
+        name: "two antennas",
+        imu: imu.into(),
+        fixes,
+        truth,
+        config: Source::Toml(config),
+        outages: None,
+        skip: 0.0,
+    };
+    AntennaDrive { data, yaw, headings: path }
+}
+
+/// The heading errors of a run's rows against the truth's yaw (deg): RMS over the rows
+/// from `t0`, RMS inside [`ANTENNA_OUTAGES`], and the largest.
+pub fn heading_errors(yaw: &[(f64, f64)], nav: &[[f64; 10]], t0: f64) -> (f64, f64, f64) {
+    let (mut all, mut out, mut worst) = ((0.0, 0usize), (0.0, 0usize), 0.0f64);
+    for row in nav.iter().filter(|r| r[0] >= t0) {
+        let k = yaw.partition_point(|y| y.0 < row[0] - 1e-6);
+        let Some(&(t, truth)) = yaw.get(k) else { continue };
+        if (t - row[0]).abs() > 1e-6 {
+            continue;
+        }
+        let e = ins_gnss_core::heading::wrap(row[9].to_radians() - truth).to_degrees();
+        all = (all.0 + e * e, all.1 + 1);
+        if ANTENNA_OUTAGES.iter().any(|&(a, b)| row[0] >= a && row[0] < b) {
+            out = (out.0 + e * e, out.1 + 1);
+        }
+        worst = worst.max(e.abs());
+    }
+    let rms = |(s, n): (f64, usize)| (s / n.max(1) as f64).sqrt();
+    (rms(all), rms(out), worst)
+}

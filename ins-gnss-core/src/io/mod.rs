@@ -10,6 +10,7 @@ pub mod rtklib;
 
 pub use columns::{ColumnMap, Quantity, Source, TimeScale};
 pub use formats::{
-    BadLinePolicy, GnssFormat, GnssReader, ImuFormat, ImuReader, NavReader, NavRecord, SkipCounts,
+    attach_headings, read_headings, write_headings, BadLinePolicy, GnssFormat, GnssReader,
+    Headings, ImuFormat, ImuReader, NavReader, NavRecord, SkipCounts,
 };
 pub use lines::{LineError, LineErrorKind, NumericLines};

@@ -73,6 +73,8 @@ struct Pending {
     gst: Option<Vector3<f64>>,
     /// The date of this time of day.
     date: Option<(i64, i64, i64)>,
+    /// True heading from HDT or THS, deg.
+    heading: Option<f64>,
 }
 
 /// The NMEA state of a GNSS reader: the date, and the epoch being gathered.
@@ -167,6 +169,26 @@ impl NmeaState {
                 }
                 Ok(out)
             }
+            // a moving-base receiver's true heading: HDT (heading, `T`) or THS (heading,
+            // mode; only `A`, autonomous, is a measurement). Neither has a time: the
+            // epoch being gathered is theirs.
+            "HDT" | "THS" => {
+                let valid = match kind {
+                    "HDT" => f.get(2).is_none_or(|m| m.is_empty() || *m == "T"),
+                    _ => f.get(2).is_some_and(|m| *m == "A"),
+                };
+                let v = f.get(1).and_then(|v| v.parse::<f64>().ok());
+                match (v, self.pending.as_mut()) {
+                    (Some(v), Some(p)) if valid => {
+                        if !(0.0..=360.0).contains(&v) {
+                            return Err(bad("heading outside 0–360°"));
+                        }
+                        p.heading = Some(v);
+                    }
+                    _ => {}
+                }
+                Ok(None)
+            }
             _ => Ok(None),
         }
     }
@@ -232,12 +254,16 @@ impl NmeaState {
         let mm = ((p.tod - hh * 3600.0) / 60.0).floor();
         let ss = p.tod - hh * 3600.0 - mm * 60.0;
         let t = seconds_of_week(TimeSystem::Utc, (y, m, d), (hh as i64, mm as i64, ss));
-        Ok(Some(GnssEpoch::new(
+        let mut e =
+            GnssEpoch::new(t, GeoPos::from_degrees(lat, lon, h), s * quality.factor[rtk], None);
+        e.heading = p.heading.map(|deg| crate::heading::AntennaHeading {
             t,
-            GeoPos::from_degrees(lat, lon, h),
-            s * quality.factor[rtk],
-            None,
-        )))
+            heading: crate::heading::wrap(deg.to_radians()),
+            heading_std: None,
+            pitch: None,
+            length: None,
+        });
+        Ok(Some(e))
     }
 }
 
@@ -307,5 +333,41 @@ mod tests {
         // the float fix without GST: its σ from the configuration, doubled
         let last = s.finish(&q, Some(Vector3::new(0.1, 0.1, 0.2))).unwrap().unwrap();
         assert!((last.pos_std - Vector3::new(0.2, 0.2, 0.4)).abs().max() < 1e-12);
+    }
+
+    #[test]
+    fn hdt_and_ths_give_the_epoch_its_heading() {
+        let q = QualityFactors::default();
+        let sigma = Some(Vector3::new(0.02, 0.02, 0.04));
+        let with_sum = |body: &str| {
+            let c = body.bytes().fold(0u8, |a, b| a ^ b);
+            format!("${body}*{c:02X}")
+        };
+        let lines = [
+            "GPRMC,092750.000,A,5321.6802,N,00630.3372,W,0.02,31.66,280825,,,A",
+            "GPGGA,092750.000,5321.6802,N,00630.3372,W,4,8,1.03,61.7,M,55.2,M,,",
+            "GPHDT,271.25,T",
+            "GPGGA,092751.000,5321.6802,N,00630.3372,W,4,8,1.03,61.7,M,55.2,M,,",
+            "GNTHS,12.5,V",
+            "GPGGA,092752.000,5321.6802,N,00630.3372,W,4,8,1.03,61.7,M,55.2,M,,",
+            "GNTHS,12.5,A",
+        ];
+        let mut st = NmeaState::default();
+        let mut out = Vec::new();
+        for l in lines {
+            out.extend(st.push(&with_sum(l), &q, sigma).unwrap());
+        }
+        out.extend(st.finish(&q, sigma).unwrap());
+        assert_eq!(out.len(), 3);
+        let h = out[0].heading.expect("HDT");
+        assert!((h.heading.to_degrees() + 88.75).abs() < 1e-9, "{}", h.heading.to_degrees());
+        assert_eq!(h.t, out[0].t);
+        assert!(out[1].heading.is_none(), "THS mode V is not a measurement");
+        assert!((out[2].heading.expect("THS").heading.to_degrees() - 12.5).abs() < 1e-9);
+        // out of range: an error at its line
+        let mut st = NmeaState::default();
+        st.push(&with_sum(lines[0]), &q, sigma).unwrap();
+        st.push(&with_sum(lines[1]), &q, sigma).unwrap();
+        assert!(st.push(&with_sum("GPHDT,361.0,T"), &q, sigma).is_err());
     }
 }

@@ -313,6 +313,11 @@ where
             |nav, g, obs, out, rec| {
                 rec.before_update(&nav.filter);
                 out.push(nav.update(g, obs)?);
+                if let Some(h) = &g.heading {
+                    if let Some(summary) = nav.update_heading(h, obs, rec)? {
+                        out.push(summary);
+                    }
+                }
                 Ok(())
             },
         )
@@ -460,6 +465,51 @@ where
             self.fix_split.push_white(w.map(|w| w.1));
         }
         Ok(summary)
+    }
+
+    /// A moving-base heading now (its time must be the navigator's time), when the
+    /// configuration uses them and the state sees the baseline with a horizontal
+    /// direction; gated and adapted as the stream [`GNSS_HEADING`](crate::heading::GNSS_HEADING).
+    pub(crate) fn update_heading<O: Observer, R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        m: &crate::heading::AntennaHeading,
+        observer: &mut O,
+        recorder: &mut R,
+    ) -> Result<Option<UpdateSummary>, NavError> {
+        use crate::heading::{heading_defined, BaselineAttitude, BaselineHeading};
+        let Some(cfg) = self.gnss.heading else { return Ok(None) };
+        let b = cfg.baseline;
+        if !m.heading.is_finite() || !heading_defined(&b, self.filter.state().nav()) {
+            return Ok(None);
+        }
+        let err = |source| NavError::Measurement { t: m.t, source };
+        let s_psi = cfg.heading_std(m);
+        recorder.before_update(&self.filter);
+        let report = match cfg.pitch(m) {
+            Some((theta, s_theta)) if theta.is_finite() => {
+                let z = nalgebra::Vector2::new(m.heading, theta);
+                let r = diag2(&nalgebra::Vector2::new(s_psi * s_psi, s_theta * s_theta));
+                S::update::<A, BaselineAttitude, O>(
+                    &mut self.filter,
+                    &BaselineAttitude { baseline: b },
+                    &z,
+                    &r,
+                    observer,
+                )
+            }
+            _ => {
+                let z = nalgebra::Vector1::new(m.heading);
+                let r = nalgebra::Matrix1::new(s_psi * s_psi);
+                S::update::<A, BaselineHeading, O>(
+                    &mut self.filter,
+                    &BaselineHeading { baseline: b },
+                    &z,
+                    &r,
+                    observer,
+                )
+            }
+        };
+        report.map(Some).map_err(err)
     }
 
     /// The fix update proper, with the position noise `r_pos`.

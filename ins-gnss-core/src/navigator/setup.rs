@@ -72,6 +72,9 @@ pub struct GnssConfig {
     /// that carries them, [`InsStateFe`](crate::fix_error::InsStateFe)) and white noise;
     /// ignored by the other states.
     pub fix_errors: FixErrorSplit,
+    /// The headings of two antennas ([`AntennaHeading`](crate::heading::AntennaHeading)
+    /// on the epochs): how they are used; `None`: ignored.
+    pub heading: Option<crate::heading::HeadingConfig>,
 }
 
 impl Default for GnssConfig {
@@ -82,6 +85,7 @@ impl Default for GnssConfig {
             pos_std: None,
             vel_std: None,
             fix_errors: FixErrorSplit::default(),
+            heading: None,
         }
     }
 }

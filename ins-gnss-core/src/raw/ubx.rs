@@ -85,11 +85,16 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     let mut records: Vec<Ephemeris> = Vec::new();
     let mut lock: BTreeMap<(Sat, usize), u16> = BTreeMap::new();
     let mut last_time: Option<GpsTime> = None;
-    let mut parser = Parser::default();
+    let mut parser = Parser::<Vec<u8>, ublox::proto23::Proto23>::default();
     let mut it = parser.consume_ubx(&bytes);
     while let Some(p) = it.next() {
         let p = match p {
             Ok(UbxPacket::Proto23(p)) => p,
+            // (a protocol-23 parser yields no other)
+            Ok(_) => {
+                log.other_packets += 1;
+                continue;
+            }
             Err(_) => {
                 log.bad_packets += 1;
                 continue;
@@ -223,4 +228,58 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     }
     log.ephemerides = Ephemerides::new(records);
     Ok(log)
+}
+
+/// The moving-base headings of a UBX log: NAV-RELPOSNED version 1 (F9P and later, read
+/// with the `ublox` crate's protocol-27 parser): the heading of the baseline from the
+/// moving base to this receiver (`relPosHeading`, its `accHeading` as σ), the elevation
+/// from the N, E, D components, at the epoch's GPS time of week. Epochs without a valid
+/// relative position and heading, or with float ambiguities when `fixed_only`, are left
+/// out and counted. Returns the headings and that count.
+pub fn read_relposned(
+    path: &Path,
+    fixed_only: bool,
+) -> Result<(Vec<crate::heading::AntennaHeading>, usize), RawError> {
+    use ublox::proto27::{PacketRef as P27, Proto27};
+    let err = |m: String| RawError { path: path.to_path_buf(), line: 0, message: m };
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut super::open_input(path)?, &mut bytes)
+        .map_err(|e| err(e.to_string()))?;
+    let mut parser = Parser::<_, Proto27>::default();
+    let mut it = parser.consume_ubx(&bytes);
+    let (mut out, mut left) = (Vec::new(), 0usize);
+    let mut last: Option<f64> = None;
+    while let Some(p) = it.next() {
+        let Ok(UbxPacket::Proto27(P27::NavRelPosNed(m))) = p else { continue };
+        // flags: gnssFixOK 0, relPosValid 2, carrSoln 3–4, relPosHeadingValid 8
+        let flags = m.flags_raw();
+        let carrier = (flags >> 3) & 0x3;
+        let valid = flags & 0x1 != 0 && flags & 0x4 != 0 && flags & 0x100 != 0;
+        if !valid || carrier == 0 || carrier == 3 || (fixed_only && carrier != 2) {
+            left += 1;
+            continue;
+        }
+        let t = f64::from(m.itow()) * 1e-3;
+        if last.is_some_and(|l| t <= l) {
+            left += 1;
+            continue;
+        }
+        last = Some(t);
+        let cm = |c: f64, hp: f64| (c + hp * 0.1) * 0.01;
+        let n = cm(m.rel_pos_n_cm(), m.rel_pos_hp_n_mm());
+        let e = cm(m.rel_pos_e_cm(), m.rel_pos_hp_e_mm());
+        let d = cm(m.rel_pos_d_cm(), m.rel_pos_hp_d_mm());
+        let h = n.hypot(e);
+        let acc = m.acc_heading_degrees().to_radians();
+        let acc_d = m.acc_d_mm() * 1e-3;
+        let l = (h * h + d * d).sqrt();
+        out.push(crate::heading::AntennaHeading {
+            t,
+            heading: crate::heading::wrap(m.rel_pos_heading_degrees().to_radians()),
+            heading_std: (acc > 0.0).then_some(acc),
+            pitch: (l > 0.0).then(|| ((-d).atan2(h), (acc_d > 0.0).then(|| acc_d / l))),
+            length: (l > 0.0).then_some(l),
+        });
+    }
+    Ok((out, left))
 }

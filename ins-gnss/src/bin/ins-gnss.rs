@@ -103,6 +103,15 @@ enum Command {
         /// commas (sets `[calibrate]`; loose coupling, 15 states).
         #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset", "mounting"]))]
         calibrate: Vec<String>,
+        /// A moving-base receiver's headings (RTKLIB's moving-base ENU solution, NMEA
+        /// HDT/THS, a u-blox log's NAV-RELPOSNED, or columns `t heading σ [pitch σ]`;
+        /// sets `data.heading`; the baseline is `[gnss.heading]`'s).
+        #[arg(long, value_name = "FILE")]
+        heading: Option<PathBuf>,
+        /// Leave the configuration's `[init]` out: the start finds the initial state from
+        /// the data (as a configuration without one).
+        #[arg(long)]
+        no_init: bool,
     },
     /// Evaluate a navigation result against a truth file.
     Eval {
@@ -265,6 +274,8 @@ fn main() -> ExitCode {
             report,
             accept_inconsistent,
             calibrate,
+            heading,
+            no_init,
         }) => {
             let o = cli::RunOptions {
                 strategy: strategy.as_deref(),
@@ -289,6 +300,8 @@ fn main() -> ExitCode {
                 calibrate_lever_arm: calibrate.iter().any(|c| c == "lever-arm"),
                 calibrate_time_offset: calibrate.iter().any(|c| c == "time-offset"),
                 calibrate_mounting: calibrate.iter().any(|c| c == "mounting"),
+                heading: heading.as_deref(),
+                no_init,
             };
             cli::run(&config, &o)
         }

@@ -144,6 +144,7 @@ impl Config {
             pos_std: self.gnss.position_std.map(v3),
             vel_std: self.gnss.velocity_std.map(v3),
             fix_errors: self.gnss.errors.split(),
+            heading: self.gnss.heading.config(),
         }
     }
 

@@ -44,6 +44,12 @@ pub struct DataSection {
     /// the gyro's turns with the GNSS course and name a clear offset with this key.
     #[serde(default)]
     pub imu_time_offset: f64,
+    /// A moving-base receiver's headings, a file of their own (`[gnss.heading]`): RTKLIB's
+    /// moving-base solution in ENU (`out-solformat = enu`), NMEA with `HDT`/`THS`, or
+    /// columns `t heading σ [pitch σ]` (deg). Each is attached to the fix at its time
+    /// (within 1 ms). Headings in an NMEA `data.gnss` need no file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heading: Option<PathBuf>,
     /// A truth file for evaluation (11 columns, 4-column positions, or a log with a
     /// header read through `truth_columns`), optional.
     #[serde(default)]

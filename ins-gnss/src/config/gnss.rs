@@ -32,6 +32,103 @@ pub struct GnssSection {
     /// The fixes' errors: white, or with a persisting part as states ([`ErrorsSection`]).
     #[serde(default, skip_serializing_if = "ErrorsSection::is_default")]
     pub errors: ErrorsSection,
+    /// Heading from two antennas ([`HeadingSection`]).
+    #[serde(default, skip_serializing_if = "HeadingSection::is_default")]
+    pub heading: HeadingSection,
+}
+
+/// `[gnss.heading]`: the heading (and pitch) of a moving-base receiver's two antennas —
+/// NMEA `HDT`/`THS` sentences in the GNSS log, or `data.heading`, a file of its own
+/// (RTKLIB's moving-base solution in ENU, or NMEA). Each heading updates the filter at
+/// its fix's time as the stream `gnss-heading`, gated and adapted like the others, and
+/// gives the start its heading at the first fix.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeadingSection {
+    /// Use the headings the data carry. Default true.
+    #[serde(default = "yes")]
+    pub use_headings: bool,
+    /// The baseline whose heading the receiver measures — from the moving base's antenna
+    /// to the rover's (u-blox `relPosHeading`, RTKLIB's moving-base ENU) — in the body
+    /// frame (FRD), m; only its direction matters. Default `[1, 0, 0]`: the rover's
+    /// antenna ahead of the base's, the heading the vehicle's.
+    #[serde(default = "forward")]
+    pub baseline: [f64; 3],
+    /// The heading's 1σ, deg, where the source states none (NMEA). Default 0.5.
+    #[serde(default = "default_heading_std")]
+    pub std: f64,
+    /// The elevation's 1σ, deg, where the source states none. Default 1.
+    #[serde(default = "default_pitch_std")]
+    pub pitch_std: f64,
+    /// Replace the sources' σ by `std` and `pitch_std`. Default false.
+    #[serde(default)]
+    pub replace_std: bool,
+    /// Use the baseline's elevation where the source gives it (RTKLIB's ENU). Default
+    /// true.
+    #[serde(default = "yes")]
+    pub pitch: bool,
+}
+
+fn forward() -> [f64; 3] {
+    [1.0, 0.0, 0.0]
+}
+
+fn default_heading_std() -> f64 {
+    0.5
+}
+
+fn default_pitch_std() -> f64 {
+    1.0
+}
+
+impl Default for HeadingSection {
+    fn default() -> Self {
+        Self {
+            use_headings: true,
+            baseline: forward(),
+            std: default_heading_std(),
+            pitch_std: default_pitch_std(),
+            replace_std: false,
+            pitch: true,
+        }
+    }
+}
+
+impl HeadingSection {
+    pub(crate) fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    pub(crate) fn check(&self) -> Result<(), String> {
+        finite("gnss.heading.baseline", &self.baseline)?;
+        let b = Vector3::from(self.baseline);
+        if b.norm() == 0.0 || b.xy().norm() < 0.2 * b.norm() {
+            return Err(format!(
+                "`gnss.heading.baseline = {:?}`: the baseline from the primary antenna to the \
+                 secondary (FRD, m) must have a horizontal direction in the body (a heading \
+                 is not defined for antennas one above the other)",
+                self.baseline
+            ));
+        }
+        for (key, v) in [("gnss.heading.std", self.std), ("gnss.heading.pitch_std", self.pitch_std)]
+        {
+            if !(v.is_finite() && v > 0.0 && v < 90.0) {
+                return Err(format!("`{key} = {v}`: degrees, positive, below 90"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The library's settings (`None`: headings ignored).
+    pub fn config(&self) -> Option<ins_gnss_core::heading::HeadingConfig> {
+        self.use_headings.then(|| ins_gnss_core::heading::HeadingConfig {
+            baseline: Vector3::from(self.baseline),
+            std: self.std.to_radians(),
+            pitch_std: self.pitch_std.to_radians(),
+            force_std: self.replace_std,
+            use_pitch: self.pitch,
+        })
+    }
 }
 
 /// `[gnss.errors]`: how the fixes' errors are modelled (loose coupling). A receiver
@@ -339,6 +436,7 @@ impl Default for GnssSection {
             coupling: Coupling::Loose,
             tight: TightSection::default(),
             errors: ErrorsSection::default(),
+            heading: HeadingSection::default(),
         }
     }
 }

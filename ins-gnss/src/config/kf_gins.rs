@@ -130,6 +130,7 @@ pub fn from_yaml(text_in: &str) -> Result<Config, String> {
             max_gap: default_max_gap(),
             max_bridge: default_max_bridge(),
             imu_time_offset: 0.0,
+            heading: None,
             truth: None,
             imu_columns: None,
             gnss_columns: None,

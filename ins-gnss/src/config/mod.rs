@@ -48,10 +48,11 @@ pub use options::*;
 pub use vehicle::*;
 
 /// Every measurement stream a configuration may name in `filter.streams`.
-pub const STREAMS: [estimator_core::StreamId; 7] = [
+pub const STREAMS: [estimator_core::StreamId; 8] = [
     GNSS_STREAMS[0],
     GNSS_STREAMS[1],
     GNSS_STREAMS[2],
+    ins_gnss_core::heading::GNSS_HEADING,
     VEHICLE_STREAMS[0],
     VEHICLE_STREAMS[1],
     VEHICLE_STREAMS[2],
@@ -159,7 +160,13 @@ impl Config {
                 *p = base.join(&*p);
             }
         }
-        for t in cfg.data.truth.iter_mut().chain(cfg.data.nav.iter_mut()) {
+        for t in cfg
+            .data
+            .truth
+            .iter_mut()
+            .chain(cfg.data.heading.iter_mut())
+            .chain(cfg.data.nav.iter_mut())
+        {
             if t.is_relative() {
                 *t = base.join(&*t);
             }

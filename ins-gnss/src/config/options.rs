@@ -52,6 +52,11 @@ pub struct RunOptions<'a> {
     pub calibrate_time_offset: bool,
     /// Estimate the IMU's mounting (sets `calibrate.mounting`).
     pub calibrate_mounting: bool,
+    /// A moving-base receiver's headings (sets `data.heading`).
+    pub heading: Option<&'a Path>,
+    /// Leave the configuration's `[init]` out: the start finds the initial state from the
+    /// data.
+    pub no_init: bool,
 }
 
 impl Config {
@@ -107,6 +112,12 @@ impl Config {
         }
         if o.calibrate_mounting {
             cfg.calibrate.mounting = true;
+        }
+        if let Some(h) = o.heading {
+            cfg.data.heading = Some(h.to_path_buf());
+        }
+        if o.no_init {
+            cfg.init = Default::default();
         }
         // the options are checked as the file's keys were
         cfg.validate()?;

@@ -54,6 +54,7 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("data.max_gap", "IMU intervals", "5.0"),
     ("data.max_bridge", "IMU intervals", "20.0"),
     ("data.imu_time_offset", "s", "-0.3"),
+    ("data.heading", "—", r#""rover-heading.pos""#),
     ("data.truth", "—", r#""truth.nav""#),
     ("data.gnss_format", "—", r#""rtklib""#),
     ("data.nav", "—", r#"["brdc0590.05n"]"#),
@@ -168,6 +169,12 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("gnss.errors.tau", "s", "100.0"),
     ("gnss.errors.sigma", "m (N, E, D)", "[1.5, 1.5, 3.0]"),
     ("gnss.errors.learn", "—", "false"),
+    ("gnss.heading.use_headings", "—", "false"),
+    ("gnss.heading.baseline", "m (FRD)", "[0.0, 1.2, 0.0]"),
+    ("gnss.heading.std", "deg", "0.3"),
+    ("gnss.heading.pitch_std", "deg", "0.6"),
+    ("gnss.heading.replace_std", "—", "true"),
+    ("gnss.heading.pitch", "—", "false"),
     ("calibrate.lever_arm", "—", "true"),
     ("calibrate.lever_arm_std", "m", "0.5"),
     ("calibrate.time_offset", "—", "true"),
@@ -262,13 +269,15 @@ fn minimal() -> String {
 pub fn defaults() -> Result<std::collections::BTreeMap<String, String>, String> {
     let cfg: super::Config = toml::from_str(&minimal()).map_err(|e| e.to_string())?;
     let mut value = toml::Value::try_from(&cfg).map_err(|e| e.to_string())?;
-    // the tight, errors and calibrate sections are left out of a written configuration while they are
+    // the tight, errors, heading and calibrate sections are left out of a written configuration while they are
     // the default
     if let Some(gnss) = value.get_mut("gnss").and_then(toml::Value::as_table_mut) {
         let tight = toml::Value::try_from(&cfg.gnss.tight).map_err(|e| e.to_string())?;
         gnss.insert("tight".into(), tight);
         let errors = toml::Value::try_from(&cfg.gnss.errors).map_err(|e| e.to_string())?;
         gnss.insert("errors".into(), errors);
+        let heading = toml::Value::try_from(&cfg.gnss.heading).map_err(|e| e.to_string())?;
+        gnss.insert("heading".into(), heading);
     }
     if let Some(top) = value.as_table_mut() {
         let calibrate = toml::Value::try_from(&cfg.calibrate).map_err(|e| e.to_string())?;

@@ -108,6 +108,9 @@ pub(crate) fn open_gnss(
         array_refuses(inputs, "data.gnss_columns")?;
         gnss = gnss.with_columns(c.map().map_err(|e| bad_map("data.gnss_columns", e))?);
     }
+    if let Some(path) = &config.data.heading {
+        gnss = gnss.with_headings(ins_gnss_core::io::read_headings(path, policy)?.list);
+    }
     Ok(gnss)
 }
 

@@ -557,6 +557,7 @@ where
     estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
     out.flush()?;
     summary.gnss_skipped = gnss.skipped();
+    summary.headings_unmatched = gnss.headings_unmatched();
     summary.stationary_time = nav.stationary_time();
     summary.odometer_reversed = nav.odometer_reversed();
     summary.learned = nav.filter().strategy().learned().collect();

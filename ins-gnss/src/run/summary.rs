@@ -40,6 +40,11 @@ pub struct RunSummary {
     /// Vehicle-aiding updates per stream (NHC, ZUPT, ZARU, odometer): used (accepted or inflated)
     /// and refused.
     pub aiding: [AidingCount; 4],
+    /// Headings of two antennas ([`GNSS_HEADING`](ins_gnss_core::heading::GNSS_HEADING)):
+    /// used and refused.
+    pub headings: AidingCount,
+    /// The heading file's headings that found no fix at their time.
+    pub headings_unmatched: usize,
     /// Time the vehicle was judged standing (detector and filter speed), s (0 without
     /// ZUPT).
     pub stationary_time: f64,
@@ -208,6 +213,8 @@ pub fn noise_key(stream: &str) -> &'static str {
         "the pseudoranges' elevation model"
     } else if stream == "tdcp" {
         "gnss.tight.phase_std"
+    } else if stream == "gnss-heading" {
+        "gnss.heading.std (with replace_std) or the heading file's σ"
     } else if stream == "gnss-velocity" {
         "gnss.velocity_std or the file's velocity σ columns"
     } else if stream == "gnss-position-velocity" {
@@ -628,6 +635,13 @@ impl RunSummary {
                 }
             };
             self.streams[i].add(u, chi2_median(u.dim));
+            if u.stream == ins_gnss_core::heading::GNSS_HEADING {
+                match u.verdict {
+                    Verdict::Rejected => self.headings.rejected += 1,
+                    _ => self.headings.used += 1,
+                }
+                continue;
+            }
             if let Some(k) = VEHICLE_STREAMS.iter().position(|s| *s == u.stream) {
                 match u.verdict {
                     Verdict::Rejected => self.aiding[k].rejected += 1,
@@ -692,6 +706,20 @@ impl RunSummary {
             "vehicle aiding: NHC {} used, {} refused; ZUPT {} used, {} refused; ZARU {} used, {} refused; odometer {} used, {} refused; stationary {:.1} s",
             n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
         ));
+        }
+        if s.headings.used + s.headings.rejected + s.headings_unmatched > 0 {
+            let mut line = format!(
+                "two antennas: {} headings used, {} refused",
+                s.headings.used, s.headings.rejected
+            );
+            if s.headings_unmatched > 0 {
+                line += &format!(
+                    "; {} of `data.heading` found no fix at their time (within 1 ms) and were \
+                     not used",
+                    s.headings_unmatched
+                );
+            }
+            lines.push(line);
         }
         for st in &s.streams {
             lines.push(st.verdict());

@@ -165,6 +165,17 @@ impl Scenario {
             positive("gnss.velocity_std", v)?;
         }
         finite("gnss.lever_arm", &g.lever_arm)?;
+        if let Some(h) = &g.heading {
+            finite("gnss.heading.baseline", &h.baseline)?;
+            let b = nalgebra::Vector3::from(h.baseline);
+            if b.xy().norm() < 0.2 * b.norm() || b.norm() == 0.0 {
+                return Err(format!(
+                    "`gnss.heading.baseline` {:?} m: a baseline with a horizontal direction",
+                    h.baseline
+                ));
+            }
+            positive("gnss.heading.std", &[h.std])?;
+        }
         if g.lever_arm.iter().any(|v| v.abs() > 100.0) {
             return Err(format!("`gnss.lever_arm` {:?} m beyond the 100 m limit", g.lever_arm));
         }
@@ -244,6 +255,7 @@ impl Scenario {
                 position_std: [1.0, 1.0, 2.0],
                 velocity_std: Some([0.05; 3]),
                 lever_arm: [0.5, 0.2, -1.0],
+                heading: None,
                 windows: vec![
                     WindowSpec {
                         start: 200.0,

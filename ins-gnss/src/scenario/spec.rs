@@ -118,6 +118,20 @@ pub struct GnssSpec {
     /// Windows.
     #[serde(default, rename = "window")]
     pub windows: Vec<WindowSpec>,
+    /// A moving-base receiver's heading at every fix ([`HeadingSpec`]), written to
+    /// `HEADING.txt`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heading: Option<HeadingSpec>,
+}
+
+/// `[gnss.heading]` of a scenario: two antennas.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeadingSpec {
+    /// The baseline from the moving base's antenna to the rover's (FRD), m.
+    pub baseline: [f64; 3],
+    /// The heading's white noise and stated σ, deg (the elevation's twice this).
+    pub std: f64,
 }
 
 /// The initial uncertainty written into the generated configuration.

@@ -21,6 +21,8 @@ impl Scenario {
         let (mut imu_w, mut gnss_w, mut truth_w) =
             (open(&paths[0])?, open(&paths[1])?, open(&paths[2])?);
         let mut truth0 = None;
+        // the fixes' times, for the headings of two antennas
+        let mut times = Vec::new();
         ins_gnss_sim::simulate_each(
             &traj,
             self.imu.rate,
@@ -36,7 +38,12 @@ impl Scenario {
                 write_nav(&mut truth_w, &nav_record(truth.t, &truth.state))
                     .map_err(|e| io_err(&partial_path(&paths[2]), e))
             },
-            |g| write_gnss(&mut gnss_w, &g).map_err(|e| io_err(&partial_path(&paths[1]), e)),
+            |g| {
+                if self.gnss.heading.is_some() {
+                    times.push(g.t);
+                }
+                write_gnss(&mut gnss_w, &g).map_err(|e| io_err(&partial_path(&paths[1]), e))
+            },
         )?;
         for (w, p) in [(&mut imu_w, &paths[0]), (&mut gnss_w, &paths[1]), (&mut truth_w, &paths[2])]
         {
@@ -50,6 +57,24 @@ impl Scenario {
         std::fs::write(partial_path(&paths[3]), format!("{header}{text}"))
             .map_err(|e| io_err(&partial_path(&paths[3]), e))?;
         let mut paths = paths;
+        if let Some(h) = &self.gnss.heading {
+            let path = dir.join("HEADING.txt");
+            let mounting = nalgebra::Vector3::from(self.imu.mounting).map(f64::to_radians);
+            let list = ins_gnss_sim::antenna_headings(
+                &traj,
+                &times,
+                &nalgebra::Vector3::from(h.baseline),
+                &mounting,
+                h.std.to_radians(),
+                2.0 * h.std.to_radians(),
+                self.seed,
+            );
+            let mut w = create_partial(&path).map_err(|e| io_err(&partial_path(&path), e))?;
+            ins_gnss_core::io::write_headings(&mut w, &list)
+                .and_then(|_| w.flush())
+                .map_err(|e| io_err(&partial_path(&path), e))?;
+            paths.push(path);
+        }
         if let Some(raw) = &self.raw {
             paths.extend(self.write_raw(raw, &traj, dir)?);
         }
@@ -141,6 +166,7 @@ impl Scenario {
                 max_gap: 5.0,
                 max_bridge: ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE,
                 imu_time_offset: 0.0,
+                heading: self.gnss.heading.as_ref().map(|_| "HEADING.txt".into()),
                 truth: Some("truth.nav".into()),
                 imu_columns: None,
                 gnss_columns: None,
@@ -184,6 +210,10 @@ impl Scenario {
             },
             gnss: GnssSection {
                 lever_arm: self.gnss.lever_arm,
+                heading: crate::config::HeadingSection {
+                    baseline: self.gnss.heading.as_ref().map_or([1.0, 0.0, 0.0], |h| h.baseline),
+                    ..Default::default()
+                },
                 coupling: match self.raw {
                     Some(_) => crate::config::Coupling::Tight,
                     None => crate::config::Coupling::Loose,

@@ -202,7 +202,7 @@ pub fn prepare(
         noise_floor(&mut config, &mut report, &still);
     }
     if need_init {
-        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), gnss, t0)?;
+        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), imu, gnss, t0)?;
     }
     Ok(Start { config, report })
 }

@@ -160,10 +160,12 @@ impl Mapping {
 
 mod files;
 mod gnss;
+mod heading;
 mod imu;
 mod nav;
 
 pub use files::{create, create_partial, open, partial_path, publish, Input};
 pub use gnss::{write_gnss, GnssFormat, GnssReader};
+pub use heading::{attach_headings, read_headings, write_headings, Headings};
 pub use imu::{write_imu, ImuFormat, ImuReader, DEFAULT_MAX_BRIDGE};
 pub use nav::{push_nav, write_nav, NavReader, NavRecord};

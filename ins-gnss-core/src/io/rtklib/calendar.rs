@@ -77,7 +77,7 @@ pub enum TimeSystem {
 }
 
 impl TimeSystem {
-    pub(super) fn from_label(s: &str) -> Option<Self> {
+    pub(crate) fn from_label(s: &str) -> Option<Self> {
         match s {
             "GPST" => Some(Self::Gpst),
             "UTC" => Some(Self::Utc),

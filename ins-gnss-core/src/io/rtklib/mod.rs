@@ -262,7 +262,7 @@ fn check_cov(c: &Matrix3<f64>, what: &str) -> Result<(), LineErrorKind> {
 }
 
 /// GPST seconds of week of a time written as `yyyy/mm/dd hh:mm:ss.sss` or `week tow`.
-fn parse_time(system: TimeSystem, a: &str, b: &str) -> Result<f64, LineErrorKind> {
+pub(crate) fn parse_time(system: TimeSystem, a: &str, b: &str) -> Result<f64, LineErrorKind> {
     let bad = |text: String| LineErrorKind::NotNumeric { column: 1, text };
     if a.contains('/') || a.contains('-') && a.len() >= 8 {
         let d: Vec<i64> = a

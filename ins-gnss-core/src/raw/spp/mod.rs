@@ -79,6 +79,7 @@ impl Spp {
             vel: vel.map(|(v, vc)| (v, sd(&vc))),
             pos_cov: Some(cov),
             vel_cov: vel.map(|(_, vc)| vc),
+            heading: None,
         }
     }
 }
