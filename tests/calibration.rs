@@ -7,7 +7,7 @@
 //! the level cannot tell — is reported not observable; an IMU 0.3 s and 5 s late is
 //! found within 5 and 10 ms; an IMU on time gives an offset within 3σ of 0 and no line
 //! of the start on it; a mounting of pitch 1°, yaw 2° declared zero is found within 0.2°
-//! by the non-holonomic constraint, the roll said to be unseen. And the 22-state filter with every item off is the 15-state one.
+//! by the non-holonomic constraint, the roll said to be unseen. And the 26-state filter with every item off is the 15-state one.
 
 use crate::everyday::*;
 use estimator::ins_gnss::{GnssConfig, InitialState, InitialStd, Navigator};
@@ -123,12 +123,13 @@ fn the_calibration_states_off_are_the_15_state_filter() {
         lever_arm: false,
         time_offset: false,
         mounting: false,
+        odometer: false,
         ..Calibration::default()
     };
     let model = InsModelCal { base, calibration: off };
     let l = gnss.lever_arm;
     let x = InsStateCal::new(init.state.clone(), l);
-    let mut p = estimator_core::Cov::<nalgebra::Const<22>>::identity();
+    let mut p = estimator_core::Cov::<nalgebra::Const<26>>::identity();
     p.fixed_view_mut::<15, 15>(0, 0).copy_from(&std.covariance());
     let mut cal = Navigator::from_parts(x, p, init.time, model, FixedNoise, config).unwrap();
     let mut worst: f64 = 0.0;
@@ -139,9 +140,60 @@ fn the_calibration_states_off_are_the_15_state_filter() {
         let dp = a.pos.ominus(&b.pos).norm();
         worst = worst.max(dp).max((a.vel - b.vel).norm()).max(a.att.ominus(&b.att).norm());
     }
-    assert!(worst < 1e-9, "the 22-state run left the 15-state one by {worst}");
+    assert!(worst < 1e-9, "the 26-state run left the 15-state one by {worst}");
     assert_eq!(cal.state().cal, InsStateCal::new(init.state.clone(), l).cal);
     let p = cal.covariance();
-    assert_eq!(p.fixed_view::<15, 7>(0, 15).abs().max(), 0.0);
-    assert_eq!(p.fixed_view::<7, 7>(15, 15), nalgebra::SMatrix::<f64, 7, 7>::identity());
+    assert_eq!(p.fixed_view::<15, 11>(0, 15).abs().max(), 0.0);
+    assert_eq!(p.fixed_view::<11, 11>(15, 15), nalgebra::SMatrix::<f64, 11, 11>::identity());
+}
+
+/// The odometer's scale (1.5 % fast) and its wheel point (declared 0.4 m left of where it
+/// is) as states: the scale found within 0.1 %, the lateral lever arm within 5 cm, the
+/// forward one reported not observable, every axis within 3σ; the outages' score at most
+/// 0.8 of the cascade's (the scale calibrated outside the filter) with the same wrong
+/// wheel point (measured: 0.226 against 0.703 m, 0.481 against 0.704 m). Against the
+/// cascade given the right wheel point the states' score is 8 % and 23 % higher on these
+/// seeds (0.210 and 0.390 m); with the wheel point's states held (prior 1 mm) it is 0.237
+/// and 0.446 m: the scale's state, not the lever arm's, costs it; why is not established.
+#[test]
+fn the_odometers_scale_and_wheel_point_are_found() {
+    let outs: Vec<_> = (1..=2u64)
+        .into_par_iter()
+        .map(|seed| {
+            let d = odometer_drive(seed, 0.015);
+            let g = gnss_rows(&d, Errors::White([0.02, 0.02, 0.05]), 1.0, seed);
+            let go = |extra: &str| {
+                let cfg = config_of(&d, extra);
+                let inputs = Inputs::Arrays {
+                    imu: d.imu.clone(),
+                    imu_width: 8,
+                    gnss: g.clone(),
+                    gnss_width: 7,
+                };
+                run_in_memory(&cfg, "fixed".parse().unwrap(), &inputs).unwrap()
+            };
+            let wrong = "[vehicle.odometer]\nlever_arm = [0.0, -0.4, 0.0]\n";
+            let (states, rs) = go(&format!("{wrong}[calibrate]\nodometer = true\n"));
+            let (_, rc) = go(wrong);
+            (states, score(&d, &rs, 0.0).0, score(&d, &rc, 0.0).0)
+        })
+        .collect();
+    for (s, score_s, score_c) in outs {
+        let c = s.calibration.expect("a calibration line");
+        let ((k, ks, _), (l, ls, _)) = c.odometer.expect("the odometer estimated");
+        eprintln!(
+            "scale {:.4} % σ {:.4} %, wheel point {l:?} σ {ls:?}; outages {score_s:.3} m \
+             against the cascade's {score_c:.3} m with the same wheel point\n{}",
+            100.0 * k,
+            100.0 * ks,
+            c.line()
+        );
+        assert!((k - 0.015).abs() <= 0.001, "scale {k}");
+        assert!(l.y.abs() <= 0.05, "lateral wheel point {l:?}");
+        for i in 0..3 {
+            assert!(l[i].abs() <= 3.0 * ls[i], "axis {i}: {l:?} against σ {ls:?}");
+        }
+        assert!(c.line().contains("not observable by these data on x"), "{}", c.line());
+        assert!(score_s <= 0.8 * score_c, "{score_s} m against {score_c} m");
+    }
 }

@@ -30,7 +30,12 @@
 //! other, which the constraint, zero on both, cannot see, and stays the configured one
 //! (its state is never updated).
 //!
-//! [`InsStateCal`] is the 15-state INS with the seven states (22). An item switched off
+//! The odometer: its reading is `(1 + s)` times the wheel point's forward speed; with the
+//! odometer's states on, `s` and the wheel point's lever arm are estimated (a turn shows
+//! the lever arm's lateral part, `ω_z l_y`; its forward part never shows in a forward
+//! speed, and the summary says so).
+//!
+//! [`InsStateCal`] is the 15-state INS with the eleven states (26). An item switched off
 //! keeps its columns of `H` zero: its states are never updated and stay the configured
 //! values, exactly.
 
@@ -48,14 +53,17 @@ use crate::vehicle::VehicleModel;
 
 composite_state! {
     /// The 15-state INS state and the rig's calibration: the nominal state of the
-    /// 22-state loosely coupled filter. Blocks `NAV` (15) and `CAL`: the antenna lever
-    /// arm (body FRD, m), the IMU stamps' lateness on the receiver's clock (s) and the
-    /// mounting's correction `μ` (rad, `C_vb = Exp(μ) C₀`).
+    /// 26-state loosely coupled filter. Blocks `NAV` (15) and `CAL` (11): the antenna
+    /// lever arm (body FRD, m), the IMU stamps' lateness on the receiver's clock (s), the
+    /// mounting's correction `μ` (rad, `C_vb = Exp(μ) C₀`), the odometer's scale error
+    /// `s` (its reading `(1 + s)` times the wheel point's forward speed) and the wheel
+    /// point's lever arm (body FRD, m).
     pub struct InsStateCal {
         /// Attitude, velocity, position, biases.
         pub nav: InsState => NAV,
-        /// Lever arm x, y, z (m), time offset (s), mounting correction (rad).
-        pub cal: Rn<7> => CAL,
+        /// Lever arm x, y, z (m), time offset (s), mounting correction (rad), the
+        /// odometer's scale error (fraction) and its lever arm x, y, z (m).
+        pub cal: Rn<11> => CAL,
     }
 }
 
@@ -75,18 +83,41 @@ impl InsStateCal {
         Vector3::new(self.cal[4], self.cal[5], self.cal[6])
     }
 
-    /// A state at `nav` with the lever arm `lever`, no offset and no mounting correction.
+    /// The odometer's scale error `s` (reading = `(1 + s)` × forward speed).
+    pub fn odometer_scale(&self) -> f64 {
+        self.cal[7]
+    }
+
+    /// The odometer's wheel point from the IMU (body FRD), m.
+    pub fn odometer_lever_arm(&self) -> Vector3<f64> {
+        Vector3::new(self.cal[8], self.cal[9], self.cal[10])
+    }
+
+    /// A state at `nav` with the lever arm `lever`, no offset, no mounting correction, no
+    /// odometer scale error and the odometer at the IMU.
     pub fn new(nav: InsState, lever: Vector3<f64>) -> Self {
-        Self { nav, cal: Rn::<7>::from([lever.x, lever.y, lever.z, 0.0, 0.0, 0.0, 0.0]) }
+        let mut cal = Rn::<11>::zeros();
+        cal[0] = lever.x;
+        cal[1] = lever.y;
+        cal[2] = lever.z;
+        Self { nav, cal }
+    }
+
+    /// The same state with the odometer's wheel point at `lever` (body FRD, m).
+    pub fn with_odometer_lever_arm(mut self, lever: Vector3<f64>) -> Self {
+        self.cal[8] = lever.x;
+        self.cal[9] = lever.y;
+        self.cal[10] = lever.z;
+        self
     }
 }
 
 /// The calibration block's size.
-pub const CAL_STATES: usize = 7;
+pub const CAL_STATES: usize = 11;
 
 /// Which calibration items are estimated, and their driving noise. The default estimates
-/// every item, the lever arm walking 1e-4 m/√s, the time offset 1e-5 s/√s, the mounting
-/// 1e-5 rad/√s.
+/// every item, the lever arms walking 1e-4 m/√s, the time offset 1e-5 s/√s, the mounting
+/// 1e-5 rad/√s, the odometer's scale 1e-6 /√s.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Calibration {
     /// Estimate the lever arm.
@@ -101,6 +132,11 @@ pub struct Calibration {
     pub mounting: bool,
     /// Random-walk density of the mounting, rad/√s.
     pub mounting_walk: f64,
+    /// Estimate the odometer's scale error and lever arm.
+    pub odometer: bool,
+    /// Random-walk density of the odometer's scale error, 1/√s (its lever arm walks as
+    /// the antenna's).
+    pub odometer_walk: f64,
 }
 
 impl Default for Calibration {
@@ -112,17 +148,24 @@ impl Default for Calibration {
             time_offset_walk: 1e-5,
             mounting: true,
             mounting_walk: 1e-5,
+            odometer: true,
+            odometer_walk: 1e-6,
         }
     }
 }
 
 impl Calibration {
     /// The variance the random walks add over `h` seconds (zero for an item off).
-    pub fn added_variance(&self, h: f64) -> SVector<f64, 7> {
+    pub fn added_variance(&self, h: f64) -> SVector<f64, 11> {
         let l = if self.lever_arm { self.lever_arm_walk.powi(2) * h } else { 0.0 };
         let o = if self.time_offset { self.time_offset_walk.powi(2) * h } else { 0.0 };
         let m = if self.mounting { self.mounting_walk.powi(2) * h } else { 0.0 };
-        SVector::<f64, 7>::from([l, l, l, o, m, m, m])
+        let (s, w) = if self.odometer {
+            (self.odometer_walk.powi(2) * h, self.lever_arm_walk.powi(2) * h)
+        } else {
+            (0.0, 0.0)
+        };
+        SVector::<f64, 11>::from([l, l, l, o, m, m, m, s, w, w, w])
     }
 }
 
@@ -135,7 +178,7 @@ pub struct CalibrationProcess<M> {
     pub calibration: Calibration,
 }
 
-/// The 22-state model.
+/// The 26-state model.
 pub type InsModelCal = CalibrationProcess<InsModel>;
 
 augmented_process!(
@@ -143,9 +186,9 @@ augmented_process!(
     InsStateCal,
     cal,
     15,
-    7,
-    22,
-    decay: |_: &InsModelCal, _| SVector::<f64, 7>::repeat(1.0),
+    11,
+    26,
+    decay: |_: &InsModelCal, _| SVector::<f64, 11>::repeat(1.0),
     added: |m: &InsModelCal, h| m.calibration.added_variance(h)
 );
 
@@ -198,12 +241,12 @@ where
         h_nav: FixJacobian<M::Measurement>,
         rate: &Tangent<M::Measurement>,
         h_rate: FixJacobian<M::Measurement>,
-    ) -> OMatrix<f64, StateDim<M::Measurement>, Const<22>>
+    ) -> OMatrix<f64, StateDim<M::Measurement>, Const<26>>
     where
-        DefaultAllocator: FilterAlloc<Const<22>, StateDim<M::Measurement>>,
+        DefaultAllocator: FilterAlloc<Const<26>, StateDim<M::Measurement>>,
     {
         let delta = x.time_offset();
-        let mut H = OMatrix::<f64, StateDim<M::Measurement>, Const<22>>::zeros();
+        let mut H = OMatrix::<f64, StateDim<M::Measurement>, Const<26>>::zeros();
         H.fixed_columns_mut::<15>(0).copy_from(&(h_nav + h_rate * delta));
         if self.calibration.lever_arm {
             H.fixed_columns_mut::<3>(15).copy_from(&m.lever_jacobian(&x.nav, delta));
@@ -220,7 +263,7 @@ where
     M: GnssFixModel,
     DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
         + FilterAlloc<Const<3>, StateDim<M::Measurement>>
-        + FilterAlloc<Const<22>, StateDim<M::Measurement>>,
+        + FilterAlloc<Const<26>, StateDim<M::Measurement>>,
 {
     type State = InsStateCal;
     type Measurement = M::Measurement;
@@ -252,8 +295,10 @@ where
 }
 
 /// A vehicle-frame velocity model (the NHC, the odometer) applied to [`InsStateCal`]: its
-/// `C_vb` corrected by the state's mounting, `Exp(μ) C₀`, and the mounting's columns
-/// of `H` live when `calibration.mounting` is on.
+/// `C_vb` corrected by the state's mounting, `Exp(μ) C₀`, and the mounting's columns of
+/// `H` live when `calibration.mounting` is on; the odometer's reading scaled by the state's
+/// `(1 + s)` at the state's wheel point, their columns live, when `calibration.odometer`
+/// is on.
 #[derive(Debug)]
 pub struct OnMounting<'a, M> {
     model: &'a M,
@@ -281,9 +326,26 @@ where
     DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
         + FilterAlloc<Const<3>, StateDim<M::Measurement>>,
 {
-    fn corrected(&self, x: &InsStateCal) -> M {
-        let c = manifolds::So3::exp(&x.mounting()).matrix() * self.model.c_vb();
-        self.model.with_c_vb(c)
+    /// Whether the odometer's states apply (a wheel model, the item on).
+    fn wheel(&self) -> bool {
+        self.model.wheel() && self.calibration.odometer
+    }
+
+    /// The configured model at the state's wheel point (when its states apply).
+    fn placed(&self, x: &InsStateCal) -> M {
+        if self.wheel() {
+            self.model.with_lever_arm(x.odometer_lever_arm())
+        } else {
+            *self.model
+        }
+    }
+
+    /// The model at the state's mounting and wheel point, and the reading's scale.
+    fn corrected(&self, x: &InsStateCal) -> (M, f64) {
+        let placed = self.placed(x);
+        let c = manifolds::So3::exp(&x.mounting()).matrix() * placed.c_vb();
+        let k = if self.wheel() { 1.0 + x.odometer_scale() } else { 1.0 };
+        (placed.with_c_vb(c), k)
     }
 }
 
@@ -292,26 +354,38 @@ where
     M: VehicleModel,
     DefaultAllocator: FilterAlloc<Const<15>, StateDim<M::Measurement>>
         + FilterAlloc<Const<3>, StateDim<M::Measurement>>
-        + FilterAlloc<Const<22>, StateDim<M::Measurement>>,
+        + FilterAlloc<Const<26>, StateDim<M::Measurement>>,
 {
     type State = InsStateCal;
     type Measurement = M::Measurement;
 
     fn predict(&self, x: &InsStateCal) -> M::Measurement {
-        self.corrected(x).predict(&x.nav)
+        let (m, k) = self.corrected(x);
+        let z = m.predict(&x.nav);
+        if !self.wheel() {
+            return z;
+        }
+        let origin = M::Measurement::origin();
+        origin.oplus(&(z.ominus(&origin) * k))
     }
 
     fn jacobian(&self, x: &InsStateCal) -> JacobiansOf<Self> {
-        let h_nav = self.corrected(x).jacobian(&x.nav).H;
-        let mut H = OMatrix::<f64, StateDim<M::Measurement>, Const<22>>::zeros();
-        H.fixed_columns_mut::<15>(0).copy_from(&h_nav);
+        let (m, k) = self.corrected(x);
+        let h_nav = m.jacobian(&x.nav).H;
+        let mut H = OMatrix::<f64, StateDim<M::Measurement>, Const<26>>::zeros();
+        H.fixed_columns_mut::<15>(0).copy_from(&(h_nav * k));
         if self.calibration.mounting {
             // pitch and yaw: the roll only turns the constraint's two axes into each
             // other, and a roll state only absorbs what else the constraint gets wrong
             // (drive-0708 with the NHC: the roll went to 5.5° σ 0.9° and the outage
             // score from 2.90 to 3.20 m); it stays the configured one
-            let h_mu = self.model.mounting_jacobian(&x.nav, &x.mounting());
+            let h_mu = self.placed(x).mounting_jacobian(&x.nav, &x.mounting()) * k;
             H.fixed_columns_mut::<2>(20).copy_from(&h_mu.fixed_columns::<2>(1));
+        }
+        if self.wheel() {
+            let origin = M::Measurement::origin();
+            H.column_mut(22).copy_from(&m.predict(&x.nav).ominus(&origin));
+            H.fixed_columns_mut::<3>(23).copy_from(&(m.lever_jacobian(&x.nav) * k));
         }
         MeasurementJacobians { H }
     }

@@ -15,7 +15,7 @@
 //! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
 //! | [`heading`] | heading (and pitch) from two antennas: [`heading::BaselineHeading`], [`heading::AntennaHeading`] |
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
-//! | [`calibration`] | the rig's calibration as states: the antenna lever arm, the IMU–GNSS time offset, the mounting in the vehicle, [`calibration::InsStateCal`] (22) |
+//! | [`calibration`] | the rig's calibration as states: the antenna lever arm, the IMU–GNSS time offset, the mounting in the vehicle, the odometer's scale and wheel point, [`calibration::InsStateCal`] (26) |
 //! | [`fix_error`] | the GNSS fixes' persisting (Gauss–Markov) error as states: [`fix_error::InsStateFe`] (18), [`fix_error::InsState21Fe`] (24) |
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`] |
 //! | [`tight`] | tight coupling: [`tight::InsStateTc`] (15 + clock + inter-system biases) and [`tight::InsStateTc21`] (21 + clock + biases), per-satellite pseudorange and range-rate models |

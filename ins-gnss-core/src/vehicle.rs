@@ -172,6 +172,28 @@ where
         x: &InsState,
         mu: &Vector3<f64>,
     ) -> nalgebra::OMatrix<f64, estimator_core::StateDim<Self::Measurement>, Const<3>>;
+
+    /// Whether the model reads a wheel (the odometer: a reading with a scale error).
+    fn wheel(&self) -> bool {
+        false
+    }
+
+    /// The measured point's lever arm from the IMU (body FRD), m.
+    fn lever_arm(&self) -> Vector3<f64>;
+
+    /// The same model at lever arm `lever`.
+    fn with_lever_arm(&self, lever: Vector3<f64>) -> Self;
+
+    /// `∂h/∂l`: the rows of `C_vb [ω×]` the model measures (`ω` the bias-corrected rate).
+    fn lever_jacobian(
+        &self,
+        x: &InsState,
+    ) -> nalgebra::OMatrix<f64, estimator_core::StateDim<Self::Measurement>, Const<3>>;
+}
+
+/// `C_vb [ω×]`: the point velocity's Jacobian in its lever arm.
+fn lever_rows(c_vb: &Matrix3<f64>, gyro: &Vector3<f64>, x: &InsState) -> Matrix3<f64> {
+    c_vb * hat(&(gyro - x.bg))
 }
 
 /// `−Exp(μ) [w×] J_r(μ)` with `w = C₀ (R_nbᵀ v + (ω̃ − b_g) × l)`: the vehicle-frame
@@ -201,6 +223,18 @@ impl VehicleModel for Nhc {
             .fixed_rows::<2>(1)
             .into_owned()
     }
+
+    fn lever_arm(&self) -> Vector3<f64> {
+        self.lever_arm
+    }
+
+    fn with_lever_arm(&self, lever_arm: Vector3<f64>) -> Self {
+        Self { lever_arm, ..*self }
+    }
+
+    fn lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 2, 3> {
+        lever_rows(&self.c_vb, &self.gyro_rate, x).fixed_rows::<2>(1).into_owned()
+    }
 }
 
 impl VehicleModel for Odometer {
@@ -216,6 +250,22 @@ impl VehicleModel for Odometer {
         mounting_rows(&self.c_vb, &self.lever_arm, &self.gyro_rate, x, mu)
             .fixed_rows::<1>(0)
             .into_owned()
+    }
+
+    fn wheel(&self) -> bool {
+        true
+    }
+
+    fn lever_arm(&self) -> Vector3<f64> {
+        self.lever_arm
+    }
+
+    fn with_lever_arm(&self, lever_arm: Vector3<f64>) -> Self {
+        Self { lever_arm, ..*self }
+    }
+
+    fn lever_jacobian(&self, x: &InsState) -> SMatrix<f64, 1, 3> {
+        lever_rows(&self.c_vb, &self.gyro_rate, x).fixed_rows::<1>(0).into_owned()
     }
 }
 

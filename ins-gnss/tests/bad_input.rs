@@ -408,6 +408,12 @@ fn cases(base: &Base) -> Vec<Case> {
         "[calibrate]\nmounting = true\n[vehicle]\n",
         &["calibrate.mounting", "vehicle.nhc"],
     );
+    s.toml(
+        "toml-calibrate-odometer-unseen",
+        "[vehicle]\n",
+        "[calibrate]\nodometer = true\n[vehicle]\n",
+        &["calibrate.odometer", "vehicle.odometer"],
+    );
     // two antennas: a baseline with no heading, a σ that is none
     s.toml(
         "toml-heading-vertical-baseline",

@@ -555,11 +555,11 @@ fn calibration_states_match_numerical_jacobians() {
     let c0 = mounting_matrix(&Vector3::new(0.01, -0.02, 0.03));
     for (x, u) in states() {
         let dt = u.cur.dt;
-        let cal = Rn::<7>::from([0.8, -0.3, -1.2, 0.04, 0.02, -0.03, 0.05]);
+        let cal = Rn::<11>::from([0.8, -0.3, -1.2, 0.04, 0.02, -0.03, 0.05, 0.02, -1.1, 0.3, 0.6]);
         let x = InsStateCal { nav: x, cal };
         let numeric = numerical_jacobian(&x, |xp| model.propagate(xp, &u, dt), 1e-4);
         let phi = model.jacobians(&x, &u, dt).Phi;
-        let block = |m: &SMatrix<f64, 22, 22>| m.fixed_view::<7, 7>(15, 15).into_owned();
+        let block = |m: &SMatrix<f64, 26, 26>| m.fixed_view::<11, 11>(15, 15).into_owned();
         compare("Φ calibration block", &block(&phi), &block(&numeric), 1e-9).unwrap();
         check_combined_calls(&model, &x, &u, dt).unwrap();
         let (rate, force) = (u.cur.rate(), u.cur.specific_force());
@@ -575,8 +575,8 @@ fn calibration_states_match_numerical_jacobians() {
         // (central differences on every column but the roll's, which is zero by design)
         let h_nhc = OnMounting::new(&nhc, calibration).jacobian(&x).H;
         let h_odo = OnMounting::new(&odo, calibration).jacobian(&x).H;
-        for k in 0..22 {
-            let mut d = SVector::<f64, 22>::zeros();
+        for k in 0..26 {
+            let mut d = SVector::<f64, 26>::zeros();
             d[k] = 1e-6;
             let (xp, xm) = (x.oplus(&d), x.oplus(&(-d)));
             let on = OnMounting::new(&nhc, calibration);
@@ -592,11 +592,21 @@ fn calibration_states_match_numerical_jacobians() {
                 (h_nhc.column(k) - num).abs().max().max((h_odo.column(k) - num_odo).abs().max());
             assert!(err <= 1e-5 * scale, "column {k}: {err}");
         }
-        let off =
-            Calibration { lever_arm: false, time_offset: false, mounting: false, ..calibration };
+        // the odometer's scale and wheel point are seen by the odometer only
+        assert_eq!(h_nhc.fixed_columns::<4>(22).abs().max(), 0.0);
+        assert!(h_odo.fixed_columns::<4>(22).abs().max() > 0.0);
+        let off = Calibration {
+            lever_arm: false,
+            time_offset: false,
+            mounting: false,
+            odometer: false,
+            ..calibration
+        };
         let h = OnCalibration::new(&pv, force, off).jacobian(&x).H;
-        assert_eq!(h.fixed_columns::<7>(15).abs().max(), 0.0);
+        assert_eq!(h.fixed_columns::<11>(15).abs().max(), 0.0);
         let h = OnMounting::new(&nhc, off).jacobian(&x).H;
-        assert_eq!(h.fixed_columns::<7>(15).abs().max(), 0.0);
+        assert_eq!(h.fixed_columns::<11>(15).abs().max(), 0.0);
+        let h = OnMounting::new(&odo, off).jacobian(&x).H;
+        assert_eq!(h.fixed_columns::<11>(15).abs().max(), 0.0);
     }
 }

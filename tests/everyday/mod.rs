@@ -605,3 +605,55 @@ pub fn heading_errors(yaw: &[(f64, f64)], nav: &[[f64; 10]], t0: f64) -> (f64, f
     let rms = |(s, n): (f64, usize)| (s / n.max(1) as f64).sqrt();
     (rms(all), rms(out), worst)
 }
+
+/// The simulator's 600 s drive with a wheel odometer at the IMU reading `scale` (fraction)
+/// fast with 0.05 m/s of noise (the IMU rows' 8th column), fixes at 1 Hz from the antenna
+/// at [`LEVER`] lost in [`ANTENNA_OUTAGES`]; the configuration gives the IMU's noise, the
+/// lever arm, the NHC and the odometer (its wheel point `[0, 0, 0]` unless `extra` says
+/// otherwise).
+pub fn odometer_drive(seed: u64, scale: f64) -> Data {
+    use ins_gnss_sim::{GnssWindow, GnssWindowKind};
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs).unwrap();
+    let windows = ANTENNA_OUTAGES
+        .iter()
+        .map(|&(start, end)| GnssWindow { start, end, kind: GnssWindowKind::Outage })
+        .collect();
+    let gnss = GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::zeros(),
+        vel_sigma: None,
+        lever_arm: Vector3::from(LEVER),
+        windows,
+    };
+    let imu = ins_gnss_sim::ImuErrors { odometer: Some((scale, 0.05)), ..scenarios::mems_imu() };
+    let d = simulate(&traj, 100.0, &imu, &gnss, seed);
+    let imu: Vec<f64> = d
+        .imu
+        .iter()
+        .flat_map(|s| {
+            let o = s.odometer.unwrap_or(0.0);
+            [s.t, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2], o]
+        })
+        .collect();
+    let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
+    let truth =
+        d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
+    let config = format!(
+        "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
+         [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
+         gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
+         corr_time = 1.0\n[gnss]\nlever_arm = [{}, {}, {}]\n\
+         [vehicle.nhc]\n[vehicle.odometer]\n",
+        LEVER[0], LEVER[1], LEVER[2]
+    );
+    Data {
+        name: "odometer drive",
+        imu: imu.into(),
+        fixes,
+        truth,
+        config: Source::Toml(config),
+        outages: Some(ANTENNA_OUTAGES.to_vec()),
+        skip: 0.0,
+    }
+}

@@ -106,6 +106,14 @@ where
     fn calibration_states(&self) -> Option<&InsStateCal> {
         None
     }
+
+    /// Whether `process` estimates the odometer's scale (the navigator then uses the
+    /// odometer from the start, unscaled, instead of calibrating its scale outside the
+    /// filter first).
+    fn odometer_calibrated(process: &Self::Model) -> bool {
+        let _ = process;
+        false
+    }
 }
 
 /// The allocations the navigation states' updates with a measurement of dimension `M`
@@ -114,7 +122,7 @@ pub trait NavAlloc<M: DimName>:
     FilterAlloc<Const<3>, M>
     + FilterAlloc<Const<15>, M>
     + FilterAlloc<Const<18>, M>
-    + FilterAlloc<Const<22>, M>
+    + FilterAlloc<Const<26>, M>
     + FilterAlloc<Const<20>, M>
     + FilterAlloc<Const<21>, M>
     + FilterAlloc<Const<24>, M>
@@ -126,7 +134,7 @@ impl<M: DimName, T> NavAlloc<M> for T where
     T: FilterAlloc<Const<3>, M>
         + FilterAlloc<Const<15>, M>
         + FilterAlloc<Const<18>, M>
-        + FilterAlloc<Const<22>, M>
+        + FilterAlloc<Const<26>, M>
         + FilterAlloc<Const<20>, M>
         + FilterAlloc<Const<21>, M>
         + FilterAlloc<Const<24>, M>
@@ -451,5 +459,9 @@ on_nav_state!(InsStateCal, InsModelCal, nav: nav, noise: base.noise {
 
     fn calibration_states(&self) -> Option<&InsStateCal> {
         Some(self)
+    }
+
+    fn odometer_calibrated(process: &InsModelCal) -> bool {
+        process.calibration.odometer
     }
 });

@@ -65,7 +65,12 @@ where
             if t - v.last_gnss <= 1.5 && forward > 1.0 {
                 v.odometer_scale.add(reading, forward, imu.dt, o.calibration_time);
             }
-            let scale = v.odometer_scale.scale(o.calibration_samples);
+            // (with the scale as a state, the reading is used as it is from the start)
+            let scale = if S::odometer_calibrated(&self.model) {
+                Some(1.0)
+            } else {
+                v.odometer_scale.scale(o.calibration_samples)
+            };
             if let (Some(k), true) = (scale, t - v.last_odometer >= o.interval - TIME_EPSILON) {
                 v.last_odometer = t;
                 let z = nalgebra::Vector1::new(reading / k);

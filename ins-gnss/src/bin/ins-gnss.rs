@@ -99,9 +99,10 @@ enum Command {
         #[arg(long)]
         accept_inconsistent: bool,
         /// Estimate the rig's calibration as states of the filter: `lever-arm`,
-        /// `time-offset`, `mounting` (with NHC or the odometer), several separated by
-        /// commas (sets `[calibrate]`; loose coupling, 15 states).
-        #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset", "mounting"]))]
+        /// `time-offset`, `mounting` (with NHC or the odometer), `odometer` (its scale and
+        /// wheel point), several separated by commas (sets `[calibrate]`; loose coupling,
+        /// 15 states).
+        #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset", "mounting", "odometer"]))]
         calibrate: Vec<String>,
         /// A moving-base receiver's headings (RTKLIB's moving-base ENU solution, NMEA
         /// HDT/THS, a u-blox log's NAV-RELPOSNED, or columns `t heading σ [pitch σ]`;
@@ -300,6 +301,7 @@ fn main() -> ExitCode {
                 calibrate_lever_arm: calibrate.iter().any(|c| c == "lever-arm"),
                 calibrate_time_offset: calibrate.iter().any(|c| c == "time-offset"),
                 calibrate_mounting: calibrate.iter().any(|c| c == "mounting"),
+                calibrate_odometer: calibrate.iter().any(|c| c == "odometer"),
                 heading: heading.as_deref(),
                 no_init,
             };

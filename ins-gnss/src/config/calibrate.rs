@@ -36,6 +36,26 @@ pub struct CalibrateSection {
     /// 3.
     #[serde(default = "default_mounting_std")]
     pub mounting_std: f64,
+    /// Estimate the odometer's scale error and its wheel point's lever arm as states
+    /// (needs `[vehicle.odometer]`; the reading is then used from the start, its scale not
+    /// calibrated outside the filter first). Default false.
+    #[serde(default)]
+    pub odometer: bool,
+    /// The odometer's scale error's prior 1σ, %. Default 5.
+    #[serde(default = "default_odometer_scale_std")]
+    pub odometer_scale_std: f64,
+    /// The wheel point's prior 1σ per axis about `vehicle.odometer.lever_arm`, m.
+    /// Default 0.5.
+    #[serde(default = "default_odometer_lever_arm_std")]
+    pub odometer_lever_arm_std: f64,
+}
+
+fn default_odometer_scale_std() -> f64 {
+    5.0
+}
+
+fn default_odometer_lever_arm_std() -> f64 {
+    0.5
 }
 
 fn default_mounting_std() -> f64 {
@@ -59,6 +79,9 @@ impl Default for CalibrateSection {
             time_offset_std: default_time_offset_std(),
             mounting: false,
             mounting_std: default_mounting_std(),
+            odometer: false,
+            odometer_scale_std: default_odometer_scale_std(),
+            odometer_lever_arm_std: default_odometer_lever_arm_std(),
         }
     }
 }
@@ -75,13 +98,14 @@ impl CalibrateSection {
             lever_arm: self.lever_arm,
             time_offset: self.time_offset,
             mounting: self.mounting,
+            odometer: self.odometer,
             ..Default::default()
         }
     }
 
     /// Whether any item is estimated.
     pub fn any(&self) -> bool {
-        self.lever_arm || self.time_offset || self.mounting
+        self.lever_arm || self.time_offset || self.mounting || self.odometer
     }
 
     /// The section's values checked (`calibrate.*` named in errors).
@@ -97,6 +121,14 @@ impl CalibrateSection {
                 "`calibrate.time_offset_std = {}`: seconds, positive",
                 self.time_offset_std
             ));
+        }
+        for (key, v, unit) in [
+            ("odometer_scale_std", self.odometer_scale_std, "%"),
+            ("odometer_lever_arm_std", self.odometer_lever_arm_std, "metres"),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("`calibrate.{key} = {v}`: {unit}, positive"));
+            }
         }
         if !(self.mounting_std.is_finite() && self.mounting_std > 0.0) {
             return Err(format!(

@@ -52,6 +52,8 @@ pub struct RunOptions<'a> {
     pub calibrate_time_offset: bool,
     /// Estimate the IMU's mounting (sets `calibrate.mounting`).
     pub calibrate_mounting: bool,
+    /// Estimate the odometer's scale and wheel point (sets `calibrate.odometer`).
+    pub calibrate_odometer: bool,
     /// A moving-base receiver's headings (sets `data.heading`).
     pub heading: Option<&'a Path>,
     /// Leave the configuration's `[init]` out: the start finds the initial state from the
@@ -112,6 +114,9 @@ impl Config {
         }
         if o.calibrate_mounting {
             cfg.calibrate.mounting = true;
+        }
+        if o.calibrate_odometer {
+            cfg.calibrate.odometer = true;
         }
         if let Some(h) = o.heading {
             cfg.data.heading = Some(h.to_path_buf());

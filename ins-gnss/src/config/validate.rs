@@ -117,6 +117,11 @@ impl Config {
                             measure"
                     .into());
             }
+            if self.calibrate.odometer && self.vehicle.odometer.is_none() {
+                return Err("`calibrate.odometer` needs `[vehicle.odometer]` (the odometer's \
+                            scale and wheel point are seen through its readings)"
+                    .into());
+            }
             if let Some(with) = with {
                 return Err(format!(
                     "`calibrate` runs with loose coupling, 15 states and white fix errors; \

@@ -669,6 +669,11 @@ where
             .time_offset
             .then(|| (offset - applied, sigma(3), c.time_offset_std, applied)),
         mounting,
+        odometer: c.odometer.then(|| {
+            let s = Vector3::new(sigma(8), sigma(9), sigma(10));
+            let scale = (x.odometer_scale(), sigma(7), c.odometer_scale_std / 100.0);
+            (scale, (x.odometer_lever_arm(), s, c.odometer_lever_arm_std))
+        }),
     })
 }
 

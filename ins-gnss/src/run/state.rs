@@ -170,8 +170,11 @@ impl RunState for InsStateCal {
         let model = InsModelCal { base, calibration: c.calibration() };
         let init = config.initial_state(start);
         let l = config.gnss.lever_arm;
-        let x = InsStateCal::new(init.state.clone(), Vector3::from(l));
-        let mut p = estimator_core::Cov::<nalgebra::Const<22>>::zeros();
+        let odometer =
+            config.vehicle.odometer.as_ref().map_or(Vector3::zeros(), |o| o.lever_arm.into());
+        let x = InsStateCal::new(init.state.clone(), Vector3::from(l))
+            .with_odometer_lever_arm(odometer);
+        let mut p = estimator_core::Cov::<nalgebra::Const<26>>::zeros();
         p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
         // the start's position is a fix's less the declared lever arm, `p = z − R l`: a
         // lever arm known to σ_l leaves the position known only to it too, and the two
@@ -196,6 +199,10 @@ impl RunState for InsStateCal {
         p[(18, 18)] = c.time_offset_std.powi(2);
         for k in 19..22 {
             p[(k, k)] = c.mounting_std.to_radians().powi(2);
+        }
+        p[(22, 22)] = (c.odometer_scale_std / 100.0).powi(2);
+        for k in 23..26 {
+            p[(k, k)] = c.odometer_lever_arm_std.powi(2);
         }
         Navigator::from_parts(x, p, init.time, model, strategy, config.gnss_config())
     }

@@ -90,7 +90,16 @@ pub struct CalibrationLearned {
     /// `vehicle.nhc.mounting` takes it), the σ of its correction and the prior σ
     /// (degrees), when estimated.
     pub mounting: Option<(Vector3<f64>, Vector3<f64>, f64)>,
+    /// The odometer's scale error (fraction: reading = `(1 + s)` × speed), its σ and the
+    /// prior σ; its wheel point's lever arm (body FRD, m), σ and prior σ; when estimated.
+    pub odometer: Option<(Estimate, AxesEstimate)>,
 }
+
+/// A calibration estimate, its σ and its prior σ.
+pub type Estimate = (f64, f64, f64);
+
+/// A calibration estimate per axis, its σ per axis and the prior σ.
+pub type AxesEstimate = (Vector3<f64>, Vector3<f64>, f64);
 
 /// The share of its prior σ above which a calibration state is reported as not
 /// observable by the run's data: they did not reduce its σ to a fifth.
@@ -177,6 +186,44 @@ impl CalibrationLearned {
                 );
             }
             part += &format!(" (`vehicle.nhc.mounting = [{:.2}, {:.2}, {:.2}]`)", m.x, m.y, m.z);
+            parts.push(part);
+        }
+        if let Some(((k, ks, kp), (l, s, p))) = self.odometer {
+            let mut part = format!(
+                "odometer scale error {:+.3} % σ {:.3} % (prior σ {:.1} %, reduced to {}), its \
+                 wheel point [{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, \
+                 reduced to {}, {}, {})",
+                100.0 * k,
+                100.0 * ks,
+                100.0 * kp,
+                share(ks, kp),
+                l.x,
+                l.y,
+                l.z,
+                s.x,
+                s.y,
+                s.z,
+                share(s.x, p),
+                share(s.y, p),
+                share(s.z, p)
+            );
+            let mut blind = Vec::new();
+            if ks > UNOBSERVED * kp {
+                blind.push("the scale");
+            }
+            let axes = unobserved(&["x", "y", "z"], s.iter(), p);
+            if !axes.is_empty() {
+                part += &format!(
+                    "; the wheel point not observable by these data on {} (a forward speed \
+                     never shows the forward lever arm; the lateral one shows in turns, the \
+                     vertical one in pitching)",
+                    axes.join(", ")
+                );
+            }
+            if !blind.is_empty() {
+                part += "; the scale not observable by these data (σ not reduced to a fifth of \
+                         the prior: a drive at speed with GNSS tells it)";
+            }
             parts.push(part);
         }
         format!("calibration: {}", parts.join("; "))
