@@ -13,7 +13,9 @@
 //! - `cascade, wheel point right`: the scale calibrated outside the filter (the default),
 //!   `vehicle.odometer.lever_arm` the truth `[0, 0, 0]`;
 //! - `cascade, wheel point 0.4 m off`: the same with `[0, −0.4, 0]`;
-//! - `states, wheel point right` and `states, wheel point 0.4 m off`: `calibrate.odometer`.
+//! - `states, wheel point right` and `states, wheel point 0.4 m off`: `calibrate.odometer`;
+//! - `states, wheel point right, scale prior 0.5 %`: the scale's prior σ a tenth of the
+//!   default (one experiment on the states' cost against the cascade).
 
 #[path = "../tests/everyday/mod.rs"]
 mod everyday;
@@ -57,6 +59,7 @@ fn main() {
         ("cascade, wheel point 0.4 m off", wrong.to_string()),
         ("states, wheel point right", states.to_string()),
         ("states, wheel point 0.4 m off", format!("{wrong}{states}")),
+        ("states, wheel point right, scale prior 0.5 %", format!("{states}odometer_scale_std = 0.5\n")),
     ];
     println!("| cell | outage score, median (worst) | scale |err|, median (worst) | lateral wheel point |err|, median (worst) | every axis within 3σ |");
     println!("|---|---|---|---|---|");
