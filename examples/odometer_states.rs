@@ -59,7 +59,10 @@ fn main() {
         ("cascade, wheel point 0.4 m off", wrong.to_string()),
         ("states, wheel point right", states.to_string()),
         ("states, wheel point 0.4 m off", format!("{wrong}{states}")),
-        ("states, wheel point right, scale prior 0.5 %", format!("{states}odometer_scale_std = 0.5\n")),
+        (
+            "states, wheel point right, scale prior 0.5 %",
+            format!("{states}odometer_scale_std = 0.5\n"),
+        ),
     ];
     println!("| cell | outage score, median (worst) | scale |err|, median (worst) | lateral wheel point |err|, median (worst) | every axis within 3σ |");
     println!("|---|---|---|---|---|");

@@ -47,6 +47,7 @@ fn main() {
             t: time_of(e),
             time: e.time,
             sats: prepare(e, &nav.ephemerides, &opt).0,
+            heading: None,
         })
         .collect();
     let fixes: Vec<GnssEpoch> = epochs

@@ -163,6 +163,7 @@ fn run_tight_recorded<A: NoiseStrategy, R: StepRecorder<InsStateTc, ImuInput>>(
             t: epoch_time(e, &c.data),
             time: e.time,
             sats: prepare(e, &nav.ephemerides, &opt).0,
+            heading: None,
         })
         .collect();
     let mut track = Track { t: vec![], horizontal: vec![], nees: vec![] };

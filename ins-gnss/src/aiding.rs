@@ -174,6 +174,9 @@ pub struct RawReader {
     /// Solve each epoch as a single point (the start and the first fix need them; the
     /// filter does not).
     single_points: bool,
+    /// A heading file's headings (`data.heading`), the next one to attach, and how many
+    /// found no epoch at their time.
+    headings: (Vec<ins_gnss_core::heading::AntennaHeading>, usize, usize),
 }
 
 impl AidReader {
@@ -203,7 +206,18 @@ impl AidReader {
             carrier: config.gnss.tight.carrier,
             phase_std: config.gnss.tight.phase_std,
         };
-        let reader = RawReader { input, tight, prior: None, week0: None, single_points: true };
+        let headings = match &config.data.heading {
+            Some(path) => ins_gnss_core::io::read_headings(path, config.bad_lines())?.list,
+            None => Vec::new(),
+        };
+        let reader = RawReader {
+            input,
+            tight,
+            prior: None,
+            week0: None,
+            single_points: true,
+            headings: (headings, 0, 0),
+        };
         Ok(Self::Raw(Box::new(reader)))
     }
 
@@ -229,7 +243,7 @@ impl AidReader {
     pub fn headings_unmatched(&self) -> usize {
         match self {
             AidReader::Fixes(r) => r.headings_unmatched(),
-            AidReader::Raw(_) => 0,
+            AidReader::Raw(r) => r.headings.2 + (r.headings.0.len() - r.headings.1),
         }
     }
 
@@ -281,10 +295,21 @@ impl RawReader {
             let gps = s.clocks.iter().find(|(sys, _)| *sys == System::Gps);
             gps.or(s.clocks.first()).map(|c| c.1)
         });
+        // the heading file's heading at this epoch (within 1 ms)
+        let (list, next, unmatched) = &mut self.headings;
+        while *next < list.len() && list[*next].t < t - 1e-3 {
+            *next += 1;
+            *unmatched += 1;
+        }
+        let heading = list.get(*next).filter(|m| (m.t - t).abs() <= 1e-3).map(|m| {
+            *next += 1;
+            ins_gnss_core::heading::AntennaHeading { t, ..*m }
+        });
+        let fix = spp.map(|s| GnssEpoch { heading, ..s.fix(t) });
         Ok(Some(AidEpoch {
             t,
-            fix: spp.map(|s| s.fix(t)),
-            raw: Some((RawEpoch { t, time: e.time, sats }, clock)),
+            fix,
+            raw: Some((RawEpoch { t, time: e.time, sats, heading }, clock)),
         }))
     }
 }

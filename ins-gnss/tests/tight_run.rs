@@ -242,6 +242,30 @@ fn tight_run_starts_itself() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Tight coupling with a moving-base receiver's heading (`[gnss.heading]`, the antennas
+/// left to right, 0.2°): the start takes its heading from the antennas at the first
+/// epoch, every heading is used, and the heading's RMS error stays below the run's
+/// without them and within 0.1°.
+#[test]
+fn tight_run_with_two_antennas() {
+    let mut sc = scenario(32, false);
+    sc.gnss.heading = Some(ins_gnss::scenario::HeadingSpec { baseline: [0.0, 1.0, 0.0], std: 0.2 });
+    let dir = dataset("heading", &sc);
+    let mut cfg = Config::load(&dir.join("config.toml")).unwrap();
+    cfg.init = Default::default();
+    let s = run(&cfg, "fixed".parse().unwrap(), &dir.join("with"), None).unwrap();
+    let line = s.start.iter().find(|l| l.contains("two antennas")).expect("the start's line");
+    assert!(line.contains("at the first fix"), "{line}");
+    assert!(s.headings.used >= 590 && s.headings.rejected == 0, "{:?}", s.headings);
+    let with = eval(&dir.join("with"), "nav.txt").overall.yaw.rms;
+    cfg.gnss.heading.use_headings = false;
+    run(&cfg, "fixed".parse().unwrap(), &dir.join("without"), None).unwrap();
+    let without = eval(&dir.join("without"), "nav.txt").overall.yaw.rms;
+    eprintln!("heading RMS: {with:.3}° with the antennas, {without:.3}° without");
+    assert!(with <= 0.1 && with < without, "{with} against {without}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn parse(extra: &str) -> Result<Config, String> {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data");
     let text = format!(

@@ -15,6 +15,8 @@ pub struct RawEpoch {
     pub time: GpsTime,
     /// The satellites.
     pub sats: Vec<Prepared>,
+    /// A moving-base receiver's heading at this epoch (applied after the satellites).
+    pub heading: Option<crate::heading::AntennaHeading>,
 }
 
 /// How raw observations are used.
@@ -294,6 +296,11 @@ where
                 })
                 .collect();
             self.carrier = Some(CarrierEpoch { t: e.t, anchor, sats });
+        }
+        if let Some(h) = &e.heading {
+            if let Some(summary) = self.update_heading(h, observer, recorder)? {
+                out.push(summary);
+            }
         }
         Ok(())
     }

@@ -92,11 +92,6 @@ impl Config {
         self.gnss.quality.factors()?;
         self.gnss.errors.check()?;
         self.gnss.heading.check()?;
-        if self.data.heading.is_some() && self.gnss.coupling == Coupling::Tight {
-            return Err("`data.heading` runs with loose coupling; the tight coupling's raw \
-                        epochs do not take headings yet"
-                .into());
-        }
         self.calibrate.check()?;
         if self.calibrate.any() {
             let with = if self.gnss.coupling == Coupling::Tight {
