@@ -247,6 +247,14 @@ impl AidReader {
         }
     }
 
+    /// NMEA fixes whose σ came from their HDOP (0 for other inputs).
+    pub fn sigma_from_hdop(&self) -> usize {
+        match self {
+            AidReader::Fixes(r) => r.nmea_sigma_from_hdop(),
+            AidReader::Raw(_) => 0,
+        }
+    }
+
     /// Malformed lines skipped (fixes; raw files refuse them).
     pub fn skipped(&self) -> SkipCounts {
         match self {

@@ -69,6 +69,8 @@ struct Pending {
     tod: f64,
     /// lat, lon (deg), ellipsoidal height (m), GGA quality.
     gga: Option<(f64, f64, f64, u8)>,
+    /// The GGA's horizontal dilution of precision.
+    hdop: Option<f64>,
     /// σ north, east, down from GST.
     gst: Option<Vector3<f64>>,
     /// The date of this time of day.
@@ -88,6 +90,23 @@ pub struct NmeaState {
     date_at_last: Option<(i64, i64, i64)>,
     /// Epochs whose GGA quality was dropped, by GGA quality (0–9).
     pub dropped: [usize; 10],
+    /// Fixes whose σ came from their HDOP ([`hdop_sigma`]): no GST, none configured.
+    pub sigma_from_hdop: usize,
+}
+
+/// The range error (UERE, m) a fix type's HDOP is scaled by when the log states no σ, by
+/// the RTKLIB quality of [`NmeaState`]'s map (1 fix, 2 float, 3 SBAS, 4 DGPS, 5 single):
+/// RTK fixed 0.02 m, float 0.3 m, SBAS and DGPS 1 m, a single point 3 m (a u-blox M8's
+/// 2.5 m CEP at HDOP 1 is 3 m horizontal RMS). A prior: the run learns the scale from the
+/// fixes' innovations.
+pub const UERE: [f64; 6] = [0.0, 0.02, 0.3, 1.0, 1.0, 3.0];
+
+/// σ (N, E, D) of a fix with HDOP `hdop` of RTKLIB quality `rtk` (1–5): `HDOP · UERE / √2`
+/// on each horizontal axis, twice that down (a vertical DOP near twice the horizontal
+/// per-axis one, as over open sky).
+pub fn hdop_sigma(rtk: usize, hdop: f64) -> Vector3<f64> {
+    let h = hdop * UERE[rtk.min(5)] / core::f64::consts::SQRT_2;
+    Vector3::new(h, h, 2.0 * h)
 }
 
 impl NmeaState {
@@ -151,6 +170,7 @@ impl NmeaState {
                     let sep: f64 = f[11].parse().unwrap_or(0.0);
                     let p = self.pending.get_or_insert_with(Default::default);
                     p.gga = Some((lat, lon, alt + sep, q));
+                    p.hdop = f[8].parse::<f64>().ok().filter(|h| h.is_finite() && *h > 0.0);
                 } else {
                     self.dropped[0] += 1;
                 }
@@ -245,17 +265,26 @@ impl NmeaState {
                     .into(),
             ));
         };
-        let s = p.gst.or(sigma).ok_or_else(|| {
-            LineErrorKind::WrongUnits(
-                "a fix without its σ: the log has no GST sentence; set `gnss.position_std`".into(),
-            )
-        })?;
+        // the σ: GST's or the configuration's (times the quality's factor), else the
+        // HDOP's prior (the fix type's own range error, no factor)
+        let s =
+            match (p.gst.or(sigma), p.hdop) {
+                (Some(s), _) => s * quality.factor[rtk],
+                (None, Some(hdop)) => {
+                    self.sigma_from_hdop += 1;
+                    hdop_sigma(rtk, hdop)
+                }
+                (None, None) => return Err(LineErrorKind::WrongUnits(
+                    "a fix without its σ: the log has no GST sentence and the GGA no HDOP; set \
+                     `gnss.position_std`"
+                        .into(),
+                )),
+            };
         let hh = (p.tod / 3600.0).floor();
         let mm = ((p.tod - hh * 3600.0) / 60.0).floor();
         let ss = p.tod - hh * 3600.0 - mm * 60.0;
         let t = seconds_of_week(TimeSystem::Utc, (y, m, d), (hh as i64, mm as i64, ss));
-        let mut e =
-            GnssEpoch::new(t, GeoPos::from_degrees(lat, lon, h), s * quality.factor[rtk], None);
+        let mut e = GnssEpoch::new(t, GeoPos::from_degrees(lat, lon, h), s, None);
         e.heading = p.heading.map(|deg| crate::heading::AntennaHeading {
             t,
             heading: crate::heading::wrap(deg.to_radians()),

@@ -558,6 +558,7 @@ where
     out.flush()?;
     summary.gnss_skipped = gnss.skipped();
     summary.headings_unmatched = gnss.headings_unmatched();
+    summary.gnss_sigma_from_hdop = gnss.sigma_from_hdop();
     summary.stationary_time = nav.stationary_time();
     summary.odometer_reversed = nav.odometer_reversed();
     summary.learned = nav.filter().strategy().learned().collect();

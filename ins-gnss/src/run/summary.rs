@@ -23,6 +23,8 @@ pub struct RunSummary {
     pub imu_skipped: SkipCounts,
     /// GNSS lines skipped.
     pub gnss_skipped: SkipCounts,
+    /// NMEA fixes whose σ came from their HDOP (no GST, no `gnss.position_std`).
+    pub gnss_sigma_from_hdop: usize,
     /// First and last processed time, s.
     pub span: (f64, f64),
     /// Wall time, s.
@@ -740,6 +742,15 @@ impl RunSummary {
             format!("; output {}", s.out_dir.display())
         }
     )];
+        if s.gnss_sigma_from_hdop > 0 {
+            lines.push(format!(
+                "GNSS σ: {} fixes state none (no GST sentence): σ from their HDOP × the fix \
+                 type's range error (single point 3 m, DGPS or SBAS 1 m, RTK float 0.3 m, \
+                 fixed 0.02 m), a prior the run learns the scale of (`gnss.position_std` \
+                 states one)",
+                s.gnss_sigma_from_hdop
+            ));
+        }
         lines.extend(s.start.iter().cloned());
         if !s.noise.is_empty() {
             lines.push(s.noise.clone());

@@ -92,6 +92,11 @@ impl<R: BufRead> GnssReader<R> {
         self
     }
 
+    /// NMEA fixes whose σ came from their HDOP (no GST sentence, no default σ).
+    pub fn nmea_sigma_from_hdop(&self) -> usize {
+        self.nmea.as_ref().map_or(0, |n| n.sigma_from_hdop)
+    }
+
     /// NMEA epochs dropped, by GGA fix quality (0–9), when the file is NMEA.
     pub fn nmea_dropped(&self) -> Option<[usize; 10]> {
         self.nmea.as_ref().map(|n| n.dropped)
