@@ -11,8 +11,9 @@
 //! along the forward axis (`[1, 0, 0]`) measures the vehicle's yaw; one across it (a
 //! receiver mounted with the antennas left–right), the yaw + 90°.
 //!
-//! Sources: NMEA `HDT`/`THS` ([`io::nmea`](crate::io::nmea)), RTKLIB moving-base
-//! solutions in ENU ([`read_heading_file`]), or any [`AntennaHeading`] a caller builds.
+//! Sources: NMEA `HDT`/`THS` ([`io::nmea`](crate::io::nmea)); a heading file
+//! ([`read_headings`](crate::io::read_headings)): RTKLIB moving-base solutions in ENU,
+//! u-blox `NAV-RELPOSNED`, columns; or any [`AntennaHeading`] a caller builds.
 
 use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};
 use manifolds::hat;
