@@ -96,3 +96,19 @@ fn a_heading_sigma_declared_5_times_too_small_is_learned_and_named() {
     let (all, outages, _) = heading_errors(&d.yaw, &r.nav, 0.0);
     assert!(all <= 0.3 && outages <= 0.3, "{all}° / {outages}°");
 }
+
+#[test]
+fn a_receiver_whose_first_headings_are_missing_starts_on_a_later_one() {
+    let d = antenna_drive(5, Vector3::new(1.0, 0.0, 0.0), 0.2, 0.0);
+    // the moving-base solution takes its first three epochs to come
+    let text = std::fs::read_to_string(&d.headings).unwrap();
+    let rest: Vec<&str> = text.lines().skip(3).collect();
+    std::fs::write(&d.headings, rest.join("\n") + "\n").unwrap();
+    let g = gnss_rows(&d.data, Errors::White([0.02, 0.02, 0.05]), 1.0, 5);
+    let (s, r) = run(&d, g, "");
+    std::fs::remove_file(&d.headings).ok();
+    let line = s.start.iter().find(|l| l.contains("two antennas")).expect("the start's line");
+    assert!(line.contains("at a later fix"), "{line}");
+    let e0 = initial_yaw_error(&d, &r);
+    assert!(e0.abs() <= 3.0 * 0.2_f64.hypot(0.05), "initial heading {e0}° off");
+}

@@ -102,6 +102,39 @@ impl HeadingConfig {
     }
 }
 
+/// A heading file's headings handed to the epochs at their time: each epoch takes the
+/// heading within 1 ms of it; headings passed over found no epoch.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HeadingQueue {
+    list: Vec<AntennaHeading>,
+    next: usize,
+    unmatched: usize,
+}
+
+impl HeadingQueue {
+    /// The headings, in time order.
+    pub fn new(list: Vec<AntennaHeading>) -> Self {
+        Self { list, next: 0, unmatched: 0 }
+    }
+
+    /// The heading at an epoch of time `t` (its time set to `t`), if one is within 1 ms;
+    /// the epochs must come in time order.
+    pub fn take(&mut self, t: f64) -> Option<AntennaHeading> {
+        while self.next < self.list.len() && self.list[self.next].t < t - 1e-3 {
+            self.next += 1;
+            self.unmatched += 1;
+        }
+        let m = self.list.get(self.next).filter(|m| (m.t - t).abs() <= 1e-3)?;
+        self.next += 1;
+        Some(AntennaHeading { t, ..*m })
+    }
+
+    /// Headings that found no epoch so far, and those not reached yet.
+    pub fn unmatched(&self) -> usize {
+        self.unmatched + (self.list.len() - self.next)
+    }
+}
+
 /// An angle wrapped to (−π, π].
 pub fn wrap(a: f64) -> f64 {
     let w = a.rem_euclid(std::f64::consts::TAU);

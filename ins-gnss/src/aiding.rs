@@ -174,9 +174,8 @@ pub struct RawReader {
     /// Solve each epoch as a single point (the start and the first fix need them; the
     /// filter does not).
     single_points: bool,
-    /// A heading file's headings (`data.heading`), the next one to attach, and how many
-    /// found no epoch at their time.
-    headings: (Vec<ins_gnss_core::heading::AntennaHeading>, usize, usize),
+    /// A heading file's headings (`data.heading`).
+    headings: ins_gnss_core::heading::HeadingQueue,
 }
 
 impl AidReader {
@@ -216,7 +215,7 @@ impl AidReader {
             prior: None,
             week0: None,
             single_points: true,
-            headings: (headings, 0, 0),
+            headings: ins_gnss_core::heading::HeadingQueue::new(headings),
         };
         Ok(Self::Raw(Box::new(reader)))
     }
@@ -243,7 +242,7 @@ impl AidReader {
     pub fn headings_unmatched(&self) -> usize {
         match self {
             AidReader::Fixes(r) => r.headings_unmatched(),
-            AidReader::Raw(r) => r.headings.2 + (r.headings.0.len() - r.headings.1),
+            AidReader::Raw(r) => r.headings.unmatched(),
         }
     }
 
@@ -304,15 +303,7 @@ impl RawReader {
             gps.or(s.clocks.first()).map(|c| c.1)
         });
         // the heading file's heading at this epoch (within 1 ms)
-        let (list, next, unmatched) = &mut self.headings;
-        while *next < list.len() && list[*next].t < t - 1e-3 {
-            *next += 1;
-            *unmatched += 1;
-        }
-        let heading = list.get(*next).filter(|m| (m.t - t).abs() <= 1e-3).map(|m| {
-            *next += 1;
-            ins_gnss_core::heading::AntennaHeading { t, ..*m }
-        });
+        let heading = self.headings.take(t);
         let fix = spp.map(|s| GnssEpoch { heading, ..s.fix(t) });
         Ok(Some(AidEpoch {
             t,

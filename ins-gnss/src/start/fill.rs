@@ -225,9 +225,9 @@ pub(super) fn fill_rest(
     Ok(())
 }
 
-/// The headings of two antennas at the first fixes (up to [`ANTENNA_CANDIDATES`]): time,
-/// measured baseline heading and its σ (rad), when the run uses them and the first fix
-/// has one.
+/// The headings of two antennas at the first fixes that have one (up to
+/// [`ANTENNA_CANDIDATES`]): time, measured baseline heading and its σ (rad), when the run
+/// uses them.
 struct AntennaStart {
     list: Vec<(f64, f64, f64)>,
     baseline: Vector3<f64>,
@@ -244,13 +244,13 @@ fn antenna_heading(
 ) -> Option<AntennaStart> {
     let cfg = config.gnss.heading.config()?;
     let end = imu.last()?.t;
-    gnss.first()?.heading?;
+    // the first fixes with a heading (a moving-base receiver may need a few epochs)
     let list: Vec<(f64, f64, f64)> = gnss
         .iter()
-        .take(ANTENNA_CANDIDATES)
         .filter(|e| e.t >= t0 && e.t <= end)
         .filter_map(|e| e.heading.map(|m| (e.t, m.heading, cfg.heading_std(&m))))
         .filter(|m| m.1.is_finite())
+        .take(ANTENNA_CANDIDATES)
         .collect();
     (!list.is_empty()).then_some(AntennaStart { list, baseline: cfg.baseline })
 }
@@ -334,8 +334,10 @@ fn fill_from_antennas(
     };
     let (yaw, std) = yaws[k];
     let at = a.list[k].0;
-    let which =
-        if k == 0 { "the first fix".to_string() } else { format!("fix {} of the first", k + 1) };
+    let which = match gnss.first() {
+        Some(f) if f.t == at => "the first fix".to_string(),
+        _ => "a later fix".to_string(),
+    };
     let yaw_std = std.hypot(0.05f64.to_radians());
     config.init.attitude = Some([roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()]);
     if i.attitude_std.is_none() {

@@ -37,9 +37,8 @@ pub struct GnssReader<R: BufRead> {
     nmea: Option<crate::io::nmea::NmeaState>,
     /// σ (N, E, D) for NMEA fixes without a GST sentence.
     default_sigma: Option<Vector3<f64>>,
-    /// A heading file's headings ([`with_headings`](Self::with_headings)), the next one to
-    /// attach, and how many found no fix at their time.
-    headings: (Vec<crate::heading::AntennaHeading>, usize, usize),
+    /// A heading file's headings ([`with_headings`](Self::with_headings)).
+    headings: crate::heading::HeadingQueue,
 }
 
 impl GnssReader<Input> {
@@ -141,19 +140,10 @@ impl<R: BufRead> GnssReader<R> {
     /// The next epoch, `Ok(None)` at the end.
     pub fn next_epoch(&mut self) -> Result<Option<GnssEpoch>, LineError> {
         let mut e = self.next_fix()?;
-        let (list, next, unmatched) = &mut self.headings;
         if let Some(f) = e.as_mut() {
-            while *next < list.len() && list[*next].t < f.t - 1e-3 {
-                *next += 1;
-                *unmatched += 1;
+            if let Some(m) = self.headings.take(f.t) {
+                f.heading = Some(m);
             }
-            if let Some(m) = list.get(*next).filter(|m| (m.t - f.t).abs() <= 1e-3) {
-                f.heading = Some(crate::heading::AntennaHeading { t: f.t, ..*m });
-                *next += 1;
-            }
-        } else {
-            *unmatched += list.len() - *next;
-            *next = list.len();
         }
         Ok(e)
     }
@@ -162,14 +152,14 @@ impl<R: BufRead> GnssReader<R> {
     /// to the fixes at their time (within 1 ms), replacing headings the GNSS file carries
     /// at those epochs.
     pub fn with_headings(mut self, headings: Vec<crate::heading::AntennaHeading>) -> Self {
-        self.headings = (headings, 0, 0);
+        self.headings = crate::heading::HeadingQueue::new(headings);
         self
     }
 
     /// Headings of [`with_headings`](Self::with_headings) that found no fix at their
-    /// time so far (all of them once the fixes are read).
+    /// time, or were not reached.
     pub fn headings_unmatched(&self) -> usize {
-        self.headings.2
+        self.headings.unmatched()
     }
 
     fn next_fix(&mut self) -> Result<Option<GnssEpoch>, LineError> {

@@ -264,20 +264,13 @@ pub fn write_headings<W: Write>(w: &mut W, list: &[AntennaHeading]) -> std::io::
 /// Attaches each heading to the fix at its time (within 1 ms); returns how many found no
 /// fix.
 pub fn attach_headings(fixes: &mut [GnssEpoch], headings: &[AntennaHeading]) -> usize {
-    let mut unmatched = 0;
-    let mut i = 0;
-    for m in headings {
-        while i < fixes.len() && fixes[i].t < m.t - 1e-3 {
-            i += 1;
-        }
-        match fixes.get_mut(i) {
-            Some(f) if (f.t - m.t).abs() <= 1e-3 => {
-                f.heading = Some(AntennaHeading { t: f.t, ..*m })
-            }
-            _ => unmatched += 1,
+    let mut queue = crate::heading::HeadingQueue::new(headings.to_vec());
+    for f in fixes.iter_mut() {
+        if let Some(m) = queue.take(f.t) {
+            f.heading = Some(m);
         }
     }
-    unmatched
+    queue.unmatched()
 }
 
 #[cfg(test)]
