@@ -15,6 +15,7 @@
 //! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
 //! | [`heading`] | heading (and pitch) from two antennas: [`heading::BaselineHeading`], [`heading::AntennaHeading`] |
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
+//! | [`calendar`] | civil dates, leap seconds, time systems: epochs on the GPST seconds-of-week scale |
 //! | [`calibration`] | the rig's calibration as states: the antenna lever arm, the IMU–GNSS time offset, the mounting in the vehicle, the odometer's scale and wheel point, [`calibration::InsStateCal`] (26) |
 //! | [`fix_error`] | the GNSS fixes' persisting (Gauss–Markov) error as states: [`fix_error::InsStateFe`] (18), [`fix_error::InsState21Fe`] (24) |
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`] |
@@ -33,6 +34,7 @@
 pub mod align;
 pub mod allan;
 mod augment;
+pub mod calendar;
 pub mod calibration;
 pub mod earth;
 pub mod fix_error;

@@ -13,7 +13,8 @@
 use nalgebra::Vector3;
 
 use super::lines::LineErrorKind;
-use super::rtklib::{seconds_of_week, QualityFactors, TimeSystem};
+use super::rtklib::QualityFactors;
+use crate::calendar::{seconds_of_week, TimeSystem};
 use crate::gnss::GnssEpoch;
 use crate::position::GeoPos;
 
@@ -228,8 +229,8 @@ impl NmeaState {
         // after midnight with no new date since: the next day
         if let (Some(last), Some((y, m, d))) = (self.last_tod, self.date) {
             if tod + 43_200.0 < last && self.date == self.date_at_last {
-                let days = super::rtklib::days_from_civil(y, m, d) + 1;
-                self.date = Some(super::rtklib::civil_from_days(days));
+                let days = crate::calendar::days_from_civil(y, m, d) + 1;
+                self.date = Some(crate::calendar::civil_from_days(days));
             }
         }
         self.last_tod = Some(tod);

@@ -1,6 +1,6 @@
 //! GNSS time: a GPS week and seconds of week, and the satellite identifiers.
 
-use crate::io::rtklib::{days_from_civil, GPS_EPOCH_DAYS};
+use crate::calendar::{days_from_civil, GPS_EPOCH_DAYS};
 use core::fmt;
 /// Seconds in a week.
 pub const WEEK: f64 = 604_800.0;
@@ -49,7 +49,7 @@ impl GpsTime {
         let day = (self.tow / 86_400.0).floor();
         let sod = self.tow - day * 86_400.0;
         let (y, m, d) =
-            crate::io::rtklib::civil_from_days(GPS_EPOCH_DAYS + self.week as i64 * 7 + day as i64);
+            crate::calendar::civil_from_days(GPS_EPOCH_DAYS + self.week as i64 * 7 + day as i64);
         let h = (sod / 3600.0).floor();
         let mi = ((sod - h * 3600.0) / 60.0).floor();
         (y, m, d, h as i64, mi as i64, sod - h * 3600.0 - mi * 60.0)

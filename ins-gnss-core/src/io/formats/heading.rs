@@ -3,8 +3,9 @@
 //! (timed by the log's GGA and RMC/ZDA), or columns `t heading σ [pitch σ]` (deg).
 
 use super::*;
+use crate::calendar::TimeSystem;
 use crate::heading::{wrap, AntennaHeading};
-use crate::io::rtklib::{parse_time, TimeSystem};
+use crate::io::rtklib::parse_time;
 
 /// The headings of a file and what was left out.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -24,10 +24,12 @@ use crate::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
 use crate::gnss::GnssEpoch;
 use crate::position::GeoPos;
 
-mod calendar;
 mod write;
 
-pub use calendar::*;
+pub use crate::calendar::{
+    civil_from_days, days_from_civil, gps_minus_utc, seconds_of_week, TimeSystem,
+};
+use crate::calendar::{GPS_EPOCH_DAYS, WEEK};
 pub use write::*;
 
 /// The σ factor per solution quality `Q` (index 1–6) and the qualities dropped.

@@ -1,12 +1,13 @@
-//! Calendar dates, leap seconds and time systems: a solution's epoch on the GPST
-//! seconds-of-week scale.
+//! Calendar dates, leap seconds and time systems: an epoch on the GPST seconds-of-week
+//! scale, for every file format that states a date (RTKLIB solutions, NMEA, RINEX, logs
+//! stamped in UTC) and for the raw observations' GPS time.
 
 /// Seconds in a GPS week.
-pub(super) const WEEK: f64 = 604_800.0;
+pub(crate) const WEEK: f64 = 604_800.0;
 
 /// GPS − UTC (s) from each date (year, month, day; 0 h UTC) on: the leap seconds since
 /// the GPS epoch (1980-01-06), from the IERS bulletins.
-pub(super) const LEAP_SECONDS: [(i64, i64, i64, f64); 18] = [
+const LEAP_SECONDS: [(i64, i64, i64, f64); 18] = [
     (1981, 7, 1, 1.0),
     (1982, 7, 1, 2.0),
     (1983, 7, 1, 3.0),
@@ -116,6 +117,6 @@ pub fn seconds_of_week(system: TimeSystem, date: (i64, i64, i64), hms: (i64, i64
     secs.rem_euclid(WEEK)
 }
 
-pub(super) fn hms_secs(hms: (i64, i64, f64)) -> f64 {
+fn hms_secs(hms: (i64, i64, f64)) -> f64 {
     hms.0 as f64 * 3600.0 + hms.1 as f64 * 60.0 + hms.2
 }
