@@ -105,7 +105,7 @@ enum Command {
         #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset", "mounting", "odometer"]))]
         calibrate: Vec<String>,
         /// A moving-base receiver's headings (RTKLIB's moving-base ENU solution, NMEA
-        /// HDT/THS, a u-blox log's NAV-RELPOSNED, or columns `t heading σ [pitch σ]`;
+        /// HDT/THS, a u-blox log's NAV-RELPOSNED, or columns `t heading [σ [pitch σ]]`;
         /// sets `data.heading`; the baseline is `[gnss.heading]`'s).
         #[arg(long, value_name = "FILE")]
         heading: Option<PathBuf>,

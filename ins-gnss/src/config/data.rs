@@ -46,7 +46,7 @@ pub struct DataSection {
     pub imu_time_offset: f64,
     /// A moving-base receiver's headings, a file of their own (`[gnss.heading]`): RTKLIB's
     /// moving-base solution in ENU (`out-solformat = enu`), NMEA with `HDT`/`THS`, or
-    /// columns `t heading σ [pitch σ]` (deg), or a u-blox log's `NAV-RELPOSNED`. Each is
+    /// columns `t heading [σ [pitch σ]]` (deg), or a u-blox log's `NAV-RELPOSNED`. Each is
     /// attached to the fix (tight coupling: the raw epoch) at its time (within 1 ms).
     /// Headings in an NMEA `data.gnss` need no file.
     #[serde(default, skip_serializing_if = "Option::is_none")]

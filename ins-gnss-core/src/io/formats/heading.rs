@@ -1,6 +1,6 @@
 //! The reader of a moving-base receiver's headings (`data.heading`): RTKLIB's moving-base
 //! solution in ENU (the baseline from the moving base to the rover), NMEA `HDT`/`THS`
-//! (timed by the log's GGA and RMC/ZDA), or columns `t heading σ [pitch σ]` (deg).
+//! (timed by the log's GGA and RMC/ZDA), or columns `t heading [σ [pitch σ]]` (deg).
 
 use super::*;
 use crate::calendar::TimeSystem;
@@ -217,6 +217,17 @@ fn read_columns(
     while next_record(&mut lines, policy, &mut out.skipped, out.list.len())? {
         let v = lines.values();
         let result = match v.len() {
+            2 if !(-360.0..=360.0).contains(&v[1]) => {
+                Err(LineErrorKind::WrongUnits("heading beyond ±360° (degrees expected)".into()))
+            }
+            // no σ: the configuration's (`gnss.heading.std`)
+            2 => check_time(prev, v[0]).map(|_| AntennaHeading {
+                t: v[0],
+                heading: wrap(v[1].to_radians()),
+                heading_std: None,
+                pitch: None,
+                length: None,
+            }),
             3 | 5 => {
                 let bad = v[2] <= 0.0 || (v.len() == 5 && v[4] <= 0.0);
                 if bad {
@@ -235,7 +246,7 @@ fn read_columns(
                     })
                 }
             }
-            n => Err(LineErrorKind::ColumnCount { expected: vec![3, 5], found: n }),
+            n => Err(LineErrorKind::ColumnCount { expected: vec![2, 3, 5], found: n }),
         };
         match result {
             Ok(m) => {
@@ -249,13 +260,17 @@ fn read_columns(
     Ok(out)
 }
 
-/// Writes headings as columns `t heading σ [pitch σ]` (deg).
+/// Writes headings as columns `t heading [σ [pitch σ]]` (deg), as [`read_headings`] reads
+/// them: a heading without its σ as `t heading` (the reader then takes the
+/// configuration's), an elevation only with both σ.
 pub fn write_headings<W: Write>(w: &mut W, list: &[AntennaHeading]) -> std::io::Result<()> {
     for m in list {
-        let s = m.heading_std.unwrap_or(f64::NAN).to_degrees();
-        write!(w, "{:.4} {:.6} {:.6}", m.t, m.heading.to_degrees(), s)?;
-        if let Some((p, ps)) = m.pitch {
-            write!(w, " {:.6} {:.6}", p.to_degrees(), ps.unwrap_or(f64::NAN).to_degrees())?;
+        write!(w, "{:.4} {:.6}", m.t, m.heading.to_degrees())?;
+        if let Some(s) = m.heading_std {
+            write!(w, " {:.6}", s.to_degrees())?;
+            if let Some((p, Some(ps))) = m.pitch {
+                write!(w, " {:.6} {:.6}", p.to_degrees(), ps.to_degrees())?;
+            }
         }
         writeln!(w)?;
     }
@@ -383,6 +398,32 @@ mod tests {
         let p = temp("rad.txt", "10.0 0.5 0.2 95 0.1\n");
         assert!(read_headings(&p, BadLinePolicy::Error).is_err());
         std::fs::remove_file(p).ok();
+    }
+
+    #[test]
+    fn written_headings_read_back() {
+        let m = |t: f64, std: Option<f64>, pitch: Option<(f64, Option<f64>)>| AntennaHeading {
+            t,
+            heading: 0.5,
+            heading_std: std,
+            pitch,
+            length: None,
+        };
+        let list = [
+            m(1.0, Some(0.003), Some((0.01, Some(0.006)))),
+            m(2.0, None, Some((0.01, Some(0.006)))),
+            m(3.0, Some(0.003), Some((0.01, None))),
+        ];
+        let mut text = Vec::new();
+        write_headings(&mut text, &list).unwrap();
+        let p = temp("roundtrip.txt", std::str::from_utf8(&text).unwrap());
+        let h = read_headings(&p, BadLinePolicy::Error).unwrap();
+        std::fs::remove_file(p).ok();
+        assert_eq!(h.list.len(), 3);
+        assert!((h.list[0].pitch.unwrap().1.unwrap() - 0.006).abs() < 1e-8);
+        assert!(h.list[1].heading_std.is_none() && h.list[1].pitch.is_none());
+        assert!(h.list[2].heading_std.is_some() && h.list[2].pitch.is_none());
+        assert!(h.list.iter().all(|x| (x.heading - 0.5).abs() < 1e-8));
     }
 
     #[test]
