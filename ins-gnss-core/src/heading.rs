@@ -97,8 +97,7 @@ impl HeadingConfig {
 
     /// Whether the baseline has a horizontal direction in the body frame.
     pub fn has_heading(&self) -> bool {
-        let b = self.baseline;
-        b.norm() > 0.0 && b.xy().norm() >= MIN_HORIZONTAL * b.norm()
+        has_horizontal_direction(&self.baseline)
     }
 }
 
@@ -163,11 +162,16 @@ fn angles(b: &Vector3<f64>) -> (f64, f64, Vector3<f64>, Vector3<f64>) {
     (psi, theta, d_psi, d_theta)
 }
 
-/// Whether state `x` sees the baseline with a horizontal direction (the heading is
-/// defined): its horizontal part at least a fifth of its length.
-pub fn heading_defined(baseline: &Vector3<f64>, x: &InsState) -> bool {
-    let b = x.att.matrix() * baseline;
+/// Whether a vector has a horizontal direction — its first two components (N, E; E, N;
+/// or a body's x, y) at least a fifth of its length — so that its heading is defined.
+pub fn has_horizontal_direction(b: &Vector3<f64>) -> bool {
     b.norm() > 0.0 && b.xy().norm() >= MIN_HORIZONTAL * b.norm()
+}
+
+/// Whether state `x` sees the baseline with a horizontal direction (the heading is
+/// defined).
+pub fn heading_defined(baseline: &Vector3<f64>, x: &InsState) -> bool {
+    has_horizontal_direction(&(x.att.matrix() * baseline))
 }
 
 /// The baseline's heading, `z = ψ`.

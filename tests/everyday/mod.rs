@@ -167,31 +167,63 @@ fn simulated(
     };
     let imu = ins_gnss_sim::ImuErrors { mounting, ..scenarios::mems_imu() };
     let d = simulate(&traj, 100.0, &imu, &gnss, seed);
+    sim_data(name, &d, late, MEMS_CONFIG.to_string(), None, 60.0)
+}
+
+/// The simulator's MEMS (`scenarios::mems_imu`) in the configuration's units, with the
+/// files' names.
+pub const MEMS_CONFIG: &str = "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
+     [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
+     gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
+     corr_time = 1.0\n";
+
+/// A simulated data set as the corpus runs it: the IMU rows (stamps late by `late` s; the
+/// odometer's speed as an 8th column when the IMU has one), the fixes' true antenna
+/// positions, the truth.
+fn sim_data(
+    name: &'static str,
+    d: &ins_gnss_sim::SimDataset,
+    late: f64,
+    config: String,
+    outages: Option<Vec<(f64, f64)>>,
+    skip: f64,
+) -> Data {
     let imu: Vec<f64> = d
         .imu
         .iter()
         .flat_map(|s| {
-            [s.t + late, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2]]
+            let row = [s.t + late, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1]];
+            row.into_iter().chain([s.dvel[2]]).chain(s.odometer)
         })
         .collect();
     let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
     let truth =
         d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
-    // the simulator's MEMS (scenarios::mems_imu) in the configuration's units
-    let config = "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
-         [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
-         gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
-         corr_time = 1.0\n"
-        .to_string();
-    Data {
-        name,
-        imu: imu.into(),
-        fixes,
-        truth,
-        config: Source::Toml(config),
-        outages: None,
-        skip: 60.0,
-    }
+    Data { name, imu: imu.into(), fixes, truth, config: Source::Toml(config), outages, skip }
+}
+
+/// The simulator's 600 s drive with `imu`, error-free fixes at 1 Hz from the antenna at
+/// [`LEVER`] lost in [`ANTENNA_OUTAGES`].
+fn outage_drive(
+    imu: &ins_gnss_sim::ImuErrors,
+    seed: u64,
+) -> (Trajectory, ins_gnss_sim::SimDataset) {
+    use ins_gnss_sim::{GnssWindow, GnssWindowKind};
+    let (start, segs) = scenarios::drive_600s();
+    let traj = Trajectory::new(start, &segs).unwrap();
+    let windows = ANTENNA_OUTAGES
+        .iter()
+        .map(|&(start, end)| GnssWindow { start, end, kind: GnssWindowKind::Outage })
+        .collect();
+    let gnss = GnssSim {
+        rate_hz: 1.0,
+        pos_sigma: Vector3::zeros(),
+        vel_sigma: None,
+        lever_arm: Vector3::from(LEVER),
+        windows,
+    };
+    let d = simulate(&traj, 100.0, imu, &gnss, seed);
+    (traj, d)
 }
 
 /// drive-0708's IMU and RTK fixes (the outage file's epochs), scored in its outages
@@ -503,22 +535,7 @@ pub struct AntennaDrive {
 }
 
 pub fn antenna_drive(seed: u64, baseline: Vector3<f64>, sigma: f64, wrong: f64) -> AntennaDrive {
-    use ins_gnss_sim::{GnssWindow, GnssWindowKind};
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs).unwrap();
-    let windows = ANTENNA_OUTAGES
-        .iter()
-        .map(|&(start, end)| GnssWindow { start, end, kind: GnssWindowKind::Outage })
-        .collect();
-    let lever = Vector3::from(LEVER);
-    let gnss = GnssSim {
-        rate_hz: 1.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: lever,
-        windows,
-    };
-    let d = simulate(&traj, 100.0, &scenarios::mems_imu(), &gnss, seed);
+    let (traj, d) = outage_drive(&scenarios::mems_imu(), seed);
     let times: Vec<f64> = d.gnss.iter().map(|g| g.t).collect();
     let s = sigma.to_radians();
     let headings = ins_gnss_sim::antenna_headings(
@@ -550,22 +567,14 @@ pub fn antenna_drive(seed: u64, baseline: Vector3<f64>, sigma: f64, wrong: f64) 
     let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
     ins_gnss_core::io::write_headings(&mut f, &headings).unwrap();
     drop(f);
-    let imu: Vec<f64> = d
-        .imu
-        .iter()
-        .flat_map(|s| [s.t, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2]])
-        .collect();
-    let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
-    let truth =
-        d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
     let yaw = d.truth.iter().map(|r| (r.t, r.state.att.euler().2)).collect();
     let config = format!(
-        "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\nheading = {:?}\n\
-         [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
-         gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
-         corr_time = 1.0\n[gnss]\nlever_arm = [{}, {}, {}]\n\
-         [gnss.heading]\nbaseline = [{}, {}, {}]\n",
-        path.to_string_lossy(),
+        "{}[gnss]\nlever_arm = [{}, {}, {}]\n[gnss.heading]\nbaseline = [{}, {}, {}]\n",
+        MEMS_CONFIG.replacen(
+            "imu_rate = 100.0\n",
+            &format!("imu_rate = 100.0\nheading = {:?}\n", path.to_string_lossy()),
+            1
+        ),
         LEVER[0],
         LEVER[1],
         LEVER[2],
@@ -573,15 +582,7 @@ pub fn antenna_drive(seed: u64, baseline: Vector3<f64>, sigma: f64, wrong: f64) 
         baseline.y,
         baseline.z
     );
-    let data = Data {
-        name: "two antennas",
-        imu: imu.into(),
-        fixes,
-        truth,
-        config: Source::Toml(config),
-        outages: None,
-        skip: 0.0,
-    };
+    let data = sim_data("two antennas", &d, 0.0, config, None, 0.0);
     AntennaDrive { data, yaw, headings: path }
 }
 
@@ -612,48 +613,11 @@ pub fn heading_errors(yaw: &[(f64, f64)], nav: &[[f64; 10]], t0: f64) -> (f64, f
 /// lever arm, the NHC and the odometer (its wheel point `[0, 0, 0]` unless `extra` says
 /// otherwise).
 pub fn odometer_drive(seed: u64, scale: f64) -> Data {
-    use ins_gnss_sim::{GnssWindow, GnssWindowKind};
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs).unwrap();
-    let windows = ANTENNA_OUTAGES
-        .iter()
-        .map(|&(start, end)| GnssWindow { start, end, kind: GnssWindowKind::Outage })
-        .collect();
-    let gnss = GnssSim {
-        rate_hz: 1.0,
-        pos_sigma: Vector3::zeros(),
-        vel_sigma: None,
-        lever_arm: Vector3::from(LEVER),
-        windows,
-    };
     let imu = ins_gnss_sim::ImuErrors { odometer: Some((scale, 0.05)), ..scenarios::mems_imu() };
-    let d = simulate(&traj, 100.0, &imu, &gnss, seed);
-    let imu: Vec<f64> = d
-        .imu
-        .iter()
-        .flat_map(|s| {
-            let o = s.odometer.unwrap_or(0.0);
-            [s.t, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2], o]
-        })
-        .collect();
-    let fixes = d.gnss.iter().map(|g| [g.t, g.pos.lat, g.pos.lon, g.pos.h]).collect();
-    let truth =
-        d.truth.iter().map(|r| [r.t, r.state.pos.lat, r.state.pos.lon, r.state.pos.h]).collect();
+    let (_, d) = outage_drive(&imu, seed);
     let config = format!(
-        "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
-         [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
-         gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
-         corr_time = 1.0\n[gnss]\nlever_arm = [{}, {}, {}]\n\
-         [vehicle.nhc]\n[vehicle.odometer]\n",
+        "{MEMS_CONFIG}[gnss]\nlever_arm = [{}, {}, {}]\n[vehicle.nhc]\n[vehicle.odometer]\n",
         LEVER[0], LEVER[1], LEVER[2]
     );
-    Data {
-        name: "odometer drive",
-        imu: imu.into(),
-        fixes,
-        truth,
-        config: Source::Toml(config),
-        outages: Some(ANTENNA_OUTAGES.to_vec()),
-        skip: 0.0,
-    }
+    sim_data("odometer drive", &d, 0.0, config, Some(ANTENNA_OUTAGES.to_vec()), 0.0)
 }

@@ -313,12 +313,7 @@ where
             |nav, g, obs, out, rec| {
                 rec.before_update(&nav.filter);
                 out.push(nav.update(g, obs)?);
-                if let Some(h) = &g.heading {
-                    if let Some(summary) = nav.update_heading(h, obs, rec)? {
-                        out.push(summary);
-                    }
-                }
-                Ok(())
+                nav.update_heading(g.heading.as_ref(), obs, out, rec)
             },
         )
     }
@@ -467,20 +462,22 @@ where
         Ok(summary)
     }
 
-    /// A moving-base heading now (its time must be the navigator's time), when the
-    /// configuration uses them and the state sees the baseline with a horizontal
-    /// direction; gated and adapted as the stream [`GNSS_HEADING`](crate::heading::GNSS_HEADING).
+    /// An epoch's moving-base heading now (its time must be the navigator's time), when
+    /// it has one, the configuration uses them and the state sees the baseline with a
+    /// horizontal direction; gated and adapted as the stream
+    /// [`GNSS_HEADING`](crate::heading::GNSS_HEADING), its summary appended to `out`.
     pub(crate) fn update_heading<O: Observer, R: StepRecorder<S, ImuInput>>(
         &mut self,
-        m: &crate::heading::AntennaHeading,
+        heading: Option<&crate::heading::AntennaHeading>,
         observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
         recorder: &mut R,
-    ) -> Result<Option<UpdateSummary>, NavError> {
+    ) -> Result<(), NavError> {
         use crate::heading::{heading_defined, BaselineAttitude, BaselineHeading};
-        let Some(cfg) = self.gnss.heading else { return Ok(None) };
+        let (Some(m), Some(cfg)) = (heading, self.gnss.heading) else { return Ok(()) };
         let b = cfg.baseline;
         if !m.heading.is_finite() || !heading_defined(&b, self.filter.state().nav()) {
-            return Ok(None);
+            return Ok(());
         }
         let err = |source| NavError::Measurement { t: m.t, source };
         let s_psi = cfg.heading_std(m);
@@ -509,7 +506,8 @@ where
                 )
             }
         };
-        report.map(Some).map_err(err)
+        out.push(report.map_err(err)?);
+        Ok(())
     }
 
     /// The fix update proper, with the position noise `r_pos`.

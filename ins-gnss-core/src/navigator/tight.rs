@@ -297,12 +297,7 @@ where
                 .collect();
             self.carrier = Some(CarrierEpoch { t: e.t, anchor, sats });
         }
-        if let Some(h) = &e.heading {
-            if let Some(summary) = self.update_heading(h, observer, recorder)? {
-                out.push(summary);
-            }
-        }
-        Ok(())
+        self.update_heading(e.heading.as_ref(), observer, out, recorder)
     }
 
     /// The time-differenced carrier phases of epoch `e` against the last epoch's, as

@@ -101,8 +101,7 @@ impl HeadingSection {
 
     pub(crate) fn check(&self) -> Result<(), String> {
         finite("gnss.heading.baseline", &self.baseline)?;
-        let b = Vector3::from(self.baseline);
-        if b.norm() == 0.0 || b.xy().norm() < 0.2 * b.norm() {
+        if !ins_gnss_core::heading::has_horizontal_direction(&Vector3::from(self.baseline)) {
             return Err(format!(
                 "`gnss.heading.baseline = {:?}`: the baseline from the primary antenna to the \
                  secondary (FRD, m) must have a horizontal direction in the body (a heading \

@@ -83,7 +83,7 @@ pub struct RunSummary {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CalibrationLearned {
     /// The lever arm (body FRD, m), its σ and the prior σ per axis, when estimated.
-    pub lever_arm: Option<(Vector3<f64>, Vector3<f64>, f64)>,
+    pub lever_arm: Option<AxesEstimate>,
     /// How late the IMU's stamps, as the file has them, are on the receiver's clock (s),
     /// its σ, the prior σ, and the offset applied to the stamps
     /// (`data.imu_time_offset`, the start's search included), when estimated.
@@ -122,11 +122,11 @@ impl CalibrationLearned {
     pub fn line(&self) -> String {
         let mut parts = Vec::new();
         let share = |s: f64, p: f64| format!("{:.0} %", 100.0 * s / p);
-        if let Some((l, s, p)) = self.lever_arm {
-            let blind = unobserved(&["x", "y", "z"], s.iter(), p);
-            let mut part = format!(
-                "lever arm [{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, \
-                 reduced to {}, {}, {})",
+        // a point's lever arm (m), its σ, the prior σ and how far the data reduced it
+        let lever = |(l, s, p): AxesEstimate| {
+            format!(
+                "[{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, reduced to \
+                 {}, {}, {})",
                 l.x,
                 l.y,
                 l.z,
@@ -136,7 +136,11 @@ impl CalibrationLearned {
                 share(s.x, p),
                 share(s.y, p),
                 share(s.z, p)
-            );
+            )
+        };
+        if let Some((l, s, p)) = self.lever_arm {
+            let blind = unobserved(&["x", "y", "z"], s.iter(), p);
+            let mut part = format!("lever arm {}", lever((l, s, p)));
             if !blind.is_empty() {
                 part += &format!(
                     "; not observable by these data on {} (σ not reduced to a fifth of the \
@@ -193,26 +197,13 @@ impl CalibrationLearned {
         if let Some(((k, ks, kp), (l, s, p))) = self.odometer {
             let mut part = format!(
                 "odometer scale error {:+.3} % σ {:.3} % (prior σ {:.1} %, reduced to {}), its \
-                 wheel point [{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, \
-                 reduced to {}, {}, {})",
+                 wheel point {}",
                 100.0 * k,
                 100.0 * ks,
                 100.0 * kp,
                 share(ks, kp),
-                l.x,
-                l.y,
-                l.z,
-                s.x,
-                s.y,
-                s.z,
-                share(s.x, p),
-                share(s.y, p),
-                share(s.z, p)
+                lever((l, s, p))
             );
-            let mut blind = Vec::new();
-            if ks > UNOBSERVED * kp {
-                blind.push("the scale");
-            }
             let axes = unobserved(&["x", "y", "z"], s.iter(), p);
             if !axes.is_empty() {
                 part += &format!(
@@ -222,7 +213,7 @@ impl CalibrationLearned {
                     axes.join(", ")
                 );
             }
-            if !blind.is_empty() {
+            if ks > UNOBSERVED * kp {
                 part += "; the scale not observable by these data (σ not reduced to a fifth of \
                          the prior: a drive at speed with GNSS tells it)";
             }

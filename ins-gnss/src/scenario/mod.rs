@@ -168,7 +168,7 @@ impl Scenario {
         if let Some(h) = &g.heading {
             finite("gnss.heading.baseline", &h.baseline)?;
             let b = nalgebra::Vector3::from(h.baseline);
-            if b.xy().norm() < 0.2 * b.norm() || b.norm() == 0.0 {
+            if !ins_gnss_core::heading::has_horizontal_direction(&b) {
                 return Err(format!(
                     "`gnss.heading.baseline` {:?} m: a baseline with a horizontal direction",
                     h.baseline

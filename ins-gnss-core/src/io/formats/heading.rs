@@ -5,7 +5,7 @@
 use super::*;
 use crate::calendar::TimeSystem;
 use crate::heading::{wrap, AntennaHeading};
-use crate::io::rtklib::parse_time;
+use crate::io::rtklib::{covariance, field, split_line};
 
 /// The headings of a file and what was left out.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -46,12 +46,12 @@ type Angles = (f64, f64, Option<(f64, f64)>);
 /// Heading and elevation (rad) of an ENU baseline with their σ from its covariance
 /// (E, N, U order); `None` when the baseline is (nearly) vertical or null.
 fn baseline_angles(enu: &Vector3<f64>, cov: Option<&nalgebra::Matrix3<f64>>) -> Option<Angles> {
+    if !crate::heading::has_horizontal_direction(enu) {
+        return None;
+    }
     let (e, n, u) = (enu.x, enu.y, enu.z);
     let h2 = e * e + n * n;
     let l2 = h2 + u * u;
-    if l2 <= 0.0 || h2 < 0.04 * l2 {
-        return None;
-    }
     let h = h2.sqrt();
     let psi = e.atan2(n);
     let theta = u.atan2(h);
@@ -140,25 +140,8 @@ fn enu_line(
     line: &str,
     prev: Option<f64>,
 ) -> Result<Option<AntennaHeading>, LineErrorKind> {
-    let mut it = line.split_whitespace();
-    let (a, b) = match (it.next(), it.next()) {
-        (Some(a), Some(b)) => (a, b),
-        _ => return Err(LineErrorKind::ColumnCount { expected: vec![5], found: 1 }),
-    };
-    let t = parse_time(h.system, a, b)?;
-    let fields: Vec<&str> = it.collect();
-    let num = |i: usize| -> Result<f64, LineErrorKind> {
-        let s = fields
-            .get(i)
-            .ok_or(LineErrorKind::ColumnCount { expected: vec![i + 3], found: fields.len() + 2 })?;
-        match s.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(LineErrorKind::NonFinite { column: i + 3 }),
-            Err(_) => {
-                Err(LineErrorKind::NotNumeric { column: i + 3, text: s.chars().take(40).collect() })
-            }
-        }
-    };
+    let (t, fields) = split_line(h.system, line, 5)?;
+    let num = |i: usize| field(&fields, i);
     if let Some(q) = h.q {
         let q = num(q)?;
         if q != 1.0 && q != 2.0 {
@@ -167,15 +150,9 @@ fn enu_line(
     }
     check_time(prev, t)?;
     let enu = Vector3::new(num(h.enu)?, num(h.enu + 1)?, num(h.enu + 2)?);
+    // RTKLIB: sde sdn sdu sden sdnu sdue, the last three signed square roots
     let cov = match h.sd {
-        Some(i) => {
-            // RTKLIB: sde sdn sdu sden sdnu sdue, the last three signed square roots
-            let c = |k: usize| num(i + k);
-            let un = |v: f64| v * v.abs();
-            let (se, sn, su) = (c(0)?, c(1)?, c(2)?);
-            let (en, nu, ue) = (un(c(3)?), un(c(4)?), un(c(5)?));
-            Some(nalgebra::Matrix3::new(se * se, en, ue, en, sn * sn, nu, ue, nu, su * su))
-        }
+        Some(i) => Some(covariance(&(0..6).map(|k| num(i + k)).collect::<Result<Vec<_>, _>>()?)),
         None => None,
     };
     let Some((psi, theta, sd)) = baseline_angles(&enu, cov.as_ref()) else {

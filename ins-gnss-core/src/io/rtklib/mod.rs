@@ -131,7 +131,7 @@ fn unsqrt(s: f64) -> f64 {
 }
 
 /// A symmetric matrix from σ (3) and the signed roots of the (01, 12, 20) covariances.
-fn covariance(sd: &[f64]) -> Matrix3<f64> {
+pub(crate) fn covariance(sd: &[f64]) -> Matrix3<f64> {
     let (xy, yz, zx) = (unsqrt(sd[3]), unsqrt(sd[4]), unsqrt(sd[5]));
     Matrix3::new(sd[0] * sd[0], xy, zx, xy, sd[1] * sd[1], yz, zx, yz, sd[2] * sd[2])
 }
@@ -142,31 +142,43 @@ fn neu_to_ned(c: &Matrix3<f64>) -> Matrix3<f64> {
     f * c * f
 }
 
+/// A solution line's time (its first two fields, on `system`'s scale) and its other
+/// fields; a line of one field is `expected` columns short.
+pub(crate) fn split_line(
+    system: TimeSystem,
+    line: &str,
+    expected: usize,
+) -> Result<(f64, Vec<&str>), LineErrorKind> {
+    let mut it = line.split_whitespace();
+    let (a, b) = match (it.next(), it.next()) {
+        (Some(a), Some(b)) => (a, b),
+        _ => return Err(LineErrorKind::ColumnCount { expected: vec![expected], found: 1 }),
+    };
+    Ok((parse_time(system, a, b)?, it.collect()))
+}
+
+/// Field `i` after the two time fields as a finite number; errors name its column.
+pub(crate) fn field(fields: &[&str], i: usize) -> Result<f64, LineErrorKind> {
+    let s = fields
+        .get(i)
+        .ok_or(LineErrorKind::ColumnCount { expected: vec![i + 3], found: fields.len() + 2 })?;
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(LineErrorKind::NonFinite { column: i + 3 }),
+        Err(_) => {
+            Err(LineErrorKind::NotNumeric { column: i + 3, text: s.chars().take(40).collect() })
+        }
+    }
+}
+
 /// One data line: the epoch, or `None` when its quality is dropped (`Q = 0` always).
 pub fn parse_line(
     h: &PosHeader,
     line: &str,
     quality: &QualityFactors,
 ) -> Result<Option<GnssEpoch>, LineErrorKind> {
-    let mut it = line.split_whitespace();
-    let (a, b) = match (it.next(), it.next()) {
-        (Some(a), Some(b)) => (a, b),
-        _ => return Err(LineErrorKind::ColumnCount { expected: vec![3], found: 1 }),
-    };
-    let t = parse_time(h.system, a, b)?;
-    let fields: Vec<&str> = it.collect();
-    let num = |i: usize| -> Result<f64, LineErrorKind> {
-        let s = fields
-            .get(i)
-            .ok_or(LineErrorKind::ColumnCount { expected: vec![i + 3], found: fields.len() + 2 })?;
-        match s.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(LineErrorKind::NonFinite { column: i + 3 }),
-            Err(_) => {
-                Err(LineErrorKind::NotNumeric { column: i + 3, text: s.chars().take(40).collect() })
-            }
-        }
-    };
+    let (t, fields) = split_line(h.system, line, 3)?;
+    let num = |i: usize| field(&fields, i);
     let q = match h.q {
         Some(i) => {
             let q = num(i)?;
@@ -264,7 +276,7 @@ fn check_cov(c: &Matrix3<f64>, what: &str) -> Result<(), LineErrorKind> {
 }
 
 /// GPST seconds of week of a time written as `yyyy/mm/dd hh:mm:ss.sss` or `week tow`.
-pub(crate) fn parse_time(system: TimeSystem, a: &str, b: &str) -> Result<f64, LineErrorKind> {
+fn parse_time(system: TimeSystem, a: &str, b: &str) -> Result<f64, LineErrorKind> {
     let bad = |text: String| LineErrorKind::NotNumeric { column: 1, text };
     if a.contains('/') || a.contains('-') && a.len() >= 8 {
         let d: Vec<i64> = a
