@@ -7,8 +7,9 @@
 //! `cargo run --release --example odometer_states [SEEDS]` (default 20) prints, per cell,
 //! the outages' score (the RMS of each outage's largest horizontal error; median and
 //! worst over the seeds) and, with the states, the scale's and the lateral wheel point's
-//! errors at the end against the truth (median, worst), and the share of seeds whose
-//! every axis lies within 3σ:
+//! errors at the end against the truth (median, worst), the share of seeds whose every
+//! axis lies within 3σ, and the share of epochs whose horizontal error lies beyond the
+//! reported 99 % ellipse:
 //!
 //! - `cascade, wheel point right`: the scale calibrated outside the filter (the default),
 //!   `vehicle.odometer.lever_arm` the truth `[0, 0, 0]`;
@@ -27,6 +28,7 @@ use rayon::prelude::*;
 #[derive(Clone, Copy, Debug, Default)]
 struct Out {
     score: f64,
+    beyond: f64,
     scale: f64,
     lateral: f64,
     within: bool,
@@ -38,15 +40,16 @@ fn one(seed: u64, extra: &str) -> Out {
     let cfg = config_of(&d, extra);
     let inputs = Inputs::Arrays { imu: d.imu.clone(), imu_width: 8, gnss: g, gnss_width: 7 };
     let (s, r) = run_in_memory(&cfg, "fixed".parse().unwrap(), &inputs).unwrap();
-    let score = score(&d, &r, 0.0).0;
+    let (score, beyond) = score(&d, &r, 0.0);
     match s.calibration.and_then(|c| c.odometer) {
         Some(((k, _, _), (l, ls, _))) => Out {
             score,
+            beyond,
             scale: (k - 0.015).abs(),
             lateral: l.y.abs(),
             within: (0..3).all(|i| l[i].abs() <= 3.0 * ls[i]),
         },
-        None => Out { score, scale: f64::NAN, lateral: f64::NAN, within: false },
+        None => Out { score, beyond, scale: f64::NAN, lateral: f64::NAN, within: false },
     }
 }
 
@@ -64,8 +67,8 @@ fn main() {
             format!("{states}odometer_scale_std = 0.5\n"),
         ),
     ];
-    println!("| cell | outage score, median (worst) | scale |err|, median (worst) | lateral wheel point |err|, median (worst) | every axis within 3σ |");
-    println!("|---|---|---|---|---|");
+    println!("| cell | outage score, median (worst) | scale |err|, median (worst) | lateral wheel point |err|, median (worst) | every axis within 3σ | position beyond its 99 % ellipse (mean) |");
+    println!("|---|---|---|---|---|---|");
     for (name, extra) in &cells {
         let outs: Vec<Out> = (1..=seeds).into_par_iter().map(|s| one(s, extra)).collect();
         let med = |f: &dyn Fn(&Out) -> f64| {
@@ -77,11 +80,12 @@ fn main() {
         let (k, kw) = med(&|o| 100.0 * o.scale);
         let (l, lw) = med(&|o| 100.0 * o.lateral);
         let within = outs.iter().filter(|o| o.within).count();
+        let b = 100.0 * outs.iter().map(|o| o.beyond).sum::<f64>() / outs.len() as f64;
         if k.is_nan() {
-            println!("| {name} | {s:.3} m ({sw:.3} m) | — | — | — |");
+            println!("| {name} | {s:.3} m ({sw:.3} m) | — | — | — | {b:.1} % |");
         } else {
             println!(
-                "| {name} | {s:.3} m ({sw:.3} m) | {k:.3} % ({kw:.3} %) | {l:.1} cm ({lw:.1} cm) | {within}/{seeds} |"
+                "| {name} | {s:.3} m ({sw:.3} m) | {k:.3} % ({kw:.3} %) | {l:.1} cm ({lw:.1} cm) | {within}/{seeds} | {b:.1} % |"
             );
         }
     }

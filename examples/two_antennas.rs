@@ -19,7 +19,12 @@
 //!   work;
 //! - `single-point fixes`: a moving-base receiver without corrections from a base: the
 //!   heading at 0.2°, the fixes a single point's (a Gauss–Markov wander of 1.5/1.5/3 m,
-//!   τ 100 s, over 0.3 m white, the true σ declared).
+//!   τ 100 s, over 0.3 m white, the true σ declared), and the same declaring a tenth and
+//!   ten times that σ.
+//!
+//! The last two columns: the share of `std.txt`'s rows whose heading error lies beyond
+//! 2.576 times the reported heading σ, and whose horizontal position error lies beyond the
+//! reported 99 % ellipse (means over the seeds).
 
 #[path = "../tests/everyday/mod.rs"]
 mod everyday;
@@ -30,8 +35,8 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 /// Name, baseline (m), heading σ (deg), share of wrong headings, configuration lines,
-/// the fixes' errors.
-type Cell = (&'static str, Vector3<f64>, f64, f64, &'static str, Errors);
+/// the fixes' errors and the factor on their σ the fixes declare.
+type Cell = (&'static str, Vector3<f64>, f64, f64, &'static str, Errors, f64);
 
 #[derive(Clone, Copy, Debug, Default)]
 struct Out {
@@ -41,12 +46,14 @@ struct Out {
     start_sigma: f64,
     without: f64,
     refused_headings: usize,
+    heading_beyond: f64,
+    position_beyond: f64,
 }
 
 fn one(seed: u64, cell: &Cell) -> Out {
-    let &(_, baseline, sigma, wrong, extra, errors) = cell;
+    let &(_, baseline, sigma, wrong, extra, errors, declared) = cell;
     let d = antenna_drive(seed, baseline, sigma, wrong);
-    let g = gnss_rows(&d.data, errors, 1.0, seed);
+    let g = gnss_rows(&d.data, errors, declared, seed);
     let go = |more: &str| {
         let cfg = config_of(&d.data, &format!("{extra}{more}"));
         let inputs = Inputs::Arrays {
@@ -74,7 +81,31 @@ fn one(seed: u64, cell: &Cell) -> Out {
             u.stream.to_string() == "gnss-heading" && u.verdict == estimator_core::Verdict::Rejected
         })
         .count();
-    Out { all, outages, start, start_sigma, without, refused_headings }
+    // the reported heading σ against the error, at std.txt's rows: beyond 2.576σ
+    let (mut n, mut beyond) = (0usize, 0usize);
+    for row in r.std.chunks(r.std_width) {
+        let k = r.nav.partition_point(|x| x[0] < row[0] - 1e-9);
+        let j = d.yaw.partition_point(|y| y.0 < row[0] - 1e-6);
+        if let (Some(x), Some(y)) = (r.nav.get(k), d.yaw.get(j)) {
+            if (x[0] - row[0]).abs() < 1e-6 && (y.0 - row[0]).abs() < 1e-6 {
+                n += 1;
+                let e = ins_gnss_core::heading::wrap(x[9].to_radians() - y.1).to_degrees();
+                beyond += usize::from(e.abs() > 2.576 * row[9]);
+            }
+        }
+    }
+    let heading_beyond = beyond as f64 / n.max(1) as f64;
+    let position_beyond = score(&d.data, &r, 0.0).1;
+    Out {
+        all,
+        outages,
+        start,
+        start_sigma,
+        without,
+        refused_headings,
+        heading_beyond,
+        position_beyond,
+    }
 }
 
 fn main() {
@@ -82,18 +113,20 @@ fn main() {
     let fwd = Vector3::new(1.0, 0.0, 0.0);
     let rtk = Errors::White([0.02, 0.02, 0.05]);
     let single = Errors::Wander([1.5, 1.5, 3.0], 100.0, 0.3);
-    let cells: [Cell; 6] = [
-        ("forward 0.2°", fwd, 0.2, 0.0, "", rtk),
-        ("across 0.2°", Vector3::new(0.0, 1.0, 0.0), 0.2, 0.0, "", rtk),
-        ("forward 0.5°", fwd, 0.5, 0.0, "", rtk),
-        ("moving start", fwd, 0.2, 0.0, "[data]\nstart_time = 44.5\n", rtk),
-        ("wrong fixes 5 %", fwd, 0.2, 0.05, "", rtk),
-        ("single-point fixes", fwd, 0.2, 0.0, "", single),
+    let cells: [Cell; 8] = [
+        ("forward 0.2°", fwd, 0.2, 0.0, "", rtk, 1.0),
+        ("across 0.2°", Vector3::new(0.0, 1.0, 0.0), 0.2, 0.0, "", rtk, 1.0),
+        ("forward 0.5°", fwd, 0.5, 0.0, "", rtk, 1.0),
+        ("moving start", fwd, 0.2, 0.0, "[data]\nstart_time = 44.5\n", rtk, 1.0),
+        ("wrong fixes 5 %", fwd, 0.2, 0.05, "", rtk, 1.0),
+        ("single-point fixes", fwd, 0.2, 0.0, "", single, 1.0),
+        ("single-point fixes, σ declared ×0.1", fwd, 0.2, 0.0, "", single, 0.1),
+        ("single-point fixes, σ declared ×10", fwd, 0.2, 0.0, "", single, 10.0),
     ];
     println!(
-        "| cell | heading RMS, median (worst) | in the outages, median (worst) | ≤ 0.3° | start error / σ, worst | without antennas, outages median | headings refused |"
+        "| cell | heading RMS, median (worst) | in the outages, median (worst) | ≤ 0.3° | start error / σ, worst | without antennas, outages median | headings refused | heading beyond its 99 % (mean) | position beyond its 99 % ellipse (mean) |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for cell in &cells {
         let name = cell.0;
         let outs: Vec<Out> = (1..=seeds).into_par_iter().map(|s| one(s, cell)).collect();
@@ -108,8 +141,11 @@ fn main() {
         let (_, zw) = med(&|o| (o.start / o.start_sigma).abs());
         let (w, _) = med(&|o| o.without);
         let refused: usize = outs.iter().map(|o| o.refused_headings).sum();
+        let mean = |f: &dyn Fn(&Out) -> f64| outs.iter().map(f).sum::<f64>() / outs.len() as f64;
+        let hb = 100.0 * mean(&|o| o.heading_beyond);
+        let pb = 100.0 * mean(&|o| o.position_beyond);
         println!(
-            "| {name} | {a:.3}° ({aw:.3}°) | {o:.3}° ({ow:.3}°) | {within}/{seeds} | {zw:.2}σ | {w:.3}° | {refused} |"
+            "| {name} | {a:.3}° ({aw:.3}°) | {o:.3}° ({ow:.3}°) | {within}/{seeds} | {zw:.2}σ | {w:.3}° | {refused} | {hb:.1} % | {pb:.1} % |"
         );
     }
 }
