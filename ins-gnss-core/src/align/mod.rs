@@ -39,4 +39,4 @@ mod static_start;
 
 pub use checks::{time_offset, turn_ratio, TimeOffset, TurnRatio};
 pub use motion::{align_in_motion, fit_span, MotionFit, GROSS, MISFIT};
-pub use static_start::{detect_static, static_gyro_bias, StaticStart};
+pub use static_start::{detect_static, static_gyro_bias, still_span, StaticStart};

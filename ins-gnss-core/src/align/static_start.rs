@@ -155,6 +155,33 @@ impl Window {
 /// running) is static too: the test is relative to the first window. Returns a span of
 /// zero samples when the first window already moves.
 pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
+    let still = still_span(imu, gnss, window);
+    // the IMU unchanged since the first window while the fixes drift over the whole span:
+    // a constant velocity from the first sample (a rover moving off before the log
+    // began), which the IMU cannot tell from rest; no part of the span was static (judged
+    // once, over the span: a test at the end of every window, or of every part of the
+    // data read so far, would take a wander for motion as many more times as it is
+    // repeated)
+    if still.samples > 0 && drifting(gnss, still.span.0, still.span.1) {
+        let t0 = still.span.0;
+        let zero = Vector3::zeros();
+        return StaticStart {
+            samples: 0,
+            span: (t0, t0),
+            mean_w: zero,
+            mean_f: zero,
+            std_w: zero,
+            std_f: zero,
+            dt: 0.0,
+        };
+    }
+    still
+}
+
+/// [`detect_static`] without the fixes' drift: the span the IMU shows still (and no
+/// measured velocity contradicts). A reader that stops once this span has ended inside
+/// what it read has read all [`detect_static`] judges.
+pub fn still_span(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
     let none = |t: f64| StaticStart {
         samples: 0,
         span: (t, t),
@@ -231,12 +258,6 @@ pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> Stat
     for w in &windows {
         if !still(w, ta) {
             break;
-        }
-        // the IMU unchanged since the first window while the fixes drift: a constant
-        // velocity from the first sample (a rover moving off before the log began), which
-        // the IMU cannot tell from rest; no part of the span was static
-        if drifting(gnss, t0, w.t1) {
-            return none(t0);
         }
         n_windows += 1;
         ta = w.t1;

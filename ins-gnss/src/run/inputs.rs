@@ -427,7 +427,7 @@ pub(crate) fn read_prefix(
                 Look::Span => span.reached(config, imu, fixes),
                 // once the static start has ended inside what was read
                 _ => {
-                    let (still, _) = crate::start::static_start(config, imu, fixes, span.t0);
+                    let still = crate::start::still_imu_span(config, imu, fixes, span.t0);
                     still.samples == 0 || still.span.1 < last.t - config.align.static_window
                 }
             };

@@ -232,13 +232,15 @@ pub fn span_end(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64)
     if gnss.last().is_none_or(|e| e.t <= t0 + 1e-9) {
         return None;
     }
-    let (still, is_static) = static_start(config, imu, gnss, t0);
-    // the static start (or its absence) is final once the window after its last sample
-    // is complete: `detect_static` stops at the first window that is not still
-    let next = after.get(still.samples)?;
+    // the static start (or its absence) is final once the window after the span the IMU
+    // shows still is complete: `detect_static` stops at the first window that is not
+    // still, and judges the fixes' drift over the span before it
+    let imu_still = still_imu_span(config, imu, gnss, t0);
+    let next = after.get(imu_still.samples)?;
     if last.t <= next.t + config.align.static_window + 1e-9 {
         return None;
     }
+    let (still, is_static) = static_start(config, imu, gnss, t0);
     Some((t0 + motion_span(config, &still, is_static)).max(first.t + ACCEL_SPAN))
 }
 
@@ -263,6 +265,20 @@ pub fn static_start(
     let still = detect_static(imu, gnss, config.align.static_window);
     let is_static = still.samples > 0 && still.duration() >= config.align.min_static;
     (still, is_static)
+}
+
+/// The span from `t0` the IMU shows still, the fixes' drift not judged
+/// ([`still_span`](ins_gnss_core::align::still_span)): once it has ended inside the data
+/// read, [`static_start`] has all it judges.
+pub fn still_imu_span(
+    config: &Config,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> StaticStart {
+    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
+    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
+    ins_gnss_core::align::still_span(imu, gnss, config.align.static_window)
 }
 
 /// [`prepare`]'s part that needs only the static start: `imu_noise.static_floor` (when
