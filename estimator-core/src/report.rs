@@ -74,6 +74,7 @@ where
             factors: self.factors,
             prior_scaling_fallback: self.prior_scaling_fallback,
             not_helping: self.not_helping,
+            log_likelihood: self.log_likelihood,
         }
     }
 }
@@ -103,6 +104,8 @@ pub struct UpdateSummary {
     pub prior_scaling_fallback: bool,
     /// See [`UpdateReport::not_helping`].
     pub not_helping: bool,
+    /// See [`UpdateReport::log_likelihood`].
+    pub log_likelihood: f64,
 }
 
 /// Receives telemetry from the filter:

@@ -321,17 +321,13 @@ pub fn config_of(d: &Data, extra: &str) -> Config {
             Config::parse(&text, ins_gnss::config::ConfigKind::Toml, base).unwrap()
         }
         Source::File(p) => {
-            let mut c = Config::load(p).unwrap();
-            if !extra.is_empty() {
-                let patch: toml::Table = toml::from_str(extra).unwrap();
-                let gnss = patch["gnss"].as_table().unwrap();
-                if let Some(p) = gnss.get("position_std") {
-                    c.gnss.position_std = Some(p.clone().try_into().unwrap());
-                }
-                c.gnss.errors = gnss["errors"].clone().try_into().unwrap();
-                c.filter.gate.learn = false;
+            let c = Config::load(p).unwrap();
+            if extra.is_empty() {
+                return c;
             }
-            c
+            // (the loaded configuration, paths resolved, with `extra`'s keys merged in)
+            let text = merge(&toml::to_string(&c).unwrap(), extra);
+            Config::parse(&text, ins_gnss::config::ConfigKind::Toml, base).unwrap()
         }
     }
 }

@@ -568,7 +568,12 @@ where
     fn split_fix_error(&mut self, r: &Matrix3<f64>, stream: StreamId) -> Matrix3<f64> {
         let split = self.gnss.fix_errors;
         let (fix, r_w) = match split.sigma {
-            Some(sigma) => (crate::fix_error::FixErrorModel { sigma, tau: split.tau }, *r),
+            // (the persisting part as stated; the declared σ is then the white part's,
+            // its scale learned from the residuals when `learn`)
+            Some(sigma) => {
+                let r_w = if split.learn { r * self.fix_split.white() } else { *r };
+                (crate::fix_error::FixErrorModel { sigma, tau: split.tau }, r_w)
+            }
             None => {
                 let share = split.share.clamp(0.0, 1.0);
                 let r_w = r * (1.0 - share);

@@ -107,7 +107,8 @@ pub struct FixErrorSplit {
     /// then the white noise's (`None`: the share of the declared σ).
     pub sigma: Option<Vector3<f64>>,
     /// Whether both parts follow the noise scale learned from the fixes' innovations
-    /// ([`FixSplitLearner`](crate::fix_error::FixSplitLearner)).
+    /// ([`FixSplitLearner`](crate::fix_error::FixSplitLearner)); with `sigma` given, the
+    /// white part only (the persisting part is the one stated).
     pub learn: bool,
 }
 

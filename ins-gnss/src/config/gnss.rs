@@ -139,9 +139,11 @@ impl HeadingSection {
 #[serde(deny_unknown_fields)]
 pub struct ErrorsSection {
     /// `auto` (default: when the fixes' declared horizontal σ is above 0.1 m, i.e. not an
-    /// RTK fix, the run starts white and the first 100 fixes' innovations decide: if
-    /// they are correlated from fix to fix, it starts again with the persisting part as
-    /// states), `white` (the fixes' errors independent from fix to fix) or `persisting`.
+    /// RTK fix, the first 100 fixes give their total noise scale, then a bank of runs
+    /// judges the white model against persisting parts of several σ and correlation
+    /// times by the fixes' likelihood, and the run starts again with the one chosen),
+    /// `white` (the fixes' errors independent from fix to fix) or `persisting` (with
+    /// `share`, `tau` and `sigma` as given).
     #[serde(default)]
     pub model: ErrorModel,
     /// The persisting part's share of the declared variance, 0–1. Default 0.9.
@@ -154,8 +156,9 @@ pub struct ErrorsSection {
     /// then the white part's). Default: the share of the declared σ.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sigma: Option<[f64; 3]>,
-    /// Learn the white part's σ from the fixes' residuals and the split from the
-    /// whiteness of the innovations (the declared σ and share are the prior). Default true.
+    /// Learn the white part's σ from the fixes' residuals and, without `sigma`, the split
+    /// from the whiteness of the innovations (the declared σ and share are the prior).
+    /// Default true.
     #[serde(default = "yes")]
     pub learn: bool,
 }
@@ -164,8 +167,8 @@ pub struct ErrorsSection {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ErrorModel {
-    /// Probed: white for fixes that declare an RTK fix's σ; otherwise white until the
-    /// first fixes' innovations show their errors persisting.
+    /// Judged: white for fixes that declare an RTK fix's σ; otherwise the model the
+    /// fixes' likelihood chooses among white and persisting parts.
     #[default]
     Auto,
     /// Independent from fix to fix.
@@ -179,15 +182,16 @@ pub enum ErrorModel {
 pub enum FixErrorPlan {
     /// White: independent from fix to fix.
     White,
-    /// White at first; the first [`PROBE_FIXES`] fixes' innovations decide: correlated
-    /// (lag-one autocorrelation above [`adaptive::WHITE_LAG`]), the run starts again with
-    /// the persisting part as states.
+    /// White for the first [`PROBE_FIXES`] fixes, which give the fixes' total noise
+    /// scale; then a bank of runs judges the white model against persisting parts by the
+    /// fixes' likelihood, and the run starts again with the one chosen.
     Probe,
     /// With the persisting part as states.
     Persisting,
 }
 
-/// The fixes whose innovations decide a probing run's model of the fixes' errors.
+/// The fixes over which a probing run learns the fixes' total noise scale before the
+/// bank judges their model.
 pub const PROBE_FIXES: u64 = 100;
 
 /// The declared horizontal σ (m) above which `gnss.errors.model = "auto"` probes for a

@@ -35,9 +35,9 @@ pub enum RunError {
     /// The data do not match the configuration (units, axes, rate), or the initial state
     /// cannot be found from them; the message names the key to change.
     Start(String),
-    /// The fixes' errors were probed and found persisting: the run starts again with them
-    /// as states ([`run`] does; never returned to a caller).
-    FixErrorsPersist(FixErrorProbe),
+    /// The fixes' errors were probed: the bank judges their model and the run starts
+    /// again with the one chosen ([`run`] does; never returned to a caller).
+    FixErrorsProbed(FixErrorProbe),
     /// The start's search found the IMU's stamps off and `calibrate.time_offset`
     /// applies it: the run starts again with this `data.imu_time_offset` ([`run`] does;
     /// never returned to a caller), the start's line on it kept.
@@ -66,10 +66,10 @@ impl fmt::Display for RunError {
             }
             RunError::Raw(e) => write!(f, "{e}"),
             RunError::NoData(m) => write!(f, "{m}"),
-            RunError::FixErrorsPersist(p) => write!(
+            RunError::FixErrorsProbed(p) => write!(
                 f,
-                "the fixes' errors persist (lag-one autocorrelation {:.2} over {} fixes)",
-                p.lag_one, p.fixes
+                "the fixes' errors were probed over {} fixes (lag-one autocorrelation {:.2})",
+                p.fixes, p.lag_one
             ),
             RunError::TimeOffsetApplied(offset, _) => {
                 write!(f, "the IMU's stamps are shifted by {offset:.3} s (`data.imu_time_offset`)")

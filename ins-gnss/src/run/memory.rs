@@ -138,3 +138,69 @@ impl Sink for Results {
         Ok(self.smoothed_nav.len())
     }
 }
+
+/// A sink that keeps nothing: the runs that only judge a hypothesis by the filter's
+/// likelihood ([`judge_fix_errors`]); their summary is all they give.
+#[derive(Default)]
+pub(crate) struct Discard;
+
+/// The navigation rows dropped.
+#[derive(Default)]
+pub(crate) struct DiscardRows;
+
+impl NavSink for DiscardRows {
+    fn rows(&mut self, _batch: &[(f64, InsState)]) -> Result<(), RunError> {
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), RunError> {
+        Ok(())
+    }
+}
+
+impl Sink for Discard {
+    type Nav = DiscardRows;
+    type Store = std::io::Cursor<Vec<u8>>;
+
+    fn recorder<S: RunState>(&mut self) -> Result<Recorder<S, Self::Store>, RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        Ok(Recorder::<S, _>::new(Default::default(), SMOOTHER_SEGMENT))
+    }
+
+    fn epoch<S: RunState>(
+        &mut self,
+        _t: f64,
+        _nav: &Navigator<RunStrategy, S>,
+        _gnss_fix: bool,
+    ) -> Result<(), RunError>
+    where
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        Ok(())
+    }
+
+    fn update(&mut self, _u: &UpdateSummary) -> Result<(), RunError> {
+        Ok(())
+    }
+
+    fn nav_done(&mut self, _nav: DiscardRows) {}
+
+    fn flush(&mut self) -> Result<(), RunError> {
+        Ok(())
+    }
+
+    fn smoothed<S: RunState>(
+        &mut self,
+        _recorder: Recorder<S, Self::Store>,
+        _nav: &Navigator<RunStrategy, S>,
+        _floors: &Floors,
+    ) -> Result<usize, RunError>
+    where
+        estimator_core::Cov<S::Dim>: Send,
+        DefaultAllocator: DimAlloc<S::Dim>,
+    {
+        Ok(0)
+    }
+}

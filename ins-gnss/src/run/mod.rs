@@ -127,9 +127,9 @@ pub fn run_in_memory(
 /// [`run`]'s work on any inputs into any sink, created by `create` once the start is
 /// known (a refused start creates nothing). An error says whether the sink was created.
 ///
-/// A run whose fixes' errors are probed ([`FixErrorPlan::Probe`]) and found persisting
-/// starts again, from the beginning, with their persisting part as states (the sink
-/// created anew).
+/// A run whose fixes' errors are probed ([`FixErrorPlan::Probe`]) has their model judged
+/// by a bank of runs ([`judge_fix_errors`]) and starts again, from the beginning, with
+/// the one chosen (the sink created anew).
 fn run_with<O: Sink>(
     config: &Config,
     strategy: AnyStrategy,
@@ -157,13 +157,23 @@ fn run_with<O: Sink>(
     };
     let config = shifted.as_ref().unwrap_or(config);
     let result = match first {
-        Err((RunError::FixErrorsPersist(probe), _)) => {
+        Err((RunError::FixErrorsProbed(probe), _)) => {
+            let (chosen, bank) = judge_fix_errors(config, &strategy, inputs, probe);
             let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
+            // (the white model chosen: a white run, which does not probe again)
+            let white = bank.is_some_and(|b| b.white_chosen());
+            let (c, prior) = match &chosen {
+                Some(c) if white => (c, None),
+                Some(c) => (c, Some(white_prior(probe))),
+                None => (config, Some(probe)),
+            };
             let (mut summary, out) =
-                attempt(config, strategy.clone(), inputs, again, &mut create, Some(probe))?;
+                attempt(c, strategy.clone(), inputs, again, &mut create, prior)?;
             if let Some(f) = summary.fix_errors.as_mut() {
                 f.probe = Some(probe);
             }
+            summary.fix_probe = Some(probe);
+            summary.fix_bank = bank;
             Ok((summary, out))
         }
         other => other,
@@ -199,6 +209,214 @@ fn run_with<O: Sink>(
     })
 }
 
+/// The correlation times (s) the bank of [`judge_fix_errors`] starts from, then its
+/// neighbours by [`BANK_TAU_STEP`] while the likelihood rises.
+pub const BANK_TAU: f64 = 100.0;
+
+/// The ratio between two correlation times the bank compares.
+pub const BANK_TAU_STEP: f64 = 3.0;
+
+/// The ratio between two persisting σ the bank compares at one correlation time.
+pub const BANK_SIGMA_STEP: f64 = std::f64::consts::SQRT_2;
+
+/// The bank's bounds on the persisting σ, as multiples of the total σ the probe learned,
+/// and on the correlation time (s).
+pub const BANK_SIGMA_RANGE: (f64, f64) = (1.0 / 16.0, 16.0);
+
+/// See [`BANK_SIGMA_RANGE`].
+pub const BANK_TAU_RANGE: (f64, f64) = (10.0, 3000.0);
+
+/// Log-likelihoods within which the bank's hypotheses are not told apart by the data
+/// (½ χ²₂ at 0.99: the likelihood-ratio region of the two parameters, σ and τ): of
+/// those, [`judge_fix_errors`] takes the most cautious.
+pub const BANK_MARGIN: f64 = 4.61;
+
+/// What the bank of hypotheses on the fixes' persisting error compared
+/// ([`judge_fix_errors`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixErrorBank {
+    /// Hypotheses run.
+    pub runs: usize,
+    /// The chosen persisting σ (N, E, D), m, and correlation time, s.
+    pub chosen: (Vector3<f64>, f64),
+    /// The chosen hypothesis's log-likelihood of the fixes over the best other's
+    /// (negative: a likelier one within [`BANK_MARGIN`] was passed over for caution).
+    pub margin: f64,
+    /// The white model's log-likelihood over the best persisting hypothesis's (the white
+    /// model is chosen when above [`BANK_MARGIN`]; NaN: its run failed).
+    pub white: f64,
+}
+
+impl FixErrorBank {
+    /// Whether the white model was chosen.
+    pub fn white_chosen(&self) -> bool {
+        self.white > BANK_MARGIN
+    }
+}
+
+/// The probe as the prior of a hypothesis's white part: the white share of the total
+/// variance the probe learned (the prior split's).
+fn white_prior(probe: FixErrorProbe) -> FixErrorProbe {
+    let share = ins_gnss_core::navigator::FIX_ERROR_SHARE;
+    FixErrorProbe { factor: probe.factor * (1.0 - share), ..probe }
+}
+
+/// A configuration whose fixes' persisting error is a hypothesis: its σ and correlation
+/// time stated, the white part's scale learned, nothing written, nothing smoothed.
+fn hypothesis(config: &Config, sigma: Vector3<f64>, tau: f64) -> Config {
+    let mut c = config.clone();
+    c.gnss.errors.model = crate::config::ErrorModel::Persisting;
+    c.gnss.errors.sigma = Some(sigma.into());
+    c.gnss.errors.tau = tau;
+    c.gnss.errors.learn = true;
+    c
+}
+
+/// The fixes' error model judged by the filter's own likelihood (`gnss.errors.model =
+/// "auto"`, once the probe has learned the fixes' total noise scale): a bank of runs over
+/// the whole data, the white model and persisting parts of stated σ and correlation time
+/// as states (the white part's scale learned from the residuals), each scored by the
+/// log-likelihood of the fixes' innovations after the first
+/// [`SETTLED_AFTER`] ([`StreamStats::log_likelihood_settled`]).
+/// The σ are multiples of the total σ the probe learned (the declared σ times the probe's
+/// factor), stepped by [`BANK_SIGMA_STEP`] while the likelihood rises, then refined at the
+/// vertex of the parabola through the best and its neighbours; the correlation times are
+/// stepped by [`BANK_TAU_STEP`] from [`BANK_TAU`] (each time's first σ moved along the
+/// ridge where `σ²/τ` is constant), shorter while the likelihood rises, longer while it
+/// stays within [`BANK_MARGIN`] of the best. Of the hypotheses within that margin of the
+/// best, the longest correlation time is chosen (the most cautious); the white model only
+/// when it is likelier than every persisting part by more than the margin. Returns the
+/// configuration chosen (`None`: no hypothesis ran to its end, the learned split stands)
+/// and what the bank compared.
+fn judge_fix_errors(
+    config: &Config,
+    strategy: &AnyStrategy,
+    inputs: &Inputs,
+    probe: FixErrorProbe,
+) -> (Option<Config>, Option<FixErrorBank>) {
+    let total = probe.declared * probe.factor.max(0.0).sqrt();
+    let mut judged = config.clone();
+    judged.filter.smooth = false;
+    // the fixes' log-likelihood of one run (−∞: it failed)
+    let likelihood = |c: &Config, prior: Option<FixErrorProbe>| -> f64 {
+        let mut create = || Ok((Discard, DiscardRows));
+        match attempt(c, strategy.clone(), inputs, None, &mut create, prior) {
+            Ok((summary, _)) => {
+                summary.streams.iter().filter(|s| s.gnss).map(|s| s.log_likelihood_settled).sum()
+            }
+            Err(_) => f64::NEG_INFINITY,
+        }
+    };
+    let mut white_config = judged.clone();
+    white_config.gnss.errors.model = crate::config::ErrorModel::White;
+    let white_ll = likelihood(&white_config, None);
+    let mut scored: Vec<(f64, f64, f64)> = Vec::new();
+    let mut score = |k: f64, tau: f64| -> f64 {
+        if let Some(&(_, _, ll)) =
+            scored.iter().find(|s| (s.0 / k - 1.0).abs() < 1e-6 && (s.1 / tau - 1.0).abs() < 1e-6)
+        {
+            return ll;
+        }
+        let ll = likelihood(&hypothesis(&judged, total * k, tau), Some(white_prior(probe)));
+        scored.push((k, tau, ll));
+        ll
+    };
+    // the best σ at one correlation time, from `k0`, by steps while the likelihood rises
+    let (lo, hi) = BANK_SIGMA_RANGE;
+    let mut profile = |tau: f64, k0: f64| -> (f64, f64) {
+        let k0 = k0.clamp(lo, hi);
+        let mut best = (k0, score(k0, tau));
+        for step in [BANK_SIGMA_STEP, 1.0 / BANK_SIGMA_STEP] {
+            loop {
+                let k = best.0 * step;
+                if !(lo..=hi).contains(&k) {
+                    break;
+                }
+                let ll = score(k, tau);
+                if ll > best.1 {
+                    best = (k, ll);
+                } else {
+                    break;
+                }
+            }
+        }
+        // between the steps: the vertex of the parabola through the best and its two
+        // neighbours in ln σ (a step of √2 is coarse against the likelihood's curvature)
+        let s = BANK_SIGMA_STEP;
+        let (k, y1) = best;
+        if (lo..=hi).contains(&(k / s)) && (lo..=hi).contains(&(k * s)) {
+            let (y0, y2) = (score(k / s, tau), score(k * s, tau));
+            let curve = y0 - 2.0 * y1 + y2;
+            if curve < 0.0 {
+                let d = (0.5 * (y0 - y2) / curve).clamp(-0.5, 0.5);
+                if d.abs() > 0.05 {
+                    let kv = k * s.powf(d);
+                    let yv = score(kv, tau);
+                    if yv > best.1 {
+                        best = (kv, yv);
+                    }
+                }
+            }
+        }
+        best
+    };
+    // (the prior's share of the total variance is the first guess)
+    let k0 = ins_gnss_core::navigator::FIX_ERROR_SHARE.sqrt();
+    // each correlation time's best σ: (τ, k, log-likelihood)
+    let mut profiles = vec![(BANK_TAU, profile(BANK_TAU, k0))];
+    let best_ll =
+        |p: &[(f64, (f64, f64))]| p.iter().map(|x| x.1 .1).fold(f64::NEG_INFINITY, f64::max);
+    // longer correlation times while their best is within the margin of the best so far;
+    // shorter ones while they are better
+    for step in [BANK_TAU_STEP, 1.0 / BANK_TAU_STEP] {
+        let mut from = profiles[0];
+        loop {
+            let tau = from.0 * step;
+            if !(BANK_TAU_RANGE.0..=BANK_TAU_RANGE.1).contains(&tau) {
+                break;
+            }
+            // along the ridge σ²/τ constant
+            let p = (tau, profile(tau, from.1 .0 * step.sqrt()));
+            let so_far = best_ll(&profiles);
+            profiles.push(p);
+            let go_on = if step > 1.0 { p.1 .1 >= so_far - BANK_MARGIN } else { p.1 .1 > so_far };
+            if !go_on {
+                break;
+            }
+            from = p;
+        }
+    }
+    // the data cannot tell apart the hypotheses within the margin of the best: of those,
+    // the longest correlation time (its σ the largest: the most cautious)
+    let top = best_ll(&profiles);
+    let Some(&(tau, (k, ll))) =
+        profiles.iter().filter(|p| p.1 .1 >= top - BANK_MARGIN).max_by(|a, b| a.0.total_cmp(&b.0))
+    else {
+        return (None, None);
+    };
+    if !ll.is_finite() {
+        return (None, None);
+    }
+    let next = scored
+        .iter()
+        .filter(|s| !((s.0 / k - 1.0).abs() < 1e-6 && (s.1 / tau - 1.0).abs() < 1e-6))
+        .map(|s| s.2)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let white = if white_ll.is_finite() { white_ll - top } else { f64::NAN };
+    let bank = FixErrorBank {
+        runs: scored.len() + 1,
+        chosen: (total * k, tau),
+        margin: ll - next.max(white_ll),
+        white,
+    };
+    if bank.white_chosen() {
+        let mut c = config.clone();
+        c.gnss.errors.model = crate::config::ErrorModel::White;
+        return (Some(c), Some(bank));
+    }
+    (Some(hypothesis(config, total * k, tau)), Some(bank))
+}
+
 /// An attempt on stamps already shifted: a start that would shift them again (its search
 /// and the filter disagree, or the turns fit two offsets) is refused, not run a third way.
 fn settled<T>(r: Result<T, (RunError, bool)>) -> Result<T, (RunError, bool)> {
@@ -221,8 +439,9 @@ fn settled<T>(r: Result<T, (RunError, bool)>) -> Result<T, (RunError, bool)> {
 /// by 2 cm at 20 m/s).
 pub const TIME_OFFSET_REFINED: f64 = 0.001;
 
-/// One attempt of [`run_with`]: `persisting` is the probe that found the fixes' errors
-/// persisting (`None`: the plan the configuration and the first fixes make).
+/// One attempt of [`run_with`]: `persisting` is the probe whose total noise scale is the
+/// prior of a run with the fixes' persisting error as states (`None`: the plan the
+/// configuration and the first fixes make).
 fn attempt<O: Sink>(
     config: &Config,
     strategy: AnyStrategy,
@@ -328,13 +547,13 @@ struct Opened<'o, O: Sink> {
     out: &'o mut O,
     nav: O::Nav,
     probe: bool,
-    /// The probe that found the fixes' errors persisting (a restarted run).
+    /// The probe whose noise scale is the prior (a run with the persisting part).
     found: Option<FixErrorProbe>,
 }
 
 /// `probe`: the fixes' errors are probed ([`FixErrorPlan::Probe`]): once the first
-/// [`PROBE_FIXES`] fixes have been learned from, innovations correlated from fix to fix
-/// stop the run with [`RunError::FixErrorsPersist`].
+/// [`PROBE_FIXES`] fixes have been learned from, the run stops with
+/// [`RunError::FixErrorsProbed`] for the bank to judge their model.
 fn run_into<S: RunState, O: Sink>(
     config: &Config,
     strategy: AnyStrategy,
@@ -347,8 +566,7 @@ where
     estimator_core::Cov<S::Dim>: Send,
 {
     let wall = Instant::now();
-    let Opened { feed, mut gnss, prefix, mut checks, out, nav: nav_sink, mut probe, found } =
-        opened;
+    let Opened { feed, mut gnss, prefix, mut checks, out, nav: nav_sink, probe, found } = opened;
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
     let Prefix { batches: first_batches, gnss: mut first_epochs, .. } = prefix;
@@ -504,12 +722,8 @@ where
                         out.update(u)?;
                     }
                     if probe && !updates.is_empty() {
-                        if let Some(found) = probe_fix_errors(nav.filter().strategy()) {
-                            probe = false;
-                            if found.lag_one > adaptive::WHITE_LAG {
-                                return Err(RunError::FixErrorsPersist(found));
-                            }
-                            summary.fix_probe = Some(found);
+                        if let Some(found) = probe_fix_errors(nav.filter().strategy(), &at) {
+                            return Err(RunError::FixErrorsProbed(found));
                         }
                     }
                     // after every update, and once a second without (an outage's σ)
@@ -678,8 +892,9 @@ where
     })
 }
 
-/// What the probe of the fixes' errors found ([`FixErrorPlan::Probe`]): the lag-one
-/// autocorrelation of the first fixes' whitened innovations, over how many.
+/// What the probe of the fixes' errors found ([`FixErrorPlan::Probe`]): the first fixes'
+/// noise scale on their declared σ, and the lag-one autocorrelation of their whitened
+/// innovations.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FixErrorProbe {
     /// The lag-one autocorrelation.
@@ -689,17 +904,20 @@ pub struct FixErrorProbe {
     /// The variance factor the white model's innovations showed on the declared σ (the
     /// restart's prior for both parts of the split).
     pub factor: f64,
+    /// The σ the first fixes declare (N, E, D), m.
+    pub declared: Vector3<f64>,
 }
 
 /// The probe's finding once the GNSS fix stream has been learned from over
 /// [`PROBE_FIXES`] fixes (`None` before).
-fn probe_fix_errors(strategy: &RunStrategy) -> Option<FixErrorProbe> {
+fn probe_fix_errors(strategy: &RunStrategy, at: &GnssAtStart) -> Option<FixErrorProbe> {
+    let declared = at.fix_std.unwrap_or_else(|| Vector3::repeat(1.0));
     strategy
         .learned()
         .filter(|l| {
             ins_gnss_core::gnss::GNSS_STREAMS.iter().any(|s| s.name() == l.stream)
                 && l.updates >= PROBE_FIXES
         })
-        .map(|l| FixErrorProbe { lag_one: l.lag_one, fixes: l.updates, factor: l.factor })
+        .map(|l| FixErrorProbe { lag_one: l.lag_one, fixes: l.updates, factor: l.factor, declared })
         .next()
 }

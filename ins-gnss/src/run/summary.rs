@@ -74,6 +74,9 @@ pub struct RunSummary {
     /// The probe of the fixes' errors that found them white (`gnss.errors.model =
     /// "auto"`; one that found them persisting is in [`fix_errors`](Self::fix_errors)).
     pub fix_probe: Option<super::FixErrorProbe>,
+    /// The bank of hypotheses that judged the fixes' errors (`gnss.errors.model =
+    /// "auto"`), when one did.
+    pub fix_bank: Option<super::FixErrorBank>,
     /// The rig's calibration as the filter estimated it (`calibrate`).
     pub calibration: Option<CalibrationLearned>,
 }
@@ -329,17 +332,45 @@ impl RunSummary {
     /// its σ and correlation time, the white part's σ factor on its declared share, the
     /// split's factor and the innovations' whiteness.
     pub fn fix_errors_line(&self) -> Option<String> {
+        if let Some(b) = self.fix_bank.filter(|b| b.white_chosen()) {
+            let (sigma, tau) = b.chosen;
+            return Some(format!(
+                "fix errors: white, chosen by the fixes' likelihood among {} hypotheses \
+                 (log-likelihood {:.1} above the likeliest persisting part's, σ [{:.2}, {:.2}, \
+                 {:.2}] m, τ {:.0} s)",
+                b.runs, b.white, sigma[0], sigma[1], sigma[2], tau
+            ));
+        }
         if let (None, Some(p)) = (self.fix_errors, self.fix_probe) {
             return Some(format!(
                 "fix errors: white (the first {} fixes' whitened innovations have a lag-one \
-                 autocorrelation of {:.2}, at most {} for white errors)",
-                p.fixes,
-                p.lag_one,
-                adaptive::WHITE_LAG
+                 autocorrelation of {:.2})",
+                p.fixes, p.lag_one
             ));
         }
         let f = self.fix_errors?;
         let (sigma, tau) = f.persisting;
+        if let Some(b) = self.fix_bank {
+            return Some(format!(
+                concat!(
+                    "fix errors: persisting σ [{:.2}, {:.2}, {:.2}] m (N, E, D; Gauss–Markov, ",
+                    "τ {:.0} s, states of the filter), chosen by the fixes' likelihood among {} ",
+                    "hypotheses (log-likelihood {:.1} above the next likeliest; the white ",
+                    "model's {:.1}), white σ × {:.2} of the declared; {} fixes, whiteness of ",
+                    "the innovations {:.2}"
+                ),
+                sigma[0],
+                sigma[1],
+                sigma[2],
+                tau,
+                b.runs,
+                b.margin,
+                b.white,
+                f.white.sqrt(),
+                f.fixes,
+                f.lag_one
+            ));
+        }
         Some(format!(
             concat!(
                 "fix errors: persisting σ [{:.2}, {:.2}, {:.2}] m (N, E, D; Gauss–Markov, ",
@@ -355,6 +386,31 @@ impl RunSummary {
             f.fixes,
             f.lag_one
         ))
+    }
+}
+
+/// A stream's updates after which [`StreamStats::log_likelihood_settled`] counts: the
+/// fixes' white noise is learned with a memory of 30 fixes
+/// ([`WHITE_WINDOW`](ins_gnss_core::fix_error::WHITE_WINDOW)), so its prior weighs 4 %
+/// after 100.
+pub const SETTLED_AFTER: usize = 100;
+
+/// An update's log-likelihood with its quadratic term capped at the χ² 0.999 quantile
+/// of its dimension ([`StreamStats::log_likelihood`]).
+pub fn robust_log_likelihood(u: &UpdateSummary) -> f64 {
+    // (the quadratic term of the likelihood: the adapted NIS where the update adapted S)
+    let q = if u.nis_adapted.is_finite() { u.nis_adapted } else { u.nis };
+    let cap = match u.dim {
+        1 => 10.828,
+        2 => 13.816,
+        3 => 16.266,
+        6 => 22.458,
+        m => estimator_core::consistency::chi2_quantile(0.999, m as f64),
+    };
+    if u.log_likelihood.is_finite() && q.is_finite() {
+        u.log_likelihood + 0.5 * (q - q.min(cap))
+    } else {
+        0.0
     }
 }
 
@@ -378,6 +434,16 @@ pub struct StreamStats {
     pub nis_sum: f64,
     /// See [`nis_sum`](Self::nis_sum).
     pub dof: usize,
+    /// The filter's own log-likelihood of the stream's data: the sum over every update,
+    /// refused ones included, of the innovation's Gaussian log-likelihood with the
+    /// innovation covariance the update used, its quadratic term capped at χ² 0.999 of
+    /// the dimension (one gross error weighs no more than a rare inlier: a model is not
+    /// judged by how it fares on gross errors).
+    pub log_likelihood: f64,
+    /// [`log_likelihood`](Self::log_likelihood) over the updates after the stream's
+    /// first [`SETTLED_AFTER`] (the noise the run learns from them has settled: a
+    /// hypothesis is not judged by how its learning began).
+    pub log_likelihood_settled: f64,
     /// Updates used whose NIS exceeds the median of its χ² distribution (half of them
     /// for a consistent filter).
     pub above_median: usize,
@@ -487,6 +553,8 @@ impl StreamStats {
             refused: 0,
             nis_sum: 0.0,
             dof: 0,
+            log_likelihood: 0.0,
+            log_likelihood_settled: 0.0,
             above_median: 0,
             median_ratio: f64::NAN,
             refused_after_outage: 0,
@@ -508,6 +576,11 @@ impl StreamStats {
         }
         self.last_t = u.time;
         self.epochs += 1;
+        let ll = robust_log_likelihood(u);
+        self.log_likelihood += ll;
+        if self.epochs > SETTLED_AFTER {
+            self.log_likelihood_settled += ll;
+        }
         if u.verdict != Verdict::Rejected {
             // judged at the noise the gate learned from the data, where it stands for the
             // declared one (the declared σ's factor is the summary's `noise learned` line)
