@@ -209,7 +209,7 @@ fn run_with<O: Sink>(
     })
 }
 
-/// The correlation times (s) the bank of [`judge_fix_errors`] starts from, then its
+/// The correlation time (s) the bank of hypotheses on the fixes' errors starts from, then its
 /// neighbours by [`BANK_TAU_STEP`] while the likelihood rises.
 pub const BANK_TAU: f64 = 100.0;
 
@@ -228,11 +228,11 @@ pub const BANK_TAU_RANGE: (f64, f64) = (10.0, 3000.0);
 
 /// Log-likelihoods within which the bank's hypotheses are not told apart by the data
 /// (½ χ²₂ at 0.99: the likelihood-ratio region of the two parameters, σ and τ): of
-/// those, [`judge_fix_errors`] takes the most cautious.
+/// those, the bank takes the most cautious.
 pub const BANK_MARGIN: f64 = 4.61;
 
-/// What the bank of hypotheses on the fixes' persisting error compared
-/// ([`judge_fix_errors`]).
+/// What the bank of hypotheses on the fixes' errors compared (`gnss.errors.model =
+/// "auto"`; see the guide's everyday-GNSS section).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FixErrorBank {
     /// Hypotheses run.
