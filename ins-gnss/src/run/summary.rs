@@ -350,41 +350,29 @@ impl RunSummary {
         }
         let f = self.fix_errors?;
         let (sigma, tau) = f.persisting;
-        if let Some(b) = self.fix_bank {
-            return Some(format!(
-                concat!(
-                    "fix errors: persisting σ [{:.2}, {:.2}, {:.2}] m (N, E, D; Gauss–Markov, ",
-                    "τ {:.0} s, states of the filter), chosen by the fixes' likelihood among {} ",
-                    "hypotheses (log-likelihood {:.1} above the next likeliest; the white ",
-                    "model's {:.1}), white σ × {:.2} of the declared; {} fixes, whiteness of ",
-                    "the innovations {:.2}"
+        let (chosen, white) = match self.fix_bank {
+            Some(b) => (
+                format!(
+                    ", chosen by the fixes' likelihood among {} hypotheses (log-likelihood \
+                     {:.1} above the next likeliest; the white model's {:.1})",
+                    b.runs, b.margin, b.white
                 ),
-                sigma[0],
-                sigma[1],
-                sigma[2],
-                tau,
-                b.runs,
-                b.margin,
-                b.white,
-                f.white.sqrt(),
-                f.fixes,
-                f.lag_one
-            ));
-        }
-        Some(format!(
-            concat!(
-                "fix errors: persisting σ [{:.2}, {:.2}, {:.2}] m (N, E, D; Gauss–Markov, ",
-                "τ {:.0} s, states of the filter), white σ × {:.2} of its declared share, the ",
-                "declared ratio of the two × {:.2}; {} fixes, whiteness of the innovations {:.2}"
+                format!("white σ × {:.2} of the declared", f.white.sqrt()),
             ),
-            sigma[0],
-            sigma[1],
-            sigma[2],
-            tau,
-            f.white.sqrt(),
-            f.split,
-            f.fixes,
-            f.lag_one
+            None => (
+                String::new(),
+                format!(
+                    "white σ × {:.2} of its declared share, the declared ratio of the two × {:.2}",
+                    f.white.sqrt(),
+                    f.split
+                ),
+            ),
+        };
+        Some(format!(
+            "fix errors: persisting σ [{:.2}, {:.2}, {:.2}] m (N, E, D; Gauss–Markov, τ {:.0} s, \
+             states of the filter){chosen}, {white}; {} fixes, whiteness of the innovations \
+             {:.2}",
+            sigma[0], sigma[1], sigma[2], tau, f.fixes, f.lag_one
         ))
     }
 }
