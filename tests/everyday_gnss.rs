@@ -45,10 +45,7 @@ fn everyday_gnss_subset_keeps_its_sigma_honest_and_its_accuracy() {
                 assert_eq!(o.persisting, p, "{name}: the bank chose wrong");
             }
         }
-        let n = outs.len() as f64;
-        let beyond = outs.iter().map(|(o, _)| o.beyond).sum::<f64>() / n;
-        let score = outs.iter().map(|(o, _)| o.score).sum::<f64>() / n;
-        let truth = outs.iter().map(|(_, t)| t.score).sum::<f64>() / n;
+        let (beyond, score, truth) = pooled(&outs);
         eprintln!("{name}: {score:.3} m against {truth:.3} m, {:.1} % beyond", beyond * 100.0);
         assert!(beyond <= 0.05, "{name}: {:.1} % beyond the 99 % ellipse", beyond * 100.0);
         assert!(score <= 1.2 * truth, "{name}: {score:.3} m against {truth:.3} m");
@@ -142,10 +139,7 @@ fn drive_0708_with_wandering_fixes_keeps_its_sigma_honest() {
         assert!(o.refused.is_none(), "refused: {:?}", o.refused);
         assert!(o.persisting, "the bank chose the white model");
     }
-    let n = outs.len() as f64;
-    let beyond = outs.iter().map(|(o, _)| o.beyond).sum::<f64>() / n;
-    let score = outs.iter().map(|(o, _)| o.score).sum::<f64>() / n;
-    let truth = outs.iter().map(|(_, t)| t.score).sum::<f64>() / n;
+    let (beyond, score, truth) = pooled(&outs);
     eprintln!("drive-0708: {score:.3} m against {truth:.3} m, {:.1} % beyond", beyond * 100.0);
     assert!(beyond <= 0.05, "{:.1} % beyond the 99 % ellipse", beyond * 100.0);
     assert!(score <= 1.2 * truth, "{score:.3} m against {truth:.3} m");

@@ -393,6 +393,32 @@ fn nmea_angle(deg: f64, degree_digits: usize, pos: char, neg: char) -> (String, 
     (format!("{:0w$}{:013.10}", d as i64, m, w = degree_digits), if deg < 0.0 { neg } else { pos })
 }
 
+/// The scenario simulated into `dir`: its configuration's text and its fixes, written
+/// again as the 7-column `GNSS7.txt` (σ columns, no velocity).
+fn simulated_with_seven(scenario: &Path, dir: &Path) -> (String, Vec<GnssEpoch>) {
+    let o = bin().arg("simulate").arg(scenario).arg("--out").arg(dir).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let es = epochs(&dir.join("GNSS.txt"));
+    let mut seven = Vec::new();
+    for e in &es {
+        write_gnss(&mut seven, &GnssEpoch::new(e.t, e.pos, e.pos_std, None)).unwrap();
+    }
+    std::fs::write(dir.join("GNSS7.txt"), seven).unwrap();
+    (config, es)
+}
+
+/// An epoch's NMEA fields: the UTC time `hhmmss.ss…`, the date `ddmmyy`, latitude and
+/// longitude with their hemispheres.
+fn nmea_fields(e: &GnssEpoch) -> (String, String, (String, char), (String, char)) {
+    let dt = date_time(e.t, 18.0); // yyyy/mm/dd hh:mm:ss.ssssss, UTC
+    let (date, time) = dt.split_once(' ').unwrap();
+    let ddmmyy = format!("{}{}{}", &date[8..10], &date[5..7], &date[2..4]);
+    let lat = nmea_angle(e.pos.lat.to_degrees(), 2, 'N', 'S');
+    let lon = nmea_angle(e.pos.lon.to_degrees(), 3, 'E', 'W');
+    (time.replace(':', ""), ddmmyy, lat, lon)
+}
+
 /// A log whose fixes state no σ (GGA with its HDOP, no GST; a receiver's single points)
 /// and a configuration that gives none: the run takes σ from the HDOP and the fix type's
 /// range error as a prior (HDOP 0.9 × 3 m / √2 = 1.9 m on each horizontal axis, against
@@ -412,24 +438,11 @@ fn an_nmea_log_without_sigma_runs_on_its_hdop() {
         let text = text.replacen("seed = 11", &format!("seed = {seed}"), 1);
         let scenario = dir.with_extension("toml");
         std::fs::write(&scenario, text).unwrap();
-        let o = bin().arg("simulate").arg(&scenario).arg("--out").arg(&dir).output().unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
-        let es = epochs(&dir.join("GNSS.txt"));
-        let mut seven = Vec::new();
-        for e in &es {
-            write_gnss(&mut seven, &GnssEpoch::new(e.t, e.pos, e.pos_std, None)).unwrap();
-        }
-        std::fs::write(dir.join("GNSS7.txt"), seven).unwrap();
+        let (config, es) = simulated_with_seven(&scenario, &dir);
         run_with(&dir, &config, &dir.join("GNSS7.txt"), "true-sigma");
         let mut log = String::new();
         for e in &es {
-            let dt = date_time(e.t, 18.0);
-            let (date, time) = dt.split_once(' ').unwrap();
-            let hms = time.replace(':', "");
-            let ddmmyy = format!("{}{}{}", &date[8..10], &date[5..7], &date[2..4]);
-            let (lat, ns) = nmea_angle(e.pos.lat.to_degrees(), 2, 'N', 'S');
-            let (lon, ew) = nmea_angle(e.pos.lon.to_degrees(), 3, 'E', 'W');
+            let (hms, ddmmyy, (lat, ns), (lon, ew)) = nmea_fields(e);
             log += &sentence(&format!("GPRMC,{hms},A,{lat},{ns},{lon},{ew},0.0,0.0,{ddmmyy},,,A"));
             log += &sentence(&format!(
                 "GPGGA,{hms},{lat},{ns},{lon},{ew},1,9,0.9,{:.6},M,0.0,M,,",
@@ -480,24 +493,11 @@ fn an_nmea_log_without_sigma_runs_on_its_hdop() {
 fn an_nmea_log_runs_as_its_kf_gins_twin() {
     let dir = temp("nmea");
     let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join("drive.toml");
-    let o = bin().arg("simulate").arg(&scenario).arg("--out").arg(&dir).output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
-    let es = epochs(&dir.join("GNSS.txt"));
-    let mut seven = Vec::new();
-    for e in &es {
-        write_gnss(&mut seven, &GnssEpoch::new(e.t, e.pos, e.pos_std, None)).unwrap();
-    }
-    std::fs::write(dir.join("GNSS7.txt"), seven).unwrap();
+    let (config, es) = simulated_with_seven(&scenario, &dir);
     let base = run_with(&dir, &config, &dir.join("GNSS7.txt"), "kf-gins-7");
     let mut log = String::new();
     for e in &es {
-        let dt = date_time(e.t, 18.0); // yyyy/mm/dd hh:mm:ss.ssssss, UTC
-        let (date, time) = dt.split_once(' ').unwrap();
-        let hms = time.replace(':', "");
-        let ddmmyy = format!("{}{}{}", &date[8..10], &date[5..7], &date[2..4]);
-        let (lat, ns) = nmea_angle(e.pos.lat.to_degrees(), 2, 'N', 'S');
-        let (lon, ew) = nmea_angle(e.pos.lon.to_degrees(), 3, 'E', 'W');
+        let (hms, ddmmyy, (lat, ns), (lon, ew)) = nmea_fields(e);
         let sep = 47.25;
         log += &sentence(&format!("GPRMC,{hms},A,{lat},{ns},{lon},{ew},0.0,0.0,{ddmmyy},,,D"));
         log += &sentence(&format!(

@@ -440,15 +440,26 @@ pub fn run(d: &Data, gnss: Arc<[f64]>, extra: &str) -> Outcome {
     Outcome { refused: None, flagged, persisting, score, beyond, lag }
 }
 
+/// Means over runs and their true-model twins: the share beyond the 99 % ellipse, the
+/// score, and the true model's score (0 over no runs).
+pub fn pooled<'a>(outs: impl IntoIterator<Item = &'a (Outcome, Outcome)>) -> (f64, f64, f64) {
+    let (mut n, mut beyond, mut score, mut truth) = (0usize, 0.0, 0.0, 0.0);
+    for (o, t) in outs {
+        n += 1;
+        beyond += o.beyond;
+        score += o.score;
+        truth += t.score;
+    }
+    let n = n.max(1) as f64;
+    (beyond / n, score / n, truth / n)
+}
+
 pub fn report(name: &str, outs: &[(Outcome, Outcome)]) {
     let k = outs.len() as f64;
     let ok: Vec<&(Outcome, Outcome)> =
         outs.iter().filter(|(o, t)| o.refused.is_none() && t.refused.is_none()).collect();
-    let n = ok.len().max(1) as f64;
-    let score = ok.iter().map(|(o, _)| o.score).sum::<f64>() / n;
-    let truth = ok.iter().map(|(_, t)| t.score).sum::<f64>() / n;
-    let beyond = ok.iter().map(|(o, _)| o.beyond).sum::<f64>() / n;
-    let truth_beyond = ok.iter().map(|(_, t)| t.beyond).sum::<f64>() / n;
+    let (beyond, score, truth) = pooled(ok.iter().copied());
+    let truth_beyond = ok.iter().map(|(_, t)| t.beyond).sum::<f64>() / ok.len().max(1) as f64;
     let mut lags: Vec<f64> = ok.iter().map(|(o, _)| o.lag).collect();
     lags.sort_by(f64::total_cmp);
     let lag = lags.get(lags.len() / 2).copied().unwrap_or(f64::NAN);

@@ -24,6 +24,20 @@ pub struct StaticStart {
 }
 
 impl StaticStart {
+    /// No static span: zero samples from `t`.
+    fn none(t: f64) -> Self {
+        let zero = Vector3::zeros();
+        Self {
+            samples: 0,
+            span: (t, t),
+            mean_w: zero,
+            mean_f: zero,
+            std_w: zero,
+            std_f: zero,
+            dt: 0.0,
+        }
+    }
+
     /// Length of the static span, s.
     pub fn duration(&self) -> f64 {
         self.span.1 - self.span.0
@@ -163,17 +177,7 @@ pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> Stat
     // data read so far, would take a wander for motion as many more times as it is
     // repeated)
     if still.samples > 0 && drifting(gnss, still.span.0, still.span.1) {
-        let t0 = still.span.0;
-        let zero = Vector3::zeros();
-        return StaticStart {
-            samples: 0,
-            span: (t0, t0),
-            mean_w: zero,
-            mean_f: zero,
-            std_w: zero,
-            std_f: zero,
-            dt: 0.0,
-        };
+        return StaticStart::none(still.span.0);
     }
     still
 }
@@ -182,15 +186,7 @@ pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> Stat
 /// measured velocity contradicts). A reader that stops once this span has ended inside
 /// what it read has read all [`detect_static`] judges.
 pub fn still_span(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
-    let none = |t: f64| StaticStart {
-        samples: 0,
-        span: (t, t),
-        mean_w: Vector3::zeros(),
-        mean_f: Vector3::zeros(),
-        std_w: Vector3::zeros(),
-        std_f: Vector3::zeros(),
-        dt: 0.0,
-    };
+    let none = StaticStart::none;
     let Some(first) = imu.first() else { return none(f64::NAN) };
     let t0 = first.t - first.dt;
     let g = gnss.iter().find(|e| e.t >= t0).map_or(9.8, |e| normal_gravity(e.pos.lat, e.pos.h));

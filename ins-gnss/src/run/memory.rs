@@ -47,6 +47,14 @@ pub(crate) fn nav_values(t: f64, x: &InsState) -> [f64; 10] {
     core::array::from_fn(|i| v[i + 1])
 }
 
+/// A smoother's recording kept in memory.
+fn memory_recorder<S: RunState>() -> Recorder<S, std::io::Cursor<Vec<u8>>>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    Recorder::<S, _>::new(Default::default(), SMOOTHER_SEGMENT)
+}
+
 impl Sink for Results {
     type Nav = NavRows;
     type Store = std::io::Cursor<Vec<u8>>;
@@ -55,7 +63,7 @@ impl Sink for Results {
     where
         DefaultAllocator: DimAlloc<S::Dim>,
     {
-        Ok(Recorder::<S, _>::new(Default::default(), SMOOTHER_SEGMENT))
+        Ok(memory_recorder())
     }
 
     fn epoch<S: RunState>(
@@ -166,7 +174,7 @@ impl Sink for Discard {
     where
         DefaultAllocator: DimAlloc<S::Dim>,
     {
-        Ok(Recorder::<S, _>::new(Default::default(), SMOOTHER_SEGMENT))
+        Ok(memory_recorder())
     }
 
     fn epoch<S: RunState>(

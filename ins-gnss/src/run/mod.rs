@@ -172,7 +172,6 @@ fn run_with<O: Sink>(
             if let Some(f) = summary.fix_errors.as_mut() {
                 f.probe = Some(probe);
             }
-            summary.fix_probe = Some(probe);
             summary.fix_bank = bank;
             Ok((summary, out))
         }

@@ -71,9 +71,6 @@ pub struct RunSummary {
     /// The fixes' errors as learned, when their persisting part was modelled
     /// (`gnss.errors`).
     pub fix_errors: Option<FixErrorsLearned>,
-    /// The probe of the fixes' errors that found them white (`gnss.errors.model =
-    /// "auto"`; one that found them persisting is in [`fix_errors`](Self::fix_errors)).
-    pub fix_probe: Option<super::FixErrorProbe>,
     /// The bank of hypotheses that judged the fixes' errors (`gnss.errors.model =
     /// "auto"`), when one did.
     pub fix_bank: Option<super::FixErrorBank>,
@@ -328,9 +325,9 @@ impl RunSummary {
 }
 
 impl RunSummary {
-    /// The summary's line on the fixes' errors, when their persisting part was modelled:
-    /// its σ and correlation time, the white part's σ factor on its declared share, the
-    /// split's factor and the innovations' whiteness.
+    /// The summary's line on the fixes' errors, when their persisting part was modelled or
+    /// a bank judged them: the model chosen and how, its σ and correlation time, the white
+    /// part's σ factor and the innovations' whiteness.
     pub fn fix_errors_line(&self) -> Option<String> {
         if let Some(b) = self.fix_bank.filter(|b| b.white_chosen()) {
             let (sigma, tau) = b.chosen;
@@ -339,13 +336,6 @@ impl RunSummary {
                  (log-likelihood {:.1} above the likeliest persisting part's, σ [{:.2}, {:.2}, \
                  {:.2}] m, τ {:.0} s)",
                 b.runs, b.white, sigma[0], sigma[1], sigma[2], tau
-            ));
-        }
-        if let (None, Some(p)) = (self.fix_errors, self.fix_probe) {
-            return Some(format!(
-                "fix errors: white (the first {} fixes' whitened innovations have a lag-one \
-                 autocorrelation of {:.2})",
-                p.fixes, p.lag_one
             ));
         }
         let f = self.fix_errors?;
@@ -384,7 +374,7 @@ impl RunSummary {
 pub const SETTLED_AFTER: usize = 100;
 
 /// An update's log-likelihood with its quadratic term capped at the χ² 0.999 quantile
-/// of its dimension ([`StreamStats::log_likelihood`]).
+/// of its dimension ([`StreamStats::log_likelihood_settled`]).
 pub fn robust_log_likelihood(u: &UpdateSummary) -> f64 {
     // (the quadratic term of the likelihood: the adapted NIS where the update adapted S)
     let q = if u.nis_adapted.is_finite() { u.nis_adapted } else { u.nis };
@@ -422,15 +412,13 @@ pub struct StreamStats {
     pub nis_sum: f64,
     /// See [`nis_sum`](Self::nis_sum).
     pub dof: usize,
-    /// The filter's own log-likelihood of the stream's data: the sum over every update,
-    /// refused ones included, of the innovation's Gaussian log-likelihood with the
+    /// The filter's own log-likelihood of the stream's data after its first
+    /// [`SETTLED_AFTER`] updates (the noise the run learns from them has settled: a
+    /// hypothesis is not judged by how its learning began): the sum over every later
+    /// update, refused ones included, of the innovation's Gaussian log-likelihood with the
     /// innovation covariance the update used, its quadratic term capped at χ² 0.999 of
-    /// the dimension (one gross error weighs no more than a rare inlier: a model is not
-    /// judged by how it fares on gross errors).
-    pub log_likelihood: f64,
-    /// [`log_likelihood`](Self::log_likelihood) over the updates after the stream's
-    /// first [`SETTLED_AFTER`] (the noise the run learns from them has settled: a
-    /// hypothesis is not judged by how its learning began).
+    /// the dimension ([`robust_log_likelihood`]: one gross error weighs no more than a
+    /// rare inlier, a model is not judged by how it fares on gross errors).
     pub log_likelihood_settled: f64,
     /// Updates used whose NIS exceeds the median of its χ² distribution (half of them
     /// for a consistent filter).
@@ -541,7 +529,6 @@ impl StreamStats {
             refused: 0,
             nis_sum: 0.0,
             dof: 0,
-            log_likelihood: 0.0,
             log_likelihood_settled: 0.0,
             above_median: 0,
             median_ratio: f64::NAN,
@@ -564,10 +551,8 @@ impl StreamStats {
         }
         self.last_t = u.time;
         self.epochs += 1;
-        let ll = robust_log_likelihood(u);
-        self.log_likelihood += ll;
         if self.epochs > SETTLED_AFTER {
-            self.log_likelihood_settled += ll;
+            self.log_likelihood_settled += robust_log_likelihood(u);
         }
         if u.verdict != Verdict::Rejected {
             // judged at the noise the gate learned from the data, where it stands for the

@@ -85,8 +85,7 @@ pub fn prepare(
     t0: f64,
 ) -> Result<Start, String> {
     // (both in time order: the readers refuse time going backwards)
-    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
-    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
+    let (imu, gnss) = after(imu, gnss, t0);
     let mut config = config.clone();
     let mut report = Vec::new();
     let a = config.align.clone();
@@ -260,8 +259,7 @@ pub fn static_start(
     gnss: &[GnssEpoch],
     t0: f64,
 ) -> (StaticStart, bool) {
-    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
-    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
+    let (imu, gnss) = after(imu, gnss, t0);
     let still = detect_static(imu, gnss, config.align.static_window);
     let is_static = still.samples > 0 && still.duration() >= config.align.min_static;
     (still, is_static)
@@ -276,9 +274,18 @@ pub fn still_imu_span(
     gnss: &[GnssEpoch],
     t0: f64,
 ) -> StaticStart {
-    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
-    let gnss = &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..];
+    let (imu, gnss) = after(imu, gnss, t0);
     ins_gnss_core::align::still_span(imu, gnss, config.align.static_window)
+}
+
+/// The samples and epochs after `t0` (the start time).
+fn after<'a>(
+    imu: &'a [ImuSample],
+    gnss: &'a [GnssEpoch],
+    t0: f64,
+) -> (&'a [ImuSample], &'a [GnssEpoch]) {
+    let imu = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
+    (imu, &gnss[gnss.partition_point(|e| e.t <= t0 + 1e-9)..])
 }
 
 /// [`prepare`]'s part that needs only the static start: `imu_noise.static_floor` (when
