@@ -152,6 +152,7 @@ fn start_checks(c: &mut Criterion) {
                 60.0,
                 1.0 * deg,
                 100.0 * DEG_PER_H,
+                0.0,
             ))
         })
     });

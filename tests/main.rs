@@ -13,6 +13,7 @@ mod repro_fused;
 mod repro_iakf;
 mod repro_sample_data;
 mod simulated_drive;
+mod start_campaign;
 mod strategy_invariant;
 mod tight_coupling;
 mod two_antennas;

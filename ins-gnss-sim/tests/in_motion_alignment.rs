@@ -49,6 +49,7 @@ fn heading_from_motion_within_two_degrees_in_sixty_seconds_on_ten_seeds() {
             60.0,
             1.0 * deg,
             100.0 * DEG_PER_H,
+            0.0,
         )
         .expect("a fit within 60 s");
         let truth = data.truth[0].state.euler().2.to_degrees();

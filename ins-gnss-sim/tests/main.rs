@@ -2,5 +2,6 @@
 //! of one per file): each module is one file of `tests/`, run as before with
 //! `cargo test -p ins-gnss-sim --test main MODULE::` (a module's tests) or a test's name.
 
+mod heading_bank;
 mod in_motion_alignment;
 mod raw_sim;

@@ -35,6 +35,20 @@ fn config(dir: &Path, recording: &Path, extra: &str) -> PathBuf {
     path
 }
 
+/// [`config`] with a heading given (a hand-written `[init]` attitude: the in-motion fit's
+/// 141.4°, with which the track follows the fixes to 0.6 m, against 12.9 m with the
+/// course's −49°): the bag as shipped is refused, neither the fit (±22°, its residuals'
+/// persistence counted) nor the bank of headings (±47°) telling its heading.
+fn config_with_heading(dir: &Path, recording: &Path) -> PathBuf {
+    let path = config(dir, recording, "");
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "[imu]\n",
+        "[init]\nattitude = [0.0, 0.0, 141.4]\nattitude_std = [2.0, 2.0, 10.0]\n\n[imu]\n",
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
 fn run(config: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     bin().arg("run").arg(config).arg("--out").arg(out).arg("--quiet").args(extra).output().unwrap()
 }
@@ -84,17 +98,17 @@ fn against_fixes(out: &Path) -> (f64, f64, f64, f64, usize) {
 }
 
 #[test]
-fn the_husky_bag_runs_as_it_is_and_its_mcap_copies_give_the_same_bytes() {
+fn the_husky_bag_runs_with_a_heading_given_and_its_mcap_copies_give_the_same_bytes() {
     let dir = temp("husky");
     let bag = husky().join("test1.bag");
     let out = dir.join("bag");
-    let cfg = config(&dir, &bag, "");
-    let o = run(&cfg, &out, &["--report"]);
+    // as shipped, the heading cannot be told (see the next test); given it, the run is
+    // read from the bag and written
+    let cfg = config_with_heading(&dir, &bag);
+    let o = run(&cfg, &out, &["--report", "--accept-inconsistent"]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     let stderr = String::from_utf8_lossy(&o.stderr);
-    // the start's heading is reversed (see the next test): flagged, exit status 3, the
-    // outputs written
-    assert_eq!(o.status.code(), Some(3), "{stdout}\n{stderr}");
+    assert!(o.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains("recording") && stdout.contains("/imu/data (frame imu_link) 11865"));
     assert!(stdout.contains("median rate 30.01 Hz"), "{stdout}");
     assert!(stdout.contains("ARW 12.550 deg/√h"), "{stdout}");
@@ -119,8 +133,8 @@ fn the_husky_bag_runs_as_it_is_and_its_mcap_copies_give_the_same_bytes() {
         let o = bin().arg("mcap").arg(&bag).arg(&mcap).args(flag).output().unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let out_m = dir.join(format!("out-{name}"));
-        let o = run(&config(&dir, &mcap, ""), &out_m, &[]);
-        assert_eq!(o.status.code(), Some(3));
+        let o = run(&config_with_heading(&dir, &mcap), &out_m, &["--accept-inconsistent"]);
+        assert!(o.status.success());
         for f in ["nav.txt", "std.txt", "nav.pos", "updates.csv", "imu_errors.txt"] {
             let a = std::fs::read(out.join(f)).unwrap();
             let b = std::fs::read(out_m.join(f)).unwrap();
@@ -143,14 +157,20 @@ fn the_husky_bag_runs_as_it_is_and_its_mcap_copies_give_the_same_bytes() {
 }
 
 #[test]
-fn a_reversed_heading_is_named_and_a_given_heading_uses_the_odometer() {
+fn an_untold_heading_is_refused_and_a_given_heading_uses_the_odometer() {
     let dir = temp("heading");
     let bag = husky().join("test1.bag");
-    // as shipped: the in-motion alignment puts the heading about 190° from the course,
-    // the filter drives backward, the odometer (reading forward) never calibrates
+    // as shipped: until the fit's σ counted its fixes' persistence, the in-motion alignment
+    // put the heading about 190° from the course at a σ of a few degrees, the filter drove
+    // backward and the odometer check flagged it; now neither the fit nor the bank of
+    // headings can tell the heading, and the run says so instead of starting reversed
     let o = run(&config(&dir, &bag, ""), &dir.join("a"), &[]);
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(stderr.contains("odometer: for") && stderr.contains("180° off"), "{stderr}");
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("finds the heading (") && stderr.contains("a bank of 16 headings"),
+        "{stderr}"
+    );
     assert!(stderr.contains("`init.attitude`"), "{stderr}");
     // the heading of the first fixes' course given (a hand-written [init]): the odometer
     // is used and nothing about it is flagged
@@ -191,7 +211,7 @@ fn the_mounting_and_lever_arm_come_from_tf_static() {
     let o =
         bin().arg("mcap").arg(&bag).arg(&mcap).args(["--static-transform", tf]).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let text = std::fs::read_to_string(config(&dir, &mcap, "")).unwrap();
+    let text = std::fs::read_to_string(config_with_heading(&dir, &mcap)).unwrap();
     let text: String = text
         .lines()
         .filter(|l| !l.starts_with("mounting =") && !l.starts_with("lever_arm ="))
@@ -204,7 +224,7 @@ fn the_mounting_and_lever_arm_come_from_tf_static() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(stdout.contains("imu.mounting from /tf_static (base_link → imu_link)"), "{stdout}");
     assert!(stdout.contains("vehicle.odometer.lever_arm from /tf_static"), "{stdout}");
-    let o = run(&config(&dir, &bag, ""), &dir.join("hand"), &["--accept-inconsistent"]);
+    let o = run(&config_with_heading(&dir, &bag), &dir.join("hand"), &["--accept-inconsistent"]);
     assert!(o.status.success());
     let rows = |d: &str| -> Vec<Vec<f64>> {
         std::fs::read_to_string(dir.join(d).join("nav.txt"))

@@ -4,6 +4,8 @@
 //! `run_in_memory` as a user makes them, and their scores.
 #![allow(dead_code)]
 
+pub mod start;
+
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 

@@ -34,9 +34,13 @@ use crate::imu::ImuSample;
 use crate::position::GeoPos;
 
 mod checks;
+mod heading_bank;
 mod motion;
 mod static_start;
 
 pub use checks::{time_offset, turn_ratio, TimeOffset, TurnRatio};
+pub use heading_bank::{
+    heading_bank, BankHeading, BankStart, BANK_ACCEL_NOISE, BANK_DRIFT_TIME, BANK_SIZE,
+};
 pub use motion::{align_in_motion, fit_span, MotionFit, GROSS, MISFIT};
 pub use static_start::{detect_static, static_gyro_bias, still_span, StaticStart};

@@ -93,7 +93,7 @@ where
         // most worth taking)
         let filter = &self.filter;
         let zupt = v.aiding.zupt.filter(|z| {
-            stationary && {
+            stationary && t <= z.until + TIME_EPSILON && {
                 // (the σ only when standing: this runs at every IMU sample)
                 let sigma = filter.sigma();
                 let speed_sigma = (sigma[3].powi(2) + sigma[4].powi(2) + sigma[5].powi(2)).sqrt();
@@ -102,7 +102,7 @@ where
         });
         if let (Some(z), Some(d)) = (zupt, &v.detector) {
             v.stationary_time += imu.dt;
-            if t - v.last_zupt >= z.interval - TIME_EPSILON {
+            if !z.zaru_only && t - v.last_zupt >= z.interval - TIME_EPSILON {
                 v.last_zupt = t;
                 let r = Matrix3::identity() * z.velocity_std.powi(2);
                 coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;

@@ -194,6 +194,8 @@ impl Config {
                 interval: z.interval,
                 max_speed: z.max_speed,
                 speed_sigmas: z.speed_sigmas,
+                until: f64::INFINITY,
+                zaru_only: false,
             }),
             odometer: self.vehicle.odometer.as_ref().map(|o| OdometerConfig {
                 lever_arm: v3(o.lever_arm),

@@ -179,7 +179,7 @@ pub struct AlignSection {
     #[serde(default = "default_min_static")]
     pub min_static: f64,
     /// Longest span of data the in-motion alignment may use, s, counted from the end of
-    /// a static start (of up to 600 s), else from the
+    /// a static start (of up to 3600 s), else from the
     /// start. Default 120.
     #[serde(default = "default_align_time")]
     pub max_time: f64,

@@ -472,7 +472,7 @@ mod tests {
         assert!(KEYS.len() > 130, "{} keys", KEYS.len());
         // figures the doc comments state
         assert_eq!(crate::start::FLOOR_FACTOR, 1.5, "imu_noise.static_floor's doc says 1.5×");
-        assert_eq!(crate::start::STATIC_ALLOWANCE, 600.0, "align.max_time's doc says 600 s");
+        assert_eq!(crate::start::STATIC_ALLOWANCE, 3600.0, "align.max_time's doc says 3600 s");
     }
 
     #[test]

@@ -482,7 +482,11 @@ pub(crate) fn prepare_start(
     match look {
         Look::Span => crate::start::prepare(config, imu, gnss, t0).map_err(RunError::Start),
         Look::StaticStart => Ok(crate::start::prepare_floor(config, imu, gnss, t0)),
-        Look::First => Ok(crate::start::Start { config: config.clone(), report: Vec::new() }),
+        Look::First => Ok(crate::start::Start {
+            config: config.clone(),
+            report: Vec::new(),
+            still_until: None,
+        }),
     }
 }
 

@@ -510,8 +510,17 @@ fn attempt<O: Sink>(
     let probe = plan == FixErrorPlan::Probe;
     let persisting_probe = persisting;
     let persisting = plan == FixErrorPlan::Persisting;
-    let inputs =
-        Opened { feed, gnss, prefix, checks, out: &mut out, nav, probe, found: persisting_probe };
+    let inputs = Opened {
+        feed,
+        gnss,
+        prefix,
+        checks,
+        out: &mut out,
+        nav,
+        probe,
+        found: persisting_probe,
+        still_until: start.still_until,
+    };
     let calibrate = config.calibrate.any();
     let result = match config.filter.states {
         _ if calibrate => run_into::<InsStateCal, O>(config, strategy, names, progress, inputs),
@@ -548,6 +557,8 @@ struct Opened<'o, O: Sink> {
     probe: bool,
     /// The probe whose noise scale is the prior (a run with the persisting part).
     found: Option<FixErrorProbe>,
+    /// The static start's end, ZUPT and ZARU over it ([`crate::start::Start::still_until`]).
+    still_until: Option<f64>,
 }
 
 /// `probe`: the fixes' errors are probed ([`FixErrorPlan::Probe`]): once the first
@@ -565,7 +576,17 @@ where
     estimator_core::Cov<S::Dim>: Send,
 {
     let wall = Instant::now();
-    let Opened { feed, mut gnss, prefix, mut checks, out, nav: nav_sink, probe, found } = opened;
+    let Opened {
+        feed,
+        mut gnss,
+        prefix,
+        mut checks,
+        out,
+        nav: nav_sink,
+        probe,
+        found,
+        still_until,
+    } = opened;
 
     // Start: the configured time, or the first IMU sample; samples up to it are skipped.
     let Prefix { batches: first_batches, gnss: mut first_epochs, .. } = prefix;
@@ -587,7 +608,8 @@ where
         fix_factor: found.map(|f| f.factor),
         ..GnssAtStart::of_fixes(config, first_epochs.iter().filter_map(|(a, _)| a.fix.as_ref()))
     };
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first_t, &at)?;
+    let (mut nav, mut summary, end) =
+        start_navigator::<S>(config, strategy, first_t, &at, still_until)?;
     let start = summary.span.0;
     // (the exact mode keeps the step-by-step adjoint: its outputs stay those of earlier
     // builds byte for byte; the two agree to rounding, `benches/README.md`)

@@ -67,7 +67,8 @@ where
         .map_err(RunError::Start)?;
     let config = &start.config;
     let at = GnssAtStart::of_fixes(config, gnss.iter());
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, strategy, first.t, &at)?;
+    let (mut nav, mut summary, end) =
+        start_navigator::<S>(config, strategy, first.t, &at, start.still_until)?;
     summary.start = start.report;
     let start = summary.span.0;
     let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);

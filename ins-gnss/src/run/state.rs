@@ -369,6 +369,7 @@ pub(crate) fn start_navigator<S: RunState>(
     strategy: AnyStrategy,
     first_t: f64,
     at: &GnssAtStart,
+    still_until: Option<f64>,
 ) -> Result<(Navigator<RunStrategy, S>, RunSummary, f64), RunError>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
@@ -378,8 +379,18 @@ where
     // the name of the strategy the user chose (the vehicle streams' fixed noise aside)
     let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
     let strategy = config.strategy(strategy).map_err(RunError::Config)?;
+    // a static start the start found and started from: ZARU over it, unless the
+    // configuration asks for ZUPT and ZARU over the whole run
+    let mut aiding = config.vehicle_aiding();
+    if let (None, Some(until)) = (aiding.zupt, still_until) {
+        aiding.zupt = Some(ins_gnss_core::vehicle::ZuptConfig {
+            until,
+            zaru_only: true,
+            ..Default::default()
+        });
+    }
     let nav = S::navigator(config, strategy, start, at)?
-        .with_vehicle_aiding(config.vehicle_aiding())
+        .with_vehicle_aiding(aiding)
         .with_covariance_interval(config.filter.covariance_interval);
     let summary = RunSummary {
         strategy: name.to_string(),

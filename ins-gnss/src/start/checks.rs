@@ -157,15 +157,9 @@ pub(super) fn gyro_unit_error(config: &Config, factor: f64, why: &str) -> String
     }
 }
 
-/// What the in-motion fits say of the data: a mirror image (left-handed axes; judged on
-/// `mirror`, the whole-span fit, present when the motion turned) and a gyro unit that
-/// another one fits far better (on `m`, the alignment's fit).
-pub(super) fn check_motion(
-    config: &Config,
-    m: &MotionFit,
-    mirror: Option<&MotionFit>,
-    fit: &dyn Fn(f64) -> Option<MotionFit>,
-) -> Result<(), String> {
+/// A left-handed frame: the fit over the whole span (`mirror`) fits decisively better as a
+/// mirror image.
+pub(super) fn check_mirror(config: &Config, mirror: Option<&MotionFit>) -> Result<(), String> {
     // a mirror image that fits decisively better (χ² down by 100 reduced units: the
     // motion turned, so all three axes were seen)
     if let Some(mirror) = mirror.filter(|w| w.mirror > MIRROR_DECISIVE) {
@@ -182,6 +176,16 @@ pub(super) fn check_motion(
             mirror.t_a, mirror.t_b
         ));
     }
+    Ok(())
+}
+
+/// A gyro unit: the fit `m` misfits grossly and the rates scaled by 57.3 or 1/57.3
+/// (`fit(scale)`) fit decisively better.
+pub(super) fn check_gyro_unit(
+    config: &Config,
+    m: &MotionFit,
+    fit: &dyn Fn(f64) -> Option<MotionFit>,
+) -> Result<(), String> {
     // only a gross misfit that another unit removes: vibration, a gyro bias or a
     // straight drive leave a few σ that "no rotation at all" can fit as well (seen on
     // the simulated car with vibration: 3.3σ declared, 1.0σ at 1/57). The fits leave

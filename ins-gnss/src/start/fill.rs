@@ -2,19 +2,50 @@
 
 use super::*;
 
-/// Fill `[init]` from the static start and the in-motion fit.
-#[allow(clippy::too_many_arguments)]
+/// What the start found in the data: the static start (and whether it lasts
+/// `align.min_static`), the in-motion fit, the heading bank's answer.
+pub(super) struct Found<'a> {
+    pub still: &'a StaticStart,
+    pub is_static: bool,
+    pub motion: Option<&'a MotionFit>,
+    pub bank: Option<&'a BankHeading>,
+    /// The gyro bias's 1σ the heading drifts with, rad/s.
+    pub bias_std: f64,
+}
+
+/// Fill `[init]` from the static start, the heading bank and the in-motion fit.
 pub(super) fn fill_init(
     config: &mut Config,
     report: &mut Vec<String>,
-    still: &StaticStart,
-    is_static: bool,
-    motion: Option<&MotionFit>,
+    found: &Found<'_>,
     imu: &[ImuSample],
     gnss: &[GnssEpoch],
     t0: f64,
 ) -> Result<(), String> {
+    let Found { still, is_static, motion, bank, bias_std } = *found;
     let i = config.init.clone();
+    if let (true, Some(b), None) = (is_static, bank, i.attitude) {
+        fill_from_bank(config, report, still, b, gnss, t0)?;
+        return fill_rest(config, report, still, is_static, motion);
+    }
+    // moving, and the fit cannot tell the heading (too little motion for its span, fixes
+    // too noisy for the speed): the bank from the first sample
+    let fit_heading =
+        motion.is_some_and(|m| m.att_std.z.hypot(0.25f64.to_radians()) <= MAX_HEADING_STD);
+    let mut bank_says = String::new();
+    if !is_static && i.attitude.is_none() && !fit_heading {
+        if let Some(b) = moving_bank(config, imu, gnss, t0, bias_std) {
+            if b.bank.std.hypot(0.25f64.to_radians()) <= MAX_HEADING_STD {
+                fill_from_moving_bank(config, report, &b, gnss, t0)?;
+                return fill_rest(config, report, still, is_static, None);
+            }
+            bank_says = format!(
+                "; a bank of {BANK_SIZE} headings over {} fixes leaves it at ±{:.0}°",
+                b.bank.fixes,
+                b.bank.std.to_degrees()
+            );
+        }
+    }
     if i.attitude.is_none() {
         if let Some(a) = antenna_heading(config, imu, gnss, t0) {
             let took =
@@ -66,9 +97,10 @@ pub(super) fn fill_init(
         let yaw_std = m.att_std.z.hypot(0.25f64.to_radians());
         if yaw_std > MAX_HEADING_STD {
             return Err(format!(
-                "the in-motion alignment finds the heading only to ±{:.0}° ({span}): too \
-                 little motion; give `init.attitude` (and `init.attitude_std`), or a longer \
-                 `align.max_time`",
+                "the in-motion alignment finds the heading ({:.1}°) only to ±{:.0}° \
+                 ({span}){bank_says}: too little motion; give `init.attitude` (and \
+                 `init.attitude_std`), or a longer `align.max_time`",
+                m_yaw.to_degrees(),
                 yaw_std.to_degrees()
             ));
         }
@@ -228,7 +260,7 @@ pub(super) fn fill_rest(
 /// The headings of two antennas at the first fixes that have one (up to
 /// [`ANTENNA_CANDIDATES`]): time, measured baseline heading and its σ (rad), when the run
 /// uses them.
-struct AntennaStart {
+pub(super) struct AntennaStart {
     list: Vec<(f64, f64, f64)>,
     baseline: Vector3<f64>,
 }
@@ -236,7 +268,7 @@ struct AntennaStart {
 /// How many of the first fixes' headings the start compares before it takes one.
 const ANTENNA_CANDIDATES: usize = 5;
 
-fn antenna_heading(
+pub(super) fn antenna_heading(
     config: &Config,
     imu: &[ImuSample],
     gnss: &[GnssEpoch],
@@ -406,4 +438,156 @@ fn fill_from_antennas(
         ));
     }
     Ok(true)
+}
+
+/// `[init]` on a static start from the heading bank ([`heading_bank`]): roll and pitch
+/// levelled, the heading the bank found over the motion after it (the body did not turn
+/// while it stood), the position from the static start's first fix, the velocity 0.
+fn fill_from_bank(
+    config: &mut Config,
+    report: &mut Vec<String>,
+    still: &StaticStart,
+    b: &BankHeading,
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> Result<(), String> {
+    let i = config.init.clone();
+    let (roll, pitch) = level(&still.mean_f);
+    let yaw_std = b.std.hypot(0.25f64.to_radians());
+    if yaw_std > MAX_HEADING_STD {
+        return Err(format!(
+            "the bank of {BANK_SIZE} headings leaves the heading at ±{:.0}° after {} fixes of \
+             motion ({:.3}–{:.3} s): too little motion after the static start; give \
+             `init.attitude` (and `init.attitude_std`), or a longer `align.max_time`",
+            yaw_std.to_degrees(),
+            b.fixes,
+            still.span.1,
+            b.t_end
+        ));
+    }
+    let att = manifolds::So3::from_euler(roll, pitch, b.heading);
+    config.init.attitude = Some([roll.to_degrees(), pitch.to_degrees(), b.heading.to_degrees()]);
+    if i.attitude_std.is_none() {
+        config.init.attitude_std = Some([0.5, 0.5, yaw_std.to_degrees()]);
+    }
+    let s = config.init.attitude_std.unwrap_or_default();
+    report.push(format!(
+        "init: roll {:.3}°, pitch {:.3}° levelled over the static start ({:.1} s), σ {:.2}°; \
+         heading {:.3}° from a bank of {BANK_SIZE} hypotheses over {} fixes of motion \
+         ({:.3}–{:.3} s, largest weight {:.3}), σ {:.2}°",
+        roll.to_degrees(),
+        pitch.to_degrees(),
+        still.duration(),
+        s[0],
+        b.heading.to_degrees(),
+        b.fixes,
+        still.span.1,
+        b.t_end,
+        b.weight,
+        s[2]
+    ));
+    if i.position.is_none() {
+        let Some(e) = gnss.iter().find(|e| e.t > t0 && e.t <= still.span.1) else {
+            return Err(format!(
+                "no GNSS fix during the static start ({:.3}–{:.3} s) to start from; give \
+                 `init.position`",
+                still.span.0, still.span.1
+            ));
+        };
+        let offset = att.rotate(&Vector3::from(config.gnss.lever_arm));
+        let (lat, lon, h) = ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
+        config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
+        if i.position_std.is_none() {
+            config.init.position_std = Some(e.pos_std.map(|v| v.max(0.01)).into());
+        }
+        report.push(format!(
+            "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (the first of \
+             the static start; lever arm applied), σ {} m",
+            lat.to_degrees(),
+            lon.to_degrees(),
+            h,
+            e.t,
+            fmt3(config.init.position_std.unwrap_or_default(), 3)
+        ));
+    }
+    if i.velocity.is_none() {
+        config.init.velocity = Some([0.0; 3]);
+        if i.velocity_std.is_none() {
+            config.init.velocity_std = Some([0.02; 3]);
+        }
+        report.push(format!(
+            "init: velocity [0.000, 0.000, 0.000] m/s 0 on the static start, σ {} m/s",
+            fmt3(config.init.velocity_std.unwrap_or_default(), 3)
+        ));
+    }
+    Ok(())
+}
+
+/// `[init]` while moving from the bank ([`moving_bank`]): roll and pitch levelled on the
+/// first seconds, the heading the bank found, the velocity of the first fixes' line, the
+/// position from the first fix moved back to the start by it.
+fn fill_from_moving_bank(
+    config: &mut Config,
+    report: &mut Vec<String>,
+    b: &MovingStart,
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> Result<(), String> {
+    let i = config.init.clone();
+    let yaw_std = b.bank.std.hypot(0.25f64.to_radians());
+    let att = manifolds::So3::from_euler(b.roll, b.pitch, b.bank.heading);
+    config.init.attitude =
+        Some([b.roll.to_degrees(), b.pitch.to_degrees(), b.bank.heading.to_degrees()]);
+    if i.attitude_std.is_none() {
+        let tilt = MOVING_TILT_STD.to_degrees();
+        config.init.attitude_std = Some([tilt, tilt, yaw_std.to_degrees()]);
+    }
+    let s = config.init.attitude_std.unwrap_or_default();
+    report.push(format!(
+        "init: roll {:.3}°, pitch {:.3}° levelled on the first {ACCEL_SPAN} s (moving), σ \
+         {:.2}°; heading {:.3}° from a bank of {BANK_SIZE} hypotheses over {} fixes \
+         ({t0:.3}–{:.3} s, largest weight {:.3}; the in-motion fit could not tell it), σ {:.2}°",
+        b.roll.to_degrees(),
+        b.pitch.to_degrees(),
+        s[0],
+        b.bank.heading.to_degrees(),
+        b.bank.fixes,
+        b.bank.t_end,
+        b.bank.weight,
+        s[2]
+    ));
+    if i.position.is_none() {
+        let Some(e) = gnss.iter().find(|e| e.t > t0) else {
+            return Err("no GNSS fix after the start; give `init.position`".into());
+        };
+        let dt = e.t - t0;
+        let offset = att.rotate(&Vector3::from(config.gnss.lever_arm)) + b.vel * dt;
+        let (lat, lon, h) = ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
+        config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
+        if i.position_std.is_none() {
+            let std = e.pos_std.zip_map(&b.vel_std, |p, v| p.hypot(v * dt).max(0.01));
+            config.init.position_std = Some(std.into());
+        }
+        report.push(format!(
+            "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (moved back by \
+             the velocity; lever arm applied), σ {} m",
+            lat.to_degrees(),
+            lon.to_degrees(),
+            h,
+            e.t,
+            fmt3(config.init.position_std.unwrap_or_default(), 3)
+        ));
+    }
+    if i.velocity.is_none() {
+        config.init.velocity = Some(b.vel.into());
+        if i.velocity_std.is_none() {
+            config.init.velocity_std = Some(b.vel_std.into());
+        }
+        report.push(format!(
+            "init: velocity {} m/s from a line through the first fixes, σ {} m/s",
+            fmt3(b.vel.into(), 3),
+            fmt3(config.init.velocity_std.unwrap_or_default(), 3)
+        ));
+    }
+    Ok(())
 }

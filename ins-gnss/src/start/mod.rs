@@ -5,8 +5,8 @@
 //! | part | from |
 //! |---|---|
 //! | roll, pitch | levelling over the static start ([`detect_static`]), else the in-motion alignment |
-//! | heading | the in-motion alignment ([`align_in_motion`]: any heading, no forward-motion assumption) |
-//! | position, velocity | the in-motion alignment's fit to the first fixes (lever arm included); velocity 0 on a static start |
+//! | heading | after a static start, the bank of hypotheses over the motion that follows ([`heading_bank`]); moving, the in-motion alignment ([`align_in_motion`]: any heading, no forward-motion assumption), or the bank when it cannot tell |
+//! | position, velocity | the static start's first fix and 0; moving, the in-motion alignment's fit to the first fixes (lever arm included) |
 //! | gyro bias | the static start's mean rate less the Earth rate, else 0 |
 //! | ARW, VRW | the static start's per-axis σ × √dt (`imu_noise.from_static`) |
 //!
@@ -17,18 +17,20 @@ use nalgebra::Vector3;
 
 use crate::config::Config;
 use ins_gnss_core::align::{
-    align_in_motion, detect_static, fit_span, static_gyro_bias, time_offset, turn_ratio, MotionFit,
-    StaticStart, TimeOffset, TurnRatio,
+    align_in_motion, detect_static, fit_span, heading_bank, static_gyro_bias, time_offset,
+    turn_ratio, BankHeading, BankStart, MotionFit, StaticStart, TimeOffset, TurnRatio, BANK_SIZE,
 };
-use ins_gnss_core::earth::normal_gravity;
+use ins_gnss_core::earth::{geodetic_to_local_ned, normal_gravity};
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::{ImuSample, DEG_PER_H, DEG_PER_SQRT_H, M_S_PER_SQRT_H};
 use ins_gnss_core::init::level;
 use ins_gnss_core::io::columns::{unit_factor, Quantity};
 
+mod bank;
 mod checks;
 mod fill;
 
+use bank::*;
 use checks::*;
 pub use checks::{ACCEL_SPAN, MAX_TIME_OFFSET, RATE_SAMPLES, TIME_OFFSET_REFUSED};
 use fill::*;
@@ -46,12 +48,8 @@ pub const DEFAULT_GYRO_BIAS_STD: f64 = 100.0;
 /// the axes 1.6–27× above KF-GINS's generic figures.
 pub const FLOOR_FACTOR: f64 = 1.5;
 
-/// The longest static start (s) after which `align.max_time` still counts: the start's
-/// data are read up to `align.max_time` after the static start's end ([`span_end`]), at
-/// most this + `align.max_time` after the start, so that a vehicle that stands still for
-/// up to ten minutes before it drives (an alignment practice) aligns on its first
-/// minutes of motion.
-pub const STATIC_ALLOWANCE: f64 = 600.0;
+/// Seconds of a static start the mirror-image check's fit takes before the motion.
+const MIRROR_LEAD: f64 = 10.0;
 
 /// The largest heading σ (rad) the self-start accepts: the error-state filter's
 /// linearisation holds to about this.
@@ -69,6 +67,11 @@ pub struct Start {
     pub config: Config,
     /// One line per part found from the data (empty when everything was given).
     pub report: Vec<String>,
+    /// The end of the static start the initial state was found on (s), over which the
+    /// filter takes ZARU: still by the IMU, the heading must not drift while the position
+    /// fixes cannot tell it (a car standing 20 min with a consumer MEMS drifted 15–30° at
+    /// a σ of 4°, its vertical gyro bias learned wrongly through the Earth rate).
+    pub still_until: Option<f64>,
 }
 
 fn fmt3(v: [f64; 3], digits: usize) -> String {
@@ -92,7 +95,7 @@ pub fn prepare(
     let need_init = !config.init.is_complete();
     let need_noise = config.imu_noise.from_static;
     if imu.is_empty() || !looks_at_data(&config) {
-        return Ok(Start { config, report });
+        return Ok(Start { config, report, still_until: None });
     }
     let g = gnss.first().map_or(9.80, |e| normal_gravity(e.pos.lat, e.pos.h));
     let (still, is_static) = static_start(&config, imu, gnss, t0);
@@ -111,24 +114,36 @@ pub fn prepare(
     } else {
         config.init.gyro_bias_std.map_or(DEFAULT_GYRO_BIAS_STD, |v| v[2]) * DEG_PER_H
     };
+    // the accelerometer bias the datasheet declares (its instability), considered by the
+    // fit: its σ then counts what such a bias moves it by
+    let accel_bias_std =
+        config.imu_noise.accel_bias_std.map_or(0.0, |v| v.iter().fold(0.0, |a: f64, b| a.max(*b)))
+            * ins_gnss_core::imu::MGAL;
     // `align.max_time` counts from the motion's start: a vehicle that stands still for
     // minutes before it drives (an alignment practice) is aligned on its first minutes of
     // motion, the static span included
     let max_time = motion_span(&config, &still, is_static);
-    let fit = |scale: f64| {
+    let fit_from = |t_a: f64, span: f64, scale: f64| {
         align_in_motion(
             imu,
             gnss,
-            t0,
+            t_a,
             &(bias0 * scale),
             scale,
             &lever,
-            max_time,
+            span,
             a.heading_std.to_radians(),
             bias_std,
+            accel_bias_std,
         )
     };
-    let motion = if need_init || a.checks { fit(1.0) } else { None };
+    // (a moving-base receiver's heading, when there is one, is taken before the bank)
+    let bank = (is_static
+        && config.init.attitude.is_none()
+        && antenna_heading(&config, imu, gnss, t0).is_none())
+    .then(|| static_bank(&config, &still, imu, gnss, bias_std))
+    .flatten();
+    let mut motion = if need_init || a.checks { fit_from(t0, max_time, 1.0) } else { None };
     if a.checks {
         let turns = turn_ratio(imu, gnss, t0, t0 + max_time);
         if let Some(m) = &motion {
@@ -137,10 +152,28 @@ pub fn prepare(
             // when the motion turned, so it is judged on the whole span (no early stop)
             // and only when the course turned (the early fit of navego's ADIS16405, a
             // straight drive with a large gyro bias, looked like one)
+            // (after a static start, from `MIRROR_LEAD` before its end: gravity over a
+            // still span lets a mirror image show, a long one lets every error grow over
+            // the double integral — cars standing 5–20 min looked mirrored on 7 of 80 runs)
             let turned = turns.is_some_and(|t| t.turned > 30f64.to_radians());
+            let t_a = if is_static { (still.span.1 - MIRROR_LEAD).max(t0) } else { t0 };
             let whole =
-                if turned { fit_span(imu, gnss, t0, &bias0, &lever, t0 + max_time) } else { None };
-            check_motion(&config, m, whole.as_ref(), &fit)?;
+                if turned { fit_span(imu, gnss, t_a, &bias0, &lever, t0 + max_time) } else { None };
+            check_mirror(&config, whole.as_ref())?;
+            if let Err(e) = check_gyro_unit(&config, m, &|s| fit_from(t0, max_time, s)) {
+                // after a static start, a gyro unit is refused only when the motion alone
+                // shows it as well: integrated over a long static span, the specific
+                // force's double integral takes up the tilt's and the accelerometer's every
+                // error (a clean car standing 200 s fitted its track worse than with a
+                // gyro scaled 57× down)
+                if !is_static {
+                    return Err(e);
+                }
+                let t_s = still.span.1;
+                let m = fit_from(t_s, a.max_time, 1.0).ok_or(e.clone())?;
+                check_gyro_unit(&config, &m, &|s| fit_from(t_s, a.max_time, s)).map_err(|_| e)?;
+                motion = Some(m);
+            }
         }
         if let Some(t) = turns {
             check_turns(&config, &t, a.max_time)?;
@@ -201,10 +234,35 @@ pub fn prepare(
         noise_floor(&mut config, &mut report, &still);
     }
     if need_init {
-        fill_init(&mut config, &mut report, &still, is_static, motion.as_ref(), imu, gnss, t0)?;
+        let found = Found {
+            still: &still,
+            is_static,
+            motion: motion.as_ref(),
+            bank: bank.as_ref(),
+            bias_std,
+        };
+        fill_init(&mut config, &mut report, &found, imu, gnss, t0)?;
     }
-    Ok(Start { config, report })
+    // started from a static start: ZARU over it (unless ZUPT and ZARU are asked for over
+    // the whole run)
+    let still_until = (need_init && bank.is_some()).then_some(still.span.1);
+    if let (Some(t), None) = (still_until, &config.vehicle.zupt) {
+        report.push(format!(
+            "ZARU over the static start {:.3}–{t:.3} s (the IMU still; `[vehicle.zupt]` for \
+             ZUPT and ZARU at every stop)",
+            still.span.0
+        ));
+    }
+    Ok(Start { config, report, still_until })
 }
+
+/// The longest static start (s) after which `align.max_time` still counts: the start's
+/// data are read up to `align.max_time` after the static start's end ([`span_end`]), at
+/// most this + `align.max_time` after the start, so that a vehicle that stands still for
+/// up to an hour before it drives is aligned on its first minutes of motion (the start's
+/// samples are held in memory: 17 MB for 20 min at 200 Hz). Until the heading bank it was
+/// 600 s, and a car standing 300 s was refused by a fit over its static span.
+pub const STATIC_ALLOWANCE: f64 = 3600.0;
 
 /// How long after the start [`prepare`] looks: `align.max_time`, counted from the end of
 /// a static start (of up to [`STATIC_ALLOWANCE`]).
@@ -298,7 +356,7 @@ pub fn prepare_floor(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0:
     if is_static && !config.imu_noise.from_static {
         noise_floor(&mut config, &mut report, &still);
     }
-    Start { config, report }
+    Start { config, report, still_until: None }
 }
 
 /// `imu_noise.static_floor`: raise each ARW / VRW axis the static start shows

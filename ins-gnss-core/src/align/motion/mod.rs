@@ -44,6 +44,11 @@ pub struct MotionFit {
     /// RMS of the fixes' residuals in units of their σ (about 1 when the model fits),
     /// over the fixes used.
     pub residual: f64,
+    /// How many times fewer independent fixes the fit had than it counts, from its
+    /// residuals' lag-one autocorrelation `ρ`: `(1 + ρ)/(1 − ρ)` (1 for white residuals).
+    /// [`align_in_motion`] scales the σ of the fit it returns by its square root (not
+    /// those of the fits it compares on its way: the span is chosen as before).
+    pub persistence: f64,
     /// Fixes of the span left out as gross errors (see [`align_in_motion`]); `fixes`
     /// counts the others.
     pub rejected: usize,
@@ -82,6 +87,8 @@ struct Fix {
     y: Vector3<f64>,
     a: Vector3<f64>,
     jac: Matrix3<f64>,
+    /// `∫∫ ΔC`: how an accelerometer bias `b_a` (body frame) moves `a` (by `−β b_a`).
+    beta: Matrix3<f64>,
     w: f64,
     /// The fix as read: position and its 1σ (N, E, D), m.
     pos: GeoPos,
@@ -105,7 +112,12 @@ const MIN_TRAVEL: f64 = 30.0;
 /// first fix after which the heading's σ is below `heading_std` (rad) with at least 30 m
 /// travelled, or at `max_time`. The heading's σ counts the fit's own and the drift of a
 /// gyro bias of 1σ `bias_std` (rad/s) over the span; the fit with the smallest is kept
-/// (a long span averages the fixes' noise but lets an unknown bias drift). `None` when
+/// (a long span averages the fixes' noise but lets an unknown bias drift). An
+/// accelerometer bias of 1σ `accel_bias_std` (m/s², per axis; 0: none) is not fitted but
+/// considered: the σ of every part of the fit counts what such a bias moves it by (its
+/// double integral over a minute is tens of metres, which `p₀`, `v₀` and the rotation take
+/// up: a fit over 72 s of a car whose accelerometers were 0.015 m/s² off put its start
+/// velocity 0.75 m/s off at a σ of 0.16). `None` when
 /// fewer than 8 fixes fall in the span or the motion cannot tell the attitude.
 ///
 /// Gross errors among the fixes do not move the fit: when the least-squares fit misfits
@@ -123,7 +135,9 @@ pub fn align_in_motion(
     max_time: f64,
     heading_std: f64,
     bias_std: f64,
+    accel_bias_std: f64,
 ) -> Option<MotionFit> {
+    let priors = Priors { gyro_bias: bias_std, accel_bias: accel_bias_std };
     let min_fixes = 8;
     let mut best: Option<MotionFit> = None;
     let mut solve_at = 0;
@@ -135,7 +149,7 @@ pub fn align_in_motion(
         }
         // (at every eighth more fixes: a solve costs O(n), so the search O(n log n))
         solve_at = sums.n + (sums.n / 8).max(2);
-        if let Some(mut fit) = robust_solve(fixes, reference, t_a, t, gyro_bias, bias_std) {
+        if let Some(mut fit) = robust_solve(fixes, reference, t_a, t, gyro_bias, priors) {
             // the z bias is not fitted (see `solve`): its drift counts on the heading,
             // which is seen only through the velocity changes (the tilt against gravity
             // at every fix)
@@ -156,7 +170,17 @@ pub fn align_in_motion(
         }
         true
     });
-    best
+    // the fixes' persistence, on the fit returned: a single point's errors wander over
+    // minutes, and a fit that took them for white had its velocity and heading's σ
+    // several times too small (a walk from the first sample on such fixes: 2 of 10
+    // headings within 3σ; with it, 10 of 10)
+    best.map(|mut b| {
+        let k = b.persistence.sqrt();
+        b.att_std *= k;
+        b.pos_std *= k;
+        b.vel_std *= k;
+        b
+    })
 }
 
 /// The position-integration fit over every fix in `(t_a, t_b]` at once (the arguments
@@ -179,7 +203,8 @@ pub fn fit_span(
     // nothing; a consensus fit of a mirror image explains a part of the fixes as well)
     (last.sums.n >= 8)
         .then(|| {
-            solve(&last.sums, &last.fixes, last.reference, t_a, last.t, gyro_bias, 0.0)
+            let none = Priors::default();
+            solve(&last.sums, &last.fixes, last.reference, t_a, last.t, gyro_bias, none)
                 .map(|(f, _)| f)
         })
         .flatten()

@@ -72,10 +72,10 @@ pub(super) fn robust_solve(
     t_a: f64,
     t_b: f64,
     gyro_bias: &Vector3<f64>,
-    bias_std: f64,
+    priors: Priors,
 ) -> Option<MotionFit> {
     let all = sums_of(fixes);
-    let ls = solve(&all, fixes, reference, t_a, t_b, gyro_bias, bias_std);
+    let ls = solve(&all, fixes, reference, t_a, t_b, gyro_bias, priors);
     if let Some((fit, x)) = &ls {
         // (a fit that half of the fixes pulled away leaves every residual large, the good
         // fixes' too, so their median is no scale: such a fit shows in its RMS)
@@ -131,12 +131,12 @@ pub(super) fn robust_solve(
     if first.len() < 8 {
         return ls.map(|(f, _)| f);
     }
-    let (_, x1) = solve(&sums_of(&first), &first, reference, t_a, t_b, gyro_bias, bias_std)?;
+    let (_, x1) = solve(&sums_of(&first), &first, reference, t_a, t_b, gyro_bias, priors)?;
     let used = keep(&x1);
     if used.len() < 8 {
         return ls.map(|(f, _)| f);
     }
-    let (mut fit, _) = solve(&sums_of(&used), &used, reference, t_a, t_b, gyro_bias, bias_std)?;
+    let (mut fit, _) = solve(&sums_of(&used), &used, reference, t_a, t_b, gyro_bias, priors)?;
     fit.rejected = n - used.len();
     Some(fit)
 }

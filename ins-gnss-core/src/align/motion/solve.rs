@@ -28,6 +28,15 @@ impl Sums {
     }
 }
 
+/// The priors of a fit's biases (1σ, per axis): the gyro's (rad/s; its horizontal axes
+/// fitted, 0: not fitted) and the accelerometer's (m/s²; considered, never fitted; 0:
+/// none).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Priors {
+    pub(super) gyro_bias: f64,
+    pub(super) accel_bias: f64,
+}
+
 /// The data of an in-motion fit.
 pub(super) struct Input<'a> {
     pub(super) imu: &'a [ImuSample],
@@ -66,6 +75,7 @@ pub(super) fn accumulate(
     // ∂/∂b_g of the rotation (B = ∫ ΔC), the velocity and the position integrals: a
     // bias change δb turns ΔC(r) by −B(r) δb (left, in the frame at t_a)
     let (mut b_int, mut ju, mut ja) = (Matrix3::zeros(), Matrix3::zeros(), Matrix3::zeros());
+    let mut beta = Matrix3::zeros();
     let mut t = t_a;
     let mut next = 0;
     let mut travelled: f64 = 0.0;
@@ -78,7 +88,7 @@ pub(super) fn accumulate(
         let dtheta = (s.dtheta * gyro_scale - gyro_bias * s.dt) * (dt / s.dt);
         let dvel = s.dvel * (dt / s.dt);
         let (dc0, u0, alpha0, t_prev) = (dc, u, alpha, t);
-        let (ju0, ja0) = (ju, ja);
+        let (ju0, ja0, beta0, b_int0) = (ju, ja, beta, b_int);
         let half = dc * So3::exp(&(dtheta * 0.5));
         let du = half.rotate(&dvel);
         let half_m = half.matrix();
@@ -88,6 +98,7 @@ pub(super) fn accumulate(
         alpha += (u0 + u) * (0.5 * dt);
         ja += (ju0 + ju) * (0.5 * dt);
         b_int += half_m * dt;
+        beta += (b_int0 + b_int) * (0.5 * dt);
         dc = dc * So3::exp(&dtheta);
         t = s.t;
         while next < fixes.len() && fixes[next].t <= t + 1e-9 {
@@ -96,6 +107,7 @@ pub(super) fn accumulate(
             let a = if t > t_prev { ((e.t - t_prev) / (t - t_prev)).clamp(0.0, 1.0) } else { 1.0 };
             let alpha_e = alpha0 + (alpha - alpha0) * a;
             let jac = ja0 + (ja - ja0) * a;
+            let beta_e = beta0 + (beta - beta0) * a;
             let dc_e = if a < 0.5 { dc0 } else { dc };
             let col = alpha_e + dc_e.rotate(lever_arm);
             let tau = e.t - t_a;
@@ -104,7 +116,16 @@ pub(super) fn accumulate(
             let y = dp - Vector3::new(0.0, 0.0, 0.5 * g * tau * tau);
             let var = e.pos_std.map(|v| v.max(MODEL_ERROR).powi(2)).sum() / 3.0;
             sums.add(tau, &y, &col, 1.0 / var);
-            records.push(Fix { tau, y, a: col, jac, w: 1.0 / var, pos: e.pos, pos_std: e.pos_std });
+            records.push(Fix {
+                tau,
+                y,
+                a: col,
+                jac,
+                beta: beta_e,
+                w: 1.0 / var,
+                pos: e.pos,
+                pos_std: e.pos_std,
+            });
             last_t = e.t;
             if !at_fix(&sums, &records, reference, e.t, travelled) {
                 return Some(Accumulated { sums, fixes: records, reference, t: last_t });
@@ -225,6 +246,49 @@ fn with_bias_prior(
     (normal, rhs, cost)
 }
 
+/// How many times fewer independent fixes the fit had than it counts: `(1 + ρ)/(1 − ρ)`
+/// with `ρ` the lag-one autocorrelation of its residuals (consecutive fixes, the three
+/// axes pooled; clamped to [0, 0.9]). A single point's errors wander over minutes: a fit
+/// that takes them for white puts its velocity and heading's σ several times too small
+/// (a walk from the first sample on such fixes: 2 of 10 headings within 3σ).
+fn persistence(fixes: &[Fix], x: &Params) -> f64 {
+    let r: Vec<Vector3<f64>> = fixes.iter().map(|f| residual(f, x).1 * f.w.sqrt()).collect();
+    let sq: f64 = r.iter().map(|v| v.norm_squared()).sum();
+    let lag: f64 = r.windows(2).map(|w| w[0].dot(&w[1])).sum();
+    let rho = if sq > 0.0 { (lag / sq).clamp(0.0, 0.9) } else { 0.0 };
+    (1.0 + rho) / (1.0 - rho)
+}
+
+/// The covariance an accelerometer bias of 1σ `std` (m/s², per axis, body frame; not
+/// fitted) adds to the fit at `x` (normal matrix inverse `n_inv`): the fixes move by
+/// `−C β b_a`, the estimate by `S b_a` with `S = N⁻¹ Σ Hᵀ w (−C β)`, so its covariance
+/// grows by `S S' std²` (a consider parameter).
+fn considered(
+    fixes: &[Fix],
+    x: &Params,
+    estimate_bias: bool,
+    n_inv: &SMatrix<f64, 12, 12>,
+    std: f64,
+) -> SMatrix<f64, 12, 12> {
+    if std <= 0.0 {
+        return SMatrix::zeros();
+    }
+    let mut m = SMatrix::<f64, 12, 3>::zeros();
+    let mut h = SMatrix::<f64, 3, 12>::zeros();
+    for f in fixes {
+        let (body, _) = residual(f, x);
+        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&-(x.c * body).cross_matrix());
+        h.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+        h.fixed_view_mut::<3, 3>(0, 6).copy_from(&(Matrix3::identity() * f.tau));
+        if estimate_bias {
+            h.fixed_view_mut::<3, 2>(0, 9).copy_from(&(x.c * f.jac).fixed_columns::<2>(0));
+        }
+        m -= h.transpose() * (x.c * f.beta) * f.w;
+    }
+    let s = n_inv * m;
+    s * s.transpose() * (std * std)
+}
+
 /// The closed form of the fit of [`Sums`] (no bias, no refinement): `p₀`, `v₀` projected
 /// out, the rotation by Wahba's problem; and how much better a mirror image fits (the
 /// `mirror` of [`MotionFit`]).
@@ -283,8 +347,9 @@ pub(super) fn solve(
     t_a: f64,
     t_b: f64,
     gyro_bias: &Vector3<f64>,
-    bias_std: f64,
+    priors: Priors,
 ) -> Option<(MotionFit, Params)> {
+    let bias_std = priors.gyro_bias;
     let (x0, mirror) = closed_form(s)?;
 
     // Levenberg–Marquardt: x = [θ (nav-frame rotation), p₀, v₀, δb]
@@ -325,7 +390,8 @@ pub(super) fn solve(
     let chi2 = cost - prior * db.norm_squared();
     let dof = (3 * fixes.len()).saturating_sub(if estimate_bias { 12 } else { 9 }).max(1);
     let inflate = (chi2 / dof as f64).max(1.0);
-    let cov = normal.cholesky()?.inverse() * inflate;
+    let n_inv = normal.cholesky()?.inverse();
+    let cov = n_inv * inflate + considered(fixes, &x, estimate_bias, &n_inv, priors.accel_bias);
     let std = |k: usize| Vector3::new(cov[(k, k)], cov[(k + 1, k + 1)], cov[(k + 2, k + 2)]);
     let sqrt = |v: Vector3<f64>| v.map(|x| x.max(0.0).sqrt());
     let (lat, lon, h) = local_ned_to_geodetic(reference.tuple(), &p0);
@@ -344,6 +410,7 @@ pub(super) fn solve(
             gyro_bias_std: if estimate_bias { sqrt(std(9)) } else { Vector3::zeros() },
             mirror,
             residual: (chi2 / (3 * fixes.len()) as f64).sqrt(),
+            persistence: persistence(fixes, &x),
             rejected: 0,
             first_fix: fixes.first().map(|f| (f.tau, f.pos, f.pos_std))?,
             path: fixes
@@ -417,6 +484,7 @@ mod tests {
                     y: v.vector(),
                     a: v.vector(),
                     jac: v.matrix(),
+                    beta: v.matrix(),
                     w: 1.0 / (0.04 + v.next().abs()),
                     pos: GeoPos { lat: 0.7, lon: 0.1, h: 100.0 },
                     pos_std: Vector3::repeat(0.2),

@@ -1,0 +1,279 @@
+//! A bank of heading hypotheses judged by their fixes' likelihood: a Gaussian-sum filter
+//! for the heading at the start, as PX4's EKF2 estimates yaw without a magnetometer (its
+//! EKF-GSF: a bank of small yaw filters driven by the tilt-corrected velocity increments,
+//! weighted by their innovations' likelihood).
+//!
+//! The tilt is shared: the attitude with heading 0 is propagated once from `R₀` (levelled,
+//! with the heading left at 0) along the gyros less their bias. Hypothesis `k` turns that
+//! attitude's horizontal velocity increments by its own heading `ψ_k`, which is thus the
+//! heading offset of the whole track: constant but for the vertical gyro bias's drift,
+//! and the heading at the bank's start. Each hypothesis is a seven-state extended Kalman
+//! filter (north and east position and velocity, `ψ_k`, and the shared attitude's error
+//! about the body's x and y axes, which tilts gravity into the horizontal velocity
+//! increments and turns with the body; a horizontal accelerometer bias looks the same)
+//! updated
+//! by the fixes' horizontal position (lever arm included); its weight is multiplied by its
+//! innovation's Gaussian likelihood at every fix. The tilt as states, not as acceleration
+//! noise: with a white 0.5 m/s² standing in for it (PX4's kind of figure), a rover at
+//! 0.42 m/s with 5 m fixes kept its heading at ±60° after 120 s; what is left as noise is
+//! the accelerometer's (its bias and random walk). Started with `N` headings spread over the circle,
+//! the bank needs no motion assumption: standing, the likelihoods are equal and the
+//! mixture's spread stays the circle's; moving (forwards, backwards, turning), the
+//! hypotheses whose velocity increments point the wrong way lose.
+
+use super::*;
+
+/// Hypotheses in the bank: 16, 22.5° apart (each starts with half of that as its σ, well
+/// inside the extended filter's linear range).
+pub const BANK_SIZE: usize = 16;
+
+/// The horizontal acceleration noise each hypothesis allows beside the accelerometer's
+/// random walk, m/s² (white over a second): the Coriolis and transport terms, the lever
+/// arm's dynamics and the fixes' latency, which the bank does not model (2Ω v is 0.003
+/// m/s² at 20 m/s). With 0.5 m/s² (PX4's kind of figure, which stands for the tilt's
+/// error there) a rover at 0.42 m/s with 5 m fixes kept its heading at ±90° after 300 s.
+pub const BANK_ACCEL_NOISE: f64 = 0.02;
+
+/// The time (s) over which the gyro bias's drift of the shared tilt is spread as a random
+/// walk: `σ_b² · h · BANK_DRIFT_TIME` per step, so that the tilt's σ grows by about
+/// `σ_b · t` over the first minute, as a constant bias's drift does.
+pub const BANK_DRIFT_TIME: f64 = 60.0;
+
+/// Where the bank starts and what it knows of the IMU.
+#[derive(Clone, Copy, Debug)]
+pub struct BankStart {
+    /// The attitude `R_nb` at the start with its heading at 0 (roll and pitch only).
+    pub tilt: So3,
+    /// The gyro bias (rad/s) taken off the rates (a static start's mean rate).
+    pub gyro_bias: Vector3<f64>,
+    /// NED velocity at the start, m/s.
+    pub vel: Vector3<f64>,
+    /// 1σ of its horizontal components, m/s.
+    pub vel_std: f64,
+    /// The antenna's lever arm in the body frame, m.
+    pub lever: Vector3<f64>,
+    /// The gyro's angle random walk, rad/√s: the heading's drift from sample to sample.
+    pub arw: f64,
+    /// 1σ of the shared tilt's error (roll and pitch) at the start, rad.
+    pub tilt_std: f64,
+    /// The gyro bias's 1σ (rad/s): the tilt's drift.
+    pub gyro_bias_std: f64,
+    /// Velocity random walk, m/s/√s.
+    pub vrw: f64,
+}
+
+/// What the bank concluded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BankHeading {
+    /// The heading at the bank's start (the mixture's circular mean), rad.
+    pub heading: f64,
+    /// The mixture's 1σ: its members' own spread and their spread about the mean, rad
+    /// (about 104° while nothing is known, a uniform circle's).
+    pub std: f64,
+    /// The largest weight.
+    pub weight: f64,
+    /// Fixes used.
+    pub fixes: usize,
+    /// The last fix used, s.
+    pub t_end: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Member {
+    /// North, east position (m, from the first fix), velocity (m/s), heading (rad), the
+    /// shared attitude's error about the body's x and y axes (rad).
+    x: SVector<f64, 7>,
+    p: SMatrix<f64, 7, 7>,
+    log_w: f64,
+}
+
+/// Run the bank over `imu` and `gnss` (the samples and fixes after the start, in time
+/// order) from `start`, until the mixture's σ falls below `target` (rad) or the data end.
+/// `None` without a fix.
+pub fn heading_bank(
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    start: &BankStart,
+    target: f64,
+) -> Option<BankHeading> {
+    let first = gnss.first()?;
+    let origin = first.pos.tuple();
+    let spacing = 2.0 * core::f64::consts::PI / BANK_SIZE as f64;
+    let mut members: Vec<Member> = (0..BANK_SIZE)
+        .map(|k| {
+            let psi = crate::heading::wrap(k as f64 * spacing);
+            let lever = yaw_turn(psi, &start.tilt.rotate(&start.lever).xy());
+            let mut x = SVector::<f64, 7>::zeros();
+            x[0] = -lever.x;
+            x[1] = -lever.y;
+            x[2] = start.vel.x;
+            x[3] = start.vel.y;
+            x[4] = psi;
+            let s = first.pos_std;
+            let p = SMatrix::<f64, 7, 7>::from_diagonal(&SVector::<f64, 7>::from([
+                s.x * s.x,
+                s.y * s.y,
+                start.vel_std.powi(2),
+                start.vel_std.powi(2),
+                (0.5 * spacing).powi(2),
+                start.tilt_std.powi(2),
+                start.tilt_std.powi(2),
+            ]));
+            Member { x, p, log_w: 0.0 }
+        })
+        .collect();
+    let t_first = imu.first().map_or(first.t, |s| s.t - s.dt);
+    let mut att = start.tilt;
+    let mut t = t_first;
+    let mut g = gnss.partition_point(|e| e.t < t_first - 1e-9);
+    let mut fixes = 0usize;
+    let mut result = summarise(&members, 0, first.t);
+    for s in imu {
+        // fixes inside this sample's interval: predict to each, update
+        while g < gnss.len() && gnss[g].t <= s.t + 1e-9 {
+            let e = &gnss[g];
+            let h = e.t - t;
+            if h > 0.0 {
+                let part = h / s.dt;
+                predict(&mut members, &att, &(s.dvel * part), h, start);
+                att =
+                    att.between_exp(&Vector3::zeros(), &((s.dtheta * part) - start.gyro_bias * h));
+                t = e.t;
+            }
+            let d = geodetic_to_local_ned(origin, e.pos.tuple());
+            let lever = att.rotate(&start.lever).xy();
+            for m in members.iter_mut() {
+                update(m, &d.xy(), &lever, &e.pos_std.xy());
+            }
+            fixes += 1;
+            result = summarise(&members, fixes, e.t);
+            g += 1;
+            if fixes >= 3 && result.std < target {
+                return Some(result);
+            }
+        }
+        let h = s.t - t;
+        if h > 0.0 {
+            let part = h / s.dt;
+            predict(&mut members, &att, &(s.dvel * part), h, start);
+            att = att.between_exp(&Vector3::zeros(), &((s.dtheta * part) - start.gyro_bias * h));
+            t = s.t;
+        }
+    }
+    Some(result)
+}
+
+/// `v` (north, east) turned by the heading `psi`.
+fn yaw_turn(psi: f64, v: &Vector2<f64>) -> Vector2<f64> {
+    let (s, c) = psi.sin_cos();
+    Vector2::new(c * v.x - s * v.y, s * v.x + c * v.y)
+}
+
+/// ∂(yaw_turn(ψ, v))/∂ψ.
+fn yaw_turn_d(psi: f64, v: &Vector2<f64>) -> Vector2<f64> {
+    let (s, c) = psi.sin_cos();
+    Vector2::new(-s * v.x - c * v.y, c * v.x - s * v.y)
+}
+
+/// Every member over `h` seconds with the body's velocity increment `dv` (heading-0
+/// attitude `att` at the interval's start).
+fn predict(members: &mut [Member], att: &So3, dv: &Vector3<f64>, h: f64, start: &BankStart) {
+    let r0 = att.matrix();
+    let dv0 = (r0 * dv).xy();
+    // the attitude error ε (body x, y) moves the increment by `−R₀ [Δv_b]× ε`: gravity's
+    // (−g h on the body's z) tilted into the horizontal, turning with the body
+    let m_eps = (-(r0 * dv.cross_matrix())).fixed_view::<2, 2>(0, 0).into_owned();
+    // the acceleration's noise (m²/s² per step), the heading's (the ARW; a constant
+    // vertical bias's drift is the caller's to add), the tilt's (ARW and the bias's drift)
+    let q_v = (BANK_ACCEL_NOISE * BANK_ACCEL_NOISE + start.vrw * start.vrw) * h;
+    let q_psi = start.arw * start.arw * h;
+    let q_tilt = start.arw * start.arw * h + start.gyro_bias_std.powi(2) * h * BANK_DRIFT_TIME;
+    for m in members.iter_mut() {
+        let psi = m.x[4];
+        let eps = Vector2::new(m.x[5], m.x[6]);
+        let inc = dv0 + m_eps * eps;
+        let dvn = yaw_turn(psi, &inc);
+        let d = yaw_turn_d(psi, &inc);
+        // ∂Δv/∂ε: the rotation by ψ of `m_eps`
+        let (sn, cs) = psi.sin_cos();
+        let rz = Matrix2::new(cs, -sn, sn, cs);
+        let de = rz * m_eps;
+        m.x[0] += m.x[2] * h + 0.5 * dvn.x * h;
+        m.x[1] += m.x[3] * h + 0.5 * dvn.y * h;
+        m.x[2] += dvn.x;
+        m.x[3] += dvn.y;
+        let mut f = SMatrix::<f64, 7, 7>::identity();
+        f[(0, 2)] = h;
+        f[(1, 3)] = h;
+        f[(0, 4)] = 0.5 * d.x * h;
+        f[(1, 4)] = 0.5 * d.y * h;
+        f[(2, 4)] = d.x;
+        f[(3, 4)] = d.y;
+        for i in 0..2 {
+            for j in 0..2 {
+                f[(i, 5 + j)] = 0.5 * de[(i, j)] * h;
+                f[(2 + i, 5 + j)] = de[(i, j)];
+            }
+        }
+        let mut p = f * m.p * f.transpose();
+        // (velocity noise as a random walk over the step, with the position it moves)
+        let qv = q_v / h.max(1e-9);
+        p[(0, 0)] += qv * h * h * h / 3.0;
+        p[(1, 1)] += qv * h * h * h / 3.0;
+        p[(0, 2)] += qv * h * h / 2.0;
+        p[(2, 0)] += qv * h * h / 2.0;
+        p[(1, 3)] += qv * h * h / 2.0;
+        p[(3, 1)] += qv * h * h / 2.0;
+        p[(2, 2)] += q_v;
+        p[(3, 3)] += q_v;
+        p[(4, 4)] += q_psi;
+        p[(5, 5)] += q_tilt;
+        p[(6, 6)] += q_tilt;
+        m.p = p;
+    }
+}
+
+/// One member's update by a fix `d` (north, east from the first fix, m; σ `std`), the
+/// lever arm `lever` (heading-0 frame, north and east, m).
+fn update(m: &mut Member, d: &Vector2<f64>, lever: &Vector2<f64>, std: &Vector2<f64>) {
+    let psi = m.x[4];
+    let pred = m.x.fixed_rows::<2>(0) + yaw_turn(psi, lever);
+    let nu = d - pred;
+    let mut hm = SMatrix::<f64, 2, 7>::zeros();
+    hm[(0, 0)] = 1.0;
+    hm[(1, 1)] = 1.0;
+    let dl = yaw_turn_d(psi, lever);
+    hm[(0, 4)] = dl.x;
+    hm[(1, 4)] = dl.y;
+    let r = Matrix2::from_diagonal(&std.map(|s| s.max(1e-3).powi(2)));
+    let s = hm * m.p * hm.transpose() + r;
+    let Some(si) = s.try_inverse() else { return };
+    let k = m.p * hm.transpose() * si;
+    m.x += k * nu;
+    m.x[4] = crate::heading::wrap(m.x[4]);
+    // Joseph form: P stays symmetric positive definite
+    let ikh = SMatrix::<f64, 7, 7>::identity() - k * hm;
+    m.p = ikh * m.p * ikh.transpose() + k * r * k.transpose();
+    let quad = (nu.transpose() * si * nu)[(0, 0)];
+    m.log_w += -0.5 * (quad + s.determinant().max(1e-300).ln());
+}
+
+/// The mixture: weights normalised (in place), circular mean and spread.
+fn summarise(members: &[Member], fixes: usize, t_end: f64) -> BankHeading {
+    let top = members.iter().map(|m| m.log_w).fold(f64::NEG_INFINITY, f64::max);
+    let w: Vec<f64> = members.iter().map(|m| (m.log_w - top).exp()).collect();
+    let total: f64 = w.iter().sum();
+    let (mut s, mut c) = (0.0, 0.0);
+    for (m, w) in members.iter().zip(&w) {
+        s += w / total * m.x[4].sin();
+        c += w / total * m.x[4].cos();
+    }
+    let mean = s.atan2(c);
+    let var: f64 = members
+        .iter()
+        .zip(&w)
+        .map(|(m, w)| w / total * (m.p[(4, 4)] + crate::heading::wrap(m.x[4] - mean).powi(2)))
+        .sum();
+    let weight = w.iter().copied().fold(0.0, f64::max) / total;
+    BankHeading { heading: mean, std: var.sqrt(), weight, fixes, t_end }
+}
