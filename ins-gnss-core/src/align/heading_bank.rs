@@ -132,14 +132,7 @@ pub fn heading_bank(
         // fixes inside this sample's interval: predict to each, update
         while g < gnss.len() && gnss[g].t <= s.t + 1e-9 {
             let e = &gnss[g];
-            let h = e.t - t;
-            if h > 0.0 {
-                let part = h / s.dt;
-                predict(&mut members, &att, &(s.dvel * part), h, start);
-                att =
-                    att.between_exp(&Vector3::zeros(), &((s.dtheta * part) - start.gyro_bias * h));
-                t = e.t;
-            }
+            advance(&mut members, &mut att, &mut t, s, e.t, start);
             let d = geodetic_to_local_ned(origin, e.pos.tuple());
             let lever = att.rotate(&start.lever).xy();
             for m in members.iter_mut() {
@@ -152,15 +145,28 @@ pub fn heading_bank(
                 return Some(result);
             }
         }
-        let h = s.t - t;
-        if h > 0.0 {
-            let part = h / s.dt;
-            predict(&mut members, &att, &(s.dvel * part), h, start);
-            att = att.between_exp(&Vector3::zeros(), &((s.dtheta * part) - start.gyro_bias * h));
-            t = s.t;
-        }
+        advance(&mut members, &mut att, &mut t, s, s.t, start);
     }
     Some(result)
+}
+
+/// Every member and the shared attitude `att` from `t` to `to` (inside sample `s`'s
+/// interval, its increments taken in proportion); nothing when `to` is not later.
+fn advance(
+    members: &mut [Member],
+    att: &mut So3,
+    t: &mut f64,
+    s: &ImuSample,
+    to: f64,
+    start: &BankStart,
+) {
+    let h = to - *t;
+    if h > 0.0 {
+        let part = h / s.dt;
+        predict(members, att, &(s.dvel * part), h, start);
+        *att = att.between_exp(&Vector3::zeros(), &((s.dtheta * part) - start.gyro_bias * h));
+        *t = to;
+    }
 }
 
 /// `v` (north, east) turned by the heading `psi`.

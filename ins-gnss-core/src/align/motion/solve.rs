@@ -274,19 +274,25 @@ fn considered(
         return SMatrix::zeros();
     }
     let mut m = SMatrix::<f64, 12, 3>::zeros();
-    let mut h = SMatrix::<f64, 3, 12>::zeros();
     for f in fixes {
-        let (body, _) = residual(f, x);
-        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&-(x.c * body).cross_matrix());
-        h.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
-        h.fixed_view_mut::<3, 3>(0, 6).copy_from(&(Matrix3::identity() * f.tau));
-        if estimate_bias {
-            h.fixed_view_mut::<3, 2>(0, 9).copy_from(&(x.c * f.jac).fixed_columns::<2>(0));
-        }
-        m -= h.transpose() * (x.c * f.beta) * f.w;
+        m -= fix_jacobian(f, x, estimate_bias).transpose() * (x.c * f.beta) * f.w;
     }
     let s = n_inv * m;
     s * s.transpose() * (std * std)
+}
+
+/// A fix's whole Jacobian `H = [A | I | τ I | B | 0]` at `x` (what [`linearise`] writes
+/// out by blocks).
+fn fix_jacobian(f: &Fix, x: &Params, estimate_bias: bool) -> SMatrix<f64, 3, 12> {
+    let (body, _) = residual(f, x);
+    let mut h = SMatrix::<f64, 3, 12>::zeros();
+    h.fixed_view_mut::<3, 3>(0, 0).copy_from(&-(x.c * body).cross_matrix());
+    h.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+    h.fixed_view_mut::<3, 3>(0, 6).copy_from(&(Matrix3::identity() * f.tau));
+    if estimate_bias {
+        h.fixed_view_mut::<3, 2>(0, 9).copy_from(&(x.c * f.jac).fixed_columns::<2>(0));
+    }
+    h
 }
 
 /// The closed form of the fit of [`Sums`] (no bias, no refinement): `p₀`, `v₀` projected
@@ -435,16 +441,10 @@ mod tests {
     /// blocks were written out).
     fn linearise_dense(fixes: &[Fix], x: &Params, estimate_bias: bool, prior: f64) -> Normal {
         let (mut normal, mut rhs, mut cost): Normal = (SMatrix::zeros(), SVector::zeros(), 0.0);
-        let mut h = SMatrix::<f64, 3, 12>::zeros();
         for f in fixes {
-            let (body, r) = residual(f, x);
+            let (_, r) = residual(f, x);
             cost += r.norm_squared() * f.w;
-            h.fixed_view_mut::<3, 3>(0, 0).copy_from(&-(x.c * body).cross_matrix());
-            h.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
-            h.fixed_view_mut::<3, 3>(0, 6).copy_from(&(Matrix3::identity() * f.tau));
-            if estimate_bias {
-                h.fixed_view_mut::<3, 2>(0, 9).copy_from(&(x.c * f.jac).fixed_columns::<2>(0));
-            }
+            let h = fix_jacobian(f, x, estimate_bias);
             normal += h.transpose() * h * f.w;
             rhs += h.transpose() * r * f.w;
         }
