@@ -1,5 +1,5 @@
 //! The cost of what is newer than the filter's plain step (single-threaded), figures in
-//! `benches/README.md`:
+//! `docs/history/benches.md`:
 //!
 //! - a range-bearing update of a 3-state planar robot: plain (Jacobian), iterated (to
 //!   convergence), unscented (7 sigma points), and an unscented prediction;

@@ -1,4 +1,4 @@
-//! Filter benchmarks (single-threaded), see `benches/README.md` for a table of results:
+//! Filter benchmarks (single-threaded), see `benches/README.md` for a table of results (history: `docs/history/benches.md`):
 //!
 //! - predict and update vs state dimension (6 … 240) × covariance back-end;
 //! - one 15-state INS epoch (mechanization + covariance propagation), dense vs structured;

@@ -1,4 +1,4 @@
-//! Raw GNSS benchmarks (single-threaded), figures in `benches/README.md`:
+//! Raw GNSS benchmarks (single-threaded), figures in `benches/README.md` (history: `docs/history/benches.md`):
 //!
 //! - a satellite's state from its broadcast record (position, velocity, clock);
 //! - a single point of a real epoch (station 0759, 8 satellites): preparing the

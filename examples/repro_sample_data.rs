@@ -92,7 +92,7 @@ pub type NavegoRow = (u64, &'static str, [f64; 5]);
 pub fn navego(dir: &Path, seeds: u64) -> Result<Vec<NavegoRow>, String> {
     let cfg =
         Config::load(&dir.join("navego/kf-gins-ADIS16488.yaml")).map_err(|e| e.to_string())?;
-    // as measured in docs/results.md: the strategies alone, without the gross-error gate
+    // as measured in docs/history/results.md: the strategies alone, without the gross-error gate
     let cfg =
         Config { filter: ins_gnss::config::FilterSection { gate: no_gate(), ..cfg.filter }, ..cfg };
     let (imu, gnss) = load_inputs(&cfg).map_err(|e| e.to_string())?;
@@ -126,7 +126,7 @@ pub fn navego(dir: &Path, seeds: u64) -> Result<Vec<NavegoRow>, String> {
 pub fn drive(dir: &Path) -> Result<Vec<(&'static str, f64, f64, usize)>, String> {
     let d = dir.join("drive-0708");
     let mut cfg = Config::load(&d.join("kf-gins-outage15.yaml")).map_err(|e| e.to_string())?;
-    // the strategies on the YAML's noise as given (`docs/results.md` compares them there;
+    // the strategies on the YAML's noise as given (`docs/history/results.md` compares them there;
     // the default static-start noise floor gives the fixed filter 11.72 m without the gate)
     cfg.imu_noise.static_floor = false;
     let cfg =
@@ -154,7 +154,7 @@ pub fn drive(dir: &Path) -> Result<Vec<(&'static str, f64, f64, usize)>, String>
 fn plot_navego(dir: &Path, path: &Path) -> Result<(), String> {
     let cfg =
         Config::load(&dir.join("navego/kf-gins-ADIS16488.yaml")).map_err(|e| e.to_string())?;
-    // as measured in docs/results.md: the strategies alone, without the gross-error gate
+    // as measured in docs/history/results.md: the strategies alone, without the gross-error gate
     let cfg =
         Config { filter: ins_gnss::config::FilterSection { gate: no_gate(), ..cfg.filter }, ..cfg };
     let (imu, mut gnss) = load_inputs(&cfg).map_err(|e| e.to_string())?;

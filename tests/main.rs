@@ -9,6 +9,7 @@ mod custom_manifold;
 mod custom_strategy;
 mod everyday;
 mod everyday_gnss;
+mod house;
 mod repro_fused;
 mod repro_iakf;
 mod repro_sample_data;

@@ -1,4 +1,4 @@
-//! The fused IAE + AFKF paper's conclusion as we measure it (`docs/results.md`), on a
+//! The fused IAE + AFKF paper's conclusion as we measure it (`docs/history/results.md`), on a
 //! reduced seed count that runs in CI. Paper: the fused dual-window filter's roll, pitch
 //! and heading RMS are below both IAE's and AFKF's. We measure (50 seeds, `cargo run
 //! --release --example repro_scenario -- ins-gnss/scenarios/fused-iae-afkf.toml

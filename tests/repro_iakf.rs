@@ -1,4 +1,4 @@
-//! The χ²-gated IAKF paper's conclusion as we measure it (`docs/results.md`), on a
+//! The χ²-gated IAKF paper's conclusion as we measure it (`docs/history/results.md`), on a
 //! reduced seed count that runs in CI: on the paper's scenario the Sage–Husa filter
 //! lowers the maximum horizontal error against the fixed KF, and the IAKF with the `Raw`
 //! inflation does not (the paper reports the opposite). The full 50-seed table:

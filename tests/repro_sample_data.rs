@@ -1,4 +1,4 @@
-//! The strategies on the sample data, as measured in `docs/results.md` (full runs:
+//! The strategies on the sample data, as measured in `docs/history/results.md` (full runs:
 //! `cargo run --release --example repro_sample_data`), on a reduced seed count, on the
 //! repository's copy of the sample data.
 //!

@@ -1,5 +1,5 @@
 //! The start campaign's CI subset (the full table: `cargo run --release --example
-//! start_campaign`, in `docs/results.md`): cars that stand 5 and 20 minutes before they
+//! start_campaign`, in `docs/history/results.md`): cars that stand 5 and 20 minutes before they
 //! drive, a car driving backwards and a person standing before a yard walk, RTK fixes, no
 //! `[init]` — each starts (no refusal) with its heading inside its own 3σ. Before the bank
 //! of heading hypotheses, a car standing 300 s was refused on 7 of 10 seeds ("the file's
@@ -30,7 +30,7 @@ fn a_car_standing_five_minutes_starts_with_its_heading_covered() {
     let outs = run(|s| standing_car(s, 300.0, &GRADES[2]), Fixes::Rtk, 3);
     assert!(refusals(&outs).is_empty(), "{:?}", refusals(&outs));
     // (over 20 seeds not every run stays within 3σ at every epoch: the worst reach about
-    // 3.3σ, under a degree, some 20 s into the motion; `docs/results.md`)
+    // 3.3σ, under a degree, some 20 s into the motion; `docs/history/results.md`)
     let covered = outs.iter().filter(|o| o.heading_covered).count();
     assert!(covered >= 2, "{covered} of 3 within 3σ throughout");
     for (k, o) in outs.iter().enumerate() {

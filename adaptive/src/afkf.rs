@@ -76,7 +76,7 @@ pub enum FadingAt {
 /// reads a magnetic disturbance — noise, not model mismatch — as a prior too confident,
 /// trusts the disturbed magnetometer more with each update, and runs 15–18° off where the
 /// fixed filter is 1°; on clean data it fades on noise. The guarded default stays within
-/// the bounds `docs/results.md` lists.
+/// the bounds `docs/history/results.md` lists.
 ///
 /// Decisions: `Inflated` when `λ > 1`, otherwise `Accepted`. Never rejects, never
 /// changes `R`.

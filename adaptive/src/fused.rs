@@ -49,7 +49,7 @@ use crate::window::InnovationWindow;
 /// filter as written, `λ_P = max(1, DOM)` at every epoch, is `fused-faithful`
 /// ([`faithful`](Self::faithful)); on a user's attitude filter with a magnetic disturbance
 /// it reads the disturbance as model mismatch through λ_P and runs several degrees off
-/// (`docs/results.md`).
+/// (`docs/history/results.md`).
 ///
 /// Names for configurations and `--strategy` (see [`crate::AnyStrategy`]): `fused`
 /// (cumulative R, single-epoch test, refused kept out; also `fused-cumulative`),
@@ -115,7 +115,7 @@ pub enum RReading {
     /// `R*_k = λ_R R*_{k−1}`, DOM against `H P⁻ Hᵀ + R*_{k−1}` (default: on the fused
     /// paper's scenario, 50 seeds, horizontal RMS 3.09 m against 8.27 m for the nominal
     /// reading, and attitude RMS below the paper's IAE and AFKF baselines in 49–50 of 50
-    /// seeds; `docs/results.md`). Its fixed point is `tr R* = tr(Ĉ − H P⁻ Hᵀ)`, the IAE
+    /// seeds; `docs/history/results.md`). Its fixed point is `tr R* = tr(Ĉ − H P⁻ Hᵀ)`, the IAE
     /// estimate of `R`, where the nominal reading's `λ_R = tr Ĉ / tr(H P⁻ Hᵀ + R₀)` falls
     /// back towards 1 as `H P⁻ Hᵀ` grows.
     #[default]

@@ -15,7 +15,7 @@ pub enum Inflation {
     Raw,
     /// `w_k = 1/k`: the outer product divided by the stream's epoch count (default,
     /// `iakf`): the reading the extraction pattern of eq. 16 favours, and the better one
-    /// on every scenario we measured (docs/results.md: paper-like GNSS noise, 50 seeds,
+    /// on every scenario we measured (docs/history/results.md: paper-like GNSS noise, 50 seeds,
     /// mean maximum horizontal error 7.80 m against 12.93 m for `Raw` and 8.11 m fixed).
     #[default]
     EpochScaled,

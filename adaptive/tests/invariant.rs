@@ -13,7 +13,7 @@
 //!
 //! Reverted to the Cholesky solve of `H B Hᵀ` (the subspace scaling before the pivoted
 //! elimination), the attitude property fails at once: `afkf` leaves P with a negative
-//! eigenvalue or the subspace scaling falls back (`docs/results.md`).
+//! eigenvalue or the subspace scaling falls back (`docs/history/results.md`).
 
 #![allow(non_snake_case)]
 

@@ -155,7 +155,7 @@ fn learning_makes_a_wrong_declaration_accurate_and_honest() {
             100.0 * mean(&fixed, |o| o.beyond)
         );
         // (the everyday-GNSS issue asks 1.2× the true-σ run; downward this version
-        // reaches 1.0× upward and 2.2× at 10× on this track: see docs/results.md)
+        // reaches 1.0× upward and 2.2× at 10× on this track: see docs/history/results.md)
         let bound = if declared < 1.0 {
             1.2
         } else if declared < 20.0 {

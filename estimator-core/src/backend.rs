@@ -64,7 +64,7 @@ pub enum UpdateForm {
 ///
 /// The dimension is always a compile-time type (the filter's state decides it); the heap
 /// back-ends differ in where `P` lives and who multiplies, not in what sizes they accept.
-/// Where each one wins is measured in `benches/README.md`.
+/// Where each one wins is measured in `docs/history/benches.md`.
 ///
 /// Each back-end owns its whole prediction ([`CovBackend::predict`]): the static one hands
 /// `P` to the model's structured [`ProcessModel::step_covariance`], the heap ones ask the

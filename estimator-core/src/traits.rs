@@ -178,7 +178,7 @@ where
     /// [`transition`](Self::transition); override it when `Φ` costs less than the
     /// Jacobians (the harness checks it against them). The backward pass forms it on the
     /// thread that uses it: `Φᵀ` handed from a replay thread to the recursion's cost more
-    /// in moving its cache lines between cores than forming it (`benches/README.md`).
+    /// in moving its cache lines between cores than forming it (`docs/history/benches.md`).
     fn transition_transposed(
         &self,
         x: &Self::State,

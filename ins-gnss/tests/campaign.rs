@@ -1,6 +1,6 @@
 //! A small campaign of the program's automatic decisions, as CI's share of
 //! `benches/campaign.py` (which runs the full one: ≥ 50 seeds per cell, the table in
-//! `docs/results.md`): navego with KF-GINS's YAML as shipped and with `noinit.toml` (no
+//! `docs/history/results.md`): navego with KF-GINS's YAML as shipped and with `noinit.toml` (no
 //! `[init]`), 1 km GNSS errors at random bearings on 10 % and 50 % of the fixes, from the
 //! first fix and after the first minute, three seeds of this file's own per cell. Each run
 //! is the program as a user runs it (no `--no-gate`, no `--accept-inconsistent`).

@@ -818,7 +818,7 @@ fn the_default_gate_adapts_before_it_refuses() {
     assert!(h[0] < 0.08 * h[1], "adapt {} vs refuse {}", h[0], h[1]);
     // still short of the open gate, and further since the doubt waits for eight
     // innovations beyond the gate, each close to the one before (3.8 → 7.5 m against
-    // 1.58 m open; docs/results.md: with four, one seed in ten of navego with half of its
+    // 1.58 m open; docs/history/results.md: with four, one seed in ten of navego with half of its
     // fixes 1 km off was pulled 280 m away); a guard against losing more
     assert!(h[0] < 5.5 * h[2], "adapt {} vs the open gate {}", h[0], h[2]);
     // 20 % of the fixes 30σ off: refused as before, within 10 %
@@ -887,7 +887,7 @@ fn the_nees_against_the_truth_tells_an_honest_sigma_from_a_small_one() {
 /// 21 states with a 1 % initial scale-factor σ (KF-GINS's `initsgstd`/`initsastd`) on the
 /// drive's dynamics with real scale-factor errors of 2000–5000 ppm: the filter converges
 /// and beats the 15-state one, which cannot model them (drive-0708 had diverged, 307 m,
-/// with the YAML's generic noise; `docs/results.md`).
+/// with the YAML's generic noise; `docs/history/results.md`).
 #[test]
 fn twenty_one_states_with_a_one_percent_scale_sigma_converge_on_the_drive() {
     let dir = temp("sf21");

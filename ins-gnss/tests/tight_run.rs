@@ -389,7 +389,7 @@ fn tight_run_from_a_ubx_log() {
 /// with BeiDou (one change: the same log): each BeiDou satellite is a pseudorange stream of
 /// its own beside GPS's (BeiDou's clock a bias against GPS's), and on this log the run with
 /// them is better (over 24 seeds of new logs, `benches/beidou_campaign.py`, on 16: see
-/// `docs/results.md`).
+/// `docs/history/results.md`).
 #[test]
 fn tight_run_from_a_gps_and_beidou_ubx_log() {
     let sc = Scenario::parse(UBX_DRIVE, "the UBX log's drive").unwrap();

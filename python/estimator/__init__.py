@@ -78,7 +78,7 @@ IMU_ERROR_COLUMNS = ["time", "bgx", "bgy", "bgz", "bax", "bay", "baz",
 
 #: The adaptive strategies by name (``fixed`` is the plain Kalman filter).
 #: A ``-faithful`` name is the paper's algorithm as written, without the fading guard
-#: of the default (``docs/results.md``: it runs away on models it does not suit).
+#: of the default (``docs/history/results.md``: it runs away on models it does not suit).
 STRATEGIES = ["fixed", "iae", "iae-qr", "iae-qr-faithful", "afkf", "afkf-xia",
               "afkf-faithful", "afkf-xia-faithful", "fused", "fused-faithful",
               "fused-nominal", "fused-window-test", "fused-uncensored",

@@ -45,7 +45,7 @@ def test_fleet_on_a_two_worker_local_cluster(tmp_path, capsys):
         assert table.loc[k, "horizontal_rms"] == rms
         assert table.loc[k, "verdict"] == ("trusted" if nav.summary["warning"] is None
                                           else "flagged")
-    assert math.isclose(table.loc[0, "horizontal_rms"], 1.438, abs_tol=0.001)  # noise learned (docs/results.md, step 1)
+    assert math.isclose(table.loc[0, "horizontal_rms"], 1.438, abs_tol=0.001)  # noise learned (docs/history/results.md, step 1)
     assert (table.loc[[0, 2, 3], "refused_share"] >= 0).all()
     assert (table["time_s"] > 0).all()
     assert "fleet [" in capsys.readouterr().err  # the progress bar

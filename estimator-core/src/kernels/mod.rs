@@ -1,7 +1,7 @@
 //! Small dense kernels on column-major storage for the static back-end (crate-private;
 //! each written once as an `#[inline(always)]` body and compiled by
 //! [`fma_kernel!`](crate::fma_kernel) for AVX2/FMA and, where measured to pay, AVX-512VL,
-//! with a portable twin). `benches/README.md` has their measured speed.
+//! with a portable twin). `docs/history/benches.md` has their measured speed.
 
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, OMatrix};

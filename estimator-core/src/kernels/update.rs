@@ -111,7 +111,7 @@ fma_kernel! {
     /// With `S = H P Hᵀ + R` this is `(I − KH) P (I − KH)ᵀ + K R Kᵀ` for any `K` (see
     /// [`crate::UpdateForm::Joseph`]). Its register sums outgrow AVX2's 16 registers, so
     /// CPUs with AVX-512VL run it with 32 up to 24 states, the sizes where that was measured
-    /// to pay (`benches/README.md`).
+    /// to pay (`docs/history/benches.md`).
     pub fn joseph_update<N: DimName, M: DimName>(
         p: &Cov<N>,
         k: &OMatrix<f64, N, M>,

@@ -475,7 +475,7 @@ where
     /// part (the nominal states; the recursion forms the transitions). It runs up to 16
     /// batches of about 256 steps ahead, then waits until the recursion has taken all but
     /// 4: woken once per batch instead, the scheduler put it on the recursion's core each
-    /// time, before the recursion, with the other core idle (`benches/README.md`).
+    /// time, before the recursion, with the other core idle (`docs/history/benches.md`).
     pub fn smooth_threaded<A, B, PM>(
         mut self,
         filter: &ErrorStateFilter<X, A, B>,

@@ -76,7 +76,7 @@ fn fixed_into(buf: &mut [u8; ROOM], value: f64, d: usize) -> Option<usize> {
 /// [`fixed_into`] for `D` decimals, inlined into the row's loop with [`fixed_into`]. (One
 /// function for every count took 1.15 times as long: criterion
 /// `text_io/nav_writer_20k_rows` 7.44–8.14 ms against 6.75–7.00 ms, three alternating
-/// runs; `benches/README.md`.)
+/// runs; `docs/history/benches.md`.)
 #[inline(always)]
 fn fixed_with<const D: usize>(buf: &mut [u8; ROOM], value: f64) -> Option<usize> {
     let scaled = round(value * POW10[D] as f64);

@@ -378,7 +378,7 @@ impl<R: BufRead> NumericLines<R> {
 }
 /// One field as a number: fast-float's parser straight on the bytes (no UTF-8 pass). It
 /// gives the same correctly rounded value as `str::parse::<f64>` and refuses the same
-/// texts (`parse_field_agrees_with_str_parse`); measured faster (`benches/README.md`).
+/// texts (`parse_field_agrees_with_str_parse`); measured faster (`docs/history/benches.md`).
 #[inline]
 fn parse_field(bytes: &[u8]) -> Option<f64> {
     fast_float2::parse::<f64, _>(bytes).ok()

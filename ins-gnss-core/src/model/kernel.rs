@@ -214,7 +214,7 @@ impl Addend for M15 {
 /// whole vectors: blocks below the diagonal copied, blocks above it transposed from
 /// their mirror images, diagonal blocks blended from both, the addend added on the way.
 /// (Mirroring value by value, 240 single stores, then adding `E` in memory was measured
-/// slower: `benches/README.md`.)
+/// slower: `docs/history/benches.md`.)
 #[inline(always)]
 fn mirror_blocks<A: Addend>(r: &Cols16, add: &A, out: &mut Cols) {
     let flat = out.as_flattened_mut();

@@ -8,7 +8,7 @@
 //! increment `Σ (I + [θ_{<k}]×) Δv_k` (each sample's `Δv` turned into the stretch's first
 //! body frame by the angle turned before it, to first order). `Φ = I + F Σdt` is then
 //! first-order over the stretch where the exact mode multiplies `n` first-order steps:
-//! they differ by `O((F dt)² n²)`, which the campaigns of `benches/README.md` measure.
+//! they differ by `O((F dt)² n²)`, which the campaigns of `docs/history/benches.md` measure.
 
 use super::*;
 

@@ -35,14 +35,14 @@ pub struct FilterSection {
     /// samples' increments combined, and always before an update (PX4's EKF2 does so);
     /// the state is propagated at every sample. Default 0.02 s (4 samples at 200 Hz):
     /// on navego, drive-0708 and the campaigns it moves no RMS by more than 0.4 % and
-    /// cuts the filter's IMU epoch by about 40 % (`benches/README.md`). `0`: at every
+    /// cuts the filter's IMU epoch by about 40 % (`docs/history/benches.md`). `0`: at every
     /// sample, the exact mode. A smoothed run (`smooth`) records every sample and brings the
     /// covariance to now where the smoother stores one; its backward pass takes the forward
     /// pass's stretches (one transition over each stretch's increments combined, the
     /// smoothed correction interpolated in time inside it) and carries the adjoint
     /// covariance as each segment's product of transitions: its smoothed RMS moves by at
     /// most 0.3 % on those data sets, and navego's smoothed run is about 10 % faster than
-    /// with every sample's own transition (`benches/README.md`). The σ written between
+    /// with every sample's own transition (`docs/history/benches.md`). The σ written between
     /// covariance steps are the last step's.
     #[serde(default = "default_covariance_interval")]
     pub covariance_interval: f64,
@@ -51,7 +51,7 @@ pub struct FilterSection {
     /// it from the update before, as the forward pass propagated it. The smoothed files
     /// are the same, byte for byte. On the simulated day (100 Hz, NHC at 10 Hz) the
     /// scratch goes from 2.68 to 1.77 GB; navego's smoothed run takes 7–9 % longer
-    /// (`benches/README.md`). Default false.
+    /// (`docs/history/benches.md`). Default false.
     #[serde(default)]
     pub smooth_low_scratch: bool,
 }

@@ -315,7 +315,7 @@ pub struct TightSection {
     /// Use the carrier phases differenced between consecutive epochs (velocity to mm/s;
     /// flagged or Doppler-inconsistent slips left out). Default false: over 16 simulated
     /// seeds it cuts the velocity error five-fold but leaves the attitude σ too small on
-    /// some (`docs/results.md`).
+    /// some (`docs/history/results.md`).
     #[serde(default)]
     pub carrier: bool,
     /// σ of a carrier phase, m. Default 0.003 (RTKLIB's default for its constant term).
