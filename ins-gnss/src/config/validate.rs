@@ -84,6 +84,25 @@ impl Config {
     /// noise densities and standard deviations must be positive, the start before the
     /// end.
     pub fn validate(&self) -> Result<(), String> {
+        self.validate_formats()?;
+        self.validate_calibrate()?;
+        self.validate_tight()?;
+        self.validate_columns()?;
+        self.validate_ros()?;
+        self.validate_data()?;
+        self.validate_init()?;
+        self.validate_mounting_and_align()?;
+        self.validate_scale_and_noise()?;
+        self.validate_filter()?;
+        self.validate_gnss()?;
+        self.validate_vehicle()?;
+        self.validate_strategies()?;
+        Ok(())
+    }
+
+    /// The IMU's column map and each section's own checks (quality factors, error model,
+    /// heading, calibration items).
+    fn validate_formats(&self) -> Result<(), String> {
         let d = &self.data;
         let rates = d.imu_format == ImuFormatName::Rates;
         if let Some(c) = &d.imu_columns {
@@ -93,6 +112,11 @@ impl Config {
         self.gnss.errors.check()?;
         self.gnss.heading.check()?;
         self.calibrate.check()?;
+        Ok(())
+    }
+
+    /// `[calibrate]` and what it runs with.
+    fn validate_calibrate(&self) -> Result<(), String> {
         if self.calibrate.any() {
             let with = if self.gnss.coupling == Coupling::Tight {
                 Some("`gnss.coupling = \"tight\"`")
@@ -126,7 +150,12 @@ impl Config {
                 ));
             }
         }
-        self.validate_tight()?;
+        Ok(())
+    }
+
+    /// The GNSS and truth column maps, and the σ they need.
+    fn validate_columns(&self) -> Result<(), String> {
+        let d = &self.data;
         if d.gnss_columns.is_some() && d.gnss_format == GnssFormatName::Rtklib {
             return Err("`data.gnss_format = \"rtklib\"` and `data.gnss_columns` exclude each \
                         other: an RTKLIB solution names its columns in its header"
@@ -154,7 +183,12 @@ impl Config {
         if let Some(c) = &d.truth_columns {
             c.map().map_err(|e| format!("`data.truth_columns`: {e}"))?;
         }
-        self.validate_ros()?;
+        Ok(())
+    }
+
+    /// `[data]`: the IMU rate, gaps, time offset and the time span.
+    fn validate_data(&self) -> Result<(), String> {
+        let d = &self.data;
         finite("data.imu_rate", &[d.imu_rate])?;
         let from_recording = d.ros.is_some() && d.imu_rate == 0.0;
         let in_range = d.imu_rate > 0.0 && d.imu_rate <= 100_000.0;
@@ -192,6 +226,11 @@ impl Config {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// `[init]`: every value finite and physical, every σ positive.
+    fn validate_init(&self) -> Result<(), String> {
         let i = &self.init;
         for (key, v) in [
             ("init.position", i.position),
@@ -230,6 +269,11 @@ impl Config {
                 positive(key, &v)?;
             }
         }
+        Ok(())
+    }
+
+    /// The IMU's mounting and `[align]`.
+    fn validate_mounting_and_align(&self) -> Result<(), String> {
         if let Some(m) = &self.imu.mounting {
             m.matrix().map_err(|e| format!("`imu.mounting`: {e}"))?;
         }
@@ -238,6 +282,12 @@ impl Config {
         nonneg("align.min_static", &[a.min_static])?;
         positive("align.max_time", &[a.max_time])?;
         positive("align.heading_std", &[a.heading_std])?;
+        Ok(())
+    }
+
+    /// The scale factors' start and `[imu_noise]`.
+    fn validate_scale_and_noise(&self) -> Result<(), String> {
+        let (d, i) = (&self.data, &self.init);
         finite("init.gyro_scale", &i.gyro_scale)?;
         finite("init.accel_scale", &i.accel_scale)?;
         if i.gyro_scale.iter().chain(&i.accel_scale).any(|v| v.abs() >= 1e5) {
@@ -277,6 +327,12 @@ impl Config {
         self.check_bias_noise()?;
         positive("imu_noise.gyro_scale_std", &n.gyro_scale_std)?;
         positive("imu_noise.accel_scale_std", &n.accel_scale_std)?;
+        Ok(())
+    }
+
+    /// `[filter]`: the covariance interval and the number of states.
+    fn validate_filter(&self) -> Result<(), String> {
+        let n = &self.imu_noise;
         let ci = self.filter.covariance_interval;
         if !(ci.is_finite() && (0.0..=1.0).contains(&ci)) {
             return Err(format!(
@@ -292,6 +348,11 @@ impl Config {
                         instability is a Gauss–Markov σ with that correlation time"
                 .into());
         }
+        Ok(())
+    }
+
+    /// `[gnss]`'s lever arm and σ, and the gross-error gate.
+    fn validate_gnss(&self) -> Result<(), String> {
         finite("gnss.lever_arm", &self.gnss.lever_arm)?;
         // (plausibility before the run: a lever arm in cm or mm given in m ran to a wrong
         // result that no innovation test could tell, the antenna's offset turning with
@@ -322,6 +383,11 @@ impl Config {
         if g.readmit_after == 0 {
             return Err("`filter.gate.readmit_after` must be at least 1".into());
         }
+        Ok(())
+    }
+
+    /// `[vehicle]`: the NHC, the odometer, ZUPT.
+    fn validate_vehicle(&self) -> Result<(), String> {
         if let Some(n) = &self.vehicle.nhc {
             finite("vehicle.nhc.mounting", &n.mounting)?;
             if n.mounting.iter().any(|a| a.abs() > 180.0) {
@@ -364,6 +430,11 @@ impl Config {
             positive("vehicle.zupt.max_speed", &[z.max_speed])?;
             nonneg("vehicle.zupt.speed_sigmas", &[z.speed_sigmas])?;
         }
+        Ok(())
+    }
+
+    /// `filter.strategy` and `filter.streams`: names that parse, streams that exist.
+    fn validate_strategies(&self) -> Result<(), String> {
         self.filter
             .strategy
             .parse::<adaptive::AnyStrategy>()
