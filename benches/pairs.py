@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Whole-run timings in alternating pairs (benches/README.md, "The second pass and the day").
+"""Whole-run timings in alternating pairs (docs/history/benches.md, "The second pass and the day").
 
     python3 benches/pairs.py binaries N CONFIG BIN_A BIN_B [RUN ARGS...]
         BIN_A and BIN_B alternate on `run CONFIG --quiet --accept-inconsistent ARGS`;

@@ -153,24 +153,7 @@ impl<R: BufRead> ImuReader<R> {
     /// The next sample with the file's time.
     fn next_sample_as_stamped(&mut self) -> Result<Option<ImuSample>, LineError> {
         if !self.header_done {
-            // Rates: the first data line is a header naming the seven columns (a line of
-            // numbers, `1e-3` included, is data, not a header).
-            match self.lines.next_text()? {
-                Some(h)
-                    if {
-                        let fields: Vec<&str> = h
-                            .split(|c: char| c == ',' || c.is_whitespace())
-                            .filter(|s| !s.is_empty())
-                            .collect();
-                        fields.len() == 7 && fields.iter().any(|s| s.parse::<f64>().is_err())
-                    } => {}
-                Some(_) => return Err(self.lines.error(LineErrorKind::WrongUnits(
-                    "a rate-type IMU file needs a header line `t,gx,gy,gz,ax,ay,az` (rad/s, m/s²)"
-                        .into(),
-                ))),
-                None => return Err(self.lines.error(LineErrorKind::Empty)),
-            }
-            self.header_done = true;
+            self.read_rates_header()?;
         }
         self.columns.start(&mut self.lines)?;
         loop {
@@ -184,26 +167,26 @@ impl<R: BufRead> ImuReader<R> {
                 return Ok(None);
             }
             let rec = self.columns.record(self.lines.values());
-            let allowed: &[usize] = match self.format {
-                ImuFormat::Increments => &[7, 8],
-                ImuFormat::Rates => &[7, 8],
-            };
+            // (seven columns, or eight with the odometer speed, in either format)
+            let allowed: &[usize] = &[7, 8];
             let checked = if !allowed.contains(&rec.len()) {
                 Err(LineErrorKind::ColumnCount { expected: allowed.to_vec(), found: rec.len() })
             } else {
                 check_time(self.prev_t, rec[0]).map(|_| {
-                    (
-                        rec[0],
+                    let (a, b) = (
                         Vector3::new(rec[1], rec[2], rec[3]),
                         Vector3::new(rec[4], rec[5], rec[6]),
-                    )
+                    );
+                    match &self.mounting {
+                        Some(c) => (rec[0], c * a, c * b),
+                        None => (rec[0], a, b),
+                    }
                 })
             };
+            // (the eighth column, the odometer's speed, when there is one)
+            let odometer = (rec.len() == 8).then(|| rec[7]);
             let (t, a, b) = match checked {
-                Ok((t, a, b)) => match &self.mounting {
-                    Some(c) => (t, c * a, c * b),
-                    None => (t, a, b),
-                },
+                Ok(tab) => tab,
                 Err(kind) => {
                     if self.policy == BadLinePolicy::Skip {
                         count(&mut self.skipped, &kind);
@@ -212,89 +195,18 @@ impl<R: BufRead> ImuReader<R> {
                     return Err(self.lines.error(kind));
                 }
             };
-            let dt = match self.prev_t {
-                Some(p) => t - p,
-                None => self.nominal_dt,
-            };
-            if self.records < 20 && (dt > 100.0 * self.nominal_dt || dt < 0.01 * self.nominal_dt) {
-                // the first intervals 100× off the rate: the times are not in seconds
-                // (ms, µs) or the rate is wrong, not a gap
-                return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
-                    "samples {dt} s apart where the IMU rate ({:.6} Hz) says {:.6} s: the \
-                     times are not in seconds (a factor of {:.3e}), or the rate is wrong; \
-                     set `time_unit` (ms, us, ns) in the column map or `data.imu_rate`",
-                    1.0 / self.nominal_dt,
-                    self.nominal_dt,
-                    dt / self.nominal_dt
-                ))));
-            }
-            if dt > self.max_gap {
-                let bridged = self.policy == BadLinePolicy::Skip && dt <= self.max_bridge;
-                let allowed =
-                    if self.policy == BadLinePolicy::Skip { self.max_bridge } else { self.max_gap };
-                let kind = LineErrorKind::Gap { gap: dt, allowed, previous_line: self.prev_line };
-                if !bridged {
-                    return Err(self.lines.error(kind));
-                }
-                count(&mut self.skipped, &kind);
-            }
+            let dt = self.prev_t.map_or(self.nominal_dt, |p| t - p);
+            self.check_interval(dt)?;
             let sample = match self.format {
-                ImuFormat::Rates if self.records == 0 && b.norm() < 0.5 => {
-                    // Gravity alone is 9.8 m/s²: a first specific force below 1 m/s² is an
-                    // increment over one interval, not a rate.
-                    return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
-                        "|f| = {:.4} m/s² is far below gravity: these look like increments, \
-                         not rates; set the IMU format to increments",
-                        b.norm()
-                    ))));
-                }
-                ImuFormat::Rates if self.records == 0 && b.norm() > 5.0 * 9.80665 => {
-                    // the first sample, at rest or nearly: gravity read in a unit
-                    // 10×, 1000× … too large
-                    let ratio = b.norm() / 9.80665;
-                    return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
-                        "|f| = {:.3} m/s² is {ratio:.0}× gravity: `accel_unit` is about \
-                         {:.0}× too large for this log (mg read as g: 1000×; m/s² read as g: \
-                         9.8×)",
-                        b.norm(),
-                        if ratio > 300.0 { (ratio / 1000.0).round() * 1000.0 } else { ratio }
-                    ))));
-                }
-                ImuFormat::Rates if b.norm() > 1000.0 || a.norm() > 50.0 => {
-                    let kind = LineErrorKind::WrongUnits(format!(
-                        "|ω| = {:.3} rad/s, |f| = {:.3} m/s²: beyond any IMU (50 rad/s, 100 g); \
-                         a spike, or not rad/s and m/s²",
-                        a.norm(),
-                        b.norm()
-                    ));
-                    if self.policy == BadLinePolicy::Skip && self.records > 0 {
-                        count(&mut self.skipped, &kind);
-                        continue;
-                    }
-                    return Err(self.lines.error(kind));
-                }
-                ImuFormat::Increments => {
-                    // Increments that are really rates: a stationary accelerometer gives
-                    // |Δv| ≈ 9.8 m/s in one interval, i.e. > 100 g.
-                    if b.norm() / dt > 1000.0 || a.norm() / dt > 50.0 {
-                        return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
-                            "|Δθ| = {:.3} rad and |Δv| = {:.3} m/s in {dt:.4} s look like rates, not increments; \
-                             set the IMU format to rates",
-                            a.norm(),
-                            b.norm()
-                        ))));
-                    }
-                    let odometer = (rec.len() == 8).then(|| rec[7]);
-                    if odometer.is_some_and(|v| !(v.is_finite() && v.abs() < 1000.0)) {
-                        return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
-                            "odometer speed {} m/s (8th column): not finite or beyond 1000 m/s",
-                            rec[7]
-                        ))));
-                    }
-                    ImuSample { t, dt, dtheta: a, dvel: b, odometer }
-                }
+                ImuFormat::Increments => self.increments_sample(t, dt, a, b, odometer)?,
                 ImuFormat::Rates => {
-                    let odometer = (rec.len() == 8).then(|| rec[7]);
+                    if let Err((kind, skip)) = self.rates_units(&a, &b) {
+                        if skip {
+                            count(&mut self.skipped, &kind);
+                            continue;
+                        }
+                        return Err(self.lines.error(kind));
+                    }
                     if self.rate_history.len() == 4 {
                         self.rate_history.remove(0);
                     }
@@ -318,6 +230,129 @@ impl<R: BufRead> ImuReader<R> {
             self.records += 1;
             return Ok(Some(sample));
         }
+    }
+
+    /// A rate-type file's first line: a header naming the seven columns (a line of
+    /// numbers, `1e-3` included, is data, not a header); read once.
+    fn read_rates_header(&mut self) -> Result<(), LineError> {
+        match self.lines.next_text()? {
+            Some(h)
+                if {
+                    let fields: Vec<&str> = h
+                        .split(|c: char| c == ',' || c.is_whitespace())
+                        .filter(|s| !s.is_empty())
+                        .collect();
+                    fields.len() == 7 && fields.iter().any(|s| s.parse::<f64>().is_err())
+                } =>
+            {
+                self.header_done = true;
+                Ok(())
+            }
+            Some(_) => Err(self.lines.error(LineErrorKind::WrongUnits(
+                "a rate-type IMU file needs a header line `t,gx,gy,gz,ax,ay,az` (rad/s, m/s²)"
+                    .into(),
+            ))),
+            None => Err(self.lines.error(LineErrorKind::Empty)),
+        }
+    }
+
+    /// The interval `dt` (s) up to the record just read: the first intervals 100× off the
+    /// rate are a time unit (ms, µs) or a rate that is wrong, not a gap; a later interval
+    /// beyond `max_gap` is a gap, bridged (and counted) up to `max_bridge` when bad lines
+    /// are skipped.
+    fn check_interval(&mut self, dt: f64) -> Result<(), LineError> {
+        if self.records < 20 && (dt > 100.0 * self.nominal_dt || dt < 0.01 * self.nominal_dt) {
+            return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                "samples {dt} s apart where the IMU rate ({:.6} Hz) says {:.6} s: the \
+                 times are not in seconds (a factor of {:.3e}), or the rate is wrong; \
+                 set `time_unit` (ms, us, ns) in the column map or `data.imu_rate`",
+                1.0 / self.nominal_dt,
+                self.nominal_dt,
+                dt / self.nominal_dt
+            ))));
+        }
+        if dt > self.max_gap {
+            let bridged = self.policy == BadLinePolicy::Skip && dt <= self.max_bridge;
+            let allowed =
+                if self.policy == BadLinePolicy::Skip { self.max_bridge } else { self.max_gap };
+            let kind = LineErrorKind::Gap { gap: dt, allowed, previous_line: self.prev_line };
+            if !bridged {
+                return Err(self.lines.error(kind));
+            }
+            count(&mut self.skipped, &kind);
+        }
+        Ok(())
+    }
+
+    /// A rate-type record's units (`w` rad/s, `f` m/s²): the first one's specific force far
+    /// below gravity (increments, not rates) or far above it (an accelerometer unit), and
+    /// any beyond an IMU's range (a spike: skippable after the first record when bad
+    /// lines are skipped, the `bool`).
+    fn rates_units(&self, w: &Vector3<f64>, f: &Vector3<f64>) -> Result<(), (LineErrorKind, bool)> {
+        if self.records == 0 && f.norm() < 0.5 {
+            // Gravity alone is 9.8 m/s²: a first specific force below 1 m/s² is an
+            // increment over one interval, not a rate.
+            return Err((
+                LineErrorKind::WrongUnits(format!(
+                    "|f| = {:.4} m/s² is far below gravity: these look like increments, \
+                     not rates; set the IMU format to increments",
+                    f.norm()
+                )),
+                false,
+            ));
+        }
+        if self.records == 0 && f.norm() > 5.0 * 9.80665 {
+            // the first sample, at rest or nearly: gravity read in a unit 10×, 1000× … too
+            // large
+            let ratio = f.norm() / 9.80665;
+            return Err((
+                LineErrorKind::WrongUnits(format!(
+                    "|f| = {:.3} m/s² is {ratio:.0}× gravity: `accel_unit` is about \
+                     {:.0}× too large for this log (mg read as g: 1000×; m/s² read as g: \
+                     9.8×)",
+                    f.norm(),
+                    if ratio > 300.0 { (ratio / 1000.0).round() * 1000.0 } else { ratio }
+                )),
+                false,
+            ));
+        }
+        if f.norm() > 1000.0 || w.norm() > 50.0 {
+            let kind = LineErrorKind::WrongUnits(format!(
+                "|ω| = {:.3} rad/s, |f| = {:.3} m/s²: beyond any IMU (50 rad/s, 100 g); \
+                 a spike, or not rad/s and m/s²",
+                w.norm(),
+                f.norm()
+            ));
+            return Err((kind, self.policy == BadLinePolicy::Skip && self.records > 0));
+        }
+        Ok(())
+    }
+
+    /// An increment-type record as a sample: increments that are really rates refused (a
+    /// stationary accelerometer gives |Δv| ≈ 9.8 m/s in one interval, i.e. > 100 g), and
+    /// the odometer's speed (`odometer`, an eighth column) when finite and below 1000 m/s.
+    fn increments_sample(
+        &self,
+        t: f64,
+        dt: f64,
+        dtheta: Vector3<f64>,
+        dvel: Vector3<f64>,
+        odometer: Option<f64>,
+    ) -> Result<ImuSample, LineError> {
+        if dvel.norm() / dt > 1000.0 || dtheta.norm() / dt > 50.0 {
+            return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                "|Δθ| = {:.3} rad and |Δv| = {:.3} m/s in {dt:.4} s look like rates, not increments; \
+                 set the IMU format to rates",
+                dtheta.norm(),
+                dvel.norm()
+            ))));
+        }
+        if let Some(v) = odometer.filter(|v| !(v.is_finite() && v.abs() < 1000.0)) {
+            return Err(self.lines.error(LineErrorKind::WrongUnits(format!(
+                "odometer speed {v} m/s (8th column): not finite or beyond 1000 m/s"
+            ))));
+        }
+        Ok(ImuSample { t, dt, dtheta, dvel, odometer })
     }
 
     /// Line number of the last sample.
