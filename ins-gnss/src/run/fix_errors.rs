@@ -89,76 +89,23 @@ pub(super) fn judge_fix_errors(
     inputs: &Inputs,
     probe: FixErrorProbe,
 ) -> (Option<Config>, Option<FixErrorBank>) {
-    let total = probe.declared * probe.factor.max(0.0).sqrt();
     let mut judged = config.clone();
     judged.filter.smooth = false;
-    // the fixes' log-likelihood of one run (−∞: it failed)
-    let likelihood = |c: &Config, prior: Option<FixErrorProbe>| -> f64 {
-        let mut create = || Ok((Discard, DiscardRows));
-        match attempt(c, strategy.clone(), inputs, None, &mut create, prior) {
-            Ok((summary, _)) => {
-                summary.streams.iter().filter(|s| s.gnss).map(|s| s.log_likelihood_settled).sum()
-            }
-            Err(_) => f64::NEG_INFINITY,
-        }
+    let mut bank = Hypotheses {
+        judged,
+        strategy,
+        inputs,
+        probe,
+        total: probe.declared * probe.factor.max(0.0).sqrt(),
+        scored: Vec::new(),
     };
-    let mut white_config = judged.clone();
+    let mut white_config = bank.judged.clone();
     white_config.gnss.errors.model = crate::config::ErrorModel::White;
-    let white_ll = likelihood(&white_config, None);
-    let mut scored: Vec<(f64, f64, f64)> = Vec::new();
-    let mut score = |k: f64, tau: f64| -> f64 {
-        if let Some(&(_, _, ll)) =
-            scored.iter().find(|s| (s.0 / k - 1.0).abs() < 1e-6 && (s.1 / tau - 1.0).abs() < 1e-6)
-        {
-            return ll;
-        }
-        let ll = likelihood(&hypothesis(&judged, total * k, tau), Some(white_prior(probe)));
-        scored.push((k, tau, ll));
-        ll
-    };
-    // the best σ at one correlation time, from `k0`, by steps while the likelihood rises
-    let (lo, hi) = BANK_SIGMA_RANGE;
-    let mut profile = |tau: f64, k0: f64| -> (f64, f64) {
-        let k0 = k0.clamp(lo, hi);
-        let mut best = (k0, score(k0, tau));
-        for step in [BANK_SIGMA_STEP, 1.0 / BANK_SIGMA_STEP] {
-            loop {
-                let k = best.0 * step;
-                if !(lo..=hi).contains(&k) {
-                    break;
-                }
-                let ll = score(k, tau);
-                if ll > best.1 {
-                    best = (k, ll);
-                } else {
-                    break;
-                }
-            }
-        }
-        // between the steps: the vertex of the parabola through the best and its two
-        // neighbours in ln σ (a step of √2 is coarse against the likelihood's curvature)
-        let s = BANK_SIGMA_STEP;
-        let (k, y1) = best;
-        if (lo..=hi).contains(&(k / s)) && (lo..=hi).contains(&(k * s)) {
-            let (y0, y2) = (score(k / s, tau), score(k * s, tau));
-            let curve = y0 - 2.0 * y1 + y2;
-            if curve < 0.0 {
-                let d = (0.5 * (y0 - y2) / curve).clamp(-0.5, 0.5);
-                if d.abs() > 0.05 {
-                    let kv = k * s.powf(d);
-                    let yv = score(kv, tau);
-                    if yv > best.1 {
-                        best = (kv, yv);
-                    }
-                }
-            }
-        }
-        best
-    };
+    let white_ll = bank.likelihood(&white_config, None);
     // (the prior's share of the total variance is the first guess)
     let k0 = ins_gnss_core::navigator::FIX_ERROR_SHARE.sqrt();
     // each correlation time's best σ: (τ, k, log-likelihood)
-    let mut profiles = vec![(BANK_TAU, profile(BANK_TAU, k0))];
+    let mut profiles = vec![(BANK_TAU, bank.profile(BANK_TAU, k0))];
     let best_ll =
         |p: &[(f64, (f64, f64))]| p.iter().map(|x| x.1 .1).fold(f64::NEG_INFINITY, f64::max);
     // longer correlation times while their best is within the margin of the best so far;
@@ -171,7 +118,7 @@ pub(super) fn judge_fix_errors(
                 break;
             }
             // along the ridge σ²/τ constant
-            let p = (tau, profile(tau, from.1 .0 * step.sqrt()));
+            let p = (tau, bank.profile(tau, from.1 .0 * step.sqrt()));
             let so_far = best_ll(&profiles);
             profiles.push(p);
             let go_on = if step > 1.0 { p.1 .1 >= so_far - BANK_MARGIN } else { p.1 .1 > so_far };
@@ -192,24 +139,108 @@ pub(super) fn judge_fix_errors(
     if !ll.is_finite() {
         return (None, None);
     }
-    let next = scored
+    let next = bank
+        .scored
         .iter()
         .filter(|s| !((s.0 / k - 1.0).abs() < 1e-6 && (s.1 / tau - 1.0).abs() < 1e-6))
         .map(|s| s.2)
         .fold(f64::NEG_INFINITY, f64::max);
     let white = if white_ll.is_finite() { white_ll - top } else { f64::NAN };
-    let bank = FixErrorBank {
-        runs: scored.len() + 1,
+    let total = bank.total;
+    let found = FixErrorBank {
+        runs: bank.scored.len() + 1,
         chosen: (total * k, tau),
         margin: ll - next.max(white_ll),
         white,
     };
-    if bank.white_chosen() {
+    if found.white_chosen() {
         let mut c = config.clone();
         c.gnss.errors.model = crate::config::ErrorModel::White;
-        return (Some(c), Some(bank));
+        return (Some(c), Some(found));
     }
-    (Some(hypothesis(config, total * k, tau)), Some(bank))
+    (Some(hypothesis(config, total * k, tau)), Some(found))
+}
+
+/// The bank's hypotheses as they are scored: each one whole run of the configuration
+/// `judged` (not smoothed) with a persisting part of σ `total · k` and correlation time τ.
+struct Hypotheses<'a> {
+    judged: Config,
+    strategy: &'a AnyStrategy,
+    inputs: &'a Inputs,
+    probe: FixErrorProbe,
+    /// The fixes' total σ the probe found (N, E, D), m.
+    total: Vector3<f64>,
+    /// Every hypothesis run: (k, τ, log-likelihood).
+    scored: Vec<(f64, f64, f64)>,
+}
+
+impl Hypotheses<'_> {
+    /// The fixes' log-likelihood of one run (−∞: it failed).
+    fn likelihood(&self, c: &Config, prior: Option<FixErrorProbe>) -> f64 {
+        let mut create = || Ok((Discard, DiscardRows));
+        match attempt(c, self.strategy.clone(), self.inputs, None, &mut create, prior) {
+            Ok((summary, _)) => {
+                summary.streams.iter().filter(|s| s.gnss).map(|s| s.log_likelihood_settled).sum()
+            }
+            Err(_) => f64::NEG_INFINITY,
+        }
+    }
+
+    /// The hypothesis (k, τ)'s log-likelihood, run once.
+    fn score(&mut self, k: f64, tau: f64) -> f64 {
+        if let Some(&(_, _, ll)) = self
+            .scored
+            .iter()
+            .find(|s| (s.0 / k - 1.0).abs() < 1e-6 && (s.1 / tau - 1.0).abs() < 1e-6)
+        {
+            return ll;
+        }
+        let c = hypothesis(&self.judged, self.total * k, tau);
+        let ll = self.likelihood(&c, Some(white_prior(self.probe)));
+        self.scored.push((k, tau, ll));
+        ll
+    }
+
+    /// The best σ at one correlation time, from `k0`, by steps while the likelihood
+    /// rises, then the vertex of the parabola through the best and its two neighbours in
+    /// ln σ (a step of √2 is coarse against the likelihood's curvature): (k, its
+    /// log-likelihood).
+    fn profile(&mut self, tau: f64, k0: f64) -> (f64, f64) {
+        let (lo, hi) = BANK_SIGMA_RANGE;
+        let k0 = k0.clamp(lo, hi);
+        let mut best = (k0, self.score(k0, tau));
+        for step in [BANK_SIGMA_STEP, 1.0 / BANK_SIGMA_STEP] {
+            loop {
+                let k = best.0 * step;
+                if !(lo..=hi).contains(&k) {
+                    break;
+                }
+                let ll = self.score(k, tau);
+                if ll > best.1 {
+                    best = (k, ll);
+                } else {
+                    break;
+                }
+            }
+        }
+        let s = BANK_SIGMA_STEP;
+        let (k, y1) = best;
+        if (lo..=hi).contains(&(k / s)) && (lo..=hi).contains(&(k * s)) {
+            let (y0, y2) = (self.score(k / s, tau), self.score(k * s, tau));
+            let curve = y0 - 2.0 * y1 + y2;
+            if curve < 0.0 {
+                let d = (0.5 * (y0 - y2) / curve).clamp(-0.5, 0.5);
+                if d.abs() > 0.05 {
+                    let kv = k * s.powf(d);
+                    let yv = self.score(kv, tau);
+                    if yv > best.1 {
+                        best = (kv, yv);
+                    }
+                }
+            }
+        }
+        best
+    }
 }
 
 /// The fixes' errors as the navigator learned them (a state with their persisting part).
