@@ -3,6 +3,7 @@
 //! scored by the fixes' innovations), and what the navigator learned.
 
 use super::*;
+use std::sync::Arc;
 
 /// The correlation time (s) the bank of hypotheses on the fixes' errors starts from, then its
 /// neighbours by [`BANK_TAU_STEP`] while the likelihood rises.
@@ -89,23 +90,73 @@ pub(super) fn judge_fix_errors(
     inputs: &Inputs,
     probe: FixErrorProbe,
 ) -> (Option<Config>, Option<FixErrorBank>) {
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+    judge_with(config, strategy, inputs, probe, workers, true)
+}
+
+/// [`judge_fix_errors`] with `workers` passes at once, the IMU read once into memory
+/// (`replay`, within [`IMU_RECORDING_BYTES`]) or by each pass.
+fn judge_with(
+    config: &Config,
+    strategy: &AnyStrategy,
+    inputs: &Inputs,
+    probe: FixErrorProbe,
+    workers: usize,
+    replay: bool,
+) -> (Option<Config>, Option<FixErrorBank>) {
     let mut judged = config.clone();
     judged.filter.smooth = false;
+    // the checks that run beside the filter (the start given, not found) only refuse or
+    // let go, and the run after the bank makes them: the bank's passes do without
+    if !(crate::start::fills(&judged) || judged.calibrate.time_offset) {
+        judged.align.checks = false;
+    }
+    // the inputs read once for every pass: a ROS recording into rows (with the
+    // configuration it completes), the IMU's samples into memory (when not too many)
+    let recording;
+    let (judged, inputs) = match (inputs, &config.data.ros) {
+        (Inputs::Files, Some(_)) => match open_recording(&judged) {
+            Ok(r) => {
+                recording = r;
+                (recording.0.clone(), &recording.1)
+            }
+            Err(_) => return (None, None),
+        },
+        _ => (judged, inputs),
+    };
+    let replay = replay.then(|| ImuRecording::read(&judged, inputs)).flatten().map(Arc::new);
     let mut bank = Hypotheses {
         judged,
         strategy,
         inputs,
+        replay,
         probe,
         total: probe.declared * probe.factor.max(0.0).sqrt(),
         scored: Vec::new(),
+        ran: Vec::new(),
+        workers,
     };
     let mut white_config = bank.judged.clone();
     white_config.gnss.errors.model = crate::config::ErrorModel::White;
-    let white_ll = bank.likelihood(&white_config, None);
     // (the prior's share of the total variance is the first guess)
     let k0 = ins_gnss_core::navigator::FIX_ERROR_SHARE.sqrt();
-    // each correlation time's best σ: (τ, k, log-likelihood)
-    let mut profiles = vec![(BANK_TAU, bank.profile(BANK_TAU, k0))];
+    // each correlation time's best σ: (τ, k, log-likelihood), the first one's beside the
+    // white model's run
+    let (first, white_ll) = if bank.workers > 1 {
+        let replay = bank.replay.clone();
+        std::thread::scope(|s| {
+            let white =
+                s.spawn(|| likelihood(&white_config, strategy, inputs, replay.as_ref(), None));
+            bank.workers -= 1;
+            let first = bank.profile(BANK_TAU, k0);
+            bank.workers += 1;
+            (first, white.join().unwrap_or(f64::NEG_INFINITY))
+        })
+    } else {
+        let white = bank.likelihood(&white_config, None);
+        (bank.profile(BANK_TAU, k0), white)
+    };
+    let mut profiles = vec![(BANK_TAU, first)];
     let best_ll =
         |p: &[(f64, (f64, f64))]| p.iter().map(|x| x.1 .1).fold(f64::NEG_INFINITY, f64::max);
     // longer correlation times while their best is within the margin of the best so far;
@@ -167,38 +218,89 @@ struct Hypotheses<'a> {
     judged: Config,
     strategy: &'a AnyStrategy,
     inputs: &'a Inputs,
+    /// The IMU's samples, read once (`None`: each pass reads them).
+    replay: Option<Arc<ImuRecording>>,
     probe: FixErrorProbe,
     /// The fixes' total σ the probe found (N, E, D), m.
     total: Vector3<f64>,
-    /// Every hypothesis run: (k, τ, log-likelihood).
+    /// Every hypothesis the search consulted: (k, τ, log-likelihood).
     scored: Vec<(f64, f64, f64)>,
+    /// Every hypothesis run, consulted or run ahead of the search: (k, τ, log-likelihood).
+    ran: Vec<(f64, f64, f64)>,
+    /// Passes at once (the machine's cores): the hypotheses the search is likely to ask
+    /// for next run beside the one it asks for. The search, its choice and what it
+    /// reports do not depend on it.
+    workers: usize,
+}
+
+/// Whether hypothesis `a` is (k, τ) (each within 1e-6 of the other).
+fn same(a: (f64, f64), k: f64, tau: f64) -> bool {
+    (a.0 / k - 1.0).abs() < 1e-6 && (a.1 / tau - 1.0).abs() < 1e-6
+}
+
+/// The fixes' log-likelihood of one pass of `c` (−∞: it failed).
+fn likelihood(
+    c: &Config,
+    strategy: &AnyStrategy,
+    inputs: &Inputs,
+    replay: Option<&Arc<ImuRecording>>,
+    prior: Option<FixErrorProbe>,
+) -> f64 {
+    let mut create = || Ok((Discard, DiscardRows));
+    match attempt(c, strategy.clone(), inputs, None, &mut create, prior, replay) {
+        Ok((summary, _)) => {
+            summary.streams.iter().filter(|s| s.gnss).map(|s| s.log_likelihood_settled).sum()
+        }
+        Err(_) => f64::NEG_INFINITY,
+    }
 }
 
 impl Hypotheses<'_> {
-    /// The fixes' log-likelihood of one run (−∞: it failed).
+    /// The fixes' log-likelihood of one pass (−∞: it failed).
     fn likelihood(&self, c: &Config, prior: Option<FixErrorProbe>) -> f64 {
-        let mut create = || Ok((Discard, DiscardRows));
-        match attempt(c, self.strategy.clone(), self.inputs, None, &mut create, prior) {
-            Ok((summary, _)) => {
-                summary.streams.iter().filter(|s| s.gnss).map(|s| s.log_likelihood_settled).sum()
-            }
-            Err(_) => f64::NEG_INFINITY,
+        likelihood(c, self.strategy, self.inputs, self.replay.as_ref(), prior)
+    }
+
+    /// The hypothesis (k, τ)'s log-likelihood, run once (with `next`, the hypotheses
+    /// the search is likely to ask for after it, run beside it when there are workers).
+    fn score_ahead(&mut self, k: f64, tau: f64, next: &[f64]) -> f64 {
+        if let Some(&(_, _, ll)) = self.scored.iter().find(|s| same((s.0, s.1), k, tau)) {
+            return ll;
         }
+        let ran = |h: &Self, k: f64| h.ran.iter().find(|s| same((s.0, s.1), k, tau)).map(|s| s.2);
+        if ran(self, k).is_none() {
+            let (lo, hi) = BANK_SIGMA_RANGE;
+            let todo: Vec<f64> = std::iter::once(k)
+                .chain(next.iter().copied().filter(|n| (lo..=hi).contains(n)))
+                .filter(|&n| ran(self, n).is_none())
+                .take(self.workers.max(1))
+                .collect();
+            let prior = Some(white_prior(self.probe));
+            let configs: Vec<Config> =
+                todo.iter().map(|&k| hypothesis(&self.judged, self.total * k, tau)).collect();
+            let lls: Vec<f64> = if configs.len() == 1 {
+                vec![self.likelihood(&configs[0], prior)]
+            } else {
+                let this = &*self;
+                std::thread::scope(|s| {
+                    let runs: Vec<_> = configs
+                        .iter()
+                        .map(|c| s.spawn(move || this.likelihood(c, prior)))
+                        .collect();
+                    // (a pass that panicked scores as failed)
+                    runs.into_iter().map(|r| r.join().unwrap_or(f64::NEG_INFINITY)).collect()
+                })
+            };
+            self.ran.extend(todo.iter().zip(lls).map(|(&k, ll)| (k, tau, ll)));
+        }
+        let ll = ran(self, k).unwrap_or(f64::NEG_INFINITY);
+        self.scored.push((k, tau, ll));
+        ll
     }
 
     /// The hypothesis (k, τ)'s log-likelihood, run once.
     fn score(&mut self, k: f64, tau: f64) -> f64 {
-        if let Some(&(_, _, ll)) = self
-            .scored
-            .iter()
-            .find(|s| (s.0 / k - 1.0).abs() < 1e-6 && (s.1 / tau - 1.0).abs() < 1e-6)
-        {
-            return ll;
-        }
-        let c = hypothesis(&self.judged, self.total * k, tau);
-        let ll = self.likelihood(&c, Some(white_prior(self.probe)));
-        self.scored.push((k, tau, ll));
-        ll
+        self.score_ahead(k, tau, &[])
     }
 
     /// The best σ at one correlation time, from `k0`, by steps while the likelihood
@@ -208,14 +310,16 @@ impl Hypotheses<'_> {
     fn profile(&mut self, tau: f64, k0: f64) -> (f64, f64) {
         let (lo, hi) = BANK_SIGMA_RANGE;
         let k0 = k0.clamp(lo, hi);
-        let mut best = (k0, self.score(k0, tau));
-        for step in [BANK_SIGMA_STEP, 1.0 / BANK_SIGMA_STEP] {
+        let s = BANK_SIGMA_STEP;
+        let mut best = (k0, self.score_ahead(k0, tau, &[k0 * s, k0 / s]));
+        for step in [s, 1.0 / s] {
             loop {
                 let k = best.0 * step;
                 if !(lo..=hi).contains(&k) {
                     break;
                 }
-                let ll = self.score(k, tau);
+                // (the next step beside it: a walk goes on more often than not)
+                let ll = self.score_ahead(k, tau, &[k * step, k / step / step]);
                 if ll > best.1 {
                     best = (k, ll);
                 } else {
@@ -223,10 +327,9 @@ impl Hypotheses<'_> {
                 }
             }
         }
-        let s = BANK_SIGMA_STEP;
         let (k, y1) = best;
         if (lo..=hi).contains(&(k / s)) && (lo..=hi).contains(&(k * s)) {
-            let (y0, y2) = (self.score(k / s, tau), self.score(k * s, tau));
+            let (y0, y2) = (self.score_ahead(k / s, tau, &[k * s]), self.score(k * s, tau));
             let curve = y0 - 2.0 * y1 + y2;
             if curve < 0.0 {
                 let d = (0.5 * (y0 - y2) / curve).clamp(-0.5, 0.5);
@@ -289,4 +392,73 @@ pub(super) fn probe_fix_errors(strategy: &RunStrategy, at: &GnssAtStart) -> Opti
         })
         .map(|l| FixErrorProbe { lag_one: l.lag_one, fixes: l.updates, factor: l.factor, declared })
         .next()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
+
+    /// Independent paths agree: the bank's choice and what it reports are the same with
+    /// one pass at a time or two, and with the IMU replayed from memory or read again by
+    /// each pass (a simulated 600 s drive, fixes with 1/1/2 m white errors declared as
+    /// such; the probe from the program's first attempt).
+    #[test]
+    fn the_bank_is_the_same_one_pass_at_a_time_or_two_replayed_or_read() {
+        let (start, segs) = scenarios::drive_600s();
+        let traj = Trajectory::new(start, &segs).unwrap();
+        let sigma = Vector3::new(1.0, 1.0, 2.0);
+        let gnss = GnssSim {
+            rate_hz: 1.0,
+            pos_sigma: sigma,
+            vel_sigma: None,
+            lever_arm: Vector3::zeros(),
+            windows: vec![],
+        };
+        let d = simulate(&traj, 50.0, &scenarios::mems_imu(), &gnss, 11);
+        let imu: Vec<f64> = d
+            .imu
+            .iter()
+            .flat_map(|s| {
+                [s.t, s.dtheta[0], s.dtheta[1], s.dtheta[2], s.dvel[0], s.dvel[1], s.dvel[2]]
+            })
+            .collect();
+        let fixes: Vec<f64> = d
+            .gnss
+            .iter()
+            .flat_map(|g| {
+                [
+                    g.t,
+                    g.pos.lat.to_degrees(),
+                    g.pos.lon.to_degrees(),
+                    g.pos.h,
+                    sigma[0],
+                    sigma[1],
+                    sigma[2],
+                ]
+            })
+            .collect();
+        let inputs =
+            Inputs::Arrays { imu: imu.into(), imu_width: 7, gnss: fixes.into(), gnss_width: 7 };
+        let text = "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 50.0\n\
+             [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
+             gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
+             corr_time = 1.0\n";
+        let config =
+            Config::parse(text, crate::config::ConfigKind::Toml, std::path::Path::new("."))
+                .unwrap();
+        let strategy: AnyStrategy = "fixed".parse().unwrap();
+        let mut create = || Ok((Discard, DiscardRows));
+        let probe = match attempt(&config, strategy.clone(), &inputs, None, &mut create, None, None)
+        {
+            Err((RunError::FixErrorsProbed(p), _)) => p,
+            other => panic!("the fixes were not probed: {:?}", other.map(|r| r.0.lines())),
+        };
+        let one = judge_with(&config, &strategy, &inputs, probe, 1, true);
+        let (chosen, bank) = (one.0.as_ref().expect("a choice"), one.1.expect("a bank"));
+        assert!(bank.runs >= 5, "{bank:?}");
+        assert_eq!(judge_with(&config, &strategy, &inputs, probe, 2, true), one);
+        assert_eq!(judge_with(&config, &strategy, &inputs, probe, 1, false), one);
+        assert_eq!(chosen.gnss.errors.model, crate::config::ErrorModel::White, "{bank:?}");
+    }
 }

@@ -231,11 +231,62 @@ impl ImuFeed {
         Self { batches, reader }
     }
 
+    /// The messages of a recording, sent as [`spawn`](Self::spawn) sent them when it was
+    /// made (the same batches, the same tee, the same skipped lines at the end).
+    pub(crate) fn replay(recording: std::sync::Arc<ImuRecording>, mut tee: Option<Tee>) -> Self {
+        let (tx, batches) = std::sync::mpsc::sync_channel::<ImuBatch>(4);
+        let reader = std::thread::spawn(move || {
+            for m in &recording.messages {
+                if let (Some(to), Ok(batch)) = (&tee, m) {
+                    if to.send(batch.iter().map(|(s, _)| *s).collect()).is_err() {
+                        tee = None;
+                    }
+                }
+                if tx.send(m.clone()).is_err() {
+                    break;
+                }
+            }
+            recording.skipped
+        });
+        Self { batches, reader }
+    }
+
     /// Stop reading (if not at the end yet) and return the reader's skipped lines.
     /// (A tee still open closes with the reader: the data ended before the checks' span.)
     pub(crate) fn finish(self) -> Result<SkipCounts, RunError> {
         drop(self.batches);
         self.reader.join().map_err(|_| RunError::NoData("the reader thread panicked".into()))
+    }
+}
+
+/// The IMU stream as [`ImuFeed`] sends it, message by message, kept in memory for runs
+/// that read the same data again (the fix-error bank's passes: [`ImuFeed::replay`]).
+pub(crate) struct ImuRecording {
+    messages: Vec<ImuBatch>,
+    skipped: SkipCounts,
+}
+
+/// The most bytes of IMU samples an [`ImuRecording`] keeps (about 3 million samples,
+/// four hours at 200 Hz); a longer log is read again by each run.
+pub const IMU_RECORDING_BYTES: usize = 1 << 28;
+
+impl ImuRecording {
+    /// The configured IMU input read whole (`None`: it could not be opened, or it holds
+    /// more than [`IMU_RECORDING_BYTES`]).
+    pub(crate) fn read(config: &Config, inputs: &Inputs) -> Option<Self> {
+        let feed = ImuFeed::spawn(open_imu(config, inputs).ok()?, None);
+        let per = std::mem::size_of::<(ImuSample, usize)>();
+        let (mut messages, mut bytes) = (Vec::new(), 0);
+        while let Ok(m) = feed.batches.recv() {
+            bytes += m.as_ref().map_or(0, |b| b.len() * per);
+            if bytes > IMU_RECORDING_BYTES {
+                let _ = feed.finish();
+                return None;
+            }
+            messages.push(m);
+        }
+        let skipped = feed.finish().ok()?;
+        Some(Self { messages, skipped })
     }
 }
 
@@ -605,5 +656,60 @@ mod tests {
         }
         assert_eq!(cases, 30);
         assert!(shorter >= 18, "{shorter} of {cases} runs read less than the whole span");
+    }
+
+    /// A recording replays what the reader sent, message by message: the same batches
+    /// (their samples and lines), the same samples to the checks' tee, the same skipped
+    /// lines, the same error after the samples before it; and a second replay of it the
+    /// same again (IMU rows with a malformed row and a row going back in time, skipped
+    /// and counted, or the first of them ending the read with its error).
+    #[test]
+    fn a_recording_replays_the_readers_messages() {
+        let n = 2 * BATCH + 300;
+        let mut rows = Vec::new();
+        for i in 0..n {
+            let t = 0.01 * i as f64;
+            let row = [t, 1e-4, 2e-4 * (i % 7) as f64, -1e-4, 1e-3, 2e-3, 0.098];
+            rows.extend(row.map(|v| if i == 1500 { f64::NAN } else { v }));
+            if i == 1800 {
+                rows.extend([0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.098]);
+            }
+        }
+        let inputs = Inputs::Arrays {
+            imu: rows.into(),
+            imu_width: 7,
+            gnss: Vec::new().into(),
+            gnss_width: 7,
+        };
+        let drain = |feed: ImuFeed, tee: std::sync::mpsc::Receiver<Vec<ImuSample>>| {
+            let messages: Vec<ImuBatch> = feed.batches.iter().collect();
+            let skipped = feed.finish().unwrap();
+            (messages, tee.iter().collect::<Vec<_>>(), skipped)
+        };
+        for policy in [crate::config::PolicyName::Skip, crate::config::PolicyName::Error] {
+            let text = "[data]\nimu = \"imu\"\ngnss = \"gnss\"\nimu_rate = 100.0\n\
+                [imu_noise]\narw = [0.3, 0.3, 0.3]\nvrw = [0.1, 0.1, 0.1]\n\
+                gyro_bias_std = [10.0, 10.0, 10.0]\naccel_bias_std = [100.0, 100.0, 100.0]\n\
+                corr_time = 1.0\n";
+            let mut config =
+                Config::parse(text, crate::config::ConfigKind::Toml, std::path::Path::new("."))
+                    .unwrap();
+            config.data.bad_lines = policy;
+            let (tx, tee) = std::sync::mpsc::channel();
+            let read = drain(ImuFeed::spawn(open_imu(&config, &inputs).unwrap(), Some(tx)), tee);
+            let failed = read.0.last().is_some_and(|m| m.is_err());
+            match policy {
+                crate::config::PolicyName::Skip => {
+                    assert!(!failed && read.0.len() == 3, "{} messages", read.0.len());
+                    assert_eq!((read.2.malformed, read.2.backwards), (1, 1));
+                }
+                crate::config::PolicyName::Error => assert!(failed && read.0.len() == 3),
+            }
+            let recording = std::sync::Arc::new(ImuRecording::read(&config, &inputs).unwrap());
+            for _ in 0..2 {
+                let (tx, tee) = std::sync::mpsc::channel();
+                assert_eq!(drain(ImuFeed::replay(recording.clone(), Some(tx)), tee), read);
+            }
+        }
     }
 }

@@ -142,7 +142,7 @@ fn run_with<O: Sink>(
     mut create: impl FnMut() -> Result<(O, O::Nav), RunError>,
 ) -> Result<(RunSummary, O), (RunError, bool)> {
     let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
-    let first = attempt(config, strategy.clone(), inputs, again, &mut create, None);
+    let first = attempt(config, strategy.clone(), inputs, again, &mut create, None, None);
     // the start's lines of the attempts that started again
     let mut lines = Vec::new();
     // a time offset the start found and calibration applies: again, on shifted stamps
@@ -153,7 +153,8 @@ fn run_with<O: Sink>(
             c.data.imu_time_offset = offset;
             lines.extend(found);
             let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
-            let run = settled(attempt(&c, strategy.clone(), inputs, again, &mut create, None));
+            let run =
+                settled(attempt(&c, strategy.clone(), inputs, again, &mut create, None, None));
             shifted = Some(c);
             run
         }
@@ -172,7 +173,7 @@ fn run_with<O: Sink>(
                 None => (config, Some(probe)),
             };
             let (mut summary, out) =
-                attempt(c, strategy.clone(), inputs, again, &mut create, prior)?;
+                attempt(c, strategy.clone(), inputs, again, &mut create, prior, None)?;
             if let Some(f) = summary.fix_errors.as_mut() {
                 f.probe = Some(probe);
             }
@@ -200,7 +201,7 @@ fn run_with<O: Sink>(
                     sigma,
                     -late
                 ));
-                settled(attempt(&c, strategy, inputs, progress, &mut create, None))
+                settled(attempt(&c, strategy, inputs, progress, &mut create, None, None))
             }
             _ => Ok((summary, out)),
         },
@@ -244,6 +245,7 @@ fn attempt<O: Sink>(
     progress: Option<Progress<'_>>,
     create: &mut impl FnMut() -> Result<(O, O::Nav), RunError>,
     persisting: Option<FixErrorProbe>,
+    replay: Option<&std::sync::Arc<ImuRecording>>,
 ) -> Result<(RunSummary, O), (RunError, bool)> {
     // a recording is read once, into rows, and completes the configuration
     let recording;
@@ -254,7 +256,14 @@ fn attempt<O: Sink>(
         }
         _ => (config, inputs),
     };
-    let (imu, mut gnss) = open_inputs(config, inputs).map_err(|e| (e, false))?;
+    let (imu, mut gnss) = match replay {
+        Some(r) => (Err(r.clone()), open_aid(config, inputs).map_err(|e| (e, false))?),
+        None => open_inputs(config, inputs).map(|(i, g)| (Ok(i), g)).map_err(|e| (e, false))?,
+    };
+    let feed_of = |tee| match imu {
+        Ok(imu) => ImuFeed::spawn(imu, tee),
+        Err(r) => ImuFeed::replay(r, tee),
+    };
     // With the whole initial state and noise given, the data's first seconds are only
     // checked (`start::prepare` changes nothing but the noise floor, which needs only the
     // static start): the checks run beside the filter on a copy of them, and a refusal
@@ -272,9 +281,9 @@ fn attempt<O: Sink>(
     let (mut feed, checks) = if beside {
         let (tee, prefix) = std::sync::mpsc::channel();
         let checks = Checks::spawn(config, inputs, prefix).map_err(|e| (e, false))?;
-        (ImuFeed::spawn(imu, Some(tee)), Some(checks))
+        (feed_of(Some(tee)), Some(checks))
     } else {
-        (ImuFeed::spawn(imu, None), None)
+        (feed_of(None), None)
     };
     let ready = read_prefix(config, &mut feed, &mut gnss, look)
         .and_then(|prefix| Ok((prepare_start(config, &prefix, look)?, prefix)))
