@@ -181,11 +181,11 @@ impl ProcessModel for InsModelTc {
         P: &M20,
         out: &mut M20,
     ) -> InsStateTc {
-        let p15: SMatrix<f64, 15, 15> = P.fixed_view::<15, 15>(0, 0).into_owned();
+        let p15 = crate::augment::leading_block::<15, 20>(P);
         let mut o15 = SMatrix::<f64, 15, 15>::zeros();
         let mut phi_t15 = SMatrix::<f64, 15, 15>::zeros();
         let nav = self.base.step_covariance_adjoint(&x.nav, u, dt, &p15, &mut o15, &mut phi_t15);
-        out.fixed_view_mut::<15, 15>(0, 0).copy_from(&o15);
+        crate::augment::set_leading_block::<15, 20>(out, &o15);
         // Φ_c = [[1, dt], [0, 1]] ⊕ I₃ acting on the last five rows
         let shear = |m: &mut SMatrix<f64, 5, 5>| {
             // rows: r0 += dt r1; columns: c0 += dt c1
@@ -293,11 +293,12 @@ impl ProcessModel for InsModelTc21 {
     /// cross blocks directly; about 60 % of the dense product's multiply-adds.
     fn propagate_covariance(&self, P: &M26, jac: &ProcessJacobians<Const<26>>, out: &mut M26) {
         const C0: usize = InsStateTc21::CLOCK.start();
-        let phi21: M21 = jac.Phi.fixed_view::<21, 21>(0, 0).into_owned();
-        let j21 = ProcessJacobians { Phi: phi21, Q: jac.Q.fixed_view::<21, 21>(0, 0).into_owned() };
+        let phi21: M21 = crate::augment::leading_block::<21, 26>(&jac.Phi);
+        let j21 =
+            ProcessJacobians { Phi: phi21, Q: crate::augment::leading_block::<21, 26>(&jac.Q) };
         let mut o21 = M21::zeros();
-        self.base.propagate_covariance(&P.fixed_view::<21, 21>(0, 0).into_owned(), &j21, &mut o21);
-        out.fixed_view_mut::<21, 21>(0, 0).copy_from(&o21);
+        self.base.propagate_covariance(&crate::augment::leading_block::<21, 26>(P), &j21, &mut o21);
+        crate::augment::set_leading_block::<21, 26>(out, &o21);
         let phic: SMatrix<f64, 5, 5> = jac.Phi.fixed_view::<5, 5>(C0, C0).into_owned();
         let cross = phi21 * P.fixed_view::<21, 5>(0, C0) * phic.transpose();
         out.fixed_view_mut::<21, 5>(0, C0).copy_from(&cross);
