@@ -17,6 +17,7 @@ pub mod bds;
 pub mod ephemeris;
 mod fields;
 pub mod inav;
+pub mod lambda;
 pub mod lnav;
 pub mod obs;
 pub mod rinex;
