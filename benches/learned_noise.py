@@ -12,12 +12,13 @@ after `cargo build --release -p ins-gnss`:
 
     python3 benches/learned_noise.py [BINARY] [--smooth]
 """
-import json, os, re, subprocess, sys, tempfile
+import os, re, subprocess, sys, tempfile
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import scores  # noqa: E402
 SMOOTH = "--smooth" in sys.argv[1:]
 ARGS = [a for a in sys.argv[1:] if a != "--smooth"]
 B = ARGS[0] if ARGS else "target/release/ins-gnss"
 NAV = "/nav_smoothed.txt" if SMOOTH else "/nav.txt"
-W = json.load(open("data/drive-0708/outage_windows_15s.json"))
 def run(cfg, declared):
     out = os.path.join(tempfile.gettempdir(), "learned-noise", f"{abs(hash((cfg, declared, SMOOTH)))}")
     r = subprocess.run([B, "run", cfg, "--quiet", "--out", out,
@@ -26,15 +27,8 @@ def run(cfg, declared):
     learned = re.findall(r"noise learned: (.*)", r.stdout + r.stderr)
     return out, r.returncode, (learned[0] if learned else "")
 def score(kind, out):
-    if kind == "navego":
-        args = [B, "eval", out + NAV, "data/navego/truth.nav.zst", "--skip", "60", "--json"]
-    else:
-        args = [B, "eval", out + NAV, "data/drive-0708/ref_rtkfix.txt.zst", "--json"]
-        for a, b in W: args += ["--window", f"{a},{b}"]
-    r = subprocess.run(args, capture_output=True, text=True)
-    if r.returncode != 0: return None
-    j = json.loads(r.stdout)
-    return j["overall"]["horizontal"]["rms"] if kind == "navego" else j["windows_rms_of_max_horizontal"]
+    s = scores.score(B, kind, out + NAV)
+    return s and s["h"]
 rows = [("navego kf-gins-ADIS16488.yaml", "navego", "data/navego/kf-gins-ADIS16488.yaml"),
         ("navego kf-gins-ADIS16405.yaml", "navego", "data/navego/kf-gins-ADIS16405.yaml"),
         ("navego noinit.toml", "navego", "data/navego/noinit.toml"),

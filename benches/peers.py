@@ -15,36 +15,19 @@ RMS over the ten 15 s outages of each one's largest horizontal error against
 3 judged untrustworthy, its result still scored). Needs Python's standard library and
 the `zstd` command.
 """
-import json, os, re, shutil, subprocess, sys, tempfile
+import os, re, shutil, subprocess, sys, tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import scores  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 B = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else os.path.join(ROOT, "target/release/ins-gnss")
 KF = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else os.path.join(ROOT, "../shared/bin/kf-gins")
-WINDOWS = json.load(open(os.path.join(ROOT, "data/drive-0708/outage_windows_15s.json")))
 WORK = tempfile.mkdtemp(prefix="peers-")
 
 
 def score(kind, nav):
-    if kind == "navego":
-        args = [B, "eval", nav, os.path.join(ROOT, "data/navego/truth.nav.zst"), "--skip", "60", "--json"]
-    else:
-        args = [B, "eval", nav, os.path.join(ROOT, "data/drive-0708/ref_rtkfix.txt.zst"), "--json"]
-        for a, b in WINDOWS:
-            args += ["--window", f"{a},{b}"]
-    r = subprocess.run(args, capture_output=True, text=True)
-    if r.returncode != 0:
-        return None
-    j = json.loads(r.stdout)
-    if kind == "navego":
-        o = j["overall"]
-        s = {"h": o["horizontal"]["rms"], "yaw": o.get("yaw", {}).get("rms")}
-    else:
-        s = {"h": j["windows_rms_of_max_horizontal"]}
-    # (navego only: drive-0708's reference is the RTK fixes the run reads, at the
-    # filter's own centimetres, not an independent truth)
-    nees = (j.get("nees") or {}).get("position") if kind == "navego" else None
-    s["beyond"] = None if not nees else 100 * nees["beyond_99"]
-    return s
+    return scores.score(B, kind, nav)
 
 
 def ours(cfg, smooth):
