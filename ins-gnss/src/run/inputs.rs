@@ -266,7 +266,7 @@ pub(crate) struct ImuRecording {
     skipped: SkipCounts,
 }
 
-/// The most bytes of IMU samples an [`ImuRecording`] keeps (about 3 million samples,
+/// The most bytes of IMU samples the fix-error bank keeps in memory (about 3 million samples,
 /// four hours at 200 Hz); a longer log is read again by each run.
 pub const IMU_RECORDING_BYTES: usize = 1 << 28;
 
