@@ -266,8 +266,8 @@ pub(crate) struct ImuRecording {
     skipped: SkipCounts,
 }
 
-/// The most bytes of IMU samples the fix-error bank keeps in memory (about 3 million samples,
-/// four hours at 200 Hz); a longer log is read again by each run.
+/// The most bytes of IMU samples the fix-error bank keeps in memory (about 3 million
+/// samples, four hours at 200 Hz); a longer log is read again by each of its passes.
 pub const IMU_RECORDING_BYTES: usize = 1 << 28;
 
 impl ImuRecording {
