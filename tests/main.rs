@@ -13,6 +13,7 @@ mod house;
 mod repro_fused;
 mod repro_iakf;
 mod repro_sample_data;
+mod rtk;
 mod simulated_drive;
 mod start_campaign;
 mod strategy_invariant;

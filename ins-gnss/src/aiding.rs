@@ -94,6 +94,15 @@ impl RawInput {
         }
     }
 
+    /// A RINEX file's `APPROX POSITION XYZ` (ECEF, m; `None` for a log or a header
+    /// without one).
+    pub fn approx_position(&self) -> Option<nalgebra::Vector3<f64>> {
+        match &self.epochs {
+            RawEpochs::Rinex(r) => r.header.approx_position,
+            RawEpochs::Log(_) => None,
+        }
+    }
+
     /// The observation file.
     pub fn path(&self) -> &Path {
         &self.path

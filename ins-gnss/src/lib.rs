@@ -38,6 +38,7 @@ pub mod eval;
 pub mod health;
 pub mod plot;
 pub mod report;
+pub mod rtk;
 pub mod run;
 pub mod scenario;
 pub mod spp;

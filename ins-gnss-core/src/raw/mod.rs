@@ -21,6 +21,7 @@ pub mod lambda;
 pub mod lnav;
 pub mod obs;
 pub mod rinex;
+pub mod rtk;
 pub mod spp;
 pub mod time;
 pub mod ubx;

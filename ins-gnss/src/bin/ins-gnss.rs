@@ -195,6 +195,38 @@ enum Command {
         #[arg(long)]
         against: Option<PathBuf>,
     },
+    /// RTK positions of a rover against a base station from double-differenced code and
+    /// carrier phase (integer ambiguities by LAMBDA with the ratio test), written as an
+    /// RTKLIB `.pos` (Q = 1 fixed, 2 float).
+    Rtk {
+        /// The rover's RINEX observation file (or a u-blox log).
+        rover: PathBuf,
+        /// The base station's RINEX observation file, observed at the rover's instants.
+        base: PathBuf,
+        /// RINEX navigation file(s).
+        nav: Vec<PathBuf>,
+        /// Output `.pos` file.
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+        /// The base's ECEF position, m (X,Y,Z) [default: the base file's APPROX POSITION XYZ].
+        #[arg(long, value_delimiter = ',', num_args = 3)]
+        base_position: Option<Vec<f64>>,
+        /// The rover stands still (its position a constant state).
+        #[arg(long = "static")]
+        fixed_rover: bool,
+        /// Frequencies: 1 (L1) or 2 (L1 and L2).
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+        frequencies: u8,
+        /// Elevation mask at the base, degrees.
+        #[arg(long, default_value_t = 15.0)]
+        mask: f64,
+        /// The ratio test's threshold.
+        #[arg(long, default_value_t = 3.0)]
+        ratio: f64,
+        /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
+        #[arg(long)]
+        against: Option<PathBuf>,
+    },
     /// Print every configuration key: a complete commented configuration (default), or
     /// the Markdown reference with units, defaults and examples. Both are generated from
     /// the configuration types.
@@ -331,6 +363,40 @@ fn main() -> ExitCode {
             };
             let navs: Vec<&std::path::Path> = nav.iter().map(PathBuf::as_path).collect();
             ins_gnss::spp::run(&obs, &navs, out.as_deref(), &opt, against.as_deref())
+        }
+        Some(Command::Rtk {
+            rover,
+            base,
+            nav,
+            out,
+            base_position,
+            fixed_rover,
+            frequencies,
+            mask,
+            ratio,
+            against,
+        }) => {
+            let opt = ins_gnss_core::raw::rtk::RtkOptions {
+                mode: if fixed_rover {
+                    ins_gnss_core::raw::rtk::RtkMode::Static
+                } else {
+                    ins_gnss_core::raw::rtk::RtkMode::Kinematic
+                },
+                frequencies: frequencies as usize,
+                elevation_mask: mask.to_radians(),
+                ratio,
+                ..Default::default()
+            };
+            let base_pos = base_position.map(|v| nalgebra::Vector3::new(v[0], v[1], v[2]));
+            ins_gnss::rtk::run(
+                &rover,
+                &base,
+                &nav,
+                base_pos,
+                out.as_deref(),
+                &opt,
+                against.as_deref(),
+            )
         }
         Some(Command::Config { example: _, reference }) => {
             let text = if reference {

@@ -1,0 +1,389 @@
+//! GNSS-only RTK: a rover's position relative to a base station of known position from
+//! double-differenced pseudoranges and carrier phases, the ambiguities as float states of a
+//! Kalman filter, resolved to integers by [`super::lambda`] with the ratio test.
+//!
+//! Per epoch (rover and base observed at the same instant):
+//!
+//! - the satellites both receivers track with code and phase on each frequency used, above
+//!   the elevation mask at the base; each one's state at its transmission time, for each
+//!   receiver (the base's range from its known position);
+//! - single differences (rover − base) remove the satellite clock and orbit error and,
+//!   over a short baseline, the atmosphere; double differences against the highest
+//!   satellite remove the receivers' clocks. The states: the rover's ECEF position and, per
+//!   satellite and frequency, the single-differenced ambiguity in metres (its double
+//!   difference is what the data tell). A new satellite, one whose phase either receiver
+//!   flags (LLI), or one missing the epoch before starts with the code's value and a σ of
+//!   [`AMBIGUITY_SIGMA0`];
+//! - the update takes the double differences with their covariance (the reference
+//!   satellite's noise is common to all: `R = D diag(σ²_sd) Dᵀ`), σ of a single difference
+//!   `√2 (a² + b²/sin² el)^{½}` with RTKLIB's defaults (a = b = 3 mm for phase, the code
+//!   100× the phase);
+//! - the double-differenced ambiguities in cycles, `â = G b`, `Q = G P Gᵀ`, are searched
+//!   for the two best integer vectors; when the second's squared norm is at least
+//!   [`RtkOptions::ratio`] times the best's, the position is conditioned on the best:
+//!   `x̌ = x̂ − P_xa Q⁻¹ (â − ǎ)`, `P̌ = P_xx − P_xa Q⁻¹ P_ax` (fixed, Q = 1); otherwise
+//!   the float solution is the answer (Q = 2).
+//!
+//! Static mode keeps the position as a constant; kinematic mode restarts it each epoch
+//! from the rover's single point (σ 30 m) and keeps the ambiguities. Not here yet (issue
+//! 74): fix-and-hold, partial fixing, slip detection beyond the receivers' flags, a base
+//! at another rate than the rover, the INS filter's use of all this.
+
+use std::collections::HashMap;
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+use super::ephemeris::C;
+use super::lambda;
+use super::obs::{frequency, ObsEpoch};
+use super::spp::{azel, geometry, prepare, Ionosphere, Prepared, SppOptions};
+use super::{Ephemerides, GpsTime, Sat};
+use crate::earth::ecef_to_geodetic;
+
+/// The σ (m) a new single-differenced ambiguity starts with.
+pub const AMBIGUITY_SIGMA0: f64 = 30.0;
+
+/// The σ (m) the rover's position restarts with each epoch in kinematic mode (around its
+/// single point) and starts with in static mode.
+pub const POSITION_SIGMA0: f64 = 30.0;
+
+/// How the rover moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RtkMode {
+    /// It does not: the position is a constant state.
+    Static,
+    /// Anyhow: the position restarts each epoch from the single point.
+    Kinematic,
+}
+
+/// The solution's settings.
+#[derive(Clone, Debug)]
+pub struct RtkOptions {
+    /// Static or kinematic.
+    pub mode: RtkMode,
+    /// Frequencies used: 1 (L1) or 2 (L1 and L2).
+    pub frequencies: usize,
+    /// Elevation mask at the base, rad.
+    pub elevation_mask: f64,
+    /// The ratio test's threshold (RTKLIB's default 3).
+    pub ratio: f64,
+    /// Phase noise of one receiver, `a + b / sin el` in quadrature, m.
+    pub phase_sigma: (f64, f64),
+    /// The code's noise over the phase's.
+    pub code_over_phase: f64,
+    /// The single point's settings (the rover's first position, the satellites' states).
+    pub spp: SppOptions,
+}
+
+impl Default for RtkOptions {
+    fn default() -> Self {
+        let mut spp = SppOptions::rtklib_default();
+        // (the code of the first frequency: the satellites' transmission times)
+        if spp.ionosphere == Ionosphere::IonoFree {
+            spp.ionosphere = Ionosphere::Klobuchar;
+        }
+        Self {
+            mode: RtkMode::Kinematic,
+            frequencies: 2,
+            elevation_mask: 15f64.to_radians(),
+            ratio: 3.0,
+            phase_sigma: (0.003, 0.003),
+            code_over_phase: 100.0,
+            spp,
+        }
+    }
+}
+
+/// One epoch's solution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RtkEpoch {
+    /// The rover's time stamp.
+    pub time: GpsTime,
+    /// The rover's ECEF position, m.
+    pub pos: Vector3<f64>,
+    /// Its covariance, m².
+    pub cov: Matrix3<f64>,
+    /// The ambiguities resolved (the ratio test passed).
+    pub fixed: bool,
+    /// The ratio of the integer search (NaN: not searched).
+    pub ratio: f64,
+    /// Satellites in the double differences.
+    pub sats: usize,
+}
+
+/// Why an epoch has no solution.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RtkFailure {
+    /// Fewer than two satellites common to both receivers with phase and code.
+    TooFewSatellites(usize),
+    /// The rover has no single point yet (its first position).
+    NoSinglePoint,
+    /// The update's innovation covariance is not positive definite.
+    Singular,
+}
+
+/// One satellite and frequency in both receivers: the single differences (m) and what
+/// the model needs.
+#[derive(Clone, Copy, Debug)]
+struct Common {
+    key: (Sat, usize),
+    code: f64,
+    phase: f64,
+    wavelength: f64,
+    elevation: f64,
+    rover: Prepared,
+    base: Prepared,
+    slipped: bool,
+}
+
+/// The filter over epochs.
+#[derive(Clone, Debug)]
+pub struct Rtk {
+    opt: RtkOptions,
+    base: Vector3<f64>,
+    x: DVector<f64>,
+    p: DMatrix<f64>,
+    /// The state index of each satellite and frequency's ambiguity, and the epoch it was
+    /// last used in.
+    slots: HashMap<(Sat, usize), (usize, u64)>,
+    epoch: u64,
+    started: bool,
+}
+
+impl Rtk {
+    /// A filter for a base at ECEF `base` (m).
+    pub fn new(base: Vector3<f64>, opt: RtkOptions) -> Self {
+        Self {
+            opt,
+            base,
+            x: DVector::zeros(3),
+            p: DMatrix::identity(3, 3) * POSITION_SIGMA0.powi(2),
+            slots: HashMap::new(),
+            epoch: 0,
+            started: false,
+        }
+    }
+
+    /// The epoch of rover and base (observed at the same instant), with the rover's single
+    /// point `spp` (ECEF, m) when there is one (the start; kinematic mode each epoch).
+    pub fn step(
+        &mut self,
+        rover: &ObsEpoch,
+        base: &ObsEpoch,
+        eph: &Ephemerides,
+        spp: Option<Vector3<f64>>,
+    ) -> Result<RtkEpoch, RtkFailure> {
+        self.epoch += 1;
+        match (self.started, self.opt.mode, spp) {
+            (false, _, None) => return Err(RtkFailure::NoSinglePoint),
+            (false, _, Some(s)) | (true, RtkMode::Kinematic, Some(s)) => {
+                self.x.fixed_rows_mut::<3>(0).copy_from(&s);
+                let n = self.x.len();
+                self.p.view_mut((0, 0), (3, n)).fill(0.0);
+                self.p.view_mut((0, 0), (n, 3)).fill(0.0);
+                for i in 0..3 {
+                    self.p[(i, i)] = POSITION_SIGMA0.powi(2);
+                }
+                self.started = true;
+            }
+            _ => {}
+        }
+        let common = self.common(rover, base, eph);
+        // ambiguities: new, slipped or after a gap start again from the code
+        for c in &common {
+            let fresh = match self.slots.get(&c.key) {
+                Some(&(_, last)) => c.slipped || last + 1 < self.epoch,
+                None => true,
+            };
+            let i = match self.slots.get(&c.key) {
+                Some(&(i, _)) => i,
+                None => self.grow(),
+            };
+            if fresh {
+                self.p.row_mut(i).fill(0.0);
+                self.p.column_mut(i).fill(0.0);
+                self.p[(i, i)] = AMBIGUITY_SIGMA0.powi(2);
+                self.x[i] = c.phase - c.code;
+            }
+            self.slots.insert(c.key, (i, self.epoch));
+        }
+        let mut used = 0;
+        let mut groups = Vec::new();
+        for f in 0..self.opt.frequencies {
+            let g: Vec<Common> = common.iter().filter(|c| c.key.1 == f).copied().collect();
+            if g.len() >= 2 {
+                used = used.max(g.len());
+                groups.push(g);
+            }
+        }
+        if groups.is_empty() {
+            return Err(RtkFailure::TooFewSatellites(common.len()));
+        }
+        self.update(&groups)?;
+        Ok(self.resolve(rover.time, &groups, used))
+    }
+
+    /// A new ambiguity state (zero, uncorrelated); its index.
+    fn grow(&mut self) -> usize {
+        let n = self.x.len();
+        self.x = self.x.clone().insert_row(n, 0.0);
+        self.p = self.p.clone().insert_row(n, 0.0).insert_column(n, 0.0);
+        n
+    }
+
+    /// The satellites and frequencies both receivers track with code and phase, above
+    /// the mask at the base.
+    fn common(&self, rover: &ObsEpoch, base: &ObsEpoch, eph: &Ephemerides) -> Vec<Common> {
+        let (r, _) = prepare(rover, eph, &self.opt.spp);
+        let (b, _) = prepare(base, eph, &self.opt.spp);
+        let (lat, lon, _) = ecef_to_geodetic(&self.base);
+        let mut out = Vec::new();
+        for rp in &r {
+            let Some(bp) = b.iter().find(|p| p.sat == rp.sat) else { continue };
+            let (Some(ro), Some(bo)) = (
+                rover.sats.iter().find(|o| o.sat == rp.sat),
+                base.sats.iter().find(|o| o.sat == rp.sat),
+            ) else {
+                continue;
+            };
+            let (_, e) = geometry(&bp.state.pos, &self.base);
+            let (_, el) = azel(lat, lon, &e);
+            if el < self.opt.elevation_mask {
+                continue;
+            }
+            for f in 0..self.opt.frequencies.min(2) {
+                let (rs, bs) = (&ro.signals[f], &bo.signals[f]);
+                let (Some(rc), Some(rl), Some(bc), Some(bl)) =
+                    (rs.code, rs.phase, bs.code, bs.phase)
+                else {
+                    continue;
+                };
+                let wavelength = C / frequency(rp.sat.sys, f);
+                out.push(Common {
+                    key: (rp.sat, f),
+                    code: rc - bc,
+                    phase: (rl - bl) * wavelength,
+                    wavelength,
+                    elevation: el,
+                    rover: *rp,
+                    base: *bp,
+                    slipped: (rs.lli | bs.lli) & 1 != 0,
+                });
+            }
+        }
+        out
+    }
+
+    /// One receiver's phase variance at elevation `el` (m²).
+    fn phase_variance(&self, el: f64) -> f64 {
+        let (a, b) = self.opt.phase_sigma;
+        a * a + (b / el.sin().max(0.05)).powi(2)
+    }
+
+    /// The Kalman update on the double differences of each frequency's group (the first
+    /// of a group, its highest satellite, is the reference).
+    fn update(&mut self, groups: &[Vec<Common>]) -> Result<(), RtkFailure> {
+        let n = self.x.len();
+        let rover = Vector3::new(self.x[0], self.x[1], self.x[2]);
+        let rows: usize = groups.iter().map(|g| 2 * (g.len() - 1)).sum();
+        let (mut h, mut v, mut r) =
+            (DMatrix::zeros(rows, n), DVector::zeros(rows), DMatrix::zeros(rows, rows));
+        let mut row = 0;
+        for g in groups {
+            let mut g = g.clone();
+            g.sort_by(|a, b| b.elevation.total_cmp(&a.elevation));
+            // the single differences' modelled ranges and their rover Jacobians
+            let model: Vec<(f64, Vector3<f64>)> = g
+                .iter()
+                .map(|c| {
+                    let (rr, e) = geometry(&c.rover.state.pos, &rover);
+                    let (rb, _) = geometry(&c.base.state.pos, &self.base);
+                    (rr - rb, -e)
+                })
+                .collect();
+            let var: Vec<f64> = g.iter().map(|c| 2.0 * self.phase_variance(c.elevation)).collect();
+            let k = g.len() - 1;
+            for (phase, block) in [(true, row), (false, row + k)] {
+                let scale = if phase { 1.0 } else { self.opt.code_over_phase.powi(2) };
+                for s in 1..g.len() {
+                    let i = block + s - 1;
+                    let range = model[s].0 - model[0].0;
+                    let obs = if phase { g[s].phase - g[0].phase } else { g[s].code - g[0].code };
+                    let mut pred = range;
+                    for c in 0..3 {
+                        h[(i, c)] = model[s].1[c] - model[0].1[c];
+                    }
+                    if phase {
+                        let (js, j0) = (self.slots[&g[s].key].0, self.slots[&g[0].key].0);
+                        pred += self.x[js] - self.x[j0];
+                        h[(i, js)] = 1.0;
+                        h[(i, j0)] = -1.0;
+                    }
+                    v[i] = obs - pred;
+                    for t in 1..g.len() {
+                        r[(i, block + t - 1)] = scale * var[0];
+                    }
+                    r[(i, i)] += scale * var[s];
+                }
+            }
+            row += 2 * k;
+        }
+        let ht = h.transpose();
+        let s = &h * &self.p * &ht + &r;
+        let chol = s.cholesky().ok_or(RtkFailure::Singular)?;
+        let k = &self.p * &ht * chol.inverse();
+        self.x += &k * v;
+        let i_kh = DMatrix::identity(n, n) - &k * &h;
+        self.p = &i_kh * &self.p * i_kh.transpose() + &k * r * k.transpose();
+        self.p = (&self.p + self.p.transpose()) * 0.5;
+        Ok(())
+    }
+
+    /// The float solution, or the fixed one when the ratio test passes.
+    fn resolve(&self, time: GpsTime, groups: &[Vec<Common>], sats: usize) -> RtkEpoch {
+        let n = self.x.len();
+        let pos = Vector3::new(self.x[0], self.x[1], self.x[2]);
+        let cov = self.p.fixed_view::<3, 3>(0, 0).into_owned();
+        let float = RtkEpoch { time, pos, cov, fixed: false, ratio: f64::NAN, sats };
+        // G: double-differenced ambiguities in cycles from the states
+        let m: usize = groups.iter().map(|g| g.len() - 1).sum();
+        let mut g_mat = DMatrix::zeros(m, n);
+        let mut row = 0;
+        for g in groups {
+            let mut g = g.clone();
+            g.sort_by(|a, b| b.elevation.total_cmp(&a.elevation));
+            let j0 = self.slots[&g[0].key].0;
+            for c in &g[1..] {
+                let j = self.slots[&c.key].0;
+                g_mat[(row, j)] = 1.0 / c.wavelength;
+                g_mat[(row, j0)] = -1.0 / c.wavelength;
+                row += 1;
+            }
+        }
+        let a = &g_mat * &self.x;
+        let q = &g_mat * &self.p * g_mat.transpose();
+        let q = (&q + q.transpose()) * 0.5;
+        let Ok(found) = lambda::solve(a.as_slice(), &q, 2) else {
+            return float;
+        };
+        let ratio = found.ratio();
+        if ratio < self.opt.ratio {
+            return RtkEpoch { ratio, ..float };
+        }
+        let Some(qi) = q.clone().cholesky().map(|c| c.inverse()) else {
+            return RtkEpoch { ratio, ..float };
+        };
+        let fixed = DVector::from_iterator(m, found.best().iter().map(|&v| v as f64));
+        let pxa = self.p.rows(0, 3) * g_mat.transpose();
+        let gain = &pxa * qi;
+        let dx = &gain * (a - fixed);
+        let dp = &gain * pxa.transpose();
+        RtkEpoch {
+            pos: pos - Vector3::new(dx[0], dx[1], dx[2]),
+            cov: cov - dp.fixed_view::<3, 3>(0, 0).into_owned(),
+            fixed: true,
+            ratio,
+            ..float
+        }
+    }
+}

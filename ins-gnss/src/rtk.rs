@@ -1,0 +1,199 @@
+//! `ins-gnss rtk`: a rover's RTK positions against a base station, written as an RTKLIB
+//! `.pos` (Q = 1 fixed, 2 float), and their comparison with another solution.
+
+use crate::cli::CliError;
+use crate::spp::{compare, read_pos, scatter};
+
+use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
+use ins_gnss_core::io::formats::{create_partial, publish};
+use ins_gnss_core::io::rtklib::{push_epoch_ns, write_header_mode};
+use ins_gnss_core::raw::rtk::{Rtk, RtkEpoch, RtkFailure, RtkMode, RtkOptions};
+use ins_gnss_core::raw::single_point;
+use ins_gnss_core::GeoPos;
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Base epochs further than this from the rover's (s) are not paired with it.
+pub const PAIRING: f64 = 0.5;
+
+/// What an RTK run found.
+#[derive(Clone, Debug, Default)]
+pub struct RtkRun {
+    /// Rover epochs read.
+    pub epochs: usize,
+    /// The solutions.
+    pub solutions: Vec<RtkEpoch>,
+    /// Epochs without a solution, by reason.
+    pub failures: BTreeMap<String, usize>,
+    /// The base position used (ECEF, m).
+    pub base: Vector3<f64>,
+}
+
+impl RtkRun {
+    /// Fixed solutions over all solutions.
+    pub fn fix_rate(&self) -> f64 {
+        self.solutions.iter().filter(|s| s.fixed).count() as f64
+            / self.solutions.len().max(1) as f64
+    }
+}
+
+/// Solves every rover epoch that has a base epoch at the same instant.
+pub fn solve_files(
+    rover: &Path,
+    base: &Path,
+    navs: &[PathBuf],
+    base_pos: Option<Vector3<f64>>,
+    opt: &RtkOptions,
+) -> Result<RtkRun, CliError> {
+    let mut r = crate::aiding::RawInput::open(rover, navs)?;
+    let mut b = crate::aiding::RawInput::open(base, navs)?;
+    let Some(base_pos) = base_pos.or_else(|| b.approx_position()) else {
+        return Err(format!(
+            "{}: no APPROX POSITION XYZ in the header: give the base position (--base X,Y,Z)",
+            base.display()
+        )
+        .into());
+    };
+    let mut rtk = Rtk::new(base_pos, opt.clone());
+    let mut run = RtkRun { base: base_pos, ..Default::default() };
+    let mut prior = None;
+    let mut next_base = b.next_epoch()?;
+    while let Some(e) = r.next_epoch()? {
+        run.epochs += 1;
+        while next_base.as_ref().is_some_and(|x| x.time.diff(&e.time) < -PAIRING) {
+            next_base = b.next_epoch()?;
+        }
+        let Some(be) = next_base.as_ref().filter(|x| x.time.diff(&e.time).abs() <= PAIRING) else {
+            *run.failures.entry("no base epoch at the same instant".into()).or_default() += 1;
+            continue;
+        };
+        let nav = &r.nav;
+        let spp =
+            single_point(&e, &nav.ephemerides, nav.klobuchar.as_ref(), &opt.spp, prior.as_ref())
+                .ok();
+        prior = spp.as_ref().map(|s| s.pos).or(prior);
+        match rtk.step(&e, be, &nav.ephemerides, spp.as_ref().map(|s| s.pos)) {
+            // (the instant the position holds at, as RTKLIB writes it: the time stamp
+            // corrected by the single point's receiver clock)
+            Ok(s) => run
+                .solutions
+                .push(RtkEpoch { time: spp.as_ref().map_or(s.time, |p| p.solution_time()), ..s }),
+            Err(f) => {
+                let key = match f {
+                    RtkFailure::TooFewSatellites(_) => "too few common satellites",
+                    RtkFailure::NoSinglePoint => "no single point yet",
+                    RtkFailure::Singular => "singular update",
+                };
+                *run.failures.entry(key.into()).or_default() += 1;
+            }
+        }
+    }
+    Ok(run)
+}
+
+/// Writes the solutions as an RTKLIB `.pos` (Q = 1 fixed, 2 float), atomically.
+pub fn write_pos(path: &Path, run: &RtkRun, opt: &RtkOptions) -> Result<(), CliError> {
+    let mut w = create_partial(path)?;
+    let (lat, lon, h) = ecef_to_geodetic(&run.base);
+    let mode = format!(
+        "{} RTK, {} frequenc{}, elevation mask {:.0}°, ratio {:.1}, base {:.9}° {:.9}° {:.4} m",
+        match opt.mode {
+            RtkMode::Static => "static",
+            RtkMode::Kinematic => "kinematic",
+        },
+        opt.frequencies,
+        if opt.frequencies == 1 { "y" } else { "ies" },
+        opt.elevation_mask.to_degrees(),
+        opt.ratio,
+        lat.to_degrees(),
+        lon.to_degrees(),
+        h
+    );
+    write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
+    let mut line = Vec::with_capacity(200);
+    for s in &run.solutions {
+        let (lat, lon, h) = ecef_to_geodetic(&s.pos);
+        let c = ecef_to_ned_rotation(lat, lon);
+        line.clear();
+        push_epoch_ns(
+            &mut line,
+            s.time.week as f64,
+            s.time.tow,
+            &GeoPos { lat, lon, h },
+            &(c * s.cov * c.transpose()),
+            None,
+            if s.fixed { 1 } else { 2 },
+            s.sats,
+        );
+        w.write_all(&line)?;
+    }
+    w.flush()?;
+    drop(w);
+    publish(path)?;
+    Ok(())
+}
+
+/// `ins-gnss rtk`: solve, print, write, compare.
+pub fn run(
+    rover: &Path,
+    base: &Path,
+    navs: &[PathBuf],
+    base_pos: Option<Vector3<f64>>,
+    out: Option<&Path>,
+    opt: &RtkOptions,
+    against: Option<&Path>,
+) -> Result<(), CliError> {
+    let run = solve_files(rover, base, navs, base_pos, opt)?;
+    let fixed: Vec<Vector3<f64>> =
+        run.solutions.iter().filter(|s| s.fixed).map(|s| s.pos).collect();
+    out!(
+        "{}: {} of {} epochs solved, {} fixed ({:.1} %){}",
+        rover.display(),
+        run.solutions.len(),
+        run.epochs,
+        fixed.len(),
+        100.0 * run.fix_rate(),
+        if run.failures.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; unsolved: {}",
+                run.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", ")
+            )
+        }
+    );
+    if !fixed.is_empty() {
+        let (hs, vs, mean) = scatter(&fixed);
+        let (lat, lon, h) = ecef_to_geodetic(&mean);
+        out!(
+            "fixed: mean {:.9}° {:.9}° {:.4} m, baseline {:.3} m; scatter about it: horizontal {:.4} m, vertical {:.4} m (RMS)",
+            lat.to_degrees(),
+            lon.to_degrees(),
+            h,
+            (mean - run.base).norm(),
+            hs,
+            vs
+        );
+    }
+    if let Some(out) = out {
+        write_pos(out, &run, opt)?;
+        out!("wrote {}", out.display());
+    }
+    if let Some(a) = against {
+        let theirs = read_pos(a)?;
+        let ours: Vec<(f64, Vector3<f64>)> =
+            run.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
+        let (n, rms, d) = compare(&ours, &theirs);
+        out!(
+            "against {} ({} epochs): {n} common, 3D RMS difference {rms:.4} m, mean offset N {:.4} E {:.4} D {:.4} m",
+            a.display(),
+            theirs.len(),
+            d.x,
+            d.y,
+            d.z
+        );
+    }
+    Ok(())
+}
