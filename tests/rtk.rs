@@ -1,8 +1,8 @@
-//! `ins-gnss rtk` on the shipped real baseline (GEONET 0759 rover, 3040 base, 3.3 km,
-//! GPS L1 + L2, 30 s, one hour): against RTKLIB's static RTK of the same files with the
-//! same base position (`rnx2rtkp -p 3 -f 2 -r -3978242.4348 3382841.1715 3649902.7667
-//! -o h3.pos 07590920.05o 30400920.05o 07590920.05n`, Debian's rtklib 2.4.3: 115 of 115
-//! epochs fixed, mean 35.160875026° 139.613838576° 70.2767 m).
+//! `ins-gnss rtk` on the shipped real baseline (GEONET 0759 rover, 3040 base at its
+//! header's position, 3.3 km, GPS L1 + L2, 30 s, one hour) against RTKLIB's RTK of the
+//! same files with the same base position (`data/rinex-rtklib/rtklib/make.sh`: rnx2rtkp
+//! 2.4.3, `-p 3 -f 2` static, `-p 2 -f 2` and `-p 2 -f 1` kinematic; each fixes its 115
+//! epochs but one, the L1 run's last).
 
 use ins_gnss::rtk::{solve_files, RtkRun};
 use ins_gnss_core::earth::{ecef_to_ned_rotation, geodetic_to_ecef};
@@ -14,9 +14,40 @@ fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/rinex-rtklib").join(name)
 }
 
+/// RTKLIB's solution (`rtk0759-NAME.pos.zst`): GPS seconds of week and ECEF, fixed
+/// epochs only.
+fn rtklib(name: &str) -> Vec<(f64, Vector3<f64>)> {
+    let mut text = String::new();
+    let path = data(&format!("rtklib/rtk0759-{name}.pos.zst"));
+    let mut r = ins_gnss_core::io::formats::open(&path).unwrap();
+    std::io::Read::read_to_string(&mut r, &mut text).unwrap();
+    text.lines()
+        .filter(|l| !l.starts_with('%'))
+        .map(|l| l.split_whitespace().map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>())
+        .filter(|v| v[5] == 1.0)
+        .map(|v| (v[1], geodetic_to_ecef(v[2].to_radians(), v[3].to_radians(), v[4])))
+        .collect()
+}
+
 /// RTKLIB's static solution's mean (ECEF).
 fn reference() -> Vector3<f64> {
-    geodetic_to_ecef(35.160875026f64.to_radians(), 139.613838576f64.to_radians(), 70.2767)
+    let r = rtklib("static-l1l2");
+    r.iter().map(|p| p.1).sum::<Vector3<f64>>() / r.len() as f64
+}
+
+/// Epoch by epoch against RTKLIB's fixed epochs: those both fixed, and the 3D RMS of the
+/// differences (m).
+fn against(run: &RtkRun, name: &str) -> (usize, f64) {
+    let theirs = rtklib(name);
+    let d: Vec<f64> = run
+        .solutions
+        .iter()
+        .filter(|s| s.fixed)
+        .filter_map(|s| {
+            theirs.iter().find(|t| (t.0 - s.time.tow).abs() < 1e-3).map(|t| (t.1 - s.pos).norm())
+        })
+        .collect();
+    (d.len(), (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt())
 }
 
 fn solve(mode: RtkMode, frequencies: usize) -> RtkRun {
@@ -46,25 +77,36 @@ fn errors(run: &RtkRun) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Static, L1 + L2: every epoch solved and fixed, each within 1 cm horizontally and 1.5 cm
-/// vertically of RTKLIB's solution (ours: 4 mm 3D RMS from it epoch by epoch).
+/// Static, L1 + L2: every epoch solved and fixed, within 1 cm 3D RMS of RTKLIB's fixed
+/// epochs (115 in common; 4.1 mm), each within 1 cm horizontally and 1.5 cm vertically of
+/// their mean.
 #[test]
 fn static_rtk_fixes_every_epoch_where_rtklib_does() {
     let run = solve(RtkMode::Static, 2);
     assert_eq!((run.epochs, run.solutions.len()), (120, 120), "{:?}", run.failures);
     assert_eq!(run.fix_rate(), 1.0);
+    let (n, rms) = against(&run, "static-l1l2");
+    assert!(n >= 115 && rms < 0.010, "{n} epochs in common, {rms:.4} m 3D RMS");
     let e = errors(&run);
     let worst = e.iter().fold((0.0f64, 0.0f64), |a, b| (a.0.max(b.0), a.1.max(b.1)));
     assert!(worst.0 < 0.010 && worst.1 < 0.015, "largest distance from RTKLIB's: {worst:?}");
 }
 
 /// Kinematic (the position free each epoch), L1 + L2: at least 95 % of the epochs fixed,
-/// none of them a wrong fix (10 cm from the static reference: a cycle is 19 cm), and the
-/// reported σ of the fixed epochs covers their error (≤ 5 % beyond 3σ in any axis).
+/// within 2 cm 3D RMS of RTKLIB's kinematic fixes (8.7 mm), none of them a wrong fix
+/// (10 cm from the static reference: a cycle is 19 cm), and the reported σ of the fixed
+/// epochs covers their error (≤ 5 % beyond 3σ in any axis). L1 alone: at least 90 %
+/// fixed, within 10 cm 3D RMS of RTKLIB's L1 fixes (5.0 cm).
 #[test]
 fn kinematic_rtk_fixes_without_wrong_fixes() {
+    let l1 = solve(RtkMode::Kinematic, 1);
+    assert!(l1.fix_rate() >= 0.90, "L1: fix rate {:.3}", l1.fix_rate());
+    let (n, rms) = against(&l1, "kinematic-l1");
+    assert!(n >= 110 && rms < 0.10, "L1: {n} epochs in common, {rms:.4} m 3D RMS");
     let run = solve(RtkMode::Kinematic, 2);
     assert!(run.fix_rate() >= 0.95, "fix rate {:.3}", run.fix_rate());
+    let (n, rms) = against(&run, "kinematic-l1l2");
+    assert!(n >= 110 && rms < 0.02, "{n} epochs in common, {rms:.4} m 3D RMS");
     let e = errors(&run);
     let wrong = e.iter().filter(|(h, v)| h.hypot(*v) > 0.10).count();
     assert_eq!(wrong, 0, "{wrong} wrong fixes");
