@@ -165,7 +165,8 @@ impl Rtk {
     }
 
     /// The epoch of rover and base (observed at the same instant), with the rover's single
-    /// point `spp` (ECEF, m) when there is one (the start; kinematic mode each epoch).
+    /// point `spp` (ECEF, m) when there is one (the start; kinematic mode each epoch, the
+    /// position free again around it, or around the last one without it).
     pub fn step(
         &mut self,
         rover: &ObsEpoch,
@@ -176,8 +177,12 @@ impl Rtk {
         self.epoch += 1;
         match (self.started, self.opt.mode, spp) {
             (false, _, None) => return Err(RtkFailure::NoSinglePoint),
-            (false, _, Some(s)) | (true, RtkMode::Kinematic, Some(s)) => {
-                self.x.fixed_rows_mut::<3>(0).copy_from(&s);
+            // (kinematic: the position free again, around the single point or, without
+            // one, where it was)
+            (false, _, _) | (true, RtkMode::Kinematic, _) => {
+                if let Some(s) = spp {
+                    self.x.fixed_rows_mut::<3>(0).copy_from(&s);
+                }
                 let n = self.x.len();
                 self.p.view_mut((0, 0), (3, n)).fill(0.0);
                 self.p.view_mut((0, 0), (n, 3)).fill(0.0);
