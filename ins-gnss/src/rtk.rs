@@ -8,14 +8,15 @@ use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::io::formats::{create_partial, publish};
 use ins_gnss_core::io::rtklib::{push_epoch_ns, write_header_mode};
 use ins_gnss_core::raw::rtk::{Rtk, RtkEpoch, RtkFailure, RtkMode, RtkOptions};
-use ins_gnss_core::raw::single_point;
+use ins_gnss_core::raw::{single_point, ObsEpoch};
 use ins_gnss_core::GeoPos;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Base epochs further than this from the rover's (s) are not paired with it.
+/// How far (s) a base epoch may be after the rover's and still count as at or before it
+/// (receivers' stamps differ by their clocks' milliseconds).
 pub const PAIRING: f64 = 0.5;
 
 /// What an RTK run found.
@@ -39,7 +40,7 @@ impl RtkRun {
     }
 }
 
-/// Solves every rover epoch that has a base epoch at the same instant.
+/// Solves every rover epoch that has a base epoch at most [`RtkOptions::max_age`] older.
 pub fn solve_files(
     rover: &Path,
     base: &Path,
@@ -51,22 +52,36 @@ pub fn solve_files(
     let mut b = crate::aiding::RawInput::open(base, navs)?;
     let Some(base_pos) = base_pos.or_else(|| b.approx_position()) else {
         return Err(format!(
-            "{}: no APPROX POSITION XYZ in the header: give the base position (--base X,Y,Z)",
+            "{}: no APPROX POSITION XYZ in the header: give the base position (--base-position X,Y,Z)",
             base.display()
         )
         .into());
     };
+    solve_epochs(&mut r, || Ok(b.next_epoch()?), base_pos, opt)
+}
+
+/// [`solve_files`] on an opened rover and the base's epochs (in time order) from
+/// `next_base`: each rover epoch with the latest base epoch at or before it (within
+/// [`PAIRING`]), if at most [`RtkOptions::max_age`] older.
+pub fn solve_epochs(
+    r: &mut crate::aiding::RawInput,
+    mut next_base: impl FnMut() -> Result<Option<ObsEpoch>, CliError>,
+    base_pos: Vector3<f64>,
+    opt: &RtkOptions,
+) -> Result<RtkRun, CliError> {
     let mut rtk = Rtk::new(base_pos, opt.clone());
     let mut run = RtkRun { base: base_pos, ..Default::default() };
     let mut prior = None;
-    let mut next_base = b.next_epoch()?;
+    let (mut current, mut coming) = (None::<ObsEpoch>, next_base()?);
     while let Some(e) = r.next_epoch()? {
         run.epochs += 1;
-        while next_base.as_ref().is_some_and(|x| x.time.diff(&e.time) < -PAIRING) {
-            next_base = b.next_epoch()?;
+        while coming.as_ref().is_some_and(|x| x.time.diff(&e.time) <= PAIRING) {
+            current = coming.take();
+            coming = next_base()?;
         }
-        let Some(be) = next_base.as_ref().filter(|x| x.time.diff(&e.time).abs() <= PAIRING) else {
-            *run.failures.entry("no base epoch at the same instant".into()).or_default() += 1;
+        let Some(be) = current.as_ref().filter(|x| e.time.diff(&x.time) <= opt.max_age + PAIRING)
+        else {
+            *run.failures.entry("no base epoch recent enough".into()).or_default() += 1;
             continue;
         };
         let nav = &r.nav;

@@ -223,6 +223,10 @@ enum Command {
         /// The ratio test's threshold.
         #[arg(long, default_value_t = 3.0)]
         ratio: f64,
+        /// The oldest a base epoch may be against the rover's, s (older pairs cost
+        /// centimetres and, kinematic, wrong fixes: see `docs/results.md`).
+        #[arg(long, default_value_t = 1.0)]
+        max_age: f64,
         /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
         #[arg(long)]
         against: Option<PathBuf>,
@@ -374,6 +378,7 @@ fn main() -> ExitCode {
             frequencies,
             mask,
             ratio,
+            max_age,
             against,
         }) => {
             let opt = ins_gnss_core::raw::rtk::RtkOptions {
@@ -385,6 +390,7 @@ fn main() -> ExitCode {
                 frequencies: frequencies as usize,
                 elevation_mask: mask.to_radians(),
                 ratio,
+                max_age,
                 ..Default::default()
             };
             let base_pos = base_position.map(|v| nalgebra::Vector3::new(v[0], v[1], v[2]));
