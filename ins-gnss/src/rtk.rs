@@ -38,6 +38,52 @@ impl RtkRun {
         self.solutions.iter().filter(|s| s.fixed).count() as f64
             / self.solutions.len().max(1) as f64
     }
+
+    /// Seconds from the first solution to the first fixed one (`None`: never fixed).
+    pub fn time_to_first_fix(&self) -> Option<f64> {
+        let first = self.solutions.first()?;
+        self.solutions.iter().find(|s| s.fixed).map(|s| s.time.diff(&first.time))
+    }
+
+    /// Each outage of the fix (a run of float epochs after a fixed one): seconds from the
+    /// last fixed epoch before it to the first after it (an outage still open at the end
+    /// is left out).
+    pub fn refix_times(&self) -> Vec<f64> {
+        let mut out = Vec::new();
+        let mut last_fixed: Option<&RtkEpoch> = None;
+        let mut lost = false;
+        for s in &self.solutions {
+            match (s.fixed, last_fixed) {
+                (true, Some(l)) if lost => out.push(s.time.diff(&l.time)),
+                (false, Some(_)) => lost = true,
+                _ => {}
+            }
+            if s.fixed {
+                last_fixed = Some(s);
+                lost = false;
+            }
+        }
+        out
+    }
+
+    /// The ratio test's values over the epochs searched: (minimum, median) of the fixed
+    /// ones and of the others (NaN where there are none).
+    pub fn ratios(&self) -> ((f64, f64), (f64, f64)) {
+        let stats = |fixed: bool| {
+            let mut r: Vec<f64> = self
+                .solutions
+                .iter()
+                .filter(|s| s.fixed == fixed && s.ratio.is_finite())
+                .map(|s| s.ratio)
+                .collect();
+            r.sort_by(f64::total_cmp);
+            match r.len() {
+                0 => (f64::NAN, f64::NAN),
+                n => (r[0], r[n / 2]),
+            }
+        };
+        (stats(true), stats(false))
+    }
 }
 
 /// Solves every rover epoch that has a base epoch at most [`RtkOptions::max_age`] older.
@@ -192,6 +238,31 @@ pub fn run(
             vs
         );
     }
+    let (fixed_ratios, other_ratios) = run.ratios();
+    let ratios = |(min, median): (f64, f64)| {
+        if min.is_nan() {
+            "none".to_string()
+        } else {
+            format!("min {min:.1}, median {median:.1}")
+        }
+    };
+    let refix = run.refix_times();
+    out!(
+        "time to first fix {}; {} outage{} of the fix{}; ratio of the fixed epochs: {}; of the others: {}",
+        run.time_to_first_fix().map_or("never".into(), |t| format!("{t:.0} s")),
+        refix.len(),
+        if refix.len() == 1 { "" } else { "s" },
+        if refix.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " (fixed again after {} s at most)",
+                refix.iter().fold(0.0f64, |a, b| a.max(*b)).round()
+            )
+        },
+        ratios(fixed_ratios),
+        ratios(other_ratios)
+    );
     if let Some(out) = out {
         write_pos(out, &run, opt)?;
         out!("wrote {}", out.display());
@@ -211,4 +282,40 @@ pub fn run(
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ins_gnss_core::raw::GpsTime;
+    use nalgebra::Matrix3;
+
+    /// The fix's timings and ratios from a run's epochs: fixed at 20 s, lost from 40 to
+    /// 60 s (fixed again at 70 s: 40 s after the last fix at 30 s), lost again at the end.
+    #[test]
+    fn fix_timings_and_ratios() {
+        let fixed = [false, false, true, true, false, false, false, true, false];
+        let solutions = fixed
+            .iter()
+            .enumerate()
+            .map(|(k, &f)| RtkEpoch {
+                time: GpsTime::new(1316, 1000.0 + 10.0 * k as f64),
+                pos: Vector3::zeros(),
+                cov: Matrix3::identity(),
+                fixed: f,
+                ratio: if f { 10.0 + k as f64 } else { 1.0 + 0.1 * k as f64 },
+                sats: 5,
+            })
+            .collect();
+        let run = RtkRun { epochs: 9, solutions, ..Default::default() };
+        assert_eq!(run.time_to_first_fix(), Some(20.0));
+        assert_eq!(run.refix_times(), vec![40.0]);
+        let ((fmin, fmed), (omin, omed)) = run.ratios();
+        assert_eq!((fmin, fmed), (12.0, 13.0));
+        assert!((omin - 1.0).abs() < 1e-12 && (omed - 1.5).abs() < 1e-12, "{omin} {omed}");
+        assert!((run.fix_rate() - 3.0 / 9.0).abs() < 1e-12);
+        let never = RtkRun { solutions: run.solutions[..2].to_vec(), ..Default::default() };
+        assert_eq!(never.time_to_first_fix(), None);
+        assert!(never.refix_times().is_empty());
+    }
 }
