@@ -19,6 +19,34 @@ use std::path::{Path, PathBuf};
 /// (receivers' stamps differ by their clocks' milliseconds).
 pub const PAIRING: f64 = 0.5;
 
+/// The base's ECEF position from `--base-position X,Y,Z` (m): three finite numbers whose
+/// distance from the Earth's centre is a place on Earth (6,300–6,450 km), or an error
+/// naming the option.
+pub fn base_position(v: &[f64]) -> Result<Vector3<f64>, CliError> {
+    let r = match v {
+        [x, y, z] => Vector3::new(*x, *y, *z),
+        _ => {
+            return Err(format!(
+                "--base-position: 3 numbers (ECEF X,Y,Z in m) expected, {} given",
+                v.len()
+            )
+            .into())
+        }
+    };
+    if !(r.iter().all(|c| c.is_finite()) && (6.3e6..=6.45e6).contains(&r.norm())) {
+        return Err(format!(
+            "--base-position: {:.3},{:.3},{:.3} is {:.0} km from the Earth's centre: not an \
+             ECEF position on Earth (m)",
+            r.x,
+            r.y,
+            r.z,
+            r.norm() / 1e3
+        )
+        .into());
+    }
+    Ok(r)
+}
+
 /// What an RTK run found.
 #[derive(Clone, Debug, Default)]
 pub struct RtkRun {

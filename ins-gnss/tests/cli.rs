@@ -1002,3 +1002,39 @@ fn a_newcomers_mistakes_are_refused_early_and_named() {
     assert!(left.is_empty(), "nothing kept: {left:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `ins-gnss rtk --base-position X,Y,Z` as the guide writes it (ECEF X negative, one
+/// argument), and a base position that is not one: refused, naming the option and the
+/// value, before anything is written (an earlier `.pos` stays).
+#[test]
+fn rtk_base_position_is_taken_as_written_and_refused_when_wrong() {
+    let d = sample_data("rinex-rtklib");
+    let dir = temp("rtk-base");
+    std::fs::create_dir_all(&dir).unwrap();
+    let pos = dir.join("rtk.pos");
+    let files =
+        [d.join("07590920.05o.zst"), d.join("30400920.05o.zst"), d.join("07590920.05n.zst")];
+    let rtk = |base: &str| {
+        bin()
+            .arg("rtk")
+            .args(&files)
+            .args(["--static", "--base-position", base, "--out"])
+            .arg(&pos)
+            .output()
+            .unwrap()
+    };
+    let out = rtk("-3978242.4348,3382841.1715,3649902.7667");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("120 of 120 epochs solved, 120 fixed"));
+    let written = std::fs::read(&pos).unwrap();
+    for (base, says) in [("0,0,0", "not an ECEF position on Earth"), ("1,2", "3 numbers")] {
+        let out = rtk(base);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains("--base-position") && err.contains(says),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(&pos).unwrap(), written, "{base}: the earlier .pos changed");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

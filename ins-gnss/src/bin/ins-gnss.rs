@@ -209,7 +209,7 @@ enum Command {
         #[arg(long, short)]
         out: Option<PathBuf>,
         /// The base's ECEF position, m (X,Y,Z) [default: the base file's APPROX POSITION XYZ].
-        #[arg(long, value_delimiter = ',', num_args = 3)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         base_position: Option<Vec<f64>>,
         /// The rover stands still (its position a constant state).
         #[arg(long = "static")]
@@ -393,16 +393,18 @@ fn main() -> ExitCode {
                 max_age,
                 ..Default::default()
             };
-            let base_pos = base_position.map(|v| nalgebra::Vector3::new(v[0], v[1], v[2]));
-            ins_gnss::rtk::run(
-                &rover,
-                &base,
-                &nav,
-                base_pos,
-                out.as_deref(),
-                &opt,
-                against.as_deref(),
-            )
+            let base_pos = base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose();
+            base_pos.and_then(|base_pos| {
+                ins_gnss::rtk::run(
+                    &rover,
+                    &base,
+                    &nav,
+                    base_pos,
+                    out.as_deref(),
+                    &opt,
+                    against.as_deref(),
+                )
+            })
         }
         Some(Command::Config { example: _, reference }) => {
             let text = if reference {
