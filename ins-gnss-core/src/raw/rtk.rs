@@ -224,7 +224,9 @@ impl Rtk {
         let mut used = 0;
         let mut groups = Vec::new();
         for f in 0..self.opt.frequencies {
-            let g: Vec<Common> = common.iter().filter(|c| c.key.1 == f).copied().collect();
+            // (highest first: the first of a group is its reference satellite)
+            let mut g: Vec<Common> = common.iter().filter(|c| c.key.1 == f).copied().collect();
+            g.sort_by(|a, b| b.elevation.total_cmp(&a.elevation));
             if g.len() >= 2 {
                 used = used.max(g.len());
                 groups.push(g);
@@ -304,8 +306,6 @@ impl Rtk {
             (DMatrix::zeros(rows, n), DVector::zeros(rows), DMatrix::zeros(rows, rows));
         let mut row = 0;
         for g in groups {
-            let mut g = g.clone();
-            g.sort_by(|a, b| b.elevation.total_cmp(&a.elevation));
             // the single differences' modelled ranges and their rover Jacobians
             let model: Vec<(f64, Vector3<f64>)> = g
                 .iter()
@@ -366,8 +366,6 @@ impl Rtk {
         let mut g_mat = DMatrix::zeros(m, n);
         let mut row = 0;
         for g in groups {
-            let mut g = g.clone();
-            g.sort_by(|a, b| b.elevation.total_cmp(&a.elevation));
             let j0 = self.slots[&g[0].key].0;
             for c in &g[1..] {
                 let j = self.slots[&c.key].0;
