@@ -193,7 +193,7 @@ fn judge_with(
     let next = bank
         .scored
         .iter()
-        .filter(|s| !((s.0 / k - 1.0).abs() < 1e-6 && (s.1 / tau - 1.0).abs() < 1e-6))
+        .filter(|s| !same((s.0, s.1), k, tau))
         .map(|s| s.2)
         .fold(f64::NEG_INFINITY, f64::max);
     let white = if white_ll.is_finite() { white_ll - top } else { f64::NAN };

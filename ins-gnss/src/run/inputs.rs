@@ -194,13 +194,7 @@ impl ImuFeed {
             let mut batch = Vec::with_capacity(BATCH);
             // (the checks' samples go with the filter's batches: one wake-up of the
             // checks' thread per batch instead of one per sample)
-            let mut tee_batch = |batch: &[(ImuSample, usize)]| {
-                if let Some(to) = &tee {
-                    if to.send(batch.iter().map(|(s, _)| *s).collect()).is_err() {
-                        tee = None;
-                    }
-                }
-            };
+            let mut tee_batch = |batch: &[(ImuSample, usize)]| tee_samples(&mut tee, batch);
             loop {
                 match imu.next_sample() {
                     Ok(Some(s)) => {
@@ -237,10 +231,8 @@ impl ImuFeed {
         let (tx, batches) = std::sync::mpsc::sync_channel::<ImuBatch>(4);
         let reader = std::thread::spawn(move || {
             for m in &recording.messages {
-                if let (Some(to), Ok(batch)) = (&tee, m) {
-                    if to.send(batch.iter().map(|(s, _)| *s).collect()).is_err() {
-                        tee = None;
-                    }
+                if let Ok(batch) = m {
+                    tee_samples(&mut tee, batch);
                 }
                 if tx.send(m.clone()).is_err() {
                     break;
@@ -256,6 +248,15 @@ impl ImuFeed {
     pub(crate) fn finish(self) -> Result<SkipCounts, RunError> {
         drop(self.batches);
         self.reader.join().map_err(|_| RunError::NoData("the reader thread panicked".into()))
+    }
+}
+
+/// A batch's samples to the checks' tee while it listens (closed once it hangs up).
+fn tee_samples(tee: &mut Option<Tee>, batch: &[(ImuSample, usize)]) {
+    if let Some(to) = tee {
+        if to.send(batch.iter().map(|(s, _)| *s).collect()).is_err() {
+            *tee = None;
+        }
     }
 }
 
