@@ -156,11 +156,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ours_cells[k].runs.push(f.clone());
             let mut line = format!(
                 "seed {seed} L{freqs}{} ours: {}/{} fixed, {} wrong, worst {:.3} m",
-                match sky {
-                    Sky::Open => "",
-                    Sky::Tunnel => " tunnel",
-                    Sky::Slips => " unflagged slips",
-                },
+                sky.label(),
                 f.fixed,
                 f.solved,
                 f.wrong,
@@ -193,15 +189,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("| cell | fix rate, mean (worst seed) | wrong fixes | fixed RMS H / V, cm | worst fixed error, cm | first fix, s: median / worst | fixed again after the tunnel, s: median / worst |");
     println!("|---|---|---|---|---|---|---|");
     for (k, &(freqs, sky)) in cells.iter().enumerate() {
-        let name = format!(
-            "L{}{}",
-            if freqs == 1 { "1" } else { "1+L2" },
-            match sky {
-                Sky::Open => "",
-                Sky::Tunnel => ", 30 s tunnel",
-                Sky::Slips => ", unflagged slips",
-            }
-        );
+        let name = format!("L{}{}", if freqs == 1 { "1" } else { "1+L2" }, sky.label());
         println!("{}", ours_cells[k].row(&format!("ours, {name}")));
         if with_rtklib {
             println!("{}", theirs_cells[k].row(&format!("RTKLIB, {name}")));

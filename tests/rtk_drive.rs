@@ -8,12 +8,16 @@
 
 use std::path::{Path, PathBuf};
 
+use estimator_core::{FixedNoise, NoObserver};
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
 use ins_gnss_core::raw::atmosphere::Klobuchar;
-use ins_gnss_core::raw::{read_nav, GpsTime, NavData};
+use ins_gnss_core::raw::rtk::{information_beyond, Rtk, RtkOptions};
+use ins_gnss_core::raw::spp::single_point;
+use ins_gnss_core::raw::{read_nav, GpsTime, NavData, ObsEpoch};
+use ins_gnss_core::{GeoPos, GnssConfig, GnssEpoch, InitialState, InitialStd, InsModel, Navigator};
 use ins_gnss_sim::raw::{simulate_rtk, write_rinex_obs, RawSim, RawTruth, RtkSim, SkyMask};
 use ins_gnss_sim::{scenarios, Trajectory};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 /// A fixed epoch further than this from the truth (3D, m) is a wrong fix: an L1 cycle is
 /// 19 cm, a wrong integer moves the position by decimetres.
@@ -21,6 +25,9 @@ pub const WRONG_FIX: f64 = 0.10;
 
 /// The tunnel of the tunnel cells: no satellite from 300 to 330 s.
 pub const TUNNEL: (f64, f64) = (300.0, 330.0);
+
+/// The canyon of the canyon cells: the 3 highest satellites from 300 to 360 s.
+pub const CANYON: (f64, f64) = (300.0, 360.0);
 
 /// The probability per satellite, frequency and epoch of a cycle slip the receiver does
 /// not flag, in the slip cells (about 20 in a run).
@@ -35,6 +42,29 @@ pub enum Sky {
     Tunnel,
     /// Open, with cycle slips the receiver does not flag ([`SLIPS`]).
     Slips,
+    /// The 3 highest satellites over [`CANYON`].
+    Canyon,
+}
+
+impl Sky {
+    /// The cell's name in a table.
+    pub fn label(self) -> &'static str {
+        match self {
+            Sky::Open => "",
+            Sky::Tunnel => ", 30 s tunnel",
+            Sky::Slips => ", unflagged slips",
+            Sky::Canyon => ", 60 s canyon of 3",
+        }
+    }
+
+    /// The end of the outage (tunnel or canyon), trajectory time (s).
+    pub fn outage_end(self) -> Option<f64> {
+        match self {
+            Sky::Tunnel => Some(TUNNEL.1),
+            Sky::Canyon => Some(CANYON.1),
+            _ => None,
+        }
+    }
 }
 
 /// The drive, its base station and its sky.
@@ -70,20 +100,7 @@ impl Drive {
     /// (RINEX 3.04, the base's position in its header) in `dir`, under `sky`; the rover's
     /// truth, one per second.
     pub fn write(&self, dir: &Path, seed: u64, sky: Sky) -> std::io::Result<Vec<RawTruth>> {
-        let mut sim = RawSim::spp_budget(self.start);
-        match sky {
-            Sky::Open => {}
-            Sky::Tunnel => sim.masks = vec![SkyMask { start: TUNNEL.0, end: TUNNEL.1, keep: 0 }],
-            Sky::Slips => (sim.slip_probability, sim.flag_slips) = (SLIPS, false),
-        }
-        let (rover, base, truth) = simulate_rtk(
-            &self.traj,
-            &self.nav.ephemerides,
-            &self.klobuchar,
-            &sim,
-            &RtkSim::new(self.base),
-            1000 + seed,
-        );
+        let (rover, base, truth) = self.simulate(seed, sky);
         for (name, epochs, approx) in
             [("rover.obs", &rover, None), ("base.obs", &base, Some(&self.base))]
         {
@@ -92,6 +109,237 @@ impl Drive {
         }
         Ok(truth)
     }
+}
+
+impl Drive {
+    /// The trajectory.
+    pub fn trajectory(&self) -> &Trajectory {
+        &self.traj
+    }
+
+    /// Seed `seed`'s rover and base epochs under `sky`, and the rover's truth.
+    pub fn simulate(&self, seed: u64, sky: Sky) -> (Vec<ObsEpoch>, Vec<ObsEpoch>, Vec<RawTruth>) {
+        let mut sim = RawSim::spp_budget(self.start);
+        match sky {
+            Sky::Open => {}
+            Sky::Tunnel => sim.masks = vec![SkyMask { start: TUNNEL.0, end: TUNNEL.1, keep: 0 }],
+            Sky::Canyon => sim.masks = vec![SkyMask { start: CANYON.0, end: CANYON.1, keep: 3 }],
+            Sky::Slips => (sim.slip_probability, sim.flag_slips) = (SLIPS, false),
+        }
+        simulate_rtk(
+            &self.traj,
+            &self.nav.ephemerides,
+            &self.klobuchar,
+            &sim,
+            &RtkSim::new(self.base),
+            1000 + seed,
+        )
+    }
+
+    /// RTK alone (each epoch's single point the rover's start) over the epochs, against
+    /// the truth.
+    pub fn alone(
+        &self,
+        rover: &[ObsEpoch],
+        base_obs: &[ObsEpoch],
+        truth: &[RawTruth],
+        opt: &RtkOptions,
+        sky: Sky,
+    ) -> Run {
+        let (eph, kb, base) = (&self.nav.ephemerides, self.klobuchar, self.base);
+        let base_at = |e: &ObsEpoch| base_obs.iter().find(|b| b.line == e.line);
+        let outage_end = sky.outage_end();
+        // RTK alone
+        let mut alone = Run::default();
+        let mut rtk = Rtk::new(base, opt.clone());
+        let mut prior = None;
+        for e in rover {
+            let Some(b) = base_at(e) else { continue };
+            let spp = single_point(e, eph, Some(&kb), &opt.spp, prior.as_ref()).ok();
+            prior = spp.as_ref().map(|s| s.pos).or(prior);
+            let t = e.line as f64;
+            alone.epochs += 1;
+            if let Ok(s) = rtk.step(e, b, eph, spp.map(|s| s.pos)) {
+                let err = ned_error(&s.pos, &truth[e.line].antenna);
+                if s.fixed {
+                    alone.push_fixed(&(s.pos - truth[e.line].antenna), &s.cov);
+                }
+                alone.h2 += err.x * err.x + err.y * err.y;
+                alone.n += 1;
+                if outage_end.is_some_and(|end| t >= end) && alone.end.is_none() {
+                    alone.end = Some(err.xy().norm());
+                }
+                if s.fixed && outage_end.is_some_and(|end| t >= end) && alone.refix.is_none() {
+                    alone.refix = Some(t - outage_end.unwrap_or(0.0));
+                }
+            }
+        }
+        alone
+    }
+
+    /// RTK with the INS: the IMU samples of `imu` (from the truth's start, with `noise`
+    /// the filter's model), the filter started from the truth with σ 1°, 0.1 m/s, 3 m;
+    /// each epoch the INS prediction is the RTK filter's prior, a fix what it adds beyond
+    /// that prior (gated by the prediction, χ²₃ 99.9 %), a float epoch the single point
+    /// when the INS knows less than it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_ins(
+        &self,
+        data: &ins_gnss_sim::SimDataset,
+        noise: ins_gnss_core::imu::ImuNoise,
+        rover: &[ObsEpoch],
+        base_obs: &[ObsEpoch],
+        truth: &[RawTruth],
+        opt: &RtkOptions,
+        sky: Sky,
+    ) -> Result<Run, Box<dyn std::error::Error>> {
+        let (eph, kb, base) = (&self.nav.ephemerides, self.klobuchar, self.base);
+        let base_at = |e: &ObsEpoch| base_obs.iter().find(|b| b.line == e.line);
+        let outage_end = sky.outage_end();
+        // RTK with the INS
+        let mut with = Run::default();
+        let init = InitialState {
+            time: data.truth[0].t,
+            state: data.truth[0].state.clone(),
+            std: InitialStd {
+                att: Vector3::repeat(1f64.to_radians()),
+                vel: Vector3::repeat(0.1),
+                pos: Vector3::repeat(3.0),
+                bg: Vector3::repeat(1e-4),
+                ba: Vector3::repeat(5e-3),
+            },
+        };
+        let mut n =
+            Navigator::new(&init, InsModel::wgs84(noise), FixedNoise, GnssConfig::default())?;
+        let mut rtk = Rtk::new(base, opt.clone());
+        let mut next = 0usize;
+        let mut pending: Vec<GnssEpoch> = Vec::new();
+        let mut out = Vec::new();
+        let t0 = data.truth[0].t;
+        for s in &data.imu {
+            out.clear();
+            n.process_into(s, &pending, &mut NoObserver, &mut out)?;
+            pending.clear();
+            while next < rover.len() && t0 + rover[next].line as f64 <= s.t + 1e-6 {
+                let e = &rover[next];
+                next += 1;
+                let t = t0 + e.line as f64;
+                if (t - s.t).abs() > 1e-6 {
+                    continue;
+                }
+                let Some(b) = base_at(e) else { continue };
+                let st = n.nav_state();
+                let x = geodetic_to_ecef(st.pos.lat, st.pos.lon, st.pos.h);
+                let c = ecef_to_ned_rotation(st.pos.lat, st.pos.lon);
+                let p_ned: Matrix3<f64> = n.covariance().fixed_view::<3, 3>(6, 6).into_owned();
+                let p = c.transpose() * p_ned * c;
+                let tr = &truth[e.line].antenna;
+                let ins_err = ned_error(&x, tr);
+                with.epochs += 1;
+                with.h2 += ins_err.x * ins_err.x + ins_err.y * ins_err.y;
+                with.n += 1;
+                if let Some(ch) = p_ned.cholesky() {
+                    with.nees += ins_err.dot(&ch.solve(&ins_err));
+                }
+                let rel = e.line as f64;
+                if outage_end.is_some_and(|end| rel >= end) && with.end.is_none() {
+                    with.end = Some(ins_err.xy().norm());
+                }
+                let spp = single_point(e, eph, Some(&kb), &opt.spp, Some(&x)).ok();
+                let Ok(sol) =
+                    rtk.step_with_prior(e, b, eph, spp.as_ref().map(|s| s.pos), Some((x, p)))
+                else {
+                    continue;
+                };
+                if sol.fixed {
+                    with.push_fixed(&(sol.pos - tr), &sol.cov);
+                    if outage_end.is_some_and(|end| rel >= end) && with.refix.is_none() {
+                        with.refix = Some(rel - outage_end.unwrap_or(0.0));
+                    }
+                }
+                // not fixed: the single point, whose errors the RTK filter's float
+                // ambiguities do not share, as a leash only — when the INS knows its
+                // position less well than one single point does (its errors persist
+                // for minutes: their information does not add up over epochs)
+                if !sol.fixed {
+                    if let Some(f) = spp.map(|s| s.fix(t + 1e-6)) {
+                        if p_ned.trace() > f.position_covariance().trace() {
+                            pending.push(f);
+                        }
+                    }
+                    continue;
+                }
+                let Some((z, r)) = information_beyond((&x, &p), (&sol.pos, &sol.cov)) else {
+                    continue;
+                };
+                // a fix the INS prediction contradicts (χ²₃ 99.9 %) is not used
+                let d = z - x;
+                let nis = (p + r).cholesky().map_or(f64::INFINITY, |c| d.dot(&c.solve(&d)));
+                if nis > 16.27 {
+                    with.gated += 1;
+                    continue;
+                }
+                let (lat, lon, h) = ecef_to_geodetic(&z);
+                let cz = ecef_to_ned_rotation(lat, lon);
+                let r_ned = cz * r * cz.transpose();
+                let mut g = GnssEpoch::new(
+                    t + 1e-6,
+                    GeoPos { lat, lon, h },
+                    r_ned.diagonal().map(f64::sqrt),
+                    None,
+                );
+                g.pos_cov = Some(r_ned);
+                pending.push(g);
+            }
+        }
+        Ok(with)
+    }
+}
+
+/// One run of RTK alone or with the INS, against the truth.
+#[derive(Clone, Debug, Default)]
+pub struct Run {
+    /// Rover epochs.
+    pub epochs: usize,
+    /// Fixed epochs.
+    pub fixed: usize,
+    /// Fixed epochs more than [`WRONG_FIX`] from the truth and outside their own
+    /// covariance's χ²₃ 99.9 % ellipsoid (a canyon's fix knows some directions only).
+    pub wrong: usize,
+    /// The position's horizontal error², summed over the epochs (alone: the solution's;
+    /// with the INS: its prediction at the epoch), and their count.
+    pub h2: f64,
+    /// (count)
+    pub n: usize,
+    /// The INS prediction's NEES, summed.
+    pub nees: f64,
+    /// The horizontal error at the first epoch after the outage (with the INS: its
+    /// prediction there, what the outage left).
+    pub end: Option<f64>,
+    /// Seconds from the outage's end to the first fix.
+    pub refix: Option<f64>,
+    /// Fixes the INS prediction contradicted (not used).
+    pub gated: usize,
+}
+
+impl Run {
+    fn push_fixed(&mut self, err: &Vector3<f64>, cov: &Matrix3<f64>) {
+        self.fixed += 1;
+        let outside = cov.cholesky().is_none_or(|c| err.dot(&c.solve(err)) > 16.27);
+        if err.norm() > WRONG_FIX && outside {
+            self.wrong += 1;
+        }
+    }
+
+    /// Fixed over all epochs.
+    pub fn fix_rate(&self) -> f64 {
+        self.fixed as f64 / self.epochs.max(1) as f64
+    }
+}
+
+fn ned_error(pos: &Vector3<f64>, truth: &Vector3<f64>) -> Vector3<f64> {
+    let (lat, lon, _) = ecef_to_geodetic(truth);
+    ecef_to_ned_rotation(lat, lon) * (pos - truth)
 }
 
 /// A solution as (GPS time of week, ECEF, fixed).

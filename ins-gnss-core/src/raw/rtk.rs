@@ -33,8 +33,10 @@
 //!   the float solution is the answer (Q = 2).
 //!
 //! Static mode keeps the position as a constant; kinematic mode restarts it each epoch
-//! from the rover's single point (σ 30 m) and keeps the ambiguities. Not here yet (issue
-//! 74): fix-and-hold, partial fixing, the INS filter's use of all this.
+//! from the rover's single point (σ 30 m), or from a prior the caller knows better (an
+//! INS prediction: [`Rtk::step_with_prior`], and [`information_beyond`] for what the epoch
+//! adds to it), and keeps the ambiguities. Not here yet (issue 74): fix-and-hold, partial
+//! fixing, the ambiguities as states of the INS filter itself.
 
 use std::collections::HashMap;
 
@@ -74,6 +76,9 @@ pub struct RtkOptions {
     pub elevation_mask: f64,
     /// The ratio test's threshold (RTKLIB's default 3).
     pub ratio: f64,
+    /// The least success rate of integer bootstrapping the float ambiguities' covariance
+    /// must promise before the ratio test is asked (0: the ratio test alone, as RTKLIB).
+    pub min_success_rate: f64,
     /// Phase noise of one receiver, `a + b / sin el` in quadrature, m.
     pub phase_sigma: (f64, f64),
     /// The code's noise over the phase's.
@@ -108,6 +113,7 @@ impl Default for RtkOptions {
             frequencies: 2,
             elevation_mask: 15f64.to_radians(),
             ratio: 3.0,
+            min_success_rate: 0.0,
             phase_sigma: (0.003, 0.003),
             code_over_phase: 100.0,
             max_age: 1.0,
@@ -144,6 +150,32 @@ pub enum RtkFailure {
     /// The update's innovation covariance is not positive definite.
     Singular,
 }
+
+/// What an epoch's solution `post` (ECEF position and covariance) adds to the `prior` it
+/// started from, as an independent measurement of the position: `R⁻¹ = P_post⁻¹ −
+/// P_prior⁻¹`, `z = x_prior + R P_post⁻¹ (x_post − x_prior)` (the information form of the
+/// Kalman update, run backwards). A direction in which the observations added less than
+/// [`LEAST_INFORMATION`] (fewer double differences than dimensions: a canyon) gets that
+/// much, a variance no update notices. `None` when they added nothing.
+pub fn information_beyond(
+    prior: (&Vector3<f64>, &Matrix3<f64>),
+    post: (&Vector3<f64>, &Matrix3<f64>),
+) -> Option<(Vector3<f64>, Matrix3<f64>)> {
+    let post_inv = post.1.cholesky()?.inverse();
+    let prior_inv = prior.1.cholesky()?.inverse();
+    let info = post_inv - prior_inv;
+    let eig = ((info + info.transpose()) * 0.5).symmetric_eigen();
+    if eig.eigenvalues.max() <= LEAST_INFORMATION {
+        return None;
+    }
+    let var = eig.eigenvalues.map(|l| 1.0 / l.max(LEAST_INFORMATION));
+    let r = eig.eigenvectors * Matrix3::from_diagonal(&var) * eig.eigenvectors.transpose();
+    let z = prior.0 + r * post_inv * (post.0 - prior.0);
+    Some((z, (r + r.transpose()) * 0.5))
+}
+
+/// The least information (1/m²) [`information_beyond`] gives a direction: a σ of 1 km.
+pub const LEAST_INFORMATION: f64 = 1e-6;
 
 /// One satellite and frequency in both receivers: the single differences (m) and what
 /// the model needs.
@@ -232,24 +264,41 @@ impl Rtk {
         eph: &Ephemerides,
         spp: Option<Vector3<f64>>,
     ) -> Result<RtkEpoch, RtkFailure> {
+        self.step_with_prior(rover, base, eph, spp, None)
+    }
+
+    /// [`step`](Self::step) with, in kinematic mode, the rover's position known beforehand
+    /// — `prior`: an INS filter's prediction (ECEF, m, and its covariance, m²) — as the
+    /// position's start instead of the single point with σ [`POSITION_SIGMA0`]. What the
+    /// epoch's observations add to the prior is [`information_beyond`] the prior.
+    pub fn step_with_prior(
+        &mut self,
+        rover: &ObsEpoch,
+        base: &ObsEpoch,
+        eph: &Ephemerides,
+        spp: Option<Vector3<f64>>,
+        prior: Option<(Vector3<f64>, Matrix3<f64>)>,
+    ) -> Result<RtkEpoch, RtkFailure> {
         self.epoch += 1;
-        match (self.started, self.opt.mode, spp) {
-            (false, _, None) => return Err(RtkFailure::NoSinglePoint),
-            // (kinematic: the position free again, around the single point or, without
-            // one, where it was)
-            (false, _, _) | (true, RtkMode::Kinematic, _) => {
-                if let Some(s) = spp {
-                    self.x.fixed_rows_mut::<3>(0).copy_from(&s);
-                }
-                let n = self.x.len();
-                self.p.view_mut((0, 0), (3, n)).fill(0.0);
-                self.p.view_mut((0, 0), (n, 3)).fill(0.0);
-                for i in 0..3 {
-                    self.p[(i, i)] = POSITION_SIGMA0.powi(2);
-                }
-                self.started = true;
+        let kinematic = self.opt.mode == RtkMode::Kinematic;
+        if !self.started && spp.is_none() && prior.is_none() {
+            return Err(RtkFailure::NoSinglePoint);
+        }
+        // (kinematic: the position free again, around the prior, the single point or,
+        // without either, where it was)
+        if !self.started || kinematic {
+            let (start, cov) = match (prior, spp) {
+                (Some((x, p)), _) => (Some(x), p),
+                (None, s) => (s, Matrix3::identity() * POSITION_SIGMA0.powi(2)),
+            };
+            if let Some(s) = start {
+                self.x.fixed_rows_mut::<3>(0).copy_from(&s);
             }
-            _ => {}
+            let n = self.x.len();
+            self.p.view_mut((0, 0), (3, n)).fill(0.0);
+            self.p.view_mut((0, 0), (n, 3)).fill(0.0);
+            self.p.fixed_view_mut::<3, 3>(0, 0).copy_from(&cov);
+            self.started = true;
         }
         let mut common = self.common(rover, base, eph);
         self.detect_slips(&mut common, rover.time, base.time);
@@ -396,6 +445,23 @@ impl Rtk {
         }
     }
 
+    /// A single difference's modelled value at the rover position `rover` (m), and its
+    /// Jacobian with respect to that position: each receiver's range to the satellite at
+    /// its own transmission time, minus the satellite clock then (they cancel only when
+    /// both observe at the same instant), plus the troposphere at that receiver.
+    fn sd_model(&self, c: &Common, rover: &Vector3<f64>, time: GpsTime) -> (f64, Vector3<f64>) {
+        let (lat_r, lon_r, h_r) = ecef_to_geodetic(rover);
+        let (lat_b, lon_b, h_b) = ecef_to_geodetic(&self.base);
+        let tropo = self.opt.troposphere;
+        let (rr, e) = geometry(&c.rover.state.pos, rover);
+        let (rb, eb) = geometry(&c.base.state.pos, &self.base);
+        let (_, el_r) = azel(lat_r, lon_r, &e);
+        let (_, el_b) = azel(lat_b, lon_b, &eb);
+        let t_r = tropo.delay(lat_r, h_r, el_r, time);
+        let t_b = tropo.delay(lat_b, h_b, el_b, time);
+        (rr - C * c.rover.state.clock + t_r - (rb - C * c.base.state.clock + t_b), -e)
+    }
+
     /// One receiver's phase variance at elevation `el` (m²).
     fn phase_variance(&self, el: f64) -> f64 {
         let (a, b) = self.opt.phase_sigma;
@@ -413,29 +479,14 @@ impl Rtk {
     ) -> Result<(), RtkFailure> {
         let n = self.x.len();
         let rover = Vector3::new(lin[0], lin[1], lin[2]);
-        let (lat_r, lon_r, h_r) = ecef_to_geodetic(&rover);
-        let (lat_b, lon_b, h_b) = ecef_to_geodetic(&self.base);
-        let tropo = self.opt.troposphere;
         let rows: usize = groups.iter().map(|g| 2 * (g.len() - 1)).sum();
         let (mut h, mut v, mut r) =
             (DMatrix::zeros(rows, n), DVector::zeros(rows), DMatrix::zeros(rows, rows));
         let mut row = 0;
         for g in groups {
             // the single differences' modelled ranges and their rover Jacobians
-            let model: Vec<(f64, Vector3<f64>)> = g
-                .iter()
-                .map(|c| {
-                    // (each receiver's satellite clock at its own transmission time:
-                    // they cancel only when both observe at the same instant)
-                    let (rr, e) = geometry(&c.rover.state.pos, &rover);
-                    let (rb, eb) = geometry(&c.base.state.pos, &self.base);
-                    let (_, el_r) = azel(lat_r, lon_r, &e);
-                    let (_, el_b) = azel(lat_b, lon_b, &eb);
-                    let t_r = tropo.delay(lat_r, h_r, el_r, time);
-                    let t_b = tropo.delay(lat_b, h_b, el_b, time);
-                    (rr - C * c.rover.state.clock + t_r - (rb - C * c.base.state.clock + t_b), -e)
-                })
-                .collect();
+            let model: Vec<(f64, Vector3<f64>)> =
+                g.iter().map(|c| self.sd_model(c, &rover, time)).collect();
             let var: Vec<f64> = g.iter().map(|c| 2.0 * self.phase_variance(c.elevation)).collect();
             let k = g.len() - 1;
             for (phase, block) in [(true, row), (false, row + k)] {
@@ -502,7 +553,7 @@ impl Rtk {
             return float;
         };
         let ratio = found.ratio();
-        if ratio < self.opt.ratio {
+        if ratio < self.opt.ratio || found.success_rate < self.opt.min_success_rate {
             return RtkEpoch { ratio, ..float };
         }
         let Some(qi) = q.clone().cholesky().map(|c| c.inverse()) else {
