@@ -21,9 +21,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use ins_gnss::rtk::{solve_files, RtkRun};
-use ins_gnss_core::earth::geodetic_to_ecef;
+use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
 use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 #[path = "../tests/rtk_drive.rs"]
 #[allow(dead_code)]
@@ -31,7 +31,14 @@ mod rtk_drive;
 use rtk_drive::{figures, Drive, Figures, Sky, Solution};
 
 fn ours(run: &RtkRun) -> Vec<Solution> {
-    run.solutions.iter().map(|s| (s.time.tow, s.pos, s.fixed)).collect()
+    run.solutions
+        .iter()
+        .map(|s| {
+            let (lat, lon, _) = ecef_to_geodetic(&s.pos);
+            let c = ecef_to_ned_rotation(lat, lon);
+            (s.time.tow, s.pos, s.fixed, c * s.cov * c.transpose())
+        })
+        .collect()
 }
 
 /// RTKLIB's kinematic RTK of the files (`None`: rnx2rtkp failed or is missing).
@@ -59,7 +66,19 @@ fn rtklib(dir: &Path, nav: &Path, base: &Vector3<f64>, freqs: usize) -> Option<V
                 let v: Vec<f64> = l.split_whitespace().filter_map(|x| x.parse().ok()).collect();
                 (v.len() >= 6).then(|| {
                     let p = geodetic_to_ecef(v[2].to_radians(), v[3].to_radians(), v[4]);
-                    (v[1], p, v[5] == 1.0)
+                    // sdn sde sdu sdne sdeu sdun (RTKLIB's signed square roots)
+                    let sq = |x: f64| x * x.abs();
+                    let (n, e, u) = (sq(v[7]), sq(v[8]), sq(v[9]));
+                    let (ne, eu, un) = if v.len() >= 13 {
+                        (sq(v[10]), sq(v[11]), sq(v[12]))
+                    } else {
+                        (0.0, 0.0, 0.0)
+                    };
+                    // (north, east, up → north, east, down)
+                    let neu = Matrix3::new(n, ne, un, ne, e, eu, un, eu, u);
+                    let flip = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
+                    let cov = flip * neu * flip;
+                    (v[1], p, v[5] == 1.0, cov)
                 })
             })
             .collect(),
@@ -74,7 +93,7 @@ struct Cell {
 impl Cell {
     fn row(&self, name: &str) -> String {
         if self.runs.is_empty() {
-            return format!("| {name} | – | | | | | | |");
+            return format!("| {name} | – | | | | | | | |");
         }
         let rates: Vec<f64> =
             self.runs.iter().map(|r| r.fixed as f64 / r.solved.max(1) as f64).collect();
@@ -95,13 +114,16 @@ impl Cell {
         let never = self.runs.iter().filter(|r| r.ttff.is_none()).count();
         let ttff = median(self.runs.iter().filter_map(|r| r.ttff).collect());
         let refix = median(self.runs.iter().filter_map(|r| r.refix).collect());
+        let nees = self.runs.iter().map(|r| r.nees).sum::<f64>() / fixed.max(1) as f64 / 3.0;
+        let beyond = self.runs.iter().map(|r| r.beyond).sum::<usize>() as f64 / fixed.max(1) as f64;
         format!(
-            "| {name} | {:.1} % (min {:.1} %) | {wrong} of {fixed} | {:.1} / {:.1} | {:.1} | {ttff}{} | {refix} |",
+            "| {name} | {:.1} % (min {:.1} %) | {wrong} of {fixed} | {:.1} / {:.1} | {:.1} | {nees:.2}; {:.1} % | {ttff}{} | {refix} |",
             100.0 * mean,
             100.0 * min,
             100.0 * h,
             100.0 * v,
             100.0 * worst,
+            100.0 * beyond,
             if never > 0 { format!(" ({never} never)") } else { String::new() },
         )
     }
@@ -186,8 +208,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         baseline.0 / 1e3,
         baseline.1 / 1e3
     );
-    println!("| cell | fix rate, mean (worst seed) | wrong fixes | fixed RMS H / V, cm | worst fixed error, cm | first fix, s: median / worst | fixed again after the tunnel, s: median / worst |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| cell | fix rate, mean (worst seed) | wrong fixes | fixed RMS H / V, cm | worst fixed error, cm | fixed: NEES/3; beyond χ²₃ 99 % | first fix, s: median / worst | fixed again after the tunnel, s: median / worst |");
+    println!("|---|---|---|---|---|---|---|---|");
     for (k, &(freqs, sky)) in cells.iter().enumerate() {
         let name = format!("L{}{}", if freqs == 1 { "1" } else { "1+L2" }, sky.label());
         println!("{}", ours_cells[k].row(&format!("ours, {name}")));

@@ -342,8 +342,8 @@ fn ned_error(pos: &Vector3<f64>, truth: &Vector3<f64>) -> Vector3<f64> {
     ecef_to_ned_rotation(lat, lon) * (pos - truth)
 }
 
-/// A solution as (GPS time of week, ECEF, fixed).
-pub type Solution = (f64, Vector3<f64>, bool);
+/// A solution as (GPS time of week, ECEF, fixed, its covariance in NED, m²).
+pub type Solution = (f64, Vector3<f64>, bool, Matrix3<f64>);
 
 /// One run's figures against the truth.
 #[derive(Clone, Debug, Default)]
@@ -366,6 +366,10 @@ pub struct Figures {
     pub worst: f64,
     /// The sum of the fixed epochs' errors (NED), m.
     pub sum: Vector3<f64>,
+    /// The fixed epochs' NEES, summed, and how many lie beyond χ²₃'s 99 % (11.34).
+    pub nees: f64,
+    /// (beyond)
+    pub beyond: usize,
 }
 
 /// The figures of solutions `sol` against the truth (one per second from `start`); the
@@ -374,7 +378,7 @@ pub fn figures(sol: &[Solution], truth: &[RawTruth], start: GpsTime, sky: Sky) -
     let tunnel = sky == Sky::Tunnel;
     let mut f = Figures::default();
     let first = sol.first().map(|s| s.0);
-    for &(tow, pos, fixed) in sol {
+    for &(tow, pos, fixed, cov) in sol {
         let j = (tow - start.tow).round();
         let Some(tr) = (j >= 0.0).then(|| truth.get(j as usize)).flatten() else { continue };
         f.solved += 1;
@@ -385,6 +389,9 @@ pub fn figures(sol: &[Solution], truth: &[RawTruth], start: GpsTime, sky: Sky) -
         let d = ecef_to_ned_rotation(lat, lon) * (pos - tr.antenna);
         f.fixed += 1;
         f.sum += d;
+        let nees = cov.cholesky().map_or(f64::INFINITY, |c| d.dot(&c.solve(&d)));
+        f.nees += nees;
+        f.beyond += usize::from(nees > 11.34);
         f.h2 += d.x * d.x + d.y * d.y;
         f.v2 += d.z * d.z;
         f.worst = f.worst.max(d.norm());
