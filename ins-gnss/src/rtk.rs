@@ -331,6 +331,7 @@ mod tests {
                 pos: Vector3::zeros(),
                 cov: Matrix3::identity(),
                 fixed: f,
+                fixed_ambiguities: if f { 4 } else { 0 },
                 ratio: if f { 10.0 + k as f64 } else { 1.0 + 0.1 * k as f64 },
                 sats: 5,
             })

@@ -224,6 +224,56 @@ pub fn solve(a: &[f64], q: &DMatrix<f64>, m: usize) -> Result<IntegerSolution, L
     Ok(IntegerSolution { candidates, success_rate })
 }
 
+/// A subset of the decorrelated ambiguities fixed (partial ambiguity resolution).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartialSolution {
+    /// The combinations fixed: rows of `Zᵀ`, each an integer combination of the original
+    /// ambiguities (`k × n`).
+    pub combinations: DMatrix<f64>,
+    /// Their best integer values and the second best's.
+    pub solution: IntegerSolution,
+}
+
+/// Partial ambiguity resolution (Teunissen, de Jonge & Tiberius 1999): of the reduced
+/// problem's decorrelated ambiguities, the largest set the bootstrapped success rate of
+/// which is at least `min_success` — the last ones, conditioned on none but each other,
+/// the most precise after the reduction — searched for the two best integer vectors.
+/// `None`: not even one ambiguity promises that much.
+pub fn solve_partial(
+    a: &[f64],
+    q: &DMatrix<f64>,
+    min_success: f64,
+) -> Result<Option<PartialSolution>, LambdaError> {
+    let n = a.len();
+    if n == 0 || q.nrows() != n || q.ncols() != n {
+        return Err(LambdaError::Shape(format!(
+            "{n} ambiguities, a {}×{} covariance",
+            q.nrows(),
+            q.ncols()
+        )));
+    }
+    let r = reduce(q)?;
+    let mut rate = 1.0;
+    let mut first = n;
+    for i in (0..n).rev() {
+        let p = rate * (2.0 * normal_cdf(0.5 / r.d[i].sqrt()) - 1.0);
+        if p < min_success {
+            break;
+        }
+        rate = p;
+        first = i;
+    }
+    if first == n {
+        return Ok(None);
+    }
+    let zt = r.z.transpose().rows(first, n - first).into_owned();
+    let za = &zt * nalgebra::DVector::from_column_slice(a);
+    let qz = &zt * q * zt.transpose();
+    let qz = (&qz + qz.transpose()) * 0.5;
+    let solution = solve(za.as_slice(), &qz, 2)?;
+    Ok(Some(PartialSolution { combinations: zt, solution }))
+}
+
 /// The `m` integer vectors of least `Σ_k (z̄_k − z_k)² / d_k` (step 3), best first.
 fn search(
     l: &DMatrix<f64>,
@@ -456,5 +506,28 @@ mod tests {
         let two = solve(&[0.3, -1.2], &q, 2).unwrap();
         let expected = (2.0 * normal_cdf(5.0) - 1.0) * (2.0 * normal_cdf(1.0) - 1.0);
         assert!((two.success_rate - expected).abs() < 1e-9, "{}", two.success_rate);
+    }
+
+    /// Partial resolution: of two independent ambiguities, one precise (σ 0.05 cycle) and
+    /// one not (σ 0.5), only the precise one is fixed at a success rate of 0.999 — its
+    /// combination a unit row picking it — to the integer nearest its float value; both
+    /// when each is precise; none when neither is.
+    #[test]
+    fn partial_resolution_fixes_the_precise_subset() {
+        let q = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![0.25, 0.0025]));
+        let part = solve_partial(&[3.4, -7.03], &q, 0.999).unwrap().unwrap();
+        assert_eq!(part.combinations.nrows(), 1);
+        let row: Vec<f64> = part.combinations.row(0).iter().map(|v| v.abs()).collect();
+        assert_eq!(row, vec![0.0, 1.0]);
+        let value = part.combinations[(0, 1)] * -7.0;
+        assert_eq!(part.solution.best(), &[value.round() as i64]);
+        assert!(part.solution.success_rate >= 0.999);
+        let q = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![0.0025, 0.0025]));
+        assert_eq!(
+            solve_partial(&[3.02, -7.03], &q, 0.999).unwrap().unwrap().combinations.nrows(),
+            2
+        );
+        let q = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![0.25, 0.25]));
+        assert!(solve_partial(&[3.4, -7.03], &q, 0.999).unwrap().is_none());
     }
 }
