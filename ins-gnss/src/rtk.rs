@@ -182,6 +182,23 @@ pub fn solve_epochs(
     Ok(run)
 }
 
+/// A fixed epoch further than this (m, 3D) from a reference that is the truth is a wrong
+/// fix: a wrong integer moves the position by decimetres (an L1 cycle is 19 cm).
+pub const WRONG_FIX: f64 = 0.10;
+
+/// Of the run's fixed epochs, those with a reference epoch at their time (within 1 ms),
+/// and how many of them are more than `limit` (m, 3D) from it.
+pub fn far_fixes(run: &RtkRun, reference: &[(f64, Vector3<f64>)], limit: f64) -> (usize, usize) {
+    let (mut matched, mut far) = (0, 0);
+    for s in run.solutions.iter().filter(|s| s.fixed) {
+        if let Some((_, p)) = reference.iter().find(|(t, _)| (t - s.time.tow).abs() <= 1e-3) {
+            matched += 1;
+            far += usize::from((s.pos - p).norm() > limit);
+        }
+    }
+    (matched, far)
+}
+
 /// Writes the solutions as an RTKLIB `.pos` (Q = 1 fixed, 2 float), atomically.
 pub fn write_pos(path: &Path, run: &RtkRun, opt: &RtkOptions) -> Result<(), CliError> {
     let mut w = create_partial(path)?;
@@ -300,13 +317,15 @@ pub fn run(
         let ours: Vec<(f64, Vector3<f64>)> =
             run.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
         let (n, rms, d) = compare(&ours, &theirs);
+        let (matched, far) = far_fixes(&run, &theirs, WRONG_FIX);
         out!(
-            "against {} ({} epochs): {n} common, 3D RMS difference {rms:.4} m, mean offset N {:.4} E {:.4} D {:.4} m",
+            "against {} ({} epochs): {n} common, 3D RMS difference {rms:.4} m, mean offset N {:.4} E {:.4} D {:.4} m; {far} of the {matched} fixed epochs in common more than {:.0} cm from it (wrong fixes, if it is the truth)",
             a.display(),
             theirs.len(),
             d.x,
             d.y,
-            d.z
+            d.z,
+            100.0 * WRONG_FIX
         );
     }
     Ok(())
@@ -343,6 +362,14 @@ mod tests {
         assert_eq!((fmin, fmed), (12.0, 13.0));
         assert!((omin - 1.0).abs() < 1e-12 && (omed - 1.5).abs() < 1e-12, "{omin} {omed}");
         assert!((run.fix_rate() - 3.0 / 9.0).abs() < 1e-12);
+        // against a reference: epochs 2 and 3 fixed and matched, epoch 3's 12 cm off;
+        // epoch 7 fixed, no reference at its time
+        let reference: Vec<(f64, Vector3<f64>)> = vec![
+            (1020.0, Vector3::zeros()),
+            (1030.0, Vector3::new(0.0, 0.12, 0.0)),
+            (1040.0, Vector3::zeros()),
+        ];
+        assert_eq!(far_fixes(&run, &reference, WRONG_FIX), (2, 1));
         let never = RtkRun { solutions: run.solutions[..2].to_vec(), ..Default::default() };
         assert_eq!(never.time_to_first_fix(), None);
         assert!(never.refix_times().is_empty());
