@@ -4,7 +4,10 @@
 //! - a single point of a real epoch (station 0759, 8 satellites): preparing the
 //!   satellites, and the whole solution;
 //! - the tightly coupled filter: one 20-state IMU epoch (against the 15-state one), one
-//!   satellite's pseudorange update, one range-rate update.
+//!   satellite's pseudorange update, one range-rate update;
+//! - one RTK epoch of the shipped baseline (0759 against 3040, GPS L1 + L2, 8–9
+//!   satellites, the filter after 20 epochs): kinematic from the single point, and with
+//!   a prior (an INS's prediction) instead.
 //!
 //! Run: `cargo bench --bench raw_gnss`.
 
@@ -124,6 +127,47 @@ fn tight(c: &mut Criterion) {
     g.finish();
 }
 
+fn rtk(c: &mut Criterion) {
+    use ins_gnss_core::raw::rtk::{Rtk, RtkOptions};
+    let nav = read_nav(&data("rinex-rtklib/07590920.05n.zst")).unwrap();
+    let rover: Vec<_> = ObsReader::open(&data("rinex-rtklib/07590920.05o.zst"))
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    let base: Vec<_> = ObsReader::open(&data("rinex-rtklib/30400920.05o.zst"))
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    let base_pos = Vector3::new(-3978242.4348, 3382841.1715, 3649902.7667);
+    let opt = RtkOptions::default();
+    let kb = nav.klobuchar.unwrap();
+    let spp = |e| single_point(e, &nav.ephemerides, Some(&kb), &opt.spp, None).unwrap().pos;
+    let mut filter = Rtk::new(base_pos, opt.clone());
+    for k in 0..20 {
+        filter.step(&rover[k], &base[k], &nav.ephemerides, Some(spp(&rover[k]))).unwrap();
+    }
+    let (r, b) = (&rover[20], &base[20]);
+    let s = spp(r);
+    let mut g = c.benchmark_group("rtk");
+    g.bench_function("epoch_l1_l2", |bench| {
+        bench.iter_batched_ref(
+            || filter.clone(),
+            |f| black_box(f.step(r, b, &nav.ephemerides, Some(s)).unwrap()),
+            BatchSize::SmallInput,
+        )
+    });
+    let prior = (s, nalgebra::Matrix3::identity() * 0.01);
+    g.bench_function("epoch_l1_l2_with_prior", |bench| {
+        bench.iter_batched_ref(
+            || filter.clone(),
+            |f| black_box(f.step_with_prior(r, b, &nav.ephemerides, None, Some(prior)).unwrap()),
+            BatchSize::SmallInput,
+        )
+    });
+    g.bench_function("single_point_of_the_epoch", |bench| bench.iter(|| black_box(spp(r))));
+    g.finish();
+}
+
 fn main() {
     let mut c = Criterion::default()
         .warm_up_time(Duration::from_millis(500))
@@ -131,5 +175,6 @@ fn main() {
         .configure_from_args();
     spp(&mut c);
     tight(&mut c);
+    rtk(&mut c);
     c.final_summary();
 }
