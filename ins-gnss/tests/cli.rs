@@ -1036,5 +1036,19 @@ fn rtk_base_position_is_taken_as_written_and_refused_when_wrong() {
         );
         assert_eq!(std::fs::read(&pos).unwrap(), written, "{base}: the earlier .pos changed");
     }
+    // a success rate that is no probability is refused with its option; 0.999 with
+    // --partial runs (L1 + L2 static: every epoch but the first fixed)
+    let out = bin().arg("rtk").args(&files).args(["--min-success-rate", "2"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--min-success-rate"), "{err}");
+    let out = bin()
+        .arg("rtk")
+        .args(&files)
+        .args(["--static", "--min-success-rate", "0.999", "--partial"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("120 of 120 epochs solved, 119 fixed"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

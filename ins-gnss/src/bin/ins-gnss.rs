@@ -227,6 +227,15 @@ enum Command {
         /// centimetres and, kinematic, wrong fixes: see `docs/results.md`).
         #[arg(long, default_value_t = 1.0)]
         max_age: f64,
+        /// Fix only when the float ambiguities' covariance promises at least this success
+        /// rate of integer bootstrapping, beside the ratio test (0: the ratio test alone,
+        /// as RTKLIB).
+        #[arg(long, default_value_t = 0.0, value_parser = probability)]
+        min_success_rate: f64,
+        /// When all the ambiguities cannot be fixed, fix the largest decorrelated subset
+        /// that promises `--min-success-rate` (0.999 when 0) and passes the ratio test.
+        #[arg(long)]
+        partial: bool,
         /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
         #[arg(long)]
         against: Option<PathBuf>,
@@ -379,6 +388,8 @@ fn main() -> ExitCode {
             mask,
             ratio,
             max_age,
+            min_success_rate,
+            partial,
             against,
         }) => {
             let opt = ins_gnss_core::raw::rtk::RtkOptions {
@@ -391,6 +402,8 @@ fn main() -> ExitCode {
                 elevation_mask: mask.to_radians(),
                 ratio,
                 max_age,
+                min_success_rate,
+                partial,
                 ..Default::default()
             };
             let base_pos = base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose();
@@ -449,5 +462,13 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         }
+    }
+}
+
+/// A probability, 0–1 (`--min-success-rate`).
+fn probability(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("{s:?} is not a probability between 0 and 1")),
     }
 }
