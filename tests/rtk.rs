@@ -290,13 +290,14 @@ fn simulated_drives_fix_without_wrong_fixes() {
 /// prediction; a float epoch the single point as a leash; the float covariance's success
 /// rate at least 0.999) on seeds 0–1 of `examples/rtk_ins.rs`'s table, L1 + L2: under a
 /// 30 s tunnel and a 60 s canyon of 3 satellites at least 95 % of the epochs fixed (the
-/// table's 10 seeds: 97.2–98.9 %), with unflagged slips at least 90 % (the table's worst
-/// seed 94.8 %), no wrong fix — RTK alone "fixes" the
-/// canyon with positions decimetres to metres off on these seeds (101 in the table) —,
+/// table's 20 seeds: 98.5–98.6 %, the worst seed 96.7 %), with unflagged slips at least
+/// 90 % (97.1 %, the worst seed 76.8 %), no wrong fix — RTK alone "fixes" the
+/// canyon with positions decimetres to metres off on these seeds (194 in the table) —,
 /// fixed again within 10 s of the tunnel's and the canyon's end, the INS prediction's
-/// NEES/3 between 0.5 and 1.5 (0.85). L1 alone, open and with unflagged slips: no wrong
-/// fix (the table's 10 seeds: none of 7,252; with the ratio test alone, 471 in the open
-/// sky's, the INS held wrong by the first).
+/// NEES/3 between 0.5 and 1.5 (0.78–0.83). L1 alone, open and with unflagged slips: no
+/// wrong fix on these seeds (the table's 20: none on 19 of the open sky's, all 439 fixes
+/// of seed 18 wrong; with the ratio test alone, 10 seeds, 471 wrong in the open sky, the
+/// INS held wrong by the first).
 #[test]
 fn ins_aided_rtk_keeps_the_fix_through_outages() {
     use crate::rtk_drive::{Drive, Sky};

@@ -83,7 +83,7 @@ pub struct RtkOptions {
     /// promises [`min_success_rate`](Self::min_success_rate) (or 0.999 when that is 0) and
     /// passes the ratio test ([`lambda::solve_partial`]). Off by default: on the simulated
     /// drives it fixed single-frequency runs earlier but wrongly more often (RTK alone
-    /// 110 → 171 wrong fixes over 20 seeds; with an INS 0 → 9, `docs/results.md`).
+    /// 110 → 171 wrong fixes over 20 seeds; with an INS 0 → 9 over 10, `docs/results.md`).
     pub partial: bool,
     /// Phase noise of one receiver, `a + b / sin el` in quadrature, m.
     pub phase_sigma: (f64, f64),
