@@ -20,26 +20,15 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use ins_gnss::rtk::{solve_files, RtkRun};
-use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
+use ins_gnss::rtk::solve_files;
+use ins_gnss_core::earth::geodetic_to_ecef;
 use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
 use nalgebra::{Matrix3, Vector3};
 
 #[path = "../tests/rtk_drive.rs"]
 #[allow(dead_code)]
 mod rtk_drive;
-use rtk_drive::{figures, Drive, Figures, Sky, Solution};
-
-fn ours(run: &RtkRun) -> Vec<Solution> {
-    run.solutions
-        .iter()
-        .map(|s| {
-            let (lat, lon, _) = ecef_to_geodetic(&s.pos);
-            let c = ecef_to_ned_rotation(lat, lon);
-            (s.time.tow, s.pos, s.fixed, c * s.cov * c.transpose())
-        })
-        .collect()
-}
+use rtk_drive::{figures, solutions, Drive, Figures, Sky, Solution};
 
 /// RTKLIB's kinematic RTK of the files (`None`: rnx2rtkp failed or is missing).
 fn rtklib(dir: &Path, nav: &Path, base: &Vector3<f64>, freqs: usize) -> Option<Vec<Solution>> {
@@ -174,7 +163,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Some(base),
                 &opt,
             )?;
-            let f = figures(&ours(&run), &truth, drive.start, sky);
+            let f = figures(&solutions(&run), &truth, drive.start, sky);
             ours_cells[k].runs.push(f.clone());
             let mut line = format!(
                 "seed {seed} L{freqs}{} ours: {}/{} fixed, {} wrong, worst {:.3} m",

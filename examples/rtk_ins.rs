@@ -22,7 +22,7 @@
 use std::path::Path;
 
 use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
-use ins_gnss_sim::{scenarios, GnssSim};
+use ins_gnss_sim::scenarios;
 
 #[path = "../tests/rtk_drive.rs"]
 #[allow(dead_code)]
@@ -56,13 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ];
     let mut table: Vec<[Vec<Run>; 2]> = cells.iter().map(|_| [Vec::new(), Vec::new()]).collect();
     for seed in 0..seeds {
-        let data = ins_gnss_sim::simulate_from(
-            &exact,
-            drive.trajectory(),
-            &imu,
-            &GnssSim::none(),
-            500 + seed,
-        );
+        let data = drive.imu(&exact, &imu, seed);
         for (k, &(freqs, sky)) in cells.iter().enumerate() {
             let (rover, base_obs, truth) = drive.simulate(seed, sky);
             let opt =

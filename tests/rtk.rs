@@ -156,13 +156,6 @@ fn the_pos_file_reads_back() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
-/// A solution's covariance in NED (m²).
-fn ned(s: &ins_gnss_core::raw::rtk::RtkEpoch) -> nalgebra::Matrix3<f64> {
-    let (lat, lon, _) = ins_gnss_core::earth::ecef_to_geodetic(&s.pos);
-    let c = ecef_to_ned_rotation(lat, lon);
-    c * s.cov * c.transpose()
-}
-
 fn tempfile_dir() -> PathBuf {
     let d = std::env::temp_dir().join(format!("rtk-test-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -229,7 +222,7 @@ fn a_base_at_half_the_rate() {
 /// ionosphere's unmodelled gradient; the table's 20 seeds 1.9–2.1 %, NEES/3 0.92–0.97).
 #[test]
 fn simulated_drives_fix_without_wrong_fixes() {
-    use crate::rtk_drive::{figures, Drive, Sky};
+    use crate::rtk_drive::{figures, solutions, Drive, Sky};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let drive = Drive::new(root).unwrap();
     let dir = std::env::temp_dir().join(format!("rtk-drive-{}", std::process::id()));
@@ -254,9 +247,7 @@ fn simulated_drives_fix_without_wrong_fixes() {
                     &opt,
                 )
                 .unwrap();
-                let sol: Vec<_> =
-                    run.solutions.iter().map(|s| (s.time.tow, s.pos, s.fixed, ned(s))).collect();
-                let f = figures(&sol, &truth, drive.start, sky);
+                let f = figures(&solutions(&run), &truth, drive.start, sky);
                 assert_eq!(f.wrong, 0, "seed {seed}, {sky:?}, {freqs} frequencies: {f:?}");
                 if freqs == 1 {
                     continue;
@@ -301,7 +292,7 @@ fn simulated_drives_fix_without_wrong_fixes() {
 #[test]
 fn ins_aided_rtk_keeps_the_fix_through_outages() {
     use crate::rtk_drive::{Drive, Sky};
-    use ins_gnss_sim::{scenarios, GnssSim};
+    use ins_gnss_sim::scenarios;
     let drive = Drive::new(Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap();
     let imu = scenarios::mems_imu();
     let exact = ins_gnss_sim::ExactImu::new(drive.trajectory(), 200.0);
@@ -309,13 +300,7 @@ fn ins_aided_rtk_keeps_the_fix_through_outages() {
         RtkOptions { mode: RtkMode::Kinematic, min_success_rate: 0.999, ..Default::default() };
     let mut alone_wrong = 0;
     for seed in 0..2 {
-        let data = ins_gnss_sim::simulate_from(
-            &exact,
-            drive.trajectory(),
-            &imu,
-            &GnssSim::none(),
-            500 + seed,
-        );
+        let data = drive.imu(&exact, &imu, seed);
         for sky in [Sky::Tunnel, Sky::Canyon, Sky::Slips] {
             let (rover, base, truth) = drive.simulate(seed, sky);
             let alone = drive.alone(

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use estimator_core::{FixedNoise, NoObserver};
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
 use ins_gnss_core::raw::atmosphere::Klobuchar;
-use ins_gnss_core::raw::rtk::{information_beyond, Rtk, RtkOptions};
+use ins_gnss_core::raw::rtk::{information_beyond, Rtk, RtkEpoch, RtkOptions};
 use ins_gnss_core::raw::spp::single_point;
 use ins_gnss_core::raw::{read_nav, GpsTime, NavData, ObsEpoch};
 use ins_gnss_core::{GeoPos, GnssConfig, GnssEpoch, InitialState, InitialStd, InsModel, Navigator};
@@ -117,6 +117,18 @@ impl Drive {
         &self.traj
     }
 
+    /// Seed `seed`'s IMU samples of the drive with `errors`, from `exact` (the drive's
+    /// [`ins_gnss_sim::ExactImu`] at 200 Hz), no GNSS.
+    pub fn imu(
+        &self,
+        exact: &ins_gnss_sim::ExactImu,
+        errors: &ins_gnss_sim::ImuErrors,
+        seed: u64,
+    ) -> ins_gnss_sim::SimDataset {
+        let none = ins_gnss_sim::GnssSim::none();
+        ins_gnss_sim::simulate_from(exact, &self.traj, errors, &none, 500 + seed)
+    }
+
     /// Seed `seed`'s rover and base epochs under `sky`, and the rover's truth.
     pub fn simulate(&self, seed: u64, sky: Sky) -> (Vec<ObsEpoch>, Vec<ObsEpoch>, Vec<RawTruth>) {
         let mut sim = RawSim::spp_budget(self.start);
@@ -160,18 +172,9 @@ impl Drive {
             let t = e.line as f64;
             alone.epochs += 1;
             if let Ok(s) = rtk.step(e, b, eph, spp.map(|s| s.pos)) {
-                let err = ned_error(&s.pos, &truth[e.line].antenna);
-                if s.fixed {
-                    alone.push_fixed(&(s.pos - truth[e.line].antenna), &s.cov);
-                }
-                alone.h2 += err.x * err.x + err.y * err.y;
-                alone.n += 1;
-                if outage_end.is_some_and(|end| t >= end) && alone.end.is_none() {
-                    alone.end = Some(err.xy().norm());
-                }
-                if s.fixed && outage_end.is_some_and(|end| t >= end) && alone.refix.is_none() {
-                    alone.refix = Some(t - outage_end.unwrap_or(0.0));
-                }
+                let tr = &truth[e.line].antenna;
+                alone.position(t, &ned_error(&s.pos, tr), outage_end);
+                alone.solution(t, &s, tr, outage_end);
             }
         }
         alone
@@ -236,14 +239,10 @@ impl Drive {
                 let tr = &truth[e.line].antenna;
                 let ins_err = ned_error(&x, tr);
                 with.epochs += 1;
-                with.h2 += ins_err.x * ins_err.x + ins_err.y * ins_err.y;
-                with.n += 1;
+                let rel = e.line as f64;
+                with.position(rel, &ins_err, outage_end);
                 if let Some(ch) = p_ned.cholesky() {
                     with.nees += ins_err.dot(&ch.solve(&ins_err));
-                }
-                let rel = e.line as f64;
-                if outage_end.is_some_and(|end| rel >= end) && with.end.is_none() {
-                    with.end = Some(ins_err.xy().norm());
                 }
                 let spp = single_point(e, eph, Some(&kb), &opt.spp, Some(&x)).ok();
                 let Ok(sol) =
@@ -251,12 +250,7 @@ impl Drive {
                 else {
                     continue;
                 };
-                if sol.fixed {
-                    with.push_fixed(&(sol.pos - tr), &sol.cov);
-                    if outage_end.is_some_and(|end| rel >= end) && with.refix.is_none() {
-                        with.refix = Some(rel - outage_end.unwrap_or(0.0));
-                    }
-                }
+                with.solution(rel, &sol, tr, outage_end);
                 // not fixed: the single point, whose errors the RTK filter's float
                 // ambiguities do not share, as a leash only — when the INS knows its
                 // position less well than one single point does (its errors persist
@@ -323,11 +317,30 @@ pub struct Run {
 }
 
 impl Run {
-    fn push_fixed(&mut self, err: &Vector3<f64>, cov: &Matrix3<f64>) {
+    /// The position's error (NED) at trajectory time `t`: its horizontal part summed,
+    /// and kept when it is the first after the outage ending at `outage_end`.
+    fn position(&mut self, t: f64, err: &Vector3<f64>, outage_end: Option<f64>) {
+        self.h2 += err.x * err.x + err.y * err.y;
+        self.n += 1;
+        if outage_end.is_some_and(|end| t >= end) && self.end.is_none() {
+            self.end = Some(err.xy().norm());
+        }
+    }
+
+    /// An RTK solution at trajectory time `t` against the true antenna `truth` (ECEF): a
+    /// fixed one counted, wrong or not, and the first after the outage timed.
+    fn solution(&mut self, t: f64, s: &RtkEpoch, truth: &Vector3<f64>, outage_end: Option<f64>) {
+        if !s.fixed {
+            return;
+        }
         self.fixed += 1;
-        let outside = cov.cholesky().is_none_or(|c| err.dot(&c.solve(err)) > 16.27);
+        let err = s.pos - truth;
+        let outside = s.cov.cholesky().is_none_or(|c| err.dot(&c.solve(&err)) > 16.27);
         if err.norm() > WRONG_FIX && outside {
             self.wrong += 1;
+        }
+        if let Some(end) = outage_end.filter(|&end| t >= end) {
+            self.refix.get_or_insert(t - end);
         }
     }
 
@@ -344,6 +357,18 @@ fn ned_error(pos: &Vector3<f64>, truth: &Vector3<f64>) -> Vector3<f64> {
 
 /// A solution as (GPS time of week, ECEF, fixed, its covariance in NED, m²).
 pub type Solution = (f64, Vector3<f64>, bool, Matrix3<f64>);
+
+/// An RTK run's solutions as [`Solution`]s.
+pub fn solutions(run: &ins_gnss::rtk::RtkRun) -> Vec<Solution> {
+    run.solutions
+        .iter()
+        .map(|s| {
+            let (lat, lon, _) = ecef_to_geodetic(&s.pos);
+            let c = ecef_to_ned_rotation(lat, lon);
+            (s.time.tow, s.pos, s.fixed, c * s.cov * c.transpose())
+        })
+        .collect()
+}
 
 /// One run's figures against the truth.
 #[derive(Clone, Debug, Default)]

@@ -455,23 +455,6 @@ impl Rtk {
         }
     }
 
-    /// A single difference's modelled value at the rover position `rover` (m), and its
-    /// Jacobian with respect to that position: each receiver's range to the satellite at
-    /// its own transmission time, minus the satellite clock then (they cancel only when
-    /// both observe at the same instant), plus the troposphere at that receiver.
-    fn sd_model(&self, c: &Common, rover: &Vector3<f64>, time: GpsTime) -> (f64, Vector3<f64>) {
-        let (lat_r, lon_r, h_r) = ecef_to_geodetic(rover);
-        let (lat_b, lon_b, h_b) = ecef_to_geodetic(&self.base);
-        let tropo = self.opt.troposphere;
-        let (rr, e) = geometry(&c.rover.state.pos, rover);
-        let (rb, eb) = geometry(&c.base.state.pos, &self.base);
-        let (_, el_r) = azel(lat_r, lon_r, &e);
-        let (_, el_b) = azel(lat_b, lon_b, &eb);
-        let t_r = tropo.delay(lat_r, h_r, el_r, time);
-        let t_b = tropo.delay(lat_b, h_b, el_b, time);
-        (rr - C * c.rover.state.clock + t_r - (rb - C * c.base.state.clock + t_b), -e)
-    }
-
     /// One receiver's phase variance at elevation `el` (m²).
     fn phase_variance(&self, el: f64) -> f64 {
         let (a, b) = self.opt.phase_sigma;
@@ -489,14 +472,30 @@ impl Rtk {
     ) -> Result<(), RtkFailure> {
         let n = self.x.len();
         let rover = Vector3::new(lin[0], lin[1], lin[2]);
+        let (lat_r, lon_r, h_r) = ecef_to_geodetic(&rover);
+        let (lat_b, lon_b, h_b) = ecef_to_geodetic(&self.base);
+        let tropo = self.opt.troposphere;
         let rows: usize = groups.iter().map(|g| 2 * (g.len() - 1)).sum();
         let (mut h, mut v, mut r) =
             (DMatrix::zeros(rows, n), DVector::zeros(rows), DMatrix::zeros(rows, rows));
         let mut row = 0;
         for g in groups {
-            // the single differences' modelled ranges and their rover Jacobians
-            let model: Vec<(f64, Vector3<f64>)> =
-                g.iter().map(|c| self.sd_model(c, &rover, time)).collect();
+            // the single differences' modelled values and their rover Jacobians: each
+            // receiver's range to the satellite at its own transmission time, minus the
+            // satellite clock then (they cancel only when both observe at the same
+            // instant), plus the troposphere at that receiver
+            let model: Vec<(f64, Vector3<f64>)> = g
+                .iter()
+                .map(|c| {
+                    let (rr, e) = geometry(&c.rover.state.pos, &rover);
+                    let (rb, eb) = geometry(&c.base.state.pos, &self.base);
+                    let (_, el_r) = azel(lat_r, lon_r, &e);
+                    let (_, el_b) = azel(lat_b, lon_b, &eb);
+                    let t_r = tropo.delay(lat_r, h_r, el_r, time);
+                    let t_b = tropo.delay(lat_b, h_b, el_b, time);
+                    (rr - C * c.rover.state.clock + t_r - (rb - C * c.base.state.clock + t_b), -e)
+                })
+                .collect();
             let var: Vec<f64> = g.iter().map(|c| 2.0 * self.phase_variance(c.elevation)).collect();
             let k = g.len() - 1;
             for (phase, block) in [(true, row), (false, row + k)] {
@@ -565,7 +564,7 @@ impl Rtk {
         };
         let ratio = found.ratio();
         if ratio >= self.opt.ratio && found.success_rate >= self.opt.min_success_rate {
-            if let Some(e) = self.condition(&float, &g_mat, found.best(), ratio) {
+            if let Some(e) = self.condition(&float, &g_mat, &a, &q, found.best(), ratio) {
                 return e;
             }
         }
@@ -576,7 +575,10 @@ impl Rtk {
                 let r = part.solution.ratio();
                 if r >= self.opt.ratio {
                     let combos = &part.combinations * &g_mat;
-                    if let Some(e) = self.condition(&float, &combos, part.solution.best(), r) {
+                    let a_c = &combos * &self.x;
+                    let q_c = &combos * &self.p * combos.transpose();
+                    let best = part.solution.best();
+                    if let Some(e) = self.condition(&float, &combos, &a_c, &q_c, best, r) {
                         return e;
                     }
                 }
@@ -586,17 +588,19 @@ impl Rtk {
     }
 
     /// The float solution conditioned on the integer combinations `h x = fixed` of the
-    /// states: `x̌ = x̂ − P hᵀ (h P hᵀ)⁻¹ (h x̂ − ǎ)` for the position and its covariance.
+    /// states, whose float values `a = h x̂` and covariance `q = h P hᵀ` the caller has:
+    /// `x̌ = x̂ − P hᵀ q⁻¹ (a − ǎ)` for the position and its covariance.
+    #[allow(clippy::too_many_arguments)]
     fn condition(
         &self,
         float: &RtkEpoch,
         h: &DMatrix<f64>,
+        a: &DVector<f64>,
+        q: &DMatrix<f64>,
         fixed: &[i64],
         ratio: f64,
     ) -> Option<RtkEpoch> {
-        let a = h * &self.x;
-        let q = h * &self.p * h.transpose();
-        let qi = ((&q + q.transpose()) * 0.5).cholesky()?.inverse();
+        let qi = ((q + q.transpose()) * 0.5).cholesky()?.inverse();
         let fixed = DVector::from_iterator(fixed.len(), fixed.iter().map(|&v| v as f64));
         let pxa = self.p.rows(0, 3) * h.transpose();
         let gain = &pxa * qi;
