@@ -4,7 +4,7 @@
     python3 benches/compare_outputs.py OLD_BIN NEW_BIN CONFIG [CONFIG...]
 
 Each CONFIG runs from its own directory into a fresh temporary output directory per
-binary. A file is reported identical, or with the number of lines that differ; for
+binary; a run that fails is compared by its exit code and error message. A file is reported identical, or with the number of lines that differ; for
 `std_smoothed.txt` the rows of the new file are matched with the old file's rows at the
 same time stamp (the old binary may have written more of them), and the largest
 difference in units of the last printed digit and the largest relative difference are
@@ -23,9 +23,9 @@ def run(binary, config):
     out = tempfile.mkdtemp(prefix="compare-")
     cmd = [os.path.abspath(binary), "run", os.path.basename(config), "--quiet",
            "--accept-inconsistent", "--smooth", "--out", out]
-    subprocess.run(cmd, cwd=os.path.dirname(os.path.abspath(config)), check=True,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return out
+    done = subprocess.run(cmd, cwd=os.path.dirname(os.path.abspath(config)),
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return out, done.returncode, done.stderr
 
 
 def last_digits(a, b):
@@ -66,9 +66,15 @@ def main():
         sys.exit(__doc__)
     old_bin, new_bin, configs = args[0], args[1], args[2:]
     for config in configs:
-        old_dir, new_dir = run(old_bin, config), run(new_bin, config)
+        (old_dir, old_rc, old_err), (new_dir, new_rc, new_err) = \
+            run(old_bin, config), run(new_bin, config)
         try:
             print(f"== {config}")
+            if old_rc or new_rc:
+                # a refused or failed run: its exit code and message are its output
+                same = (old_rc, old_err) == (new_rc, new_err)
+                print(f"  exit {old_rc} -> {new_rc}, message "
+                      f"{'identical' if same else 'differs'}")
             for name in sorted(os.listdir(new_dir)):
                 a = open(os.path.join(old_dir, name), "rb").read()
                 b = open(os.path.join(new_dir, name), "rb").read()

@@ -69,7 +69,7 @@ fn a_random_walk_given_directly_equals_the_instability_it_corresponds_to() {
         assert_eq!(other.arw, n.arw);
     }
     // the echo shows the densities in SI
-    let echo = base.noise_echo();
+    let echo = ins_gnss::config::noise_echo(&base.imu_noise());
     assert!(echo.contains("rad/s/√s") && echo.contains(&format!("{g_si:.3e}")), "{echo}");
 }
 

@@ -85,55 +85,23 @@ impl Config {
         n.accel_bias_rw.map(|q| v3(q) * (MGAL / 60.0)).or(n.accel_bias_rw_si.map(v3))
     }
 
-    /// The noise densities the filter uses, SI, for the run summary.
-    pub fn noise_echo(&self) -> String {
-        let n = self.imu_noise();
-        let f = |v: &Vector3<f64>| format!("[{:.3e}, {:.3e}, {:.3e}]", v.x, v.y, v.z);
-        let bias = match n.bias_model {
-            BiasModel::RandomWalk => format!(
-                "bias random walk gyro {} rad/s/√s, accel {} m/s²/√s",
-                f(&n.gyro_bias),
-                f(&n.accel_bias)
-            ),
-            BiasModel::GaussMarkov { tau } | BiasModel::GaussMarkovHeld { tau } => format!(
-                "bias Gauss–Markov σ gyro {} rad/s, accel {} m/s², τ {tau:.0} s",
-                f(&n.gyro_bias),
-                f(&n.accel_bias)
-            ),
-        };
-        format!("noise (SI): ARW {} rad/√s, VRW {} m/s/√s; {bias}", f(&n.arw), f(&n.vrw))
-    }
-
-    /// The initial position (the data's, once [`crate::start`] has filled `[init]` in;
-    /// the equator at sea level before).
-    pub fn initial_position(&self) -> GeoPos {
-        let p = self.init.position.unwrap_or_default();
-        GeoPos::from_degrees(p[0], p[1], p[2])
-    }
-
-    /// The initial state at `time`, from `[init]` as it is after [`crate::start`] has
-    /// filled in what was missing (an unfilled value is 0, and a missing 1σ is refused by
-    /// that step before this is called).
-    pub fn initial_state(&self, time: f64) -> InitialState {
+    /// `[init]` in SI units: what it gives, converted once (the start,
+    /// [`crate::start::Starter`], completes the rest from the data).
+    pub fn initial_parts(&self) -> InitialParts {
         let i = &self.init;
         let d = core::f64::consts::PI / 180.0;
-        let get = |v: Option<[f64; 3]>| v3(v.unwrap_or_default());
-        let att = get(i.attitude) * d;
-        let state = InsState {
-            att: So3::from_euler(att.x, att.y, att.z),
-            vel: get(i.velocity),
-            pos: self.initial_position(),
-            bg: get(i.gyro_bias) * DEG_PER_H,
-            ba: get(i.accel_bias) * MGAL,
-        };
-        let std = InitialStd {
-            att: get(i.attitude_std) * d,
-            vel: get(i.velocity_std),
-            pos: get(i.position_std),
-            bg: get(i.gyro_bias_std) * DEG_PER_H,
-            ba: v3(i.accel_bias_std.unwrap_or(DEFAULT_ACCEL_BIAS_STD)) * MGAL,
-        };
-        InitialState { time, state, std }
+        InitialParts {
+            attitude: i.attitude.map(|a| v3(a) * d),
+            attitude_std: i.attitude_std.map(|a| v3(a) * d),
+            position: i.position.map(|p| GeoPos::from_degrees(p[0], p[1], p[2])),
+            position_std: i.position_std.map(v3),
+            velocity: i.velocity.map(v3),
+            velocity_std: i.velocity_std.map(v3),
+            gyro_bias: i.gyro_bias.map(|b| v3(b) * DEG_PER_H),
+            gyro_bias_std: i.gyro_bias_std.map(|b| v3(b) * DEG_PER_H),
+            accel_bias: i.accel_bias.map(|b| v3(b) * MGAL),
+            accel_bias_std: i.accel_bias_std.map(|b| v3(b) * MGAL),
+        }
     }
 
     /// GNSS settings.
@@ -207,13 +175,11 @@ impl Config {
         }
     }
 
-    /// The mechanization.
-    pub fn mechanization(&self) -> Mechanization {
+    /// The mechanization; a flat Earth's reference is `start`, the initial position.
+    pub fn mechanization(&self, start: GeoPos) -> Mechanization {
         match self.filter.mechanization {
             MechanizationName::Wgs84 => Mechanization::Wgs84,
-            MechanizationName::FlatEarth => {
-                Mechanization::FlatEarth { reference: self.initial_position() }
-            }
+            MechanizationName::FlatEarth => Mechanization::FlatEarth { reference: start },
         }
     }
 
@@ -232,4 +198,78 @@ impl Config {
             PolicyName::Skip => BadLinePolicy::Skip,
         }
     }
+}
+
+/// The initial state's parts in SI units (attitude as roll, pitch, heading in rad; biases
+/// in rad/s and m/s²): `[init]` converted once ([`Config::initial_parts`]), then completed
+/// by the start from the data. A part `None` is neither given nor found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct InitialParts {
+    /// Roll, pitch, heading, rad.
+    pub attitude: Option<Vector3<f64>>,
+    /// Their 1σ, rad.
+    pub attitude_std: Option<Vector3<f64>>,
+    /// Geodetic position.
+    pub position: Option<GeoPos>,
+    /// Its 1σ (north, east, down), m.
+    pub position_std: Option<Vector3<f64>>,
+    /// NED velocity, m/s.
+    pub velocity: Option<Vector3<f64>>,
+    /// Its 1σ, m/s.
+    pub velocity_std: Option<Vector3<f64>>,
+    /// Gyro bias, rad/s.
+    pub gyro_bias: Option<Vector3<f64>>,
+    /// Its 1σ, rad/s.
+    pub gyro_bias_std: Option<Vector3<f64>>,
+    /// Accelerometer bias, m/s².
+    pub accel_bias: Option<Vector3<f64>>,
+    /// Its 1σ, m/s².
+    pub accel_bias_std: Option<Vector3<f64>>,
+}
+
+impl InitialParts {
+    /// The initial position (the equator at sea level when neither given nor found).
+    pub fn position(&self) -> GeoPos {
+        self.position.unwrap_or(GeoPos::new(0.0, 0.0, 0.0))
+    }
+
+    /// The initial state at `time`: a missing value is 0, a missing accelerometer bias 1σ
+    /// [`DEFAULT_ACCEL_BIAS_STD`] (the start refuses a run whose other 1σ it cannot give).
+    pub fn initial_state(&self, time: f64) -> InitialState {
+        let get = |v: Option<Vector3<f64>>| v.unwrap_or_default();
+        let att = get(self.attitude);
+        let state = InsState {
+            att: So3::from_euler(att.x, att.y, att.z),
+            vel: get(self.velocity),
+            pos: self.position(),
+            bg: get(self.gyro_bias),
+            ba: get(self.accel_bias),
+        };
+        let std = InitialStd {
+            att: get(self.attitude_std),
+            vel: get(self.velocity_std),
+            pos: get(self.position_std),
+            bg: get(self.gyro_bias_std),
+            ba: self.accel_bias_std.unwrap_or_else(|| v3(DEFAULT_ACCEL_BIAS_STD) * MGAL),
+        };
+        InitialState { time, state, std }
+    }
+}
+
+/// The noise densities the filter uses, SI, for the run summary.
+pub fn noise_echo(n: &ImuNoise) -> String {
+    let f = |v: &Vector3<f64>| format!("[{:.3e}, {:.3e}, {:.3e}]", v.x, v.y, v.z);
+    let bias = match n.bias_model {
+        BiasModel::RandomWalk => format!(
+            "bias random walk gyro {} rad/s/√s, accel {} m/s²/√s",
+            f(&n.gyro_bias),
+            f(&n.accel_bias)
+        ),
+        BiasModel::GaussMarkov { tau } | BiasModel::GaussMarkovHeld { tau } => format!(
+            "bias Gauss–Markov σ gyro {} rad/s, accel {} m/s², τ {tau:.0} s",
+            f(&n.gyro_bias),
+            f(&n.accel_bias)
+        ),
+    };
+    format!("noise (SI): ARW {} rad/√s, VRW {} m/s/√s; {bias}", f(&n.arw), f(&n.vrw))
 }

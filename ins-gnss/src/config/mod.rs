@@ -39,6 +39,7 @@ mod validate;
 mod vehicle;
 
 pub use calibrate::*;
+pub use convert::{noise_echo, InitialParts};
 pub use data::*;
 pub use filter::*;
 pub use gnss::*;

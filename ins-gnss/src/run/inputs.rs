@@ -295,10 +295,10 @@ impl ImuRecording {
 /// early).
 pub(crate) type Tee = std::sync::mpsc::Sender<Vec<ImuSample>>;
 
-/// [`crate::start::prepare`] run beside the filter when it only checks (the initial state
-/// and noise are given): on the IMU samples the reader tees to it and the GNSS epochs of
-/// the same span, read from a reader of its own. It starts once the samples reach what
-/// `prepare` looks at ([`StartSpan`]).
+/// The start's checks run beside the filter when it only checks (the initial state and
+/// noise are given): a [`Starter`] over the whole span ([`Look::Span`]) fed the IMU samples
+/// the reader tees to it and the GNSS epochs of the same span, read from a reader of its
+/// own, and decided once it holds all it looks at.
 pub(crate) struct Checks(std::thread::JoinHandle<Result<Vec<String>, RunError>>);
 
 impl Checks {
@@ -310,26 +310,24 @@ impl Checks {
         let mut gnss = open_aid(config, inputs)?;
         let config = config.clone();
         Ok(Self(std::thread::spawn(move || {
-            let (mut samples, mut epochs) = (Vec::new(), Vec::new());
-            let (mut span, mut gnss_t) = (None, f64::NEG_INFINITY);
+            let (mut starter, mut gnss_t) = (None, f64::NEG_INFINITY);
             while let Ok(chunk) = imu.recv() {
                 let Some(first) = chunk.first() else { continue };
-                let span = span.get_or_insert_with(|| StartSpan::new(&config, first.t));
-                span.extend(&mut samples, chunk);
-                let last = samples.last().map_or(f64::NAN, |s| s.t);
-                read_gnss_past(&mut gnss, last, &mut gnss_t, |a, _| epochs.extend(a.fix))?;
-                if span.reached(&config, &samples, &epochs) {
+                let starter =
+                    starter.get_or_insert_with(|| Starter::new(&config, Look::Span, first.t));
+                let capped = starter.take_samples(chunk);
+                let last = starter.last_sample().unwrap_or(f64::NAN);
+                read_gnss_past(&mut gnss, last, &mut gnss_t, |a, _| starter.take_fixes(a.fix))?;
+                if capped || starter.has_all() {
                     break;
                 }
             }
             // (the reader stops teeing)
             drop(imu);
-            let Some(span) = span else {
+            let Some(starter) = starter else {
                 return Ok(Vec::new());
             };
-            crate::start::prepare(&config, &samples, &epochs, span.t0)
-                .map(|start| start.report)
-                .map_err(RunError::Start)
+            starter.decide().map(|start| start.report).map_err(RunError::Start)
         })))
     }
 
@@ -344,153 +342,59 @@ impl Checks {
     }
 }
 
-/// The first seconds of the inputs, read before the filter starts ([`crate::start`]):
-/// IMU samples and GNSS epochs (with their lines) up to the end of what
-/// [`crate::start::prepare`] looks at ([`crate::start::span_end`]).
-pub struct Prefix {
+/// The first seconds of the inputs, read before the filter starts: IMU samples and GNSS
+/// epochs (with their lines) up to the end of what the start looks at, and the start fed
+/// with them ([`Starter`]).
+pub struct Prefix<'c> {
     /// IMU batches as the reader sent them (the filter takes them first); they hold the
-    /// samples [`crate::start::prepare`] looks at and may run on past them.
+    /// samples the start looks at and may run on past them.
     pub(crate) batches: Vec<Vec<(ImuSample, usize)>>,
     /// GNSS epochs and their lines.
     pub(crate) gnss: std::collections::VecDeque<(AidEpoch, usize)>,
-    /// The IMU samples `prepare` looks at, and the GNSS fixes.
-    looked_at: (Vec<ImuSample>, Vec<GnssEpoch>),
+    /// The start, fed the samples and fixes.
+    pub(crate) starter: Starter<'c>,
 }
 
-impl Prefix {
+impl Prefix<'_> {
     /// The fixes read with the prefix.
     pub(crate) fn fixes(&self) -> &[GnssEpoch] {
-        &self.looked_at.1
+        self.starter.fixes()
     }
 }
 
-/// How much of the data's start [`run`] reads before the filter starts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Look {
-    /// The first sample (nothing to find from the data).
-    First,
-    /// Until the static start ends ([`crate::start::prepare_floor`]).
-    StaticStart,
-    /// All [`crate::start::prepare`] looks at ([`StartSpan`]).
-    Span,
-}
-
-/// Whether the start of the data, as it is read, holds all [`crate::start::prepare`]
-/// looks at: up to [`crate::start::span_end`] (known once the static start has ended:
-/// `align.max_time` after the start or after the static start) as
-/// [`crate::start::reaches`] says, and at most up to the first sample past
-/// [`start_span`]'s end.
-pub(crate) struct StartSpan {
-    t0: f64,
-    cap: f64,
-    end: Option<f64>,
-    /// The sample count at which `span_end` (which reads every sample so far) is next
-    /// asked: at doubling counts, its work over a long static start stays linear.
-    next: usize,
-}
-
-impl StartSpan {
-    pub(crate) fn new(config: &Config, first_t: f64) -> Self {
-        let (t0, cap) = start_span(config, first_t);
-        Self { t0, cap, end: None, next: 0 }
-    }
-
-    /// Append to `imu` the samples of `batch` up to the first past the cap; whether the
-    /// cap was passed.
-    pub(crate) fn extend(
-        &self,
-        imu: &mut Vec<ImuSample>,
-        batch: impl IntoIterator<Item = ImuSample>,
-    ) -> bool {
-        for s in batch {
-            imu.push(s);
-            if s.t > self.cap {
-                return true;
-            }
-        }
-        false
-    }
-
-    /// Whether `imu` (every sample from the first) and `gnss` (the fixes up to the first
-    /// epoch past the last sample) hold all `prepare` looks at.
-    pub(crate) fn reached(
-        &mut self,
-        config: &Config,
-        imu: &[ImuSample],
-        gnss: &[GnssEpoch],
-    ) -> bool {
-        let Some(last) = imu.last() else { return false };
-        if last.t > self.cap {
-            return true;
-        }
-        if self.end.is_none() && imu.len() >= self.next {
-            self.next = 2 * imu.len();
-            self.end = crate::start::span_end(config, imu, gnss, self.t0);
-        }
-        self.end.is_some_and(|end| crate::start::reaches(imu, self.t0, end))
-    }
-}
-
-/// Read the [`Prefix`] (`look`): from the start time up to the first IMU batch that
-/// holds what `look` needs, and the GNSS epochs up to the first past its last sample.
-pub(crate) fn read_prefix(
-    config: &Config,
+/// Read the [`Prefix`] the start looks at (`look`): from the first IMU batch up to the
+/// first that holds what it needs, and the GNSS epochs up to the first past its last
+/// sample.
+pub(crate) fn read_prefix<'c>(
+    config: &'c Config,
     imu: &mut ImuFeed,
     gnss: &mut AidReader,
     look: Look,
-) -> Result<Prefix, RunError> {
-    let mut p = Prefix {
-        batches: Vec::new(),
-        gnss: Default::default(),
-        looked_at: (Vec::new(), Vec::new()),
-    };
-    let mut span: Option<StartSpan> = None;
+) -> Result<Prefix<'c>, RunError> {
+    let (mut batches, mut epochs) = (Vec::new(), std::collections::VecDeque::new());
+    let mut starter: Option<Starter<'c>> = None;
     let mut gnss_t = f64::NEG_INFINITY;
-    let mut read_gnss = |p: &mut Prefix, t: f64| {
-        read_gnss_past(gnss, t, &mut gnss_t, |g, line| {
-            p.looked_at.1.extend(g.fix);
-            p.gnss.push_back((g, line));
-        })
-    };
     for batch in imu.batches.iter() {
         let batch = batch?;
         let (Some(&(first, _)), Some(&(last, _))) = (batch.first(), batch.last()) else {
             // (the reader's last message before an error, or at the end of the data)
             continue;
         };
-        let span = span.get_or_insert_with(|| StartSpan::new(config, first.t));
-        let imu = &mut p.looked_at.0;
-        let capped = match look {
-            Look::First => {
-                imu.push(first);
-                true
-            }
-            _ => span.extend(imu, batch.iter().map(|(s, _)| *s)),
-        };
-        p.batches.push(batch);
-        if look == Look::First {
-            read_gnss(&mut p, f64::NEG_INFINITY)?;
-            break;
-        }
-        read_gnss(&mut p, last.t)?;
-        let (imu, fixes) = &p.looked_at;
-        let done = capped
-            || match look {
-                Look::Span => span.reached(config, imu, fixes),
-                // once the static start has ended inside what was read
-                _ => {
-                    let still = crate::start::still_imu_span(config, imu, fixes, span.t0);
-                    still.samples == 0 || still.span.1 < last.t - config.align.static_window
-                }
-            };
-        if done {
+        let starter = starter.get_or_insert_with(|| Starter::new(config, look, first.t));
+        let capped = starter.take_samples(batch.iter().map(|(s, _)| *s));
+        batches.push(batch);
+        // (looking at the first sample only: the first epoch)
+        let past = if look == Look::First { f64::NEG_INFINITY } else { last.t };
+        read_gnss_past(gnss, past, &mut gnss_t, |g, line| {
+            starter.take_fixes(g.fix);
+            epochs.push_back((g, line));
+        })?;
+        if capped || starter.has_all() {
             break;
         }
     }
-    if span.is_none() {
-        return Err(RunError::NoData("the IMU file has no samples".into()));
-    }
-    Ok(p)
+    let starter = starter.ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?;
+    Ok(Prefix { batches, gnss: epochs, starter })
 }
 
 /// Read `gnss` on until an epoch past `t` has been read or the stream has ended, each
@@ -514,69 +418,44 @@ fn read_gnss_past(
     Ok(())
 }
 
-/// The run's start time (the configured one, or the first IMU sample's `first_t`) and the
-/// furthest [`crate::start::prepare`] may look (`align.max_time` later, and a static
-/// start's [`crate::start::STATIC_ALLOWANCE`]: the alignment's span counts from the
-/// motion's start). [`StartSpan`] finds where it stops looking.
-pub(crate) fn start_span(config: &Config, first_t: f64) -> (f64, f64) {
-    let t0 = config.data.start_time.unwrap_or(first_t);
-    (t0, t0 + config.align.max_time + crate::start::STATIC_ALLOWANCE)
-}
-
-/// [`crate::start::prepare`] (or its part `look` calls for) on a prefix.
-pub(crate) fn prepare_start(
-    config: &Config,
-    prefix: &Prefix,
-    look: Look,
-) -> Result<crate::start::Start, RunError> {
-    let (imu, gnss) = &prefix.looked_at;
-    let (t0, _) = start_span(config, imu.first().map_or(0.0, |s| s.t));
-    match look {
-        Look::Span => crate::start::prepare(config, imu, gnss, t0).map_err(RunError::Start),
-        Look::StaticStart => Ok(crate::start::prepare_floor(config, imu, gnss, t0)),
-        Look::First => Ok(crate::start::Start {
-            config: config.clone(),
-            report: Vec::new(),
-            still_until: None,
-        }),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::scenario::{Scenario, SegmentSpec};
 
-    /// The samples and fixes [`Checks`] hands to `prepare`: batches of [`BATCH`] samples
-    /// (up to the first past the cap), the fixes up to the first epoch past each batch,
-    /// until [`StartSpan`] says they hold all it looks at.
-    fn read_as_checks(
+    /// The start as [`Checks`] feeds it: batches of [`BATCH`] samples (up to the first
+    /// past the cap), the fixes up to the first epoch past each batch, until it holds all
+    /// it looks at; and how many samples it took.
+    fn start_as_checks(
         config: &Config,
         imu: &[ImuSample],
         gnss: &[GnssEpoch],
-    ) -> (Vec<ImuSample>, Vec<GnssEpoch>) {
-        let mut span = StartSpan::new(config, imu[0].t);
-        let (mut read, mut g) = (Vec::new(), 0);
+    ) -> (Result<crate::start::Start, String>, usize) {
+        let mut starter = Starter::new(config, Look::Span, imu[0].t);
+        let g = &mut 0;
         for chunk in imu.chunks(BATCH) {
-            span.extend(&mut read, chunk.iter().copied());
-            let last = read[read.len() - 1].t;
-            while g < gnss.len() && (g == 0 || gnss[g - 1].t <= last) {
-                g += 1;
+            let capped = starter.take_samples(chunk.iter().copied());
+            let last = starter.last_sample().unwrap();
+            let from = *g;
+            while *g < gnss.len() && (*g == 0 || gnss[*g - 1].t <= last) {
+                *g += 1;
             }
-            if span.reached(config, &read, &gnss[..g]) {
+            starter.take_fixes(gnss[from..*g].iter().cloned());
+            if capped || starter.has_all() {
                 break;
             }
         }
-        (read, gnss[..g].to_vec())
+        let last = starter.last_sample().unwrap();
+        (starter.decide(), imu.partition_point(|s| s.t <= last))
     }
 
-    /// `prepare` on the span the program reads gives what it gives on the whole span
+    /// The start on the span the program reads gives what it gives on the whole span
     /// (as [`crate::run::run_slices`] reads it), over static starts from none to past
     /// the cap, configurations that only check and that fill `[init]` or the noise, and
     /// data a check refuses (GNSS gross errors, an IMU stamped late, increments in g);
     /// and the span read is shorter than the whole wherever the data run on past it.
     #[test]
-    fn the_start_read_gives_prepare_s_answer_on_the_whole_span() {
+    fn the_start_read_gives_its_answer_on_the_whole_span() {
         let text = include_str!("../../scenarios/drive.toml");
         let base = Scenario::parse(text, "drive.toml").unwrap();
         let seg = |kind: &str, duration: f64| SegmentSpec {
@@ -635,23 +514,22 @@ mod tests {
                 ("in g", &given, &in_g, &data.gnss),
             ];
             for (name, config, imu, gnss) in runs {
-                let (t0, t_end) = start_span(config, imu[0].t);
-                let n_imu = imu.partition_point(|s| s.t <= t_end + 1e-9);
-                let n_gnss = gnss.partition_point(|e| e.t <= t_end + 1e-9);
-                let whole = crate::start::prepare(config, &imu[..n_imu], &gnss[..n_gnss], t0);
-                let (read, fixes) = read_as_checks(config, imu, gnss);
-                let part = crate::start::prepare(config, &read, &fixes, t0);
+                let cap = crate::start::start_time(config, imu[0].t)
+                    + config.align.max_time
+                    + crate::start::STATIC_ALLOWANCE;
+                let n_imu = imu.partition_point(|s| s.t <= cap + 1e-9);
+                let whole = crate::start::start_on(config, imu, gnss);
+                let (part, read) = start_as_checks(config, imu, gnss);
                 assert_eq!(
                     format!("{part:?}"),
                     format!("{whole:?}"),
-                    "static {still} s, {name}: {} of {n_imu} samples read",
-                    read.len()
+                    "static {still} s, {name}: {read} of {n_imu} samples read"
                 );
                 cases += 1;
-                shorter += usize::from(read.len() < n_imu);
+                shorter += usize::from(read < n_imu);
                 if still < 600.0 {
                     // (the motion's 120 s and a static start end well before the data)
-                    assert!(read.len() < n_imu, "static {still} s, {name}: the whole span read");
+                    assert!(read < n_imu, "static {still} s, {name}: the whole span read");
                 }
             }
         }

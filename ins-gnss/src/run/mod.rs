@@ -27,6 +27,7 @@ use nalgebra::Vector3;
 
 use crate::aiding::{AidEpoch, AidReader};
 use crate::config::{Config, FixErrorPlan, PROBE_FIXES};
+use crate::start::{Look, Start, Starter};
 use estimator_core::DimAlloc;
 use ins_gnss_core::calibration::{InsModelCal, InsStateCal};
 use ins_gnss_core::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
@@ -161,18 +162,10 @@ fn attempt<O: Sink>(
         Err(r) => ImuFeed::replay(r, tee),
     };
     // With the whole initial state and noise given, the data's first seconds are only
-    // checked (`start::prepare` changes nothing but the noise floor, which needs only the
+    // checked (the start changes nothing but the noise floor, which needs only the
     // static start): the checks run beside the filter on a copy of them, and a refusal
-    // stops the run. Otherwise the filter waits for `prepare`.
-    // (calibrating the time offset: the start's search runs before the filter, which
-    // starts on the stamps it corrects)
-    let look = if crate::start::fills(config) || config.calibrate.time_offset {
-        Look::Span
-    } else if crate::start::floors(config) {
-        Look::StaticStart
-    } else {
-        Look::First
-    };
+    // stops the run. Otherwise the filter waits for the start ([`Look::of`]).
+    let look = Look::of(config);
     let beside = config.align.checks && look != Look::Span;
     let (mut feed, checks) = if beside {
         let (tee, prefix) = std::sync::mpsc::channel();
@@ -182,10 +175,9 @@ fn attempt<O: Sink>(
         (feed_of(None), None)
     };
     let ready = read_prefix(config, &mut feed, &mut gnss, look)
-        .and_then(|prefix| Ok((prepare_start(config, &prefix, look)?, prefix)))
+        .and_then(|prefix| Ok((prefix.starter.decide().map_err(RunError::Start)?, prefix)))
         .and_then(|(start, prefix)| {
-            let offset = start.config.data.imu_time_offset;
-            if offset != config.data.imu_time_offset {
+            if let Some(offset) = start.time_offset.filter(|o| *o != config.data.imu_time_offset) {
                 return Err(RunError::TimeOffsetApplied(offset, start.report));
             }
             Ok((start, prefix, create()?))
@@ -197,7 +189,6 @@ fn attempt<O: Sink>(
             return Err((e, false));
         }
     };
-    let config = &start.config;
     let names = (inputs.imu_name(config), inputs.gnss_name(config));
     let notes = match inputs {
         Inputs::Recording { notes, .. } => notes.clone(),
@@ -220,7 +211,7 @@ fn attempt<O: Sink>(
         nav,
         probe,
         found: persisting_probe,
-        still_until: start.still_until,
+        start: &start,
     };
     let calibrate = config.calibrate.any();
     let result = match config.filter.states {
@@ -251,15 +242,16 @@ fn attempt<O: Sink>(
 struct Opened<'o, O: Sink> {
     feed: ImuFeed,
     gnss: AidReader,
-    prefix: Prefix,
+    prefix: Prefix<'o>,
     checks: Option<Checks>,
     out: &'o mut O,
     nav: O::Nav,
     probe: bool,
     /// The probe whose noise scale is the prior (a run with the persisting part).
     found: Option<FixErrorProbe>,
-    /// The static start's end, ZUPT and ZARU over it ([`crate::start::Start::still_until`]).
-    still_until: Option<f64>,
+    /// What the start found: the initial state, the IMU noise, the static start's end
+    /// (ZARU over it).
+    start: &'o Start,
 }
 
 /// `probe`: the fixes' errors are probed ([`FixErrorPlan::Probe`]): once the first
@@ -286,20 +278,14 @@ where
         nav: nav_sink,
         probe,
         found,
-        still_until,
+        start: from,
     } = opened;
 
-    // Start: the configured time, or the first IMU sample; samples up to it are skipped.
+    // Start: the configured time, or the first IMU sample (the prefix holds one at
+    // least); samples up to it are skipped.
     let Prefix { batches: first_batches, gnss: mut first_epochs, .. } = prefix;
-    let first_t = first_batches
-        .iter()
-        .flatten()
-        .next()
-        .ok_or_else(|| RunError::NoData("the IMU file has no samples".into()))?
-        .0
-        .t;
     // the receiver clock of the first raw epoch after the start with a single point
-    let t0 = config.data.start_time.unwrap_or(first_t);
+    let t0 = from.time;
     let clock = first_epochs
         .iter()
         .filter(|(a, _)| a.t > t0 + 1e-9)
@@ -309,8 +295,7 @@ where
         fix_factor: found.map(|f| f.factor),
         ..GnssAtStart::of_fixes(config, first_epochs.iter().filter_map(|(a, _)| a.fix.as_ref()))
     };
-    let (mut nav, mut summary, end) =
-        start_navigator::<S>(config, strategy, first_t, &at, still_until)?;
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, from, strategy, &at)?;
     let start = summary.span.0;
     // (the exact mode keeps the step-by-step adjoint: its outputs stay those of earlier
     // builds byte for byte; the two agree to rounding, `docs/history/benches.md`)

@@ -59,16 +59,12 @@ where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
     let wall = Instant::now();
-    let first = imu.first().ok_or_else(|| RunError::NoData("no IMU samples".into()))?;
-    let (t0, t_end) = start_span(config, first.t);
-    let n_imu = imu.partition_point(|s| s.t <= t_end + 1e-9);
-    let n_gnss = gnss.partition_point(|e| e.t <= t_end + 1e-9);
-    let start = crate::start::prepare(config, &imu[..n_imu], &gnss[..n_gnss], t0)
-        .map_err(RunError::Start)?;
-    let config = &start.config;
+    if imu.is_empty() {
+        return Err(RunError::NoData("no IMU samples".into()));
+    }
+    let start = crate::start::start_on(config, imu, gnss).map_err(RunError::Start)?;
     let at = GnssAtStart::of_fixes(config, gnss.iter());
-    let (mut nav, mut summary, end) =
-        start_navigator::<S>(config, strategy, first.t, &at, start.still_until)?;
+    let (mut nav, mut summary, end) = start_navigator::<S>(config, &start, strategy, &at)?;
     summary.start = start.report;
     let start = summary.span.0;
     let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);

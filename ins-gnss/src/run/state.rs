@@ -11,11 +11,12 @@ where
     /// The error states written to `std.txt` (the first ones).
     const SIGMA_COLUMNS: usize;
 
-    /// The navigator at `start`, with what the GNSS said at the start (`at`).
+    /// The navigator from what the start found (`from`: the start time, the initial state
+    /// and the IMU noise), with what the GNSS said at the start (`at`).
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError>;
 
@@ -56,12 +57,12 @@ impl RunState for InsState {
 
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         _at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
-        let model = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
-        Navigator::new(&config.initial_state(start), model, strategy, config.gnss_config())
+        let model = ins_model(config, from);
+        Navigator::new(&from.initial_state(), model, strategy, config.gnss_config())
     }
 
     fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
@@ -74,13 +75,13 @@ impl RunState for InsState21 {
 
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         _at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
-        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let base = ins_model(config, from);
         let model = InsModel21 { base, scale: config.scale_factor_noise() };
-        let init = config.initial_state(start);
+        let init = from.initial_state();
         Navigator::new21(&init, &config.scale_init(), model, strategy, config.gnss_config())
     }
 
@@ -95,12 +96,12 @@ impl RunState for InsStateFe {
 
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
-        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
-        let init = config.initial_state(start);
+        let base = ins_model(config, from);
+        let init = from.initial_state();
         let (fix, p_fix) = fix_error_start(config, at);
         let model = InsModelFe { base, fix };
         let x = InsStateFe { nav: init.state.clone(), fix: Vector3::zeros() };
@@ -123,13 +124,13 @@ impl RunState for InsState21Fe {
 
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
-        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let base = ins_model(config, from);
         let base = InsModel21 { base, scale: config.scale_factor_noise() };
-        let init = config.initial_state(start);
+        let init = from.initial_state();
         let scale = config.scale_init();
         let (fix, p_fix) = fix_error_start(config, at);
         let model = InsModel21Fe { base, fix };
@@ -161,14 +162,14 @@ impl RunState for InsStateCal {
 
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         _at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
-        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let base = ins_model(config, from);
         let c = &config.calibrate;
         let model = InsModelCal { base, calibration: c.calibration() };
-        let init = config.initial_state(start);
+        let init = from.initial_state();
         let l = config.gnss.lever_arm;
         let odometer =
             config.vehicle.odometer.as_ref().map_or(Vector3::zeros(), |o| o.lever_arm.into());
@@ -318,14 +319,14 @@ impl RunState for InsStateTc {
 
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let clock = at.clock;
-        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let base = ins_model(config, from);
         let model = InsModelTc { base, clock: clock_noise(config) };
-        let init = config.initial_state(start);
+        let init = from.initial_state();
         Navigator::new_tight(&init, &clock_init(clock), model, strategy, config.gnss_config())
     }
 
@@ -342,15 +343,15 @@ impl RunState for InsStateTc21 {
 
     fn navigator(
         config: &Config,
+        from: &Start,
         strategy: RunStrategy,
-        start: f64,
         at: &GnssAtStart,
     ) -> Result<Navigator<RunStrategy, Self>, NavError> {
         let clock = at.clock;
-        let base = InsModel { mechanization: config.mechanization(), noise: config.imu_noise() };
+        let base = ins_model(config, from);
         let base = InsModel21 { base, scale: config.scale_factor_noise() };
         let model = InsModelTc21 { base, clock: clock_noise(config) };
-        let init = config.initial_state(start);
+        let init = from.initial_state();
         let (scale, gnss) = (config.scale_init(), config.gnss_config());
         Navigator::new_tight21(&init, &scale, &clock_init(clock), model, strategy, gnss)
     }
@@ -362,19 +363,24 @@ impl RunState for InsStateTc21 {
     tight_run_state!();
 }
 
-/// The navigator at the start time (the configured one, or the first IMU sample's
-/// `first_t`), the run's summary with its span started there, and the end time.
+/// The INS model of a run: the configured mechanization (a flat Earth's reference at the
+/// initial position) and the IMU noise the start settled on.
+fn ins_model(config: &Config, from: &Start) -> InsModel {
+    InsModel { mechanization: config.mechanization(from.init.position()), noise: from.noise }
+}
+
+/// The navigator at the start time from what the start found (`from`), the run's summary
+/// with its span started there, and the end time.
 pub(crate) fn start_navigator<S: RunState>(
     config: &Config,
+    from: &Start,
     strategy: AnyStrategy,
-    first_t: f64,
     at: &GnssAtStart,
-    still_until: Option<f64>,
 ) -> Result<(Navigator<RunStrategy, S>, RunSummary, f64), RunError>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
-    let start = config.data.start_time.unwrap_or(first_t);
+    let start = from.time;
     let end = config.data.end_time.unwrap_or(f64::INFINITY);
     // the name of the strategy the user chose (the vehicle streams' fixed noise aside)
     let name = if config.filter.streams.is_empty() { strategy.name() } else { "per-stream" };
@@ -382,20 +388,20 @@ where
     // a static start the start found and started from: ZARU over it, unless the
     // configuration asks for ZUPT and ZARU over the whole run
     let mut aiding = config.vehicle_aiding();
-    if let (None, Some(until)) = (aiding.zupt, still_until) {
+    if let (None, Some(until)) = (aiding.zupt, from.still_until) {
         aiding.zupt = Some(ins_gnss_core::vehicle::ZuptConfig {
             until,
             zaru_only: true,
             ..Default::default()
         });
     }
-    let nav = S::navigator(config, strategy, start, at)?
+    let nav = S::navigator(config, from, strategy, at)?
         .with_vehicle_aiding(aiding)
         .with_covariance_interval(config.filter.covariance_interval);
     let summary = RunSummary {
         strategy: name.to_string(),
         span: (start, start),
-        noise: config.noise_echo(),
+        noise: crate::config::noise_echo(&from.noise),
         ..Default::default()
     };
     Ok((nav, summary, end))

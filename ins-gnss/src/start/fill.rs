@@ -15,7 +15,8 @@ pub(super) struct Found<'a> {
 
 /// Fill `[init]` from the static start, the heading bank and the in-motion fit.
 pub(super) fn fill_init(
-    config: &mut Config,
+    config: &Config,
+    init: &mut InitialParts,
     report: &mut Vec<String>,
     found: &Found<'_>,
     imu: &[ImuSample],
@@ -23,10 +24,10 @@ pub(super) fn fill_init(
     t0: f64,
 ) -> Result<(), String> {
     let Found { still, is_static, motion, bank, bias_std } = *found;
-    let i = config.init.clone();
+    let i = init.clone();
     if let (true, Some(b), None) = (is_static, bank, i.attitude) {
-        fill_from_bank(config, report, still, b, gnss, t0)?;
-        return fill_rest(config, report, still, is_static, motion);
+        fill_from_bank(config, init, report, still, b, gnss, t0)?;
+        return fill_rest(config, init, report, still, is_static, motion);
     }
     // moving, and the fit cannot tell the heading (too little motion for its span, fixes
     // too noisy for the speed): the bank from the first sample
@@ -36,8 +37,8 @@ pub(super) fn fill_init(
     if !is_static && i.attitude.is_none() && !fit_heading {
         if let Some(b) = moving_bank(config, imu, gnss, t0, bias_std) {
             if b.bank.std.hypot(0.25f64.to_radians()) <= MAX_HEADING_STD {
-                fill_from_moving_bank(config, report, &b, gnss, t0)?;
-                return fill_rest(config, report, still, is_static, None);
+                fill_from_moving_bank(config, init, report, &b, gnss, t0)?;
+                return fill_rest(config, init, report, still, is_static, None);
             }
             bank_says = format!(
                 "; a bank of {BANK_SIZE} headings over {} fixes leaves it at ±{:.0}°",
@@ -48,184 +49,222 @@ pub(super) fn fill_init(
     }
     if i.attitude.is_none() {
         if let Some(a) = antenna_heading(config, imu, gnss, t0) {
-            let took =
-                fill_from_antennas(config, report, still, is_static, motion, imu, gnss, t0, a)?;
+            let took = fill_from_antennas(
+                config, init, report, still, is_static, motion, imu, gnss, t0, a,
+            )?;
             if took && motion.is_none() {
-                return fill_rest(config, report, still, is_static, None);
+                return fill_rest(config, init, report, still, is_static, None);
             }
         }
     }
-    let i = config.init.clone();
+    let i = init.clone();
     let need_motion = i.attitude.is_none() || i.position.is_none() || i.velocity.is_none();
     let m = match motion {
         Some(m) => m,
-        None if need_motion => {
-            return Err(format!(
-                "cannot find the initial {} from the data: fewer than 8 GNSS fixes, or no \
-                 motion to tell the heading, within `align.max_time` = {} s of the start \
-                 ({t0:.3} s); give `init.attitude`, `init.position` and `init.velocity`, or a \
-                 longer `align.max_time`",
-                [
-                    i.attitude.is_none().then_some("attitude"),
-                    i.position.is_none().then_some("position"),
-                    i.velocity.is_none().then_some("velocity"),
-                ]
-                .into_iter()
-                .flatten()
-                .collect::<Vec<_>>()
-                .join(", "),
-                config.align.max_time
-            ))
-        }
+        None if need_motion => return Err(no_motion_fit(config, &i, t0)),
         None => {
             // only 1σ or the gyro bias missing
-            return fill_rest(config, report, still, is_static, None);
+            return fill_rest(config, init, report, still, is_static, None);
         }
     };
     let span = format!("{} fixes over {:.3}–{:.3} s", m.fixes, m.t_a, m.t_b);
-    let (m_roll, m_pitch, m_yaw) = m.att.euler();
-
     if i.attitude.is_none() {
-        let (roll, pitch, how) = if is_static {
-            let (r, p) = level(&still.mean_f);
-            (r, p, format!("levelled over the static start ({:.1} s)", still.duration()))
-        } else {
-            (m_roll, m_pitch, format!("from the in-motion alignment ({span})"))
-        };
-        // the heading's σ: the fit's (the vertical gyro bias's drift included), at
-        // least 0.25°
-        let yaw_std = m.att_std.z.hypot(0.25f64.to_radians());
-        if yaw_std > MAX_HEADING_STD {
-            return Err(format!(
-                "the in-motion alignment finds the heading ({:.1}°) only to ±{:.0}° \
-                 ({span}){bank_says}: too little motion; give `init.attitude` (and \
-                 `init.attitude_std`), or a longer `align.max_time`",
-                m_yaw.to_degrees(),
-                yaw_std.to_degrees()
-            ));
-        }
-        let tilt_std = if is_static {
-            0.5f64.to_radians()
-        } else {
-            m.att_std.x.max(m.att_std.y).max(0.5f64.to_radians())
-        };
-        config.init.attitude = Some([roll.to_degrees(), pitch.to_degrees(), m_yaw.to_degrees()]);
-        if i.attitude_std.is_none() {
-            config.init.attitude_std =
-                Some([tilt_std.to_degrees(), tilt_std.to_degrees(), yaw_std.to_degrees()]);
-        }
-        let s = config.init.attitude_std.unwrap_or_default();
-        report.push(format!(
-            "init: roll {:.3}°, pitch {:.3}° {how}, σ {:.2}°; heading {:.3}° from the in-motion \
-             alignment ({span}), σ {:.2}°",
-            roll.to_degrees(),
-            pitch.to_degrees(),
-            s[0],
-            m_yaw.to_degrees(),
-            s[2]
-        ));
+        attitude_from_motion(init, report, found, m, &span, &bank_says)?;
     }
     if i.position.is_none() {
-        // a fix (not a gross error), back to the start, not the fit's own p₀, whose
-        // vertical takes up an accelerometer bias: on a static start the span's first fix
-        // (the static test found every fix of the span within 3σ of the first), else the
-        // first fix the fit used
-        let lever = Vector3::from(config.gnss.lever_arm);
-        let still_fix = gnss.iter().find(|e| e.t > t0 && e.t <= still.span.1);
-        let (pos, std, at) = match still_fix.filter(|_| is_static) {
-            Some(e) => {
-                let offset = m.att.rotate(&lever);
-                let (lat, lon, h) =
-                    ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
-                (ins_gnss_core::GeoPos::new(lat, lon, h), e.pos_std, e.t)
-            }
-            None => {
-                let (pos, std) = m.position_from_first_fix(&lever);
-                (pos, std, m.t_a + m.first_fix.0)
-            }
-        };
-        let (lat, lon, h) = pos.tuple();
-        config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
-        if i.position_std.is_none() {
-            // floored at 1 cm
-            config.init.position_std = Some(std.map(|v| v.max(0.01)).into());
-        }
-        let s = config.init.position_std.unwrap_or_default();
-        report.push(format!(
-            "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (the first \
-             of the static start, else the first the alignment used; {span}; lever arm \
-             applied), σ {} m",
-            lat.to_degrees(),
-            lon.to_degrees(),
-            h,
-            at,
-            fmt3(s, 3)
-        ));
+        position_from_motion(config, init, report, found, m, &span, gnss, t0);
     }
     if i.velocity.is_none() {
-        let (v, sd, how) = if is_static {
-            (Vector3::zeros(), Vector3::repeat(0.02), "0 on the static start".to_string())
-        } else {
-            (
-                m.vel,
-                m.vel_std.map(|v| v.max(0.05)),
-                format!("from the in-motion alignment ({span})"),
-            )
-        };
-        config.init.velocity = Some(v.into());
-        if i.velocity_std.is_none() {
-            config.init.velocity_std = Some(sd.into());
-        }
-        report.push(format!(
-            "init: velocity {} m/s {how}, σ {} m/s",
-            fmt3(v.into(), 3),
-            fmt3(config.init.velocity_std.unwrap_or_default(), 3)
+        velocity_from_motion(init, report, found, m, &span);
+    }
+    fill_rest(config, init, report, still, is_static, Some(m))
+}
+
+/// The refusal when the parts of the initial state that need the in-motion fit are
+/// missing and the fit found nothing.
+fn no_motion_fit(config: &Config, i: &InitialParts, t0: f64) -> String {
+    format!(
+        "cannot find the initial {} from the data: fewer than 8 GNSS fixes, or no motion to \
+         tell the heading, within `align.max_time` = {} s of the start ({t0:.3} s); give \
+         `init.attitude`, `init.position` and `init.velocity`, or a longer `align.max_time`",
+        [
+            i.attitude.is_none().then_some("attitude"),
+            i.position.is_none().then_some("position"),
+            i.velocity.is_none().then_some("velocity"),
+        ]
+        .into_iter()
+        .flatten()
+        .collect::<Vec<_>>()
+        .join(", "),
+        config.align.max_time
+    )
+}
+
+/// The attitude from the in-motion fit (levelled on the static start when there is
+/// one); refused when the fit cannot tell the heading (`bank_says` what the bank found).
+fn attitude_from_motion(
+    init: &mut InitialParts,
+    report: &mut Vec<String>,
+    found: &Found<'_>,
+    m: &MotionFit,
+    span: &str,
+    bank_says: &str,
+) -> Result<(), String> {
+    let Found { still, is_static, .. } = *found;
+    let given_std = init.attitude_std.is_some();
+    let (m_roll, m_pitch, m_yaw) = m.att.euler();
+    let (roll, pitch, how) = if is_static {
+        let (r, p) = level(&still.mean_f);
+        (r, p, format!("levelled over the static start ({:.1} s)", still.duration()))
+    } else {
+        (m_roll, m_pitch, format!("from the in-motion alignment ({span})"))
+    };
+    // the heading's σ: the fit's (the vertical gyro bias's drift included), at
+    // least 0.25°
+    let yaw_std = m.att_std.z.hypot(0.25f64.to_radians());
+    if yaw_std > MAX_HEADING_STD {
+        return Err(format!(
+            "the in-motion alignment finds the heading ({:.1}°) only to ±{:.0}° \
+             ({span}){bank_says}: too little motion; give `init.attitude` (and \
+             `init.attitude_std`), or a longer `align.max_time`",
+            m_yaw.to_degrees(),
+            yaw_std.to_degrees()
         ));
     }
-    fill_rest(config, report, still, is_static, Some(m))
+    let tilt_std = if is_static {
+        0.5f64.to_radians()
+    } else {
+        m.att_std.x.max(m.att_std.y).max(0.5f64.to_radians())
+    };
+    init.attitude = Some(Vector3::new(roll, pitch, m_yaw));
+    if !given_std {
+        init.attitude_std = Some(Vector3::new(tilt_std, tilt_std, yaw_std));
+    }
+    let s = init.attitude_std.unwrap_or_default().map(f64::to_degrees);
+    report.push(format!(
+        "init: roll {:.3}°, pitch {:.3}° {how}, σ {:.2}°; heading {:.3}° from the in-motion \
+         alignment ({span}), σ {:.2}°",
+        roll.to_degrees(),
+        pitch.to_degrees(),
+        s[0],
+        m_yaw.to_degrees(),
+        s[2]
+    ));
+    Ok(())
+}
+
+/// The position from a fix moved back to the start by the fit's attitude and lever arm.
+#[allow(clippy::too_many_arguments)]
+fn position_from_motion(
+    config: &Config,
+    init: &mut InitialParts,
+    report: &mut Vec<String>,
+    found: &Found<'_>,
+    m: &MotionFit,
+    span: &str,
+    gnss: &[GnssEpoch],
+    t0: f64,
+) {
+    let Found { still, is_static, .. } = *found;
+    // a fix (not a gross error), back to the start, not the fit's own p₀, whose
+    // vertical takes up an accelerometer bias: on a static start the span's first fix
+    // (the static test found every fix of the span within 3σ of the first), else the
+    // first fix the fit used
+    let lever = Vector3::from(config.gnss.lever_arm);
+    let still_fix = gnss.iter().find(|e| e.t > t0 && e.t <= still.span.1);
+    let (pos, std, at) = match still_fix.filter(|_| is_static) {
+        Some(e) => {
+            let offset = m.att.rotate(&lever);
+            let (lat, lon, h) =
+                ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
+            (ins_gnss_core::GeoPos::new(lat, lon, h), e.pos_std, e.t)
+        }
+        None => {
+            let (pos, std) = m.position_from_first_fix(&lever);
+            (pos, std, m.t_a + m.first_fix.0)
+        }
+    };
+    let (lat, lon, h) = pos.tuple();
+    init.position = Some(pos);
+    if init.position_std.is_none() {
+        // floored at 1 cm
+        init.position_std = Some(std.map(|v| v.max(0.01)));
+    }
+    let s = init.position_std.unwrap_or_default().into();
+    report.push(format!(
+        "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (the first \
+         of the static start, else the first the alignment used; {span}; lever arm \
+         applied), σ {} m",
+        lat.to_degrees(),
+        lon.to_degrees(),
+        h,
+        at,
+        fmt3(s, 3)
+    ));
+}
+
+/// The velocity: 0 on a static start, else the in-motion fit's.
+fn velocity_from_motion(
+    init: &mut InitialParts,
+    report: &mut Vec<String>,
+    found: &Found<'_>,
+    m: &MotionFit,
+    span: &str,
+) {
+    let (v, sd, how) = if found.is_static {
+        (Vector3::zeros(), Vector3::repeat(0.02), "0 on the static start".to_string())
+    } else {
+        (m.vel, m.vel_std.map(|v| v.max(0.05)), format!("from the in-motion alignment ({span})"))
+    };
+    init.velocity = Some(v);
+    if init.velocity_std.is_none() {
+        init.velocity_std = Some(sd);
+    }
+    report.push(format!(
+        "init: velocity {} m/s {how}, σ {} m/s",
+        fmt3(v.into(), 3),
+        fmt3(init.velocity_std.unwrap_or_default().into(), 3)
+    ));
 }
 
 /// The gyro bias and the 1σ that the data cannot give.
 pub(super) fn fill_rest(
-    config: &mut Config,
+    config: &Config,
+    init: &mut InitialParts,
     report: &mut Vec<String>,
     still: &StaticStart,
     is_static: bool,
     m: Option<&MotionFit>,
 ) -> Result<(), String> {
-    let i = config.init.clone();
-    let d = core::f64::consts::PI / 180.0;
+    let i = init.clone();
     if i.gyro_bias.is_none() {
         if is_static {
-            let att = config
-                .init
-                .attitude
-                .map(|a| manifolds::So3::from_euler(a[0] * d, a[1] * d, a[2] * d));
-            let lat = config.init.position.map_or(0.0, |p| p[0] * d);
+            let att = init.attitude.map(|a| manifolds::So3::from_euler(a.x, a.y, a.z));
+            let lat = init.position.map_or(0.0, |p| p.lat);
             let b = match att {
                 Some(att) => static_gyro_bias(still, &att, lat),
                 None => still.mean_w,
-            } / DEG_PER_H;
-            config.init.gyro_bias = Some(b.into());
+            };
+            init.gyro_bias = Some(b);
             if i.gyro_bias_std.is_none() {
                 // the mean's white noise, and the instability over the run (the
-                // configured Gauss–Markov σ, else 10 deg/h)
+                // configured Gauss–Markov σ, else 10 deg/h), at least 1 deg/h
                 let instability = config.imu_noise.gyro_bias_std.unwrap_or([10.0; 3]);
                 let mean = still.mean_w_std() / DEG_PER_H;
-                config.init.gyro_bias_std =
-                    Some(Vector3::from_fn(|k, _| mean[k].hypot(instability[k]).max(1.0)).into());
+                let std = Vector3::from_fn(|k, _| mean[k].hypot(instability[k]).max(1.0));
+                init.gyro_bias_std = Some(std * DEG_PER_H);
             }
             report.push(format!(
                 "init: gyro bias {} deg/h from the static start {:.3}–{:.3} s, σ {} deg/h",
-                fmt3(b.into(), 2),
+                fmt3((b / DEG_PER_H).into(), 2),
                 still.span.0,
                 still.span.1,
-                fmt3(config.init.gyro_bias_std.unwrap_or_default(), 1)
+                fmt3((init.gyro_bias_std.unwrap_or_default() / DEG_PER_H).into(), 1)
             ));
         } else {
-            config.init.gyro_bias = Some([0.0; 3]);
+            init.gyro_bias = Some(Vector3::zeros());
             if i.gyro_bias_std.is_none() {
-                config.init.gyro_bias_std = Some([DEFAULT_GYRO_BIAS_STD; 3]);
+                init.gyro_bias_std = Some(Vector3::repeat(DEFAULT_GYRO_BIAS_STD * DEG_PER_H));
                 report.push(format!(
                     "init: gyro bias 0, σ {DEFAULT_GYRO_BIAS_STD} deg/h (no static start of \
                      `align.min_static` = {} s to measure it)",
@@ -235,24 +274,25 @@ pub(super) fn fill_rest(
         }
     }
     if i.accel_bias.is_none() {
-        config.init.accel_bias = Some([0.0; 3]);
+        init.accel_bias = Some(Vector3::zeros());
     }
     if i.accel_bias_std.is_none() {
-        config.init.accel_bias_std = Some(crate::config::DEFAULT_ACCEL_BIAS_STD);
+        init.accel_bias_std = Some(Vector3::from(crate::config::DEFAULT_ACCEL_BIAS_STD) * MGAL);
     }
     // 1σ asked for without the value: defaults that the data would have given
-    let fit = m.map(|m| (m.att_std.map(|v| v.to_degrees().max(0.5)), m.pos_std, m.vel_std));
-    if config.init.attitude_std.is_none() {
-        config.init.attitude_std = Some(fit.map_or([1.0, 1.0, 5.0], |f| f.0.into()));
+    let d = core::f64::consts::PI / 180.0;
+    let fit = m.map(|m| (m.att_std.map(|v| v.max(0.5 * d)), m.pos_std, m.vel_std));
+    if init.attitude_std.is_none() {
+        init.attitude_std = Some(fit.map_or(Vector3::new(1.0, 1.0, 5.0) * d, |f| f.0));
     }
-    if config.init.position_std.is_none() {
-        config.init.position_std = Some(fit.map_or([5.0; 3], |f| f.1.map(|v| v.max(0.01)).into()));
+    if init.position_std.is_none() {
+        init.position_std = Some(fit.map_or(Vector3::repeat(5.0), |f| f.1.map(|v| v.max(0.01))));
     }
-    if config.init.velocity_std.is_none() {
-        config.init.velocity_std = Some(fit.map_or([0.1; 3], |f| f.2.map(|v| v.max(0.02)).into()));
+    if init.velocity_std.is_none() {
+        init.velocity_std = Some(fit.map_or(Vector3::repeat(0.1), |f| f.2.map(|v| v.max(0.02))));
     }
-    if config.init.gyro_bias_std.is_none() {
-        config.init.gyro_bias_std = Some([DEFAULT_GYRO_BIAS_STD; 3]);
+    if init.gyro_bias_std.is_none() {
+        init.gyro_bias_std = Some(Vector3::repeat(DEFAULT_GYRO_BIAS_STD * DEG_PER_H));
     }
     Ok(())
 }
@@ -305,24 +345,17 @@ fn agreed(yaws: &[(f64, f64)]) -> Option<usize> {
     })
 }
 
-/// The attitude from the levelling (static start, in-motion fit, else the first second's
-/// mean specific force) and the heading of two antennas at the first fix, turned back to
-/// the start time by the gyro; without an in-motion fit, the position from the first fix
-/// and the velocity (0 standing, else the fixes').
-#[allow(clippy::too_many_arguments)]
-fn fill_from_antennas(
-    config: &mut Config,
-    report: &mut Vec<String>,
+/// Roll, pitch, how they were found and their 1σ (rad) for the heading of two antennas:
+/// levelled on the static start, else the in-motion fit's, else the first second's mean
+/// specific force.
+fn tilt_for_antennas(
     still: &StaticStart,
     is_static: bool,
     motion: Option<&MotionFit>,
     imu: &[ImuSample],
-    gnss: &[GnssEpoch],
     t0: f64,
-    a: AntennaStart,
-) -> Result<bool, String> {
-    let i = config.init.clone();
-    let (roll, pitch, how, tilt_std) = if is_static {
+) -> (f64, f64, String, f64) {
+    if is_static {
         let (r, p) = level(&still.mean_f);
         let how = format!("levelled over the static start ({:.1} s)", still.duration());
         (r, p, how, 0.5f64.to_radians())
@@ -338,7 +371,28 @@ fn fill_from_antennas(
         let f = first.iter().fold(Vector3::zeros(), |acc, s| acc + s.dvel) / dt.max(1e-9);
         let (r, p) = level(&f);
         (r, p, "levelled over the first second (no static start)".to_string(), 3f64.to_radians())
-    };
+    }
+}
+
+/// The attitude from the levelling (static start, in-motion fit, else the first second's
+/// mean specific force) and the heading of two antennas at the first fix, turned back to
+/// the start time by the gyro; without an in-motion fit, the position from the first fix
+/// and the velocity (0 standing, else the fixes').
+#[allow(clippy::too_many_arguments)]
+fn fill_from_antennas(
+    config: &Config,
+    init: &mut InitialParts,
+    report: &mut Vec<String>,
+    still: &StaticStart,
+    is_static: bool,
+    motion: Option<&MotionFit>,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    t0: f64,
+    a: AntennaStart,
+) -> Result<bool, String> {
+    let i = init.clone();
+    let (roll, pitch, how, tilt_std) = tilt_for_antennas(still, is_static, motion, imu, t0);
     // each heading turned back from its fix to the start time along the gyro (level axes)
     let tilted = manifolds::So3::from_euler(roll, pitch, 0.0).rotate(&a.baseline);
     let yaws: Vec<(f64, f64)> = a
@@ -371,12 +425,11 @@ fn fill_from_antennas(
         _ => "a later fix".to_string(),
     };
     let yaw_std = std.hypot(0.05f64.to_radians());
-    config.init.attitude = Some([roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()]);
+    init.attitude = Some(Vector3::new(roll, pitch, yaw));
     if i.attitude_std.is_none() {
-        config.init.attitude_std =
-            Some([tilt_std.to_degrees(), tilt_std.to_degrees(), yaw_std.to_degrees()]);
+        init.attitude_std = Some(Vector3::new(tilt_std, tilt_std, yaw_std));
     }
-    let s = config.init.attitude_std.unwrap_or_default();
+    let s = init.attitude_std.unwrap_or_default().map(f64::to_degrees);
     report.push(format!(
         "init: roll {:.3}°, pitch {:.3}° {how}, σ {:.2}°; heading {:.3}° from the two antennas \
          at {which} ({at:.3} s), σ {:.2}°",
@@ -390,14 +443,29 @@ fn fill_from_antennas(
         return Ok(true);
     }
     let att = manifolds::So3::from_euler(roll, pitch, yaw);
+    first_fix_start(config, init, report, is_static, &att, gnss, t0)?;
+    Ok(true)
+}
+
+/// Without an in-motion fit: the position from the first fix (the lever arm turned by
+/// `att`) and the velocity (0 standing, else the fix's own or the first two fixes').
+fn first_fix_start(
+    config: &Config,
+    init: &mut InitialParts,
+    report: &mut Vec<String>,
+    is_static: bool,
+    att: &manifolds::So3,
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> Result<(), String> {
     let lever = Vector3::from(config.gnss.lever_arm);
     let e = &gnss[0];
-    if i.position.is_none() {
+    if init.position.is_none() {
         let (lat, lon, h) =
             ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-att.rotate(&lever));
-        config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
-        if i.position_std.is_none() {
-            config.init.position_std = Some(e.pos_std.map(|v| v.max(0.01)).into());
+        init.position = Some(GeoPos::new(lat, lon, h));
+        if init.position_std.is_none() {
+            init.position_std = Some(e.pos_std.map(|v| v.max(0.01)));
         }
         report.push(format!(
             "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (lever arm \
@@ -406,10 +474,10 @@ fn fill_from_antennas(
             lon.to_degrees(),
             h,
             e.t,
-            fmt3(config.init.position_std.unwrap_or_default(), 3)
+            fmt3(init.position_std.unwrap_or_default().into(), 3)
         ));
     }
-    if i.velocity.is_none() {
+    if init.velocity.is_none() {
         let (v, sd, how) = if is_static {
             (Vector3::zeros(), Vector3::repeat(0.02), "0 on the static start".to_string())
         } else if let Some((v, sd)) = e.vel {
@@ -427,31 +495,32 @@ fn fill_from_antennas(
                 config.align.max_time
             ));
         };
-        config.init.velocity = Some(v.into());
-        if i.velocity_std.is_none() {
-            config.init.velocity_std = Some(sd.into());
+        init.velocity = Some(v);
+        if init.velocity_std.is_none() {
+            init.velocity_std = Some(sd);
         }
         report.push(format!(
             "init: velocity {} m/s {how}, σ {} m/s",
             fmt3(v.into(), 3),
-            fmt3(config.init.velocity_std.unwrap_or_default(), 3)
+            fmt3(init.velocity_std.unwrap_or_default().into(), 3)
         ));
     }
-    Ok(true)
+    Ok(())
 }
 
 /// `[init]` on a static start from the heading bank ([`heading_bank`]): roll and pitch
 /// levelled, the heading the bank found over the motion after it (the body did not turn
 /// while it stood), the position from the static start's first fix, the velocity 0.
 fn fill_from_bank(
-    config: &mut Config,
+    config: &Config,
+    init: &mut InitialParts,
     report: &mut Vec<String>,
     still: &StaticStart,
     b: &BankHeading,
     gnss: &[GnssEpoch],
     t0: f64,
 ) -> Result<(), String> {
-    let i = config.init.clone();
+    let i = init.clone();
     let (roll, pitch) = level(&still.mean_f);
     let yaw_std = b.std.hypot(0.25f64.to_radians());
     if yaw_std > MAX_HEADING_STD {
@@ -466,11 +535,12 @@ fn fill_from_bank(
         ));
     }
     let att = manifolds::So3::from_euler(roll, pitch, b.heading);
-    config.init.attitude = Some([roll.to_degrees(), pitch.to_degrees(), b.heading.to_degrees()]);
+    init.attitude = Some(Vector3::new(roll, pitch, b.heading));
     if i.attitude_std.is_none() {
-        config.init.attitude_std = Some([0.5, 0.5, yaw_std.to_degrees()]);
+        let tilt = 0.5f64.to_radians();
+        init.attitude_std = Some(Vector3::new(tilt, tilt, yaw_std));
     }
-    let s = config.init.attitude_std.unwrap_or_default();
+    let s = init.attitude_std.unwrap_or_default().map(f64::to_degrees);
     report.push(format!(
         "init: roll {:.3}°, pitch {:.3}° levelled over the static start ({:.1} s), σ {:.2}°; \
          heading {:.3}° from a bank of {BANK_SIZE} hypotheses over {} fixes of motion \
@@ -487,39 +557,53 @@ fn fill_from_bank(
         s[2]
     ));
     if i.position.is_none() {
-        let Some(e) = gnss.iter().find(|e| e.t > t0 && e.t <= still.span.1) else {
-            return Err(format!(
-                "no GNSS fix during the static start ({:.3}–{:.3} s) to start from; give \
-                 `init.position`",
-                still.span.0, still.span.1
-            ));
-        };
-        let offset = att.rotate(&Vector3::from(config.gnss.lever_arm));
-        let (lat, lon, h) = ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
-        config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
-        if i.position_std.is_none() {
-            config.init.position_std = Some(e.pos_std.map(|v| v.max(0.01)).into());
-        }
-        report.push(format!(
-            "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (the first of \
-             the static start; lever arm applied), σ {} m",
-            lat.to_degrees(),
-            lon.to_degrees(),
-            h,
-            e.t,
-            fmt3(config.init.position_std.unwrap_or_default(), 3)
-        ));
+        position_on_static_start(config, init, report, still, &att, gnss, t0)?;
     }
     if i.velocity.is_none() {
-        config.init.velocity = Some([0.0; 3]);
+        init.velocity = Some(Vector3::zeros());
         if i.velocity_std.is_none() {
-            config.init.velocity_std = Some([0.02; 3]);
+            init.velocity_std = Some(Vector3::repeat(0.02));
         }
         report.push(format!(
             "init: velocity [0.000, 0.000, 0.000] m/s 0 on the static start, σ {} m/s",
-            fmt3(config.init.velocity_std.unwrap_or_default(), 3)
+            fmt3(init.velocity_std.unwrap_or_default().into(), 3)
         ));
     }
+    Ok(())
+}
+
+/// The position from the static start's first fix, the lever arm turned by `att`.
+fn position_on_static_start(
+    config: &Config,
+    init: &mut InitialParts,
+    report: &mut Vec<String>,
+    still: &StaticStart,
+    att: &manifolds::So3,
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> Result<(), String> {
+    let Some(e) = gnss.iter().find(|e| e.t > t0 && e.t <= still.span.1) else {
+        return Err(format!(
+            "no GNSS fix during the static start ({:.3}–{:.3} s) to start from; give \
+             `init.position`",
+            still.span.0, still.span.1
+        ));
+    };
+    let offset = att.rotate(&Vector3::from(config.gnss.lever_arm));
+    let (lat, lon, h) = ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
+    init.position = Some(GeoPos::new(lat, lon, h));
+    if init.position_std.is_none() {
+        init.position_std = Some(e.pos_std.map(|v| v.max(0.01)));
+    }
+    report.push(format!(
+        "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (the first of \
+         the static start; lever arm applied), σ {} m",
+        lat.to_degrees(),
+        lon.to_degrees(),
+        h,
+        e.t,
+        fmt3(init.position_std.unwrap_or_default().into(), 3)
+    ));
     Ok(())
 }
 
@@ -527,22 +611,21 @@ fn fill_from_bank(
 /// first seconds, the heading the bank found, the velocity of the first fixes' line, the
 /// position from the first fix moved back to the start by it.
 fn fill_from_moving_bank(
-    config: &mut Config,
+    config: &Config,
+    init: &mut InitialParts,
     report: &mut Vec<String>,
     b: &MovingStart,
     gnss: &[GnssEpoch],
     t0: f64,
 ) -> Result<(), String> {
-    let i = config.init.clone();
+    let i = init.clone();
     let yaw_std = b.bank.std.hypot(0.25f64.to_radians());
     let att = manifolds::So3::from_euler(b.roll, b.pitch, b.bank.heading);
-    config.init.attitude =
-        Some([b.roll.to_degrees(), b.pitch.to_degrees(), b.bank.heading.to_degrees()]);
+    init.attitude = Some(Vector3::new(b.roll, b.pitch, b.bank.heading));
     if i.attitude_std.is_none() {
-        let tilt = MOVING_TILT_STD.to_degrees();
-        config.init.attitude_std = Some([tilt, tilt, yaw_std.to_degrees()]);
+        init.attitude_std = Some(Vector3::new(MOVING_TILT_STD, MOVING_TILT_STD, yaw_std));
     }
-    let s = config.init.attitude_std.unwrap_or_default();
+    let s = init.attitude_std.unwrap_or_default().map(f64::to_degrees);
     report.push(format!(
         "init: roll {:.3}°, pitch {:.3}° levelled on the first {ACCEL_SPAN} s (moving), σ \
          {:.2}°; heading {:.3}° from a bank of {BANK_SIZE} hypotheses over {} fixes \
@@ -563,10 +646,10 @@ fn fill_from_moving_bank(
         let dt = e.t - t0;
         let offset = att.rotate(&Vector3::from(config.gnss.lever_arm)) + b.vel * dt;
         let (lat, lon, h) = ins_gnss_core::earth::local_ned_to_geodetic(e.pos.tuple(), &-offset);
-        config.init.position = Some([lat.to_degrees(), lon.to_degrees(), h]);
+        init.position = Some(GeoPos::new(lat, lon, h));
         if i.position_std.is_none() {
             let std = e.pos_std.zip_map(&b.vel_std, |p, v| p.hypot(v * dt).max(0.01));
-            config.init.position_std = Some(std.into());
+            init.position_std = Some(std);
         }
         report.push(format!(
             "init: position {:.8}°, {:.8}°, {:.3} m from the GNSS fix at {:.3} s (moved back by \
@@ -575,18 +658,18 @@ fn fill_from_moving_bank(
             lon.to_degrees(),
             h,
             e.t,
-            fmt3(config.init.position_std.unwrap_or_default(), 3)
+            fmt3(init.position_std.unwrap_or_default().into(), 3)
         ));
     }
     if i.velocity.is_none() {
-        config.init.velocity = Some(b.vel.into());
+        init.velocity = Some(b.vel);
         if i.velocity_std.is_none() {
-            config.init.velocity_std = Some(b.vel_std.into());
+            init.velocity_std = Some(b.vel_std);
         }
         report.push(format!(
             "init: velocity {} m/s from a line through the first fixes, σ {} m/s",
             fmt3(b.vel.into(), 3),
-            fmt3(config.init.velocity_std.unwrap_or_default(), 3)
+            fmt3(init.velocity_std.unwrap_or_default().into(), 3)
         ));
     }
     Ok(())

@@ -15,25 +15,29 @@
 
 use nalgebra::Vector3;
 
-use crate::config::Config;
+use crate::config::{Config, InitialParts};
 use ins_gnss_core::align::{
     align_in_motion, detect_static, fit_span, heading_bank, static_gyro_bias, time_offset,
     turn_ratio, BankHeading, BankStart, MotionFit, StaticStart, TimeOffset, TurnRatio, BANK_SIZE,
 };
 use ins_gnss_core::earth::{geodetic_to_local_ned, normal_gravity};
 use ins_gnss_core::gnss::GnssEpoch;
-use ins_gnss_core::imu::{ImuSample, DEG_PER_H, DEG_PER_SQRT_H, M_S_PER_SQRT_H};
+use ins_gnss_core::imu::{ImuNoise, ImuSample, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
 use ins_gnss_core::init::level;
 use ins_gnss_core::io::columns::{unit_factor, Quantity};
+use ins_gnss_core::navigator::InitialState;
+use ins_gnss_core::GeoPos;
 
 mod bank;
 mod checks;
 mod fill;
+mod starter;
 
 use bank::*;
 use checks::*;
 pub use checks::{ACCEL_SPAN, MAX_TIME_OFFSET, RATE_SAMPLES, TIME_OFFSET_REFUSED};
 use fill::*;
+pub use starter::{start_on, start_time, Look, Starter};
 
 /// The gyro bias 1σ without a static start to measure it, deg/h. On navego (no static
 /// start; the filter's bias estimates settle at 12–70 deg/h) the forward horizontal RMS
@@ -59,12 +63,22 @@ const MAX_HEADING_STD: f64 = 20.0 * core::f64::consts::PI / 180.0;
 /// must beat the best rotation before a left-handed frame is refused.
 const MIRROR_DECISIVE: f64 = 100.0;
 
-/// What the start of the data gave: the completed configuration and, for the run
-/// summary, how each part of the initial state was obtained.
+/// What the start of the data gave, in SI units: the initial state and the IMU noise the
+/// filter starts from (the configuration's, completed from the data; the configuration
+/// itself is not changed) and, for the run summary, how each part was obtained.
 #[derive(Clone, Debug)]
 pub struct Start {
-    /// The configuration with `[init]` (and the noise, with `from_static`) filled in.
-    pub config: Config,
+    /// The start time (the configured one, or the first IMU sample's), s.
+    pub time: f64,
+    /// The initial state's parts: `[init]`'s, and what the data gave (complete once the
+    /// start has looked at the data).
+    pub init: InitialParts,
+    /// The IMU noise: `[imu_noise]`'s, measured on the static start
+    /// (`imu_noise.from_static`) or raised to what it shows (`imu_noise.static_floor`).
+    pub noise: ImuNoise,
+    /// The IMU time offset (`data.imu_time_offset`, s) the start's search applies, when it
+    /// applies one.
+    pub time_offset: Option<f64>,
     /// One line per part found from the data (empty when everything was given).
     pub report: Vec<String>,
     /// The end of the static start the initial state was found on (s), over which the
@@ -74,14 +88,34 @@ pub struct Start {
     pub still_until: Option<f64>,
 }
 
+impl Start {
+    /// The start at `time` of a run that does not look at the data: the configuration's
+    /// initial state and noise.
+    pub fn given(config: &Config, time: f64) -> Self {
+        Self {
+            time,
+            init: config.initial_parts(),
+            noise: config.imu_noise(),
+            time_offset: None,
+            report: Vec::new(),
+            still_until: None,
+        }
+    }
+
+    /// The initial state at the start time.
+    pub fn initial_state(&self) -> InitialState {
+        self.init.initial_state(self.time)
+    }
+}
+
 fn fmt3(v: [f64; 3], digits: usize) -> String {
     format!("[{:.digits$}, {:.digits$}, {:.digits$}]", v[0], v[1], v[2])
 }
 
 /// Check the data of the run's first seconds (`imu` and `gnss` after `t0`, the start
-/// time) and complete `config` from them. The error names the configuration key to
-/// change.
-pub fn prepare(
+/// time) and complete the initial state and noise of `config` from them. The error names
+/// the configuration key to change.
+fn prepare(
     config: &Config,
     imu: &[ImuSample],
     gnss: &[GnssEpoch],
@@ -89,171 +123,234 @@ pub fn prepare(
 ) -> Result<Start, String> {
     // (both in time order: the readers refuse time going backwards)
     let (imu, gnss) = after(imu, gnss, t0);
-    let mut config = config.clone();
-    let mut report = Vec::new();
-    let a = config.align.clone();
+    let mut start = Start::given(config, t0);
     let need_init = !config.init.is_complete();
-    let need_noise = config.imu_noise.from_static;
-    if imu.is_empty() || !looks_at_data(&config) {
-        return Ok(Start { config, report, still_until: None });
+    if imu.is_empty() || !looks_at_data(config) {
+        return Ok(start);
     }
-    let g = gnss.first().map_or(9.80, |e| normal_gravity(e.pos.lat, e.pos.h));
-    let (still, is_static) = static_start(&config, imu, gnss, t0);
-
-    if a.checks {
-        check_rate(&config, imu)?;
-        check_accel_unit(&config, imu, &still, g)?;
-        check_gyro_at_rest(&config, &still)?;
+    let scene = Scene::new(config, imu, gnss, t0);
+    let (still, is_static) = (&scene.still, scene.is_static);
+    if config.align.checks {
+        let g = gnss.first().map_or(9.80, |e| normal_gravity(e.pos.lat, e.pos.h));
+        check_rate(config, imu)?;
+        check_accel_unit(config, imu, still, g)?;
+        check_gyro_at_rest(config, still)?;
     }
-    let lever = Vector3::from(config.gnss.lever_arm);
-    let bias0 = if is_static { still.mean_w } else { Vector3::zeros() };
-    // what is left of the gyro bias: the static mean's noise (and the Earth rate it
-    // holds), else a consumer MEMS turn-on bias
-    let bias_std = if is_static {
-        still.mean_w_std().norm() + 15.0 * DEG_PER_H
-    } else {
-        config.init.gyro_bias_std.map_or(DEFAULT_GYRO_BIAS_STD, |v| v[2]) * DEG_PER_H
-    };
-    // the accelerometer bias the datasheet declares (its instability), considered by the
-    // fit: its σ then counts what such a bias moves it by
-    let accel_bias_std =
-        config.imu_noise.accel_bias_std.map_or(0.0, |v| v.iter().fold(0.0, |a: f64, b| a.max(*b)))
-            * ins_gnss_core::imu::MGAL;
-    // `align.max_time` counts from the motion's start: a vehicle that stands still for
-    // minutes before it drives (an alignment practice) is aligned on its first minutes of
-    // motion, the static span included
-    let max_time = motion_span(&config, &still, is_static);
-    let fit_from = |t_a: f64, span: f64, scale: f64| {
-        align_in_motion(
-            imu,
-            gnss,
-            t_a,
-            &(bias0 * scale),
-            scale,
-            &lever,
-            span,
-            a.heading_std.to_radians(),
-            bias_std,
-            accel_bias_std,
-        )
-    };
     // (a moving-base receiver's heading, when there is one, is taken before the bank)
     let bank = (is_static
         && config.init.attitude.is_none()
-        && antenna_heading(&config, imu, gnss, t0).is_none())
-    .then(|| static_bank(&config, &still, imu, gnss, bias_std))
+        && antenna_heading(config, imu, gnss, t0).is_none())
+    .then(|| static_bank(config, still, imu, gnss, scene.bias_std))
     .flatten();
-    let mut motion = if need_init || a.checks { fit_from(t0, max_time, 1.0) } else { None };
-    if a.checks {
-        let turns = turn_ratio(imu, gnss, t0, t0 + max_time);
-        if let Some(m) = &motion {
-            // the fit stops once the heading is known, which may be before the first
-            // turn, and its span is chosen for the heading: a mirror image shows only
-            // when the motion turned, so it is judged on the whole span (no early stop)
-            // and only when the course turned (the early fit of navego's ADIS16405, a
-            // straight drive with a large gyro bias, looked like one)
-            // (after a static start, from `MIRROR_LEAD` before its end: gravity over a
-            // still span lets a mirror image show, a long one lets every error grow over
-            // the double integral — cars standing 5–20 min looked mirrored on 7 of 80 runs)
-            let turned = turns.is_some_and(|t| t.turned > 30f64.to_radians());
-            let t_a = if is_static { (still.span.1 - MIRROR_LEAD).max(t0) } else { t0 };
-            let whole =
-                if turned { fit_span(imu, gnss, t_a, &bias0, &lever, t0 + max_time) } else { None };
-            check_mirror(&config, whole.as_ref())?;
-            if let Err(e) = check_gyro_unit(&config, m, &|s| fit_from(t0, max_time, s)) {
-                // after a static start, a gyro unit is refused only when the motion alone
-                // shows it as well: integrated over a long static span, the specific
-                // force's double integral takes up the tilt's and the accelerometer's every
-                // error (a clean car standing 200 s fitted its track worse than with a
-                // gyro scaled 57× down)
-                if !is_static {
-                    return Err(e);
-                }
-                let t_s = still.span.1;
-                let m = fit_from(t_s, a.max_time, 1.0).ok_or(e.clone())?;
-                check_gyro_unit(&config, &m, &|s| fit_from(t_s, a.max_time, s)).map_err(|_| e)?;
-                motion = Some(m);
-            }
-        }
-        if let Some(t) = turns {
-            check_turns(&config, &t, a.max_time)?;
-        }
-        if let Some(t) = time_offset(imu, gnss, t0, t0 + max_time, MAX_TIME_OFFSET, &lever) {
-            if let Some(applied) = check_time_offset(&config, &t, &mut report)? {
-                config.data.imu_time_offset = applied;
-            }
-        }
-        let (roll, _) = match (&motion, is_static) {
-            (_, true) => level(&still.mean_f),
-            (Some(m), false) => {
-                let (r, p, _) = m.att.euler();
-                (r, p)
-            }
-            (None, false) => (0.0, 0.0),
-        };
-        if roll.abs() > core::f64::consts::FRAC_PI_2 {
-            return Err(format!(
-                "{}: the IMU reads gravity along its +z axis (roll {:.1}°: the body frame is \
-                 upside down, where FRD has z down): FRD data declared `axes = \"flu\"` (or \
-                 the reverse), or a mounting not stated; set `data.imu_columns.axes` or \
-                 `imu.mounting` so that z points down",
-                axes_key(&config),
-                roll.to_degrees()
-            ));
-        }
+    let mut motion = if need_init || config.align.checks {
+        scene.fit_from(config, t0, scene.max_time, 1.0)
+    } else {
+        None
+    };
+    if config.align.checks {
+        check_motion(config, &scene, &mut motion, &mut start)?;
     }
-
-    if need_noise {
-        if !is_static {
-            return Err(format!(
-                "`imu_noise.from_static`: the start is static for {:.1} s ({:.3}–{:.3} s); at \
-                 least `align.min_static` = {} s are needed to measure the noise: give \
-                 `imu_noise.arw` and `imu_noise.vrw` instead",
-                still.duration(),
-                still.span.0,
-                still.span.1,
-                a.min_static
-            ));
-        }
-        let arw = still.arw() / DEG_PER_SQRT_H;
-        let vrw = still.vrw() / M_S_PER_SQRT_H;
-        config.imu_noise.arw = arw.into();
-        config.imu_noise.vrw = vrw.into();
-        config.imu_noise.from_static = false;
-        report.push(format!(
-            "noise from the static start {:.3}–{:.3} s ({:.1} s): ARW {} deg/√h, VRW {} m/s/√h",
-            still.span.0,
-            still.span.1,
-            still.duration(),
-            fmt3(arw.into(), 3),
-            fmt3(vrw.into(), 3)
-        ));
-    }
-
-    if !need_noise && is_static {
-        noise_floor(&mut config, &mut report, &still);
+    if config.imu_noise.from_static {
+        noise_from_static(config, &scene, &mut start)?;
+    } else if is_static {
+        noise_floor(config, &mut start.noise, &mut start.report, still);
     }
     if need_init {
         let found = Found {
-            still: &still,
+            still,
             is_static,
             motion: motion.as_ref(),
             bank: bank.as_ref(),
-            bias_std,
+            bias_std: scene.bias_std,
         };
-        fill_init(&mut config, &mut report, &found, imu, gnss, t0)?;
+        fill_init(config, &mut start.init, &mut start.report, &found, imu, gnss, t0)?;
     }
     // started from a static start: ZARU over it (unless ZUPT and ZARU are asked for over
     // the whole run)
-    let still_until = (need_init && bank.is_some()).then_some(still.span.1);
-    if let (Some(t), None) = (still_until, &config.vehicle.zupt) {
-        report.push(format!(
+    start.still_until = (need_init && bank.is_some()).then_some(still.span.1);
+    if let (Some(t), None) = (start.still_until, &config.vehicle.zupt) {
+        start.report.push(format!(
             "ZARU over the static start {:.3}–{t:.3} s (the IMU still; `[vehicle.zupt]` for \
              ZUPT and ZARU at every stop)",
             still.span.0
         ));
     }
-    Ok(Start { config, report, still_until })
+    Ok(start)
+}
+
+/// What [`prepare`] sees of the start of the data: the samples and epochs after `t0`, the
+/// static start, and what the in-motion fit takes from them.
+struct Scene<'a> {
+    imu: &'a [ImuSample],
+    gnss: &'a [GnssEpoch],
+    t0: f64,
+    still: StaticStart,
+    /// Whether the static start lasts `align.min_static`.
+    is_static: bool,
+    lever: Vector3<f64>,
+    /// The gyro bias taken off the rates: the static start's mean rate, else 0.
+    bias0: Vector3<f64>,
+    /// What is left of the gyro bias, rad/s.
+    bias_std: f64,
+    /// The accelerometer bias the datasheet declares, m/s².
+    accel_bias_std: f64,
+    /// How long after `t0` the fit looks ([`motion_span`]).
+    max_time: f64,
+}
+
+impl<'a> Scene<'a> {
+    fn new(config: &Config, imu: &'a [ImuSample], gnss: &'a [GnssEpoch], t0: f64) -> Self {
+        let (still, is_static) = static_start(config, imu, gnss, t0);
+        let bias0 = if is_static { still.mean_w } else { Vector3::zeros() };
+        // what is left of the gyro bias: the static mean's noise (and the Earth rate it
+        // holds), else a consumer MEMS turn-on bias
+        let bias_std = if is_static {
+            still.mean_w_std().norm() + 15.0 * DEG_PER_H
+        } else {
+            config.init.gyro_bias_std.map_or(DEFAULT_GYRO_BIAS_STD, |v| v[2]) * DEG_PER_H
+        };
+        // the accelerometer bias the datasheet declares (its instability), considered by
+        // the fit: its σ then counts what such a bias moves it by
+        let accel_bias_std = config
+            .imu_noise
+            .accel_bias_std
+            .map_or(0.0, |v| v.iter().fold(0.0, |a: f64, b| a.max(*b)))
+            * MGAL;
+        // `align.max_time` counts from the motion's start: a vehicle that stands still for
+        // minutes before it drives (an alignment practice) is aligned on its first minutes
+        // of motion, the static span included
+        let max_time = motion_span(config, &still, is_static);
+        let lever = Vector3::from(config.gnss.lever_arm);
+        Self { imu, gnss, t0, still, is_static, lever, bias0, bias_std, accel_bias_std, max_time }
+    }
+
+    /// The in-motion fit from `t_a` over `span` s with the gyro's rates scaled by `scale`.
+    fn fit_from(&self, config: &Config, t_a: f64, span: f64, scale: f64) -> Option<MotionFit> {
+        align_in_motion(
+            self.imu,
+            self.gnss,
+            t_a,
+            &(self.bias0 * scale),
+            scale,
+            &self.lever,
+            span,
+            config.align.heading_std.to_radians(),
+            self.bias_std,
+            self.accel_bias_std,
+        )
+    }
+}
+
+/// The checks on the motion: a mirror image, the gyro's unit, the turns, the time offset
+/// (applied in `start` when its search says so) and an upside-down frame. After a static
+/// start a gyro unit judged on the motion alone may replace `motion`.
+fn check_motion(
+    config: &Config,
+    scene: &Scene<'_>,
+    motion: &mut Option<MotionFit>,
+    start: &mut Start,
+) -> Result<(), String> {
+    let Scene { imu, gnss, t0, is_static, max_time, .. } = *scene;
+    let (still, a) = (&scene.still, &config.align);
+    let turns = turn_ratio(imu, gnss, t0, t0 + max_time);
+    if let Some(m) = motion.as_ref() {
+        // the fit stops once the heading is known, which may be before the first turn,
+        // and its span is chosen for the heading: a mirror image shows only when the
+        // motion turned, so it is judged on the whole span (no early stop) and only when
+        // the course turned (the early fit of navego's ADIS16405, a straight drive with a
+        // large gyro bias, looked like one)
+        // (after a static start, from `MIRROR_LEAD` before its end: gravity over a still
+        // span lets a mirror image show, a long one lets every error grow over the double
+        // integral — cars standing 5–20 min looked mirrored on 7 of 80 runs)
+        let turned = turns.is_some_and(|t| t.turned > 30f64.to_radians());
+        let t_a = if is_static { (still.span.1 - MIRROR_LEAD).max(t0) } else { t0 };
+        let whole = if turned {
+            fit_span(imu, gnss, t_a, &scene.bias0, &scene.lever, t0 + max_time)
+        } else {
+            None
+        };
+        check_mirror(config, whole.as_ref())?;
+        let fit = |t_a: f64, span: f64| move |s: f64| scene.fit_from(config, t_a, span, s);
+        if let Err(e) = check_gyro_unit(config, m, &fit(t0, max_time)) {
+            // after a static start, a gyro unit is refused only when the motion alone
+            // shows it as well: integrated over a long static span, the specific force's
+            // double integral takes up the tilt's and the accelerometer's every error (a
+            // clean car standing 200 s fitted its track worse than with a gyro scaled 57×
+            // down)
+            if !is_static {
+                return Err(e);
+            }
+            let t_s = still.span.1;
+            let m = scene.fit_from(config, t_s, a.max_time, 1.0).ok_or(e.clone())?;
+            check_gyro_unit(config, &m, &fit(t_s, a.max_time)).map_err(|_| e)?;
+            *motion = Some(m);
+        }
+    }
+    if let Some(t) = turns {
+        check_turns(config, &t, a.max_time)?;
+    }
+    if let Some(t) = time_offset(imu, gnss, t0, t0 + max_time, MAX_TIME_OFFSET, &scene.lever) {
+        start.time_offset = check_time_offset(config, &t, &mut start.report)?;
+    }
+    check_upright(config, scene, motion.as_ref())
+}
+
+/// Refuse a frame whose roll (levelled on the static start, else the in-motion fit's)
+/// says the IMU is upside down.
+fn check_upright(
+    config: &Config,
+    scene: &Scene<'_>,
+    motion: Option<&MotionFit>,
+) -> Result<(), String> {
+    let (roll, _) = match (motion, scene.is_static) {
+        (_, true) => level(&scene.still.mean_f),
+        (Some(m), false) => {
+            let (r, p, _) = m.att.euler();
+            (r, p)
+        }
+        (None, false) => (0.0, 0.0),
+    };
+    if roll.abs() > core::f64::consts::FRAC_PI_2 {
+        return Err(format!(
+            "{}: the IMU reads gravity along its +z axis (roll {:.1}°: the body frame is \
+             upside down, where FRD has z down): FRD data declared `axes = \"flu\"` (or the \
+             reverse), or a mounting not stated; set `data.imu_columns.axes` or \
+             `imu.mounting` so that z points down",
+            axes_key(config),
+            roll.to_degrees()
+        ));
+    }
+    Ok(())
+}
+
+/// `imu_noise.from_static`: the ARW and VRW measured on the static start, which must last
+/// `align.min_static`.
+fn noise_from_static(config: &Config, scene: &Scene<'_>, start: &mut Start) -> Result<(), String> {
+    let still = &scene.still;
+    if !scene.is_static {
+        return Err(format!(
+            "`imu_noise.from_static`: the start is static for {:.1} s ({:.3}–{:.3} s); at \
+             least `align.min_static` = {} s are needed to measure the noise: give \
+             `imu_noise.arw` and `imu_noise.vrw` instead",
+            still.duration(),
+            still.span.0,
+            still.span.1,
+            config.align.min_static
+        ));
+    }
+    start.noise.arw = still.arw();
+    start.noise.vrw = still.vrw();
+    let arw = still.arw() / DEG_PER_SQRT_H;
+    let vrw = still.vrw() / M_S_PER_SQRT_H;
+    start.report.push(format!(
+        "noise from the static start {:.3}–{:.3} s ({:.1} s): ARW {} deg/√h, VRW {} m/s/√h",
+        still.span.0,
+        still.span.1,
+        still.duration(),
+        fmt3(arw.into(), 3),
+        fmt3(vrw.into(), 3)
+    ));
+    Ok(())
 }
 
 /// The longest static start (s) after which `align.max_time` still counts: the start's
@@ -283,7 +380,7 @@ fn motion_span(config: &Config, still: &StaticStart, is_static: bool) -> f64 {
 /// epoch after `t0` (gravity comes from the first). [`prepare`] gives the same answer on
 /// data that reach past this end ([`reaches`]) as on any longer span: it looks at nothing
 /// later. The program reads the start this far, not [`STATIC_ALLOWANCE`] further.
-pub fn span_end(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Option<f64> {
+fn span_end(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Option<f64> {
     let after = &imu[imu.partition_point(|s| s.t <= t0 + 1e-9)..];
     let (first, last) = (after.first()?, after.last()?);
     if gnss.last().is_none_or(|e| e.t <= t0 + 1e-9) {
@@ -304,7 +401,7 @@ pub fn span_end(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64)
 /// Whether `imu` (from the first sample on) holds all [`prepare`] looks at up to `end`
 /// ([`span_end`]): a sample whose interval starts after `end`, and the first
 /// [`RATE_SAMPLES`] + 1 after `t0`.
-pub fn reaches(imu: &[ImuSample], t0: f64, end: f64) -> bool {
+fn reaches(imu: &[ImuSample], t0: f64, end: f64) -> bool {
     let after = imu.len() - imu.partition_point(|s| s.t <= t0 + 1e-9);
     after > RATE_SAMPLES && imu.last().is_some_and(|s| s.t - s.dt > end)
 }
@@ -326,12 +423,7 @@ pub fn static_start(
 /// The span from `t0` the IMU shows still, the fixes' drift not judged
 /// ([`still_span`](ins_gnss_core::align::still_span)): once it has ended inside the data
 /// read, [`static_start`] has all it judges.
-pub fn still_imu_span(
-    config: &Config,
-    imu: &[ImuSample],
-    gnss: &[GnssEpoch],
-    t0: f64,
-) -> StaticStart {
+fn still_imu_span(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> StaticStart {
     let (imu, gnss) = after(imu, gnss, t0);
     ins_gnss_core::align::still_span(imu, gnss, config.align.static_window)
 }
@@ -349,37 +441,42 @@ fn after<'a>(
 /// [`prepare`]'s part that needs only the static start: `imu_noise.static_floor` (when
 /// `[init]` is complete and the noise given, the rest of `prepare` only checks, beside
 /// the filter).
-pub fn prepare_floor(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Start {
-    let mut config = config.clone();
-    let mut report = Vec::new();
-    let (still, is_static) = static_start(&config, imu, gnss, t0);
+fn prepare_floor(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Start {
+    let mut start = Start::given(config, t0);
+    let (still, is_static) = static_start(config, imu, gnss, t0);
     if is_static && !config.imu_noise.from_static {
-        noise_floor(&mut config, &mut report, &still);
+        noise_floor(config, &mut start.noise, &mut start.report, &still);
     }
-    Start { config, report, still_until: None }
+    start
 }
 
-/// `imu_noise.static_floor`: raise each ARW / VRW axis the static start shows
-/// [`FLOOR_FACTOR`]× noisier than declared to the measured value.
-fn noise_floor(config: &mut Config, report: &mut Vec<String>, still: &StaticStart) {
+/// `imu_noise.static_floor`: raise each ARW / VRW axis of `noise` (the declared, SI) the
+/// static start shows [`FLOOR_FACTOR`]× noisier than declared to the measured value.
+fn noise_floor(
+    config: &Config,
+    noise: &mut ImuNoise,
+    report: &mut Vec<String>,
+    still: &StaticStart,
+) {
     if !config.imu_noise.static_floor {
         return;
     }
+    // (judged in the declared units, as given)
+    let (arw0, vrw0) = (config.imu_noise.arw, config.imu_noise.vrw);
     let arw = still.arw() / DEG_PER_SQRT_H;
     let vrw = still.vrw() / M_S_PER_SQRT_H;
-    let n = &mut config.imu_noise;
-    let (arw0, vrw0) = (n.arw, n.vrw);
     let mut raised = false;
     for k in 0..3 {
-        if arw[k] > FLOOR_FACTOR * n.arw[k] {
-            n.arw[k] = arw[k];
+        if arw[k] > FLOOR_FACTOR * arw0[k] {
+            noise.arw[k] = still.arw()[k];
             raised = true;
         }
-        if vrw[k] > FLOOR_FACTOR * n.vrw[k] {
-            n.vrw[k] = vrw[k];
+        if vrw[k] > FLOOR_FACTOR * vrw0[k] {
+            noise.vrw[k] = still.vrw()[k];
             raised = true;
         }
     }
+    let n = (noise.arw / DEG_PER_SQRT_H, noise.vrw / M_S_PER_SQRT_H);
     if raised {
         report.push(format!(
             "noise raised to what the IMU shows at rest (static start {:.3}–{:.3} s, {:.1} s): \
@@ -388,9 +485,9 @@ fn noise_floor(config: &mut Config, report: &mut Vec<String>, still: &StaticStar
             still.span.0,
             still.span.1,
             still.duration(),
-            fmt3(n.arw, 3),
+            fmt3(n.0.into(), 3),
             fmt3(arw0, 3),
-            fmt3(n.vrw, 3),
+            fmt3(n.1.into(), 3),
             fmt3(vrw0, 3)
         ));
     }
