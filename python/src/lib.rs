@@ -28,7 +28,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ins_gnss::config::RunOptions;
+use ins_gnss::config::Overrides;
 use ins_gnss::config::{Config, ConfigKind};
 use ins_gnss::run::{run_in_memory, Inputs, RunSummary, GNSS_ARRAY, IMU_ARRAY};
 
@@ -170,7 +170,7 @@ fn navigate<'py>(
         cfg.data.imu_format = serde_json::from_value(f.into())
             .map_err(|_| PyValueError::new_err(format!("imu_format `{f}`: increments or rates")))?;
     }
-    let options = RunOptions {
+    let options = Overrides {
         strategy,
         bias_model,
         states,
@@ -183,8 +183,7 @@ fn navigate<'py>(
         no_vehicle,
         ..Default::default()
     };
-    let name = cfg.apply_options(&options).map_err(fail)?;
-    let chosen = name.parse().map_err(fail)?;
+    let chosen = cfg.apply_options(&options).map_err(fail)?;
     let (summary, results) =
         py.allow_threads(|| run_in_memory(&cfg, chosen, &inputs)).map_err(fail)?;
     // as the program: a run judged quietly wrong is an error unless accepted

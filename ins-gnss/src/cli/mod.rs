@@ -7,14 +7,15 @@ use std::time::Instant;
 use adaptive::AnyStrategy;
 
 use crate::config::Config;
-pub use crate::config::RunOptions;
 use crate::eval::{evaluate, evaluate_with, Evaluation, Stats};
 use crate::run::{run as run_config, RunSummary};
 
 mod keep;
+mod options;
 mod print;
 
 pub use keep::*;
+pub use options::*;
 pub use print::*;
 
 /// Any error of a subcommand, as text for the user.
@@ -70,7 +71,9 @@ fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
 pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     let (out, truth, skip, progress, plots) = (o.out, o.truth, o.skip, o.progress, o.plots);
     let mut cfg = Config::load(config)?;
-    let name = cfg.apply_options(o)?;
+    let chosen = cfg.apply_options(&o.config)?;
+    // (the strategy as the user named it, for the tables)
+    let name = o.config.strategy.unwrap_or(&cfg.filter.strategy).to_string();
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());
     // refused before the run, not after it
     if plots && truth.is_none() && cfg.data.truth.is_none() {
@@ -93,7 +96,7 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     let earlier_trusted =
         out_dir.join("nav.txt").is_file() && !out_dir.join(UNTRUSTED_MARK).exists();
     let kept = if earlier_trusted { Some(keep_aside(&out_dir)?) } else { None };
-    let result = run_config(&cfg, strategy(&name)?, &out_dir, Some(&mut tick));
+    let result = run_config(&cfg, chosen, &out_dir, Some(&mut tick));
     if let Some(b) = bar {
         b.0.finish_and_clear();
     }

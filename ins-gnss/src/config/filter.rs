@@ -167,3 +167,43 @@ pub enum MechanizationName {
     /// Flat earth around the initial position.
     FlatEarth,
 }
+
+/// The error states a run carries: the INS's 15, or 21 with the scale factors
+/// (`filter.states`), with the receiver clock (tight coupling), the fixes' persisting
+/// error (decided at the start: [`FixErrorPlan::Persisting`]) or the calibration states
+/// (`[calibrate]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StateKind {
+    /// The calibration states beside the INS's (`[calibrate]`).
+    Calibration,
+    /// Tight coupling, 15 + the receiver clock.
+    Tight15,
+    /// Tight coupling with the scale factors.
+    Tight21,
+    /// The fixes' persisting error beside the 15.
+    Persisting15,
+    /// The fixes' persisting error beside the 21.
+    Persisting21,
+    /// The INS's 15.
+    Ins15,
+    /// The INS's 15 and the scale factors.
+    Ins21,
+}
+
+impl Config {
+    /// The states of a run of this configuration, the fixes' persisting error as states
+    /// when `persisting` (the start's plan).
+    pub fn state_kind(&self, persisting: bool) -> StateKind {
+        let wide = self.filter.states == 21;
+        let pick = |narrow, with_scale| if wide { with_scale } else { narrow };
+        if self.calibrate.any() {
+            StateKind::Calibration
+        } else if self.gnss.coupling == Coupling::Tight {
+            pick(StateKind::Tight15, StateKind::Tight21)
+        } else if persisting {
+            pick(StateKind::Persisting15, StateKind::Persisting21)
+        } else {
+            pick(StateKind::Ins15, StateKind::Ins21)
+        }
+    }
+}

@@ -74,3 +74,19 @@ pub enum BiasModelName {
     /// Gauss–Markov covariance, estimate held (KF-GINS).
     GaussMarkovHeld,
 }
+
+impl core::str::FromStr for BiasModelName {
+    type Err = String;
+
+    /// The configuration's names: `random-walk`, `gauss-markov`, `gauss-markov-held`.
+    fn from_str(name: &str) -> Result<Self, String> {
+        match name {
+            "random-walk" => Ok(Self::RandomWalk),
+            "gauss-markov" => Ok(Self::GaussMarkov),
+            "gauss-markov-held" => Ok(Self::GaussMarkovHeld),
+            _ => Err(format!(
+                "unknown bias model `{name}`: random-walk, gauss-markov, gauss-markov-held"
+            )),
+        }
+    }
+}

@@ -1,25 +1,17 @@
-//! The options of a run (`ins-gnss run`'s flags, the Python package's arguments) and
-//! how they change a configuration.
+//! The options of a run that change its configuration (`ins-gnss run`'s flags, the
+//! Python package's arguments): applied once, before the run, and checked as the file's
+//! keys are. (The command line's other options, [`crate::cli::RunOptions`], live with it.)
 
 use super::*;
 
-/// Options of a run as `ins-gnss run` takes them (the Python package takes a part).
+/// The options of a run that change its configuration, as `ins-gnss run` and the Python
+/// package take them.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct RunOptions<'a> {
+pub struct Overrides<'a> {
     /// Strategy name (default: the configuration's).
     pub strategy: Option<&'a str>,
     /// Bias model name (default: the configuration's).
     pub bias_model: Option<&'a str>,
-    /// Output directory (default: the configuration's).
-    pub out: Option<&'a Path>,
-    /// Truth file for an evaluation at the end.
-    pub truth: Option<&'a Path>,
-    /// Seconds skipped by the evaluation.
-    pub skip: f64,
-    /// Show a progress bar.
-    pub progress: bool,
-    /// Write SVG plots.
-    pub plots: bool,
     /// Open the gross-error gate (KF-GINS's behaviour: every fix used).
     pub no_gate: bool,
     /// Keep every stream's declared noise (sets `filter.gate.learn = false`).
@@ -41,11 +33,6 @@ pub struct RunOptions<'a> {
     /// Smooth with one covariance per update in the scratch file (sets
     /// `filter.smooth_low_scratch`).
     pub smooth_low_scratch: bool,
-    /// Write `report.html` (with the plots when there is a truth).
-    pub report: bool,
-    /// Keep a run [`crate::health::assess`] judges quietly wrong with a warning instead
-    /// of an error.
-    pub accept_inconsistent: bool,
     /// Estimate the lever arm (sets `calibrate.lever_arm`).
     pub calibrate_lever_arm: bool,
     /// Estimate the IMU–GNSS time offset (sets `calibrate.time_offset`).
@@ -63,18 +50,13 @@ pub struct RunOptions<'a> {
 
 impl Config {
     /// Apply the options of a run that change the configuration (bias model, gate,
-    /// vehicle aiding, states, smoothing); returns the strategy's name (the option's, or
-    /// the configuration's). `ins-gnss run` and the Python package take the same options
+    /// vehicle aiding, states, smoothing); returns the strategy (the option's, or the
+    /// configuration's). `ins-gnss run` and the Python package take the same options
     /// through it.
-    pub fn apply_options(&mut self, o: &RunOptions<'_>) -> Result<String, String> {
+    pub fn apply_options(&mut self, o: &Overrides<'_>) -> Result<adaptive::AnyStrategy, String> {
         let cfg = self;
         if let Some(b) = o.bias_model {
-            cfg.imu_noise.bias_model =
-                toml::Value::String(b.to_string()).try_into().map_err(|_| {
-                    format!(
-                        "unknown bias model `{b}`: random-walk, gauss-markov, gauss-markov-held"
-                    )
-                })?;
+            cfg.imu_noise.bias_model = b.parse()?;
         }
         if o.no_gate {
             cfg.filter.gate.enabled = false;
@@ -126,6 +108,7 @@ impl Config {
         }
         // the options are checked as the file's keys were
         cfg.validate()?;
-        Ok(o.strategy.map(str::to_string).unwrap_or_else(|| cfg.filter.strategy.clone()))
+        let name = o.strategy.unwrap_or(&cfg.filter.strategy);
+        name.parse().map_err(|e: adaptive::UnknownStrategy| e.to_string())
     }
 }

@@ -26,7 +26,7 @@ use estimator_core::{NoObserver, NoiseStrategy, SmoothedRow, UpdateSummary, Verd
 use nalgebra::Vector3;
 
 use crate::aiding::{AidEpoch, AidReader};
-use crate::config::{Config, FixErrorPlan, PROBE_FIXES};
+use crate::config::{Config, FixErrorPlan, StateKind, PROBE_FIXES};
 use crate::start::{Look, Start, Starter};
 use estimator_core::DimAlloc;
 use ins_gnss_core::calibration::{InsModelCal, InsStateCal};
@@ -194,7 +194,6 @@ fn attempt<O: Sink>(
         Inputs::Recording { notes, .. } => notes.clone(),
         _ => Vec::new(),
     };
-    let tight = config.gnss.coupling == crate::config::Coupling::Tight;
     let plan = match persisting {
         Some(_) => FixErrorPlan::Persisting,
         None => GnssAtStart::of_fixes(config, prefix.fixes().iter()).plan(config),
@@ -213,15 +212,22 @@ fn attempt<O: Sink>(
         found: persisting_probe,
         start: &start,
     };
-    let calibrate = config.calibrate.any();
-    let result = match config.filter.states {
-        _ if calibrate => run_into::<InsStateCal, O>(config, strategy, names, progress, inputs),
-        21 if tight => run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs),
-        _ if tight => run_into::<InsStateTc, O>(config, strategy, names, progress, inputs),
-        21 if persisting => run_into::<InsState21Fe, O>(config, strategy, names, progress, inputs),
-        _ if persisting => run_into::<InsStateFe, O>(config, strategy, names, progress, inputs),
-        21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs),
-        _ => run_into::<InsState, O>(config, strategy, names, progress, inputs),
+    let result = match config.state_kind(persisting) {
+        StateKind::Calibration => {
+            run_into::<InsStateCal, O>(config, strategy, names, progress, inputs)
+        }
+        StateKind::Tight21 => {
+            run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs)
+        }
+        StateKind::Tight15 => run_into::<InsStateTc, O>(config, strategy, names, progress, inputs),
+        StateKind::Persisting21 => {
+            run_into::<InsState21Fe, O>(config, strategy, names, progress, inputs)
+        }
+        StateKind::Persisting15 => {
+            run_into::<InsStateFe, O>(config, strategy, names, progress, inputs)
+        }
+        StateKind::Ins21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs),
+        StateKind::Ins15 => run_into::<InsState, O>(config, strategy, names, progress, inputs),
     };
     match result {
         Ok(mut summary) => {

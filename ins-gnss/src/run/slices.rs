@@ -37,14 +37,17 @@ pub fn run_slices(
     // (slices run once: a probed plan stays white here; `run` probes)
     let plan = GnssAtStart::of_fixes(config, gnss.iter()).plan(config);
     let persisting = plan == crate::config::FixErrorPlan::Persisting;
-    match config.filter.states {
-        _ if config.calibrate.any() => {
-            run_slices_on::<InsStateCal>(config, strategy, imu, gnss, each)
+    // (in-memory slices hold fixes: a tight configuration runs loosely coupled here)
+    match config.state_kind(persisting) {
+        StateKind::Calibration => run_slices_on::<InsStateCal>(config, strategy, imu, gnss, each),
+        StateKind::Persisting21 => run_slices_on::<InsState21Fe>(config, strategy, imu, gnss, each),
+        StateKind::Persisting15 => run_slices_on::<InsStateFe>(config, strategy, imu, gnss, each),
+        StateKind::Ins21 | StateKind::Tight21 => {
+            run_slices_on::<InsState21>(config, strategy, imu, gnss, each)
         }
-        21 if persisting => run_slices_on::<InsState21Fe>(config, strategy, imu, gnss, each),
-        _ if persisting => run_slices_on::<InsStateFe>(config, strategy, imu, gnss, each),
-        21 => run_slices_on::<InsState21>(config, strategy, imu, gnss, each),
-        _ => run_slices_on::<InsState>(config, strategy, imu, gnss, each),
+        StateKind::Ins15 | StateKind::Tight15 => {
+            run_slices_on::<InsState>(config, strategy, imu, gnss, each)
+        }
     }
 }
 
