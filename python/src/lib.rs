@@ -183,7 +183,7 @@ fn navigate<'py>(
         no_vehicle,
         ..Default::default()
     };
-    let chosen = cfg.apply_options(&options).map_err(fail)?;
+    let (cfg, chosen) = cfg.with_options(&options).map_err(fail)?;
     let (summary, results) =
         py.allow_threads(|| run_in_memory(&cfg, chosen, &inputs)).map_err(fail)?;
     // as the program: a run judged quietly wrong is an error unless accepted

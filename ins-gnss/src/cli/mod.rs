@@ -70,8 +70,7 @@ fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
 /// `ins-gnss run`.
 pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     let (out, truth, skip, progress, plots) = (o.out, o.truth, o.skip, o.progress, o.plots);
-    let mut cfg = Config::load(config)?;
-    let chosen = cfg.apply_options(&o.config)?;
+    let (cfg, chosen) = Config::load(config)?.with_options(&o.config)?;
     // (the strategy as the user named it, for the tables)
     let name = o.config.strategy.unwrap_or(&cfg.filter.strategy).to_string();
     let out_dir = out.map(Path::to_path_buf).unwrap_or_else(|| cfg.data.output.clone());

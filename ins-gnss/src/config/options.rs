@@ -49,12 +49,15 @@ pub struct Overrides<'a> {
 }
 
 impl Config {
-    /// Apply the options of a run that change the configuration (bias model, gate,
-    /// vehicle aiding, states, smoothing); returns the strategy (the option's, or the
-    /// configuration's). `ins-gnss run` and the Python package take the same options
-    /// through it.
-    pub fn apply_options(&mut self, o: &Overrides<'_>) -> Result<adaptive::AnyStrategy, String> {
-        let cfg = self;
+    /// This configuration with the options of a run that change it (bias model, gate,
+    /// vehicle aiding, states, smoothing), checked as the file's keys are, and the
+    /// strategy (the option's, or the configuration's). `ins-gnss run` and the Python
+    /// package take the same options through it.
+    pub fn with_options(
+        &self,
+        o: &Overrides<'_>,
+    ) -> Result<(Config, adaptive::AnyStrategy), String> {
+        let mut cfg = self.clone();
         if let Some(b) = o.bias_model {
             cfg.imu_noise.bias_model = b.parse()?;
         }
@@ -109,6 +112,7 @@ impl Config {
         // the options are checked as the file's keys were
         cfg.validate()?;
         let name = o.strategy.unwrap_or(&cfg.filter.strategy);
-        name.parse().map_err(|e: adaptive::UnknownStrategy| e.to_string())
+        let chosen = name.parse().map_err(|e: adaptive::UnknownStrategy| e.to_string())?;
+        Ok((cfg, chosen))
     }
 }

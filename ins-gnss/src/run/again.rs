@@ -25,8 +25,7 @@ pub(super) fn run_with<O: Sink>(
     let mut shifted = None;
     let first = match first {
         Err((RunError::TimeOffsetApplied(offset, found), _)) => {
-            let mut c = config.clone();
-            c.data.imu_time_offset = offset;
+            let c = config.with_imu_time_offset(offset);
             lines.extend(found);
             let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
             let run =
@@ -67,8 +66,7 @@ pub(super) fn run_with<O: Sink>(
             Some((late, sigma, _, applied))
                 if (late + applied).abs() > (3.0 * sigma).max(TIME_OFFSET_REFINED) =>
             {
-                let mut c = config.clone();
-                c.data.imu_time_offset = -late;
+                let c = config.with_imu_time_offset(-late);
                 lines.push(format!(
                     "IMU–GNSS time offset: the filter found the IMU's stamps {:.4} s (σ {:.4} s) \
                      off the receiver's clock after the {applied:.3} s applied: run again with \

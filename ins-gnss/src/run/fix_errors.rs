@@ -57,17 +57,6 @@ pub(super) fn white_prior(probe: FixErrorProbe) -> FixErrorProbe {
     FixErrorProbe { factor: probe.factor * (1.0 - share), ..probe }
 }
 
-/// A configuration whose fixes' persisting error is a hypothesis: its σ and correlation
-/// time stated, the white part's scale learned, nothing written, nothing smoothed.
-fn hypothesis(config: &Config, sigma: Vector3<f64>, tau: f64) -> Config {
-    let mut c = config.clone();
-    c.gnss.errors.model = crate::config::ErrorModel::Persisting;
-    c.gnss.errors.sigma = Some(sigma.into());
-    c.gnss.errors.tau = tau;
-    c.gnss.errors.learn = true;
-    c
-}
-
 /// The fixes' error model judged by the filter's own likelihood (`gnss.errors.model =
 /// "auto"`, once the probe has learned the fixes' total noise scale): a bank of runs over
 /// the whole data, the white model and persisting parts of stated σ and correlation time
@@ -104,13 +93,7 @@ fn judge_with(
     workers: usize,
     replay: bool,
 ) -> (Option<Config>, Option<FixErrorBank>) {
-    let mut judged = config.clone();
-    judged.filter.smooth = false;
-    // the checks that run beside the filter (the start given, not found) only refuse or
-    // let go, and the run after the bank makes them: the bank's passes do without
-    if !(crate::start::fills(&judged) || judged.calibrate.time_offset) {
-        judged.align.checks = false;
-    }
+    let judged = config.for_bank_pass();
     // the inputs read once for every pass: a ROS recording into rows (with the
     // configuration it completes), the IMU's samples into memory (when not too many)
     let recording;
@@ -136,8 +119,7 @@ fn judge_with(
         ran: Vec::new(),
         workers,
     };
-    let mut white_config = bank.judged.clone();
-    white_config.gnss.errors.model = crate::config::ErrorModel::White;
+    let white_config = bank.judged.with_white_fix_errors();
     // (the prior's share of the total variance is the first guess)
     let k0 = ins_gnss_core::navigator::FIX_ERROR_SHARE.sqrt();
     // each correlation time's best σ: (τ, k, log-likelihood), the first one's beside the
@@ -205,11 +187,9 @@ fn judge_with(
         white,
     };
     if found.white_chosen() {
-        let mut c = config.clone();
-        c.gnss.errors.model = crate::config::ErrorModel::White;
-        return (Some(c), Some(found));
+        return (Some(config.with_white_fix_errors()), Some(found));
     }
-    (Some(hypothesis(config, total * k, tau)), Some(found))
+    (Some(config.with_persisting_fix_errors(total * k, tau)), Some(found))
 }
 
 /// The bank's hypotheses as they are scored: each one whole run of the configuration
@@ -276,8 +256,10 @@ impl Hypotheses<'_> {
                 .take(self.workers.max(1))
                 .collect();
             let prior = Some(white_prior(self.probe));
-            let configs: Vec<Config> =
-                todo.iter().map(|&k| hypothesis(&self.judged, self.total * k, tau)).collect();
+            let configs: Vec<Config> = todo
+                .iter()
+                .map(|&k| self.judged.with_persisting_fix_errors(self.total * k, tau))
+                .collect();
             let lls: Vec<f64> = if configs.len() == 1 {
                 vec![self.likelihood(&configs[0], prior)]
             } else {

@@ -51,6 +51,7 @@ mod fix_errors;
 mod inputs;
 mod memory;
 mod outputs;
+mod pass;
 mod recording;
 mod rows;
 mod slices;
@@ -66,6 +67,7 @@ pub use fix_errors::*;
 pub use inputs::*;
 pub use memory::*;
 pub use outputs::*;
+use pass::*;
 pub(crate) use recording::open_recording;
 pub use rows::*;
 pub use slices::*;
@@ -153,27 +155,9 @@ fn attempt<O: Sink>(
         }
         _ => (config, inputs),
     };
-    let (imu, mut gnss) = match replay {
-        Some(r) => (Err(r.clone()), open_aid(config, inputs).map_err(|e| (e, false))?),
-        None => open_inputs(config, inputs).map(|(i, g)| (Ok(i), g)).map_err(|e| (e, false))?,
-    };
-    let feed_of = |tee| match imu {
-        Ok(imu) => ImuFeed::spawn(imu, tee),
-        Err(r) => ImuFeed::replay(r, tee),
-    };
-    // With the whole initial state and noise given, the data's first seconds are only
-    // checked (the start changes nothing but the noise floor, which needs only the
-    // static start): the checks run beside the filter on a copy of them, and a refusal
-    // stops the run. Otherwise the filter waits for the start ([`Look::of`]).
     let look = Look::of(config);
-    let beside = config.align.checks && look != Look::Span;
-    let (mut feed, checks) = if beside {
-        let (tee, prefix) = std::sync::mpsc::channel();
-        let checks = Checks::spawn(config, inputs, prefix).map_err(|e| (e, false))?;
-        (feed_of(Some(tee)), Some(checks))
-    } else {
-        (feed_of(None), None)
-    };
+    let (mut feed, mut gnss, checks) =
+        open_feed(config, inputs, replay, look).map_err(|e| (e, false))?;
     let ready = read_prefix(config, &mut feed, &mut gnss, look)
         .and_then(|prefix| Ok((prefix.starter.decide().map_err(RunError::Start)?, prefix)))
         .and_then(|(start, prefix)| {
@@ -212,23 +196,7 @@ fn attempt<O: Sink>(
         found: persisting_probe,
         start: &start,
     };
-    let result = match config.state_kind(persisting) {
-        StateKind::Calibration => {
-            run_into::<InsStateCal, O>(config, strategy, names, progress, inputs)
-        }
-        StateKind::Tight21 => {
-            run_into::<InsStateTc21, O>(config, strategy, names, progress, inputs)
-        }
-        StateKind::Tight15 => run_into::<InsStateTc, O>(config, strategy, names, progress, inputs),
-        StateKind::Persisting21 => {
-            run_into::<InsState21Fe, O>(config, strategy, names, progress, inputs)
-        }
-        StateKind::Persisting15 => {
-            run_into::<InsStateFe, O>(config, strategy, names, progress, inputs)
-        }
-        StateKind::Ins21 => run_into::<InsState21, O>(config, strategy, names, progress, inputs),
-        StateKind::Ins15 => run_into::<InsState, O>(config, strategy, names, progress, inputs),
-    };
+    let result = run_kind(config.state_kind(persisting), config, strategy, names, progress, inputs);
     match result {
         Ok(mut summary) => {
             // the recording's notes, the start's report, then what the checks run beside
@@ -242,7 +210,56 @@ fn attempt<O: Sink>(
     }
 }
 
-/// [`run`] with its inputs open and its outputs created.
+/// The IMU feed (replayed from memory, or read on a thread of its own), the GNSS reader,
+/// and the checks beside the filter when the start only checks (`look`): with the whole
+/// initial state and noise given, the data's first seconds are only checked (the start
+/// changes nothing but the noise floor, which needs only the static start), on a copy of
+/// them the feed tees, and a refusal stops the run; otherwise the filter waits for the
+/// start ([`Look::of`]).
+fn open_feed(
+    config: &Config,
+    inputs: &Inputs,
+    replay: Option<&std::sync::Arc<ImuRecording>>,
+    look: Look,
+) -> Result<(ImuFeed, AidReader, Option<Checks>), RunError> {
+    let (imu, gnss) = match replay {
+        Some(r) => (Err(r.clone()), open_aid(config, inputs)?),
+        None => open_inputs(config, inputs).map(|(i, g)| (Ok(i), g))?,
+    };
+    let feed_of = |tee| match imu {
+        Ok(imu) => ImuFeed::spawn(imu, tee),
+        Err(r) => ImuFeed::replay(r, tee),
+    };
+    if config.align.checks && look != Look::Span {
+        let (tee, prefix) = std::sync::mpsc::channel();
+        let checks = Checks::spawn(config, inputs, prefix)?;
+        Ok((feed_of(Some(tee)), gnss, Some(checks)))
+    } else {
+        Ok((feed_of(None), gnss, None))
+    }
+}
+
+/// [`run_into`] with the state type of `kind`.
+fn run_kind<O: Sink>(
+    kind: StateKind,
+    config: &Config,
+    strategy: AnyStrategy,
+    names: (PathBuf, PathBuf),
+    progress: Option<Progress<'_>>,
+    inputs: Opened<'_, O>,
+) -> Result<RunSummary, RunError> {
+    let (c, s, n, p, i) = (config, strategy, names, progress, inputs);
+    match kind {
+        StateKind::Calibration => run_into::<InsStateCal, O>(c, s, n, p, i),
+        StateKind::Tight21 => run_into::<InsStateTc21, O>(c, s, n, p, i),
+        StateKind::Tight15 => run_into::<InsStateTc, O>(c, s, n, p, i),
+        StateKind::Persisting21 => run_into::<InsState21Fe, O>(c, s, n, p, i),
+        StateKind::Persisting15 => run_into::<InsStateFe, O>(c, s, n, p, i),
+        StateKind::Ins21 => run_into::<InsState21, O>(c, s, n, p, i),
+        StateKind::Ins15 => run_into::<InsState, O>(c, s, n, p, i),
+    }
+}
+
 /// What [`run_into`] runs on: the inputs opened and the outputs created, and whether
 /// the fixes' errors are probed.
 struct Opened<'o, O: Sink> {
@@ -275,73 +292,22 @@ where
     estimator_core::Cov<S::Dim>: Send,
 {
     let wall = Instant::now();
-    let Opened {
-        feed,
-        mut gnss,
-        prefix,
-        mut checks,
-        out,
-        nav: nav_sink,
-        probe,
-        found,
-        start: from,
-    } = opened;
-
+    let Opened { feed, mut gnss, prefix, mut checks, out, nav: nav_sink, probe, found, start } =
+        opened;
     // Start: the configured time, or the first IMU sample (the prefix holds one at
     // least); samples up to it are skipped.
-    let Prefix { batches: first_batches, gnss: mut first_epochs, .. } = prefix;
-    // the receiver clock of the first raw epoch after the start with a single point
-    let t0 = from.time;
-    let clock = first_epochs
-        .iter()
-        .filter(|(a, _)| a.t > t0 + 1e-9)
-        .find_map(|(a, _)| a.raw.as_ref().and_then(|r| r.1));
-    let at = GnssAtStart {
-        clock,
-        fix_factor: found.map(|f| f.factor),
-        ..GnssAtStart::of_fixes(config, first_epochs.iter().filter_map(|(a, _)| a.fix.as_ref()))
-    };
-    let (mut nav, mut summary, end) = start_navigator::<S>(config, from, strategy, &at)?;
-    let start = summary.span.0;
-    // (the exact mode keeps the step-by-step adjoint: its outputs stay those of earlier
-    // builds byte for byte; the two agree to rounding, `docs/history/benches.md`)
-    let adjoint = if config.filter.covariance_interval > 0.0 {
-        estimator_core::AdjointForm::Accumulated
-    } else {
-        estimator_core::AdjointForm::PerStep
-    };
-    let mut recorder = if config.filter.smooth {
-        Some(
-            out.recorder::<S>()?
-                .with_adjoint_form(adjoint)
-                .with_replayed_priors(config.filter.smooth_low_scratch),
-        )
-    } else {
-        None
-    };
-    // (tight coupling, smoothing) the reported position σ floors over time
-    let mut floors = Floors::default();
-    let (imu_path, gnss_path) = names;
-    // Which record a failure belongs to: the GNSS epoch whose update failed, or the IMU
-    // sample whose prediction did.
-    // `lines`: the batch's GNSS epochs' times and lines (0: not a text file)
-    let locate = |e: NavError, imu_line: usize, lines: &[(f64, usize)]| match &e {
-        NavError::Measurement { t, .. } => {
-            match lines.iter().find(|(tg, line)| (tg - t).abs() < 1e-6 && *line > 0) {
-                Some((_, line)) => {
-                    RunError::Located { path: gnss_path.clone(), line: *line, error: e }
-                }
-                None => RunError::Navigation(e),
-            }
-        }
-        _ => RunError::Located { path: imu_path.clone(), line: imu_line, error: e },
-    };
+    let Prefix { batches: first_batches, gnss: first_epochs, .. } = prefix;
+    let at = gnss_at_start(config, start.time, &first_epochs, found);
+    let started = start_navigator::<S>(config, start, strategy, &at)?;
+    let tight = gnss.tight().cloned();
+    let mut pass = Pass::<S, O>::new(config, started, out, probe, at, tight)?;
+    let locate = Locate { imu: names.0, gnss: names.1 };
 
     // what the checks beside the filter report (an offset named, not refused)
     let mut beside = Vec::new();
     std::thread::scope(|scope| -> Result<(), RunError> {
         // States, not records: the writer thread does the Euler conversion.
-        let (nav_tx, nav_rx) =
+        let (rows, nav_rx) =
             std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::InsState)>>(4);
         let writer = scope.spawn(move || -> Result<O::Nav, RunError> {
             let mut w = nav_sink;
@@ -351,155 +317,70 @@ where
             w.finish()?;
             Ok(w)
         });
-
-        let result = (|| -> Result<(), RunError> {
-            let tight = gnss.tight().cloned();
-            let mut read_gnss = |gnss: &mut AidReader, span: &mut (f64, f64)| {
-                let g = match first_epochs.pop_front() {
-                    Some(g) => Some(g),
-                    None => gnss.next_epoch()?.map(|g| (g, gnss.line())),
-                };
-                if let Some((g, _)) = &g {
-                    let g: &AidEpoch = g;
-                    if span.0.is_nan() {
-                        span.0 = g.t;
-                    }
-                    span.1 = g.t;
-                }
-                Ok::<_, RunError>(g)
-            };
-            summary.gnss_span = (f64::NAN, f64::NAN);
-            let mut next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
-            let mut batch: Vec<GnssEpoch> = Vec::with_capacity(4);
-            let mut raws: Vec<RawEpoch> = Vec::new();
-            let mut batch_lines: Vec<(f64, usize)> = Vec::with_capacity(4);
-            let mut updates: Vec<UpdateSummary> = Vec::with_capacity(4);
-            let mut records = Vec::with_capacity(BATCH);
-            let mut last_std = f64::NEG_INFINITY;
+        let result = GnssQueue::new(first_epochs, &mut gnss).and_then(|mut queue| {
             let messages = first_batches.into_iter().map(Ok).chain(feed.batches.iter());
-            'outer: for message in messages {
-                // a refusal by the checks stops the run
-                if checks.as_ref().is_some_and(Checks::done) {
-                    beside.extend(checks.take().map_or(Ok(Vec::new()), Checks::join)?);
-                }
-                for (sample, imu_line) in message? {
-                    if sample.t <= start + 1e-9 {
-                        continue;
+            let r = (|| {
+                for message in messages {
+                    // a refusal by the checks stops the run
+                    if checks.as_ref().is_some_and(Checks::done) {
+                        beside.extend(checks.take().map_or(Ok(Vec::new()), Checks::join)?);
                     }
-                    if sample.t > end + 1e-9 {
-                        break 'outer;
-                    }
-                    batch.clear();
-                    raws.clear();
-                    batch_lines.clear();
-                    while next_gnss.as_ref().is_some_and(|(g, _)| g.t <= sample.t + 1e-9) {
-                        let Some((g, line)) = next_gnss.take() else { break };
-                        if g.t > start + 1e-9 {
-                            if let Some(fix) = g.fix {
-                                summary.first_fix.get_or_insert(fix);
-                                // (raw epochs: their single points served the start and
-                                // this first fix; the filter takes the satellites)
-                                gnss.skip_single_points();
-                                batch.push(fix);
+                    for (sample, imu_line) in message? {
+                        match pass.step(&sample, imu_line, &mut queue, &rows, &locate)? {
+                            Flow::Stop => return Ok(()),
+                            Flow::Skipped => {}
+                            Flow::Filtered => {
+                                if pass.summary.imu_epochs.is_multiple_of(2000) {
+                                    if let Some(p) = progress.as_mut() {
+                                        p(sample.t);
+                                    }
+                                }
                             }
-                            raws.extend(g.raw.map(|r| r.0));
-                            batch_lines.push((g.t, line));
-                        }
-                        next_gnss = read_gnss(&mut gnss, &mut summary.gnss_span)?;
-                    }
-                    updates.clear();
-                    S::process(
-                        &mut nav,
-                        &sample,
-                        &batch,
-                        &raws,
-                        tight.as_ref(),
-                        &mut updates,
-                        &mut recorder,
-                    )
-                    .map_err(|e| locate(e, imu_line, &batch_lines))?;
-                    summary.imu_epochs += 1;
-                    if let (Some(_), Some(f)) = (&recorder, S::position_floor(&nav)) {
-                        floors.push(sample.t, f);
-                    }
-                    records.push((sample.t, nav.nav_state().clone()));
-                    if records.len() == BATCH
-                        && nav_tx
-                            .send(std::mem::replace(&mut records, Vec::with_capacity(BATCH)))
-                            .is_err()
-                    {
-                        break 'outer;
-                    }
-                    summary.tally(&updates);
-                    for u in &updates {
-                        out.update(u)?;
-                    }
-                    if probe && !updates.is_empty() {
-                        if let Some(found) = probe_fix_errors(nav.filter().strategy(), &at) {
-                            return Err(RunError::FixErrorsProbed(found));
-                        }
-                    }
-                    // after every update, and once a second without (an outage's σ)
-                    if !updates.is_empty() || sample.t >= last_std + STD_EVERY - 1e-9 {
-                        let fix = updates.iter().any(|u| {
-                            S::is_fix(u.stream) && u.verdict != estimator_core::Verdict::Rejected
-                        });
-                        out.epoch(sample.t, &nav, fix)?;
-                        // the smoothed σ at the same epochs
-                        estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
-                        last_std = sample.t;
-                    }
-                    summary.span.1 = sample.t;
-                    if summary.imu_epochs.is_multiple_of(2000) {
-                        if let Some(p) = progress.as_mut() {
-                            p(sample.t);
                         }
                     }
                 }
+                Ok(())
+            })();
+            pass.summary.gnss_span = queue.span;
+            if r.is_ok() {
+                pass.flush_rows(&rows);
             }
-            let _ = nav_tx.send(records);
-            Ok(())
-        })();
-        drop(nav_tx);
+            r
+        });
+        drop(rows);
         let written =
             writer.join().map_err(|_| RunError::NoData("the writer thread panicked".into()))?;
-        summary.imu_skipped = feed.finish()?;
+        pass.summary.imu_skipped = feed.finish()?;
         // the checks' verdict first: a refused input explains a failed run
         beside.extend(checks.take().map_or(Ok(Vec::new()), Checks::join)?);
         result?;
-        out.nav_done(written?);
+        pass.out.nav_done(written?);
         Ok(())
     })?;
-
-    if summary.imu_epochs == 0 {
-        return Err(RunError::NoData(format!(
-            "no IMU sample after the start time {start} s in {}",
-            imu_path.display()
-        )));
-    }
-    summary.start = beside;
-    summary.finish_streams();
-    check_gnss_overlap(&summary, &gnss_path)?;
-    out.epoch(summary.span.1, &nav, false)?;
-    estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut recorder);
-    out.flush()?;
-    summary.gnss_skipped = gnss.skipped();
-    summary.headings_unmatched = gnss.headings_unmatched();
-    summary.gnss_sigma_from_hdop = gnss.sigma_from_hdop();
-    summary.stationary_time = nav.stationary_time();
-    summary.odometer_reversed = nav.odometer_reversed();
-    summary.learned = nav.filter().strategy().learned().collect();
-    summary.fix_errors = fix_errors_learned(&nav);
-    summary.calibration = calibration_learned(config, &nav);
-    if let Some(recorder) = recorder {
-        let backward = Instant::now();
-        // (a covariance at a lower rate than the state: the backward pass starts from now's)
-        nav.settle_covariance()?;
-        let rows = out.smoothed(recorder, &nav, &floors)?;
-        summary.smoothed = Some((rows, backward.elapsed().as_secs_f64()));
-    }
+    pass.summary.start = beside;
+    let mut summary = pass.finish(config, &gnss, &locate)?;
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
+}
+
+/// What the GNSS said at the start (`t0`): the fixes read with the prefix, the receiver
+/// clock of the first raw epoch after the start with a single point, and the probe's
+/// noise factor (a run with the fixes' persisting part).
+fn gnss_at_start(
+    config: &Config,
+    t0: f64,
+    first: &std::collections::VecDeque<(AidEpoch, usize)>,
+    found: Option<FixErrorProbe>,
+) -> GnssAtStart {
+    let clock = first
+        .iter()
+        .filter(|(a, _)| a.t > t0 + 1e-9)
+        .find_map(|(a, _)| a.raw.as_ref().and_then(|r| r.1));
+    GnssAtStart {
+        clock,
+        fix_factor: found.map(|f| f.factor),
+        ..GnssAtStart::of_fixes(config, first.iter().filter_map(|(a, _)| a.fix.as_ref()))
+    }
 }
 
 /// A run that used no GNSS epoch although the file has some: the file does not overlap

@@ -3,6 +3,7 @@
 //! when asked).
 
 use super::*;
+use crate::config::FromRecording;
 use ins_gnss_core::io::ros::{Recording, Selection, Stamps};
 
 /// The configuration keys of the three topics, named in errors.
@@ -31,8 +32,7 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
         },
     };
     let rec = Recording::read(&ros.recording, &select, TOPIC_KEYS)?;
-    let mut cfg = config.clone();
-    cfg.data.imu_format = crate::config::ImuFormatName::Rates;
+    let mut from = FromRecording::default();
     let mut notes = Vec::new();
     let rate = rec.imu_rate().ok_or_else(|| {
         RunError::NoData(format!(
@@ -56,11 +56,10 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
         rec.imu_topic.0,
         rec.imu_topic.1,
         rec.imu.len(),
-        if cfg.data.imu_rate == 0.0 { " (data.imu_rate)" } else { "" },
+        if config.data.imu_rate == 0.0 { " (data.imu_rate)" } else { "" },
     ));
-    if cfg.data.imu_rate == 0.0 {
-        cfg.data.imu_rate = rate;
-    }
+    from.imu_rate = rate;
+    let imu_rate = if config.data.imu_rate == 0.0 { rate } else { config.data.imu_rate };
     if ros.imu_noise_from_covariance {
         let Some((w, f)) = rec.imu_sigma() else {
             return Err(bad_map(
@@ -72,20 +71,16 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
                 ),
             ));
         };
-        let root_dt = (1.0 / cfg.data.imu_rate).sqrt() * PER_ROOT_SECOND_TO_PER_ROOT_HOUR;
-        cfg.imu_noise.arw = w.map(|s| s.to_degrees() * root_dt);
-        cfg.imu_noise.vrw = f.map(|s| s * root_dt);
-        // taken: the run's configuration gives them now
-        if let Some(r) = cfg.data.ros.as_mut() {
-            r.imu_noise_from_covariance = false;
-        }
+        let root_dt = (1.0 / imu_rate).sqrt() * PER_ROOT_SECOND_TO_PER_ROOT_HOUR;
+        let (arw, vrw) = (w.map(|s| s.to_degrees() * root_dt), f.map(|s| s * root_dt));
+        from.noise = Some((arw, vrw));
         notes.push(format!(
             "IMU noise from the messages' covariances: σ {:.4} rad/s, {:.4} m/s² per sample → \
              ARW {:.3} deg/√h, VRW {:.4} m/s/√h (x axis)",
-            w[0], f[0], cfg.imu_noise.arw[0], cfg.imu_noise.vrw[0]
+            w[0], f[0], arw[0], vrw[0]
         ));
     }
-    from_transforms(&rec, ros.base_frame.as_deref(), &mut cfg, &mut notes);
+    from_transforms(&rec, ros.base_frame.as_deref(), config, &mut from, &mut notes);
     let (imu, imu_width, longest) = rec.imu_rows();
     if let Some((topic, frame)) = &rec.odometry_topic {
         notes.push(format!(
@@ -94,8 +89,8 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
             rec.odometry.len()
         ));
     }
-    let quality = cfg.gnss.quality.factors().map_err(|e| bad_map("gnss.quality", e))?;
-    let (gnss, dropped) = rec.fix_rows(&quality, cfg.gnss.position_std, "gnss.position_std")?;
+    let quality = config.gnss.quality.factors().map_err(|e| bad_map("gnss.quality", e))?;
+    let (gnss, dropped) = rec.fix_rows(&quality, config.gnss.position_std, "gnss.position_std")?;
     notes.push(format!(
         "fixes: {} (frame {}) {} messages, σ from their covariances, {dropped} without a position or of a dropped \
          quality left out",
@@ -103,7 +98,7 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
         rec.fix_topic.1,
         rec.fixes.len()
     ));
-    cfg.validate().map_err(|message| {
+    let cfg = config.completed_by_recording(&from).map_err(|message| {
         RunError::Config(crate::config::ConfigError { path: ros.recording.clone(), message })
     })?;
     let inputs = Inputs::Recording {
@@ -117,10 +112,16 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
 }
 
 /// The mounting and lever arms from the recording's static transforms, where the
-/// configuration leaves them: the IMU's frame in the body frame (`base` or the odometry's
-/// child frame, else `base_link`; ROS's FLU turned into FRD), and from the IMU the antenna
-/// (the fixes' frame) and the body origin (the odometer's point).
-fn from_transforms(rec: &Recording, base: Option<&str>, cfg: &mut Config, notes: &mut Vec<String>) {
+/// configuration (`cfg`) leaves them: the IMU's frame in the body frame (`base` or the
+/// odometry's child frame, else `base_link`; ROS's FLU turned into FRD), and from the IMU
+/// the antenna (the fixes' frame) and the body origin (the odometer's point).
+fn from_transforms(
+    rec: &Recording,
+    base: Option<&str>,
+    cfg: &Config,
+    from: &mut FromRecording,
+    notes: &mut Vec<String>,
+) {
     use nalgebra::{Matrix3, Vector3};
     if rec.transforms.is_empty() || cfg.imu.mounting.is_some() {
         return;
@@ -141,7 +142,7 @@ fn from_transforms(rec: &Recording, base: Option<&str>, cfg: &mut Config, notes:
     let flip = Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0));
     let c_bs = flip * r;
     let rows = [0, 1, 2].map(|i| [c_bs[(i, 0)], c_bs[(i, 1)], c_bs[(i, 2)]]);
-    cfg.imu.mounting = Some(crate::config::Mounting::Matrix(rows));
+    from.mounting = Some(rows);
     let (roll, pitch, yaw) = nalgebra::Rotation3::from_matrix(&c_bs).euler_angles();
     notes.push(format!(
         "imu.mounting from /tf_static ({base} → {}): roll {:.2}°, pitch {:.2}°, yaw {:.2}° \
@@ -154,20 +155,19 @@ fn from_transforms(rec: &Recording, base: Option<&str>, cfg: &mut Config, notes:
     let from_imu = |t: Vector3<f64>| -> [f64; 3] { (flip * (t - t_imu)).into() };
     if cfg.gnss.lever_arm == [0.0; 3] {
         if let Some((_, t_ant)) = rec.transform(&base, &rec.fix_topic.1) {
-            cfg.gnss.lever_arm = from_imu(t_ant);
+            let lever = from_imu(t_ant);
+            from.lever_arm = Some(lever);
             notes.push(format!(
-                "gnss.lever_arm from /tf_static ({base} → {}): {:?} m (FRD)",
-                rec.fix_topic.1, cfg.gnss.lever_arm
+                "gnss.lever_arm from /tf_static ({base} → {}): {lever:?} m (FRD)",
+                rec.fix_topic.1
             ));
         }
     }
-    if let Some(o) = cfg.vehicle.odometer.as_mut() {
-        if o.lever_arm == [0.0; 3] {
-            o.lever_arm = from_imu(Vector3::zeros());
-            notes.push(format!(
-                "vehicle.odometer.lever_arm from /tf_static ({base}'s origin): {:?} m (FRD)",
-                o.lever_arm
-            ));
-        }
+    if cfg.vehicle.odometer.as_ref().is_some_and(|o| o.lever_arm == [0.0; 3]) {
+        let lever = from_imu(Vector3::zeros());
+        from.odometer_lever_arm = Some(lever);
+        notes.push(format!(
+            "vehicle.odometer.lever_arm from /tf_static ({base}'s origin): {lever:?} m (FRD)"
+        ));
     }
 }

@@ -58,8 +58,7 @@ impl MonteCarlo {
         let t0 = data.truth[0].t;
         // The papers' filters have no gross-error gate: reproductions run with it open
         // (`ins-gnss run --no-gate`), the strategy alone deciding.
-        let mut cfg = self.scenario.config(&data.truth[0].state, t0);
-        cfg.filter.gate.enabled = false;
+        let cfg = self.scenario.config(&data.truth[0].state, t0).with_gate_open();
         let mut ev = crate::eval::Evaluator::new(skip, windows);
         let summary =
             crate::run::run_slices(&cfg, strategy, &data.imu, &data.gnss, |k, t, state| {
