@@ -241,6 +241,36 @@ pub fn write_pos(path: &Path, run: &RtkRun, opt: &RtkOptions) -> Result<(), CliE
     Ok(())
 }
 
+/// The fix's metrics of a run: time to first fix, the outages of the fix and the time to
+/// fix again, the ratio's minimum and median over the fixed epochs and the others.
+fn print_fix_metrics(run: &RtkRun) {
+    let (fixed_ratios, other_ratios) = run.ratios();
+    let ratios = |(min, median): (f64, f64)| {
+        if min.is_nan() {
+            "none".to_string()
+        } else {
+            format!("min {min:.1}, median {median:.1}")
+        }
+    };
+    let refix = run.refix_times();
+    out!(
+        "time to first fix {}; {} outage{} of the fix{}; ratio of the fixed epochs: {}; of the others: {}",
+        run.time_to_first_fix().map_or("never".into(), |t| format!("{t:.0} s")),
+        refix.len(),
+        if refix.len() == 1 { "" } else { "s" },
+        if refix.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " (fixed again after {} s at most)",
+                refix.iter().fold(0.0f64, |a, b| a.max(*b)).round()
+            )
+        },
+        ratios(fixed_ratios),
+        ratios(other_ratios)
+    );
+}
+
 /// `ins-gnss rtk`: solve, print, write, compare.
 pub fn run(
     rover: &Path,
@@ -283,31 +313,7 @@ pub fn run(
             vs
         );
     }
-    let (fixed_ratios, other_ratios) = run.ratios();
-    let ratios = |(min, median): (f64, f64)| {
-        if min.is_nan() {
-            "none".to_string()
-        } else {
-            format!("min {min:.1}, median {median:.1}")
-        }
-    };
-    let refix = run.refix_times();
-    out!(
-        "time to first fix {}; {} outage{} of the fix{}; ratio of the fixed epochs: {}; of the others: {}",
-        run.time_to_first_fix().map_or("never".into(), |t| format!("{t:.0} s")),
-        refix.len(),
-        if refix.len() == 1 { "" } else { "s" },
-        if refix.is_empty() {
-            String::new()
-        } else {
-            format!(
-                " (fixed again after {} s at most)",
-                refix.iter().fold(0.0f64, |a, b| a.max(*b)).round()
-            )
-        },
-        ratios(fixed_ratios),
-        ratios(other_ratios)
-    );
+    print_fix_metrics(&run);
     if let Some(out) = out {
         write_pos(out, &run, opt)?;
         out!("wrote {}", out.display());

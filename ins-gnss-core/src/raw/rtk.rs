@@ -277,6 +277,44 @@ impl Rtk {
         self.step_with_prior(rover, base, eph, spp, None)
     }
 
+    /// Whether the data had a gap before `time` (more than [`GAP_INTERVALS`] of the
+    /// shortest interval seen): every ambiguity starts again after one.
+    fn gap(&mut self, time: GpsTime) -> bool {
+        match self.last {
+            Some((t, interval)) => {
+                let dt = time.diff(&t);
+                self.last = Some((time, if dt > 1e-3 { interval.min(dt) } else { interval }));
+                dt > GAP_INTERVALS * interval
+            }
+            None => {
+                self.last = Some((time, f64::INFINITY));
+                false
+            }
+        }
+    }
+
+    /// Each common satellite's ambiguity its slot (a new one grown), started again from
+    /// the code when new, slipped, missed at the last epoch or after a `gap`.
+    fn restart_ambiguities(&mut self, common: &[Common], gap: bool) {
+        for c in common {
+            let fresh = match self.slots.get(&c.key) {
+                Some(&(_, last)) => gap || c.slipped || last + 1 < self.epoch,
+                None => true,
+            };
+            let i = match self.slots.get(&c.key) {
+                Some(&(i, _)) => i,
+                None => self.grow(),
+            };
+            if fresh {
+                self.p.row_mut(i).fill(0.0);
+                self.p.column_mut(i).fill(0.0);
+                self.p[(i, i)] = AMBIGUITY_SIGMA0.powi(2);
+                self.x[i] = c.phase - c.code;
+            }
+            self.slots.insert(c.key, (i, self.epoch));
+        }
+    }
+
     /// [`step`](Self::step) with, in kinematic mode, the rover's position known beforehand
     /// — `prior`: an INS filter's prediction (ECEF, m, and its covariance, m²) — as the
     /// position's start instead of the single point with σ [`POSITION_SIGMA0`]. What the
@@ -312,36 +350,8 @@ impl Rtk {
         }
         let mut common = self.common(rover, base, eph);
         self.detect_slips(&mut common, rover.time, base.time);
-        // a gap in the data: every ambiguity starts again
-        let gap = match self.last {
-            Some((t, interval)) => {
-                let dt = rover.time.diff(&t);
-                self.last = Some((rover.time, if dt > 1e-3 { interval.min(dt) } else { interval }));
-                dt > GAP_INTERVALS * interval
-            }
-            None => {
-                self.last = Some((rover.time, f64::INFINITY));
-                false
-            }
-        };
-        // ambiguities: new, slipped or after a gap start again from the code
-        for c in &common {
-            let fresh = match self.slots.get(&c.key) {
-                Some(&(_, last)) => gap || c.slipped || last + 1 < self.epoch,
-                None => true,
-            };
-            let i = match self.slots.get(&c.key) {
-                Some(&(i, _)) => i,
-                None => self.grow(),
-            };
-            if fresh {
-                self.p.row_mut(i).fill(0.0);
-                self.p.column_mut(i).fill(0.0);
-                self.p[(i, i)] = AMBIGUITY_SIGMA0.powi(2);
-                self.x[i] = c.phase - c.code;
-            }
-            self.slots.insert(c.key, (i, self.epoch));
-        }
+        let gap = self.gap(rover.time);
+        self.restart_ambiguities(&common, gap);
         let mut used = 0;
         let mut groups = Vec::new();
         for f in 0..self.opt.frequencies {

@@ -208,23 +208,7 @@ impl Scenario {
     pub fn demo() -> Self {
         let (start, segs) = ins_gnss_sim::scenarios::drive_600s();
         let d = 180.0 / core::f64::consts::PI;
-        let segments = segs
-            .iter()
-            .map(|s| {
-                let (kind, rate, accel) = if s.yaw_rate != 0.0 {
-                    ("turn", s.yaw_rate * d, 0.0)
-                } else if s.pitch_rate != 0.0 {
-                    ("climb", s.pitch_rate * d, 0.0)
-                } else if s.accel > 0.0 {
-                    ("accelerate", 0.0, s.accel)
-                } else if s.accel < 0.0 {
-                    ("decelerate", 0.0, -s.accel)
-                } else {
-                    ("straight", 0.0, 0.0)
-                };
-                SegmentSpec { kind: kind.into(), duration: s.duration, rate, accel }
-            })
-            .collect();
+        let segments = segs.iter().map(SegmentSpec::of).collect();
         Scenario {
             seed: 7,
             start: StartSpec {
@@ -378,5 +362,24 @@ impl Scenario {
             lever_arm: v3(self.gnss.lever_arm),
             windows: windows?,
         })
+    }
+}
+
+impl SegmentSpec {
+    /// The file's form of a simulator segment (degrees).
+    fn of(s: &ins_gnss_sim::Segment) -> Self {
+        let d = 180.0 / core::f64::consts::PI;
+        let (kind, rate, accel) = if s.yaw_rate != 0.0 {
+            ("turn", s.yaw_rate * d, 0.0)
+        } else if s.pitch_rate != 0.0 {
+            ("climb", s.pitch_rate * d, 0.0)
+        } else if s.accel > 0.0 {
+            ("accelerate", 0.0, s.accel)
+        } else if s.accel < 0.0 {
+            ("decelerate", 0.0, -s.accel)
+        } else {
+            ("straight", 0.0, 0.0)
+        };
+        SegmentSpec { kind: kind.into(), duration: s.duration, rate, accel }
     }
 }

@@ -361,36 +361,7 @@ pub(super) fn solve(
     // Levenberg–Marquardt: x = [θ (nav-frame rotation), p₀, v₀, δb]
     let estimate_bias = bias_std > 0.0;
     let prior = if estimate_bias { 1.0 / (bias_std * bias_std) } else { 0.0 };
-    let mut x = x0;
-    let (mut normal, mut rhs, mut cost) = linearise(fixes, &x, estimate_bias, prior);
-    let mut lambda = 1e-3;
-    for _ in 0..20 {
-        let mut damped = normal;
-        for k in 0..12 {
-            damped[(k, k)] *= 1.0 + lambda;
-        }
-        let step = damped.cholesky()?.solve(&rhs);
-        let trial = Params {
-            c: So3::exp(&step.fixed_rows::<3>(0).into_owned()).matrix() * x.c,
-            p0: x.p0 + step.fixed_rows::<3>(3),
-            v0: x.v0 + step.fixed_rows::<3>(6),
-            db: x.db + step.fixed_rows::<3>(9),
-        };
-        let (n, r, trial_cost) = linearise(fixes, &trial, estimate_bias, prior);
-        if trial_cost < cost {
-            let small = cost - trial_cost < 1e-9 * cost;
-            (x, normal, rhs, cost) = (trial, n, r, trial_cost);
-            lambda = (lambda * 0.1).max(1e-9);
-            if small {
-                break;
-            }
-        } else {
-            lambda *= 10.0;
-            if lambda > 1e9 {
-                break;
-            }
-        }
-    }
+    let (x, normal, cost) = levenberg_marquardt(fixes, x0, estimate_bias, prior)?;
     let params = x;
     let Params { c, p0, v0, db } = x;
     let chi2 = cost - prior * db.norm_squared();
@@ -429,6 +400,47 @@ pub(super) fn solve(
         }
         .with_params(params),
     )
+}
+
+/// The damped Gauss–Newton iterations from `x` (at most 20; until the cost falls by less
+/// than 1e-9 of itself, or the damping passes 1e9): the parameters, their normal matrix
+/// and the cost there.
+fn levenberg_marquardt(
+    fixes: &[Fix],
+    mut x: Params,
+    estimate_bias: bool,
+    prior: f64,
+) -> Option<(Params, SMatrix<f64, 12, 12>, f64)> {
+    let (mut normal, mut rhs, mut cost) = linearise(fixes, &x, estimate_bias, prior);
+    let mut lambda = 1e-3;
+    for _ in 0..20 {
+        let mut damped = normal;
+        for k in 0..12 {
+            damped[(k, k)] *= 1.0 + lambda;
+        }
+        let step = damped.cholesky()?.solve(&rhs);
+        let trial = Params {
+            c: So3::exp(&step.fixed_rows::<3>(0).into_owned()).matrix() * x.c,
+            p0: x.p0 + step.fixed_rows::<3>(3),
+            v0: x.v0 + step.fixed_rows::<3>(6),
+            db: x.db + step.fixed_rows::<3>(9),
+        };
+        let (n, r, trial_cost) = linearise(fixes, &trial, estimate_bias, prior);
+        if trial_cost < cost {
+            let small = cost - trial_cost < 1e-9 * cost;
+            (x, normal, rhs, cost) = (trial, n, r, trial_cost);
+            lambda = (lambda * 0.1).max(1e-9);
+            if small {
+                break;
+            }
+        } else {
+            lambda *= 10.0;
+            if lambda > 1e9 {
+                break;
+            }
+        }
+    }
+    Some((x, normal, cost))
 }
 
 #[cfg(test)]

@@ -58,69 +58,85 @@ pub(crate) fn for_each_message(
             "neither a ROS 1 bag (`#ROSBAG V2.0`) nor an MCAP file (`\\x89MCAP0`)".into(),
         ));
     };
-    let mut index = 0usize;
     match container {
         Container::Bag => {
             check_bag_index(path, &head, len)?;
-            let bag = rosbag::RosBag::new(path).map_err(|e| file_error(path, e.to_string()))?;
-            let mut channels: BTreeMap<u32, Channel> = BTreeMap::new();
-            for record in bag.chunk_records() {
-                let record = record.map_err(|e| located(path, index + 1, e.to_string()))?;
-                let rosbag::ChunkRecord::Chunk(chunk) = record else { continue };
-                for m in chunk.messages() {
-                    match m.map_err(|e| located(path, index + 1, e.to_string()))? {
-                        rosbag::MessageRecord::Connection(c) => {
-                            channels.insert(
-                                c.id,
-                                Channel {
-                                    topic: c.topic.to_string(),
-                                    type_name: c.tp.to_string(),
-                                    encoding: Some(Encoding::Ros1),
-                                    definition: c.message_definition.as_bytes().to_vec(),
-                                },
-                            );
-                        }
-                        rosbag::MessageRecord::MessageData(d) => {
-                            index += 1;
-                            let Some(channel) = channels.get(&d.conn_id) else {
-                                return Err(located(
-                                    path,
-                                    index,
-                                    format!("message on connection {} before it", d.conn_id),
-                                ));
-                            };
-                            each(channel, index, d.time, d.data)?;
-                        }
-                    }
+            bag_messages(path, &mut each)?;
+        }
+        Container::Mcap => mcap_messages(path, &mut each)?,
+    }
+    Ok(container)
+}
+
+/// [`for_each_message`] on a ROS 1 bag.
+fn bag_messages(
+    path: &Path,
+    each: &mut impl FnMut(&Channel, usize, u64, &[u8]) -> Result<(), LineError>,
+) -> Result<(), LineError> {
+    let mut index = 0usize;
+    let bag = rosbag::RosBag::new(path).map_err(|e| file_error(path, e.to_string()))?;
+    let mut channels: BTreeMap<u32, Channel> = BTreeMap::new();
+    for record in bag.chunk_records() {
+        let record = record.map_err(|e| located(path, index + 1, e.to_string()))?;
+        let rosbag::ChunkRecord::Chunk(chunk) = record else { continue };
+        for m in chunk.messages() {
+            match m.map_err(|e| located(path, index + 1, e.to_string()))? {
+                rosbag::MessageRecord::Connection(c) => {
+                    channels.insert(
+                        c.id,
+                        Channel {
+                            topic: c.topic.to_string(),
+                            type_name: c.tp.to_string(),
+                            encoding: Some(Encoding::Ros1),
+                            definition: c.message_definition.as_bytes().to_vec(),
+                        },
+                    );
+                }
+                rosbag::MessageRecord::MessageData(d) => {
+                    index += 1;
+                    let Some(channel) = channels.get(&d.conn_id) else {
+                        return Err(located(
+                            path,
+                            index,
+                            format!("message on connection {} before it", d.conn_id),
+                        ));
+                    };
+                    each(channel, index, d.time, d.data)?;
                 }
             }
         }
-        Container::Mcap => {
-            let bytes = std::fs::read(path).map_err(|e| file_error(path, e.to_string()))?;
-            let stream =
-                mcap::MessageStream::new(&bytes).map_err(|e| file_error(path, e.to_string()))?;
-            let mut channels: BTreeMap<u16, Channel> = BTreeMap::new();
-            for m in stream {
-                let m = m.map_err(|e| located(path, index + 1, e.to_string()))?;
-                index += 1;
-                let channel = channels.entry(m.channel.id).or_insert_with(|| {
-                    let schema = m.channel.schema.as_ref();
-                    Channel {
-                        topic: m.channel.topic.clone(),
-                        type_name: schema.map(|s| s.name.clone()).unwrap_or_default(),
-                        encoding: match m.channel.message_encoding.as_str() {
-                            "ros1" => Some(Encoding::Ros1),
-                            "cdr" => Some(Encoding::Cdr),
-                            _ => None,
-                        },
-                        definition: schema.map(|s| s.data.to_vec()).unwrap_or_default(),
-                    }
-                });
-                each(channel, index, m.log_time, &m.data)?;
-            }
-        }
     }
-    Ok(container)
+    Ok(())
+}
+
+/// [`for_each_message`] on an MCAP file.
+fn mcap_messages(
+    path: &Path,
+    each: &mut impl FnMut(&Channel, usize, u64, &[u8]) -> Result<(), LineError>,
+) -> Result<(), LineError> {
+    let mut index = 0usize;
+    let bytes = std::fs::read(path).map_err(|e| file_error(path, e.to_string()))?;
+    let stream = mcap::MessageStream::new(&bytes).map_err(|e| file_error(path, e.to_string()))?;
+    let mut channels: BTreeMap<u16, Channel> = BTreeMap::new();
+    for m in stream {
+        let m = m.map_err(|e| located(path, index + 1, e.to_string()))?;
+        index += 1;
+        let channel = channels.entry(m.channel.id).or_insert_with(|| {
+            let schema = m.channel.schema.as_ref();
+            Channel {
+                topic: m.channel.topic.clone(),
+                type_name: schema.map(|s| s.name.clone()).unwrap_or_default(),
+                encoding: match m.channel.message_encoding.as_str() {
+                    "ros1" => Some(Encoding::Ros1),
+                    "cdr" => Some(Encoding::Cdr),
+                    _ => None,
+                },
+                definition: schema.map(|s| s.data.to_vec()).unwrap_or_default(),
+            }
+        });
+        each(channel, index, m.log_time, &m.data)?;
+    }
+    Ok(())
 }
 
 /// A bag's header names where its index starts; a bag whose recording did not finish (a
