@@ -117,8 +117,8 @@ impl Geometry {
 
     fn h_position(&self) -> SMatrix<f64, 3, 15> {
         let mut H = SMatrix::<f64, 3, 15>::zeros();
-        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-self.c * hat(&self.lever)));
-        H.fixed_view_mut::<3, 3>(0, 6).copy_from(&Matrix3::identity());
+        H.fixed_view_mut::<3, 3>(0, InsState::ATT.start()).copy_from(&(-self.c * hat(&self.lever)));
+        H.fixed_view_mut::<3, 3>(0, InsState::POS.start()).copy_from(&Matrix3::identity());
         H
     }
 
@@ -132,9 +132,9 @@ impl Geometry {
         let c_l = self.c * hat(&self.lever);
         let mut H = SMatrix::<f64, 3, 15>::zeros();
         let h_th = -self.c * hat(&self.w.cross(&self.lever)) + hat(&self.w_in) * c_l;
-        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&h_th);
-        H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
-        H.fixed_view_mut::<3, 3>(0, 9).copy_from(&c_l);
+        H.fixed_view_mut::<3, 3>(0, InsState::ATT.start()).copy_from(&h_th);
+        H.fixed_view_mut::<3, 3>(0, InsState::VEL.start()).copy_from(&Matrix3::identity());
+        H.fixed_view_mut::<3, 3>(0, InsState::BG.start()).copy_from(&c_l);
         H
     }
 }
@@ -310,9 +310,9 @@ fn acceleration(x: &InsState, force: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f6
     let w = 2.0 * e.earth_rate() + e.transport_rate(&x.vel);
     let a = c * f + Vector3::new(0.0, 0.0, e.gravity()) - w.cross(&x.vel);
     let mut H = SMatrix::<f64, 3, 15>::zeros();
-    H.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-c * hat(&f)));
-    H.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-hat(&w)));
-    H.fixed_view_mut::<3, 3>(0, 12).copy_from(&(-c));
+    H.fixed_view_mut::<3, 3>(0, InsState::ATT.start()).copy_from(&(-c * hat(&f)));
+    H.fixed_view_mut::<3, 3>(0, InsState::VEL.start()).copy_from(&(-hat(&w)));
+    H.fixed_view_mut::<3, 3>(0, InsState::BA.start()).copy_from(&(-c));
     (a, H)
 }
 
@@ -329,7 +329,7 @@ impl GnssFixModel for GnssPosition {
     /// centimetres per second on a car).
     fn rate(&self, x: &InsState, _force: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, 15>) {
         let mut H = SMatrix::<f64, 3, 15>::zeros();
-        H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+        H.fixed_view_mut::<3, 3>(0, InsState::VEL.start()).copy_from(&Matrix3::identity());
         (x.vel, H)
     }
 }

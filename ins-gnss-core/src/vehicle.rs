@@ -63,9 +63,9 @@ fn point_velocity_h(
 ) -> SMatrix<f64, 3, 15> {
     let rt = x.att.matrix().transpose();
     let mut full = SMatrix::<f64, 3, 15>::zeros();
-    full.fixed_view_mut::<3, 3>(0, 0).copy_from(&(c_vb * hat(&(rt * x.vel))));
-    full.fixed_view_mut::<3, 3>(0, 3).copy_from(&(c_vb * rt));
-    full.fixed_view_mut::<3, 3>(0, 9).copy_from(&(c_vb * hat(lever)));
+    full.fixed_view_mut::<3, 3>(0, InsState::ATT.start()).copy_from(&(c_vb * hat(&(rt * x.vel))));
+    full.fixed_view_mut::<3, 3>(0, InsState::VEL.start()).copy_from(&(c_vb * rt));
+    full.fixed_view_mut::<3, 3>(0, InsState::BG.start()).copy_from(&(c_vb * hat(lever)));
     full
 }
 
@@ -345,7 +345,7 @@ impl MeasurementModel for Zupt {
 
     fn jacobian(&self, _x: &InsState) -> MeasurementJacobians<Const<3>, Const<15>> {
         let mut H = SMatrix::<f64, 3, 15>::zeros();
-        H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+        H.fixed_view_mut::<3, 3>(0, InsState::VEL.start()).copy_from(&Matrix3::identity());
         MeasurementJacobians { H }
     }
 
@@ -375,8 +375,9 @@ impl MeasurementModel for Zaru {
 
     fn jacobian(&self, x: &InsState) -> MeasurementJacobians<Const<3>, Const<15>> {
         let mut H = SMatrix::<f64, 3, 15>::zeros();
-        H.fixed_view_mut::<3, 3>(0, 0).copy_from(&hat(&Self::earth_rate_body(x)));
-        H.fixed_view_mut::<3, 3>(0, 9).copy_from(&Matrix3::identity());
+        H.fixed_view_mut::<3, 3>(0, InsState::ATT.start())
+            .copy_from(&hat(&Self::earth_rate_body(x)));
+        H.fixed_view_mut::<3, 3>(0, InsState::BG.start()).copy_from(&Matrix3::identity());
         MeasurementJacobians { H }
     }
 

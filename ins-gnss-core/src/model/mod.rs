@@ -60,16 +60,17 @@ use noise::HalfNoise;
 /// 15×15 matrices of the error state.
 pub type M15 = SMatrix<f64, 15, 15>;
 
-/// Block index of the attitude error (blocks of 3 rows: θ, v, p, b_g, b_a).
-pub const B_TH: usize = 0;
-/// Block index of the velocity error.
-pub const B_V: usize = 1;
-/// Block index of the position error.
-pub const B_P: usize = 2;
-/// Block index of the gyro-bias error.
-pub const B_BG: usize = 3;
-/// Block index of the accelerometer-bias error.
-pub const B_BA: usize = 4;
+/// Block index of the attitude error in the kernels' blocks of 3 rows ([`InsState`]'s
+/// named blocks `ATT`, `VEL`, `POS`, `BG`, `BA`, whose rows they are).
+pub const B_TH: usize = InsState::ATT.start() / 3;
+/// Block index of the velocity error (`InsState::VEL`).
+pub const B_V: usize = InsState::VEL.start() / 3;
+/// Block index of the position error (`InsState::POS`).
+pub const B_P: usize = InsState::POS.start() / 3;
+/// Block index of the gyro-bias error (`InsState::BG`).
+pub const B_BG: usize = InsState::BG.start() / 3;
+/// Block index of the accelerometer-bias error (`InsState::BA`).
+pub const B_BA: usize = InsState::BA.start() / 3;
 
 /// The input of one prediction: the previous and the current raw IMU samples.
 #[derive(Clone, Copy, Debug, PartialEq)]

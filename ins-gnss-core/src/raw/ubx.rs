@@ -73,18 +73,7 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
     let mut bytes = Vec::new();
     std::io::Read::read_to_end(&mut super::open_input(path)?, &mut bytes)
         .map_err(|e| err(e.to_string()))?;
-    let mut log = UbxLog::default();
-    // subframes 1–3 per satellite, and the last lock times (a drop is a slip)
-    let mut frames: BTreeMap<u8, [Option<Subframe>; 3]> = BTreeMap::new();
-    let mut complete: Vec<(u8, [Subframe; 3], Option<GpsTime>)> = Vec::new();
-    // Galileo: the last word of each type 0–5 per satellite
-    let mut words: BTreeMap<u8, [Option<u128>; 6]> = BTreeMap::new();
-    // BeiDou: the last D1 subframes 1–3 per MEO/IGSO satellite, D2 pages 1–10 per GEO
-    let mut d1: BTreeMap<u8, [Option<bds::Subframe>; 3]> = BTreeMap::new();
-    let mut d2: BTreeMap<u8, [Option<bds::Subframe>; 10]> = BTreeMap::new();
-    let mut records: Vec<Ephemeris> = Vec::new();
-    let mut lock: BTreeMap<(Sat, usize), u16> = BTreeMap::new();
-    let mut last_time: Option<GpsTime> = None;
+    let mut d = UbxDecoder::default();
     let mut parser = Parser::<Vec<u8>, ublox::proto23::Proto23>::default();
     let mut it = parser.consume_ubx(&bytes);
     while let Some(p) = it.next() {
@@ -92,142 +81,179 @@ pub fn read_ubx(path: &Path) -> Result<UbxLog, RawError> {
             Ok(UbxPacket::Proto23(p)) => p,
             // (a protocol-23 parser yields no other)
             Ok(_) => {
-                log.other_packets += 1;
+                d.log.other_packets += 1;
                 continue;
             }
             Err(_) => {
-                log.bad_packets += 1;
+                d.log.bad_packets += 1;
                 continue;
             }
         };
         match p {
-            PacketRef::RxmRawx(r) => {
-                let time = GpsTime::new(i32::from(r.week()), r.rcv_tow());
-                let mut sats: Vec<SatObs> = Vec::new();
-                for m in r.measurements() {
-                    let Some(sys) = system(m.gnss_id()) else { continue };
-                    let Some(k) = slot(sys, m.reserved2()) else { continue };
-                    if !sys.keplerian() || m.sv_id() == 0 {
-                        continue;
-                    }
-                    let sat = Sat { sys, prn: m.sv_id() };
-                    let trk = m.trk_stat().bits();
-                    let i = match sats.iter().position(|s| s.sat == sat) {
-                        Some(i) => i,
-                        None => {
-                            sats.push(SatObs { sat, signals: [Signal::default(); 2] });
-                            sats.len() - 1
-                        }
-                    };
-                    let s = &mut sats[i].signals[k];
-                    // (a value that is not finite is no measurement)
-                    s.code = Some(m.pr_mes()).filter(|v| trk & 1 != 0 && v.is_finite());
-                    // (a BeiDou GEO's B1I phase comes half a cycle short of the MEO
-                    // satellites' convention; RTKLIB's reader adds it back, so does this one)
-                    let half = if sat.beidou_geo() { 0.5 } else { 0.0 };
-                    s.phase = Some(m.cp_mes() + half).filter(|v| trk & 2 != 0 && v.is_finite());
-                    s.doppler = Some(f64::from(m.do_mes())).filter(|v| v.is_finite());
-                    s.cn0 = Some(f64::from(m.cno()));
-                    // a lock time of 0 (a new arc) or one that dropped: a slip, as RTKLIB
-                    // reads it; half cycle unresolved: bit 1, as RINEX
-                    let lt = m.lock_time();
-                    let slipped =
-                        lock.insert((sat, k), lt).is_some_and(|before| lt < before) || lt == 0;
-                    s.lli = u8::from(slipped) | if trk & 4 == 0 && trk & 2 != 0 { 2 } else { 0 };
-                }
-                last_time = Some(time);
-                log.epochs.push(ObsEpoch { time, flag: 0, sats, line: 0 });
-            }
-            PacketRef::RxmSfrbx(f) if f.gnss_id() == 2 => {
-                // eight words of page (u-blox receivers send a ninth, reserved)
-                let page: Vec<u32> = f.dwrd().collect();
-                let Some(Ok(page)) = page.get(..8).map(<[u32; 8]>::try_from) else { continue };
-                let Some(w) = inav::decode_page(&page) else { continue };
-                let t = usize::from(inav::word_type(w));
-                if t > 5 {
-                    continue;
-                }
-                let set = words.entry(f.sv_id()).or_default();
-                set[t] = Some(w);
-                // a record once type 5 (health, week) closes a set under one IODnav
-                if t == 5 {
-                    if let [Some(a), Some(b), Some(c), Some(d), Some(e), Some(g)] = *set {
-                        if let Some(r) = inav::decode(&[a, b, c, d, e, g]) {
-                            push_new(&mut records, r);
-                        }
-                    }
-                }
-            }
-            PacketRef::RxmSfrbx(f) if f.gnss_id() == 3 => {
-                let prn = f.sv_id();
-                let words: Vec<u32> = f.dwrd().map(|w| w & 0x3fff_ffff).collect();
-                let Ok(sf) = <bds::Subframe>::try_from(words.as_slice()) else { continue };
-                if (Sat { sys: System::BeiDou, prn }).beidou_geo() {
-                    let (Some(1), page @ 1..=10) = (bds::subframe_id(&sf), bds::d2_page(&sf))
-                    else {
-                        continue;
-                    };
-                    let set = d2.entry(prn).or_default();
-                    set[usize::from(page) - 1] = Some(sf);
-                    // a record when page 10 closes the other nine
-                    if page == 10 && set.iter().all(Option::is_some) {
-                        if let Some(r) = bds::decode_d2(prn, &set.map(Option::unwrap_or_default)) {
-                            push_new(&mut records, r);
-                        }
-                    }
-                    continue;
-                }
-                let Some(id @ 1..=3) = bds::subframe_id(&sf) else { continue };
-                let set = d1.entry(prn).or_default();
-                set[usize::from(id) - 1] = Some(sf);
-                // a record when subframe 3 closes 1 and 2 of the same frame
-                if let (3, [Some(a), Some(b), Some(c)]) = (id, *set) {
-                    if let Some(r) = bds::decode(prn, &[a, b, c]) {
-                        push_new(&mut records, r);
-                    }
-                }
-            }
-            PacketRef::RxmSfrbx(f) => {
-                // GPS L1 C/A's LNAV only: byte 2 is the signal on F9 receivers (0 on M8), and
-                // L2C's and L5's CNAV messages start with LNAV's preamble
-                if f.gnss_id() != 0 || f.reserved1() != 0 {
-                    continue;
-                }
-                let words: Vec<u32> = f.dwrd().collect();
-                let Ok(sf) = <[u32; 10]>::try_from(words.as_slice()) else { continue };
-                if let Some(k) = lnav::decode_ionosphere(&sf) {
-                    log.klobuchar = Some(k);
-                    continue;
-                }
-                let Some(id @ 1..=3) = lnav::subframe_id(&sf) else { continue };
-                let set = frames.entry(f.sv_id()).or_default();
-                set[usize::from(id) - 1] = Some(sf);
-                if let [Some(a), Some(b), Some(c)] = *set {
-                    // decoded once a RAWX time resolves the week (subframes often come first)
-                    complete.push((f.sv_id(), [a, b, c], last_time));
-                }
-            }
-            _ => log.other_packets += 1,
+            PacketRef::RxmRawx(r) => d.rawx(&r),
+            PacketRef::RxmSfrbx(f) if f.gnss_id() == 2 => d.galileo(&f),
+            PacketRef::RxmSfrbx(f) if f.gnss_id() == 3 => d.beidou(&f),
+            PacketRef::RxmSfrbx(f) => d.gps(&f),
+            _ => d.log.other_packets += 1,
         }
     }
-    let first_time = log.epochs.first().map(|e| e.time);
-    for (prn, sf, near) in complete {
-        let Some(near) = near.or(first_time) else { continue };
-        if let Some(e) = lnav::decode(prn, &sf, &near) {
-            push_new(&mut records, e);
+    d.finish().map_err(err)
+}
+
+/// What [`read_ubx`] has decoded so far.
+#[derive(Default)]
+struct UbxDecoder {
+    log: UbxLog,
+    /// GPS subframes 1–3 per satellite, and the complete sets with the last RAWX time
+    /// before them (which resolves their week)
+    frames: BTreeMap<u8, [Option<Subframe>; 3]>,
+    complete: Vec<(u8, [Subframe; 3], Option<GpsTime>)>,
+    /// Galileo: the last word of each type 0–5 per satellite
+    words: BTreeMap<u8, [Option<u128>; 6]>,
+    /// BeiDou: the last D1 subframes 1–3 per MEO/IGSO satellite, D2 pages 1–10 per GEO
+    d1: BTreeMap<u8, [Option<bds::Subframe>; 3]>,
+    d2: BTreeMap<u8, [Option<bds::Subframe>; 10]>,
+    records: Vec<Ephemeris>,
+    /// The last lock times (a drop is a slip).
+    lock: BTreeMap<(Sat, usize), u16>,
+    last_time: Option<GpsTime>,
+}
+
+impl UbxDecoder {
+    /// An RXM-RAWX epoch.
+    fn rawx(&mut self, r: &ublox::rxm_rawx::RxmRawxRef<'_>) {
+        let time = GpsTime::new(i32::from(r.week()), r.rcv_tow());
+        let mut sats: Vec<SatObs> = Vec::new();
+        for m in r.measurements() {
+            let Some(sys) = system(m.gnss_id()) else { continue };
+            let Some(k) = slot(sys, m.reserved2()) else { continue };
+            if !sys.keplerian() || m.sv_id() == 0 {
+                continue;
+            }
+            let sat = Sat { sys, prn: m.sv_id() };
+            let trk = m.trk_stat().bits();
+            let i = match sats.iter().position(|s| s.sat == sat) {
+                Some(i) => i,
+                None => {
+                    sats.push(SatObs { sat, signals: [Signal::default(); 2] });
+                    sats.len() - 1
+                }
+            };
+            let s = &mut sats[i].signals[k];
+            // (a value that is not finite is no measurement)
+            s.code = Some(m.pr_mes()).filter(|v| trk & 1 != 0 && v.is_finite());
+            // (a BeiDou GEO's B1I phase comes half a cycle short of the MEO satellites'
+            // convention; RTKLIB's reader adds it back, so does this one)
+            let half = if sat.beidou_geo() { 0.5 } else { 0.0 };
+            s.phase = Some(m.cp_mes() + half).filter(|v| trk & 2 != 0 && v.is_finite());
+            s.doppler = Some(f64::from(m.do_mes())).filter(|v| v.is_finite());
+            s.cn0 = Some(f64::from(m.cno()));
+            // a lock time of 0 (a new arc) or one that dropped: a slip, as RTKLIB reads
+            // it; half cycle unresolved: bit 1, as RINEX
+            let lt = m.lock_time();
+            let slipped =
+                self.lock.insert((sat, k), lt).is_some_and(|before| lt < before) || lt == 0;
+            s.lli = u8::from(slipped) | if trk & 4 == 0 && trk & 2 != 0 { 2 } else { 0 };
+        }
+        self.last_time = Some(time);
+        self.log.epochs.push(ObsEpoch { time, flag: 0, sats, line: 0 });
+    }
+
+    /// A Galileo I/NAV page: a record once type 5 (health, week) closes a set of types
+    /// 0–5 under one IODnav.
+    fn galileo(&mut self, f: &ublox::rxm_sfrbx::RxmSfrbxRef<'_>) {
+        // eight words of page (u-blox receivers send a ninth, reserved)
+        let page: Vec<u32> = f.dwrd().collect();
+        let Some(Ok(page)) = page.get(..8).map(<[u32; 8]>::try_from) else { return };
+        let Some(w) = inav::decode_page(&page) else { return };
+        let t = usize::from(inav::word_type(w));
+        if t > 5 {
+            return;
+        }
+        let set = self.words.entry(f.sv_id()).or_default();
+        set[t] = Some(w);
+        if t == 5 {
+            if let [Some(a), Some(b), Some(c), Some(d), Some(e), Some(g)] = *set {
+                if let Some(r) = inav::decode(&[a, b, c, d, e, g]) {
+                    push_new(&mut self.records, r);
+                }
+            }
         }
     }
-    if log.epochs.is_empty() && records.is_empty() {
-        return Err(err(format!(
-            "no RXM-RAWX or RXM-SFRBX packet ({} bad, {} other)",
-            log.bad_packets, log.other_packets
-        )));
+
+    /// A BeiDou subframe: D2 pages of a GEO (a record when page 10 closes the other nine),
+    /// else D1 (a record when subframe 3 closes 1 and 2 of the same frame).
+    fn beidou(&mut self, f: &ublox::rxm_sfrbx::RxmSfrbxRef<'_>) {
+        let prn = f.sv_id();
+        let words: Vec<u32> = f.dwrd().map(|w| w & 0x3fff_ffff).collect();
+        let Ok(sf) = <bds::Subframe>::try_from(words.as_slice()) else { return };
+        if (Sat { sys: System::BeiDou, prn }).beidou_geo() {
+            let (Some(1), page @ 1..=10) = (bds::subframe_id(&sf), bds::d2_page(&sf)) else {
+                return;
+            };
+            let set = self.d2.entry(prn).or_default();
+            set[usize::from(page) - 1] = Some(sf);
+            if page == 10 && set.iter().all(Option::is_some) {
+                if let Some(r) = bds::decode_d2(prn, &set.map(Option::unwrap_or_default)) {
+                    push_new(&mut self.records, r);
+                }
+            }
+            return;
+        }
+        let Some(id @ 1..=3) = bds::subframe_id(&sf) else { return };
+        let set = self.d1.entry(prn).or_default();
+        set[usize::from(id) - 1] = Some(sf);
+        if let (3, [Some(a), Some(b), Some(c)]) = (id, *set) {
+            if let Some(r) = bds::decode(prn, &[a, b, c]) {
+                push_new(&mut self.records, r);
+            }
+        }
     }
-    for (k, e) in log.epochs.iter_mut().enumerate() {
-        e.line = k + 1;
+
+    /// A GPS subframe: L1 C/A's LNAV only (byte 2 is the signal on F9 receivers, 0 on M8,
+    /// and L2C's and L5's CNAV messages start with LNAV's preamble); the Klobuchar
+    /// coefficients, or subframes 1–3 kept until a RAWX time resolves their week.
+    fn gps(&mut self, f: &ublox::rxm_sfrbx::RxmSfrbxRef<'_>) {
+        if f.gnss_id() != 0 || f.reserved1() != 0 {
+            return;
+        }
+        let words: Vec<u32> = f.dwrd().collect();
+        let Ok(sf) = <[u32; 10]>::try_from(words.as_slice()) else { return };
+        if let Some(k) = lnav::decode_ionosphere(&sf) {
+            self.log.klobuchar = Some(k);
+            return;
+        }
+        let Some(id @ 1..=3) = lnav::subframe_id(&sf) else { return };
+        let set = self.frames.entry(f.sv_id()).or_default();
+        set[usize::from(id) - 1] = Some(sf);
+        if let [Some(a), Some(b), Some(c)] = *set {
+            // decoded once a RAWX time resolves the week (subframes often come first)
+            self.complete.push((f.sv_id(), [a, b, c], self.last_time));
+        }
     }
-    log.ephemerides = Ephemerides::new(records);
-    Ok(log)
+
+    /// The log: the GPS records decoded with their week, the epochs numbered.
+    fn finish(mut self) -> Result<UbxLog, String> {
+        let mut log = self.log;
+        let first_time = log.epochs.first().map(|e| e.time);
+        for (prn, sf, near) in self.complete {
+            let Some(near) = near.or(first_time) else { continue };
+            if let Some(e) = lnav::decode(prn, &sf, &near) {
+                push_new(&mut self.records, e);
+            }
+        }
+        if log.epochs.is_empty() && self.records.is_empty() {
+            return Err(format!(
+                "no RXM-RAWX or RXM-SFRBX packet ({} bad, {} other)",
+                log.bad_packets, log.other_packets
+            ));
+        }
+        for (k, e) in log.epochs.iter_mut().enumerate() {
+            e.line = k + 1;
+        }
+        log.ephemerides = Ephemerides::new(self.records);
+        Ok(log)
+    }
 }
 
 /// The moving-base headings of a UBX log: NAV-RELPOSNED version 1 (F9P and later, read

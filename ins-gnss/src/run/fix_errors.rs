@@ -138,40 +138,9 @@ fn judge_with(
         let white = bank.likelihood(&white_config, None);
         (bank.profile(BANK_TAU, k0), white)
     };
-    let mut profiles = vec![(BANK_TAU, first)];
-    let best_ll =
-        |p: &[(f64, (f64, f64))]| p.iter().map(|x| x.1 .1).fold(f64::NEG_INFINITY, f64::max);
-    // longer correlation times while their best is within the margin of the best so far;
-    // shorter ones while they are better
-    for step in [BANK_TAU_STEP, 1.0 / BANK_TAU_STEP] {
-        let mut from = profiles[0];
-        loop {
-            let tau = from.0 * step;
-            if !(BANK_TAU_RANGE.0..=BANK_TAU_RANGE.1).contains(&tau) {
-                break;
-            }
-            // along the ridge σ²/τ constant
-            let p = (tau, bank.profile(tau, from.1 .0 * step.sqrt()));
-            let so_far = best_ll(&profiles);
-            profiles.push(p);
-            let go_on = if step > 1.0 { p.1 .1 >= so_far - BANK_MARGIN } else { p.1 .1 > so_far };
-            if !go_on {
-                break;
-            }
-            from = p;
-        }
-    }
-    // the data cannot tell apart the hypotheses within the margin of the best: of those,
-    // the longest correlation time (its σ the largest: the most cautious)
-    let top = best_ll(&profiles);
-    let Some(&(tau, (k, ll))) =
-        profiles.iter().filter(|p| p.1 .1 >= top - BANK_MARGIN).max_by(|a, b| a.0.total_cmp(&b.0))
-    else {
+    let Some((tau, k, ll, top)) = bank.search(first) else {
         return (None, None);
     };
-    if !ll.is_finite() {
-        return (None, None);
-    }
     let next = bank
         .scored
         .iter()
@@ -374,6 +343,53 @@ pub(super) fn probe_fix_errors(strategy: &RunStrategy, at: &GnssAtStart) -> Opti
         })
         .map(|l| FixErrorProbe { lag_one: l.lag_one, fixes: l.updates, factor: l.factor, declared })
         .next()
+}
+
+impl Hypotheses<'_> {
+    /// From the first correlation time's best (`first`: σ factor and log-likelihood), the
+    /// correlation times stepped by [`BANK_TAU_STEP`]: longer while their best is within
+    /// [`BANK_MARGIN`] of the best so far, shorter while they are better. Of those within
+    /// the margin of the best (the data cannot tell them apart), the longest correlation
+    /// time (its σ the largest: the most cautious): (τ, k, its log-likelihood, the best
+    /// log-likelihood); `None` when no hypothesis ran to its end.
+    fn search(&mut self, first: (f64, f64)) -> Option<(f64, f64, f64, f64)> {
+        let bank = self;
+        let mut profiles = vec![(BANK_TAU, first)];
+        let best_ll =
+            |p: &[(f64, (f64, f64))]| p.iter().map(|x| x.1 .1).fold(f64::NEG_INFINITY, f64::max);
+        // longer correlation times while their best is within the margin of the best so far;
+        // shorter ones while they are better
+        for step in [BANK_TAU_STEP, 1.0 / BANK_TAU_STEP] {
+            let mut from = profiles[0];
+            loop {
+                let tau = from.0 * step;
+                if !(BANK_TAU_RANGE.0..=BANK_TAU_RANGE.1).contains(&tau) {
+                    break;
+                }
+                // along the ridge σ²/τ constant
+                let p = (tau, bank.profile(tau, from.1 .0 * step.sqrt()));
+                let so_far = best_ll(&profiles);
+                profiles.push(p);
+                let go_on =
+                    if step > 1.0 { p.1 .1 >= so_far - BANK_MARGIN } else { p.1 .1 > so_far };
+                if !go_on {
+                    break;
+                }
+                from = p;
+            }
+        }
+        // the data cannot tell apart the hypotheses within the margin of the best: of those,
+        // the longest correlation time (its σ the largest: the most cautious)
+        let top = best_ll(&profiles);
+        let &(tau, (k, ll)) = profiles
+            .iter()
+            .filter(|p| p.1 .1 >= top - BANK_MARGIN)
+            .max_by(|a, b| a.0.total_cmp(&b.0))?;
+        if !ll.is_finite() {
+            return None;
+        }
+        Some((tau, k, ll, top))
+    }
 }
 
 #[cfg(test)]

@@ -309,14 +309,7 @@ where
         // States, not records: the writer thread does the Euler conversion.
         let (rows, nav_rx) =
             std::sync::mpsc::sync_channel::<Vec<(f64, ins_gnss_core::InsState)>>(4);
-        let writer = scope.spawn(move || -> Result<O::Nav, RunError> {
-            let mut w = nav_sink;
-            for batch in nav_rx {
-                w.rows(&batch)?;
-            }
-            w.finish()?;
-            Ok(w)
-        });
+        let writer = scope.spawn(move || write_rows(nav_sink, nav_rx));
         let result = GnssQueue::new(first_epochs, &mut gnss).and_then(|mut queue| {
             let messages = first_batches.into_iter().map(Ok).chain(feed.batches.iter());
             let r = (|| {
@@ -361,6 +354,18 @@ where
     let mut summary = pass.finish(config, &gnss, &locate)?;
     summary.wall_time = wall.elapsed().as_secs_f64();
     Ok(summary)
+}
+
+/// The writer thread's work: the rows `rows` brings, written as they come.
+fn write_rows<N: NavSink>(
+    mut w: N,
+    rows: std::sync::mpsc::Receiver<Vec<(f64, InsState)>>,
+) -> Result<N, RunError> {
+    for batch in rows {
+        w.rows(&batch)?;
+    }
+    w.finish()?;
+    Ok(w)
 }
 
 /// What the GNSS said at the start (`t0`): the fixes read with the prefix, the receiver

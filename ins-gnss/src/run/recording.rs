@@ -61,24 +61,7 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
     from.imu_rate = rate;
     let imu_rate = if config.data.imu_rate == 0.0 { rate } else { config.data.imu_rate };
     if ros.imu_noise_from_covariance {
-        let Some((w, f)) = rec.imu_sigma() else {
-            return Err(bad_map(
-                "data.ros.imu_noise_from_covariance",
-                format!(
-                    "the IMU messages on {} give no covariances (all zero or −1): give \
-                     `imu_noise.arw` and `imu_noise.vrw`",
-                    rec.imu_topic.0
-                ),
-            ));
-        };
-        let root_dt = (1.0 / imu_rate).sqrt() * PER_ROOT_SECOND_TO_PER_ROOT_HOUR;
-        let (arw, vrw) = (w.map(|s| s.to_degrees() * root_dt), f.map(|s| s * root_dt));
-        from.noise = Some((arw, vrw));
-        notes.push(format!(
-            "IMU noise from the messages' covariances: σ {:.4} rad/s, {:.4} m/s² per sample → \
-             ARW {:.3} deg/√h, VRW {:.4} m/s/√h (x axis)",
-            w[0], f[0], arw[0], vrw[0]
-        ));
+        from.noise = Some(noise_from_covariance(&rec, imu_rate, &mut notes)?);
     }
     from_transforms(&rec, ros.base_frame.as_deref(), config, &mut from, &mut notes);
     let (imu, imu_width, longest) = rec.imu_rows();
@@ -109,6 +92,33 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
         notes,
     };
     Ok((cfg, inputs))
+}
+
+/// ARW (deg/√h) and VRW (m/s/√h) from the IMU messages' covariances at `imu_rate` Hz
+/// (`data.ros.imu_noise_from_covariance`), with their note.
+fn noise_from_covariance(
+    rec: &Recording,
+    imu_rate: f64,
+    notes: &mut Vec<String>,
+) -> Result<([f64; 3], [f64; 3]), RunError> {
+    let Some((w, f)) = rec.imu_sigma() else {
+        return Err(bad_map(
+            "data.ros.imu_noise_from_covariance",
+            format!(
+                "the IMU messages on {} give no covariances (all zero or −1): give \
+                 `imu_noise.arw` and `imu_noise.vrw`",
+                rec.imu_topic.0
+            ),
+        ));
+    };
+    let root_dt = (1.0 / imu_rate).sqrt() * PER_ROOT_SECOND_TO_PER_ROOT_HOUR;
+    let (arw, vrw) = (w.map(|s| s.to_degrees() * root_dt), f.map(|s| s * root_dt));
+    notes.push(format!(
+        "IMU noise from the messages' covariances: σ {:.4} rad/s, {:.4} m/s² per sample → \
+         ARW {:.3} deg/√h, VRW {:.4} m/s/√h (x axis)",
+        w[0], f[0], arw[0], vrw[0]
+    ));
+    Ok((arw, vrw))
 }
 
 /// The mounting and lever arms from the recording's static transforms, where the

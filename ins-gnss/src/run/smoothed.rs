@@ -65,52 +65,9 @@ where
     };
     let files = [open(&names[0])?, open(&names[1])?, open(&names[2])?];
     // The rows are formatted and written by a second thread while the backward pass runs.
-    // (time, state, σ of the error states, as many as the state has, where asked)
-    type Row = (f64, InsState, Option<[f64; 21]>);
     let n = S::SIGMA_COLUMNS;
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
-    let writer = std::thread::spawn(move || -> Result<_, (usize, std::io::Error)> {
-        let mut out = files.map(|f| std::io::BufWriter::with_capacity(1 << 16, f));
-        let mut count = 0usize;
-        let mut text: [Vec<u8>; 3] = Default::default();
-        let var = |s: &[f64]| -> nalgebra::Matrix3<f64> {
-            let z = 0.0;
-            nalgebra::Matrix3::new(s[0] * s[0], z, z, z, s[1] * s[1], z, z, z, s[2] * s[2])
-        };
-        for rows in rx {
-            let [nav_text, std_text, pos_text] = &mut text;
-            nav_text.clear();
-            std_text.clear();
-            pos_text.clear();
-            for (t, x, sigma) in &rows {
-                push_nav(nav_text, &nav_record(*t, x));
-                let Some(sigma) = sigma else { continue };
-                let (row, len) = sigma_row(*t, &sigma[..n]);
-                push_row(std_text, &row[..len]);
-                // the smoother keeps the variances only: the .pos covariances are written as 0
-                let vel_var = var(&sigma[InsState::VEL.range()]);
-                let vel = Some((&x.vel, &vel_var));
-                let pos_var = var(&sigma[InsState::POS.range()]);
-                ins_gnss_core::io::rtklib::push_epoch(pos_text, 0.0, *t, &x.pos, &pos_var, vel, 1);
-            }
-            for (i, (w, t)) in out.iter_mut().zip(text.iter_mut()).enumerate() {
-                t.reverse();
-                w.write_all(t).map_err(|e| (i, e))?;
-            }
-            count += rows.len();
-        }
-        // the .pos header goes first: last, backwards
-        let mut header = Vec::new();
-        let program = concat!("ins-gnss ", env!("CARGO_PKG_VERSION"), ", smoothed");
-        ins_gnss_core::io::rtklib::write_header(&mut header, program, true).map_err(|e| (2, e))?;
-        header.reverse();
-        out[2].write_all(&header).map_err(|e| (2, e))?;
-        let mut files = Vec::new();
-        for (i, w) in out.into_iter().enumerate() {
-            files.push(w.into_inner().map_err(|e| (i, e.into_error()))?);
-        }
-        Ok((files, count))
-    });
+    let writer = std::thread::spawn(move || write_rows_backwards(files, rx, n));
     // segments arrive last to first: their rows are gathered backwards, and a batch of
     // them is turned around and sent as one chunk, in time order
     const BATCH_ROWS: usize = 4096;
@@ -154,6 +111,62 @@ where
         result.map_err(io(&names[i]))?;
     }
     Ok(count)
+}
+
+/// A smoothed row: time, state, σ of the error states (as many as the state has) where
+/// asked.
+type Row = (f64, InsState, Option<[f64; 21]>);
+
+/// The smoother's writer thread: each chunk of rows `rx` brings (in time order, the chunks
+/// last to first) formatted and written backwards into `nav_smoothed.txt`,
+/// `std_smoothed.txt` (`n` σ columns) and `nav_smoothed.pos`, the `.pos` header last; the
+/// files and the row count, or the index of the file whose write failed.
+#[allow(clippy::type_complexity)]
+fn write_rows_backwards(
+    files: [std::fs::File; 3],
+    rx: std::sync::mpsc::Receiver<Vec<Row>>,
+    n: usize,
+) -> Result<(Vec<std::fs::File>, usize), (usize, std::io::Error)> {
+    let mut out = files.map(|f| std::io::BufWriter::with_capacity(1 << 16, f));
+    let mut count = 0usize;
+    let mut text: [Vec<u8>; 3] = Default::default();
+    let var = |s: &[f64]| -> nalgebra::Matrix3<f64> {
+        let z = 0.0;
+        nalgebra::Matrix3::new(s[0] * s[0], z, z, z, s[1] * s[1], z, z, z, s[2] * s[2])
+    };
+    for rows in rx {
+        let [nav_text, std_text, pos_text] = &mut text;
+        nav_text.clear();
+        std_text.clear();
+        pos_text.clear();
+        for (t, x, sigma) in &rows {
+            push_nav(nav_text, &nav_record(*t, x));
+            let Some(sigma) = sigma else { continue };
+            let (row, len) = sigma_row(*t, &sigma[..n]);
+            push_row(std_text, &row[..len]);
+            // the smoother keeps the variances only: the .pos covariances are written as 0
+            let vel_var = var(&sigma[InsState::VEL.range()]);
+            let vel = Some((&x.vel, &vel_var));
+            let pos_var = var(&sigma[InsState::POS.range()]);
+            ins_gnss_core::io::rtklib::push_epoch(pos_text, 0.0, *t, &x.pos, &pos_var, vel, 1);
+        }
+        for (i, (w, t)) in out.iter_mut().zip(text.iter_mut()).enumerate() {
+            t.reverse();
+            w.write_all(t).map_err(|e| (i, e))?;
+        }
+        count += rows.len();
+    }
+    // the .pos header goes first: last, backwards
+    let mut header = Vec::new();
+    let program = concat!("ins-gnss ", env!("CARGO_PKG_VERSION"), ", smoothed");
+    ins_gnss_core::io::rtklib::write_header(&mut header, program, true).map_err(|e| (2, e))?;
+    header.reverse();
+    out[2].write_all(&header).map_err(|e| (2, e))?;
+    let mut files = Vec::new();
+    for (i, w) in out.into_iter().enumerate() {
+        files.push(w.into_inner().map_err(|e| (i, e.into_error()))?);
+    }
+    Ok((files, count))
 }
 
 /// Reverse the bytes of `file` in place: blocks from both ends swapped and reversed,

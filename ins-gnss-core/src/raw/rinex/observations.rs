@@ -44,119 +44,9 @@ impl ObsReader {
     pub fn open(path: &Path) -> Result<Self, RawError> {
         let mut input = open_input(path)?;
         let mut line_no = 0;
-        let mut h = ObsHeader {
-            version: 0.0,
-            marker: String::new(),
-            approx_position: None,
-            interval: None,
-            types: Vec::new(),
-            time_system: System::Gps,
-        };
-        let mut v2_types: Vec<String> = Vec::new();
-        let mut v2_count = 0usize;
-        let mut v3_pending: Option<(System, usize)> = None;
-        let mut file_sys = ' ';
-        read_header(&mut input, path, &mut line_no, |l| {
-            match label(l) {
-                "RINEX VERSION / TYPE" => {
-                    let (v, kind, sys) = version_and_type(l)?;
-                    if kind != 'O' {
-                        return Err(format!("file type `{kind}`, not an observation file (`O`)"));
-                    }
-                    if !(2.0..4.0).contains(&v) {
-                        return Err(format!("RINEX version {v}: 2.xx and 3.xx are read"));
-                    }
-                    h.version = v;
-                    file_sys = sys;
-                }
-                "CRINEX VERS   / TYPE" => {
-                    return Err(
-                        "Hatanaka-compressed (CRINEX): decompress with `crx2rnx` first".into()
-                    )
-                }
-                "MARKER NAME" => h.marker = l.get(..60).unwrap_or(l).trim().to_string(),
-                "APPROX POSITION XYZ" => {
-                    let p = [field(l, 0, 14)?, field(l, 14, 28)?, field(l, 28, 42)?];
-                    if let [Some(x), Some(y), Some(z)] = p {
-                        let r = Vector3::new(x, y, z);
-                        h.approx_position = (r.norm() > 1e6).then_some(r);
-                    }
-                }
-                "INTERVAL" => h.interval = field(l, 0, 10)?,
-                "# / TYPES OF OBSERV" => {
-                    if let Some(c) = int_field(l, 0, 6)? {
-                        v2_count = c as usize;
-                    }
-                    v2_types
-                        .extend(l.get(6..60).unwrap_or("").split_whitespace().map(String::from));
-                    if v2_types.len() > v2_count {
-                        return Err(format!(
-                            "{} types listed, {v2_count} announced",
-                            v2_types.len()
-                        ));
-                    }
-                }
-                "SYS / # / OBS TYPES" => {
-                    let first = l.chars().next().unwrap_or(' ');
-                    let (sys, count) = if first != ' ' {
-                        let sys = System::from_letter(first)
-                            .ok_or(format!("unknown system `{first}`"))?;
-                        let count = int_field(l, 3, 6)?.ok_or("no count of types")? as usize;
-                        h.types.push((sys, Vec::new()));
-                        (sys, count)
-                    } else {
-                        v3_pending.ok_or("a continuation line with no system before it")?
-                    };
-                    v3_pending = Some((sys, count));
-                    let list = &mut h.types.last_mut().ok_or("no system")?.1;
-                    list.extend(l.get(7..60).unwrap_or("").split_whitespace().map(String::from));
-                    if list.len() > count {
-                        return Err(format!("{} types listed, {count} announced", list.len()));
-                    }
-                }
-                "TIME OF FIRST OBS" => {
-                    let ts = l.get(48..51).unwrap_or("").trim();
-                    h.time_system = match ts {
-                        "" | "GPS" | "GAL" | "QZS" => System::Gps,
-                        "BDT" => System::BeiDou,
-                        other => {
-                            return Err(format!(
-                                "time system `{other}` is not read (GPS, GAL, QZS, BDT)"
-                            ))
-                        }
-                    };
-                }
-                _ => {}
-            }
-            Ok(())
-        })?;
-        if h.version == 0.0 {
-            return Err(err(path, 1, "no `RINEX VERSION / TYPE` line"));
-        }
-        if h.version < 3.0 {
-            if v2_types.len() != v2_count || v2_count == 0 {
-                return Err(err(
-                    path,
-                    line_no,
-                    format!("`# / TYPES OF OBSERV`: {} of {v2_count} types", v2_types.len()),
-                ));
-            }
-            // RINEX 2: one list for every system in the file
-            let systems: Vec<System> = match file_sys {
-                'M' => vec![
-                    System::Gps,
-                    System::Glonass,
-                    System::Galileo,
-                    System::Sbas,
-                    System::BeiDou,
-                    System::Qzss,
-                ],
-                c => vec![System::from_letter(c).unwrap_or(System::Gps)],
-            };
-            h.types = systems.into_iter().map(|s| (s, v2_types.clone())).collect();
-        } else if h.types.is_empty() {
-            return Err(err(path, line_no, "no `SYS / # / OBS TYPES` lines"));
-        }
+        let mut lines = HeaderLines::default();
+        read_header(&mut input, path, &mut line_no, |l| lines.take(l))?;
+        let h = lines.header(path, line_no)?;
         let columns = h
             .types
             .iter()
@@ -440,4 +330,149 @@ fn assemble(
         }
     }
     SatObs { sat, signals }
+}
+
+/// An observation file's header as its lines are read: the header, and RINEX 2's type
+/// list (one for every system) or the RINEX 3 system whose list continues.
+struct HeaderLines {
+    h: ObsHeader,
+    v2_types: Vec<String>,
+    v2_count: usize,
+    v3_pending: Option<(System, usize)>,
+    file_sys: char,
+}
+
+impl Default for HeaderLines {
+    fn default() -> Self {
+        Self {
+            h: ObsHeader {
+                version: 0.0,
+                marker: String::new(),
+                approx_position: None,
+                interval: None,
+                types: Vec::new(),
+                time_system: System::Gps,
+            },
+            v2_types: Vec::new(),
+            v2_count: 0,
+            v3_pending: None,
+            file_sys: ' ',
+        }
+    }
+}
+
+impl HeaderLines {
+    /// One header line.
+    fn take(&mut self, l: &str) -> Result<(), String> {
+        let h = &mut self.h;
+        match label(l) {
+            "RINEX VERSION / TYPE" => {
+                let (v, kind, sys) = version_and_type(l)?;
+                if kind != 'O' {
+                    return Err(format!("file type `{kind}`, not an observation file (`O`)"));
+                }
+                if !(2.0..4.0).contains(&v) {
+                    return Err(format!("RINEX version {v}: 2.xx and 3.xx are read"));
+                }
+                h.version = v;
+                self.file_sys = sys;
+            }
+            "CRINEX VERS   / TYPE" => {
+                return Err("Hatanaka-compressed (CRINEX): decompress with `crx2rnx` first".into())
+            }
+            "MARKER NAME" => h.marker = l.get(..60).unwrap_or(l).trim().to_string(),
+            "APPROX POSITION XYZ" => {
+                let p = [field(l, 0, 14)?, field(l, 14, 28)?, field(l, 28, 42)?];
+                if let [Some(x), Some(y), Some(z)] = p {
+                    let r = Vector3::new(x, y, z);
+                    h.approx_position = (r.norm() > 1e6).then_some(r);
+                }
+            }
+            "INTERVAL" => h.interval = field(l, 0, 10)?,
+            "# / TYPES OF OBSERV" => {
+                if let Some(c) = int_field(l, 0, 6)? {
+                    self.v2_count = c as usize;
+                }
+                let listed = l.get(6..60).unwrap_or("").split_whitespace().map(String::from);
+                self.v2_types.extend(listed);
+                if self.v2_types.len() > self.v2_count {
+                    return Err(format!(
+                        "{} types listed, {} announced",
+                        self.v2_types.len(),
+                        self.v2_count
+                    ));
+                }
+            }
+            "SYS / # / OBS TYPES" => self.v3_types(l)?,
+            "TIME OF FIRST OBS" => {
+                let ts = l.get(48..51).unwrap_or("").trim();
+                h.time_system = match ts {
+                    "" | "GPS" | "GAL" | "QZS" => System::Gps,
+                    "BDT" => System::BeiDou,
+                    other => {
+                        return Err(format!(
+                            "time system `{other}` is not read (GPS, GAL, QZS, BDT)"
+                        ))
+                    }
+                };
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// A `SYS / # / OBS TYPES` line: a system's list, or its continuation.
+    fn v3_types(&mut self, l: &str) -> Result<(), String> {
+        let first = l.chars().next().unwrap_or(' ');
+        let (sys, count) = if first != ' ' {
+            let sys = System::from_letter(first).ok_or(format!("unknown system `{first}`"))?;
+            let count = int_field(l, 3, 6)?.ok_or("no count of types")? as usize;
+            self.h.types.push((sys, Vec::new()));
+            (sys, count)
+        } else {
+            self.v3_pending.ok_or("a continuation line with no system before it")?
+        };
+        self.v3_pending = Some((sys, count));
+        let list = &mut self.h.types.last_mut().ok_or("no system")?.1;
+        list.extend(l.get(7..60).unwrap_or("").split_whitespace().map(String::from));
+        if list.len() > count {
+            return Err(format!("{} types listed, {count} announced", list.len()));
+        }
+        Ok(())
+    }
+
+    /// The header once its lines are read (`line_no`: the last), each system with its
+    /// type list.
+    fn header(self, path: &Path, line_no: usize) -> Result<ObsHeader, RawError> {
+        let mut h = self.h;
+        if h.version == 0.0 {
+            return Err(err(path, 1, "no `RINEX VERSION / TYPE` line"));
+        }
+        if h.version < 3.0 {
+            let (types, count) = (self.v2_types, self.v2_count);
+            if types.len() != count || count == 0 {
+                return Err(err(
+                    path,
+                    line_no,
+                    format!("`# / TYPES OF OBSERV`: {} of {count} types", types.len()),
+                ));
+            }
+            // RINEX 2: one list for every system in the file
+            let systems: Vec<System> = match self.file_sys {
+                'M' => vec![
+                    System::Gps,
+                    System::Glonass,
+                    System::Galileo,
+                    System::Sbas,
+                    System::BeiDou,
+                    System::Qzss,
+                ],
+                c => vec![System::from_letter(c).unwrap_or(System::Gps)],
+            };
+            h.types = systems.into_iter().map(|s| (s, types.clone())).collect();
+        } else if h.types.is_empty() {
+            return Err(err(path, line_no, "no `SYS / # / OBS TYPES` lines"));
+        }
+        Ok(h)
+    }
 }
