@@ -22,98 +22,7 @@ struct Args {
 #[derive(Subcommand)]
 enum Command {
     /// Run a dataset from a TOML or KF-GINS YAML configuration.
-    Run {
-        /// Configuration file (.toml, or KF-GINS .yaml).
-        config: PathBuf,
-        /// Noise strategy: fixed, iae, iae-qr, afkf, fused (fused-nominal, fused-window-test,
-        /// fused-uncensored, fused-nominal-uncensored), iakf, iakf-raw, sage-husa, chi2-gate;
-        /// iae-qr-faithful, afkf-faithful, afkf-xia-faithful, fused-faithful (unguarded).
-        #[arg(long)]
-        strategy: Option<String>,
-        /// Output directory (default: the configuration's output path).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Evaluate against this truth file at the end (11 columns).
-        #[arg(long)]
-        truth: Option<PathBuf>,
-        /// Seconds skipped at the start of the evaluation.
-        #[arg(long, default_value_t = 0.0, value_parser = cli::parse_skip)]
-        skip: f64,
-        /// Open the gross-error gate (every fix used, as KF-GINS does).
-        #[arg(long)]
-        no_gate: bool,
-        /// Keep every GNSS stream's declared noise instead of learning it from the data
-        /// (sets `filter.gate.learn = false`).
-        #[arg(long)]
-        declared_noise: bool,
-        /// No progress bar.
-        #[arg(long)]
-        quiet: bool,
-        /// Write SVG plots into the output directory (needs a truth file).
-        #[arg(long)]
-        plots: bool,
-        /// Override the bias model: random-walk, gauss-markov, gauss-markov-held.
-        #[arg(long)]
-        bias_model: Option<String>,
-        /// Land vehicle: apply the non-holonomic constraint (lateral and vertical velocity
-        /// zero), with the configuration's `[vehicle.nhc]` settings or the defaults.
-        #[arg(long)]
-        nhc: bool,
-        /// Land vehicle: ZUPT and ZARU on stops found by the stationary detector, with the
-        /// configuration's `[vehicle.zupt]` settings or the defaults.
-        #[arg(long)]
-        zupt: bool,
-        /// Error states: 15, or 21 with gyro and accelerometer scale factors (overrides
-        /// `filter.states`; KF-GINS YAML scale-factor keys set their values).
-        #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["15", "21"]))]
-        states: Option<String>,
-        /// Propagate the covariance at most once per this many seconds, over the IMU
-        /// samples combined, and before every update; 0: at every sample (overrides
-        /// `filter.covariance_interval`; a smoothed run too).
-        #[arg(long, value_name = "SECONDS")]
-        covariance_interval: Option<f64>,
-        /// Smooth with one covariance per update in the scratch file instead of two (the
-        /// backward pass replays the other; the same smoothed files, byte for byte; sets
-        /// `filter.smooth_low_scratch`).
-        #[arg(long)]
-        smooth_low_scratch: bool,
-        /// Land vehicle: the odometer speed of the IMU file's 8th column, with the
-        /// configuration's `[vehicle.odometer]` settings or the defaults.
-        #[arg(long)]
-        odometer: bool,
-        /// Turn off every vehicle aiding the configuration enables.
-        #[arg(long, conflicts_with_all = ["nhc", "zupt", "odometer"])]
-        no_vehicle: bool,
-        /// Post-process: smooth the whole run (fixed-interval RTS) and write
-        /// `nav_smoothed.txt` and `std_smoothed.txt` next to `nav.txt` (sets
-        /// `filter.smooth`).
-        #[arg(long)]
-        smooth: bool,
-        /// Write `report.html`: summary, consistency, error tables and plots (with a
-        /// truth), the configuration used; one self-contained file.
-        #[arg(long)]
-        report: bool,
-        /// Keep a result the end-of-run check judges untrustworthy (a GNSS stream mostly
-        /// refused, or innovations far from their χ² distribution): a warning and exit
-        /// status 0 instead of the diagnosis and exit status 3
-        #[arg(long)]
-        accept_inconsistent: bool,
-        /// Estimate the rig's calibration as states of the filter: `lever-arm`,
-        /// `time-offset`, `mounting` (with NHC or the odometer), `odometer` (its scale and
-        /// wheel point), several separated by commas (sets `[calibrate]`; loose coupling,
-        /// 15 states).
-        #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset", "mounting", "odometer"]))]
-        calibrate: Vec<String>,
-        /// A moving-base receiver's headings (RTKLIB's moving-base ENU solution, NMEA
-        /// HDT/THS, a u-blox log's NAV-RELPOSNED, or columns `t heading [σ [pitch σ]]`;
-        /// sets `data.heading`; the baseline is `[gnss.heading]`'s).
-        #[arg(long, value_name = "FILE")]
-        heading: Option<PathBuf>,
-        /// Leave the configuration's `[init]` out: the start finds the initial state from
-        /// the data (as a configuration without one).
-        #[arg(long)]
-        no_init: bool,
-    },
+    Run(RunArgs),
     /// Evaluate a navigation result against a truth file.
     Eval {
         /// Result (11 columns), or a run's output directory: its `nav.txt` and, when the
@@ -165,81 +74,11 @@ enum Command {
     },
     /// Single-point positions of a RINEX observation file from broadcast ephemerides,
     /// written as an RTKLIB `.pos`.
-    Spp {
-        /// RINEX observation file (2.xx or 3.xx), or a u-blox log (`.ubx`: RXM-RAWX and
-        /// RXM-SFRBX); `.gz`/`.zst`/`.xz` read as they are.
-        obs: PathBuf,
-        /// RINEX navigation file(s) (optional for a u-blox log with its navigation messages).
-        nav: Vec<PathBuf>,
-        /// Output `.pos` file.
-        #[arg(long, short)]
-        out: Option<PathBuf>,
-        /// Ionosphere: off, klobuchar, iono-free.
-        #[arg(long, default_value = "klobuchar", value_parser = ins_gnss::spp::parse_iono)]
-        iono: ins_gnss_core::raw::spp::Ionosphere,
-        /// Troposphere: off, saastamoinen (mapped by 1/sin(el)), niell (Saastamoinen mapped by
-        /// Niell's functions).
-        #[arg(long, default_value = "saastamoinen", value_parser = ins_gnss::spp::parse_tropo)]
-        tropo: ins_gnss_core::raw::spp::Troposphere,
-        /// Elevation mask, degrees.
-        #[arg(long, default_value_t = 15.0)]
-        mask: f64,
-        /// Satellites RAIM may exclude per epoch (0: none).
-        #[arg(long, default_value_t = 2)]
-        raim: usize,
-        /// Systems used, comma-separated RINEX letters or names: G (GPS), E (Galileo), C
-        /// (BeiDou), J (QZSS) [default: all four].
-        #[arg(long, value_delimiter = ',', value_parser = ins_gnss::spp::parse_system)]
-        systems: Vec<ins_gnss_core::raw::System>,
-        /// Compare with another solution of the same file (an RTKLIB `.pos`, GPST).
-        #[arg(long)]
-        against: Option<PathBuf>,
-    },
+    Spp(SppArgs),
     /// RTK positions of a rover against a base station from double-differenced code and
     /// carrier phase (integer ambiguities by LAMBDA with the ratio test), written as an
     /// RTKLIB `.pos` (Q = 1 fixed, 2 float).
-    Rtk {
-        /// The rover's RINEX observation file (or a u-blox log).
-        rover: PathBuf,
-        /// The base station's RINEX observation file, observed at the rover's instants.
-        base: PathBuf,
-        /// RINEX navigation file(s).
-        nav: Vec<PathBuf>,
-        /// Output `.pos` file.
-        #[arg(long, short)]
-        out: Option<PathBuf>,
-        /// The base's ECEF position, m (X,Y,Z) [default: the base file's APPROX POSITION XYZ].
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
-        base_position: Option<Vec<f64>>,
-        /// The rover stands still (its position a constant state).
-        #[arg(long = "static")]
-        fixed_rover: bool,
-        /// Frequencies: 1 (L1) or 2 (L1 and L2).
-        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
-        frequencies: u8,
-        /// Elevation mask at the base, degrees.
-        #[arg(long, default_value_t = 15.0)]
-        mask: f64,
-        /// The ratio test's threshold.
-        #[arg(long, default_value_t = 3.0)]
-        ratio: f64,
-        /// The oldest a base epoch may be against the rover's, s (older pairs cost
-        /// centimetres and, kinematic, wrong fixes: see `docs/results.md`).
-        #[arg(long, default_value_t = 1.0)]
-        max_age: f64,
-        /// Fix only when the float ambiguities' covariance promises at least this success
-        /// rate of integer bootstrapping, beside the ratio test (0: the ratio test alone,
-        /// as RTKLIB).
-        #[arg(long, default_value_t = 0.0, value_parser = probability)]
-        min_success_rate: f64,
-        /// When all the ambiguities cannot be fixed, fix the largest decorrelated subset
-        /// that promises `--min-success-rate` (0.999 when 0) and passes the ratio test.
-        #[arg(long)]
-        partial: bool,
-        /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
-        #[arg(long)]
-        against: Option<PathBuf>,
-    },
+    Rtk(RtkArgs),
     /// Print every configuration key: a complete commented configuration (default), or
     /// the Markdown reference with units, defaults and examples. Both are generated from
     /// the configuration types.
@@ -289,6 +128,262 @@ enum Command {
     },
 }
 
+// (`ins-gnss run`'s arguments; the subcommand's description is the variant's)
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Configuration file (.toml, or KF-GINS .yaml).
+    config: PathBuf,
+    /// Noise strategy: fixed, iae, iae-qr, afkf, fused (fused-nominal, fused-window-test,
+    /// fused-uncensored, fused-nominal-uncensored), iakf, iakf-raw, sage-husa, chi2-gate;
+    /// iae-qr-faithful, afkf-faithful, afkf-xia-faithful, fused-faithful (unguarded).
+    #[arg(long)]
+    strategy: Option<String>,
+    /// Output directory (default: the configuration's output path).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Evaluate against this truth file at the end (11 columns).
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// Seconds skipped at the start of the evaluation.
+    #[arg(long, default_value_t = 0.0, value_parser = cli::parse_skip)]
+    skip: f64,
+    /// Open the gross-error gate (every fix used, as KF-GINS does).
+    #[arg(long)]
+    no_gate: bool,
+    /// Keep every GNSS stream's declared noise instead of learning it from the data
+    /// (sets `filter.gate.learn = false`).
+    #[arg(long)]
+    declared_noise: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Write SVG plots into the output directory (needs a truth file).
+    #[arg(long)]
+    plots: bool,
+    /// Override the bias model: random-walk, gauss-markov, gauss-markov-held.
+    #[arg(long)]
+    bias_model: Option<String>,
+    /// Land vehicle: apply the non-holonomic constraint (lateral and vertical velocity
+    /// zero), with the configuration's `[vehicle.nhc]` settings or the defaults.
+    #[arg(long)]
+    nhc: bool,
+    /// Land vehicle: ZUPT and ZARU on stops found by the stationary detector, with the
+    /// configuration's `[vehicle.zupt]` settings or the defaults.
+    #[arg(long)]
+    zupt: bool,
+    /// Error states: 15, or 21 with gyro and accelerometer scale factors (overrides
+    /// `filter.states`; KF-GINS YAML scale-factor keys set their values).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["15", "21"]))]
+    states: Option<String>,
+    /// Propagate the covariance at most once per this many seconds, over the IMU
+    /// samples combined, and before every update; 0: at every sample (overrides
+    /// `filter.covariance_interval`; a smoothed run too).
+    #[arg(long, value_name = "SECONDS")]
+    covariance_interval: Option<f64>,
+    /// Smooth with one covariance per update in the scratch file instead of two (the
+    /// backward pass replays the other; the same smoothed files, byte for byte; sets
+    /// `filter.smooth_low_scratch`).
+    #[arg(long)]
+    smooth_low_scratch: bool,
+    /// Land vehicle: the odometer speed of the IMU file's 8th column, with the
+    /// configuration's `[vehicle.odometer]` settings or the defaults.
+    #[arg(long)]
+    odometer: bool,
+    /// Turn off every vehicle aiding the configuration enables.
+    #[arg(long, conflicts_with_all = ["nhc", "zupt", "odometer"])]
+    no_vehicle: bool,
+    /// Post-process: smooth the whole run (fixed-interval RTS) and write
+    /// `nav_smoothed.txt` and `std_smoothed.txt` next to `nav.txt` (sets
+    /// `filter.smooth`).
+    #[arg(long)]
+    smooth: bool,
+    /// Write `report.html`: summary, consistency, error tables and plots (with a
+    /// truth), the configuration used; one self-contained file.
+    #[arg(long)]
+    report: bool,
+    /// Keep a result the end-of-run check judges untrustworthy (a GNSS stream mostly
+    /// refused, or innovations far from their χ² distribution): a warning and exit
+    /// status 0 instead of the diagnosis and exit status 3
+    #[arg(long)]
+    accept_inconsistent: bool,
+    /// Estimate the rig's calibration as states of the filter: `lever-arm`,
+    /// `time-offset`, `mounting` (with NHC or the odometer), `odometer` (its scale and
+    /// wheel point), several separated by commas (sets `[calibrate]`; loose coupling,
+    /// 15 states).
+    #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(["lever-arm", "time-offset", "mounting", "odometer"]))]
+    calibrate: Vec<String>,
+    /// A moving-base receiver's headings (RTKLIB's moving-base ENU solution, NMEA
+    /// HDT/THS, a u-blox log's NAV-RELPOSNED, or columns `t heading [σ [pitch σ]]`;
+    /// sets `data.heading`; the baseline is `[gnss.heading]`'s).
+    #[arg(long, value_name = "FILE")]
+    heading: Option<PathBuf>,
+    /// Leave the configuration's `[init]` out: the start finds the initial state from
+    /// the data (as a configuration without one).
+    #[arg(long)]
+    no_init: bool,
+}
+
+// (`ins-gnss spp`'s arguments; the subcommand's description is the variant's)
+#[derive(clap::Args)]
+struct SppArgs {
+    /// RINEX observation file (2.xx or 3.xx), or a u-blox log (`.ubx`: RXM-RAWX and
+    /// RXM-SFRBX); `.gz`/`.zst`/`.xz` read as they are.
+    obs: PathBuf,
+    /// RINEX navigation file(s) (optional for a u-blox log with its navigation messages).
+    nav: Vec<PathBuf>,
+    /// Output `.pos` file.
+    #[arg(long, short)]
+    out: Option<PathBuf>,
+    /// Ionosphere: off, klobuchar, iono-free.
+    #[arg(long, default_value = "klobuchar", value_parser = ins_gnss::spp::parse_iono)]
+    iono: ins_gnss_core::raw::spp::Ionosphere,
+    /// Troposphere: off, saastamoinen (mapped by 1/sin(el)), niell (Saastamoinen mapped by
+    /// Niell's functions).
+    #[arg(long, default_value = "saastamoinen", value_parser = ins_gnss::spp::parse_tropo)]
+    tropo: ins_gnss_core::raw::spp::Troposphere,
+    /// Elevation mask, degrees.
+    #[arg(long, default_value_t = 15.0)]
+    mask: f64,
+    /// Satellites RAIM may exclude per epoch (0: none).
+    #[arg(long, default_value_t = 2)]
+    raim: usize,
+    /// Systems used, comma-separated RINEX letters or names: G (GPS), E (Galileo), C
+    /// (BeiDou), J (QZSS) [default: all four].
+    #[arg(long, value_delimiter = ',', value_parser = ins_gnss::spp::parse_system)]
+    systems: Vec<ins_gnss_core::raw::System>,
+    /// Compare with another solution of the same file (an RTKLIB `.pos`, GPST).
+    #[arg(long)]
+    against: Option<PathBuf>,
+}
+
+// (`ins-gnss rtk`'s arguments; the subcommand's description is the variant's)
+#[derive(clap::Args)]
+struct RtkArgs {
+    /// The rover's RINEX observation file (or a u-blox log).
+    rover: PathBuf,
+    /// The base station's RINEX observation file, observed at the rover's instants.
+    base: PathBuf,
+    /// RINEX navigation file(s).
+    nav: Vec<PathBuf>,
+    /// Output `.pos` file.
+    #[arg(long, short)]
+    out: Option<PathBuf>,
+    /// The base's ECEF position, m (X,Y,Z) [default: the base file's APPROX POSITION XYZ].
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    base_position: Option<Vec<f64>>,
+    /// The rover stands still (its position a constant state).
+    #[arg(long = "static")]
+    fixed_rover: bool,
+    /// Frequencies: 1 (L1) or 2 (L1 and L2).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    frequencies: u8,
+    /// Elevation mask at the base, degrees.
+    #[arg(long, default_value_t = 15.0)]
+    mask: f64,
+    /// The ratio test's threshold.
+    #[arg(long, default_value_t = 3.0)]
+    ratio: f64,
+    /// The oldest a base epoch may be against the rover's, s (older pairs cost
+    /// centimetres and, kinematic, wrong fixes: see `docs/results.md`).
+    #[arg(long, default_value_t = 1.0)]
+    max_age: f64,
+    /// Fix only when the float ambiguities' covariance promises at least this success
+    /// rate of integer bootstrapping, beside the ratio test (0: the ratio test alone,
+    /// as RTKLIB).
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    min_success_rate: f64,
+    /// When all the ambiguities cannot be fixed, fix the largest decorrelated subset
+    /// that promises `--min-success-rate` (0.999 when 0) and passes the ratio test.
+    #[arg(long)]
+    partial: bool,
+    /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
+    #[arg(long)]
+    against: Option<PathBuf>,
+}
+
+impl RunArgs {
+    /// The options of the run, as the library takes them.
+    fn options(&self) -> cli::RunOptions<'_> {
+        let has = |c: &str| self.calibrate.iter().any(|x| x == c);
+        cli::RunOptions {
+            config: cli::Overrides {
+                strategy: self.strategy.as_deref(),
+                bias_model: self.bias_model.as_deref(),
+                no_gate: self.no_gate,
+                declared_noise: self.declared_noise,
+                nhc: self.nhc,
+                zupt: self.zupt,
+                odometer: self.odometer,
+                no_vehicle: self.no_vehicle,
+                states: self.states.as_deref().and_then(|s| s.parse().ok()),
+                covariance_interval: self.covariance_interval,
+                smooth_low_scratch: self.smooth_low_scratch,
+                smooth: self.smooth,
+                calibrate_lever_arm: has("lever-arm"),
+                calibrate_time_offset: has("time-offset"),
+                calibrate_mounting: has("mounting"),
+                calibrate_odometer: has("odometer"),
+                heading: self.heading.as_deref(),
+                no_init: self.no_init,
+            },
+            out: self.out.as_deref(),
+            truth: self.truth.as_deref(),
+            skip: self.skip,
+            progress: !self.quiet,
+            plots: self.plots,
+            report: self.report,
+            accept_inconsistent: self.accept_inconsistent,
+        }
+    }
+}
+
+impl SppArgs {
+    /// `ins-gnss spp`.
+    fn run(self) -> Result<(), cli::CliError> {
+        let opt = ins_gnss_core::raw::SppOptions {
+            ionosphere: self.iono,
+            troposphere: self.tropo,
+            elevation_mask: self.mask.to_radians(),
+            max_exclusions: self.raim,
+            ..Default::default()
+        };
+        let opt = if self.systems.is_empty() {
+            opt
+        } else {
+            ins_gnss_core::raw::SppOptions { systems: self.systems, ..opt }
+        };
+        let navs: Vec<&std::path::Path> = self.nav.iter().map(PathBuf::as_path).collect();
+        ins_gnss::spp::run(&self.obs, &navs, self.out.as_deref(), &opt, self.against.as_deref())
+    }
+}
+
+impl RtkArgs {
+    /// `ins-gnss rtk`.
+    fn run(self) -> Result<(), cli::CliError> {
+        use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
+        let opt = RtkOptions {
+            mode: if self.fixed_rover { RtkMode::Static } else { RtkMode::Kinematic },
+            frequencies: self.frequencies as usize,
+            elevation_mask: self.mask.to_radians(),
+            ratio: self.ratio,
+            max_age: self.max_age,
+            min_success_rate: self.min_success_rate,
+            partial: self.partial,
+            ..Default::default()
+        };
+        let base_pos = self.base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose()?;
+        ins_gnss::rtk::run(
+            &self.rover,
+            &self.base,
+            &self.nav,
+            base_pos,
+            self.out.as_deref(),
+            &opt,
+            self.against.as_deref(),
+        )
+    }
+}
+
 /// The exit status of a run that finished with outputs that cannot be trusted
 /// ([`ins_gnss::health::assess`]); input and configuration errors exit with 1, argument
 /// errors with 2.
@@ -298,62 +393,7 @@ fn main() -> ExitCode {
     let args = Args::parse();
     let result = match args.command {
         None => cli::demo(),
-        Some(Command::Run {
-            config,
-            strategy,
-            out,
-            truth,
-            skip,
-            no_gate,
-            declared_noise,
-            quiet,
-            plots,
-            bias_model,
-            nhc,
-            zupt,
-            odometer,
-            states,
-            covariance_interval,
-            smooth_low_scratch,
-            no_vehicle,
-            smooth,
-            report,
-            accept_inconsistent,
-            calibrate,
-            heading,
-            no_init,
-        }) => {
-            let o = cli::RunOptions {
-                config: cli::Overrides {
-                    strategy: strategy.as_deref(),
-                    bias_model: bias_model.as_deref(),
-                    no_gate,
-                    declared_noise,
-                    nhc,
-                    zupt,
-                    odometer,
-                    no_vehicle,
-                    states: states.as_deref().and_then(|s| s.parse().ok()),
-                    covariance_interval,
-                    smooth_low_scratch,
-                    smooth,
-                    calibrate_lever_arm: calibrate.iter().any(|c| c == "lever-arm"),
-                    calibrate_time_offset: calibrate.iter().any(|c| c == "time-offset"),
-                    calibrate_mounting: calibrate.iter().any(|c| c == "mounting"),
-                    calibrate_odometer: calibrate.iter().any(|c| c == "odometer"),
-                    heading: heading.as_deref(),
-                    no_init,
-                },
-                out: out.as_deref(),
-                truth: truth.as_deref(),
-                skip,
-                progress: !quiet,
-                plots,
-                report,
-                accept_inconsistent,
-            };
-            cli::run(&config, &o)
-        }
+        Some(Command::Run(a)) => cli::run(&a.config, &a.options()),
         Some(Command::Eval { result, truth, skip, windows, json, config }) => {
             cli::eval(&result, &truth, skip, &windows, json, config.as_deref())
         }
@@ -363,64 +403,8 @@ fn main() -> ExitCode {
                 .map(|text| print!("{text}"))
                 .map_err(Into::into)
         }
-        Some(Command::Spp { obs, nav, out, iono, tropo, mask, raim, systems, against }) => {
-            let opt = ins_gnss_core::raw::SppOptions {
-                ionosphere: iono,
-                troposphere: tropo,
-                elevation_mask: mask.to_radians(),
-                max_exclusions: raim,
-                ..Default::default()
-            };
-            let opt = if systems.is_empty() {
-                opt
-            } else {
-                ins_gnss_core::raw::SppOptions { systems, ..opt }
-            };
-            let navs: Vec<&std::path::Path> = nav.iter().map(PathBuf::as_path).collect();
-            ins_gnss::spp::run(&obs, &navs, out.as_deref(), &opt, against.as_deref())
-        }
-        Some(Command::Rtk {
-            rover,
-            base,
-            nav,
-            out,
-            base_position,
-            fixed_rover,
-            frequencies,
-            mask,
-            ratio,
-            max_age,
-            min_success_rate,
-            partial,
-            against,
-        }) => {
-            let opt = ins_gnss_core::raw::rtk::RtkOptions {
-                mode: if fixed_rover {
-                    ins_gnss_core::raw::rtk::RtkMode::Static
-                } else {
-                    ins_gnss_core::raw::rtk::RtkMode::Kinematic
-                },
-                frequencies: frequencies as usize,
-                elevation_mask: mask.to_radians(),
-                ratio,
-                max_age,
-                min_success_rate,
-                partial,
-                ..Default::default()
-            };
-            let base_pos = base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose();
-            base_pos.and_then(|base_pos| {
-                ins_gnss::rtk::run(
-                    &rover,
-                    &base,
-                    &nav,
-                    base_pos,
-                    out.as_deref(),
-                    &opt,
-                    against.as_deref(),
-                )
-            })
-        }
+        Some(Command::Spp(a)) => a.run(),
+        Some(Command::Rtk(a)) => a.run(),
         Some(Command::Config { example: _, reference }) => {
             let text = if reference {
                 ins_gnss::config::reference::reference()

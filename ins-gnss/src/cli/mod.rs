@@ -67,6 +67,84 @@ fn strategy(name: &str) -> Result<AnyStrategy, CliError> {
     Ok(name.parse::<AnyStrategy>()?)
 }
 
+/// Where a run's outputs stay by its verdict: an earlier trusted result kept aside
+/// (`kept`) is put back when this run is judged untrustworthy (unless `accepted`), its
+/// outputs going beside it; the untrusted mark written or removed. The directory the
+/// outputs are in.
+fn place_outputs(
+    verdict: &mut Result<(), crate::health::Unhealthy>,
+    kept: Option<PathBuf>,
+    out_dir: PathBuf,
+    accepted: bool,
+) -> Result<PathBuf, CliError> {
+    let untrusted = verdict.is_err() && !accepted;
+    let out_dir = match kept {
+        Some(k) if untrusted => {
+            let beside = sibling(&out_dir, "-untrusted");
+            put_back(&k, &out_dir, &beside)?;
+            if let Err(u) = verdict {
+                u.beside = Some((beside.clone(), out_dir.clone()));
+            }
+            beside
+        }
+        Some(k) => {
+            std::fs::remove_dir_all(&k).map_err(|e| format!("{}: {e}", k.display()))?;
+            out_dir
+        }
+        None => out_dir,
+    };
+    let mark = out_dir.join(UNTRUSTED_MARK);
+    match &*verdict {
+        Err(u) if untrusted => std::fs::write(&mark, format!("{u}\n"))
+            .map_err(|e| format!("{}: {e}", mark.display()))?,
+        _ if mark.exists() => {
+            std::fs::remove_file(&mark).map_err(|e| format!("{}: {e}", mark.display()))?
+        }
+        _ => {}
+    }
+    Ok(out_dir)
+}
+
+/// A run's result against the truth: the evaluation tables (forward, and smoothed when it
+/// smoothed) printed, and with `plots` the SVG plots.
+#[allow(clippy::type_complexity)]
+fn evaluate_run(
+    cfg: &Config,
+    summary: &RunSummary,
+    name: &str,
+    truth: &Path,
+    skip: f64,
+    plots: bool,
+) -> Result<(Vec<(String, Evaluation)>, Vec<PathBuf>), CliError> {
+    let (mut tables, mut figures) = (Vec::new(), Vec::new());
+    let (columns, out_dir) = (cfg.data.truth_columns.as_ref(), &summary.out_dir);
+    let ev = evaluate_with(&out_dir.join("nav.txt"), truth, columns, skip, &[])?;
+    require_overlap(&ev, &out_dir.join("nav.txt"), truth, skip)?;
+    if summary.smoothed.is_some() {
+        let smoothed = out_dir.join("nav_smoothed.txt");
+        let ev_s = evaluate_with(&smoothed, truth, columns, skip, &[])?;
+        require_overlap(&ev_s, &smoothed, truth, skip)?;
+        let label = format!("{name}, smoothed");
+        print_table(&[(name, &ev.overall), (&label, &ev_s.overall)]);
+        print_nees(name, &ev);
+        print_nees(&label, &ev_s);
+        tables.push((label, ev_s));
+    } else {
+        print_table(&[(name, &ev.overall)]);
+        print_nees(name, &ev);
+    }
+    tables.insert(0, (name.to_string(), ev));
+    if plots {
+        let fixes = read_fixes(cfg)?;
+        let files = crate::plot::write_all(out_dir, truth, columns, &fixes, skip)?;
+        for f in &files {
+            out!("plot: {}", f.display());
+        }
+        figures = files;
+    }
+    Ok((tables, figures))
+}
+
 /// `ins-gnss run`.
 pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
     let (out, truth, skip, progress, plots) = (o.out, o.truth, o.skip, o.progress, o.plots);
@@ -109,66 +187,16 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
         }
     };
     let mut verdict = crate::health::assess(&summary, &cfg);
-    let untrusted = verdict.is_err() && !o.accept_inconsistent;
-    let out_dir = match kept {
-        Some(k) if untrusted => {
-            let beside = sibling(&out_dir, "-untrusted");
-            put_back(&k, &out_dir, &beside)?;
-            if let Err(u) = &mut verdict {
-                u.beside = Some((beside.clone(), out_dir.clone()));
-            }
-            beside
-        }
-        Some(k) => {
-            std::fs::remove_dir_all(&k).map_err(|e| format!("{}: {e}", k.display()))?;
-            out_dir
-        }
-        None => out_dir,
-    };
-    let mark = out_dir.join(UNTRUSTED_MARK);
-    match &verdict {
-        Err(u) if untrusted => std::fs::write(&mark, format!("{u}\n"))
-            .map_err(|e| format!("{}: {e}", mark.display()))?,
-        _ if mark.exists() => {
-            std::fs::remove_file(&mark).map_err(|e| format!("{}: {e}", mark.display()))?
-        }
-        _ => {}
-    }
+    let out_dir = place_outputs(&mut verdict, kept, out_dir, o.accept_inconsistent)?;
     summary.out_dir = out_dir.clone();
     print_summary(&summary);
     let truth = truth.map(Path::to_path_buf).or_else(|| cfg.data.truth.clone());
     let plots = plots || (o.report && truth.is_some());
-    let mut tables: Vec<(String, Evaluation)> = Vec::new();
-    let mut figures: Vec<PathBuf> = Vec::new();
-    if let Some(truth) = truth {
-        let columns = cfg.data.truth_columns.as_ref();
-        let ev = evaluate_with(&out_dir.join("nav.txt"), &truth, columns, skip, &[])?;
-        require_overlap(&ev, &out_dir.join("nav.txt"), &truth, skip)?;
-        if summary.smoothed.is_some() {
-            let smoothed = out_dir.join("nav_smoothed.txt");
-            let ev_s = evaluate_with(&smoothed, &truth, columns, skip, &[])?;
-            require_overlap(&ev_s, &smoothed, &truth, skip)?;
-            let label = format!("{name}, smoothed");
-            print_table(&[(&name, &ev.overall), (&label, &ev_s.overall)]);
-            print_nees(&name, &ev);
-            print_nees(&label, &ev_s);
-            tables.push((label, ev_s));
-        } else {
-            print_table(&[(&name, &ev.overall)]);
-            print_nees(&name, &ev);
-        }
-        tables.insert(0, (name.clone(), ev));
-        if plots {
-            let fixes = read_fixes(&cfg)?;
-            let files = crate::plot::write_all(&out_dir, &truth, columns, &fixes, skip)?;
-            for f in &files {
-                out!("plot: {}", f.display());
-            }
-            figures = files;
-        }
-    } else if plots {
-        return Err("--plots needs a truth file (--truth or data.truth)".into());
-    }
+    let (tables, figures) = match truth {
+        Some(truth) => evaluate_run(&cfg, &summary, &name, &truth, skip, plots)?,
+        None if plots => return Err("--plots needs a truth file (--truth or data.truth)".into()),
+        None => (Vec::new(), Vec::new()),
+    };
     if o.report {
         let page = crate::report::write(&out_dir, &summary, &cfg, &tables, &figures)?;
         out!("report: {}", page.display());
