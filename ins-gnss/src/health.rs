@@ -198,43 +198,15 @@ fn odometer_reversed(summary: &RunSummary) -> Option<(String, String)> {
 /// Seconds the filter must move against the odometer before a run is flagged.
 const REVERSED_TIME: f64 = 10.0;
 
-/// Judge a finished run: `Err` when a GNSS stream refused more than half of its epochs or
-/// its innovations are far from their distribution, or the filter moves against the odometer. `config` is the run's configuration
-/// as the user gave it (the initial position, if given, is checked against the first
-/// fix).
-pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
-    let gnss: Vec<&StreamStats> = summary.streams.iter().filter(|s| s.gnss).collect();
-    let tight = config.gnss.coupling == crate::config::Coupling::Tight;
-    let floor = tight && config.gnss.tight.error_floor;
-    let mut problems: Vec<String> =
-        gnss.iter().flat_map(|s| stream_problems(s, floor && is_pseudorange(s))).collect();
-    if floor {
-        problems.extend(pseudorange_problem(&gnss));
-    }
-    let reversed = odometer_reversed(summary);
-    problems.extend(reversed.iter().map(|(p, _)| p.clone()));
-    if problems.is_empty() {
-        return Ok(());
-    }
-    let mut diagnosis: Vec<String> = reversed.into_iter().map(|(_, d)| d).collect();
-    // the initial position, farther from the first fix than its σ and the fix's allow
-    if let Some(((h, v), (sh, sv))) = initial_offset(summary, config) {
-        if h > 5.0 * sh.max(0.5) || v > 5.0 * sv.max(0.5) {
-            diagnosis.push(format!(
-                "the initial position `init.position` is {} horizontally and {} vertically \
-                 from the first GNSS fix (at {:.3} s; 1σ together {:.2} m and {:.2} m): a typo \
-                 in it, or in the file's position",
-                distance(h),
-                distance(v),
-                summary.first_fix.map_or(f64::NAN, |f| f.t),
-                sh,
-                sv
-            ));
-        }
-    }
+/// The causes each GNSS stream's statistics point to: refusals after gaps, gross errors,
+/// innovations far from their σ either way (with `floor`, a tight run's pseudoranges are
+/// judged together instead; with `tight`, pseudoranges far below their σ are the
+/// satellites' persisting errors).
+fn stream_causes(gnss: &[&StreamStats], floor: bool, tight: bool) -> Vec<String> {
+    let mut diagnosis = Vec::new();
     // tight coupling: pseudoranges whose innovations are far below their σ
     let mut absorbed = Vec::new();
-    for s in &gnss {
+    for s in gnss {
         if s.refused > 0 && s.refused_after_outage * 2 > s.refused {
             diagnosis.push(format!(
                 "{}: {} of the {} refusals follow a GNSS gap of more than {OUTAGE} s until the \
@@ -292,6 +264,44 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
             absorbed.join(", ")
         ));
     }
+    diagnosis
+}
+
+/// Judge a finished run: `Err` when a GNSS stream refused more than half of its epochs or
+/// its innovations are far from their distribution, or the filter moves against the odometer. `config` is the run's configuration
+/// as the user gave it (the initial position, if given, is checked against the first
+/// fix).
+pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
+    let gnss: Vec<&StreamStats> = summary.streams.iter().filter(|s| s.gnss).collect();
+    let tight = config.gnss.coupling == crate::config::Coupling::Tight;
+    let floor = tight && config.gnss.tight.error_floor;
+    let mut problems: Vec<String> =
+        gnss.iter().flat_map(|s| stream_problems(s, floor && is_pseudorange(s))).collect();
+    if floor {
+        problems.extend(pseudorange_problem(&gnss));
+    }
+    let reversed = odometer_reversed(summary);
+    problems.extend(reversed.iter().map(|(p, _)| p.clone()));
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let mut diagnosis: Vec<String> = reversed.into_iter().map(|(_, d)| d).collect();
+    // the initial position, farther from the first fix than its σ and the fix's allow
+    if let Some(((h, v), (sh, sv))) = initial_offset(summary, config) {
+        if h > 5.0 * sh.max(0.5) || v > 5.0 * sv.max(0.5) {
+            diagnosis.push(format!(
+                "the initial position `init.position` is {} horizontally and {} vertically \
+                 from the first GNSS fix (at {:.3} s; 1σ together {:.2} m and {:.2} m): a typo \
+                 in it, or in the file's position",
+                distance(h),
+                distance(v),
+                summary.first_fix.map_or(f64::NAN, |f| f.t),
+                sh,
+                sv
+            ));
+        }
+    }
+    diagnosis.extend(stream_causes(&gnss, floor, tight));
     let lever = Vector3::from(config.gnss.lever_arm).norm();
     if lever > LONG_LEVER_ARM {
         diagnosis.push(format!(

@@ -196,6 +196,105 @@ type CourseSpan = (f64, f64, f64);
 /// point and its neighbours).
 const OFFSET_STEP: f64 = 0.02;
 
+/// The gyro's turn about the mean "down" of a span: ψ at each sample's end from the first
+/// sample's start, and its integral Ψ (trapezoids: ψ is linear within a sample).
+struct Turn {
+    ts: Vec<f64>,
+    psi: Vec<f64>,
+    big: Vec<f64>,
+}
+
+impl Turn {
+    fn of(imu: &[&ImuSample]) -> Option<Self> {
+        let first = imu.first()?;
+        let f_sum: Vector3<f64> = imu.iter().map(|s| s.dvel).sum();
+        let down = -f_sum.try_normalize(1e-12)?;
+        let mut ts = Vec::with_capacity(imu.len() + 1);
+        let mut psi = Vec::with_capacity(imu.len() + 1);
+        let mut big = Vec::with_capacity(imu.len() + 1);
+        ts.push(first.t - first.dt);
+        psi.push(0.0);
+        big.push(0.0);
+        for s in imu {
+            let (t0, p0) = (ts[ts.len() - 1], psi[psi.len() - 1]);
+            let p1 = p0 + s.dtheta.dot(&down);
+            ts.push(s.t);
+            psi.push(p1);
+            big.push(big[big.len() - 1] + 0.5 * (p0 + p1) * (s.t - t0));
+        }
+        Some(Self { ts, psi, big })
+    }
+
+    /// ψ and Ψ at `t`, from one search.
+    fn at(&self, t: f64) -> Option<(f64, f64)> {
+        let (ts, psi, big) = (&self.ts, &self.psi, &self.big);
+        let k = first_at_or_after(ts, t);
+        if k == 0 || k >= ts.len() {
+            return None;
+        }
+        let (h, dt, dpsi) = (t - ts[k - 1], ts[k] - ts[k - 1], psi[k] - psi[k - 1]);
+        let slope = dpsi / dt;
+        Some((psi[k - 1] + h / dt * dpsi, big[k - 1] + h * (psi[k - 1] + 0.5 * slope * h)))
+    }
+
+    fn psi_at(&self, t: f64) -> Option<f64> {
+        self.at(t).map(|(p, _)| p)
+    }
+
+    /// The heading a course stands for, the IMU's stamps shifted by `d`: the instant's for
+    /// a velocity's course, the mean over the chord's span for a chord's (a chord of a
+    /// turn points along the mean heading, not the middle instant's: compared with the
+    /// instant's, the rounding of the turn's corners looks like an offset of a quarter of
+    /// the span, ±0.25 s for fixes 1 s apart, decisive on fixes of centimetres).
+    /// (`slip`: the lever arm ahead over the speed, s: the antenna's course leads by
+    /// `slip` times the turn rate)
+    fn heading(&self, (a, b, slip): CourseSpan, d: f64) -> Option<f64> {
+        if b - a < 1e-9 {
+            let rate = (self.psi_at(a + d + 0.05)? - self.psi_at(a + d - 0.05)?) / 0.1;
+            Some(self.psi_at(a + d)? + slip * rate)
+        } else {
+            let ((pa, ia), (pb, ib)) = (self.at(a + d)?, self.at(b + d)?);
+            Some((ib - ia + slip * (pb - pa)) / (b - a))
+        }
+    }
+}
+
+/// The grid's least misfit refined at the vertex of the parabola through it and its
+/// neighbours: (offset, misfit, the misfit's curvature there; NaN at the grid's edge or
+/// where it does not curve up).
+fn refine(grid: &[(f64, f64)], misfit: &dyn Fn(f64) -> Option<f64>) -> Option<(f64, f64, f64)> {
+    let k = (0..grid.len()).min_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))?;
+    let (mut offset, mut best) = grid[k];
+    let mut curvature = f64::NAN;
+    if k > 0 && k + 1 < grid.len() {
+        let (m0, m1, m2) = (grid[k - 1].1, grid[k].1, grid[k + 1].1);
+        let c = (m0 - 2.0 * m1 + m2) / (OFFSET_STEP * OFFSET_STEP);
+        if c > 0.0 {
+            let shift = 0.5 * OFFSET_STEP * (m0 - m2) / (m0 - 2.0 * m1 + m2);
+            offset += shift;
+            best = misfit(offset).unwrap_or(best).min(best);
+            curvature = c;
+        }
+    }
+    Some((offset, best, curvature))
+}
+
+/// The lag-one autocorrelation of a series (0 for a series of zeros).
+fn lag_one(residuals: &[f64]) -> f64 {
+    let (mut dot, mut sq) = (0.0, 0.0);
+    for w in residuals.windows(2) {
+        dot += w[0] * w[1];
+    }
+    for r in residuals {
+        sq += r * r;
+    }
+    if sq > 0.0 {
+        dot / sq
+    } else {
+        0.0
+    }
+}
+
 /// The offset between the IMU's and the GNSS's time stamps within `±max_offset` s: the
 /// GNSS course changes `Δχ` between consecutive moving fixes of `(t_a + max_offset,
 /// t_b − max_offset]` (about a second apart, as [`turn_ratio`]) against the gyro's turn
@@ -225,51 +324,8 @@ pub fn time_offset(
     }
     let imu: Vec<&ImuSample> =
         imu.iter().filter(|s| s.t > t_a - s.dt && s.t <= t_b + s.dt).collect();
-    let first = imu.first()?;
-    let f_sum: Vector3<f64> = imu.iter().map(|s| s.dvel).sum();
-    let down = -f_sum.try_normalize(1e-12)?;
-    // ψ at each sample's end, from the first sample's start, and its integral Ψ
-    // (trapezoids: ψ is linear within a sample)
-    let mut ts = Vec::with_capacity(imu.len() + 1);
-    let mut psi = Vec::with_capacity(imu.len() + 1);
-    let mut big = Vec::with_capacity(imu.len() + 1);
-    ts.push(first.t - first.dt);
-    psi.push(0.0);
-    big.push(0.0);
-    for s in &imu {
-        let (t0, p0) = (ts[ts.len() - 1], psi[psi.len() - 1]);
-        let p1 = p0 + s.dtheta.dot(&down);
-        ts.push(s.t);
-        psi.push(p1);
-        big.push(big[big.len() - 1] + 0.5 * (p0 + p1) * (s.t - t0));
-    }
-    // ψ and Ψ at `t`, from one search
-    let at = |t: f64| -> Option<(f64, f64)> {
-        let k = first_at_or_after(&ts, t);
-        if k == 0 || k >= ts.len() {
-            return None;
-        }
-        let (h, dt, dpsi) = (t - ts[k - 1], ts[k] - ts[k - 1], psi[k] - psi[k - 1]);
-        let slope = dpsi / dt;
-        Some((psi[k - 1] + h / dt * dpsi, big[k - 1] + h * (psi[k - 1] + 0.5 * slope * h)))
-    };
-    let psi_at = |t: f64| at(t).map(|(p, _)| p);
-    // the heading a course stands for: the instant's for a velocity's course, the mean
-    // over the chord's span for a chord's (a chord of a turn points along the mean
-    // heading, not the middle instant's: compared with the instant's, the rounding of
-    // the turn's corners looks like an offset of a quarter of the span, ±0.25 s for fixes
-    // 1 s apart, decisive on fixes of centimetres)
-    // (`slip`: the lever arm ahead over the speed, s: the antenna's course leads by
-    // `slip` times the turn rate)
-    let heading = |(a, b, slip): (f64, f64, f64), d: f64| -> Option<f64> {
-        if b - a < 1e-9 {
-            let rate = (psi_at(a + d + 0.05)? - psi_at(a + d - 0.05)?) / 0.1;
-            Some(psi_at(a + d)? + slip * rate)
-        } else {
-            let ((pa, ia), (pb, ib)) = (at(a + d)?, at(b + d)?);
-            Some((ib - ia + slip * (pb - pa)) / (b - a))
-        }
-    };
+    let turn = Turn::of(&imu)?;
+    let heading = |span: CourseSpan, d: f64| turn.heading(span, d);
     let fixes = fixes_a_second_apart(gnss, lo, hi);
     let course = courses(&fixes);
     let span = |i: usize| match fixes[i].vel {
@@ -306,38 +362,13 @@ pub fn time_offset(
             misfit(d).map(|m| (d, m))
         })
         .collect();
-    let k = (0..grid.len()).min_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))?;
-    let (mut offset, mut best) = grid[k];
-    let mut curvature = f64::NAN;
-    if k > 0 && k + 1 < grid.len() {
-        let (m0, m1, m2) = (grid[k - 1].1, grid[k].1, grid[k + 1].1);
-        let c = (m0 - 2.0 * m1 + m2) / (OFFSET_STEP * OFFSET_STEP);
-        if c > 0.0 {
-            let shift = 0.5 * OFFSET_STEP * (m0 - m2) / (m0 - 2.0 * m1 + m2);
-            offset += shift;
-            best = misfit(offset).unwrap_or(best).min(best);
-            curvature = c;
-        }
-    }
+    let (offset, best, curvature) = refine(&grid, &misfit)?;
     // the residuals' lag-one autocorrelation at the offset found
     let residuals: Vec<f64> = pairs
         .iter()
         .filter_map(|&(dchi, s0, s1)| Some(dchi - (heading(s1, offset)? - heading(s0, offset)?)))
         .collect();
-    let lag_one = {
-        let (mut dot, mut sq) = (0.0, 0.0);
-        for w in residuals.windows(2) {
-            dot += w[0] * w[1];
-        }
-        for r in &residuals {
-            sq += r * r;
-        }
-        if sq > 0.0 {
-            dot / sq
-        } else {
-            0.0
-        }
-    };
+    let lag_one = lag_one(&residuals);
     // var(δ) = 2 s² / f'' for a least-squares misfit f with residual variance s²
     let s2 = best / (pairs.len() - 1) as f64;
     let std = if curvature > 0.0 { (2.0 * s2 / curvature).sqrt() } else { f64::INFINITY };

@@ -182,15 +182,9 @@ pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> Stat
     still
 }
 
-/// [`detect_static`] without the fixes' drift: the span the IMU shows still (and no
-/// measured velocity contradicts). A reader that stops once this span has ended inside
-/// what it read has read all [`detect_static`] judges.
-pub fn still_span(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
-    let none = StaticStart::none;
-    let Some(first) = imu.first() else { return none(f64::NAN) };
-    let t0 = first.t - first.dt;
-    let g = gnss.iter().find(|e| e.t >= t0).map_or(9.8, |e| normal_gravity(e.pos.lat, e.pos.h));
-    // windows
+/// The IMU's samples in windows of `window` s from `t0` (a window's end moved on by whole
+/// windows over a gap); a last window only when full (a partial one has a noisier mean).
+fn windows_of(imu: &[ImuSample], t0: f64, window: f64) -> Vec<Window> {
     let mut windows: Vec<Window> = Vec::new();
     let mut cur = Window {
         end: 0,
@@ -226,6 +220,18 @@ pub fn still_span(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticS
     if cur.n > 0 && imu.last().is_some_and(|s| s.t >= cur.t1 - 1e-6) {
         windows.push(cur);
     }
+    windows
+}
+
+/// [`detect_static`] without the fixes' drift: the span the IMU shows still (and no
+/// measured velocity contradicts). A reader that stops once this span has ended inside
+/// what it read has read all [`detect_static`] judges.
+pub fn still_span(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
+    let none = StaticStart::none;
+    let Some(first) = imu.first() else { return none(f64::NAN) };
+    let t0 = first.t - first.dt;
+    let g = gnss.iter().find(|e| e.t >= t0).map_or(9.8, |e| normal_gravity(e.pos.lat, e.pos.h));
+    let windows = windows_of(imu, t0, window);
     let Some(w0) = windows.first().copied() else { return none(t0) };
     // (the IMU first: a fix's position far from the first one is no motion while the IMU
     // shows none — fixes jump and wander by more than their declared σ says, and a

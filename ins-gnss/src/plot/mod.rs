@@ -79,6 +79,73 @@ fn publish(path: &Path) -> Result<(), String> {
 pub const FILES: [&str; 4] =
     ["errors_position.svg", "errors_attitude.svg", "adaptation.svg", "trajectory.svg"];
 
+/// The adaptation factors λ_P and λ_R of each update over time (`adaptation.svg`,
+/// written as a partial file; the caller publishes it).
+fn adaptation_plot(p: &Path, ups: &[(f64, f64, f64, f64)]) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+    let tmp = partial(&p);
+    let root = SVGBackend::new(&tmp, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(e)?;
+    let (t0, t1) = (
+        ups.first().map(|u| u.0).unwrap_or(0.0),
+        ups.last().map(|u| u.0).unwrap_or(1.0).max(ups.first().map(|u| u.0 + 1.0).unwrap_or(1.0)),
+    );
+    let top = ups
+        .iter()
+        .flat_map(|u| [u.2, u.3])
+        .filter(|v| v.is_finite())
+        .fold(2.0_f64, f64::max)
+        .min(1e3);
+    let mut chart = ChartBuilder::on(&root)
+        .caption("adaptation factors (λ_P on P⁻, λ_R on R)", ("sans-serif", 17))
+        .margin(10)
+        .margin_right(36)
+        .x_label_area_size(40)
+        .y_label_area_size(64)
+        .build_cartesian_2d(t0..t1, (0.01f64..top * 1.2).log_scale())
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("factor").draw().map_err(e)?;
+    let finite = |v: f64| v.is_finite() && v > 0.0;
+    for (label, colour, pick) in [
+        ("λ_P", BLUE, (|u: &(f64, f64, f64, f64)| u.2) as fn(&(f64, f64, f64, f64)) -> f64),
+        ("λ_R", RED, |u| u.3),
+    ] {
+        let pts: Series = ups.iter().filter(|u| finite(pick(u))).map(|u| (u.0, pick(u))).collect();
+        // no line across an outage or a streak of refused updates
+        draw_runs(&mut chart, &pts, label, ShapeStyle::from(colour).stroke_width(1))?;
+    }
+    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    root.present().map_err(e)?;
+    Ok(())
+}
+
+/// A result's error series against the truth and its σ rows (`nav` and `std`, files of
+/// `out_dir`), from `from` on when there is a skip (`None`: from its own start plus the
+/// skip, as the tables count), and that time.
+#[allow(clippy::type_complexity)]
+fn series_from(
+    out_dir: &Path,
+    (nav, std): (&str, &str),
+    truth: &Path,
+    columns: Option<&TruthColumns>,
+    skip: f64,
+    from: Option<f64>,
+) -> Result<([Series; 6], Vec<Vec<f64>>, f64), String> {
+    let mut e = error_series(&out_dir.join(nav), truth, columns)?;
+    let mut s = read_columns(&out_dir.join(std))?;
+    let from = from.unwrap_or_else(|| {
+        let start = e.iter().filter_map(|s| s.first().map(|p| p.0)).fold(f64::INFINITY, f64::min);
+        start + skip
+    });
+    if skip > 0.0 && from.is_finite() {
+        for x in e.iter_mut() {
+            x.retain(|p| p.0 >= from);
+        }
+        s.retain(|r| r[0] >= from);
+    }
+    Ok((e, s, from))
+}
+
 /// Write the plots of the run in `out_dir` against `truth`; returns the files written.
 pub fn write_all(
     out_dir: &Path,
@@ -87,31 +154,17 @@ pub fn write_all(
     fixes: &[(f64, GeoPos)],
     skip: f64,
 ) -> Result<Vec<PathBuf>, String> {
-    let mut errs = error_series(&out_dir.join("nav.txt"), truth, columns)?;
-    let mut std = read_columns(&out_dir.join("std.txt"))?;
     // the time panels start after the skip, as the tables do
-    let start = errs.iter().filter_map(|s| s.first().map(|p| p.0)).fold(f64::INFINITY, f64::min);
-    let from = start + skip;
-    if skip > 0.0 && from.is_finite() {
-        for s in errs.iter_mut() {
-            s.retain(|p| p.0 >= from);
-        }
-        std.retain(|r| r[0] >= from);
-    }
+    let (errs, std, from) =
+        series_from(out_dir, ("nav.txt", "std.txt"), truth, columns, skip, None)?;
     let s3 = |std: &[Vec<f64>], col: usize| -> Series {
         std.iter().map(|r| (r[0], 3.0 * r[col])).collect()
     };
     // the smoother's, when the run smoothed
     let smoothed = match out_dir.join("nav_smoothed.txt").is_file() {
         true => {
-            let mut e = error_series(&out_dir.join("nav_smoothed.txt"), truth, columns)?;
-            let mut s = read_columns(&out_dir.join("std_smoothed.txt"))?;
-            if skip > 0.0 && from.is_finite() {
-                for x in e.iter_mut() {
-                    x.retain(|p| p.0 >= from);
-                }
-                s.retain(|r| r[0] >= from);
-            }
+            let files = ("nav_smoothed.txt", "std_smoothed.txt");
+            let (e, s, _) = series_from(out_dir, files, truth, columns, skip, Some(from))?;
             Some((e, s))
         }
         false => None,
@@ -163,45 +216,7 @@ pub fn write_all(
 
     let ups = read_updates(&out_dir.join("updates.csv"))?;
     let p = out_dir.join("adaptation.svg");
-    {
-        let tmp = partial(&p);
-        let root = SVGBackend::new(&tmp, (1000, 600)).into_drawing_area();
-        root.fill(&WHITE).map_err(e)?;
-        let (t0, t1) = (
-            ups.first().map(|u| u.0).unwrap_or(0.0),
-            ups.last()
-                .map(|u| u.0)
-                .unwrap_or(1.0)
-                .max(ups.first().map(|u| u.0 + 1.0).unwrap_or(1.0)),
-        );
-        let top = ups
-            .iter()
-            .flat_map(|u| [u.2, u.3])
-            .filter(|v| v.is_finite())
-            .fold(2.0_f64, f64::max)
-            .min(1e3);
-        let mut chart = ChartBuilder::on(&root)
-            .caption("adaptation factors (λ_P on P⁻, λ_R on R)", ("sans-serif", 17))
-            .margin(10)
-            .margin_right(36)
-            .x_label_area_size(40)
-            .y_label_area_size(64)
-            .build_cartesian_2d(t0..t1, (0.01f64..top * 1.2).log_scale())
-            .map_err(e)?;
-        chart.configure_mesh().x_desc("t [s]").y_desc("factor").draw().map_err(e)?;
-        let finite = |v: f64| v.is_finite() && v > 0.0;
-        for (label, colour, pick) in [
-            ("λ_P", BLUE, (|u: &(f64, f64, f64, f64)| u.2) as fn(&(f64, f64, f64, f64)) -> f64),
-            ("λ_R", RED, |u| u.3),
-        ] {
-            let pts: Series =
-                ups.iter().filter(|u| finite(pick(u))).map(|u| (u.0, pick(u))).collect();
-            // no line across an outage or a streak of refused updates
-            draw_runs(&mut chart, &pts, label, ShapeStyle::from(colour).stroke_width(1))?;
-        }
-        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
-        root.present().map_err(e)?;
-    }
+    adaptation_plot(&p, &ups)?;
     publish(&p)?;
     written.push(p);
 

@@ -116,109 +116,130 @@ fn unobserved<'a, 'b>(
     names.iter().zip(sigma).filter(|(_, s)| **s > UNOBSERVED * prior).map(|(a, _)| *a).collect()
 }
 
+/// A share of the prior σ left, in percent.
+fn share(s: f64, p: f64) -> String {
+    format!("{:.0} %", 100.0 * s / p)
+}
+
+/// A point's lever arm (m), its σ, the prior σ and how far the data reduced it.
+fn lever_text((l, s, p): AxesEstimate) -> String {
+    format!(
+        "[{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, reduced to {}, {}, \
+         {})",
+        l.x,
+        l.y,
+        l.z,
+        s.x,
+        s.y,
+        s.z,
+        share(s.x, p),
+        share(s.y, p),
+        share(s.z, p)
+    )
+}
+
+/// The lever arm's part of the calibration line.
+fn lever_part((l, s, p): AxesEstimate) -> String {
+    let blind = unobserved(&["x", "y", "z"], s.iter(), p);
+    let mut part = format!("lever arm {}", lever_text((l, s, p)));
+    if !blind.is_empty() {
+        part += &format!(
+            "; not observable by these data on {} (σ not reduced to a fifth of the \
+             prior: a drive level and straight does not tell it; measure it, or \
+             calibrate on a drive that turns, climbs and changes speed)",
+            blind.join(", ")
+        );
+    } else {
+        part += &format!(" (`gnss.lever_arm = [{:.3}, {:.3}, {:.3}]`)", l.x, l.y, l.z);
+    }
+    part
+}
+
+/// The time offset's part of the calibration line.
+fn time_offset_part((d, s, p, applied): (f64, f64, f64, f64)) -> String {
+    let mut part = format!(
+        "time offset: the IMU's stamps {:.4} s {} σ {:.4} s (prior σ {p:.3} s about the \
+         stamps shifted by {applied:.3} s, reduced to {})",
+        d.abs(),
+        if d >= 0.0 { "late" } else { "early" },
+        s,
+        share(s, p)
+    );
+    if s > UNOBSERVED * p {
+        part += "; not observable by these data (σ not reduced to a fifth of the prior: \
+                 a drive that turns and changes speed tells it)";
+    } else {
+        part += &format!(" (`data.imu_time_offset = {:.4}`)", -d);
+    }
+    part
+}
+
+/// The mounting's part of the calibration line.
+fn mounting_part((m, s, p): AxesEstimate) -> String {
+    let blind = unobserved(&["pitch", "yaw"], s.iter().skip(1), p);
+    let mut part = format!(
+        "mounting pitch {:.2}° σ {:.2}°, yaw {:.2}° σ {:.2}° (prior σ {p:.1}°, reduced to \
+         {}, {}; the roll, which the non-holonomic constraint cannot see, kept at \
+         {:.2}°)",
+        m.y,
+        s.y,
+        m.z,
+        s.z,
+        share(s.y, p),
+        share(s.z, p),
+        m.x
+    );
+    if !blind.is_empty() {
+        part += &format!(
+            "; not observable by these data on {} (σ not reduced to a fifth of the \
+             prior: a drive at speed tells it)",
+            blind.join(", ")
+        );
+    }
+    part += &format!(" (`vehicle.nhc.mounting = [{:.2}, {:.2}, {:.2}]`)", m.x, m.y, m.z);
+    part
+}
+
+/// The odometer's part of the calibration line.
+fn odometer_part(((k, ks, kp), (l, s, p)): ((f64, f64, f64), AxesEstimate)) -> String {
+    let mut part = format!(
+        "odometer scale error {:+.3} % σ {:.3} % (prior σ {:.1} %, reduced to {}), its \
+         wheel point {}",
+        100.0 * k,
+        100.0 * ks,
+        100.0 * kp,
+        share(ks, kp),
+        lever_text((l, s, p))
+    );
+    let axes = unobserved(&["x", "y", "z"], s.iter(), p);
+    if !axes.is_empty() {
+        part += &format!(
+            "; the wheel point not observable by these data on {} (a forward speed \
+             never shows the forward lever arm; the lateral one shows in turns, the \
+             vertical one in pitching)",
+            axes.join(", ")
+        );
+    }
+    if ks > UNOBSERVED * kp {
+        part += "; the scale not observable by these data (σ not reduced to a fifth of \
+                 the prior: a drive at speed with GNSS tells it)";
+    }
+    part
+}
+
 impl CalibrationLearned {
     /// The summary's line: each estimate with its σ, how far the data reduced the prior,
     /// and what the data could not tell.
     pub fn line(&self) -> String {
-        let mut parts = Vec::new();
-        let share = |s: f64, p: f64| format!("{:.0} %", 100.0 * s / p);
-        // a point's lever arm (m), its σ, the prior σ and how far the data reduced it
-        let lever = |(l, s, p): AxesEstimate| {
-            format!(
-                "[{:.3}, {:.3}, {:.3}] m σ [{:.3}, {:.3}, {:.3}] (prior σ {p:.2} m, reduced to \
-                 {}, {}, {})",
-                l.x,
-                l.y,
-                l.z,
-                s.x,
-                s.y,
-                s.z,
-                share(s.x, p),
-                share(s.y, p),
-                share(s.z, p)
-            )
-        };
-        if let Some((l, s, p)) = self.lever_arm {
-            let blind = unobserved(&["x", "y", "z"], s.iter(), p);
-            let mut part = format!("lever arm {}", lever((l, s, p)));
-            if !blind.is_empty() {
-                part += &format!(
-                    "; not observable by these data on {} (σ not reduced to a fifth of the \
-                     prior: a drive level and straight does not tell it; measure it, or \
-                     calibrate on a drive that turns, climbs and changes speed)",
-                    blind.join(", ")
-                );
-            } else {
-                part += &format!(" (`gnss.lever_arm = [{:.3}, {:.3}, {:.3}]`)", l.x, l.y, l.z);
-            }
-            parts.push(part);
-        }
-        if let Some((d, s, p, applied)) = self.time_offset {
-            let mut part = format!(
-                "time offset: the IMU's stamps {:.4} s {} σ {:.4} s (prior σ {p:.3} s about the \
-                 stamps shifted by {applied:.3} s, reduced to {})",
-                d.abs(),
-                if d >= 0.0 { "late" } else { "early" },
-                s,
-                share(s, p)
-            );
-            if s > UNOBSERVED * p {
-                part += "; not observable by these data (σ not reduced to a fifth of the prior: \
-                         a drive that turns and changes speed tells it)";
-            } else {
-                part += &format!(" (`data.imu_time_offset = {:.4}`)", -d);
-            }
-            parts.push(part);
-        }
-        if let Some((m, s, p)) = self.mounting {
-            let blind = unobserved(&["pitch", "yaw"], s.iter().skip(1), p);
-            let mut part = format!(
-                "mounting pitch {:.2}° σ {:.2}°, yaw {:.2}° σ {:.2}° (prior σ {p:.1}°, reduced to \
-                 {}, {}; the roll, which the non-holonomic constraint cannot see, kept at \
-                 {:.2}°)",
-                m.y,
-                s.y,
-                m.z,
-                s.z,
-                share(s.y, p),
-                share(s.z, p),
-                m.x
-            );
-            if !blind.is_empty() {
-                part += &format!(
-                    "; not observable by these data on {} (σ not reduced to a fifth of the \
-                     prior: a drive at speed tells it)",
-                    blind.join(", ")
-                );
-            }
-            part += &format!(" (`vehicle.nhc.mounting = [{:.2}, {:.2}, {:.2}]`)", m.x, m.y, m.z);
-            parts.push(part);
-        }
-        if let Some(((k, ks, kp), (l, s, p))) = self.odometer {
-            let mut part = format!(
-                "odometer scale error {:+.3} % σ {:.3} % (prior σ {:.1} %, reduced to {}), its \
-                 wheel point {}",
-                100.0 * k,
-                100.0 * ks,
-                100.0 * kp,
-                share(ks, kp),
-                lever((l, s, p))
-            );
-            let axes = unobserved(&["x", "y", "z"], s.iter(), p);
-            if !axes.is_empty() {
-                part += &format!(
-                    "; the wheel point not observable by these data on {} (a forward speed \
-                     never shows the forward lever arm; the lateral one shows in turns, the \
-                     vertical one in pitching)",
-                    axes.join(", ")
-                );
-            }
-            if ks > UNOBSERVED * kp {
-                part += "; the scale not observable by these data (σ not reduced to a fifth of \
-                         the prior: a drive at speed with GNSS tells it)";
-            }
-            parts.push(part);
-        }
+        let parts: Vec<String> = [
+            self.lever_arm.map(lever_part),
+            self.time_offset.map(time_offset_part),
+            self.mounting.map(mounting_part),
+            self.odometer.map(odometer_part),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
         format!("calibration: {}", parts.join("; "))
     }
 }
