@@ -83,7 +83,7 @@ pub const FILES: [&str; 4] =
 /// written as a partial file; the caller publishes it).
 fn adaptation_plot(p: &Path, ups: &[(f64, f64, f64, f64)]) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
-    let tmp = partial(&p);
+    let tmp = partial(p);
     let root = SVGBackend::new(&tmp, (1000, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
     let (t0, t1) = (
