@@ -39,8 +39,6 @@ where
         out: &mut Vec<UpdateSummary>,
         recorder: &mut R,
     ) -> Result<(), NavError> {
-        let t = imu.t;
-        let err = |source| NavError::Measurement { t, source };
         let v = &mut self.vehicle;
         let bg = self.filter.state().nav().bg;
         let imu_says = match &mut v.detector {
@@ -52,6 +50,25 @@ where
             v.aiding.odometer.is_some() && imu.odometer.is_some_and(|r| r.abs() < 1e-3);
         let stationary = imu_says || wheels_say;
         let speed = self.filter.state().nav().vel.norm();
+        self.odometer_update(imu, observer, out, recorder)?;
+        if self.stop_updates(imu, stationary, speed, observer, out, recorder)? {
+            return Ok(());
+        }
+        self.nhc_update(imu, speed, observer, out, recorder)
+    }
+
+    /// The odometer's reading: the reversed-reading bookkeeping, its scale calibrated
+    /// while GNSS keeps the forward speed right, then used as a forward speed.
+    fn odometer_update<O: Observer, R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        imu: &ImuSample,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        let t = imu.t;
+        let err = |source| NavError::Measurement { t, source };
+        let v = &mut self.vehicle;
         if let (Some(o), Some(reading)) = (v.aiding.odometer, imu.odometer) {
             let model = Odometer { c_vb: v.c_vb, lever_arm: o.lever_arm, gyro_rate: imu.rate() };
             let forward = model.predict(self.filter.state().nav())[0];
@@ -88,6 +105,24 @@ where
                 out.push(report.map_err(err)?);
             }
         }
+        Ok(())
+    }
+
+    /// ZUPT (and ZARU) while `stationary` and the filter's `speed` is consistent with
+    /// rest; whether the vehicle was taken as standing (then no NHC).
+    #[allow(clippy::too_many_arguments)]
+    fn stop_updates<O: Observer, R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        imu: &ImuSample,
+        stationary: bool,
+        speed: f64,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<bool, NavError> {
+        let t = imu.t;
+        let err = |source| NavError::Measurement { t, source };
+        let v = &mut self.vehicle;
         // the filter's speed must be consistent with rest: below `max_speed` plus three of
         // its σ (tight while GNSS holds the velocity, wide in an outage, when a stop is
         // most worth taking)
@@ -131,8 +166,23 @@ where
                     out.push(report.map_err(err)?);
                 }
             }
-            return Ok(());
+            return Ok(true);
         }
+        Ok(false)
+    }
+
+    /// NHC at its interval while the filter's `speed` is at least its minimum.
+    fn nhc_update<O: Observer, R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        imu: &ImuSample,
+        speed: f64,
+        observer: &mut O,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+    ) -> Result<(), NavError> {
+        let t = imu.t;
+        let err = |source| NavError::Measurement { t, source };
+        let v = &mut self.vehicle;
         if let Some(n) = v.aiding.nhc {
             if t - v.last_nhc >= n.interval - TIME_EPSILON && speed >= n.min_speed {
                 v.last_nhc = t;
