@@ -324,29 +324,7 @@ where
         let a_att = a_acc * manifolds::hat(&f_b);
         let Antenna { pos: ant, r: r_a, c_ne, .. } = Antenna::at(x, &self.gnss.lever_arm);
         // per satellite: elevation, the residual of its phase change (m), its line of sight
-        let mut rows: Vec<(f64, f64, Vector3<f64>)> = Vec::with_capacity(e.sats.len());
-        for s in &e.sats {
-            let (Some(phase), false) = (s.phase, s.slip) else { continue };
-            let Some(&(_, p0, pos0, clk0, atm0)) = prev.sats.iter().find(|p| p.0 == s.sat) else {
-                continue;
-            };
-            let (rho, u) = crate::raw::spp::geometry(&s.state.pos, &r_a);
-            let (rho0, _) = crate::raw::spp::geometry(&pos0, &prev.anchor);
-            let (_, el) = azel(ant.lat, ant.lon, &u);
-            if el < cfg.models.elevation_mask {
-                continue;
-            }
-            let change = phase - p0;
-            // a slip the receiver did not flag: the phase's rate far from the Doppler's
-            if let Some(rate) = s.range_rate {
-                if (change / dt - rate).abs() > SLIP_RATE {
-                    continue;
-                }
-            }
-            let sat_clock = crate::raw::ephemeris::C * (s.state.clock - clk0);
-            let atm = phase_atmosphere(cfg, (ant.lat, ant.lon, ant.h), &r_a, e.time, s);
-            rows.push((el, change + sat_clock - (rho - rho0) - (atm - atm0), c_ne * u));
-        }
+        let rows = carrier_rows(e, &prev, cfg, dt, (&ant, &r_a, &c_ne));
         if rows.len() < 2 {
             return Ok(());
         }
@@ -394,6 +372,44 @@ where
         }
         Ok(())
     }
+}
+
+/// Each satellite's phase change since the last epoch `prev` (over `dt` s) seen from the
+/// antenna (`ant`: geodetic, ECEF, and the ECEF-to-NED rotation): its elevation, the
+/// change's residual (m) after the satellites' clocks, the geometry and the atmosphere,
+/// and its line of sight (NED); the satellites below the mask, slipped or whose phase's
+/// rate is far from their Doppler's left out.
+fn carrier_rows(
+    e: &RawEpoch,
+    prev: &CarrierEpoch,
+    cfg: &TightConfig,
+    dt: f64,
+    (ant, r_a, c_ne): (&crate::GeoPos, &Vector3<f64>, &nalgebra::Matrix3<f64>),
+) -> Vec<(f64, f64, Vector3<f64>)> {
+    let mut rows: Vec<(f64, f64, Vector3<f64>)> = Vec::with_capacity(e.sats.len());
+    for s in &e.sats {
+        let (Some(phase), false) = (s.phase, s.slip) else { continue };
+        let Some(&(_, p0, pos0, clk0, atm0)) = prev.sats.iter().find(|p| p.0 == s.sat) else {
+            continue;
+        };
+        let (rho, u) = crate::raw::spp::geometry(&s.state.pos, r_a);
+        let (rho0, _) = crate::raw::spp::geometry(&pos0, &prev.anchor);
+        let (_, el) = azel(ant.lat, ant.lon, &u);
+        if el < cfg.models.elevation_mask {
+            continue;
+        }
+        let change = phase - p0;
+        // a slip the receiver did not flag: the phase's rate far from the Doppler's
+        if let Some(rate) = s.range_rate {
+            if (change / dt - rate).abs() > SLIP_RATE {
+                continue;
+            }
+        }
+        let sat_clock = crate::raw::ephemeris::C * (s.state.clock - clk0);
+        let atm = phase_atmosphere(cfg, (ant.lat, ant.lon, ant.h), r_a, e.time, s);
+        rows.push((el, change + sat_clock - (rho - rho0) - (atm - atm0), c_ne * u));
+    }
+    rows
 }
 
 /// The atmosphere's delay of a satellite's carrier phase at the antenna `r` (ECEF, at
