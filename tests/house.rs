@@ -142,8 +142,6 @@ const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
     ("ins-gnss-core/src/raw/rinex/observations.rs", "next_epoch", 96),
     ("ins-gnss-core/src/raw/rinex/navigation.rs", "read_nav", 95),
     ("ins-gnss-core/src/io/formats/gnss.rs", "next_fix", 93),
-    ("ins-gnss/src/scenario/write.rs", "config", 92),
-    ("ins-gnss/src/report.rs", "write", 92),
     ("ins-gnss-core/src/raw/rinex/navigation.rs", "kepler_record", 91),
     ("ins-gnss-core/src/io/rtklib/mod.rs", "parse_line", 90),
 ];

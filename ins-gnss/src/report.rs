@@ -46,6 +46,44 @@ fn inline_svg(path: &Path) -> Result<String, String> {
     Ok(text[start..].to_string())
 }
 
+/// The tables of the errors against the truth and, where the results carry σ, their
+/// consistency (NEES) per block.
+fn truth_tables(h: &mut String, tables: &[(String, Evaluation)]) {
+    h.push_str("<h2>Errors against the truth</h2>\n<table>\n");
+    h.push_str(HEADER);
+    for (label, ev) in tables {
+        row(h, &format!("{label} ({})", ev.overall.label), &ev.overall);
+        for w in &ev.windows {
+            row(h, &format!("{label} ({})", w.label), w);
+        }
+    }
+    h.push_str("</table>\n");
+    let nees: Vec<_> =
+        tables.iter().filter_map(|(l, ev)| ev.nees.as_ref().map(|n| (l, n))).collect();
+    if !nees.is_empty() {
+        h.push_str("<h2>Consistency against the truth (NEES)</h2>\n<table>\n");
+        h.push_str(
+            "<tr><th>result</th><th>block</th><th>epochs</th><th>NEES/dof (1)</th>\
+             <th>beyond χ²<sub>0.99</sub> (1 %, at most 5 %)</th><th>verdict</th></tr>\n",
+        );
+        for (label, n) in nees {
+            for (block, b) in n.blocks() {
+                let ok = b.consistent() == Some(true);
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{}</td><td>{block}</td><td>{}</td><td>{:.2}</td><td>{:.1} %</td><td>{}</td></tr>",
+                    escape(label),
+                    b.epochs,
+                    b.mean_per_dof,
+                    100.0 * b.beyond_99,
+                    if ok { "consistent" } else { "<b>NOT consistent</b>" }
+                );
+            }
+        }
+        h.push_str("</table>\n");
+    }
+}
+
 /// Write `out_dir/report.html` (through a `.partial` file, renamed when complete).
 pub fn write(
     out_dir: &Path,
@@ -86,39 +124,7 @@ pub fn write(
         }
     }
     if !tables.is_empty() {
-        h.push_str("<h2>Errors against the truth</h2>\n<table>\n");
-        h.push_str(HEADER);
-        for (label, ev) in tables {
-            row(&mut h, &format!("{label} ({})", ev.overall.label), &ev.overall);
-            for w in &ev.windows {
-                row(&mut h, &format!("{label} ({})", w.label), w);
-            }
-        }
-        h.push_str("</table>\n");
-        let nees: Vec<_> =
-            tables.iter().filter_map(|(l, ev)| ev.nees.as_ref().map(|n| (l, n))).collect();
-        if !nees.is_empty() {
-            h.push_str("<h2>Consistency against the truth (NEES)</h2>\n<table>\n");
-            h.push_str(
-                "<tr><th>result</th><th>block</th><th>epochs</th><th>NEES/dof (1)</th>\
-                 <th>beyond χ²<sub>0.99</sub> (1 %, at most 5 %)</th><th>verdict</th></tr>\n",
-            );
-            for (label, n) in nees {
-                for (block, b) in n.blocks() {
-                    let ok = b.consistent() == Some(true);
-                    let _ = writeln!(
-                        h,
-                        "<tr><td>{}</td><td>{block}</td><td>{}</td><td>{:.2}</td><td>{:.1} %</td><td>{}</td></tr>",
-                        escape(label),
-                        b.epochs,
-                        b.mean_per_dof,
-                        100.0 * b.beyond_99,
-                        if ok { "consistent" } else { "<b>NOT consistent</b>" }
-                    );
-                }
-            }
-            h.push_str("</table>\n");
-        }
+        truth_tables(&mut h, tables);
     }
     if !plots.is_empty() {
         h.push_str("<h2>Plots</h2>\n");

@@ -134,6 +134,33 @@ impl Scenario {
         Ok([obs, nav_copy])
     }
 
+    /// The simulated files' `[data]`: the IMU, the GNSS (fixes, or the raw observations
+    /// and their navigation files), the headings and the truth, from `t0` on.
+    fn data_section(&self, t0: f64) -> DataSection {
+        let i = &self.imu;
+        DataSection {
+            imu: "IMU.txt".into(),
+            gnss: if self.raw.is_some() { "obs.rnx" } else { "GNSS.txt" }.into(),
+            output: "out".into(),
+            imu_rate: i.rate,
+            imu_format: Default::default(),
+            start_time: Some(t0),
+            end_time: None,
+            bad_lines: Default::default(),
+            max_gap: 5.0,
+            max_bridge: ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE,
+            imu_time_offset: 0.0,
+            heading: self.gnss.heading.as_ref().map(|_| "HEADING.txt".into()),
+            truth: Some("truth.nav".into()),
+            imu_columns: None,
+            gnss_columns: None,
+            gnss_format: Default::default(),
+            truth_columns: None,
+            nav: self.raw.iter().filter_map(|r| r.nav.file_name().map(PathBuf::from)).collect(),
+            ros: None,
+        }
+    }
+
     /// The configuration matching this scenario (paths relative to the dataset).
     pub fn config(&self, truth0: &ins_gnss_core::InsState, t0: f64) -> Config {
         use manifolds::Manifold;
@@ -154,27 +181,7 @@ impl Scenario {
             [s; 3]
         };
         Config {
-            data: DataSection {
-                imu: "IMU.txt".into(),
-                gnss: if self.raw.is_some() { "obs.rnx" } else { "GNSS.txt" }.into(),
-                output: "out".into(),
-                imu_rate: i.rate,
-                imu_format: Default::default(),
-                start_time: Some(t0),
-                end_time: None,
-                bad_lines: Default::default(),
-                max_gap: 5.0,
-                max_bridge: ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE,
-                imu_time_offset: 0.0,
-                heading: self.gnss.heading.as_ref().map(|_| "HEADING.txt".into()),
-                truth: Some("truth.nav".into()),
-                imu_columns: None,
-                gnss_columns: None,
-                gnss_format: Default::default(),
-                truth_columns: None,
-                nav: self.raw.iter().filter_map(|r| r.nav.file_name().map(PathBuf::from)).collect(),
-                ros: None,
-            },
+            data: self.data_section(t0),
             init: InitSection {
                 position: Some([x0.pos.lat * d, x0.pos.lon * d, x0.pos.h]),
                 velocity: Some([x0.vel.x, x0.vel.y, x0.vel.z]),
