@@ -82,27 +82,7 @@ impl Scenario {
 
     /// Every value finite and physical; the message names the key and the limit.
     pub fn validate(&self) -> Result<(), String> {
-        let st = &self.start;
-        finite("start.time", &[st.time])?;
-        finite("start.position", &st.position)?;
-        if st.position[0].abs() >= 89.9 || st.position[1].abs() > 360.0 {
-            return Err(format!(
-                "`start.position` latitude {}° / longitude {}°: |latitude| must be below 89.9°",
-                st.position[0], st.position[1]
-            ));
-        }
-        if !(-1_000.0..=100_000.0).contains(&st.position[2]) {
-            return Err(format!(
-                "`start.position` height {} m outside −1 km…+100 km",
-                st.position[2]
-            ));
-        }
-        finite("start.speed", &[st.speed])?;
-        if !(0.0..=2_000.0).contains(&st.speed) {
-            return Err(format!("`start.speed` {} m/s outside 0…2000 m/s", st.speed));
-        }
-        finite("start.yaw", &[st.yaw])?;
-        finite("start.pitch", &[st.pitch])?;
+        self.start.validate()?;
         if self.segments.is_empty() {
             return Err("`segment`: at least one segment is needed".into());
         }
@@ -111,95 +91,13 @@ impl Scenario {
             finite(&format!("segment[{i}].rate"), &[seg.rate])?;
             nonneg(&format!("segment[{i}].accel"), &[seg.accel])?;
         }
-        let i = &self.imu;
-        positive("imu.rate", &[i.rate])?;
-        if i.rate > 10_000.0 {
-            return Err(format!("`imu.rate` {} Hz above the 10 kHz limit", i.rate));
-        }
-        nonneg("imu.arw", &[i.arw])?;
-        nonneg("imu.vrw", &[i.vrw])?;
-        nonneg("imu.gyro_bias_std", &[i.gyro_bias_std])?;
-        nonneg("imu.accel_bias_std", &[i.accel_bias_std])?;
-        positive("imu.corr_time", &[i.corr_time])?;
-        finite("imu.gyro_turn_on", &i.gyro_turn_on)?;
-        finite("imu.accel_turn_on", &i.accel_turn_on)?;
-        finite("imu.gyro_scale_ppm", &i.gyro_scale_ppm)?;
-        finite("imu.accel_scale_ppm", &i.accel_scale_ppm)?;
-        nonneg("imu.vibration", &i.vibration)?;
-        finite("imu.mounting", &i.mounting)?;
-        if i.mounting.iter().any(|a| a.abs() > 180.0) {
-            return Err(format!("`imu.mounting` {:?}: angles in degrees within ±180", i.mounting));
-        }
-        if let Some([scale, sigma]) = i.odometer {
-            finite("imu.odometer", &[scale])?;
-            nonneg("imu.odometer", &[sigma])?;
-        }
-        let g = &self.gnss;
-        positive("gnss.rate", &[g.rate])?;
+        self.imu.validate()?;
+        positive("gnss.rate", &[self.gnss.rate])?;
         if let Some(r) = &self.raw {
-            positive("raw.rate", &[r.rate])?;
-            r.true_troposphere()?;
-            if !(0.0..90.0).contains(&r.elevation_mask) {
-                return Err(format!("`raw.elevation_mask` {}: degrees in 0…90", r.elevation_mask));
-            }
-            for (key, p) in [("raw.outliers", r.outliers), ("raw.slips", r.slips)] {
-                if !(0.0..=1.0).contains(&p) {
-                    return Err(format!("`{key}` {p}: a probability in 0…1"));
-                }
-            }
-            for (k, m) in r.masks.iter().enumerate() {
-                finite(&format!("raw.masks[{k}]"), m)?;
-                if m[1] <= m[0] || m[2] < 0.0 || m[2].fract() != 0.0 {
-                    return Err(format!(
-                        "`raw.masks[{k}]` {m:?}: [start, end, satellites left] with start < end \
-                         and a whole number of satellites"
-                    ));
-                }
-            }
+            r.validate()?;
         }
-        if g.rate > i.rate {
-            return Err(format!("`gnss.rate` {} Hz above `imu.rate` {} Hz", g.rate, i.rate));
-        }
-        positive("gnss.position_std", &g.position_std)?;
-        if let Some(v) = &g.velocity_std {
-            positive("gnss.velocity_std", v)?;
-        }
-        finite("gnss.lever_arm", &g.lever_arm)?;
-        if let Some(h) = &g.heading {
-            finite("gnss.heading.baseline", &h.baseline)?;
-            let b = nalgebra::Vector3::from(h.baseline);
-            if !ins_gnss_core::heading::has_horizontal_direction(&b) {
-                return Err(format!(
-                    "`gnss.heading.baseline` {:?} m: a baseline with a horizontal direction",
-                    h.baseline
-                ));
-            }
-            positive("gnss.heading.std", &[h.std])?;
-        }
-        if g.lever_arm.iter().any(|v| v.abs() > 100.0) {
-            return Err(format!("`gnss.lever_arm` {:?} m beyond the 100 m limit", g.lever_arm));
-        }
-        for (k, w) in g.windows.iter().enumerate() {
-            finite(&format!("gnss.window[{k}].start"), &[w.start])?;
-            finite(&format!("gnss.window[{k}].end"), &[w.end])?;
-            if w.end <= w.start {
-                return Err(format!("`gnss.window[{k}]`: end must be after start"));
-            }
-            nonneg(&format!("gnss.window[{k}].factor"), &[w.factor])?;
-            nonneg(&format!("gnss.window[{k}].sigmas"), &[w.sigmas])?;
-            finite(&format!("gnss.window[{k}].probability"), &[w.probability])?;
-            if !(0.0..=1.0).contains(&w.probability) {
-                return Err(format!("`gnss.window[{k}].probability` must lie in 0…1"));
-            }
-        }
-        let n = &self.init;
-        positive("init.attitude_std", &n.attitude_std)?;
-        positive("init.velocity_std", &n.velocity_std)?;
-        positive("init.position_std", &n.position_std)?;
-        finite("init.attitude_error", &n.attitude_error)?;
-        finite("init.velocity_error", &n.velocity_error)?;
-        finite("init.position_error", &n.position_error)?;
-        Ok(())
+        self.gnss.validate(self.imu.rate)?;
+        self.init.validate()
     }
 
     /// The built-in demo: the 600 s drive, a consumer MEMS IMU at 100 Hz, GNSS position

@@ -222,3 +222,143 @@ fn yes() -> bool {
 fn one() -> f64 {
     1.0
 }
+
+impl StartSpec {
+    /// `[start]`'s checks.
+    pub(super) fn validate(&self) -> Result<(), String> {
+        finite("start.time", &[self.time])?;
+        finite("start.position", &self.position)?;
+        if self.position[0].abs() >= 89.9 || self.position[1].abs() > 360.0 {
+            return Err(format!(
+                "`start.position` latitude {}° / longitude {}°: |latitude| must be below 89.9°",
+                self.position[0], self.position[1]
+            ));
+        }
+        if !(-1_000.0..=100_000.0).contains(&self.position[2]) {
+            return Err(format!(
+                "`start.position` height {} m outside −1 km…+100 km",
+                self.position[2]
+            ));
+        }
+        finite("start.speed", &[self.speed])?;
+        if !(0.0..=2_000.0).contains(&self.speed) {
+            return Err(format!("`start.speed` {} m/s outside 0…2000 m/s", self.speed));
+        }
+        finite("start.yaw", &[self.yaw])?;
+        finite("start.pitch", &[self.pitch])?;
+        Ok(())
+    }
+}
+
+impl ImuSpec {
+    /// `[imu]`'s checks.
+    pub(super) fn validate(&self) -> Result<(), String> {
+        positive("imu.rate", &[self.rate])?;
+        if self.rate > 10_000.0 {
+            return Err(format!("`imu.rate` {} Hz above the 10 kHz limit", self.rate));
+        }
+        nonneg("imu.arw", &[self.arw])?;
+        nonneg("imu.vrw", &[self.vrw])?;
+        nonneg("imu.gyro_bias_std", &[self.gyro_bias_std])?;
+        nonneg("imu.accel_bias_std", &[self.accel_bias_std])?;
+        positive("imu.corr_time", &[self.corr_time])?;
+        finite("imu.gyro_turn_on", &self.gyro_turn_on)?;
+        finite("imu.accel_turn_on", &self.accel_turn_on)?;
+        finite("imu.gyro_scale_ppm", &self.gyro_scale_ppm)?;
+        finite("imu.accel_scale_ppm", &self.accel_scale_ppm)?;
+        nonneg("imu.vibration", &self.vibration)?;
+        finite("imu.mounting", &self.mounting)?;
+        if self.mounting.iter().any(|a| a.abs() > 180.0) {
+            return Err(format!(
+                "`imu.mounting` {:?}: angles in degrees within ±180",
+                self.mounting
+            ));
+        }
+        if let Some([scale, sigma]) = self.odometer {
+            finite("imu.odometer", &[scale])?;
+            nonneg("imu.odometer", &[sigma])?;
+        }
+        Ok(())
+    }
+}
+
+impl RawSpec {
+    /// `[raw]`'s checks.
+    pub(super) fn validate(&self) -> Result<(), String> {
+        positive("raw.rate", &[self.rate])?;
+        self.true_troposphere()?;
+        if !(0.0..90.0).contains(&self.elevation_mask) {
+            return Err(format!("`raw.elevation_mask` {}: degrees in 0…90", self.elevation_mask));
+        }
+        for (key, p) in [("raw.outliers", self.outliers), ("raw.slips", self.slips)] {
+            if !(0.0..=1.0).contains(&p) {
+                return Err(format!("`{key}` {p}: a probability in 0…1"));
+            }
+        }
+        for (k, m) in self.masks.iter().enumerate() {
+            finite(&format!("raw.masks[{k}]"), m)?;
+            if m[1] <= m[0] || m[2] < 0.0 || m[2].fract() != 0.0 {
+                return Err(format!(
+                    "`raw.masks[{k}]` {m:?}: [start, end, satellites left] with start < end \
+                     and a whole number of satellites"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl GnssSpec {
+    /// `[gnss]`'s checks, its rate against the IMU's (`imu_rate`, Hz).
+    pub(super) fn validate(&self, imu_rate: f64) -> Result<(), String> {
+        if self.rate > imu_rate {
+            return Err(format!("`gnss.rate` {} Hz above `imu.rate` {} Hz", self.rate, imu_rate));
+        }
+        positive("gnss.position_std", &self.position_std)?;
+        if let Some(v) = &self.velocity_std {
+            positive("gnss.velocity_std", v)?;
+        }
+        finite("gnss.lever_arm", &self.lever_arm)?;
+        if let Some(h) = &self.heading {
+            finite("gnss.heading.baseline", &h.baseline)?;
+            let b = nalgebra::Vector3::from(h.baseline);
+            if !ins_gnss_core::heading::has_horizontal_direction(&b) {
+                return Err(format!(
+                    "`gnss.heading.baseline` {:?} m: a baseline with a horizontal direction",
+                    h.baseline
+                ));
+            }
+            positive("gnss.heading.std", &[h.std])?;
+        }
+        if self.lever_arm.iter().any(|v| v.abs() > 100.0) {
+            return Err(format!("`gnss.lever_arm` {:?} m beyond the 100 m limit", self.lever_arm));
+        }
+        for (k, w) in self.windows.iter().enumerate() {
+            finite(&format!("gnss.window[{k}].start"), &[w.start])?;
+            finite(&format!("gnss.window[{k}].end"), &[w.end])?;
+            if w.end <= w.start {
+                return Err(format!("`gnss.window[{k}]`: end must be after start"));
+            }
+            nonneg(&format!("gnss.window[{k}].factor"), &[w.factor])?;
+            nonneg(&format!("gnss.window[{k}].sigmas"), &[w.sigmas])?;
+            finite(&format!("gnss.window[{k}].probability"), &[w.probability])?;
+            if !(0.0..=1.0).contains(&w.probability) {
+                return Err(format!("`gnss.window[{k}].probability` must lie in 0…1"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl InitSpec {
+    /// `[init]`'s checks.
+    pub(super) fn validate(&self) -> Result<(), String> {
+        positive("init.attitude_std", &self.attitude_std)?;
+        positive("init.velocity_std", &self.velocity_std)?;
+        positive("init.position_std", &self.position_std)?;
+        finite("init.attitude_error", &self.attitude_error)?;
+        finite("init.velocity_error", &self.velocity_error)?;
+        finite("init.position_error", &self.position_error)?;
+        Ok(())
+    }
+}
