@@ -139,10 +139,7 @@ const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
     ("ins-gnss-core/src/io/ros/mod.rs", "read", 116),
     ("ins-gnss-core/src/io/nmea.rs", "push", 100),
     ("ins-gnss-core/src/raw/rinex/observations.rs", "next_epoch", 96),
-    ("ins-gnss-core/src/raw/rinex/navigation.rs", "read_nav", 95),
     ("ins-gnss-core/src/io/formats/gnss.rs", "next_fix", 93),
-    ("ins-gnss-core/src/raw/rinex/navigation.rs", "kepler_record", 91),
-    ("ins-gnss-core/src/io/rtklib/mod.rs", "parse_line", 90),
 ];
 
 /// A line with its string and character literals and its `//` comment taken out (enough

@@ -171,32 +171,16 @@ pub(crate) fn field(fields: &[&str], i: usize) -> Result<f64, LineErrorKind> {
     }
 }
 
-/// One data line: the epoch, or `None` when its quality is dropped (`Q = 0` always).
-pub fn parse_line(
+/// A line's position (its fields after the time) in the header's form, and for ECEF the
+/// rotation to NED that its covariances need.
+#[allow(clippy::type_complexity)]
+fn position_of(
     h: &PosHeader,
-    line: &str,
-    quality: &QualityFactors,
-) -> Result<Option<GnssEpoch>, LineErrorKind> {
-    let (t, fields) = split_line(h.system, line, 3)?;
-    let num = |i: usize| field(&fields, i);
-    let q = match h.q {
-        Some(i) => {
-            let q = num(i)?;
-            if !(0.0..=6.0).contains(&q) || q.fract() != 0.0 {
-                return Err(LineErrorKind::WrongUnits(format!(
-                    "solution quality Q = {q}: RTKLIB writes 0–6"
-                )));
-            }
-            q as usize
-        }
-        None => 1,
-    };
-    if q == 0 || quality.drop[q] {
-        return Ok(None);
-    }
-    let k = quality.factor[q];
+    fields: &[&str],
+) -> Result<(GeoPos, Option<Matrix3<f64>>), LineErrorKind> {
+    let num = |i: usize| field(fields, i);
     let p = h.pos;
-    let (pos, c_ne) = match h.form {
+    Ok(match h.form {
         PosForm::Degrees => {
             let pos = GeoPos::from_degrees(num(p)?, num(p + 1)?, num(p + 2)?);
             (pos, None)
@@ -221,7 +205,34 @@ pub fn parse_line(
             let (lat, lon, hgt) = ecef_to_geodetic(&r);
             (GeoPos::new(lat, lon, hgt), Some(ecef_to_ned_rotation(lat, lon)))
         }
+    })
+}
+
+/// One data line: the epoch, or `None` when its quality is dropped (`Q = 0` always).
+pub fn parse_line(
+    h: &PosHeader,
+    line: &str,
+    quality: &QualityFactors,
+) -> Result<Option<GnssEpoch>, LineErrorKind> {
+    let (t, fields) = split_line(h.system, line, 3)?;
+    let num = |i: usize| field(&fields, i);
+    let q = match h.q {
+        Some(i) => {
+            let q = num(i)?;
+            if !(0.0..=6.0).contains(&q) || q.fract() != 0.0 {
+                return Err(LineErrorKind::WrongUnits(format!(
+                    "solution quality Q = {q}: RTKLIB writes 0–6"
+                )));
+            }
+            q as usize
+        }
+        None => 1,
     };
+    if q == 0 || quality.drop[q] {
+        return Ok(None);
+    }
+    let k = quality.factor[q];
+    let (pos, c_ne) = position_of(h, &fields)?;
     if pos.lat.abs() > core::f64::consts::FRAC_PI_2 || pos.lon.abs() > 2.0 * core::f64::consts::PI {
         return Err(LineErrorKind::WrongUnits("latitude or longitude out of range".into()));
     }

@@ -13,14 +13,18 @@ pub struct NavData {
     pub unused: usize,
 }
 
-/// Reads a RINEX 2 (GPS `N`) or 3 (any `N`) navigation file.
-pub fn read_nav(path: &Path) -> Result<NavData, RawError> {
-    let mut input = open_input(path)?;
-    let mut line_no = 0;
+/// A navigation file's header: its version, its system letter (`G` when blank), and the
+/// GPS ionosphere's α and β when it gives them.
+#[allow(clippy::type_complexity)]
+fn nav_header(
+    input: &mut Input,
+    path: &Path,
+    line_no: &mut usize,
+) -> Result<(f64, char, Option<[f64; 4]>, Option<[f64; 4]>), RawError> {
     let mut version = 0.0;
     let mut file_sys = 'G';
     let (mut alpha, mut beta) = (None, None);
-    read_header(&mut input, path, &mut line_no, |l| {
+    read_header(input, path, line_no, |l| {
         let d4 = |from: usize| -> Result<[f64; 4], String> {
             let mut c = [0.0; 4];
             for (k, v) in c.iter_mut().enumerate() {
@@ -51,6 +55,14 @@ pub fn read_nav(path: &Path) -> Result<NavData, RawError> {
         }
         Ok(())
     })?;
+    Ok((version, file_sys, alpha, beta))
+}
+
+/// Reads a RINEX 2 (GPS `N`) or 3 (any `N`) navigation file.
+pub fn read_nav(path: &Path) -> Result<NavData, RawError> {
+    let mut input = open_input(path)?;
+    let mut line_no = 0;
+    let (version, file_sys, alpha, beta) = nav_header(&mut input, path, &mut line_no)?;
     if version == 0.0 {
         return Err(err(path, 1, "no `RINEX VERSION / TYPE` line"));
     }
@@ -110,10 +122,13 @@ pub fn read_nav(path: &Path) -> Result<NavData, RawError> {
     Ok(NavData { ephemerides: Ephemerides::new(records), klobuchar, unused })
 }
 
-/// One Keplerian record from its 8 lines; an error names the line (0-based in the record).
-fn kepler_record(lines: &[String], sys: System, v3: bool) -> Result<Ephemeris, (usize, String)> {
-    let first = &lines[0];
-    let (sat, t, head) = if v3 {
+/// A record's first line's satellite and epoch, and where its values start.
+fn record_epoch(
+    first: &str,
+    sys: System,
+    v3: bool,
+) -> Result<(Sat, GpsTime, usize), (usize, String)> {
+    if v3 {
         let id = first.get(..3).unwrap_or("");
         let sat = Sat::parse(id).ok_or((0, format!("`{id}` is not a satellite")))?;
         let g = |a, z| {
@@ -127,7 +142,7 @@ fn kepler_record(lines: &[String], sys: System, v3: bool) -> Result<Ephemeris, (
             g(18, 20)?,
             g(21, 23)? as f64,
         );
-        (sat, t, 23)
+        Ok((sat, t, 23))
     } else {
         let prn = int_field(first, 0, 2).map_err(|m| (0, m))?.ok_or((0, "no PRN".to_string()))?;
         let sat = Sat { sys, prn: u8::try_from(prn).map_err(|_| (0, format!("PRN {prn}")))? };
@@ -143,8 +158,14 @@ fn kepler_record(lines: &[String], sys: System, v3: bool) -> Result<Ephemeris, (
             g(14, 17)?,
             sec,
         );
-        (sat, t, 22)
-    };
+        Ok((sat, t, 22))
+    }
+}
+
+/// One Keplerian record from its 8 lines; an error names the line (0-based in the record).
+fn kepler_record(lines: &[String], sys: System, v3: bool) -> Result<Ephemeris, (usize, String)> {
+    let first = &lines[0];
+    let (sat, t, head) = record_epoch(first, sys, v3)?;
     let mut v = [0.0f64; 31];
     for (k, slot) in v.iter_mut().take(3).enumerate() {
         *slot =
