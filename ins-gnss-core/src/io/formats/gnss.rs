@@ -197,50 +197,7 @@ impl<R: BufRead> GnssReader<R> {
             }
             let rec = self.mapping.record(self.lines.values());
             let n = rec.len();
-            let expected: Vec<usize> = match self.columns {
-                Some(c) => vec![c],
-                None => vec![7, 13],
-            };
-            let result = if !expected.contains(&n) {
-                Err(LineErrorKind::ColumnCount { expected, found: n })
-            } else if rec[1].abs() > 90.0 || rec[2].abs() > 360.0 {
-                let hint = if rec[1].abs() > 90.0 && rec[2].abs() <= 90.0 {
-                    ": latitude and longitude swapped? (the latitude field holds the value of a \
-                     longitude; check which column is `latitude` and which `longitude`)"
-                } else {
-                    " (degrees expected; `angle_unit` in the column map)"
-                };
-                Err(LineErrorKind::WrongUnits(format!(
-                    "latitude {} / longitude {} out of range{hint}",
-                    rec[1], rec[2]
-                )))
-            } else if rec[4..7].iter().any(|s| *s <= 0.0)
-                || (n == 13 && rec[10..13].iter().any(|s| *s <= 0.0))
-            {
-                Err(LineErrorKind::WrongUnits("standard deviations must be positive".into()))
-            } else if rec[4..7].iter().any(|s| *s > 1e5)
-                || (n == 13 && rec[10..13].iter().any(|s| *s > 1e3))
-            {
-                Err(LineErrorKind::WrongUnits(
-                    "a standard deviation beyond 100 km (position) or 1 km/s (velocity)".into(),
-                ))
-            } else if !(-1_000.0..=100_000.0).contains(&rec[3]) {
-                Err(LineErrorKind::WrongUnits(format!("height {} m outside −1 km…+100 km", rec[3])))
-            } else {
-                check_time(self.prev_t, rec[0]).map(|_| {
-                    GnssEpoch::new(
-                        rec[0],
-                        GeoPos::from_degrees(rec[1], rec[2], rec[3]),
-                        Vector3::new(rec[4], rec[5], rec[6]),
-                        (n == 13).then(|| {
-                            (
-                                Vector3::new(rec[7], rec[8], rec[9]),
-                                Vector3::new(rec[10], rec[11], rec[12]),
-                            )
-                        }),
-                    )
-                })
-            };
+            let result = fix_of(rec, self.columns, self.prev_t);
             match result {
                 Ok(e) => {
                     self.columns.get_or_insert(n);
@@ -254,6 +211,58 @@ impl<R: BufRead> GnssReader<R> {
                 }
             }
         }
+    }
+}
+
+/// A text record's fix (time, latitude, longitude and height in degrees and metres, their
+/// σ, with 13 columns the velocity and its σ), checked: the column count (`columns` once
+/// known, else 7 or 13), the angles' range, the σ, the height, the time after `prev_t`.
+fn fix_of(
+    rec: &[f64],
+    columns: Option<usize>,
+    prev_t: Option<f64>,
+) -> Result<GnssEpoch, LineErrorKind> {
+    let n = rec.len();
+    let expected: Vec<usize> = match columns {
+        Some(c) => vec![c],
+        None => vec![7, 13],
+    };
+    if !expected.contains(&n) {
+        Err(LineErrorKind::ColumnCount { expected, found: n })
+    } else if rec[1].abs() > 90.0 || rec[2].abs() > 360.0 {
+        let hint = if rec[1].abs() > 90.0 && rec[2].abs() <= 90.0 {
+            ": latitude and longitude swapped? (the latitude field holds the value of a \
+             longitude; check which column is `latitude` and which `longitude`)"
+        } else {
+            " (degrees expected; `angle_unit` in the column map)"
+        };
+        Err(LineErrorKind::WrongUnits(format!(
+            "latitude {} / longitude {} out of range{hint}",
+            rec[1], rec[2]
+        )))
+    } else if rec[4..7].iter().any(|s| *s <= 0.0)
+        || (n == 13 && rec[10..13].iter().any(|s| *s <= 0.0))
+    {
+        Err(LineErrorKind::WrongUnits("standard deviations must be positive".into()))
+    } else if rec[4..7].iter().any(|s| *s > 1e5)
+        || (n == 13 && rec[10..13].iter().any(|s| *s > 1e3))
+    {
+        Err(LineErrorKind::WrongUnits(
+            "a standard deviation beyond 100 km (position) or 1 km/s (velocity)".into(),
+        ))
+    } else if !(-1_000.0..=100_000.0).contains(&rec[3]) {
+        Err(LineErrorKind::WrongUnits(format!("height {} m outside −1 km…+100 km", rec[3])))
+    } else {
+        check_time(prev_t, rec[0]).map(|_| {
+            GnssEpoch::new(
+                rec[0],
+                GeoPos::from_degrees(rec[1], rec[2], rec[3]),
+                Vector3::new(rec[4], rec[5], rec[6]),
+                (n == 13).then(|| {
+                    (Vector3::new(rec[7], rec[8], rec[9]), Vector3::new(rec[10], rec[11], rec[12]))
+                }),
+            )
+        })
     }
 }
 

@@ -88,6 +88,40 @@ impl ObsReader {
         self.line_no
     }
 
+    /// A satellite's values of system `cols`'s types, from its line `body` (from column
+    /// `first_col`) and, in RINEX 2, the lines that continue it (five values a line):
+    /// (value, loss-of-lock indicator, signal strength) per type.
+    #[allow(clippy::type_complexity)]
+    fn values(
+        &mut self,
+        cols: usize,
+        body: String,
+        first_col: usize,
+        v3: bool,
+    ) -> Result<Vec<(Option<f64>, u8, Option<u32>)>, RawError> {
+        let ntypes = self.columns[cols].1.len();
+        let mut values = Vec::with_capacity(ntypes);
+        let mut text = body;
+        let mut col = first_col;
+        for j in 0..ntypes {
+            if !v3 && j > 0 && j % 5 == 0 {
+                if !self.next_line()? {
+                    return Err(self.bad("the file ends inside an observation record"));
+                }
+                text = self.line.clone();
+                col = 0;
+            }
+            let v = field(&text, col, col + 14).map_err(|m| self.bad(m))?;
+            let lli =
+                text.as_bytes().get(col + 14).and_then(|c| (*c as char).to_digit(10)).unwrap_or(0)
+                    as u8;
+            let ssi = text.as_bytes().get(col + 15).and_then(|c| (*c as char).to_digit(10));
+            values.push((v, lli, ssi));
+            col += 16;
+        }
+        Ok(values)
+    }
+
     /// The next epoch, `None` at the end of the file.
     pub fn next_epoch(&mut self) -> Result<Option<ObsEpoch>, RawError> {
         loop {
@@ -154,28 +188,7 @@ impl ObsReader {
                     }
                     continue;
                 };
-                let ntypes = self.columns[cols].1.len();
-                let mut values = Vec::with_capacity(ntypes);
-                let mut text = body;
-                let mut col = first_col;
-                for j in 0..ntypes {
-                    if !v3 && j > 0 && j % 5 == 0 {
-                        if !self.next_line()? {
-                            return Err(self.bad("the file ends inside an observation record"));
-                        }
-                        text = self.line.clone();
-                        col = 0;
-                    }
-                    let v = field(&text, col, col + 14).map_err(|m| self.bad(m))?;
-                    let lli = text
-                        .as_bytes()
-                        .get(col + 14)
-                        .and_then(|c| (*c as char).to_digit(10))
-                        .unwrap_or(0) as u8;
-                    let ssi = text.as_bytes().get(col + 15).and_then(|c| (*c as char).to_digit(10));
-                    values.push((v, lli, ssi));
-                    col += 16;
-                }
+                let values = self.values(cols, body, first_col, v3)?;
                 if !sat.sys.keplerian() {
                     self.unused += 1;
                     continue;
