@@ -111,6 +111,30 @@ pub fn hdop_sigma(rtk: usize, hdop: f64) -> Vector3<f64> {
 }
 
 impl NmeaState {
+    /// A moving-base receiver's true heading: HDT (heading, `T`) or THS (heading, mode;
+    /// only `A`, autonomous, is a measurement). Neither has a time: the epoch being
+    /// gathered is theirs.
+    fn heading(&mut self, kind: &str, f: &[&str]) -> Result<Option<GnssEpoch>, LineErrorKind> {
+        let valid = match kind {
+            "HDT" => f.get(2).is_none_or(|m| m.is_empty() || *m == "T"),
+            _ => f.get(2).is_some_and(|m| *m == "A"),
+        };
+        let v = f.get(1).and_then(|v| v.parse::<f64>().ok());
+        match (v, self.pending.as_mut()) {
+            (Some(v), Some(p)) if valid => {
+                if !(0.0..=360.0).contains(&v) {
+                    return Err(LineErrorKind::WrongUnits(format!(
+                        "{}: heading outside 0–360°",
+                        f[0]
+                    )));
+                }
+                p.heading = Some(v);
+            }
+            _ => {}
+        }
+        Ok(None)
+    }
+
     /// Takes one line; an epoch is returned when a sentence of a later time starts the
     /// next one. `sigma` replaces a missing GST.
     pub fn push(
@@ -124,22 +148,7 @@ impl NmeaState {
         let bad = |m: &str| LineErrorKind::WrongUnits(format!("{}: {m}", f[0]));
         match kind {
             "RMC" | "ZDA" => {
-                let date = if kind == "RMC" {
-                    let d = f.get(9).copied().unwrap_or("");
-                    let p = |i: usize| d.get(i..i + 2).and_then(|x| x.parse::<i64>().ok());
-                    match (p(0), p(2), p(4)) {
-                        (Some(dd), Some(mm), Some(yy)) => {
-                            Some((if yy < 80 { 2000 + yy } else { 1900 + yy }, mm, dd))
-                        }
-                        _ => None,
-                    }
-                } else {
-                    let p = |i: usize| f.get(i).and_then(|x| x.parse::<i64>().ok());
-                    match (p(2), p(3), p(4)) {
-                        (Some(dd), Some(mm), Some(yyyy)) => Some((yyyy, mm, dd)),
-                        _ => None,
-                    }
-                };
+                let date = date_of(kind, &f);
                 let tod = f.get(1).and_then(|t| time_of_day(t));
                 let out = match tod {
                     Some(tod) => self.start(tod, quality, sigma)?,
@@ -193,23 +202,7 @@ impl NmeaState {
             // a moving-base receiver's true heading: HDT (heading, `T`) or THS (heading,
             // mode; only `A`, autonomous, is a measurement). Neither has a time: the
             // epoch being gathered is theirs.
-            "HDT" | "THS" => {
-                let valid = match kind {
-                    "HDT" => f.get(2).is_none_or(|m| m.is_empty() || *m == "T"),
-                    _ => f.get(2).is_some_and(|m| *m == "A"),
-                };
-                let v = f.get(1).and_then(|v| v.parse::<f64>().ok());
-                match (v, self.pending.as_mut()) {
-                    (Some(v), Some(p)) if valid => {
-                        if !(0.0..=360.0).contains(&v) {
-                            return Err(bad("heading outside 0–360°"));
-                        }
-                        p.heading = Some(v);
-                    }
-                    _ => {}
-                }
-                Ok(None)
-            }
+            "HDT" | "THS" => self.heading(kind, &f),
             _ => Ok(None),
         }
     }
@@ -294,6 +287,27 @@ impl NmeaState {
             length: None,
         });
         Ok(Some(e))
+    }
+}
+
+/// The date (year, month, day) of an RMC (`ddmmyy`, field 9) or ZDA (fields 2–4)
+/// sentence's fields `f`, when it has one.
+fn date_of(kind: &str, f: &[&str]) -> Option<(i64, i64, i64)> {
+    if kind == "RMC" {
+        let d = f.get(9).copied().unwrap_or("");
+        let p = |i: usize| d.get(i..i + 2).and_then(|x| x.parse::<i64>().ok());
+        match (p(0), p(2), p(4)) {
+            (Some(dd), Some(mm), Some(yy)) => {
+                Some((if yy < 80 { 2000 + yy } else { 1900 + yy }, mm, dd))
+            }
+            _ => None,
+        }
+    } else {
+        let p = |i: usize| f.get(i).and_then(|x| x.parse::<i64>().ok());
+        match (p(2), p(3), p(4)) {
+            (Some(dd), Some(mm), Some(yyyy)) => Some((yyyy, mm, dd)),
+            _ => None,
+        }
     }
 }
 
