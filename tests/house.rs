@@ -133,10 +133,7 @@ fn no_source_file_is_past_the_house_size() {
 /// (a ratchet: a new one over the bound, or one of these growing, fails; one brought under
 /// the bound is taken off the list).
 const MAX_FN_LINES: usize = 80;
-const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[
-    ("ins-gnss-core/src/io/ros/write.rs", "write_mcap_to", 116),
-    ("ins-gnss-core/src/io/ros/mod.rs", "read", 116),
-];
+const LONG_FUNCTIONS: &[(&str, &str, usize)] = &[];
 
 /// A line with its string and character literals and its `//` comment taken out (enough
 /// to count braces in this code base's Rust).

@@ -322,47 +322,9 @@ impl Recording {
             let decoded = decode_as(kind, data, encoding, receive, select.stamps).map_err(|e| {
                 located(path, index, format!("{} ({}): {e}", channel.topic, channel.type_name))
             })?;
-            let topic = channel.topic.clone();
-            let check_frame = |frame: &mut String, new: String| {
-                if frame.is_empty() || *frame == new {
-                    *frame = new;
-                    Ok(())
-                } else {
-                    Err(located(
-                        path,
-                        index,
-                        format!(
-                            "{}: frame `{new}` where the earlier messages have `{frame}`: one \
-                             mounting cannot serve both",
-                            channel.topic
-                        ),
-                    ))
-                }
-            };
-            match decoded {
-                Decoded::Imu(r, f) => {
-                    let e = gathered.imu.entry(topic).or_default();
-                    check_frame(&mut e.1, f)?;
-                    e.0.push(r);
-                }
-                Decoded::Fix(r, f) => {
-                    let e = gathered.fix.entry(topic).or_default();
-                    check_frame(&mut e.1, f)?;
-                    e.0.push(r);
-                }
-                Decoded::Odometry(r, f) => {
-                    let e = gathered.odometry.entry(topic).or_default();
-                    check_frame(&mut e.1, f)?;
-                    e.0.push(r);
-                }
-                Decoded::Tf(list) => {
-                    for t in list {
-                        if !transforms.iter().any(|u| u.parent == t.parent && u.child == t.child) {
-                            transforms.push(t);
-                        }
-                    }
-                }
-            }
+            gathered
+                .keep(decoded, &channel.topic, &mut transforms)
+                .map_err(|m| located(path, index, m))?;
             Ok(())
         })?;
         let refuse = |m: String| file_error(path, m);
@@ -401,6 +363,55 @@ impl Recording {
             odometry,
             transforms,
         })
+    }
+}
+
+impl Gathered {
+    /// A decoded message kept under its topic (one from another frame than the topic's
+    /// earlier messages is refused: one mounting cannot serve both), a static transform
+    /// once.
+    fn keep(
+        &mut self,
+        decoded: Decoded,
+        topic: &str,
+        transforms: &mut Vec<StaticTransform>,
+    ) -> Result<(), String> {
+        let check_frame = |frame: &mut String, new: String| {
+            if frame.is_empty() || *frame == new {
+                *frame = new;
+                Ok(())
+            } else {
+                Err(format!(
+                    "{topic}: frame `{new}` where the earlier messages have `{frame}`: one \
+                     mounting cannot serve both"
+                ))
+            }
+        };
+        match decoded {
+            Decoded::Imu(r, f) => {
+                let e = self.imu.entry(topic.to_string()).or_default();
+                check_frame(&mut e.1, f)?;
+                e.0.push(r);
+            }
+            Decoded::Fix(r, f) => {
+                let e = self.fix.entry(topic.to_string()).or_default();
+                check_frame(&mut e.1, f)?;
+                e.0.push(r);
+            }
+            Decoded::Odometry(r, f) => {
+                let e = self.odometry.entry(topic.to_string()).or_default();
+                check_frame(&mut e.1, f)?;
+                e.0.push(r);
+            }
+            Decoded::Tf(list) => {
+                for t in list {
+                    if !transforms.iter().any(|u| u.parent == t.parent && u.child == t.child) {
+                        transforms.push(t);
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 }
 

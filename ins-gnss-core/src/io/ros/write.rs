@@ -49,6 +49,62 @@ pub fn write_mcap(
     }
 }
 
+/// The static transforms as one `tf2_msgs/TFMessage` stamped `secs`, `nsecs`.
+fn tf_message(static_transforms: &[StaticTransform], secs: u32, nsecs: u32) -> TfMessage<Header1> {
+    TfMessage {
+        transforms: static_transforms
+            .iter()
+            .map(|t| TransformStamped {
+                header: Header1::new(secs, nsecs, &t.parent),
+                child_frame_id: t.child.clone(),
+                translation: Vec3 { x: t.translation[0], y: t.translation[1], z: t.translation[2] },
+                rotation: Quat {
+                    x: t.rotation[0],
+                    y: t.rotation[1],
+                    z: t.rotation[2],
+                    w: t.rotation[3],
+                },
+            })
+            .collect(),
+    }
+}
+
+/// A channel of the output for an input channel (and its schema): the ROS 1 message as it
+/// is, or (CDR) its ROS 2 form (`kind`, the input's message type).
+fn add_channel<W: std::io::Write + std::io::Seek>(
+    writer: &mut mcap::Writer<W>,
+    channel: &Channel,
+    kind: Option<Kind>,
+    encoding: Encoding,
+) -> Result<u16, String> {
+    let (name, schema_encoding, definition, message_encoding) = match encoding {
+        Encoding::Ros1 => {
+            (channel.type_name.clone(), "ros1msg", channel.definition.clone(), "ros1")
+        }
+        Encoding::Cdr => {
+            let kind = kind.unwrap_or(Kind::Imu);
+            let name = kind.ros1_name().replacen('/', "/msg/", 1);
+            (name, "ros2msg", msg::ros2_definition(kind).as_bytes().to_vec(), "cdr")
+        }
+    };
+    let schema =
+        writer.add_schema(&name, schema_encoding, &definition).map_err(|e| e.to_string())?;
+    let id = writer
+        .add_channel(schema, &channel.topic, message_encoding, &BTreeMap::new())
+        .map_err(|e| e.to_string())?;
+    Ok(id)
+}
+
+/// A ROS 1 message of `kind` in its ROS 2 form, CDR-encoded.
+fn cdr_of(kind: Kind, data: &[u8]) -> Result<Vec<u8>, String> {
+    match kind {
+        Kind::Imu => to_cdr(data, msg::imu_to_ros2),
+        Kind::NavSatFix => to_cdr(data, msg::fix_to_ros2),
+        Kind::Odometry => to_cdr(data, msg::odometry_to_ros2),
+        Kind::Tf => to_cdr(data, msg::tf_to_ros2),
+    }
+}
+
 fn write_mcap_to(
     input: &Path,
     partial: &Path,
@@ -77,35 +133,14 @@ fn write_mcap_to(
                     return Ok(());
                 };
                 let bad = |e: String| located(input, index, format!("{}: {e}", channel.topic));
-                converted = match kind {
-                    Kind::Imu => to_cdr(data, msg::imu_to_ros2),
-                    Kind::NavSatFix => to_cdr(data, msg::fix_to_ros2),
-                    Kind::Odometry => to_cdr(data, msg::odometry_to_ros2),
-                    Kind::Tf => to_cdr(data, msg::tf_to_ros2),
-                }
-                .map_err(bad)?;
+                converted = cdr_of(kind, data).map_err(bad)?;
                 &converted[..]
             }
         };
         let id = match ids.get(&channel.topic) {
             Some(&id) => id,
             None => {
-                let (name, schema_encoding, definition, message_encoding) = match encoding {
-                    Encoding::Ros1 => {
-                        (channel.type_name.clone(), "ros1msg", channel.definition.clone(), "ros1")
-                    }
-                    Encoding::Cdr => {
-                        let kind = kind.unwrap_or(Kind::Imu);
-                        let name = kind.ros1_name().replacen('/', "/msg/", 1);
-                        (name, "ros2msg", msg::ros2_definition(kind).as_bytes().to_vec(), "cdr")
-                    }
-                };
-                let schema = writer
-                    .add_schema(&name, schema_encoding, &definition)
-                    .map_err(|e| out_error(e.to_string()))?;
-                let id = writer
-                    .add_channel(schema, &channel.topic, message_encoding, &BTreeMap::new())
-                    .map_err(|e| out_error(e.to_string()))?;
+                let id = add_channel(&mut writer, channel, kind, encoding).map_err(out_error)?;
                 ids.insert(channel.topic.clone(), id);
                 id
             }
@@ -136,26 +171,7 @@ fn write_mcap_to(
     for_each_message(input, |channel, index, receive_ns, data| {
         if let (true, Some((tf_channel, secs_of))) = (first, &tf) {
             let (secs, nsecs) = secs_of(receive_ns);
-            let message = TfMessage {
-                transforms: static_transforms
-                    .iter()
-                    .map(|t| TransformStamped {
-                        header: Header1::new(secs, nsecs, &t.parent),
-                        child_frame_id: t.child.clone(),
-                        translation: Vec3 {
-                            x: t.translation[0],
-                            y: t.translation[1],
-                            z: t.translation[2],
-                        },
-                        rotation: Quat {
-                            x: t.rotation[0],
-                            y: t.rotation[1],
-                            z: t.rotation[2],
-                            w: t.rotation[3],
-                        },
-                    })
-                    .collect(),
-            };
+            let message = tf_message(static_transforms, secs, nsecs);
             let bytes = encode(&message, Encoding::Ros1).map_err(&out_error)?;
             put(tf_channel, 0, receive_ns, &bytes)?;
         }
