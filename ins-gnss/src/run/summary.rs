@@ -56,7 +56,7 @@ pub struct RunSummary {
     /// Rows of `nav_smoothed.txt` when the run smoothed (`filter.smooth`), and the wall
     /// time of the backward pass, s.
     pub smoothed: Option<(usize, f64)>,
-    /// The IMU noise densities the filter used, SI ([`Config::noise_echo`]).
+    /// The IMU noise densities the filter used, SI ([`crate::config::noise_echo`]).
     pub noise: String,
     /// How the parts of the initial state (and the noise) not given were found from the
     /// data ([`crate::start`]), one line each.

@@ -354,7 +354,7 @@ fn noise_from_static(config: &Config, scene: &Scene<'_>, start: &mut Start) -> R
 }
 
 /// The longest static start (s) after which `align.max_time` still counts: the start's
-/// data are read up to `align.max_time` after the static start's end ([`span_end`]), at
+/// data are read up to `align.max_time` after the static start's end (`span_end`), at
 /// most this + `align.max_time` after the start, so that a vehicle that stands still for
 /// up to an hour before it drives is aligned on its first minutes of motion (the start's
 /// samples are held in memory: 17 MB for 20 min at 200 Hz). Until the heading bank it was
@@ -493,19 +493,19 @@ fn noise_floor(
     }
 }
 
-/// Whether [`prepare`] reads the data at all: checks on, or a part of the configuration
+/// Whether `prepare` reads the data at all: checks on, or a part of the configuration
 /// to fill.
 pub fn looks_at_data(config: &Config) -> bool {
     config.align.checks || fills(config) || floors(config)
 }
 
-/// Whether [`prepare`] fills a part of the configuration from the data: `[init]`
+/// Whether `prepare` fills a part of the configuration from the data: `[init]`
 /// incomplete or the noise `from_static`. (Otherwise it only checks.)
 pub fn fills(config: &Config) -> bool {
     !config.init.is_complete() || config.imu_noise.from_static
 }
 
-/// Whether [`prepare_floor`] may change the noise (it reads the data until the static
+/// Whether `prepare_floor` may change the noise (it reads the data until the static
 /// start ends).
 pub fn floors(config: &Config) -> bool {
     config.imu_noise.static_floor && !config.imu_noise.from_static

@@ -11,9 +11,9 @@ pub enum Look {
     /// The first sample: the initial state and noise are given, nothing is found from
     /// the data (the checks, when on, run beside the filter).
     First,
-    /// Until the static start ends: the noise floor ([`prepare_floor`]).
+    /// Until the static start ends: the noise floor (`prepare_floor`).
     StaticStart,
-    /// All [`prepare`] looks at ([`span_end`]).
+    /// All `prepare` looks at (`span_end`).
     Span,
 }
 
@@ -40,7 +40,7 @@ pub fn start_time(config: &Config, first_t: f64) -> f64 {
 
 /// The start, fed the data's first samples and fixes until it holds all it looks at
 /// ([`Starter::has_all`]), then [`Starter::decide`]d. It keeps the samples from the first
-/// one (up to the first past the furthest [`prepare`] may look: `align.max_time` after
+/// one (up to the first past the furthest `prepare` may look: `align.max_time` after
 /// the start time and a static start of up to [`STATIC_ALLOWANCE`]) and the fixes.
 pub struct Starter<'c> {
     config: &'c Config,
@@ -111,8 +111,8 @@ impl<'c> Starter<'c> {
     }
 
     /// Whether the samples and fixes taken (the fixes up to the first epoch past the last
-    /// sample) hold all it looks at: for the span, up to [`span_end`] (known once the
-    /// static start has ended) as [`reaches`] says; for the static start, once it has
+    /// sample) hold all it looks at: for the span, up to `span_end` (known once the
+    /// static start has ended) as `reaches` says; for the static start, once it has
     /// ended inside the samples; always for the first sample; and always once the samples
     /// pass the furthest it may look.
     pub fn has_all(&mut self) -> bool {
@@ -149,7 +149,7 @@ impl<'c> Starter<'c> {
 }
 
 /// The start of a run over samples and fixes in memory (`imu` and `gnss` whole), looking
-/// at the whole span [`prepare`] may look at: the samples up to the furthest it may look
+/// at the whole span `prepare` may look at: the samples up to the furthest it may look
 /// and the fixes up to then, fed at once.
 pub fn start_on(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch]) -> Result<Start, String> {
     let first_t = imu.first().map_or(0.0, |s| s.t);
