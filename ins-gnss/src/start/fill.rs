@@ -216,6 +216,18 @@ fn velocity_from_motion(
     } else {
         (m.vel, m.vel_std.map(|v| v.max(0.05)), format!("from the in-motion alignment ({span})"))
     };
+    set_velocity(init, report, v, sd, &how);
+}
+
+/// The initial velocity `v` (and its 1σ `sd` where none is given), with its report line
+/// (`how` it was found).
+fn set_velocity(
+    init: &mut InitialParts,
+    report: &mut Vec<String>,
+    v: Vector3<f64>,
+    sd: Vector3<f64>,
+    how: &str,
+) {
     init.velocity = Some(v);
     if init.velocity_std.is_none() {
         init.velocity_std = Some(sd);
@@ -495,15 +507,7 @@ fn first_fix_start(
                 config.align.max_time
             ));
         };
-        init.velocity = Some(v);
-        if init.velocity_std.is_none() {
-            init.velocity_std = Some(sd);
-        }
-        report.push(format!(
-            "init: velocity {} m/s {how}, σ {} m/s",
-            fmt3(v.into(), 3),
-            fmt3(init.velocity_std.unwrap_or_default().into(), 3)
-        ));
+        set_velocity(init, report, v, sd, &how);
     }
     Ok(())
 }
@@ -560,14 +564,13 @@ fn fill_from_bank(
         position_on_static_start(config, init, report, still, &att, gnss, t0)?;
     }
     if i.velocity.is_none() {
-        init.velocity = Some(Vector3::zeros());
-        if i.velocity_std.is_none() {
-            init.velocity_std = Some(Vector3::repeat(0.02));
-        }
-        report.push(format!(
-            "init: velocity [0.000, 0.000, 0.000] m/s 0 on the static start, σ {} m/s",
-            fmt3(init.velocity_std.unwrap_or_default().into(), 3)
-        ));
+        set_velocity(
+            init,
+            report,
+            Vector3::zeros(),
+            Vector3::repeat(0.02),
+            "0 on the static start",
+        );
     }
     Ok(())
 }
@@ -662,15 +665,7 @@ fn fill_from_moving_bank(
         ));
     }
     if i.velocity.is_none() {
-        init.velocity = Some(b.vel);
-        if i.velocity_std.is_none() {
-            init.velocity_std = Some(b.vel_std);
-        }
-        report.push(format!(
-            "init: velocity {} m/s from a line through the first fixes, σ {} m/s",
-            fmt3(b.vel.into(), 3),
-            fmt3(init.velocity_std.unwrap_or_default().into(), 3)
-        ));
+        set_velocity(init, report, b.vel, b.vel_std, "from a line through the first fixes");
     }
     Ok(())
 }
