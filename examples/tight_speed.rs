@@ -109,7 +109,7 @@ fn main() {
         let t = Instant::now();
         let model = InsModelTc { base: InsModel::wgs84(noise), clock: ClockNoise::default() };
         let mut n =
-            Navigator::new_tight(&init, &clock, model, FixedNoise, GnssConfig::default()).unwrap();
+            Navigator::new((&init, &clock), model, FixedNoise, GnssConfig::default()).unwrap();
         let (mut k, mut out) = (0, Vec::with_capacity(64));
         for s in &data.imu {
             let a = k;

@@ -147,7 +147,7 @@ fn run_tight_recorded<A: NoiseStrategy, R: StepRecorder<InsStateTc, ImuInput>>(
         clock: ClockNoise { drift, ..ClockNoise::default() },
     };
     let cfg = GnssConfig { lever_arm: LEVER, ..GnssConfig::default() };
-    let mut n = Navigator::new_tight(&init(&c.data), &clock, model, strategy, cfg).unwrap();
+    let mut n = Navigator::new((&init(&c.data), &clock), model, strategy, cfg).unwrap();
     let tight = TightConfig {
         models: opt.clone(),
         klobuchar: kb,

@@ -73,7 +73,7 @@ fn run(states: usize, seed: u64, outage: (f64, f64)) -> Run {
         // the simulated scale factors are constant: a slow random walk in the model
         let noise = ScaleFactorNoise { gyro: Vector3::repeat(1e-7), accel: Vector3::repeat(1e-7) };
         let model = InsModel21 { base: model, scale: noise };
-        let mut nav = Navigator::new21(&init, &scale, model, FixedNoise, cfg).unwrap();
+        let mut nav = Navigator::new((&init, &scale), model, FixedNoise, cfg).unwrap();
         for (k, (s, gnss)) in data.replay().enumerate() {
             out.clear();
             nav.process_into(s, gnss, &mut NoObserver, &mut out).unwrap();

@@ -104,52 +104,67 @@ struct CarrierEpoch {
     sats: Vec<(crate::raw::Sat, f64, Vector3<f64>, f64, f64)>,
 }
 
-impl<A: NoiseStrategy> Navigator<A, InsState> {
-    /// A 15-state navigator at `init`, with process model `model`, strategy and GNSS
-    /// settings.
-    pub fn new(
-        init: &InitialState,
-        model: InsModel,
-        strategy: A,
-        gnss: GnssConfig,
-    ) -> Result<Self, NavError> {
-        Self::from_parts(
-            init.state.clone(),
-            init.std.covariance(),
-            init.time,
-            model,
-            strategy,
-            gnss,
-        )
-    }
-}
-
-impl<A: NoiseStrategy> Navigator<A, InsState21> {
-    /// A 21-state navigator at `init` with the scale factors of `scale`.
-    pub fn new21(
-        init: &InitialState,
-        scale: &ScaleInit,
-        model: InsModel21,
-        strategy: A,
-        gnss: GnssConfig,
-    ) -> Result<Self, NavError> {
-        let x = InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa };
-        let mut p = M21::zeros();
-        let p15: M15 = init.std.covariance();
-        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p15);
-        for k in 0..3 {
-            p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
-            p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
-        }
-        Self::from_parts(x, p, init.time, model, strategy, gnss)
-    }
-}
-
 impl<A: NoiseStrategy, S: NavState> Navigator<A, S>
 where
     DefaultAllocator: DimAlloc<S::Dim>,
 {
-    /// A navigator at state `x0` with covariance `p0` at time `time`.
+    /// A navigator at `start` (the state is the start's: see [`NavStart`] for the
+    /// starts there are), with process model `model`, noise strategy and GNSS settings.
+    ///
+    /// ```
+    /// use estimator_core::FixedNoise;
+    /// use ins_gnss_core::navigator::{InitialStd, ScaleInit};
+    /// use ins_gnss_core::scale::{InsModel21, ScaleFactorNoise};
+    /// use ins_gnss_core::*;
+    /// use manifolds::So3;
+    /// use nalgebra::Vector3;
+    ///
+    /// let z = Vector3::zeros();
+    /// let state = InsState {
+    ///     att: So3::identity(),
+    ///     vel: z,
+    ///     pos: GeoPos::from_degrees(30.5, 114.4, 20.0),
+    ///     bg: z,
+    ///     ba: z,
+    /// };
+    /// let std = InitialStd {
+    ///     att: Vector3::repeat(0.01),
+    ///     vel: Vector3::repeat(0.1),
+    ///     pos: Vector3::repeat(1.0),
+    ///     bg: Vector3::repeat(1e-4),
+    ///     ba: Vector3::repeat(1e-3),
+    /// };
+    /// let init = InitialState { time: 0.0, state, std };
+    /// let noise = ImuNoise::from_datasheet(Vector3::repeat(0.2), Vector3::repeat(0.4),
+    ///     Vector3::repeat(10.0), Vector3::repeat(200.0), 1.0);
+    /// let model = InsModel::wgs84(noise);
+    /// let gnss = GnssConfig::default();
+    ///
+    /// // the 15-state INS
+    /// let nav = Navigator::new(&init, model.clone(), FixedNoise, gnss)?;
+    /// assert_eq!(nav.covariance().nrows(), 15);
+    ///
+    /// // the 21-state INS: the start names the scale factors' prior
+    /// let scale = ScaleInit { sg: z, sa: z, sg_std: Vector3::repeat(1e-3),
+    ///     sa_std: Vector3::repeat(1e-3) };
+    /// let noise21 = ScaleFactorNoise { gyro: Vector3::repeat(1e-7), accel: Vector3::repeat(1e-7) };
+    /// let model21 = InsModel21 { base: model, scale: noise21 };
+    /// let nav21 = Navigator::new((&init, &scale), model21, FixedNoise, gnss)?;
+    /// assert_eq!(nav21.covariance()[(15, 15)], 1e-6);
+    /// # Ok::<(), NavError>(())
+    /// ```
+    pub fn new<I: NavStart<State = S>>(
+        start: I,
+        model: S::Model,
+        strategy: A,
+        gnss: GnssConfig,
+    ) -> Result<Self, NavError> {
+        let (x0, p0) = start.state_and_covariance();
+        Self::from_parts(x0, p0, start.time(), model, strategy, gnss)
+    }
+
+    /// A navigator at state `x0` with covariance `p0` at time `time`: any state, e.g. the
+    /// calibration's or the fixes' persisting error's, whose start is not a [`NavStart`].
     pub fn from_parts(
         x0: S,
         p0: Cov<S::Dim>,

@@ -44,6 +44,140 @@ pub struct InitialState {
     pub std: InitialStd,
 }
 
+/// What a navigator starts from, typed by the state it starts: the INS's initial state
+/// alone (the 15-state [`InsState`]), or with what the state adds to it. The one
+/// constructor, [`Navigator::new`], takes any of these:
+///
+/// | start | state |
+/// |---|---|
+/// | `&InitialState` | [`InsState`] (15) |
+/// | `(&InitialState, &ScaleInit)` | [`InsState21`] (21: the IMU's scale factors) |
+/// | `(&InitialState, &ClockInit)` | [`InsStateTc`] (20: tight coupling, the receiver clock and inter-system biases) |
+/// | `(&InitialState, &ScaleInit, &ClockInit)` | [`InsStateTc21`] (26) |
+///
+/// Other states (the calibration's, the fixes' persisting error) start from a state and
+/// its covariance, [`Navigator::from_parts`].
+pub trait NavStart
+where
+    DefaultAllocator: DimAlloc<<Self::State as Manifold>::Dim>,
+{
+    /// The state this start begins.
+    type State: NavState;
+
+    /// The time of the start, s.
+    fn time(&self) -> f64;
+
+    /// The state and its covariance at [`NavStart::time`].
+    fn state_and_covariance(&self) -> (Self::State, Cov<<Self::State as Manifold>::Dim>);
+}
+
+impl NavStart for &InitialState {
+    type State = InsState;
+
+    fn time(&self) -> f64 {
+        self.time
+    }
+
+    fn state_and_covariance(&self) -> (InsState, M15) {
+        (self.state.clone(), self.std.covariance())
+    }
+}
+
+/// The scale factors' block of a covariance whose first 21 rows are a [`InsState21`]'s.
+fn scale_block<D: DimName>(p: &mut OMatrix<f64, D, D>, scale: &ScaleInit)
+where
+    DefaultAllocator: Allocator<D, D>,
+{
+    for k in 0..3 {
+        p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
+        p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
+    }
+}
+
+/// The receiver clock's and the inter-system biases' block of a tightly coupled state's
+/// covariance (`clock`: the clock's first row; `isb`: the biases' rows).
+fn clock_block<D: DimName>(
+    p: &mut OMatrix<f64, D, D>,
+    clock: &ClockInit,
+    c0: usize,
+    isb: core::ops::Range<usize>,
+) where
+    DefaultAllocator: Allocator<D, D>,
+{
+    p[(c0, c0)] = clock.std.0.powi(2);
+    p[(c0 + 1, c0 + 1)] = clock.std.1.powi(2);
+    for k in isb {
+        p[(k, k)] = clock.isb_std.powi(2);
+    }
+}
+
+/// The INS's initial covariance in the first 15 rows and columns of a larger one.
+fn ins_block<D: DimName>(init: &InitialState) -> OMatrix<f64, D, D>
+where
+    DefaultAllocator: Allocator<D, D>,
+{
+    let mut p = OMatrix::<f64, D, D>::zeros();
+    p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
+    p
+}
+
+impl NavStart for (&InitialState, &ScaleInit) {
+    type State = InsState21;
+
+    fn time(&self) -> f64 {
+        self.0.time
+    }
+
+    fn state_and_covariance(&self) -> (InsState21, M21) {
+        let (init, scale) = *self;
+        let x = InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa };
+        let mut p = ins_block(init);
+        scale_block(&mut p, scale);
+        (x, p)
+    }
+}
+
+impl NavStart for (&InitialState, &ClockInit) {
+    type State = InsStateTc;
+
+    fn time(&self) -> f64 {
+        self.0.time
+    }
+
+    fn state_and_covariance(&self) -> (InsStateTc, M20) {
+        let (init, clock) = *self;
+        let x = InsStateTc {
+            nav: init.state.clone(),
+            clock: manifolds::R2::new(clock.clock.0, clock.clock.1),
+            isb: Vector3::zeros(),
+        };
+        let mut p = ins_block(init);
+        clock_block(&mut p, clock, InsStateTc::CLOCK.start(), InsStateTc::ISB.range());
+        (x, p)
+    }
+}
+
+impl NavStart for (&InitialState, &ScaleInit, &ClockInit) {
+    type State = InsStateTc21;
+
+    fn time(&self) -> f64 {
+        self.0.time
+    }
+
+    fn state_and_covariance(&self) -> (InsStateTc21, M26) {
+        let (init, scale, clock) = *self;
+        let x = InsStateTc21 {
+            nav: InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa },
+            clock: manifolds::R2::new(clock.clock.0, clock.clock.1),
+            isb: Vector3::zeros(),
+        };
+        let mut p = ins_block(init);
+        scale_block(&mut p, scale);
+        clock_block(&mut p, clock, InsStateTc21::CLOCK.start(), InsStateTc21::ISB.range());
+        (x, p)
+    }
+}
+
 /// The initial scale factors of a 21-state run and their 1σ (fractions).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScaleInit {

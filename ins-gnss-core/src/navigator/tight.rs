@@ -61,65 +61,6 @@ pub struct ClockInit {
     pub isb_std: f64,
 }
 
-impl<A: NoiseStrategy> Navigator<A, InsStateTc> {
-    /// A tightly coupled navigator at `init` with the receiver clock of `clock`.
-    pub fn new_tight(
-        init: &InitialState,
-        clock: &ClockInit,
-        model: InsModelTc,
-        strategy: A,
-        gnss: GnssConfig,
-    ) -> Result<Self, NavError> {
-        let x = InsStateTc {
-            nav: init.state.clone(),
-            clock: manifolds::R2::new(clock.clock.0, clock.clock.1),
-            isb: Vector3::zeros(),
-        };
-        let mut p = M20::zeros();
-        let p15: M15 = init.std.covariance();
-        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p15);
-        p[(15, 15)] = clock.std.0.powi(2);
-        p[(16, 16)] = clock.std.1.powi(2);
-        for k in 17..20 {
-            p[(k, k)] = clock.isb_std.powi(2);
-        }
-        Self::from_parts(x, p, init.time, model, strategy, gnss)
-    }
-}
-
-impl<A: NoiseStrategy> Navigator<A, InsStateTc21> {
-    /// A tightly coupled 21-state navigator (the IMU scale factors of `scale`) at `init`
-    /// with the receiver clock of `clock`.
-    pub fn new_tight21(
-        init: &InitialState,
-        scale: &ScaleInit,
-        clock: &ClockInit,
-        model: InsModelTc21,
-        strategy: A,
-        gnss: GnssConfig,
-    ) -> Result<Self, NavError> {
-        let x = InsStateTc21 {
-            nav: InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa },
-            clock: manifolds::R2::new(clock.clock.0, clock.clock.1),
-            isb: Vector3::zeros(),
-        };
-        let mut p = M26::zeros();
-        let p15: M15 = init.std.covariance();
-        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p15);
-        for k in 0..3 {
-            p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
-            p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
-        }
-        let c0 = InsStateTc21::CLOCK.start();
-        p[(c0, c0)] = clock.std.0.powi(2);
-        p[(c0 + 1, c0 + 1)] = clock.std.1.powi(2);
-        for k in InsStateTc21::ISB.range() {
-            p[(k, k)] = clock.isb_std.powi(2);
-        }
-        Self::from_parts(x, p, init.time, model, strategy, gnss)
-    }
-}
-
 /// A tightly coupled state: the 15- or 21-state INS, then the receiver clock and the
 /// inter-system biases ([`InsStateTc`], [`InsStateTc21`]). The satellite models are
 /// written once, for [`InsStateTc`]; each state applies them its own way.

@@ -82,7 +82,7 @@ impl RunState for InsState21 {
         let base = ins_model(config, from);
         let model = InsModel21 { base, scale: config.scale_factor_noise() };
         let init = from.initial_state();
-        Navigator::new21(&init, &config.scale_init(), model, strategy, config.gnss_config())
+        Navigator::new((&init, &config.scale_init()), model, strategy, config.gnss_config())
     }
 
     fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
@@ -327,7 +327,7 @@ impl RunState for InsStateTc {
         let base = ins_model(config, from);
         let model = InsModelTc { base, clock: clock_noise(config) };
         let init = from.initial_state();
-        Navigator::new_tight(&init, &clock_init(clock), model, strategy, config.gnss_config())
+        Navigator::new((&init, &clock_init(clock)), model, strategy, config.gnss_config())
     }
 
     fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
@@ -353,7 +353,7 @@ impl RunState for InsStateTc21 {
         let model = InsModelTc21 { base, clock: clock_noise(config) };
         let init = from.initial_state();
         let (scale, gnss) = (config.scale_init(), config.gnss_config());
-        Navigator::new_tight21(&init, &scale, &clock_init(clock), model, strategy, gnss)
+        Navigator::new((&init, &scale, &clock_init(clock)), model, strategy, gnss)
     }
 
     fn scale_factors(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
