@@ -19,8 +19,8 @@ use criterion::{BatchSize, Criterion};
 use estimator::estimator_core::{ErrorStateFilter, FixedNoise, NoObserver};
 use estimator::ins_gnss::model::ImuInput;
 use estimator::ins_gnss::InsModel;
-use ins_gnss_core::raw::spp::{prepare, single_point, SppOptions};
-use ins_gnss_core::raw::{read_nav, ObsReader};
+use gnss::spp::{prepare, single_point, SppOptions};
+use gnss::{read_nav, ObsReader};
 use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsStateTc, Pseudorange, RangeRate, M20};
 use ins_gnss_sim::raw::{simulate_raw, RawSim};
 use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
@@ -54,7 +54,7 @@ fn tight(c: &mut Criterion) {
     let traj = Trajectory::new(start, &segs[..6]).unwrap();
     let none = GnssSim::none();
     let data = simulate(&traj, 200.0, &scenarios::mems_imu(), &none, 1);
-    let t_gps = ins_gnss_core::raw::GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0);
+    let t_gps = gnss::GpsTime::from_calendar(2005, 4, 2, 3, 0, 0.0);
     let (epochs, _) = simulate_raw(
         &traj,
         &nav.ephemerides,
@@ -128,7 +128,7 @@ fn tight(c: &mut Criterion) {
 }
 
 fn rtk(c: &mut Criterion) {
-    use ins_gnss_core::raw::rtk::{Rtk, RtkOptions};
+    use gnss::rtk::{Rtk, RtkOptions};
     let nav = read_nav(&data("rinex-rtklib/07590920.05n.zst")).unwrap();
     let rover: Vec<_> = ObsReader::open(&data("rinex-rtklib/07590920.05o.zst"))
         .unwrap()

@@ -20,9 +20,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use gnss::rtk::{RtkMode, RtkOptions};
 use ins_gnss::rtk::solve_files;
 use ins_gnss_core::earth::geodetic_to_ecef;
-use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
 use nalgebra::{Matrix3, Vector3};
 
 #[path = "../tests/rtk_drive.rs"]

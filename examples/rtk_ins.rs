@@ -21,7 +21,7 @@
 
 use std::path::Path;
 
-use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
+use gnss::rtk::{RtkMode, RtkOptions};
 use ins_gnss_sim::scenarios;
 
 #[path = "../tests/rtk_drive.rs"]

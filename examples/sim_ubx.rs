@@ -26,8 +26,8 @@
 //! (`--seed`: the receiver's errors, default 2005, the shipped logs' seed; `--no-geo`: the
 //! BeiDou log without its GEO satellites' observations, the others' errors unchanged).
 
-use ins_gnss_core::raw::time::BDT_MINUS_GPST;
-use ins_gnss_core::raw::{read_nav, Ephemerides, Ephemeris, GpsTime, Sat, System};
+use gnss::time::BDT_MINUS_GPST;
+use gnss::{read_nav, Ephemerides, Ephemeris, GpsTime, Sat, System};
 use ins_gnss_sim::raw::{simulate_raw, write_ubx, RawSim};
 use ins_gnss_sim::{scenarios, Trajectory};
 use std::path::Path;

@@ -8,9 +8,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use estimator_core::{FixedNoise, NoObserver};
+use gnss::spp::{prepare, single_point, SppOptions};
+use gnss::{read_nav, GpsTime};
 use ins_gnss_core::navigator::{ClockInit, RawEpoch, TightConfig};
-use ins_gnss_core::raw::spp::{prepare, single_point, SppOptions};
-use ins_gnss_core::raw::{read_nav, GpsTime};
 use ins_gnss_core::tight::{ClockNoise, InsModelTc};
 use ins_gnss_core::{GnssConfig, GnssEpoch, InitialState, InitialStd, InsModel, Navigator};
 use ins_gnss_sim::raw::{simulate_raw, RawSim};
@@ -40,7 +40,7 @@ fn main() {
     let (epochs, _) = simulate_raw(&traj, &nav.ephemerides, &kb, &sim, 1);
     let opt = SppOptions::default();
     let t0 = data.truth[0].t;
-    let time_of = |e: &ins_gnss_core::raw::ObsEpoch| t0 + e.time.diff(&t_gps);
+    let time_of = |e: &gnss::ObsEpoch| t0 + e.time.diff(&t_gps);
     let raw: Vec<RawEpoch> = epochs
         .iter()
         .map(|e| RawEpoch {
@@ -55,7 +55,7 @@ fn main() {
         .filter_map(|e| {
             let s = single_point(e, &nav.ephemerides, Some(&kb), &opt, None).ok()?;
             // positions only (the timed loose run uses no velocity)
-            let mut g = s.fix(time_of(e));
+            let mut g = GnssEpoch::from_single_point(&s, time_of(e));
             (g.vel, g.vel_cov) = (None, None);
             Some(g)
         })

@@ -4,9 +4,9 @@
 //! 2.4.3, `-p 3 -f 2` static, `-p 2 -f 2` and `-p 2 -f 1` kinematic; each fixes its 115
 //! epochs but one, the L1 run's last).
 
+use gnss::rtk::{RtkMode, RtkOptions};
 use ins_gnss::rtk::{solve_files, RtkRun};
 use ins_gnss_core::earth::{ecef_to_ned_rotation, geodetic_to_ecef};
-use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 

@@ -9,11 +9,11 @@
 use std::path::{Path, PathBuf};
 
 use estimator_core::{FixedNoise, NoObserver};
+use gnss::atmosphere::Klobuchar;
+use gnss::rtk::{information_beyond, Rtk, RtkEpoch, RtkOptions};
+use gnss::spp::single_point;
+use gnss::{read_nav, GpsTime, NavData, ObsEpoch};
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
-use ins_gnss_core::raw::atmosphere::Klobuchar;
-use ins_gnss_core::raw::rtk::{information_beyond, Rtk, RtkEpoch, RtkOptions};
-use ins_gnss_core::raw::spp::single_point;
-use ins_gnss_core::raw::{read_nav, GpsTime, NavData, ObsEpoch};
 use ins_gnss_core::{GeoPos, GnssConfig, GnssEpoch, InitialState, InitialStd, InsModel, Navigator};
 use ins_gnss_sim::raw::{simulate_rtk, write_rinex_obs, RawSim, RawTruth, RtkSim, SkyMask};
 use ins_gnss_sim::{scenarios, Trajectory};
@@ -256,7 +256,7 @@ impl Drive {
                 // position less well than one single point does (its errors persist
                 // for minutes: their information does not add up over epochs)
                 if !sol.fixed {
-                    if let Some(f) = spp.map(|s| s.fix(t + 1e-6)) {
+                    if let Some(f) = spp.map(|s| GnssEpoch::from_single_point(&s, t + 1e-6)) {
                         if p_ned.trace() > f.position_covariance().trace() {
                             pending.push(f);
                         }

@@ -7,9 +7,9 @@ use adaptive::GrossErrorGate;
 use estimator_core::{
     FixedNoise, Manifold, NoObserver, NoiseStrategy, SegmentSmoother, StepRecorder,
 };
+use gnss::spp::{prepare, single_point, Ionosphere, SppOptions};
+use gnss::{read_nav, GpsTime, NavData, ObsEpoch};
 use ins_gnss_core::navigator::{ClockInit, RawEpoch, TightConfig};
-use ins_gnss_core::raw::spp::{prepare, single_point, Ionosphere, SppOptions};
-use ins_gnss_core::raw::{read_nav, GpsTime, NavData, ObsEpoch};
 use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsStateTc, Pseudorange, RangeRate};
 use ins_gnss_core::{
     GeoPos, GnssConfig, GnssEpoch, ImuInput, InitialState, InitialStd, InsModel, Navigator,
@@ -199,7 +199,7 @@ fn run_loose_opt(c: &Case, opt: &SppOptions) -> Track {
         .filter_map(|e| {
             // the Dopplers' velocity too, as a receiver's fix carries it
             let s = single_point(e, &nav.ephemerides, Some(&kb), &opt, None).ok()?;
-            Some(s.fix(epoch_time(e, &c.data)))
+            Some(GnssEpoch::from_single_point(&s, epoch_time(e, &c.data)))
         })
         .collect();
     let cfg = GnssConfig { lever_arm: LEVER, ..GnssConfig::default() };

@@ -2,8 +2,8 @@
 //! gives the same observations and ephemerides as RTKLIB's `convbin` conversion of it to
 //! RINEX (read by this crate's RINEX readers), and the observations the simulator wrote.
 
-use ins_gnss_core::raw::ubx::{read_ubx, UbxLog};
-use ins_gnss_core::raw::{read_nav, Ephemeris, GpsTime, ObsReader, System};
+use gnss::ubx::{read_ubx, UbxLog};
+use gnss::{read_nav, Ephemeris, GpsTime, ObsReader, System};
 use ins_gnss_sim::raw::{simulate_raw, RawSim};
 use ins_gnss_sim::{scenarios, Trajectory};
 use std::path::{Path, PathBuf};
@@ -324,15 +324,8 @@ fn a_non_finite_measurement_is_read_as_missing() {
     assert_eq!(e.sats[0].signals[0].code, None);
     assert_eq!(e.sats[1].signals[0].phase, None);
     assert!(e.sats[1].signals[0].code.is_some());
-    let opt = ins_gnss_core::raw::SppOptions::default();
-    assert!(ins_gnss_core::raw::single_point(
-        e,
-        &log.ephemerides,
-        log.klobuchar.as_ref(),
-        &opt,
-        None
-    )
-    .is_ok());
+    let opt = gnss::SppOptions::default();
+    assert!(gnss::single_point(e, &log.ephemerides, log.klobuchar.as_ref(), &opt, None).is_ok());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

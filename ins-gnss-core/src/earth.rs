@@ -4,7 +4,7 @@
 //! Constants: NIMA TR8350.2 (WGS-84), 3rd ed. Normal gravity: Somigliana's closed form
 //! with the second-order height correction (TR8350.2 eq. 4-1 and 4-3).
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 use crate::position::GeoPos;
 
@@ -171,63 +171,7 @@ pub fn transport_rate(lat: f64, h: f64, v_n: &Vector3<f64>) -> Vector3<f64> {
     LocalEarth::at(&GeoPos { lat, lon: 0.0, h }).transport_rate(v_n)
 }
 
-/// Geodetic (lat, lon rad; h m) → ECEF, m.
-pub fn geodetic_to_ecef(lat: f64, lon: f64, h: f64) -> Vector3<f64> {
-    let rn = prime_vertical_radius(lat);
-    let (sl, cl) = lat.sin_cos();
-    let (so, co) = lon.sin_cos();
-    Vector3::new((rn + h) * cl * co, (rn + h) * cl * so, (rn * (1.0 - E2) + h) * sl)
-}
-
-/// ECEF → geodetic `(lat, lon, h)` by Bowring's start and Newton iterations on latitude
-/// (converges to < 1e-12 rad in 3–4 iterations anywhere outside the Earth's centre).
-pub fn ecef_to_geodetic(r: &Vector3<f64>) -> (f64, f64, f64) {
-    let lon = r.y.atan2(r.x);
-    let p = (r.x * r.x + r.y * r.y).sqrt();
-    if p < 1e-9 {
-        let lat =
-            if r.z >= 0.0 { core::f64::consts::FRAC_PI_2 } else { -core::f64::consts::FRAC_PI_2 };
-        return (lat, lon, r.z.abs() - B);
-    }
-    // Bowring's initial value.
-    let ep2 = (A * A - B * B) / (B * B);
-    let theta = (r.z * A).atan2(p * B);
-    let (st, ct) = theta.sin_cos();
-    let mut lat = (r.z + ep2 * B * st.powi(3)).atan2(p - E2 * A * ct.powi(3));
-    for _ in 0..5 {
-        let rn = prime_vertical_radius(lat);
-        let h = p / lat.cos() - rn;
-        let next = r.z.atan2(p * (1.0 - E2 * rn / (rn + h)));
-        let done = (next - lat).abs() < 1e-14;
-        lat = next;
-        if done {
-            break;
-        }
-    }
-    let rn = prime_vertical_radius(lat);
-    let h =
-        if lat.cos().abs() > 1e-6 { p / lat.cos() - rn } else { r.z / lat.sin() - rn * (1.0 - E2) };
-    (lat, lon, h)
-}
-
-/// Rotation from ECEF to the local NED frame at (lat, lon): `v_n = C_ne v_e`.
-pub fn ecef_to_ned_rotation(lat: f64, lon: f64) -> Matrix3<f64> {
-    let (sl, cl) = lat.sin_cos();
-    let (so, co) = lon.sin_cos();
-    Matrix3::new(-sl * co, -sl * so, cl, -so, co, 0.0, -cl * co, -cl * so, -sl)
-}
-
-/// NED coordinates (m) of a geodetic point relative to a reference point (exact, through
-/// ECEF).
-pub fn geodetic_to_local_ned(reference: (f64, f64, f64), point: (f64, f64, f64)) -> Vector3<f64> {
-    let r0 = geodetic_to_ecef(reference.0, reference.1, reference.2);
-    let r = geodetic_to_ecef(point.0, point.1, point.2);
-    ecef_to_ned_rotation(reference.0, reference.1) * (r - r0)
-}
-
-/// Geodetic point at NED offset `ned` (m) from a reference point (exact, through ECEF).
-pub fn local_ned_to_geodetic(reference: (f64, f64, f64), ned: &Vector3<f64>) -> (f64, f64, f64) {
-    let r0 = geodetic_to_ecef(reference.0, reference.1, reference.2);
-    let r = r0 + ecef_to_ned_rotation(reference.0, reference.1).transpose() * ned;
-    ecef_to_geodetic(&r)
-}
+pub use gnss::geodesy::{
+    ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef, geodetic_to_local_ned,
+    local_ned_to_geodetic,
+};

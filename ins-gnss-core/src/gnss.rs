@@ -46,6 +46,28 @@ pub struct GnssEpoch {
 }
 
 impl GnssEpoch {
+    /// A single point ([`gnss::Spp`](::gnss::Spp)) as a fix at time `t` (on the caller's
+    /// clock): the geodetic position with its NED covariance, and the Doppler velocity
+    /// (NED) with its covariance when there is one — what loose coupling and `.pos`
+    /// output take.
+    pub fn from_single_point(spp: &::gnss::Spp, t: f64) -> GnssEpoch {
+        let (lat, lon, h) = crate::earth::ecef_to_geodetic(&spp.pos);
+        let c_ne = crate::earth::ecef_to_ned_rotation(lat, lon);
+        let cov = c_ne * spp.cov * c_ne.transpose();
+        let sd =
+            |c: &Matrix3<f64>| Vector3::new(c[(0, 0)].sqrt(), c[(1, 1)].sqrt(), c[(2, 2)].sqrt());
+        let vel = spp.velocity.map(|(v, vc)| (c_ne * v, c_ne * vc * c_ne.transpose()));
+        GnssEpoch {
+            t,
+            pos: GeoPos { lat, lon, h },
+            pos_std: sd(&cov),
+            vel: vel.map(|(v, vc)| (v, sd(&vc))),
+            pos_cov: Some(cov),
+            vel_cov: vel.map(|(_, vc)| vc),
+            heading: None,
+        }
+    }
+
     /// An epoch with uncorrelated errors (σ per axis).
     pub fn new(
         t: f64,

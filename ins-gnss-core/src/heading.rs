@@ -21,26 +21,13 @@ use nalgebra::{Const, SMatrix, Vector1, Vector2, Vector3};
 
 use crate::state::InsState;
 
+pub use ::gnss::heading::{wrap, AntennaHeading};
+
 /// The stream of heading updates ([`BaselineHeading`], [`BaselineAttitude`]).
 pub const GNSS_HEADING: StreamId = StreamId::named("gnss-heading");
 
 /// A baseline whose horizontal part is below this share of its length has no heading.
 const MIN_HORIZONTAL: f64 = 0.2;
-
-/// One moving-base measurement: the baseline's heading and, where given, its elevation.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AntennaHeading {
-    /// Time, s (the GNSS epoch's).
-    pub t: f64,
-    /// Heading of the baseline, clockwise from true north, rad.
-    pub heading: f64,
-    /// The heading's 1σ the source states, rad (`None`: the configuration's).
-    pub heading_std: Option<f64>,
-    /// Elevation of the baseline (up positive) and its 1σ where stated, rad.
-    pub pitch: Option<(f64, Option<f64>)>,
-    /// The baseline's measured length, m, where the source gives it.
-    pub length: Option<f64>,
-}
 
 /// How a run uses the headings of two antennas.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,16 +118,6 @@ impl HeadingQueue {
     /// Headings that found no epoch so far, and those not reached yet.
     pub fn unmatched(&self) -> usize {
         self.unmatched + (self.list.len() - self.next)
-    }
-}
-
-/// An angle wrapped to (−π, π].
-pub fn wrap(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
     }
 }
 

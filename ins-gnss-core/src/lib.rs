@@ -1,6 +1,8 @@
 //! The INS/GNSS library: the 15-state error-state filter on a WGS-84 navigation state,
 //! driven by IMU samples and GNSS epochs, and the plain-text formats of the open INS/GNSS
-//! tools. No command-line, plotting or configuration-file dependencies: the `ins-gnss`
+//! tools. The GNSS without an INS (RINEX, u-blox, ephemerides, time scales, the single
+//! point, RTK) is the `gnss` crate, which tight coupling builds on (this crate's own
+//! [`gnss`] module is the fixes' measurement models of loose coupling). No command-line, plotting or configuration-file dependencies: the `ins-gnss`
 //! program and the `ins-gnss-sim` simulator are crates of their own built on this one.
 //!
 //! | module or item | what |
@@ -15,7 +17,6 @@
 //! | [`gnss`] | [`GnssPosition`], [`GnssVelocity`], [`GnssPosVel`] with lever arm; [`GnssEpoch`] |
 //! | [`heading`] | heading (and pitch) from two antennas: [`heading::BaselineHeading`], [`heading::AntennaHeading`] |
 //! | [`navigator`] | [`Navigator`]: the filter driven by IMU samples, GNSS epochs applied at their exact time |
-//! | [`calendar`] | civil dates, leap seconds, time systems: epochs on the GPST seconds-of-week scale |
 //! | [`calibration`] | the rig's calibration as states: the antenna lever arm, the IMU–GNSS time offset, the mounting in the vehicle, the odometer's scale and wheel point, [`calibration::InsStateCal`] (26) |
 //! | [`fix_error`] | the GNSS fixes' persisting (Gauss–Markov) error as states: [`fix_error::InsStateFe`] (18), [`fix_error::InsState21Fe`] (24) |
 //! | [`scale`] | the 21-state INS: [`scale::InsState21`] (15 + gyro and accelerometer scale factors), [`scale::InsModel21`] |
@@ -23,7 +24,6 @@
 //! | [`vehicle`] | land-vehicle aiding: [`vehicle::Nhc`], [`vehicle::Zupt`], [`vehicle::Zaru`], the stationary detector |
 //! | [`align`] | initialisation from the data: the static start (levelling, gyro biases, noise), the in-motion alignment |
 //! | [`init`] | static coarse alignment, heading from the GNSS track |
-//! | [`raw`] | raw GNSS: RINEX observations and ephemerides, satellite and atmosphere models, single point |
 //! | [`io`] | streaming readers and writers of the KF-GINS formats, errors with file and line |
 //!
 //! Error state `[δθ, δv, δp, δb_g, δb_a]`: right (body-frame) attitude error, NED velocity
@@ -34,7 +34,6 @@
 pub mod align;
 pub mod allan;
 mod augment;
-pub mod calendar;
 pub mod calibration;
 pub mod earth;
 pub mod fix_error;
@@ -47,7 +46,6 @@ pub mod mechanization;
 pub mod model;
 pub mod navigator;
 mod position;
-pub mod raw;
 pub mod scale;
 mod spill;
 mod state;

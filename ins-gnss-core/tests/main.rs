@@ -2,5 +2,4 @@
 //! of one per file): each module is one file of `tests/`, run as before with
 //! `cargo test -p ins-gnss-core --test main MODULE::` (a module's tests) or a test's name.
 
-mod raw_rinex;
 mod static_start;

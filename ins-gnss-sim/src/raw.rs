@@ -4,7 +4,7 @@
 //! sky masks (an urban canyon that leaves the highest few satellites, a tunnel that leaves
 //! none).
 //!
-//! The observation model is the one [`ins_gnss_core::raw::spp`] inverts:
+//! The observation model is the one [`gnss::spp`] inverts:
 //! `P = ρ + c·dt_r − c·dt_s + I + T + e_eph + e_code + ε` with `ρ` the geometric range from
 //! the satellite at its transmission time to the antenna at the true reception time, with
 //! the Sagnac term; the phase has `−I`, an integer ambiguity per arc and its own noise.
@@ -12,13 +12,13 @@
 //! ([`RawSim::spp_budget`]), so that its covariance can be checked (NEES) on this data.
 
 use crate::trajectory::Trajectory;
+use gnss::atmosphere::Klobuchar;
+use gnss::ephemeris::{Ephemerides, C};
+use gnss::obs::frequency;
+use gnss::spp::Troposphere;
+use gnss::spp::{azel, geometry, range_rate};
+use gnss::{GpsTime, ObsEpoch, Sat, SatObs, Signal};
 use ins_gnss_core::earth::{ecef_to_geodetic, geodetic_to_ecef};
-use ins_gnss_core::raw::atmosphere::Klobuchar;
-use ins_gnss_core::raw::ephemeris::{Ephemerides, C};
-use ins_gnss_core::raw::obs::frequency;
-use ins_gnss_core::raw::spp::Troposphere;
-use ins_gnss_core::raw::spp::{azel, geometry, range_rate};
-use ins_gnss_core::raw::{GpsTime, ObsEpoch, Sat, SatObs, Signal};
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -87,7 +87,7 @@ pub struct RawSim {
 }
 
 impl RawSim {
-    /// A receiver whose errors are drawn from the budget [`ins_gnss_core::raw::spp`]
+    /// A receiver whose errors are drawn from the budget [`gnss::spp`]
     /// assumes with its default options: URA 2.4 m, 0.3 m code bias, half the Klobuchar
     /// delay, 0.3/(sin el + 0.1) m of troposphere, code noise 0.3 m ⊕ 0.3 m/sin el,
     /// Doppler 0.1 m/s; 1 Hz, 10° mask, no outliers, slips or masks.
@@ -520,9 +520,9 @@ fn sfrbx(out: &mut Vec<u8>, gnss_id: u8, sv_id: u8, sig_id: u8, words: &[u32]) {
 
 /// Writes epochs as a u-blox log: an RXM-RAWX (version 1) per epoch, and for each GPS
 /// satellite the RXM-SFRBX subframes 1–3 of its broadcast record
-/// ([`ins_gnss_core::raw::lnav::encode`]), for each Galileo satellite the I/NAV pages of
-/// word types 0–5 ([`ins_gnss_core::raw::inav`]), for each BeiDou MEO or IGSO satellite
-/// the D1 subframes 1–3 and for each GEO the D2 pages 1–10 ([`ins_gnss_core::raw::bds`]),
+/// ([`gnss::lnav::encode`]), for each Galileo satellite the I/NAV pages of
+/// word types 0–5 ([`gnss::inav`]), for each BeiDou MEO or IGSO satellite
+/// the D1 subframes 1–3 and for each GEO the D2 pages 1–10 ([`gnss::bds`]),
 /// before its first observation and whenever the record in use changes, with the broadcast
 /// ionosphere (subframe 4 page 18) first. Signals: GPS L1 C/A (sigId 0) and L2 CL (sigId
 /// 3), Galileo E1 B (sigId 1) and E5a I (sigId 3), BeiDou B1I (sigId 0); `leap`: GPS −
@@ -536,8 +536,8 @@ pub fn write_ubx(
     let mut out = Vec::new();
     // the ionosphere (subframe 4, page 18) once, from the first satellite
     if let (Some(k), Some(e)) = (klobuchar, epochs.first()) {
-        if let Some(o) = e.sats.iter().find(|o| o.sat.sys == ins_gnss_core::raw::System::Gps) {
-            let sf = ins_gnss_core::raw::lnav::encode_ionosphere(k, e.time.tow);
+        if let Some(o) = e.sats.iter().find(|o| o.sat.sys == gnss::System::Gps) {
+            let sf = gnss::lnav::encode_ionosphere(k, e.time.tow);
             sfrbx(&mut out, 0, o.sat.prn, 0, &sf);
         }
     }
@@ -545,9 +545,9 @@ pub fn write_ubx(
     let mut lock: BTreeMap<(Sat, usize), (GpsTime, GpsTime)> = BTreeMap::new();
     for e in epochs {
         for o in &e.sats {
-            let galileo = o.sat.sys == ins_gnss_core::raw::System::Galileo;
-            let beidou = o.sat.sys == ins_gnss_core::raw::System::BeiDou;
-            if o.sat.sys != ins_gnss_core::raw::System::Gps && !galileo && !beidou {
+            let galileo = o.sat.sys == gnss::System::Galileo;
+            let beidou = o.sat.sys == gnss::System::BeiDou;
+            if o.sat.sys != gnss::System::Gps && !galileo && !beidou {
                 continue;
             }
             let Some(r) = eph.select(o.sat, &e.time) else { continue };
@@ -557,7 +557,7 @@ pub fn write_ubx(
             sent.insert(o.sat, (r.iode, r.toe.tow));
             if galileo {
                 // word types 0–4, 6 (GST − UTC) and 5 as E1-B I/NAV nominal pages (sigId 1)
-                use ins_gnss_core::raw::inav;
+                use gnss::inav;
                 let [w0, w1, w2, w3, w4, w5] = inav::encode(r, e.time.tow);
                 let utc = inav::encode_utc(leap, e.time.week, e.time.tow);
                 // nine words, the ninth reserved (zero), as u-blox receivers send them and
@@ -571,8 +571,8 @@ pub fn write_ubx(
             if beidou {
                 // D1 subframes 1–3 (sigId 0: B1I D1), or a GEO's D2 pages 1–10 (sigId 1:
                 // B1I D2), timed in BDT
-                use ins_gnss_core::raw::bds;
-                let bdt = e.time.add(ins_gnss_core::raw::time::BDT_MINUS_GPST).tow;
+                use gnss::bds;
+                let bdt = e.time.add(gnss::time::BDT_MINUS_GPST).tow;
                 let geo = o.sat.beidou_geo();
                 let frames = if geo {
                     bds::encode_d2(r, bdt).to_vec()
@@ -584,7 +584,7 @@ pub fn write_ubx(
                 }
                 continue;
             }
-            for sf in ins_gnss_core::raw::lnav::encode(r, e.time.tow) {
+            for sf in gnss::lnav::encode(r, e.time.tow) {
                 sfrbx(&mut out, 0, o.sat.prn, 0, &sf);
             }
         }
@@ -605,12 +605,12 @@ pub fn write_ubx(
         p.extend_from_slice(&[leap as u8, meas.len() as u8, 1, 1, 0, 0]);
         for (sat, k, s) in meas {
             let (gnss_id, sig_id) = match (sat.sys, k) {
-                (ins_gnss_core::raw::System::Gps, 0) => (0u8, 0u8),
-                (ins_gnss_core::raw::System::Gps, _) => (0, 3),
-                (ins_gnss_core::raw::System::Galileo, 0) => (2, 1),
-                (ins_gnss_core::raw::System::Galileo, _) => (2, 3),
-                (ins_gnss_core::raw::System::BeiDou, _) => (3, 0),
-                (ins_gnss_core::raw::System::Qzss, 0) => (5, 0),
+                (gnss::System::Gps, 0) => (0u8, 0u8),
+                (gnss::System::Gps, _) => (0, 3),
+                (gnss::System::Galileo, 0) => (2, 1),
+                (gnss::System::Galileo, _) => (2, 3),
+                (gnss::System::BeiDou, _) => (3, 0),
+                (gnss::System::Qzss, 0) => (5, 0),
                 (_, _) => (5, 4),
             };
             // lock time: from the arc's start (a slip, or the satellite back after a gap)

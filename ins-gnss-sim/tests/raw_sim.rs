@@ -2,8 +2,8 @@
 //! round trip, the single point's error against the truth and its covariance (NEES) over
 //! seeds, the receiver clock recovered, RAIM against simulated multipath, sky masks.
 
-use ins_gnss_core::raw::spp::{single_point, SppOptions};
-use ins_gnss_core::raw::{read_nav, GpsTime, NavData, ObsReader};
+use gnss::spp::{single_point, SppOptions};
+use gnss::{read_nav, GpsTime, NavData, ObsReader};
 use ins_gnss_sim::raw::{simulate_raw, write_rinex_obs, RawSim, SkyMask};
 use ins_gnss_sim::scenarios::drive_600s;
 use ins_gnss_sim::Trajectory;
@@ -102,7 +102,7 @@ fn single_point_on_simulated_observations_is_consistent_over_seeds() {
 fn spp_errors(
     sim: &RawSim,
     seed: u64,
-) -> (Vec<f64>, usize, Vec<ins_gnss_core::raw::ObsEpoch>, Vec<ins_gnss_sim::raw::RawTruth>) {
+) -> (Vec<f64>, usize, Vec<gnss::ObsEpoch>, Vec<ins_gnss_sim::raw::RawTruth>) {
     let nav = nav();
     let kb = nav.klobuchar.unwrap();
     let (epochs, truth) = simulate_raw(&drive(), &nav.ephemerides, &kb, sim, seed);

@@ -5,14 +5,12 @@
 
 use crate::config::{Config, Coupling};
 use crate::run::RunError;
+use gnss::spp::{prepare, solve_prepared};
+use gnss::ubx::read_ubx;
+use gnss::{read_nav, Ephemerides, NavData, ObsEpoch, ObsReader, RawError, SppOptions, System};
 use ins_gnss_core::io::formats::{GnssReader, Input};
 use ins_gnss_core::io::SkipCounts;
 use ins_gnss_core::navigator::{RawEpoch, TightConfig};
-use ins_gnss_core::raw::spp::{prepare, solve_prepared};
-use ins_gnss_core::raw::ubx::read_ubx;
-use ins_gnss_core::raw::{
-    read_nav, Ephemerides, NavData, ObsEpoch, ObsReader, RawError, SppOptions, System,
-};
 use ins_gnss_core::GnssEpoch;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -313,7 +311,7 @@ impl RawReader {
         });
         // the heading file's heading at this epoch (within 1 ms)
         let heading = self.headings.take(t);
-        let fix = spp.map(|s| GnssEpoch { heading, ..s.fix(t) });
+        let fix = spp.map(|s| GnssEpoch { heading, ..GnssEpoch::from_single_point(&s, t) });
         Ok(Some(AidEpoch {
             t,
             fix,

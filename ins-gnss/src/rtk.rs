@@ -4,11 +4,11 @@
 use crate::cli::CliError;
 use crate::spp::{compare, read_pos, scatter};
 
+use gnss::rtk::{Rtk, RtkEpoch, RtkFailure, RtkMode, RtkOptions};
+use gnss::{single_point, ObsEpoch};
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::io::formats::{create_partial, publish};
 use ins_gnss_core::io::rtklib::{push_epoch_ns, write_header_mode};
-use ins_gnss_core::raw::rtk::{Rtk, RtkEpoch, RtkFailure, RtkMode, RtkOptions};
-use ins_gnss_core::raw::{single_point, ObsEpoch};
 use ins_gnss_core::GeoPos;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -340,7 +340,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ins_gnss_core::raw::GpsTime;
+    use gnss::GpsTime;
     use nalgebra::Matrix3;
 
     /// The fix's timings and ratios from a run's epochs: fixed at 20 s, lost from 40 to

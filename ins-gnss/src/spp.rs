@@ -3,11 +3,11 @@
 
 use crate::cli::CliError;
 
+use gnss::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
+use gnss::Spp;
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::io::formats::{create_partial, publish, BadLinePolicy, GnssFormat, GnssReader};
 use ins_gnss_core::io::rtklib::{push_epoch_ns, write_header_mode};
-use ins_gnss_core::raw::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
-use ins_gnss_core::raw::Spp;
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -77,7 +77,7 @@ pub fn write_pos(path: &Path, run: &SppRun, opt: &SppOptions) -> Result<(), CliE
     write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
     let mut line = Vec::with_capacity(200);
     for s in &run.solutions {
-        let fix = s.fix(0.0);
+        let fix = ins_gnss_core::GnssEpoch::from_single_point(&s, 0.0);
         line.clear();
         let t = s.solution_time();
         push_epoch_ns(
@@ -174,9 +174,9 @@ pub fn parse_tropo(s: &str) -> Result<Troposphere, String> {
 }
 
 /// A system for `spp --systems`: a RINEX letter or a name
-/// ([`ins_gnss_core::raw::System::parse_list`]).
-pub fn parse_system(s: &str) -> Result<ins_gnss_core::raw::System, String> {
-    ins_gnss_core::raw::System::parse_list(&[s]).map(|v| v[0])
+/// ([`gnss::System::parse_list`]).
+pub fn parse_system(s: &str) -> Result<gnss::System, String> {
+    gnss::System::parse_list(&[s]).map(|v| v[0])
 }
 
 /// `ins-gnss spp`: solve, write, print a summary (and the comparison with `against`).

@@ -2,9 +2,9 @@
 //! stations, in three configurations (the references and the script that made them are in
 //! `data/rinex-rtklib/rtklib/`).
 
+use gnss::spp::{Ionosphere, Troposphere};
+use gnss::{SppOptions, System};
 use ins_gnss::spp::{compare, read_pos, scatter, solve_file};
-use ins_gnss_core::raw::spp::{Ionosphere, Troposphere};
-use ins_gnss_core::raw::{SppOptions, System};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 

@@ -5,11 +5,11 @@
 //! run), over seeds of our own; its consistency with white and with constant satellite
 //! errors; its self-start; and the configurations it refuses.
 
+use gnss::SppOptions;
 use ins_gnss::config::{Config, Coupling};
 use ins_gnss::eval::{evaluate, Evaluation};
 use ins_gnss::run::{run, run_in_memory, RunError};
 use ins_gnss::scenario::Scenario;
-use ins_gnss_core::raw::SppOptions;
 use std::path::{Path, PathBuf};
 
 fn scenario(seed: u64, white: bool) -> Scenario {

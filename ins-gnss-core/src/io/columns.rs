@@ -73,7 +73,7 @@ impl TimeScale {
         const GPS_EPOCH_UNIX: f64 = 315_964_800.0;
         let gps = match self {
             TimeScale::AsIs => return 0.0,
-            TimeScale::UnixUtc => t - GPS_EPOCH_UNIX + crate::calendar::gps_minus_utc(t),
+            TimeScale::UnixUtc => t - GPS_EPOCH_UNIX + ::gnss::calendar::gps_minus_utc(t),
             TimeScale::GpsSeconds => t,
         };
         gps.rem_euclid(WEEK) - t

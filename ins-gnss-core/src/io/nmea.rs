@@ -14,9 +14,9 @@ use nalgebra::Vector3;
 
 use super::lines::LineErrorKind;
 use super::rtklib::QualityFactors;
-use crate::calendar::{seconds_of_week, TimeSystem};
 use crate::gnss::GnssEpoch;
 use crate::position::GeoPos;
+use ::gnss::calendar::{seconds_of_week, TimeSystem};
 
 /// One sentence's fields (after `$` and before `*`), checksum verified.
 pub fn fields(line: &str) -> Result<Vec<&str>, LineErrorKind> {
@@ -222,8 +222,8 @@ impl NmeaState {
         // after midnight with no new date since: the next day
         if let (Some(last), Some((y, m, d))) = (self.last_tod, self.date) {
             if tod + 43_200.0 < last && self.date == self.date_at_last {
-                let days = crate::calendar::days_from_civil(y, m, d) + 1;
-                self.date = Some(crate::calendar::civil_from_days(days));
+                let days = ::gnss::calendar::days_from_civil(y, m, d) + 1;
+                self.date = Some(::gnss::calendar::civil_from_days(days));
             }
         }
         self.last_tod = Some(tod);

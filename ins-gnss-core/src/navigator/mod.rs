@@ -31,10 +31,6 @@ use crate::gnss::{GnssEpoch, GnssFixModel, GnssPosVel, GnssPosition};
 use crate::imu::ImuNoise;
 use crate::imu::ImuSample;
 use crate::model::{ImuInput, InsModel, M15};
-use crate::raw::atmosphere::Klobuchar;
-use crate::raw::spp::{azel, code_noise_variance, corrections, Prepared, SppOptions};
-use crate::raw::GpsTime;
-use crate::raw::System;
 use crate::scale::{InsModel21, InsState21, M21};
 use crate::state::InsState;
 use crate::tight::{
@@ -42,6 +38,10 @@ use crate::tight::{
     M26,
 };
 use crate::vehicle::VehicleModel;
+use ::gnss::atmosphere::Klobuchar;
+use ::gnss::spp::{azel, code_noise_variance, corrections, Prepared, SppOptions};
+use ::gnss::GpsTime;
+use ::gnss::System;
 
 mod coarse;
 mod setup;
@@ -101,7 +101,7 @@ struct CarrierEpoch {
     anchor: Vector3<f64>,
     /// Per satellite: its phase (m), position (ECEF) and clock (s) at transmission, and
     /// the atmosphere's delay of the phase `T − I` (m).
-    sats: Vec<(crate::raw::Sat, f64, Vector3<f64>, f64, f64)>,
+    sats: Vec<(::gnss::Sat, f64, Vector3<f64>, f64, f64)>,
 }
 
 impl<A: NoiseStrategy, S: NavState> Navigator<A, S>

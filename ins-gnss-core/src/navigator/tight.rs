@@ -5,7 +5,7 @@
 use super::*;
 
 /// One epoch of raw observations for the tightly coupled navigator: the satellites at
-/// their transmission times ([`crate::raw::spp::prepare`]) and the epoch's time on the
+/// their transmission times ([`::gnss::spp::prepare`]) and the epoch's time on the
 /// navigator's clock.
 #[derive(Clone, Debug)]
 pub struct RawEpoch {
@@ -333,8 +333,8 @@ fn carrier_rows(
         let Some(&(_, p0, pos0, clk0, atm0)) = prev.sats.iter().find(|p| p.0 == s.sat) else {
             continue;
         };
-        let (rho, u) = crate::raw::spp::geometry(&s.state.pos, r_a);
-        let (rho0, _) = crate::raw::spp::geometry(&pos0, &prev.anchor);
+        let (rho, u) = ::gnss::spp::geometry(&s.state.pos, r_a);
+        let (rho0, _) = ::gnss::spp::geometry(&pos0, &prev.anchor);
         let (_, el) = azel(ant.lat, ant.lon, &u);
         if el < cfg.models.elevation_mask {
             continue;
@@ -346,7 +346,7 @@ fn carrier_rows(
                 continue;
             }
         }
-        let sat_clock = crate::raw::ephemeris::C * (s.state.clock - clk0);
+        let sat_clock = ::gnss::ephemeris::C * (s.state.clock - clk0);
         let atm = phase_atmosphere(cfg, (ant.lat, ant.lon, ant.h), r_a, e.time, s);
         rows.push((el, change + sat_clock - (rho - rho0) - (atm - atm0), c_ne * u));
     }
@@ -365,7 +365,7 @@ fn phase_atmosphere(
     let d = s.state.pos - r;
     let azel = azel(llh.0, llh.1, &(d / d.norm()));
     let ((iono, _), (tropo, _)) =
-        crate::raw::spp::atmosphere(&cfg.models, &cfg.klobuchar, llh, azel, time, s);
+        ::gnss::spp::atmosphere(&cfg.models, &cfg.klobuchar, llh, azel, time, s);
     tropo - iono
 }
 

@@ -29,11 +29,11 @@ use nalgebra::{Const, Matrix3, SMatrix, SVector, Vector1, Vector3};
 
 use crate::earth::{ecef_to_ned_rotation, geodetic_to_ecef, LocalEarth};
 use crate::model::{ImuInput, InsModel};
-use crate::raw::ephemeris::C;
-use crate::raw::spp::{geometry, range_rate, Prepared};
-use crate::raw::{Sat, System};
 use crate::scale::{InsModel21, InsState21, M21};
 use crate::state::InsState;
+use ::gnss::ephemeris::C;
+use ::gnss::spp::{geometry, range_rate, Prepared};
+use ::gnss::{Sat, System};
 
 mod measurements;
 

@@ -236,11 +236,11 @@ struct SppArgs {
     out: Option<PathBuf>,
     /// Ionosphere: off, klobuchar, iono-free.
     #[arg(long, default_value = "klobuchar", value_parser = ins_gnss::spp::parse_iono)]
-    iono: ins_gnss_core::raw::spp::Ionosphere,
+    iono: gnss::spp::Ionosphere,
     /// Troposphere: off, saastamoinen (mapped by 1/sin(el)), niell (Saastamoinen mapped by
     /// Niell's functions).
     #[arg(long, default_value = "saastamoinen", value_parser = ins_gnss::spp::parse_tropo)]
-    tropo: ins_gnss_core::raw::spp::Troposphere,
+    tropo: gnss::spp::Troposphere,
     /// Elevation mask, degrees.
     #[arg(long, default_value_t = 15.0)]
     mask: f64,
@@ -250,7 +250,7 @@ struct SppArgs {
     /// Systems used, comma-separated RINEX letters or names: G (GPS), E (Galileo), C
     /// (BeiDou), J (QZSS) [default: all four].
     #[arg(long, value_delimiter = ',', value_parser = ins_gnss::spp::parse_system)]
-    systems: Vec<ins_gnss_core::raw::System>,
+    systems: Vec<gnss::System>,
     /// Compare with another solution of the same file (an RTKLIB `.pos`, GPST).
     #[arg(long)]
     against: Option<PathBuf>,
@@ -340,7 +340,7 @@ impl RunArgs {
 impl SppArgs {
     /// `ins-gnss spp`.
     fn run(self) -> Result<(), cli::CliError> {
-        let opt = ins_gnss_core::raw::SppOptions {
+        let opt = gnss::SppOptions {
             ionosphere: self.iono,
             troposphere: self.tropo,
             elevation_mask: self.mask.to_radians(),
@@ -350,7 +350,7 @@ impl SppArgs {
         let opt = if self.systems.is_empty() {
             opt
         } else {
-            ins_gnss_core::raw::SppOptions { systems: self.systems, ..opt }
+            gnss::SppOptions { systems: self.systems, ..opt }
         };
         let navs: Vec<&std::path::Path> = self.nav.iter().map(PathBuf::as_path).collect();
         ins_gnss::spp::run(&self.obs, &navs, self.out.as_deref(), &opt, self.against.as_deref())
@@ -360,7 +360,7 @@ impl SppArgs {
 impl RtkArgs {
     /// `ins-gnss rtk`.
     fn run(self) -> Result<(), cli::CliError> {
-        use ins_gnss_core::raw::rtk::{RtkMode, RtkOptions};
+        use gnss::rtk::{RtkMode, RtkOptions};
         let opt = RtkOptions {
             mode: if self.fixed_rover { RtkMode::Static } else { RtkMode::Kinematic },
             frequencies: self.frequencies as usize,

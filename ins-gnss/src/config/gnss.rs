@@ -328,10 +328,10 @@ pub struct TightSection {
     pub systems: Vec<String>,
 }
 
-/// The single point's systems ([`SppOptions`](ins_gnss_core::raw::SppOptions)'s default), as
+/// The single point's systems ([`SppOptions`](::gnss::SppOptions)'s default), as
 /// letters.
 pub(crate) fn default_systems() -> Vec<String> {
-    let systems = ins_gnss_core::raw::SppOptions::default().systems;
+    let systems = ::gnss::SppOptions::default().systems;
     systems.iter().map(|s| s.letter().to_string()).collect()
 }
 
@@ -378,8 +378,8 @@ impl TightSection {
     }
 
     /// The single point's options these settings make (`gnss.tight.*` named in errors).
-    pub fn spp_options(&self) -> Result<ins_gnss_core::raw::SppOptions, String> {
-        use ins_gnss_core::raw::spp::{Ionosphere, Troposphere};
+    pub fn spp_options(&self) -> Result<::gnss::SppOptions, String> {
+        use ::gnss::spp::{Ionosphere, Troposphere};
         let ionosphere = match self.ionosphere.as_str() {
             "off" => Ionosphere::Off,
             "klobuchar" => Ionosphere::Klobuchar,
@@ -411,9 +411,9 @@ impl TightSection {
                 return Err(format!("`gnss.tight.{key} = {v}`: must be positive"));
             }
         }
-        let systems = ins_gnss_core::raw::System::parse_list(&self.systems)
+        let systems = ::gnss::System::parse_list(&self.systems)
             .map_err(|e| format!("`gnss.tight.systems`: {e}"))?;
-        Ok(ins_gnss_core::raw::SppOptions {
+        Ok(::gnss::SppOptions {
             elevation_mask: self.elevation_mask.to_radians(),
             ionosphere,
             troposphere,

@@ -29,7 +29,7 @@ pub enum RunError {
         message: String,
     },
     /// A raw GNSS file (tight coupling) is malformed or cannot be used.
-    Raw(ins_gnss_core::raw::RawError),
+    Raw(gnss::RawError),
     /// The IMU file ends before the start time or has no sample after it.
     NoData(String),
     /// The data do not match the configuration (units, axes, rate), or the initial state

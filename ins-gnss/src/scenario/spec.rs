@@ -198,8 +198,8 @@ pub struct RawSpec {
 
 impl RawSpec {
     /// `troposphere` as the simulator's model; the message names the key.
-    pub fn true_troposphere(&self) -> Result<ins_gnss_core::raw::spp::Troposphere, String> {
-        use ins_gnss_core::raw::spp::Troposphere;
+    pub fn true_troposphere(&self) -> Result<gnss::spp::Troposphere, String> {
+        use gnss::spp::Troposphere;
         // (the truth has a troposphere: `off` is not one)
         Troposphere::from_name(&self.troposphere).filter(|t| *t != Troposphere::Off).ok_or_else(
             || format!("`raw.troposphere = \"{}\"`: saastamoinen or niell", self.troposphere),

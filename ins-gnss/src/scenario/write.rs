@@ -92,9 +92,9 @@ impl Scenario {
         dir: &Path,
     ) -> Result<[PathBuf; 2], String> {
         use ins_gnss_sim::raw::{simulate_raw, write_rinex_obs, RawSim, SkyMask};
-        let nav = ins_gnss_core::raw::read_nav(&raw.nav).map_err(|e| e.to_string())?;
+        let nav = gnss::read_nav(&raw.nav).map_err(|e| e.to_string())?;
         let klobuchar = nav.klobuchar.unwrap_or_default();
-        let start = ins_gnss_core::raw::GpsTime { week: raw.week, tow: self.start.time };
+        let start = gnss::GpsTime { week: raw.week, tow: self.start.time };
         let t0 = self.start.time;
         let sim = RawSim {
             rate_hz: raw.rate,

@@ -3,9 +3,9 @@
 //! (timed by the log's GGA and RMC/ZDA), or columns `t heading [σ [pitch σ]]` (deg).
 
 use super::*;
-use crate::calendar::TimeSystem;
 use crate::heading::{wrap, AntennaHeading};
 use crate::io::rtklib::{covariance, field, split_line};
+use ::gnss::calendar::TimeSystem;
 
 /// The headings of a file and what was left out.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -71,8 +71,10 @@ pub fn read_headings(path: &Path, policy: BadLinePolicy) -> Result<Headings, Lin
     let n = std::io::Read::read(&mut open(path)?, &mut head).unwrap_or(0);
     if n == 2 && head == [0xB5, 0x62] {
         // a u-blox log: its NAV-RELPOSNED (fixed and float ambiguities)
-        let (list, dropped) = crate::raw::ubx::read_relposned(path, false).map_err(|e| {
-            LineError { path: path.to_path_buf(), line: 0, kind: LineErrorKind::Io(e.message) }
+        let (list, dropped) = ::gnss::ubx::read_relposned(path, false).map_err(|e| LineError {
+            path: path.to_path_buf(),
+            line: 0,
+            kind: LineErrorKind::Io(e.message),
         })?;
         if list.is_empty() {
             return Err(LineError {

@@ -23,9 +23,8 @@
 //! byte-order mark at the start of a file is ignored.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Read, Write};
+use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
-use std::sync::{Arc, Mutex};
 
 use manifolds::So3;
 use nalgebra::Vector3;

@@ -26,10 +26,10 @@ use crate::position::GeoPos;
 
 mod write;
 
-pub use crate::calendar::{
+pub use ::gnss::calendar::{
     civil_from_days, days_from_civil, gps_minus_utc, seconds_of_week, TimeSystem,
 };
-use crate::calendar::{GPS_EPOCH_DAYS, WEEK};
+use ::gnss::calendar::{GPS_EPOCH_DAYS, WEEK};
 pub use write::*;
 
 /// The σ factor per solution quality `Q` (index 1–6) and the qualities dropped.

@@ -2,8 +2,8 @@
 //! of the shipped stations (`data/rinex-rtklib/`), and RAIM over a campaign of injected
 //! faults on the real epochs.
 
-use ins_gnss_core::raw::spp::{prepare, solve_prepared, SppOptions};
-use ins_gnss_core::raw::{read_nav, GpsTime, ObsEpoch, ObsReader, Sat, System};
+use gnss::spp::{prepare, solve_prepared, SppOptions};
+use gnss::{read_nav, GpsTime, ObsEpoch, ObsReader, Sat, System};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 

@@ -18,10 +18,9 @@ use super::atmosphere::{saastamoinen, saastamoinen_niell, Klobuchar};
 use super::ephemeris::{Ephemerides, SatState, C, OMEGA_E};
 use super::obs::{frequency, ObsEpoch};
 use super::time::{GpsTime, Sat, System};
-use crate::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
-use crate::gnss::GnssEpoch;
-use crate::position::GeoPos;
 use estimator_core::consistency::chi2_quantile;
+
+use crate::geodesy::{ecef_to_geodetic, ecef_to_ned_rotation};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix4, Vector3, Vector4};
 
 mod models;
@@ -60,27 +59,6 @@ impl Spp {
     /// of the first system (as RTKLIB writes solutions).
     pub fn solution_time(&self) -> GpsTime {
         self.time.add(-self.clocks.first().map_or(0.0, |c| c.1) / C)
-    }
-
-    /// The solution as a GNSS fix at time `t` (on the caller's clock): the geodetic
-    /// position with its NED covariance, and the Doppler velocity (NED) with its
-    /// covariance when there is one — what loose coupling and `.pos` output take.
-    pub fn fix(&self, t: f64) -> GnssEpoch {
-        let (lat, lon, h) = ecef_to_geodetic(&self.pos);
-        let c_ne = ecef_to_ned_rotation(lat, lon);
-        let cov = c_ne * self.cov * c_ne.transpose();
-        let sd =
-            |c: &Matrix3<f64>| Vector3::new(c[(0, 0)].sqrt(), c[(1, 1)].sqrt(), c[(2, 2)].sqrt());
-        let vel = self.velocity.map(|(v, vc)| (c_ne * v, c_ne * vc * c_ne.transpose()));
-        GnssEpoch {
-            t,
-            pos: GeoPos { lat, lon, h },
-            pos_std: sd(&cov),
-            vel: vel.map(|(v, vc)| (v, sd(&vc))),
-            pos_cov: Some(cov),
-            vel_cov: vel.map(|(_, vc)| vc),
-            heading: None,
-        }
     }
 }
 

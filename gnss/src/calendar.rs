@@ -3,7 +3,7 @@
 //! stamped in UTC) and for the raw observations' GPS time.
 
 /// Seconds in a GPS week.
-pub(crate) const WEEK: f64 = 604_800.0;
+pub const WEEK: f64 = 604_800.0;
 
 /// GPS − UTC (s) from each date (year, month, day; 0 h UTC) on: the leap seconds since
 /// the GPS epoch (1980-01-06), from the IERS bulletins.
@@ -53,7 +53,7 @@ pub fn civil_from_days(z: i64) -> (i64, i64, i64) {
 }
 
 /// Days from 1970-01-01 to the GPS epoch, 1980-01-06.
-pub(crate) const GPS_EPOCH_DAYS: i64 = 3657;
+pub const GPS_EPOCH_DAYS: i64 = 3657;
 
 /// GPS − UTC (s) at a UTC instant given as seconds since 1970-01-01 (UTC, no leap
 /// seconds counted, as Unix time).
@@ -78,7 +78,8 @@ pub enum TimeSystem {
 }
 
 impl TimeSystem {
-    pub(crate) fn from_label(s: &str) -> Option<Self> {
+    /// The system of a label RTKLIB writes (`GPST`, `UTC`, `JST`).
+    pub fn from_label(s: &str) -> Option<Self> {
         match s {
             "GPST" => Some(Self::Gpst),
             "UTC" => Some(Self::Utc),

@@ -47,7 +47,7 @@ use super::lambda;
 use super::obs::{frequency, ObsEpoch};
 use super::spp::{azel, geometry, prepare, Ionosphere, Prepared, SppOptions, Troposphere};
 use super::{Ephemerides, GpsTime, Sat};
-use crate::earth::ecef_to_geodetic;
+use crate::geodesy::ecef_to_geodetic;
 
 /// The σ (m) a new single-differenced ambiguity starts with.
 pub const AMBIGUITY_SIGMA0: f64 = 30.0;

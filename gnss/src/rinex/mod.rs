@@ -17,7 +17,7 @@ use super::obs::{slot_of, ObsEpoch, SatObs, Signal};
 use super::open_input;
 use super::time::{GpsTime, Sat, System, BDT_MINUS_GPST, BDT_WEEK_OFFSET};
 use super::RawError;
-use crate::io::formats::Input;
+use crate::input::Input;
 use nalgebra::Vector3;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
