@@ -370,10 +370,10 @@ fn smoother(c: &mut Criterion) {
 /// Text in and out at the speed of the parser and formatter: 20,000 IMU lines (KF-GINS
 /// increments, 7 columns) read from memory, 20,000 navigation rows written to memory.
 fn text_io(c: &mut Criterion) {
-    use estimator::ins_gnss::io::formats::{
+    use estimator::ins_gnss::GeoPos;
+    use estimator::ins_gnss_io::formats::{
         write_nav, BadLinePolicy, ImuFormat, ImuReader, NavRecord,
     };
-    use estimator::ins_gnss::GeoPos;
     use std::io::Write as _;
     let n = 20_000;
     let mut imu = Vec::new();

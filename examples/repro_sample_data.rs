@@ -15,8 +15,8 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use estimator::ins_gnss::io::NavRecord;
 use estimator::ins_gnss::{GnssEpoch, ImuSample};
+use estimator::ins_gnss_io::NavRecord;
 use estimator::manifolds::Manifold;
 use ins_gnss::config::Config;
 use ins_gnss::eval::{evaluate_records, read_reference, Evaluation};

@@ -132,7 +132,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // RTKLIB reads plain RINEX
     let nav_plain = dir.join("nav.05n");
     {
-        let mut r = ins_gnss_core::io::formats::open(&drive.nav_path)?;
+        let mut r = ins_gnss_io::formats::open(&drive.nav_path)?;
         let mut w = std::fs::File::create(&nav_plain)?;
         std::io::copy(&mut r, &mut w)?;
     }

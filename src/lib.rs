@@ -19,6 +19,7 @@ pub use adaptive;
 pub use estimator_core;
 pub use gnss;
 pub use ins_gnss_core as ins_gnss;
+pub use ins_gnss_io;
 pub use manifolds;
 pub use models;
 

@@ -13,6 +13,7 @@ const FLOORS: &[(&str, &[&str])] = &[
     ("models", &["manifolds", "estimator-core"]),
     ("gnss", &["estimator-core"]),
     ("ins-gnss-core", &["manifolds", "estimator-core", "gnss"]),
+    ("ins-gnss-io", &["manifolds", "gnss", "ins-gnss-core"]),
     ("ins-gnss-sim", &["manifolds", "gnss", "ins-gnss-core"]),
     (
         "ins-gnss",
@@ -23,6 +24,7 @@ const FLOORS: &[(&str, &[&str])] = &[
             "models",
             "gnss",
             "ins-gnss-core",
+            "ins-gnss-io",
             "ins-gnss-sim",
         ],
     ),
@@ -35,6 +37,7 @@ const FLOORS: &[(&str, &[&str])] = &[
             "models",
             "gnss",
             "ins-gnss-core",
+            "ins-gnss-io",
             "ins-gnss-sim",
             "ins-gnss",
         ],
@@ -139,7 +142,8 @@ fn no_source_file_is_past_the_house_size() {
 }
 
 /// "No function in `ins-gnss/src` or `ins-gnss-core/src` over 80 lines" (the house
-/// issue): the bound, and the functions still over it with the length each may not pass
+/// issue; and in the crates split out of `ins-gnss-core`, `gnss` and `ins-gnss-io`): the
+/// bound, and the functions still over it with the length each may not pass
 /// (a ratchet: a new one over the bound, or one of these growing, fails; one brought under
 /// the bound is taken off the list).
 const MAX_FN_LINES: usize = 80;
@@ -226,7 +230,7 @@ fn function_lengths(text: &str) -> Vec<(String, usize)> {
 #[test]
 fn no_function_is_past_the_house_length_but_the_named_ones() {
     let mut files = Vec::new();
-    for dir in ["ins-gnss", "ins-gnss-core", "gnss"] {
+    for dir in ["ins-gnss", "ins-gnss-core", "ins-gnss-io", "gnss"] {
         sources(&root().join(dir).join("src"), &mut files);
     }
     let (mut over, mut counted) = (Vec::new(), 0);

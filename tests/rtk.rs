@@ -19,7 +19,7 @@ fn data(name: &str) -> PathBuf {
 fn rtklib(name: &str) -> Vec<(f64, Vector3<f64>)> {
     let mut text = String::new();
     let path = data(&format!("rtklib/rtk0759-{name}.pos.zst"));
-    let mut r = ins_gnss_core::io::formats::open(&path).unwrap();
+    let mut r = ins_gnss_io::formats::open(&path).unwrap();
     std::io::Read::read_to_string(&mut r, &mut text).unwrap();
     text.lines()
         .filter(|l| !l.starts_with('%'))

@@ -375,7 +375,7 @@ fn cnav_messages_do_not_reach_the_lnav_decoder() {
 /// A shipped log's bytes, decompressed.
 fn log_bytes(name: &str) -> Vec<u8> {
     let mut bytes = Vec::new();
-    let mut input = ins_gnss_core::io::formats::open(&data(name)).unwrap();
+    let mut input = ins_gnss_io::formats::open(&data(name)).unwrap();
     std::io::Read::read_to_end(&mut input, &mut bytes).unwrap();
     bytes
 }

@@ -46,7 +46,7 @@ pub struct GnssEpoch {
 }
 
 impl GnssEpoch {
-    /// A single point ([`gnss::Spp`](::gnss::Spp)) as a fix at time `t` (on the caller's
+    /// A single point ([`gnss::Spp`]) as a fix at time `t` (on the caller's
     /// clock): the geodetic position with its NED covariance, and the Doppler velocity
     /// (NED) with its covariance when there is one — what loose coupling and `.pos`
     /// output take.

@@ -11,8 +11,8 @@
 //! along the forward axis (`[1, 0, 0]`) measures the vehicle's yaw; one across it (a
 //! receiver mounted with the antennas left–right), the yaw + 90°.
 //!
-//! Sources: NMEA `HDT`/`THS` ([`io::nmea`](crate::io::nmea)); a heading file
-//! ([`read_headings`](crate::io::read_headings)): RTKLIB moving-base solutions in ENU,
+//! Sources (the `ins-gnss-io` crate): NMEA `HDT`/`THS` (`ins_gnss_io::nmea`); a heading
+//! file (`ins_gnss_io::read_headings`): RTKLIB moving-base solutions in ENU,
 //! u-blox `NAV-RELPOSNED`, columns; or any [`AntennaHeading`] a caller builds.
 
 use estimator_core::{MeasurementJacobians, MeasurementModel, StreamId};

@@ -31,7 +31,7 @@ impl ImuSample {
     /// From rates (rad/s, m/s²) held over the interval (trapezoid of the previous and
     /// current rates when `previous` is given, rectangle otherwise). The rate-type reader
     /// uses it where a higher-order rule has too few regular samples (see
-    /// [`ImuReader`](crate::io::ImuReader)).
+    /// `ins_gnss_io::ImuReader`).
     pub fn from_rates(
         t: f64,
         dt: f64,

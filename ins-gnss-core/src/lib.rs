@@ -1,9 +1,11 @@
 //! The INS/GNSS library: the 15-state error-state filter on a WGS-84 navigation state,
-//! driven by IMU samples and GNSS epochs, and the plain-text formats of the open INS/GNSS
-//! tools. The GNSS without an INS (RINEX, u-blox, ephemerides, time scales, the single
-//! point, RTK) is the `gnss` crate, which tight coupling builds on (this crate's own
-//! [`gnss`] module is the fixes' measurement models of loose coupling). No command-line, plotting or configuration-file dependencies: the `ins-gnss`
-//! program and the `ins-gnss-sim` simulator are crates of their own built on this one.
+//! driven by IMU samples and GNSS epochs. The GNSS without an INS (RINEX, u-blox,
+//! ephemerides, time scales, the single point, RTK) is the `gnss` crate, which tight
+//! coupling builds on (this crate's own [`gnss`] module is the fixes' measurement models
+//! of loose coupling); the file formats (KF-GINS text, column maps, RTKLIB, NMEA, ROS) are
+//! `ins-gnss-io`'s. No command-line, plotting, configuration-file or file-format
+//! dependencies: the `ins-gnss` program and the `ins-gnss-sim` simulator are crates of
+//! their own built on this one.
 //!
 //! | module or item | what |
 //! |---|---|
@@ -24,7 +26,6 @@
 //! | [`vehicle`] | land-vehicle aiding: [`vehicle::Nhc`], [`vehicle::Zupt`], [`vehicle::Zaru`], the stationary detector |
 //! | [`align`] | initialisation from the data: the static start (levelling, gyro biases, noise), the in-motion alignment |
 //! | [`init`] | static coarse alignment, heading from the GNSS track |
-//! | [`io`] | streaming readers and writers of the KF-GINS formats, errors with file and line |
 //!
 //! Error state `[δθ, δv, δp, δb_g, δb_a]`: right (body-frame) attitude error, NED velocity
 //! error, NED-metre position error, additive biases.
@@ -41,7 +42,6 @@ pub mod gnss;
 pub mod heading;
 pub mod imu;
 pub mod init;
-pub mod io;
 pub mod mechanization;
 pub mod model;
 pub mod navigator;

@@ -8,10 +8,10 @@ use crate::run::RunError;
 use gnss::spp::{prepare, solve_prepared};
 use gnss::ubx::read_ubx;
 use gnss::{read_nav, Ephemerides, NavData, ObsEpoch, ObsReader, RawError, SppOptions, System};
-use ins_gnss_core::io::formats::{GnssReader, Input};
-use ins_gnss_core::io::SkipCounts;
 use ins_gnss_core::navigator::{RawEpoch, TightConfig};
 use ins_gnss_core::GnssEpoch;
+use ins_gnss_io::formats::{GnssReader, Input};
+use ins_gnss_io::SkipCounts;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
@@ -213,7 +213,7 @@ impl AidReader {
             phase_std: config.gnss.tight.phase_std,
         };
         let headings = match &config.data.heading {
-            Some(path) => ins_gnss_core::io::read_headings(path, config.bad_lines())?.list,
+            Some(path) => ins_gnss_io::read_headings(path, config.bad_lines())?.list,
             None => Vec::new(),
         };
         let reader = RawReader {

@@ -11,8 +11,8 @@ use plotters::prelude::*;
 use crate::config::Config;
 use crate::run::{Inputs, RunError};
 use ins_gnss_core::allan::{AxisNoise, Term, FLICKER_FLOOR};
-use ins_gnss_core::io::formats::ImuReader;
-use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
+use ins_gnss_io::formats::ImuReader;
+use ins_gnss_io::{BadLinePolicy, ImuFormat};
 
 const DEG: f64 = 180.0 / std::f64::consts::PI;
 /// The slow drift a 1 s mean of a static record may show beyond its noise: rate (rad/s,
@@ -249,7 +249,7 @@ pub fn imu_noise_block(fits: &[AxisNoise]) -> String {
 /// model dashed; written beside, then moved onto `path`.
 pub fn plot(path: &Path, fits: &[AxisNoise]) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
-    let tmp = ins_gnss_core::io::formats::partial_path(path);
+    let tmp = ins_gnss_io::formats::partial_path(path);
     {
         let root = SVGBackend::new(&tmp, (900, 1000)).into_drawing_area();
         root.fill(&WHITE).map_err(e)?;

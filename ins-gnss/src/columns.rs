@@ -7,8 +7,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use ins_gnss_core::io::columns::unit_factor;
-use ins_gnss_core::io::{ColumnMap, Quantity, Source, TimeScale};
+use ins_gnss_io::columns::unit_factor;
+use ins_gnss_io::{ColumnMap, Quantity, Source, TimeScale};
 
 /// Body axes of a log.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -6,8 +6,8 @@ use crate::cli::CliError;
 use gnss::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
 use gnss::Spp;
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
-use ins_gnss_core::io::formats::{create_partial, publish, BadLinePolicy, GnssFormat, GnssReader};
-use ins_gnss_core::io::rtklib::{push_epoch_ns, write_header_mode};
+use ins_gnss_io::formats::{create_partial, publish, BadLinePolicy, GnssFormat, GnssReader};
+use ins_gnss_io::rtklib::{push_epoch_ns, write_header_mode};
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -77,7 +77,7 @@ pub fn write_pos(path: &Path, run: &SppRun, opt: &SppOptions) -> Result<(), CliE
     write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
     let mut line = Vec::with_capacity(200);
     for s in &run.solutions {
-        let fix = ins_gnss_core::GnssEpoch::from_single_point(&s, 0.0);
+        let fix = ins_gnss_core::GnssEpoch::from_single_point(s, 0.0);
         line.clear();
         let t = s.solution_time();
         push_epoch_ns(
@@ -105,7 +105,7 @@ pub fn read_pos(path: &Path) -> Result<Vec<(f64, Vector3<f64>)>, CliError> {
     let mut r = GnssReader::open(path, BadLinePolicy::Error)?.with_format(GnssFormat::Rtklib);
     let mut out = Vec::new();
     while let Some(e) = r.next_epoch()? {
-        out.push((e.t, ins_gnss_core::io::rtklib::to_ecef(&e.pos)));
+        out.push((e.t, ins_gnss_io::rtklib::to_ecef(&e.pos)));
     }
     Ok(out)
 }

@@ -270,7 +270,7 @@ fn drive_0708_outage_score_with_a_position_only_reference() {
     let fixes: std::collections::HashSet<String> =
         column("updates.csv", 0, ',').into_iter().collect();
     let gnss = sample_data::file(&d, "GNSS-RTK-outage10x15.txt");
-    let gnss = ins_gnss_core::io::formats::open(&gnss).unwrap();
+    let gnss = ins_gnss_io::formats::open(&gnss).unwrap();
     let epochs: std::collections::HashSet<String> = std::io::BufRead::lines(gnss)
         .map(|l| {
             format!("{:.6}", l.unwrap().split_whitespace().next().unwrap().parse::<f64>().unwrap())

@@ -7,11 +7,11 @@ use std::path::Path;
 use ins_gnss::config::Config;
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
-use ins_gnss_core::io::formats::{write_gnss, write_imu, write_nav};
-use ins_gnss_core::io::{
+use ins_gnss_core::GeoPos;
+use ins_gnss_io::formats::{write_gnss, write_imu, write_nav};
+use ins_gnss_io::{
     BadLinePolicy, GnssReader, ImuFormat, ImuReader, LineErrorKind, NavReader, NavRecord,
 };
-use ins_gnss_core::GeoPos;
 use nalgebra::Vector3;
 use proptest::prelude::*;
 
@@ -29,7 +29,7 @@ fn imu_reader(text: &str, policy: BadLinePolicy) -> ImuReader<Cursor<Vec<u8>>> {
 fn read_all_imu(
     text: &str,
     policy: BadLinePolicy,
-) -> Result<Vec<ImuSample>, ins_gnss_core::io::LineError> {
+) -> Result<Vec<ImuSample>, ins_gnss_io::LineError> {
     let mut r = imu_reader(text, policy);
     let mut v = Vec::new();
     while let Some(s) = r.next_sample()? {
@@ -285,7 +285,7 @@ fn compressed_files_read_like_plain_ones() {
     std::fs::write(dir.join("IMU.txt.zst"), zst).unwrap();
     for name in ["IMU.txt", "IMU.txt.gz", "IMU.txt.xz", "IMU.txt.zst"] {
         let mut s = String::new();
-        ins_gnss_core::io::formats::open(&dir.join(name)).unwrap().read_to_string(&mut s).unwrap();
+        ins_gnss_io::formats::open(&dir.join(name)).unwrap().read_to_string(&mut s).unwrap();
         assert_eq!(s, text, "{name}");
     }
     // a truncated xz stream and garbage named .zst/.gz fail with the file's name

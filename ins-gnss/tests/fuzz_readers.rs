@@ -5,7 +5,7 @@
 use std::io::Cursor;
 use std::path::Path;
 
-use ins_gnss_core::io::{BadLinePolicy, GnssReader, ImuFormat, ImuReader, NavReader};
+use ins_gnss_io::{BadLinePolicy, GnssReader, ImuFormat, ImuReader, NavReader};
 use proptest::prelude::*;
 
 fn drain_all(bytes: &[u8]) {

@@ -8,9 +8,9 @@ use std::sync::Arc;
 
 use ins_gnss::config::Config;
 use ins_gnss::run::{run, run_in_memory, Inputs, Results};
-use ins_gnss_core::io::fixed::push_row;
-use ins_gnss_core::io::formats::open;
-use ins_gnss_core::io::lines::NumericLines;
+use ins_gnss_io::fixed::push_row;
+use ins_gnss_io::formats::open;
+use ins_gnss_io::lines::NumericLines;
 
 use crate::sample_data;
 

@@ -83,9 +83,9 @@ fn kf_gins_bias_behaviour_reproduces_its_figures() {
 /// good fixes and its reported σ honest (the guide's "Trustworthy runs" figures, docs/guide/program.md).
 mod gate {
     use super::*;
-    use ins_gnss_core::io::formats::{create, write_gnss};
-    use ins_gnss_core::io::GnssReader;
     use ins_gnss_core::{GeoPos, GnssEpoch};
+    use ins_gnss_io::formats::{create, write_gnss};
+    use ins_gnss_io::GnssReader;
     use manifolds::Manifold;
     use nalgebra::Vector3;
     use rand::rngs::StdRng;

@@ -8,8 +8,8 @@ use crate::common;
 
 use estimator_core::{FixedNoise, NoObserver};
 use ins_gnss_core::imu::ImuSample;
-use ins_gnss_core::io::{BadLinePolicy, ImuFormat, ImuReader};
 use ins_gnss_core::{GnssConfig, InitialState, InsModel, InsState, Navigator};
+use ins_gnss_io::{BadLinePolicy, ImuFormat, ImuReader};
 use ins_gnss_sim::simulate_from;
 use manifolds::Manifold;
 use nalgebra::Vector3;
@@ -278,7 +278,7 @@ accel_unit = "g"
 axes = "flu""#,
     )
     .unwrap();
-    let read = |text: String, map: Option<ins_gnss_core::io::ColumnMap>| {
+    let read = |text: String, map: Option<ins_gnss_io::ColumnMap>| {
         let mut r = rate_reader(text, 100.0);
         if let Some(m) = map {
             r = r.with_columns(m);

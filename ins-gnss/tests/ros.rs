@@ -3,7 +3,7 @@
 //! covariances), its MCAP copies giving the same outputs byte for byte, and the verdict
 //! naming the heading the in-motion alignment got wrong on it.
 
-use ins_gnss_core::io::ros::{Recording, Selection};
+use ins_gnss_io::ros::{Recording, Selection};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

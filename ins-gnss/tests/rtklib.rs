@@ -10,9 +10,9 @@ use std::process::Command;
 
 use ins_gnss_core::earth::{ecef_to_ned_rotation, geodetic_to_ecef};
 use ins_gnss_core::gnss::GnssEpoch;
-use ins_gnss_core::io::formats::write_gnss;
-use ins_gnss_core::io::rtklib::{civil_from_days, parse_line, PosHeader, QualityFactors};
-use ins_gnss_core::io::{BadLinePolicy, GnssReader, NavReader};
+use ins_gnss_io::formats::write_gnss;
+use ins_gnss_io::rtklib::{civil_from_days, parse_line, PosHeader, QualityFactors};
+use ins_gnss_io::{BadLinePolicy, GnssReader, NavReader};
 use nalgebra::{Matrix3, Vector3};
 
 fn bin() -> Command {

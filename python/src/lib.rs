@@ -251,7 +251,7 @@ fn evaluate<'py>(
     let records: Vec<_> = nav
         .rows()
         .into_iter()
-        .map(|r| ins_gnss_core::io::NavRecord {
+        .map(|r| ins_gnss_io::NavRecord {
             week: 0.0,
             t: r[0],
             pos: ins_gnss_core::GeoPos::from_degrees(r[1], r[2], r[3]),

@@ -11,8 +11,8 @@ use std::sync::Arc;
 
 use ins_gnss::config::Config;
 use ins_gnss::run::{run_in_memory, Inputs, Results, RunSummary};
-use ins_gnss_core::io::formats::open;
-use ins_gnss_core::io::lines::NumericLines;
+use ins_gnss_io::formats::open;
+use ins_gnss_io::lines::NumericLines;
 use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
@@ -574,7 +574,7 @@ pub fn antenna_drive(seed: u64, baseline: Vector3<f64>, sigma: f64, wrong: f64) 
         wrong * 1000.0
     ));
     let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
-    ins_gnss_core::io::write_headings(&mut f, &headings).unwrap();
+    ins_gnss_io::write_headings(&mut f, &headings).unwrap();
     drop(f);
     let yaw = d.truth.iter().map(|r| (r.t, r.state.att.euler().2)).collect();
     let config = format!(

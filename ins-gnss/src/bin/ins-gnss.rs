@@ -414,7 +414,7 @@ fn main() -> ExitCode {
             text.map(|t| print!("{t}")).map_err(Into::into)
         }
         Some(Command::Mcap { input, output, cdr, static_transforms }) => {
-            use ins_gnss_core::io::ros::{write_mcap, Encoding, StaticTransform};
+            use ins_gnss_io::ros::{write_mcap, Encoding, StaticTransform};
             let encoding = if cdr { Encoding::Cdr } else { Encoding::Ros1 };
             let transforms: Result<Vec<_>, String> =
                 static_transforms.iter().map(|t| StaticTransform::from_publisher_args(t)).collect();

@@ -214,7 +214,7 @@ pub fn run(config: &Path, o: &RunOptions<'_>) -> Result<(), CliError> {
 
 /// The GNSS fixes of a configuration (time, position), for the plan view.
 fn read_fixes(cfg: &Config) -> Result<Vec<(f64, ins_gnss_core::GeoPos)>, CliError> {
-    let mut r = ins_gnss_core::io::GnssReader::open(&cfg.data.gnss, cfg.bad_lines())?
+    let mut r = ins_gnss_io::GnssReader::open(&cfg.data.gnss, cfg.bad_lines())?
         .with_format(cfg.data.gnss_format.into())
         .with_quality(cfg.gnss.quality.factors()?)
         .with_default_sigma(cfg.gnss.position_std.map(|s| s.into()));

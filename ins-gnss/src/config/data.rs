@@ -147,7 +147,7 @@ pub(crate) fn default_max_gap() -> f64 {
     5.0
 }
 pub(crate) fn default_max_bridge() -> f64 {
-    ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE
+    ins_gnss_io::formats::DEFAULT_MAX_BRIDGE
 }
 
 /// IMU format names in configs.
@@ -176,7 +176,7 @@ pub enum GnssFormatName {
     Nmea,
 }
 
-impl From<GnssFormatName> for ins_gnss_core::io::GnssFormat {
+impl From<GnssFormatName> for ins_gnss_io::GnssFormat {
     fn from(f: GnssFormatName) -> Self {
         match f {
             GnssFormatName::Auto => Self::Auto,
@@ -244,8 +244,8 @@ impl Default for QualitySection {
 
 impl QualitySection {
     /// The reader's factors, or the key that is wrong.
-    pub fn factors(&self) -> Result<ins_gnss_core::io::rtklib::QualityFactors, String> {
-        use ins_gnss_core::io::rtklib::QUALITY_NAMES;
+    pub fn factors(&self) -> Result<ins_gnss_io::rtklib::QualityFactors, String> {
+        use ins_gnss_io::rtklib::QUALITY_NAMES;
         let f = [1.0, self.fix, self.float, self.sbas, self.dgps, self.single, self.ppp];
         for (name, v) in QUALITY_NAMES.iter().zip(f).skip(1) {
             if !(v.is_finite() && v > 0.0) {
@@ -264,7 +264,7 @@ impl QualitySection {
                 }
             }
         }
-        Ok(ins_gnss_core::io::rtklib::QualityFactors { factor: f, drop })
+        Ok(ins_gnss_io::rtklib::QualityFactors { factor: f, drop })
     }
 }
 

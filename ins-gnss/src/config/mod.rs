@@ -15,7 +15,6 @@ pub use crate::columns::{GnssColumns, ImuColumns, TruthColumns};
 use crate::checks::{finite, nonneg, positive};
 use ins_gnss_core::gnss::GNSS_STREAMS;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, MGAL};
-use ins_gnss_core::io::{BadLinePolicy, ImuFormat};
 use ins_gnss_core::mechanization::Mechanization;
 use ins_gnss_core::navigator::{GnssConfig, InitialState, InitialStd, ScaleInit};
 use ins_gnss_core::scale::ScaleFactorNoise;
@@ -24,6 +23,7 @@ use ins_gnss_core::vehicle::{
 };
 use ins_gnss_core::GeoPos;
 use ins_gnss_core::InsState;
+use ins_gnss_io::{BadLinePolicy, ImuFormat};
 
 mod calibrate;
 mod convert;

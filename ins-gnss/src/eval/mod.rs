@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use ins_gnss_core::earth::geodetic_to_local_ned;
-use ins_gnss_core::io::{ColumnMap, LineError, NavReader, NavRecord};
+use ins_gnss_io::{ColumnMap, LineError, NavReader, NavRecord};
 
 use crate::columns::TruthColumns;
 use manifolds::wrap_angle;

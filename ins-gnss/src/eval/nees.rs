@@ -125,8 +125,7 @@ pub fn nees_with(
     let mut res = NavReader::open(result)?;
     let mut refs = reference_reader(truth, columns)?;
     let mut tru = Bracket::new(|| refs.next_record())?;
-    let mut std =
-        ins_gnss_core::io::NumericLines::new(ins_gnss_core::io::formats::open(sigma)?, sigma);
+    let mut std = ins_gnss_io::NumericLines::new(ins_gnss_io::formats::open(sigma)?, sigma);
     let gate = estimator_core::consistency::chi2_quantile(0.99, 3.0);
     let mut out = NeesSummary::default();
     let mut start = None;
@@ -138,7 +137,7 @@ pub fn nees_with(
             Some(v) if v.len() >= 10 => row.copy_from_slice(&v[..10]),
             Some(v) => {
                 let column = v.len();
-                return Err(std.error(ins_gnss_core::io::LineErrorKind::NotNumeric {
+                return Err(std.error(ins_gnss_io::LineErrorKind::NotNumeric {
                     column,
                     text: "a σ file has at least 10 columns (t, position, velocity, attitude)"
                         .into(),

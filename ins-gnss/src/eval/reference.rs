@@ -11,7 +11,7 @@ pub(super) fn reference_reader(
         Some(c) => Some(c.map().map_err(|m| LineError {
             path: truth.to_path_buf(),
             line: 0,
-            kind: ins_gnss_core::io::LineErrorKind::WrongUnits(m),
+            kind: ins_gnss_io::LineErrorKind::WrongUnits(m),
         })?),
         None => None,
     };
@@ -24,10 +24,10 @@ pub const MAX_REFERENCE_GAP: f64 = 1.0;
 /// Reads a reference: the 11-column navigation format, or `t lat lon h` (4 columns, e.g.
 /// RTK-fixed positions), whose velocity and attitude are NaN (not evaluated).
 pub struct RefReader {
-    lines: ins_gnss_core::io::NumericLines<ins_gnss_core::io::formats::Input>,
+    lines: ins_gnss_io::NumericLines<ins_gnss_io::formats::Input>,
     prev_t: Option<f64>,
     /// A log with a header: its map, resolved, and the mapped record.
-    map: Option<(ins_gnss_core::io::columns::Resolved, Vec<f64>)>,
+    map: Option<(ins_gnss_io::columns::Resolved, Vec<f64>)>,
 }
 
 impl RefReader {
@@ -35,16 +35,15 @@ impl RefReader {
     /// (11 fields, NaN where the log has no velocity or attitude: see
     /// [`TruthColumns`]).
     pub fn open(path: &Path, columns: Option<&ColumnMap>) -> Result<Self, LineError> {
-        let mut lines =
-            ins_gnss_core::io::NumericLines::new(ins_gnss_core::io::formats::open(path)?, path);
+        let mut lines = ins_gnss_io::NumericLines::new(ins_gnss_io::formats::open(path)?, path);
         let map = match columns {
             Some(c) => {
                 let header = lines.next_text()?.map(str::to_string);
                 let header =
-                    header.ok_or_else(|| lines.error(ins_gnss_core::io::LineErrorKind::Empty))?;
+                    header.ok_or_else(|| lines.error(ins_gnss_io::LineErrorKind::Empty))?;
                 let resolved = c
                     .resolve(&header)
-                    .map_err(|m| lines.error(ins_gnss_core::io::LineErrorKind::WrongUnits(m)))?;
+                    .map_err(|m| lines.error(ins_gnss_io::LineErrorKind::WrongUnits(m)))?;
                 lines.select(&resolved.columns);
                 Some((resolved, Vec::with_capacity(11)))
             }
@@ -80,7 +79,7 @@ impl RefReader {
                 att: Vector3::repeat(f64::NAN),
             },
             found => {
-                return Err(self.lines.error(ins_gnss_core::io::LineErrorKind::ColumnCount {
+                return Err(self.lines.error(ins_gnss_io::LineErrorKind::ColumnCount {
                     expected: vec![11, 4],
                     found,
                 }))
@@ -88,10 +87,9 @@ impl RefReader {
         };
         if let Some(p) = self.prev_t {
             if rec.t <= p {
-                return Err(self.lines.error(ins_gnss_core::io::LineErrorKind::TimeBackwards {
-                    t: rec.t,
-                    previous: p,
-                }));
+                return Err(self
+                    .lines
+                    .error(ins_gnss_io::LineErrorKind::TimeBackwards { t: rec.t, previous: p }));
             }
         }
         self.prev_t = Some(rec.t);
@@ -134,8 +132,7 @@ pub fn errors(r: &NavRecord, t: &NavRecord) -> (Vector3<f64>, Vector3<f64>, Vect
 }
 
 pub(super) fn reference_columns(path: &Path) -> Result<usize, LineError> {
-    let mut lines =
-        ins_gnss_core::io::NumericLines::new(ins_gnss_core::io::formats::open(path)?, path);
+    let mut lines = ins_gnss_io::NumericLines::new(ins_gnss_io::formats::open(path)?, path);
     Ok(lines.next_record()?.map(|r| r.len()).unwrap_or(0))
 }
 

@@ -10,9 +10,9 @@ use plotters::prelude::*;
 use crate::columns::TruthColumns;
 use crate::eval::{errors, interpolate, RefReader, MAX_REFERENCE_GAP};
 use ins_gnss_core::earth::geodetic_to_local_ned;
-use ins_gnss_core::io::formats::open;
-use ins_gnss_core::io::{NavReader, NumericLines};
 use ins_gnss_core::GeoPos;
+use ins_gnss_io::formats::open;
+use ins_gnss_io::{NavReader, NumericLines};
 
 mod data;
 mod draw;
@@ -67,7 +67,7 @@ pub fn comparison(
 /// Where a plot is drawn before it replaces `path` (an earlier plot is never left half
 /// overwritten).
 fn partial(path: &Path) -> PathBuf {
-    ins_gnss_core::io::formats::partial_path(path)
+    ins_gnss_io::formats::partial_path(path)
 }
 
 /// Move a finished plot into place.

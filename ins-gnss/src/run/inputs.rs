@@ -2,7 +2,7 @@
 
 use super::*;
 
-pub(crate) type FileReader = ins_gnss_core::io::formats::Input;
+pub(crate) type FileReader = ins_gnss_io::formats::Input;
 
 /// The configured IMU and GNSS readers (format, rate, gap limit, skip policy) on the
 /// files or arrays of `inputs`.
@@ -35,7 +35,7 @@ pub(crate) fn open_imu(
     .with_time_offset(config.data.imu_time_offset);
     if let Some(c) = &config.data.imu_columns {
         array_refuses(inputs, "data.imu_columns")?;
-        let rates = config.imu_format() == ins_gnss_core::io::ImuFormat::Rates;
+        let rates = config.imu_format() == ins_gnss_io::ImuFormat::Rates;
         imu = imu.with_columns(c.map(rates).map_err(|e| bad_map("data.imu_columns", e))?);
     }
     if let Some(m) = &config.imu.mounting {
@@ -109,7 +109,7 @@ pub(crate) fn open_gnss(
         gnss = gnss.with_columns(c.map().map_err(|e| bad_map("data.gnss_columns", e))?);
     }
     if let Some(path) = &config.data.heading {
-        gnss = gnss.with_headings(ins_gnss_core::io::read_headings(path, policy)?.list);
+        gnss = gnss.with_headings(ins_gnss_io::read_headings(path, policy)?.list);
     }
     Ok(gnss)
 }

@@ -34,15 +34,15 @@ use ins_gnss_core::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateF
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::ImuSample;
 use ins_gnss_core::imu::{DEG_PER_H, MGAL};
-use ins_gnss_core::io::fixed::{push_exact, push_exact_row, push_row};
-use ins_gnss_core::io::formats::{create_partial, partial_path, publish, push_nav};
-use ins_gnss_core::io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use ins_gnss_core::model::{ImuInput, InsModel};
 use ins_gnss_core::navigator::{ClockInit, NavError, NavState, Navigator, RawEpoch, TightConfig};
 use ins_gnss_core::scale::{InsModel21, InsState21};
 use ins_gnss_core::tight::{ClockNoise, InsModelTc, InsModelTc21, InsStateTc, InsStateTc21};
 use ins_gnss_core::vehicle::VEHICLE_STREAMS;
 use ins_gnss_core::InsState;
+use ins_gnss_io::fixed::{push_exact, push_exact_row, push_row};
+use ins_gnss_io::formats::{create_partial, partial_path, publish, push_nav};
+use ins_gnss_io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use nalgebra::DefaultAllocator;
 
 mod again;

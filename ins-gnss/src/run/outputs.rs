@@ -169,7 +169,7 @@ impl Outputs {
             pos_last_t: None,
             line: Vec::with_capacity(256),
         };
-        ins_gnss_core::io::rtklib::write_header(
+        ins_gnss_io::rtklib::write_header(
             &mut files.pos,
             concat!("ins-gnss ", env!("CARGO_PKG_VERSION")),
             true,
@@ -300,15 +300,7 @@ impl EpochFiles {
         // the same bytes, faster)
         self.line.clear();
         let vel = Some((&e.x.vel, &e.vel_cov));
-        ins_gnss_core::io::rtklib::push_epoch(
-            &mut self.line,
-            0.0,
-            e.t,
-            &e.x.pos,
-            &e.pos_cov,
-            vel,
-            q,
-        );
+        ins_gnss_io::rtklib::push_epoch(&mut self.line, 0.0, e.t, &e.x.pos, &e.pos_cov, vel, q);
         self.pos.write_all(&self.line).map_err(|err| self.err("nav.pos", err))?;
         let (row, n) = imu_error_row(e.t, &e.x, e.scale);
         self.line.clear();

@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::config::FromRecording;
-use ins_gnss_core::io::ros::{Recording, Selection, Stamps};
+use ins_gnss_io::ros::{Recording, Selection, Stamps};
 
 /// The configuration keys of the three topics, named in errors.
 const TOPIC_KEYS: [&str; 3] =
@@ -42,8 +42,8 @@ pub(crate) fn open_recording(config: &Config) -> Result<(Config, Inputs), RunErr
         ))
     })?;
     let container = match rec.container {
-        ins_gnss_core::io::ros::Container::Bag => "ROS 1 bag",
-        ins_gnss_core::io::ros::Container::Mcap => "MCAP",
+        ins_gnss_io::ros::Container::Bag => "ROS 1 bag",
+        ins_gnss_io::ros::Container::Mcap => "MCAP",
     };
     notes.push(format!(
         "recording {} ({container}, {} stamps): IMU {} (frame {}) {} messages, median rate \

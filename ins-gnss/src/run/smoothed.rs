@@ -148,7 +148,7 @@ fn write_rows_backwards(
             let vel_var = var(&sigma[InsState::VEL.range()]);
             let vel = Some((&x.vel, &vel_var));
             let pos_var = var(&sigma[InsState::POS.range()]);
-            ins_gnss_core::io::rtklib::push_epoch(pos_text, 0.0, *t, &x.pos, &pos_var, vel, 1);
+            ins_gnss_io::rtklib::push_epoch(pos_text, 0.0, *t, &x.pos, &pos_var, vel, 1);
         }
         for (i, (w, t)) in out.iter_mut().zip(text.iter_mut()).enumerate() {
             t.reverse();
@@ -159,7 +159,7 @@ fn write_rows_backwards(
     // the .pos header goes first: last, backwards
     let mut header = Vec::new();
     let program = concat!("ins-gnss ", env!("CARGO_PKG_VERSION"), ", smoothed");
-    ins_gnss_core::io::rtklib::write_header(&mut header, program, true).map_err(|e| (2, e))?;
+    ins_gnss_io::rtklib::write_header(&mut header, program, true).map_err(|e| (2, e))?;
     header.reverse();
     out[2].write_all(&header).map_err(|e| (2, e))?;
     let mut files = Vec::new();

@@ -13,10 +13,10 @@ use crate::checks::{finite, nonneg, positive};
 use crate::config::{Config, DataSection, FilterSection, GnssSection, InitSection, NoiseSection};
 use crate::run::nav_record;
 use ins_gnss_core::imu::{BiasModel, ImuNoise, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
-use ins_gnss_core::io::formats::{
+use ins_gnss_core::GeoPos;
+use ins_gnss_io::formats::{
     create_partial, partial_path, publish, write_gnss, write_imu, write_nav,
 };
-use ins_gnss_core::GeoPos;
 
 mod monte_carlo;
 mod spec;

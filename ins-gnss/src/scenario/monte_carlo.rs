@@ -51,7 +51,7 @@ impl MonteCarlo {
         strategy: adaptive::AnyStrategy,
         skip: f64,
         windows: &[(f64, f64)],
-        mut each: impl FnMut(f64, &ins_gnss_core::io::NavRecord, &ins_gnss_core::io::NavRecord),
+        mut each: impl FnMut(f64, &ins_gnss_io::NavRecord, &ins_gnss_io::NavRecord),
     ) -> Result<SeedRun, String> {
         let data =
             ins_gnss_sim::simulate_from(&self.exact, &self.traj, &self.errors, &self.gnss, seed);

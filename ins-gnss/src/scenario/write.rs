@@ -70,7 +70,7 @@ impl Scenario {
                 self.seed,
             );
             let mut w = create_partial(&path).map_err(|e| io_err(&partial_path(&path), e))?;
-            ins_gnss_core::io::write_headings(&mut w, &list)
+            ins_gnss_io::write_headings(&mut w, &list)
                 .and_then(|_| w.flush())
                 .map_err(|e| io_err(&partial_path(&path), e))?;
             paths.push(path);
@@ -148,7 +148,7 @@ impl Scenario {
             end_time: None,
             bad_lines: Default::default(),
             max_gap: 5.0,
-            max_bridge: ins_gnss_core::io::formats::DEFAULT_MAX_BRIDGE,
+            max_bridge: ins_gnss_io::formats::DEFAULT_MAX_BRIDGE,
             imu_time_offset: 0.0,
             heading: self.gnss.heading.as_ref().map(|_| "HEADING.txt".into()),
             truth: Some("truth.nav".into()),

@@ -56,7 +56,7 @@ pub(super) fn unit_near(
 }
 
 pub(super) fn rates(config: &Config) -> bool {
-    config.imu_format() == ins_gnss_core::io::ImuFormat::Rates
+    config.imu_format() == ins_gnss_io::ImuFormat::Rates
 }
 
 /// |f| at rest (or over the first seconds) against normal gravity.

@@ -24,9 +24,9 @@ use ins_gnss_core::earth::{geodetic_to_local_ned, normal_gravity};
 use ins_gnss_core::gnss::GnssEpoch;
 use ins_gnss_core::imu::{ImuNoise, ImuSample, DEG_PER_H, DEG_PER_SQRT_H, MGAL, M_S_PER_SQRT_H};
 use ins_gnss_core::init::level;
-use ins_gnss_core::io::columns::{unit_factor, Quantity};
 use ins_gnss_core::navigator::InitialState;
 use ins_gnss_core::GeoPos;
+use ins_gnss_io::columns::{unit_factor, Quantity};
 
 mod bank;
 mod checks;

@@ -3,9 +3,9 @@
 //! (timed by the log's GGA and RMC/ZDA), or columns `t heading [σ [pitch σ]]` (deg).
 
 use super::*;
-use crate::heading::{wrap, AntennaHeading};
-use crate::io::rtklib::{covariance, field, split_line};
+use crate::rtklib::{covariance, field, split_line};
 use ::gnss::calendar::TimeSystem;
+use ins_gnss_core::heading::{wrap, AntennaHeading};
 
 /// The headings of a file and what was left out.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -46,7 +46,7 @@ type Angles = (f64, f64, Option<(f64, f64)>);
 /// Heading and elevation (rad) of an ENU baseline with their σ from its covariance
 /// (E, N, U order); `None` when the baseline is (nearly) vertical or null.
 fn baseline_angles(enu: &Vector3<f64>, cov: Option<&nalgebra::Matrix3<f64>>) -> Option<Angles> {
-    if !crate::heading::has_horizontal_direction(enu) {
+    if !ins_gnss_core::heading::has_horizontal_direction(enu) {
         return None;
     }
     let (e, n, u) = (enu.x, enu.y, enu.z);
@@ -259,7 +259,7 @@ pub fn write_headings<W: Write>(w: &mut W, list: &[AntennaHeading]) -> std::io::
 /// Attaches each heading to the fix at its time (within 1 ms); returns how many found no
 /// fix.
 pub fn attach_headings(fixes: &mut [GnssEpoch], headings: &[AntennaHeading]) -> usize {
-    let mut queue = crate::heading::HeadingQueue::new(headings.to_vec());
+    let mut queue = ins_gnss_core::heading::HeadingQueue::new(headings.to_vec());
     for f in fixes.iter_mut() {
         if let Some(m) = queue.take(f.t) {
             f.heading = Some(m);

@@ -14,9 +14,9 @@ use nalgebra::Vector3;
 
 use super::lines::LineErrorKind;
 use super::rtklib::QualityFactors;
-use crate::gnss::GnssEpoch;
-use crate::position::GeoPos;
 use ::gnss::calendar::{seconds_of_week, TimeSystem};
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::GeoPos;
 
 /// One sentence's fields (after `$` and before `*`), checksum verified.
 pub fn fields(line: &str) -> Result<Vec<&str>, LineErrorKind> {
@@ -279,9 +279,9 @@ impl NmeaState {
         let ss = p.tod - hh * 3600.0 - mm * 60.0;
         let t = seconds_of_week(TimeSystem::Utc, (y, m, d), (hh as i64, mm as i64, ss));
         let mut e = GnssEpoch::new(t, GeoPos::from_degrees(lat, lon, h), s, None);
-        e.heading = p.heading.map(|deg| crate::heading::AntennaHeading {
+        e.heading = p.heading.map(|deg| ins_gnss_core::heading::AntennaHeading {
             t,
-            heading: crate::heading::wrap(deg.to_radians()),
+            heading: ins_gnss_core::heading::wrap(deg.to_radians()),
             heading_std: None,
             pitch: None,
             length: None,

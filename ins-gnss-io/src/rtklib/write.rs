@@ -62,7 +62,7 @@ pub(super) fn sqvar(c: f64) -> f64 {
 /// Appends one epoch to `out`: GPS `week` and seconds of week `t`, the position, its NED
 /// covariance, and the velocity (NED) with its covariance. `Q` is written as 1 when the
 /// epoch is a GNSS fix's and 5 otherwise (an inertial solution, no GNSS that epoch); `ns`
-/// as 0. The numbers are written by [`push_exact`](crate::io::fixed::push_exact): the bytes
+/// as 0. The numbers are written by [`push_exact`](crate::fixed::push_exact): the bytes
 /// `format!` wrote before (tested), faster.
 #[allow(clippy::too_many_arguments)]
 pub fn push_epoch(
@@ -92,7 +92,7 @@ pub fn push_epoch_ns(
     // each value after a space, right-aligned in its width (wider values overflow it)
     let field = |out: &mut Vec<u8>, v: f64, width: usize, decimals: usize| {
         out.push(b' ');
-        crate::io::fixed::push_exact(out, v, width, decimals);
+        crate::fixed::push_exact(out, v, width, decimals);
     };
     let d = 180.0 / core::f64::consts::PI;
     // NED → NEU

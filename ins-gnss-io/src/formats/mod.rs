@@ -31,9 +31,9 @@ use nalgebra::Vector3;
 
 use super::columns::{ColumnMap, Resolved};
 use super::lines::{LineError, LineErrorKind, NumericLines};
-use crate::gnss::GnssEpoch;
-use crate::imu::ImuSample;
-use crate::position::GeoPos;
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::imu::ImuSample;
+use ins_gnss_core::GeoPos;
 
 /// What to do with a malformed line.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -10,9 +10,9 @@ pub enum GnssFormat {
     Auto,
     /// The 7- or 13-column KF-GINS format (or a column-mapped log).
     Columns,
-    /// An RTKLIB solution file (`.pos`); see [`crate::io::rtklib`].
+    /// An RTKLIB solution file (`.pos`); see [`crate::rtklib`].
     Rtklib,
-    /// NMEA 0183 sentences (GGA, GST, RMC/ZDA); see [`crate::io::nmea`].
+    /// NMEA 0183 sentences (GGA, GST, RMC/ZDA); see [`crate::nmea`].
     Nmea,
 }
 
@@ -30,15 +30,15 @@ pub struct GnssReader<R: BufRead> {
     mapping: Mapping,
     format: GnssFormat,
     started: bool,
-    rtklib: Option<crate::io::rtklib::PosHeader>,
-    quality: crate::io::rtklib::QualityFactors,
+    rtklib: Option<crate::rtklib::PosHeader>,
+    quality: crate::rtklib::QualityFactors,
     /// RTKLIB epochs dropped, by solution quality `Q` (0: no solution).
     pub dropped: [usize; 7],
-    nmea: Option<crate::io::nmea::NmeaState>,
+    nmea: Option<crate::nmea::NmeaState>,
     /// σ (N, E, D) for NMEA fixes without a GST sentence.
     default_sigma: Option<Vector3<f64>>,
     /// A heading file's headings ([`with_headings`](Self::with_headings)).
-    headings: crate::heading::HeadingQueue,
+    headings: ins_gnss_core::heading::HeadingQueue,
 }
 
 impl GnssReader<Input> {
@@ -108,20 +108,20 @@ impl<R: BufRead> GnssReader<R> {
     }
 
     /// σ factors and dropped qualities for RTKLIB solutions.
-    pub fn with_quality(mut self, quality: crate::io::rtklib::QualityFactors) -> Self {
+    pub fn with_quality(mut self, quality: crate::rtklib::QualityFactors) -> Self {
         self.quality = quality;
         self
     }
 
     /// The RTKLIB header, when the file is an RTKLIB solution (once the first epoch is
     /// read).
-    pub fn rtklib_header(&self) -> Option<&crate::io::rtklib::PosHeader> {
+    pub fn rtklib_header(&self) -> Option<&crate::rtklib::PosHeader> {
         self.rtklib.as_ref()
     }
 
     /// Read a log with a header through `map`: the 7 fields `t, lat, lon, h, σN, σE, σD`
     /// (s, degrees, m) or the 13 with `vN, vE, vD, σvN, σvE, σvD` (m/s) (see
-    /// [`crate::io::columns`]).
+    /// [`crate::columns`]).
     pub fn with_columns(mut self, map: ColumnMap) -> Self {
         self.mapping = Mapping::Pending(map);
         self
@@ -151,8 +151,8 @@ impl<R: BufRead> GnssReader<R> {
     /// Attach `headings` (time order; a heading file's, [`read_headings`](super::read_headings))
     /// to the fixes at their time (within 1 ms), replacing headings the GNSS file carries
     /// at those epochs.
-    pub fn with_headings(mut self, headings: Vec<crate::heading::AntennaHeading>) -> Self {
-        self.headings = crate::heading::HeadingQueue::new(headings);
+    pub fn with_headings(mut self, headings: Vec<ins_gnss_core::heading::AntennaHeading>) -> Self {
+        self.headings = ins_gnss_core::heading::HeadingQueue::new(headings);
         self
     }
 
@@ -168,7 +168,7 @@ impl<R: BufRead> GnssReader<R> {
             if matches!(self.mapping, Mapping::None) && self.format != GnssFormat::Columns {
                 let comments = self.lines.leading_comments()?;
                 self.rtklib =
-                    comments.iter().rev().find_map(|l| crate::io::rtklib::PosHeader::parse(l));
+                    comments.iter().rev().find_map(|l| crate::rtklib::PosHeader::parse(l));
                 let first = self.lines.peek_byte()?;
                 if self.format == GnssFormat::Nmea
                     || (self.format == GnssFormat::Auto && first == Some(b'$'))
@@ -337,7 +337,7 @@ impl<R: BufRead> GnssReader<R> {
                 return Ok(None);
             };
             let result =
-                crate::io::rtklib::parse_line(&header, text, &self.quality).and_then(|e| match e {
+                crate::rtklib::parse_line(&header, text, &self.quality).and_then(|e| match e {
                     Some(e) => check_time(self.prev_t, e.t).map(|_| Some(e)),
                     None => Ok(None),
                 });

@@ -164,7 +164,7 @@ impl<R: BufRead> NumericLines<R> {
     }
 
     /// Read only the 0-based fields `columns` (distinct) of each line from now on, in that
-    /// order (a CSV log's columns picked by name: see [`crate::io::columns`]).
+    /// order (a CSV log's columns picked by name: see [`crate::columns`]).
     pub fn select(&mut self, columns: &[usize]) {
         let len = columns.iter().max().map_or(0, |m| m + 1);
         let mut slots = vec![None; len];

@@ -119,7 +119,7 @@ impl<R: BufRead> ImuReader<R> {
 
     /// Read a log with a header through `map`: fields `t, ωx, ωy, ωz, fx, fy, fz` and
     /// optionally the odometer speed, in s, rad/s and m/s² for rates (rad and m/s for
-    /// increments), FRD axes (see [`crate::io::columns`]).
+    /// increments), FRD axes (see [`crate::columns`]).
     pub fn with_columns(mut self, map: ColumnMap) -> Self {
         self.columns = Mapping::Pending(map);
         self.header_done = true;

@@ -5,8 +5,8 @@
 //! (units, axis flips, a time offset), or a constant (a field the log does not have).
 //! [`ColumnMap::resolve`] finds the columns in the header line; a missing one is an error
 //! that names it and lists the columns present. The readers
-//! ([`ImuReader::with_columns`](crate::io::ImuReader::with_columns),
-//! [`GnssReader::with_columns`](crate::io::GnssReader::with_columns)) then read only those
+//! ([`ImuReader::with_columns`](crate::ImuReader::with_columns),
+//! [`GnssReader::with_columns`](crate::GnssReader::with_columns)) then read only those
 //! columns of each line (the others may hold anything, text included).
 
 /// Where one field comes from.

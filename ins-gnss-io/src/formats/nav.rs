@@ -87,5 +87,5 @@ pub fn write_nav<W: Write>(w: &mut W, r: &NavRecord) -> std::io::Result<()> {
 pub fn push_nav(out: &mut Vec<u8>, r: &NavRecord) {
     const DECIMALS: [usize; 11] = [0, 6, 10, 10, 4, 5, 5, 5, 8, 8, 8];
     let v = r.values();
-    crate::io::fixed::push_row(out, &core::array::from_fn::<_, 11, _>(|i| (v[i], DECIMALS[i])));
+    crate::fixed::push_row(out, &core::array::from_fn::<_, 11, _>(|i| (v[i], DECIMALS[i])));
 }

@@ -30,9 +30,9 @@ pub use msg::{
     TfMessage, TransformStamped, Vec3,
 };
 
-use crate::io::lines::{LineError, LineErrorKind};
-use crate::io::rtklib::QualityFactors;
-use crate::io::TimeScale;
+use crate::lines::{LineError, LineErrorKind};
+use crate::rtklib::QualityFactors;
+use crate::TimeScale;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

@@ -20,9 +20,9 @@ use std::io::Write;
 use nalgebra::{Matrix3, Vector3};
 
 use super::lines::LineErrorKind;
-use crate::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
-use crate::gnss::GnssEpoch;
-use crate::position::GeoPos;
+use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation, geodetic_to_ecef};
+use ins_gnss_core::gnss::GnssEpoch;
+use ins_gnss_core::GeoPos;
 
 mod write;
 
