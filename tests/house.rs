@@ -265,3 +265,108 @@ fn the_function_counter_counts_braces_not_literals() {
                 pub(crate) fn b<'a>(x: &'a str) -> &'a str {\n    x\n}\nfn c();\n";
     assert_eq!(function_lengths(text), vec![("a".to_string(), 5), ("b".to_string(), 3)]);
 }
+
+/// The top-level modules ("rooms") of a crate's `src/` and, for each, the other rooms its
+/// non-test code names through `crate::ROOM` (a file's code before its `#[cfg(test)]`;
+/// files named `tests.rs` and `bin/` left out; comments left out). A room's own children
+/// may use their parent (`super::`): a cycle is between rooms.
+fn room_graph(src: &Path) -> Vec<(String, Vec<String>)> {
+    let mut rooms: Vec<(String, Vec<PathBuf>)> = Vec::new();
+    for entry in std::fs::read_dir(src).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        if ["lib", "main", "bin"].contains(&name.as_str()) {
+            continue;
+        }
+        let mut files = Vec::new();
+        if path.is_dir() {
+            sources(&path, &mut files);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            files.push(path.clone());
+        } else {
+            continue;
+        }
+        rooms.push((name, files));
+    }
+    let names: Vec<String> = rooms.iter().map(|r| r.0.clone()).collect();
+    let mut graph = Vec::new();
+    for (name, files) in &rooms {
+        let mut uses = Vec::new();
+        for f in files.iter().filter(|f| f.file_name().is_some_and(|n| n != "tests.rs")) {
+            let text = std::fs::read_to_string(f).unwrap();
+            for line in text.lines().take_while(|l| l.trim() != "#[cfg(test)]") {
+                let code = code_of(line);
+                for (i, _) in code.match_indices("crate::") {
+                    let rest = &code[i + "crate::".len()..];
+                    let room: String =
+                        rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                    if room != *name && names.contains(&room) && !uses.contains(&room) {
+                        uses.push(room);
+                    }
+                }
+            }
+        }
+        graph.push((name.clone(), uses));
+    }
+    graph
+}
+
+/// A cycle of the graph (its rooms in order), if there is one.
+fn a_cycle(graph: &[(String, Vec<String>)]) -> Option<Vec<String>> {
+    fn visit(
+        at: &str,
+        graph: &[(String, Vec<String>)],
+        path: &mut Vec<String>,
+        done: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        if let Some(k) = path.iter().position(|p| p == at) {
+            return Some(path[k..].to_vec());
+        }
+        if done.iter().any(|d| d == at) {
+            return None;
+        }
+        path.push(at.to_string());
+        let next = graph.iter().find(|g| g.0 == at).map(|g| g.1.clone()).unwrap_or_default();
+        for n in &next {
+            if let Some(c) = visit(n, graph, path, done) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        done.push(at.to_string());
+        None
+    }
+    let mut done = Vec::new();
+    graph.iter().find_map(|g| visit(&g.0, graph, &mut Vec::new(), &mut done))
+}
+
+/// "No module cycle in any crate" (the house issue): the rooms of each crate's `src/`
+/// import each other one way only.
+#[test]
+fn no_crate_has_a_cycle_of_rooms() {
+    let mut edges = 0;
+    for (dir, _) in FLOORS {
+        let src = root().join(dir).join("src");
+        if !src.exists() {
+            continue;
+        }
+        let graph = room_graph(&src);
+        edges += graph.iter().map(|g| g.1.len()).sum::<usize>();
+        assert_eq!(a_cycle(&graph), None, "{dir}: its rooms import each other in a cycle");
+    }
+    // the reader found the imports
+    assert!(edges > 100, "only {edges} imports between rooms found");
+}
+
+/// The cycle finder finds a cycle of three and none in a chain.
+#[test]
+fn the_cycle_finder_finds_cycles() {
+    let g = |v: &[(&str, &[&str])]| -> Vec<(String, Vec<String>)> {
+        v.iter().map(|(a, b)| (a.to_string(), b.iter().map(|s| s.to_string()).collect())).collect()
+    };
+    let cyclic = g(&[("a", &["b"]), ("b", &["c"]), ("c", &["a"]), ("d", &["a"])]);
+    let found = a_cycle(&cyclic).unwrap();
+    assert_eq!(found.len(), 3);
+    let chain = g(&[("a", &["b"]), ("b", &["c"]), ("c", &[]), ("d", &["a", "c"])]);
+    assert_eq!(a_cycle(&chain), None);
+}

@@ -173,7 +173,7 @@ fn tempfile_dir() -> PathBuf {
 /// time, 0.8 % of the static epochs fix.
 #[test]
 fn a_base_at_half_the_rate() {
-    use ins_gnss::aiding::RawInput;
+    use ins_gnss::raw_input::RawInput;
     let navs = [data("07590920.05n.zst")];
     for max_age in [1.0, 30.0] {
         let mut r = RawInput::open(&data("07590920.05o.zst"), &navs).unwrap();

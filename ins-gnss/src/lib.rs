@@ -4,7 +4,7 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`aiding`] | the GNSS side of a run: a receiver's fixes, or raw observations with their single points (tight coupling) |
+//! | [`raw_input`] | raw GNSS input (RINEX or u-blox with the ephemerides), epoch by epoch: tight coupling, `spp`, `rtk` |
 //! | [`cli`] | the subcommands: `run`, `eval`, `simulate`, `compare`, the demo |
 //! | [`config`] | run configurations: our TOML and KF-GINS YAML, validated, datasheet units |
 //! | [`columns`] | column maps for logs with a header (CSV): names, units, axes, conventions |
@@ -28,7 +28,6 @@ macro_rules! out {
     }};
 }
 
-pub mod aiding;
 pub mod allan;
 mod checks;
 pub mod cli;
@@ -37,6 +36,7 @@ pub mod config;
 pub mod eval;
 pub mod health;
 pub mod plot;
+pub mod raw_input;
 pub mod report;
 pub mod rtk;
 pub mod run;

@@ -122,8 +122,8 @@ pub fn solve_files(
     base_pos: Option<Vector3<f64>>,
     opt: &RtkOptions,
 ) -> Result<RtkRun, CliError> {
-    let mut r = crate::aiding::RawInput::open(rover, navs)?;
-    let mut b = crate::aiding::RawInput::open(base, navs)?;
+    let mut r = crate::raw_input::RawInput::open(rover, navs)?;
+    let mut b = crate::raw_input::RawInput::open(base, navs)?;
     let Some(base_pos) = base_pos.or_else(|| b.approx_position()) else {
         return Err(format!(
             "{}: no APPROX POSITION XYZ in the header: give the base position (--base-position X,Y,Z)",
@@ -138,7 +138,7 @@ pub fn solve_files(
 /// `next_base`: each rover epoch with the latest base epoch at or before it (within
 /// [`PAIRING`]), if at most [`RtkOptions::max_age`] older.
 pub fn solve_epochs(
-    r: &mut crate::aiding::RawInput,
+    r: &mut crate::raw_input::RawInput,
     mut next_base: impl FnMut() -> Result<Option<ObsEpoch>, CliError>,
     base_pos: Vector3<f64>,
     opt: &RtkOptions,

@@ -38,7 +38,7 @@ impl SppRun {
 /// the ephemerides of its RXM-SFRBX) — with the ephemerides of `navs` (merged).
 pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun, CliError> {
     let navs: Vec<std::path::PathBuf> = navs.iter().map(|p| p.to_path_buf()).collect();
-    let mut input = crate::aiding::RawInput::open(obs, &navs)?;
+    let mut input = crate::raw_input::RawInput::open(obs, &navs)?;
     let mut run = SppRun::default();
     let mut prior: Option<Vector3<f64>> = None;
     while let Some(epoch) = input.next_epoch()? {

@@ -58,9 +58,10 @@
 #![deny(missing_docs)]
 #![allow(non_snake_case)]
 
+mod blocks;
 mod coeffs;
 mod euclid;
-pub mod numdiff;
+pub use traits::numdiff;
 mod product;
 mod scalar;
 mod so2;
@@ -91,5 +92,5 @@ pub use serde as __serde;
 /// What `composite_state!` expands to calls (not an API).
 #[doc(hidden)]
 pub mod __private {
-    pub use crate::product::{set_block, set_diagonal_block};
+    pub use crate::blocks::{set_block, set_diagonal_block};
 }

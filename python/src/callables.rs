@@ -18,12 +18,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
+use crate::cores::{from_bytes, to_bytes, Core, Updated, MAX_M, MAX_N};
 use crate::fail;
-
-/// Largest state dimension of a core.
-pub const MAX_N: usize = 9;
-/// Largest measurement dimension of an update.
-pub const MAX_M: usize = 8;
 
 /// A prediction computed by the caller: the predicted state, the transition `F` (the
 /// Jacobian, or the sigma points' statistical one) and the process noise `Q`, so that
@@ -75,54 +71,8 @@ impl<const M: usize, const N: usize> MeasurementModel for Given<M, N> {
     }
 }
 
-/// What an update gives back, row-major.
-#[derive(Default)]
-pub(crate) struct Updated {
-    pub(crate) x: Vec<f64>,
-    pub(crate) P: Vec<f64>,
-    pub(crate) K: Vec<f64>,
-    pub(crate) S: Vec<f64>,
-    pub(crate) nis: f64,
-    pub(crate) nis_adapted: f64,
-    pub(crate) log_likelihood: f64,
-    pub(crate) verdict: &'static str,
-}
-
-/// A core as bytes (postcard: every float bit for bit, NaN included), for pickle.
-pub(crate) fn to_bytes<T: serde::Serialize>(core: &T) -> Result<Vec<u8>, String> {
-    postcard::to_allocvec(core).map_err(|e| e.to_string())
-}
-
-/// A core from [`to_bytes`]'s bytes.
-pub(crate) fn from_bytes<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
-    postcard::from_bytes(bytes).map_err(|e| e.to_string())
-}
-
 fn rowmajor<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<f64> {
     m.transpose().iter().copied().collect()
-}
-
-/// The operations of a core, whatever its dimension.
-pub(crate) trait Core: Send + Sync {
-    fn set(&mut self, x: &[f64], P: &[f64]) -> Result<(), String>;
-    fn predict(&mut self, x: &[f64], F: &[f64], Q: &[f64], dt: f64) -> Result<Vec<f64>, String>;
-    /// `stats`: `H` holds `P_xz` (`n × m`) and `Pzz` the points' spread of `h`.
-    fn update(
-        &mut self,
-        y: &[f64],
-        H: &[f64],
-        R: &[f64],
-        Pzz: Option<&[f64]>,
-    ) -> Result<Updated, String>;
-    fn smooth(&self) -> Result<(Vec<f64>, Vec<f64>), String>;
-    fn strategy(&self) -> &'static str;
-    /// The whole core (state, covariance, strategy state, smoothing history) as bytes
-    /// (postcard: every float bit for bit, NaN included).
-    fn save(&self) -> Result<Vec<u8>, String>;
-    /// The core [`save`](Core::save) wrote.
-    fn restore(&mut self, state: &[u8]) -> Result<(), String>;
-    /// Forget the recorded predictions: the next one starts a new smoothing history.
-    fn reset_history(&mut self);
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -255,11 +205,11 @@ impl<const N: usize> Core for Filter<N> {
     }
 
     fn save(&self) -> Result<Vec<u8>, String> {
-        crate::callables::to_bytes(self)
+        to_bytes(self)
     }
 
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        *self = crate::callables::from_bytes(state)?;
+        *self = from_bytes(state)?;
         Ok(())
     }
 

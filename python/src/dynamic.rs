@@ -1,6 +1,6 @@
 //! The dynamic-dimension core behind the Python callables: states beyond
-//! [`MAX_N`](crate::callables::MAX_N) or measurements beyond
-//! [`MAX_M`](crate::callables::MAX_M), where no compiled instance exists. The same
+//! [`MAX_N`](crate::cores::MAX_N) or measurements beyond
+//! [`MAX_M`](crate::cores::MAX_M), where no compiled instance exists. The same
 //! equations as the library's filter (the Joseph-form update, `P⁻ = λ F P Fᵀ + Q`, the
 //! points' statistical linear regression for the unscented update, the χ² gate, the RTS
 //! and fixed-lag smoothers over the recorded steps) on nalgebra's heap matrices. The
@@ -11,7 +11,7 @@ use estimator_core::consistency::chi2_gate;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::callables::{Core, Updated};
+use crate::cores::{Core, Updated};
 
 /// One recorded prediction: the posterior it started from, the transition and the prior.
 #[derive(Clone, Serialize, Deserialize)]
@@ -61,9 +61,9 @@ impl DynFilter {
                     "strategy {s:?} with {n} states or more than {} measurement rows: the \
                      adaptive strategies run on the compiled sizes (states 1 to {}, rows 1 \
                      to {}); beyond them only \"fixed\" and \"chi2-gate\"",
-                    crate::callables::MAX_M,
-                    crate::callables::MAX_N,
-                    crate::callables::MAX_M
+                    crate::cores::MAX_M,
+                    crate::cores::MAX_N,
+                    crate::cores::MAX_M
                 ))
             }
         };
@@ -238,11 +238,11 @@ impl Core for DynFilter {
     }
 
     fn save(&self) -> Result<Vec<u8>, String> {
-        crate::callables::to_bytes(self)
+        crate::cores::to_bytes(self)
     }
 
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        *self = crate::callables::from_bytes(state)?;
+        *self = crate::cores::from_bytes(state)?;
         Ok(())
     }
 

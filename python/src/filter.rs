@@ -15,9 +15,9 @@ use pyo3::types::PyDict;
 use crate::{fail, matrix};
 
 /// Largest state dimension of the compiled instances.
-pub const MAX_N: usize = crate::callables::MAX_N;
+pub const MAX_N: usize = crate::cores::MAX_N;
 /// Largest measurement dimension of the compiled instances.
-pub const MAX_M: usize = crate::callables::MAX_M;
+pub const MAX_M: usize = crate::cores::MAX_M;
 
 /// One run's inputs, row-major; `F`, `Q`, `H`, `R` hold one matrix (constant) or one per
 /// step.
@@ -69,7 +69,7 @@ fn times(a: &[f64], v: &[f64]) -> Vec<f64> {
 /// instances for states of 1 to 9 and measurements of 1 to 8 rows, the heap core beyond.
 fn run(p: &Problem) -> Result<Output, String> {
     let (n, m) = (p.n, p.m);
-    let dynamic = n > crate::callables::MAX_N || m > crate::callables::MAX_M;
+    let dynamic = n > crate::cores::MAX_N || m > crate::cores::MAX_M;
     let mut core = crate::callables::make_core(n, &p.strategy, p.smooth, None, dynamic)?;
     core.set(&p.x0, &p.P0).map_err(|e| format!("the start: {e}"))?;
     let mut x = p.x0.clone();

@@ -16,6 +16,7 @@
 
 mod ahrs;
 mod callables;
+mod cores;
 mod dynamic;
 mod filter;
 

@@ -6,6 +6,24 @@
 use super::*;
 
 impl Config {
+    /// Whether the start reads the data at all: checks on, or a part of the configuration
+    /// to fill, or the noise's static floor.
+    pub fn start_looks_at_data(&self) -> bool {
+        self.align.checks || self.start_fills() || self.start_floors()
+    }
+
+    /// Whether the start fills a part of the configuration from the data: `[init]`
+    /// incomplete or the noise `from_static`. (Otherwise it only checks.)
+    pub fn start_fills(&self) -> bool {
+        !self.init.is_complete() || self.imu_noise.from_static
+    }
+
+    /// Whether the start may raise the noise to the static start's floor (it reads the
+    /// data until the static start ends).
+    pub fn start_floors(&self) -> bool {
+        self.imu_noise.static_floor && !self.imu_noise.from_static
+    }
+
     /// With the fixes' errors white (`gnss.errors.model = "white"`): the bank's white
     /// hypothesis, or its choice.
     pub fn with_white_fix_errors(&self) -> Config {
@@ -32,7 +50,7 @@ impl Config {
     pub fn for_bank_pass(&self) -> Config {
         let mut c = self.clone();
         c.filter.smooth = false;
-        if !(crate::start::fills(&c) || c.calibrate.time_offset) {
+        if !(c.start_fills() || c.calibrate.time_offset) {
             c.align.checks = false;
         }
         c

@@ -25,9 +25,9 @@ use adaptive::{AnyStrategy, GrossErrorGate, PerStream};
 use estimator_core::{NoObserver, NoiseStrategy, SmoothedRow, UpdateSummary, Verdict};
 use nalgebra::Vector3;
 
-use crate::aiding::{AidEpoch, AidReader};
 use crate::config::{Config, FixErrorPlan, StateKind, PROBE_FIXES};
 use crate::start::{Look, Start, Starter};
+use aid::{AidEpoch, AidReader};
 use estimator_core::DimAlloc;
 use ins_gnss_core::calibration::{InsModelCal, InsStateCal};
 use ins_gnss_core::fix_error::{InsModel21Fe, InsModelFe, InsState21Fe, InsStateFe};
@@ -46,6 +46,7 @@ use ins_gnss_io::{GnssReader, ImuReader, LineError, NavRecord, SkipCounts};
 use nalgebra::DefaultAllocator;
 
 mod again;
+mod aid;
 mod error;
 mod fix_errors;
 mod inputs;

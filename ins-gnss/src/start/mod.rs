@@ -125,7 +125,7 @@ fn prepare(
     let (imu, gnss) = after(imu, gnss, t0);
     let mut start = Start::given(config, t0);
     let need_init = !config.init.is_complete();
-    if imu.is_empty() || !looks_at_data(config) {
+    if imu.is_empty() || !config.start_looks_at_data() {
         return Ok(start);
     }
     let scene = Scene::new(config, imu, gnss, t0);
@@ -491,22 +491,4 @@ fn noise_floor(
             fmt3(vrw0, 3)
         ));
     }
-}
-
-/// Whether `prepare` reads the data at all: checks on, or a part of the configuration
-/// to fill.
-pub fn looks_at_data(config: &Config) -> bool {
-    config.align.checks || fills(config) || floors(config)
-}
-
-/// Whether `prepare` fills a part of the configuration from the data: `[init]`
-/// incomplete or the noise `from_static`. (Otherwise it only checks.)
-pub fn fills(config: &Config) -> bool {
-    !config.init.is_complete() || config.imu_noise.from_static
-}
-
-/// Whether `prepare_floor` may change the noise (it reads the data until the static
-/// start ends).
-pub fn floors(config: &Config) -> bool {
-    config.imu_noise.static_floor && !config.imu_noise.from_static
 }

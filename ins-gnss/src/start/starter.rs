@@ -23,9 +23,9 @@ impl Look {
     /// calibrated: the start's search runs before the filter, which starts on the stamps
     /// it corrects), the static start for the noise floor, else the first sample.
     pub fn of(config: &Config) -> Self {
-        if fills(config) || config.calibrate.time_offset {
+        if config.start_fills() || config.calibrate.time_offset {
             Look::Span
-        } else if floors(config) {
+        } else if config.start_floors() {
             Look::StaticStart
         } else {
             Look::First

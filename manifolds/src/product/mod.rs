@@ -6,49 +6,9 @@ use core::ops::Range;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, DimNameAdd, DimNameSum, OMatrix, OVector};
 
+pub(crate) use crate::blocks::{block_of, set_block, set_diagonal_block};
 use crate::scalar::Real;
 use crate::traits::{DimAlloc, Manifold, Tangent, TangentMatrix};
-
-/// Copy of the block of `v` that starts at `offset` and has `B::DIM` rows.
-pub(crate) fn block_of<D, B, T: Real>(v: &OVector<T, D>, offset: usize) -> OVector<T, B>
-where
-    D: DimName,
-    B: DimName,
-    DefaultAllocator: Allocator<D> + Allocator<B>,
-{
-    OVector::<T, B>::from_fn(|i, _| v[offset + i])
-}
-
-/// Write `b` into `v` from row `offset` on.
-#[doc(hidden)]
-pub fn set_block<D, B, T: Real>(v: &mut OVector<T, D>, offset: usize, b: &OVector<T, B>)
-where
-    D: DimName,
-    B: DimName,
-    DefaultAllocator: Allocator<D> + Allocator<B>,
-{
-    for i in 0..B::DIM {
-        v[offset + i] = b[i];
-    }
-}
-
-/// Write the square block `b` on the diagonal of `m` at `(offset, offset)`.
-#[doc(hidden)]
-pub fn set_diagonal_block<D, B, T: Real>(
-    m: &mut OMatrix<T, D, D>,
-    offset: usize,
-    b: &OMatrix<T, B, B>,
-) where
-    D: DimName,
-    B: DimName,
-    DefaultAllocator: Allocator<D, D> + Allocator<B, B>,
-{
-    for c in 0..B::DIM {
-        for r in 0..B::DIM {
-            m[(offset + r, offset + c)] = b[(r, c)];
-        }
-    }
-}
 
 /// A typed handle on one block of a composite state's tangent space: its offset and
 /// the manifold it belongs to. Composite states expose one per field (e.g.

@@ -43,8 +43,8 @@ use nalgebra::{DMatrixView, DefaultAllocator, DimName, OMatrix, SVector, Vector1
 use proptest::prelude::*;
 use proptest::strategy::BoxedStrategy;
 
+use crate::blocks::set_block;
 use crate::numdiff;
-use crate::product::set_block;
 use crate::scalar::Real;
 use crate::traits::{DimAlloc, Manifold, Tangent};
 use crate::{So2, So3};

@@ -8,8 +8,8 @@
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, DimName, OMatrix, OVector};
 
+use super::{DimAlloc, Manifold, Tangent};
 use crate::scalar::Real;
-use crate::traits::{DimAlloc, Manifold, Tangent};
 
 /// Default step in `f64`: balances truncation (`h²`) against rounding (`ε/h`) for
 /// unit-scale maps. Generic code takes [`Real::DIFF_STEP`] (the same in `f64`).

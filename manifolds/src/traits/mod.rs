@@ -5,8 +5,9 @@ use core::fmt::Debug;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrixView, DefaultAllocator, DimName, OMatrix, OVector, U1};
 
-use crate::numdiff;
 use crate::scalar::Real;
+
+pub mod numdiff;
 
 /// Every allocator bound that generic code over one tangent dimension `D` needs, in one
 /// trait: vectors, square matrices and row vectors of size `D`.
