@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """KF-GINS side by side on the everyday corpus's drive-0708 cells (the everyday-GNSS issue).
 
-    DUMP=/tmp/dump cargo run --release --example everyday_corpus 20 "drive-0708 yaml | wander 1.5/1.5/3 m τ 100 s +0.3 | ×1$"
+    DUMP=/tmp/dump cargo run --release --features campaigns --example everyday_corpus 20 "drive-0708 yaml | wander 1.5/1.5/3 m τ 100 s +0.3 | ×1$"
     python3 benches/everyday_kf_gins.py /tmp/dump [KF-GINS]
 
 For each `gnss-drive-0708-yaml-SEED.txt` the corpus wrote (drive-0708's RTK fixes moved by

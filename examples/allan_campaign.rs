@@ -3,7 +3,7 @@
 //! white noise, bias instability (flicker, simulated as a bank of first-order
 //! Gauss–Markov processes two per decade from 1 s to 10⁵ s, whose Allan variance is flat
 //! to a few per cent over the band; the truth `B` is that floor / 0.664) and a rate random
-//! walk. `cargo run --release --example allan_campaign [SEEDS] [HOURS]`.
+//! walk. `cargo run --release --features campaigns --example allan_campaign [SEEDS] [HOURS]`.
 //!
 //! The grades are our own error models after datasheet figures: a tactical MEMS (ARW
 //! 0.3 °/√h, BI 5 °/h, RRW 10 °/h/√h), an industrial MEMS (2 °/√h, 25 °/h, 60 °/h/√h) and a

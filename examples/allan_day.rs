@@ -1,5 +1,5 @@
 //! The Allan deviation of a day at 200 Hz (17.28 million samples per axis, six axes):
-//! `cargo run --release --example allan_day`. Prints the time of the analysis alone (the
+//! `cargo run --release --features campaigns --example allan_day`. Prints the time of the analysis alone (the
 //! axes on the machine's cores, as `ins-gnss allan` analyses them; the
 //! samples are generated first: white noise and a rate random walk) and the fitted white
 //! noise against the truth.

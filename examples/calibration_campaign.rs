@@ -4,7 +4,7 @@
 //! user makes them (no `[init]`, the default gate), one seed per draw of the IMU's and the
 //! fixes' errors.
 //!
-//! `cargo run --release --example calibration_campaign [SEEDS]` (default 20) prints, per
+//! `cargo run --release --features campaigns --example calibration_campaign [SEEDS]` (default 20) prints, per
 //! cell, the calibration's errors at the end against the truth (the lever arm and the
 //! mounting per axis; the time offset), the share of seeds within the bars, the σ the run reports
 //! and the horizontal RMS against the truth (with the share of epochs beyond the run's own

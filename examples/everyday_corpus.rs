@@ -3,7 +3,7 @@
 //! noise learned — on fixes whose errors are white or wander like a single-point
 //! receiver's, declared with their true σ, ten times too small or ten times too large.
 //!
-//! `cargo run --release --example everyday_corpus [SEEDS] [FILTER]` (`SEEDS`: `N` for 1 to N, or `A-B`) prints one row per cell:
+//! `cargo run --release --features campaigns --example everyday_corpus [SEEDS] [FILTER]` (`SEEDS`: `N` for 1 to N, or `A-B`) prints one row per cell:
 //! the horizontal RMS against the truth (drive-0708: the outages' score against its RTK
 //! reference), the same run given the true noise model (the oracle: the errors' true
 //! split as states, `gnss.errors.learn = false`, the gate's learning off), their ratio,

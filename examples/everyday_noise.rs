@@ -5,7 +5,7 @@
 //! declared with σ 0.1×, 1×, 10× or 30× the truth, over many seeds, behind the program's
 //! default gate with its noise learning on and off.
 //!
-//! `cargo run --release --example everyday_noise [SEEDS]` (default 20) prints, per error
+//! `cargo run --release --features campaigns --example everyday_noise [SEEDS]` (default 20) prints, per error
 //! model, declared σ and learning, the mean horizontal RMS after 60 s, the share of epochs
 //! whose horizontal error lies beyond the filter's own 99 % ellipse (χ²₂ 9.21), the steps
 //! refused and the σ factor learned on the fixes (√λ̂ at the end, the seeds' median). The

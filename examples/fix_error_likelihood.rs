@@ -4,7 +4,7 @@
 //! horizontal RMS and its share of epochs beyond its own 99 % ellipse, for fixes that
 //! wander as the single points do (1.5/1.5/3 m, τ 100 s, over 0.3 m white).
 //!
-//! `cargo run --release --example fix_error_likelihood [DATA] [SEEDS] [DECLARED]`: `DATA`
+//! `cargo run --release --features campaigns --example fix_error_likelihood [DATA] [SEEDS] [DECLARED]`: `DATA`
 //! `sim drive` (default), `navego`, or a drive-0708 configuration
 //! (`kf-gins-outage15.yaml`, `aided-noinit.toml`); `SEEDS` 1 to N (3); `DECLARED` the
 //! factor on the σ the fixes declare (1); `told` after them: the white part given its true

@@ -7,7 +7,7 @@
 //! with σ the mixture's spread, judged as the start campaign judges (heading within 3σ at
 //! every `std.txt` epoch, horizontal RMS) beside the run given the true initial state.
 //!
-//! `cargo run --release --example heading_bank_probe [SEEDS] [END] [HALF]`
+//! `cargo run --release --features campaigns --example heading_bank_probe [SEEDS] [END] [HALF]`
 //!
 //! What it measured (2026-12-06, 8 seeds): over the first 120 s (the start's span) the
 //! likeliest weighs 0.08–0.24 and the spread is 54–107° (a constant-speed rover's heading

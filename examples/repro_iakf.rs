@@ -9,7 +9,7 @@
 //! |north| and horizontal error (truth at 1 Hz, from 30 s on); per-seed results go to a
 //! CSV. Seeds run in parallel (rayon).
 //!
-//! Run: `cargo run --release --example repro_iakf [SEEDS] [CSV] [paper-noise]` (defaults
+//! Run: `cargo run --release --features campaigns --example repro_iakf [SEEDS] [CSV] [paper-noise]` (defaults
 //! 50, `repro-out/iakf_seeds.csv`, the original scenario; `paper-noise` runs
 //! `iakf-chi-square-paper-noise.toml`, whose GNSS error is like the paper's Table 2).
 

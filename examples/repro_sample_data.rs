@@ -9,7 +9,7 @@
 //!    outage score (RMS over the outages of the maximum horizontal drift, against
 //!    `ref_rtkfix.txt`; KF-GINS 12.4 m), one run per strategy.
 //!
-//! Run: `cargo run --release --example repro_sample_data [SEEDS]` (default 50). Per-seed
+//! Run: `cargo run --release --features campaigns --example repro_sample_data [SEEDS]` (default 50). Per-seed
 //! navego results go to `repro-out/navego_interference_seeds.csv`.
 
 use std::io::Write;

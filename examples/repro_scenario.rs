@@ -4,7 +4,7 @@
 //! the skip). Per-seed results go to a CSV; the errors of the first seed are plotted
 //! (absolute heading and horizontal error against time, one line per strategy).
 //!
-//! Run: `cargo run --release --example repro_scenario -- SCENARIO [--seeds N]
+//! Run: `cargo run --release --features campaigns --example repro_scenario -- SCENARIO [--seeds N]
 //! [--strategies a,b,c] [--skip S] [--out DIR]`. Defaults: 50 seeds,
 //! `fixed,iae,afkf,fused`, skip 30 s, `repro-out/<scenario name>/`. The fused IAE + AFKF
 //! paper's table: `… -- ins-gnss/scenarios/fused-iae-afkf.toml`.

@@ -14,7 +14,7 @@
 //! (`rnx2rtkp -p 2 -f F -r BASE`, every other option its default, as
 //! `data/rinex-rtklib/rtklib/make.sh` runs it on the real baseline) on the same RINEX files.
 //!
-//! `cargo run --release --example rtk_corpus [SEEDS] [--no-rtklib] [--keep DIR]` (the drive and
+//! `cargo run --release --features campaigns --example rtk_corpus [SEEDS] [--no-rtklib] [--keep DIR]` (the drive and
 //! the figures: `tests/rtk_drive.rs`)
 
 use std::path::{Path, PathBuf};

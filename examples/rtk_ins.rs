@@ -17,7 +17,7 @@
 //! position's horizontal RMS at the epochs and its NEES (3 when the covariance is right),
 //! the error at the canyon's end.
 //!
-//! `cargo run --release --example rtk_ins [SEEDS] [LEAST SUCCESS RATE, default 0.999] [tactical]`
+//! `cargo run --release --features campaigns --example rtk_ins [SEEDS] [LEAST SUCCESS RATE, default 0.999] [tactical]`
 
 use std::path::Path;
 

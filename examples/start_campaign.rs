@@ -5,7 +5,7 @@
 //! with 5 m fixes — run as a user runs them: no `[init]`, the datasheet's noise, the
 //! default gate.
 //!
-//! `cargo run --release --example start_campaign [SEEDS] [FILTER]` (`SEEDS`: `N` for 1 to
+//! `cargo run --release --features campaigns --example start_campaign [SEEDS] [FILTER]` (`SEEDS`: `N` for 1 to
 //! N, or `A-B`; `FILTER` keeps the cells whose name contains it) prints one row per cell:
 //! runs, refused, flagged (exit 3), runs whose heading lies within 3σ at every `std.txt`
 //! epoch and from 30 s on, runs whose first velocity lies within 3σ, the median and largest

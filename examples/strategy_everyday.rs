@@ -4,7 +4,7 @@
 //! time 60 s) over 0.3 m of white noise — declared with σ 0.3×, 1× or 3× the truth, over
 //! many seeds, each strategy behind the program's default gate and with the gate open.
 //!
-//! `cargo run --release --example strategy_everyday [SEEDS]` (default 20) prints, per
+//! `cargo run --release --features campaigns --example strategy_everyday [SEEDS]` (default 20) prints, per
 //! declared σ and strategy, the mean horizontal RMS after 60 s, the share of epochs whose
 //! horizontal error lies beyond the filter's own 99 % ellipse (χ²₂ 9.21; 1 % for a σ that
 //! covers the error), the runs whose horizontal RMS exceeds 3× the fixed filter's on the

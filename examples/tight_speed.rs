@@ -2,7 +2,7 @@
 //! 200 Hz, raw observations at 5 Hz from the shipped navigation file's satellites), the
 //! filter alone (the observations prepared beforehand, as a reader would hand them over).
 //!
-//! `cargo run --release --example tight_speed`
+//! `cargo run --release --features campaigns --example tight_speed`
 
 use std::path::Path;
 use std::time::Instant;

@@ -1,7 +1,7 @@
 //! The fused IAE + AFKF paper's conclusion as we measure it (`docs/history/results.md`), on a
 //! reduced seed count that runs in CI. Paper: the fused dual-window filter's roll, pitch
 //! and heading RMS are below both IAE's and AFKF's. We measure (50 seeds, `cargo run
-//! --release --example repro_scenario -- ins-gnss/scenarios/fused-iae-afkf.toml
+//! --release --features campaigns --example repro_scenario -- ins-gnss/scenarios/fused-iae-afkf.toml
 //! --strategies …`): with the cumulative reading of eq. 29 (our default `fused`), fused
 //! is below the paper's own baselines — IAE adapting Q and R (`iae-qr`) and AFKF — on all
 //! three in 49–50 of 50 seeds; the nominal reading (`fused-nominal`) is not, and is

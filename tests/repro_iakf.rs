@@ -2,7 +2,7 @@
 //! reduced seed count that runs in CI: on the paper's scenario the Sage–Husa filter
 //! lowers the maximum horizontal error against the fixed KF, and the IAKF with the `Raw`
 //! inflation does not (the paper reports the opposite). The full 50-seed table:
-//! `cargo run --release --example repro_iakf`.
+//! `cargo run --release --features campaigns --example repro_iakf`.
 
 #[allow(dead_code)]
 #[path = "../examples/repro_iakf.rs"]

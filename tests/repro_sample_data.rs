@@ -1,5 +1,5 @@
 //! The strategies on the sample data, as measured in `docs/history/results.md` (full runs:
-//! `cargo run --release --example repro_sample_data`), on a reduced seed count, on the
+//! `cargo run --release --features campaigns --example repro_sample_data`), on a reduced seed count, on the
 //! repository's copy of the sample data.
 //!
 //! Measured conclusions asserted here: with interference injected into navego's GNSS

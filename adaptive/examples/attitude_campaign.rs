@@ -4,7 +4,7 @@
 //! (the magnetometer's noise 10× its declared value for 60–120 s) and six 60°
 //! magnetometer outliers, over many seeds.
 //!
-//! `cargo run --release -p adaptive --example attitude_campaign [SEEDS]` (default 50)
+//! `cargo run --release -p adaptive --features campaigns --example attitude_campaign [SEEDS]` (default 50)
 //! prints, per strategy and case, the mean attitude RMS after 10 s, the mean NEES (6
 //! states), the runs with a P not positive definite, errors, subspace fallbacks and
 //! "not helping" reports.

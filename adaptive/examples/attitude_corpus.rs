@@ -5,7 +5,7 @@
 //! whose attitude RMS (after 5 s) is beyond 3× the fixed filter's on the same data, all
 //! runs and those whose declared σ is at most 1.2× too small.
 //!
-//! `cargo run --release -p adaptive --example attitude_corpus [CASES]` (default 300).
+//! `cargo run --release -p adaptive --features campaigns --example attitude_corpus [CASES]` (default 300).
 
 #[path = "../tests/common/attitude.rs"]
 mod attitude;

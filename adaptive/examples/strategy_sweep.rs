@@ -5,7 +5,7 @@
 //! (m²/s³), position measured with σ = 1 m. For each `q` the table gives the position
 //! RMS (m) averaged over 8 seeds; the same seeded data go to every strategy.
 //!
-//! Run: `cargo run --release -p adaptive --example strategy_sweep`
+//! Run: `cargo run --release -p adaptive --features campaigns --example strategy_sweep`
 
 #[path = "../tests/common/mod.rs"]
 mod common;

@@ -49,7 +49,7 @@ pub enum FadingAt {
 ///
 /// Default estimator: a window of N = 20 (as the paper's IAE window). On the crate's
 /// constant-velocity scenario with an exactly right model (`cargo run --release -p
-/// adaptive --example strategy_sweep`, 8 seeds, q = 0.002) the window costs +4.5 %
+/// adaptive --features campaigns --example strategy_sweep`, 8 seeds, q = 0.002) the window costs +4.5 %
 /// position RMS over the fixed filter and the recursive form with ρ = 0.95 (whose newest
 /// sample weighs ≈ ½) +22 %. With a 10× under-stated Q (`cargo test -p adaptive --test
 /// claims -- --nocapture`, 10 seeds) the mean NEES drops from 32.3 (fixed) to 29.1 with
@@ -72,7 +72,7 @@ pub enum FadingAt {
 /// held off and reported (`not_helping`). Xia's algorithm read faithfully (`afkf-faithful`,
 /// `afkf-xia-faithful`; [`faithful`](Self::faithful)) fades whenever the estimate of λ
 /// exceeds 1. On a user's attitude filter (gyro bias; gravity and magnetic directions,
-/// `cargo run --release -p adaptive --example attitude_campaign`) the faithful reading
+/// `cargo run --release -p adaptive --features campaigns --example attitude_campaign`) the faithful reading
 /// reads a magnetic disturbance — noise, not model mismatch — as a prior too confident,
 /// trusts the disturbed magnetometer more with each update, and runs 15–18° off where the
 /// fixed filter is 1°; on clean data it fades on noise. The guarded default stays within

@@ -25,7 +25,7 @@
 //! [`CORRELATED`]) it is kept within [`TRUST`]× either way; linear between. The
 //! autocorrelation starts from the prior "correlated" (`LAG_PRIOR` updates' worth).
 //!
-//! Measured (`cargo run --release --example everyday_noise`, 20 seeds of the simulated
+//! Measured (`cargo run --release --features campaigns --example everyday_noise`, 20 seeds of the simulated
 //! drive, `docs/history/results.md`): white fixes declared 0.1×, 3×, 10× and 30× their σ go from
 //! 7.01, 0.75, 1.57 and 3.79 m to 1.60, 0.66, 0.74 and 1.89 m (0.62 m with the true σ);
 //! wandering fixes keep their coverage (46.0 % beyond the 99 % ellipse with the true σ
