@@ -1,6 +1,7 @@
 //! The states a run can use (15, 21, tight coupling) and the navigator at the start.
 
 use super::*;
+use ins_gnss_core::navigator::NavStart;
 
 /// The states a run can use (`filter.states = 15 | 21`): how each starts and what it
 /// writes beyond the 15-state columns.
@@ -104,9 +105,10 @@ impl RunState for InsStateFe {
         let init = from.initial_state();
         let (fix, p_fix) = fix_error_start(config, at);
         let model = InsModelFe { base, fix };
-        let x = InsStateFe { nav: init.state.clone(), fix: Vector3::zeros() };
+        let (nav, p_nav) = (&init).state_and_covariance();
+        let x = InsStateFe { nav, fix: Vector3::zeros() };
         let mut p = estimator_core::Cov::<nalgebra::Const<18>>::zeros();
-        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
+        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&p_nav);
         p.fixed_view_mut::<3, 3>(15, 15).copy_from(&p_fix);
         let strategy = strategy.without_learning_on(&ins_gnss_core::gnss::GNSS_STREAMS);
         Navigator::from_parts(x, p, init.time, model, strategy, config.gnss_config())
@@ -131,17 +133,12 @@ impl RunState for InsState21Fe {
         let base = ins_model(config, from);
         let base = InsModel21 { base, scale: config.scale_factor_noise() };
         let init = from.initial_state();
-        let scale = config.scale_init();
         let (fix, p_fix) = fix_error_start(config, at);
         let model = InsModel21Fe { base, fix };
-        let nav = InsState21 { nav: init.state.clone(), sg: scale.sg, sa: scale.sa };
+        let (nav, p_nav) = (&init, &config.scale_init()).state_and_covariance();
         let x = InsState21Fe { nav, fix: Vector3::zeros() };
         let mut p = estimator_core::Cov::<nalgebra::Const<24>>::zeros();
-        p.fixed_view_mut::<15, 15>(0, 0).copy_from(&init.std.covariance());
-        for k in 0..3 {
-            p[(15 + k, 15 + k)] = scale.sg_std[k].powi(2);
-            p[(18 + k, 18 + k)] = scale.sa_std[k].powi(2);
-        }
+        p.fixed_view_mut::<21, 21>(0, 0).copy_from(&p_nav);
         p.fixed_view_mut::<3, 3>(21, 21).copy_from(&p_fix);
         let strategy = strategy.without_learning_on(&ins_gnss_core::gnss::GNSS_STREAMS);
         Navigator::from_parts(x, p, init.time, model, strategy, config.gnss_config())
