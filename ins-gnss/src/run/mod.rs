@@ -183,7 +183,11 @@ fn attempt<O: Sink>(
         Some(_) => FixErrorPlan::Persisting,
         None => GnssAtStart::of_fixes(config, prefix.fixes().iter()).plan(config),
     };
-    let probe = plan == FixErrorPlan::Probe;
+    let probe = match plan {
+        FixErrorPlan::Probe => Some((f64::NEG_INFINITY, f64::NEG_INFINITY)),
+        FixErrorPlan::Check => Some((crate::config::CONTRADICTED_FACTOR, crate::config::CORRELATED_LAG)),
+        FixErrorPlan::White | FixErrorPlan::Persisting => None,
+    };
     let persisting_probe = persisting;
     let persisting = plan == FixErrorPlan::Persisting;
     let inputs = Opened {
@@ -270,7 +274,7 @@ struct Opened<'o, O: Sink> {
     checks: Option<Checks>,
     out: &'o mut O,
     nav: O::Nav,
-    probe: bool,
+    probe: Option<(f64, f64)>,
     /// The probe whose noise scale is the prior (a run with the persisting part).
     found: Option<FixErrorProbe>,
     /// What the start found: the initial state, the IMU noise, the static start's end
@@ -278,9 +282,11 @@ struct Opened<'o, O: Sink> {
     start: &'o Start,
 }
 
-/// `probe`: the fixes' errors are probed ([`FixErrorPlan::Probe`]): once the first
-/// [`PROBE_FIXES`] fixes have been learned from, the run stops with
-/// [`RunError::FixErrorsProbed`] for the bank to judge their model.
+/// `probe`: the fixes' errors are probed ([`FixErrorPlan::Probe`], or
+/// [`FixErrorPlan::Check`] with its threshold): once the first [`PROBE_FIXES`] fixes have
+/// been learned from, the run stops with [`RunError::FixErrorsProbed`] for the bank to
+/// judge their model if their variance factor is above the threshold, and goes on
+/// otherwise.
 fn run_into<S: RunState, O: Sink>(
     config: &Config,
     strategy: AnyStrategy,

@@ -127,8 +127,10 @@ where
     pub(super) out: &'o mut O,
     /// The start and end times, s.
     pub(super) span: (f64, f64),
-    /// The fixes' errors probed: the pass stops once the probe has learned.
-    pub(super) probe: bool,
+    /// The fixes' errors probed: the pass stops once the probe has learned a variance
+    /// factor on the fixes' declared σ above this (`None`: not probed; once the probe has
+    /// learned a smaller one, the pass goes on unprobed).
+    pub(super) probe: Option<(f64, f64)>,
     pub(super) at: GnssAtStart,
     pub(super) tight: Option<TightConfig>,
     last_std: f64,
@@ -149,7 +151,7 @@ where
         config: &Config,
         started: (Navigator<RunStrategy, S>, RunSummary, f64),
         out: &'o mut O,
-        probe: bool,
+        probe: Option<(f64, f64)>,
         at: GnssAtStart,
         tight: Option<TightConfig>,
     ) -> Result<Self, RunError> {
@@ -230,9 +232,12 @@ where
         for u in &self.updates {
             self.out.update(u)?;
         }
-        if self.probe && !self.updates.is_empty() {
+        if let (Some((factor, lag)), false) = (self.probe, self.updates.is_empty()) {
             if let Some(found) = probe_fix_errors(self.nav.filter().strategy(), &self.at) {
-                return Err(RunError::FixErrorsProbed(found));
+                if found.factor > factor && found.lag_one > lag {
+                    return Err(RunError::FixErrorsProbed(found));
+                }
+                self.probe = None;
             }
         }
         // after every update, and once a second without (an outage's σ)
