@@ -185,7 +185,9 @@ fn attempt<O: Sink>(
     };
     let probe = match plan {
         FixErrorPlan::Probe => Some((f64::NEG_INFINITY, f64::NEG_INFINITY)),
-        FixErrorPlan::Check => Some((crate::config::CONTRADICTED_FACTOR, crate::config::CORRELATED_LAG)),
+        FixErrorPlan::Check => {
+            Some((crate::config::CONTRADICTED_FACTOR, crate::config::CORRELATED_LAG))
+        }
         FixErrorPlan::White | FixErrorPlan::Persisting => None,
     };
     let persisting_probe = persisting;
