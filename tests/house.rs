@@ -133,7 +133,7 @@ fn no_source_file_is_past_the_house_size() {
     let mut over = Vec::new();
     for f in &files {
         let text = std::fs::read_to_string(f).unwrap();
-        let code = text.lines().take_while(|l| l.trim() != "#[cfg(test)]").count();
+        let code = text.lines().take_while(|l| !is_test_marker(l)).count();
         if code > MAX_LINES {
             over.push(format!("{} ({code} lines)", f.strip_prefix(root()).unwrap().display()));
         }
@@ -189,7 +189,7 @@ fn code_of(line: &str) -> String {
 /// Every function of a file's non-test code with its length in lines (from its `fn` line
 /// to its closing brace).
 fn function_lengths(text: &str) -> Vec<(String, usize)> {
-    let lines: Vec<&str> = text.lines().take_while(|l| l.trim() != "#[cfg(test)]").collect();
+    let lines: Vec<&str> = text.lines().take_while(|l| !is_test_marker(l)).collect();
     let mut found = Vec::new();
     let mut i = 0;
     while i < lines.len() {
@@ -294,7 +294,7 @@ fn room_graph(src: &Path) -> Vec<(String, Vec<String>)> {
         let mut uses = Vec::new();
         for f in files.iter().filter(|f| f.file_name().is_some_and(|n| n != "tests.rs")) {
             let text = std::fs::read_to_string(f).unwrap();
-            for line in text.lines().take_while(|l| l.trim() != "#[cfg(test)]") {
+            for line in text.lines().take_while(|l| !is_test_marker(l)) {
                 let code = code_of(line);
                 for (i, _) in code.match_indices("crate::") {
                     let rest = &code[i + "crate::".len()..];
@@ -369,4 +369,10 @@ fn the_cycle_finder_finds_cycles() {
     assert_eq!(found.len(), 3);
     let chain = g(&[("a", &["b"]), ("b", &["c"]), ("c", &[]), ("d", &["a", "c"])]);
     assert_eq!(a_cycle(&chain), None);
+}
+
+/// The line that starts a file's tests: `#[cfg(test)]`, or `#[cfg(feature =
+/// "unit-tests")]` (the program's unit tests, run from its integration-test binary).
+fn is_test_marker(line: &str) -> bool {
+    matches!(line.trim(), "#[cfg(test)]" | "#[cfg(feature = \"unit-tests\")]")
 }

@@ -337,16 +337,16 @@ pub fn run(
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "unit-tests")]
+#[doc(hidden)]
+pub mod tests {
     use super::*;
     use gnss::GpsTime;
     use nalgebra::Matrix3;
 
     /// The fix's timings and ratios from a run's epochs: fixed at 20 s, lost from 40 to
     /// 60 s (fixed again at 70 s: 40 s after the last fix at 30 s), lost again at the end.
-    #[test]
-    fn fix_timings_and_ratios() {
+    pub fn fix_timings_and_ratios() {
         let fixed = [false, false, true, true, false, false, false, true, false];
         let solutions = fixed
             .iter()

