@@ -226,6 +226,25 @@ pub const CONTRADICTED_FACTOR: f64 = 4.0;
 /// innovations of a filter told 10× too small a σ are correlated whatever the fixes'.
 pub const CORRELATED_LAG: f64 = adaptive::CORRELATED;
 
+impl FixErrorPlan {
+    /// Whether a run on this plan probes the fixes' errors over its first
+    /// [`PROBE_FIXES`] fixes.
+    pub fn probes(self) -> bool {
+        matches!(self, FixErrorPlan::Probe | FixErrorPlan::Check)
+    }
+
+    /// Whether the probe's finding — the variance factor on the fixes' declared σ and the
+    /// lag-one autocorrelation of their whitened innovations — hands the fixes to the
+    /// bank (always, probed; contradicted and correlated, checked).
+    pub fn judges(self, factor: f64, lag_one: f64) -> bool {
+        match self {
+            FixErrorPlan::Probe => true,
+            FixErrorPlan::Check => factor > CONTRADICTED_FACTOR && lag_one > CORRELATED_LAG,
+            FixErrorPlan::White | FixErrorPlan::Persisting => false,
+        }
+    }
+}
+
 fn default_error_share() -> f64 {
     ins_gnss_core::navigator::FIX_ERROR_SHARE
 }

@@ -193,13 +193,7 @@ fn attempt<O: Sink>(
         Some(_) => FixErrorPlan::Persisting,
         None => GnssAtStart::of_fixes(config, prefix.fixes().iter()).plan(config),
     };
-    let probe = match plan {
-        FixErrorPlan::Probe => Some((f64::NEG_INFINITY, f64::NEG_INFINITY)),
-        FixErrorPlan::Check => {
-            Some((crate::config::CONTRADICTED_FACTOR, crate::config::CORRELATED_LAG))
-        }
-        FixErrorPlan::White | FixErrorPlan::Persisting => None,
-    };
+    let probe = plan.probes().then_some(plan);
     let persisting_probe = persisting;
     let persisting = plan == FixErrorPlan::Persisting;
     let inputs = Opened {
@@ -286,7 +280,7 @@ struct Opened<'o, O: Sink> {
     checks: Option<Checks>,
     out: &'o mut O,
     nav: O::Nav,
-    probe: Option<(f64, f64)>,
+    probe: Option<FixErrorPlan>,
     /// The probe whose noise scale is the prior (a run with the persisting part).
     found: Option<FixErrorProbe>,
     /// What the start found: the initial state, the IMU noise, the static start's end
@@ -294,11 +288,10 @@ struct Opened<'o, O: Sink> {
     start: &'o Start,
 }
 
-/// `probe`: the fixes' errors are probed ([`FixErrorPlan::Probe`], or
-/// [`FixErrorPlan::Check`] with its threshold): once the first [`PROBE_FIXES`] fixes have
-/// been learned from, the run stops with [`RunError::FixErrorsProbed`] for the bank to
-/// judge their model if their variance factor is above the threshold, and goes on
-/// otherwise.
+/// `probe`: the plan whose fixes' errors are probed ([`FixErrorPlan::probes`]): once the
+/// first [`PROBE_FIXES`] fixes have been learned from, the run stops with
+/// [`RunError::FixErrorsProbed`] for the bank to judge their model if the plan
+/// [`judges`](FixErrorPlan::judges) them, and goes on otherwise.
 fn run_into<S: RunState, O: Sink>(
     config: &Config,
     strategy: AnyStrategy,

@@ -127,10 +127,10 @@ where
     pub(super) out: &'o mut O,
     /// The start and end times, s.
     pub(super) span: (f64, f64),
-    /// The fixes' errors probed: the pass stops once the probe has learned a variance
-    /// factor on the fixes' declared σ above this (`None`: not probed; once the probe has
-    /// learned a smaller one, the pass goes on unprobed).
-    pub(super) probe: Option<(f64, f64)>,
+    /// The plan whose fixes' errors are probed: the pass stops once the probe has learned
+    /// what the plan judges ([`FixErrorPlan::judges`]; `None`: not probed, or the probe
+    /// learned and the pass goes on).
+    pub(super) probe: Option<crate::config::FixErrorPlan>,
     pub(super) at: GnssAtStart,
     pub(super) tight: Option<TightConfig>,
     last_std: f64,
@@ -151,7 +151,7 @@ where
         config: &Config,
         started: (Navigator<RunStrategy, S>, RunSummary, f64),
         out: &'o mut O,
-        probe: Option<(f64, f64)>,
+        probe: Option<crate::config::FixErrorPlan>,
         at: GnssAtStart,
         tight: Option<TightConfig>,
     ) -> Result<Self, RunError> {
@@ -232,9 +232,9 @@ where
         for u in &self.updates {
             self.out.update(u)?;
         }
-        if let (Some((factor, lag)), false) = (self.probe, self.updates.is_empty()) {
+        if let (Some(plan), false) = (self.probe, self.updates.is_empty()) {
             if let Some(found) = probe_fix_errors(self.nav.filter().strategy(), &self.at) {
-                if found.factor > factor && found.lag_one > lag {
+                if plan.judges(found.factor, found.lag_one) {
                     return Err(RunError::FixErrorsProbed(found));
                 }
                 self.probe = None;
