@@ -154,8 +154,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let b = (tr.antenna - base).norm();
                 baseline = (baseline.0.min(b), baseline.1.max(b));
             }
-            let opt =
+            let mut opt =
                 RtkOptions { mode: RtkMode::Kinematic, frequencies: freqs, ..Default::default() };
+            // (RTK_CODE_BIAS=σ[,τ]: the code biases as states, to compare)
+            if let Ok(v) = std::env::var("RTK_CODE_BIAS") {
+                let mut it = v.split(',').map(|x| x.parse::<f64>().unwrap_or(0.0));
+                opt.code_bias_sigma = it.next().unwrap_or(0.0);
+                opt.code_bias_tau = it.next().unwrap_or(f64::INFINITY);
+            }
             let run = solve_files(
                 &dir.join("rover.obs"),
                 &dir.join("base.obs"),

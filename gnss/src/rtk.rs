@@ -16,6 +16,13 @@
 //!   integrated Doppler by [`DOPPLER_SLIP`] or whose geometry-free combination jumped by
 //!   [`GF_SLIP`], and every satellite after a gap of more than [`GAP_INTERVALS`] intervals
 //!   start again with the code's value and a σ of [`AMBIGUITY_SIGMA0`];
+//! - per satellite and frequency, the single-differenced code bias (the two receivers'
+//!   multipath and code biases: decimetres that persist for minutes), a first-order
+//!   Gauss–Markov state of σ [`RtkOptions::code_bias_sigma`] and correlation time
+//!   [`RtkOptions::code_bias_tau`] (0.3 m, 60 s), started at 0 with a new satellite, one
+//!   missed, or a gap — what the double-differenced code cannot tell the ambiguities (taken
+//!   as white noise, the float ambiguities converge on the code's biases and the ratio test
+//!   fixes them wrongly);
 //! - the modelled single difference: each receiver's range to the satellite at its own
 //!   transmission time, minus the satellite clock then, plus the troposphere at that
 //!   receiver's height and elevation ([`RtkOptions::troposphere`], as RTKLIB's relative
@@ -89,6 +96,13 @@ pub struct RtkOptions {
     pub phase_sigma: (f64, f64),
     /// The code's noise over the phase's.
     pub code_over_phase: f64,
+    /// σ (m) of each satellite and frequency's single-differenced code bias (the two
+    /// receivers' multipath and code biases, persisting from epoch to epoch), a state of
+    /// the filter beside the ambiguities; 0: none, the code's errors taken as white.
+    pub code_bias_sigma: f64,
+    /// The code biases' correlation time (s; a first-order Gauss–Markov process;
+    /// infinite: constant).
+    pub code_bias_tau: f64,
     /// The oldest a base epoch may be against the rover's (s; default 1, RTKLIB's 30): the
     /// satellites' clocks are modelled at each receiver's own transmission time, the
     /// receivers' cancel in the double differences, but what is left grows with the age
@@ -123,6 +137,8 @@ impl Default for RtkOptions {
             partial: false,
             phase_sigma: (0.003, 0.003),
             code_over_phase: 100.0,
+            code_bias_sigma: 0.3,
+            code_bias_tau: 60.0,
             max_age: 1.0,
             troposphere: Troposphere::Saastamoinen,
             spp,
@@ -226,6 +242,9 @@ pub struct Rtk {
     /// The state index of each satellite and frequency's ambiguity, and the epoch it was
     /// last used in.
     slots: HashMap<(Sat, usize), (usize, u64)>,
+    /// The same for each satellite and frequency's code bias
+    /// ([`RtkOptions::code_bias_sigma`] > 0).
+    biases: HashMap<(Sat, usize), (usize, u64)>,
     epoch: u64,
     started: bool,
     /// The last epoch's time and the shortest interval between epochs seen (s).
@@ -255,6 +274,7 @@ impl Rtk {
             x: DVector::zeros(3),
             p: DMatrix::identity(3, 3) * POSITION_SIGMA0.powi(2),
             slots: HashMap::new(),
+            biases: HashMap::new(),
             epoch: 0,
             started: false,
             last: None,
@@ -313,6 +333,38 @@ impl Rtk {
             }
             self.slots.insert(c.key, (i, self.epoch));
         }
+        if self.opt.code_bias_sigma <= 0.0 {
+            return;
+        }
+        for c in common {
+            let (i, fresh) = match self.biases.get(&c.key) {
+                Some(&(i, last)) => (i, gap || last + 1 < self.epoch),
+                None => (self.grow(), true),
+            };
+            if fresh {
+                self.p.row_mut(i).fill(0.0);
+                self.p.column_mut(i).fill(0.0);
+                self.p[(i, i)] = self.opt.code_bias_sigma.powi(2);
+                self.x[i] = 0.0;
+            }
+            self.biases.insert(c.key, (i, self.epoch));
+        }
+    }
+
+    /// The code biases' Gauss–Markov step over `dt` seconds.
+    fn propagate_biases(&mut self, dt: f64) {
+        let (sigma, tau) = (self.opt.code_bias_sigma, self.opt.code_bias_tau);
+        if sigma <= 0.0 || !tau.is_finite() || dt <= 0.0 {
+            return;
+        }
+        let phi = (-dt / tau).exp();
+        let idx: Vec<usize> = self.biases.values().map(|&(i, _)| i).collect();
+        for i in idx {
+            self.x[i] *= phi;
+            self.p.row_mut(i).scale_mut(phi);
+            self.p.column_mut(i).scale_mut(phi);
+            self.p[(i, i)] += sigma * sigma * (1.0 - phi * phi);
+        }
     }
 
     /// [`step`](Self::step) with, in kinematic mode, the rover's position known beforehand
@@ -350,6 +402,9 @@ impl Rtk {
         }
         let mut common = self.common(rover, base, eph);
         self.detect_slips(&mut common, rover.time, base.time);
+        if let Some((t, _)) = self.last {
+            self.propagate_biases(rover.time.diff(&t));
+        }
         let gap = self.gap(rover.time);
         self.restart_ambiguities(&common, gap);
         let mut used = 0;
@@ -518,8 +573,11 @@ impl Rtk {
                     for c in 0..3 {
                         h[(i, c)] = model[s].1[c] - model[0].1[c];
                     }
-                    if phase {
-                        let (js, j0) = (self.slots[&g[s].key].0, self.slots[&g[0].key].0);
+                    // (the phase's ambiguities; the code's biases, when they are states)
+                    let states = if phase { &self.slots } else { &self.biases };
+                    if let (Some(&(js, _)), Some(&(j0, _))) =
+                        (states.get(&g[s].key), states.get(&g[0].key))
+                    {
                         pred += lin[js] - lin[j0];
                         h[(i, js)] = 1.0;
                         h[(i, j0)] = -1.0;

@@ -296,6 +296,14 @@ struct RtkArgs {
     /// that promises `--min-success-rate` (0.999 when 0) and passes the ratio test.
     #[arg(long)]
     partial: bool,
+    /// σ (m) of each satellite and frequency's single-differenced code bias (multipath,
+    /// persisting from epoch to epoch), a state beside the ambiguities; 0: the code's
+    /// errors taken as white, as RTKLIB takes them.
+    #[arg(long, default_value_t = 0.3, value_parser = non_negative)]
+    code_bias_sigma: f64,
+    /// The code biases' correlation time, s (first-order Gauss–Markov; `inf`: constant).
+    #[arg(long, default_value_t = 60.0, value_parser = positive)]
+    code_bias_tau: f64,
     /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
     #[arg(long)]
     against: Option<PathBuf>,
@@ -369,6 +377,8 @@ impl RtkArgs {
             max_age: self.max_age,
             min_success_rate: self.min_success_rate,
             partial: self.partial,
+            code_bias_sigma: self.code_bias_sigma,
+            code_bias_tau: self.code_bias_tau,
             ..Default::default()
         };
         let base_pos = self.base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose()?;
@@ -456,5 +466,21 @@ fn probability(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
         _ => Err(format!("{s:?} is not a probability between 0 and 1")),
+    }
+}
+
+/// A number at least 0.
+fn non_negative(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v >= 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a number at least 0")),
+    }
+}
+
+/// A number above 0 (`inf` allowed).
+fn positive(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a number above 0")),
     }
 }
