@@ -162,6 +162,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 opt.code_bias_sigma = it.next().unwrap_or(0.0);
                 opt.code_bias_tau = it.next().unwrap_or(f64::INFINITY);
             }
+            // (RTK_HOLD=N: fix-and-hold after N consecutive fixes, to compare)
+            if let Ok(v) = std::env::var("RTK_HOLD") {
+                opt.hold = v.parse().ok();
+            }
             let run = solve_files(
                 &dir.join("rover.obs"),
                 &dir.join("base.obs"),

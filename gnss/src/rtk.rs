@@ -37,13 +37,16 @@
 //!   for the two best integer vectors; when the second's squared norm is at least
 //!   [`RtkOptions::ratio`] times the best's, the position is conditioned on the best:
 //!   `x̌ = x̂ − P_xa Q⁻¹ (â − ǎ)`, `P̌ = P_xx − P_xa Q⁻¹ P_ax` (fixed, Q = 1); otherwise
-//!   the float solution is the answer (Q = 2).
+//!   the float solution is the answer (Q = 2);
+//! - fix-and-hold ([`RtkOptions::hold`], two frequencies): after 5 fixes in a row, a fix
+//!   whose float covariance promised a success rate of [`HOLD_SUCCESS_RATE`] goes back
+//!   into the filter as measurements of its double-differenced ambiguities, which keep it.
 //!
 //! Static mode keeps the position as a constant; kinematic mode restarts it each epoch
 //! from the rover's single point (σ 30 m), or from a prior the caller knows better (an
 //! INS prediction: [`Rtk::step_with_prior`], and [`information_beyond`] for what the epoch
-//! adds to it), and keeps the ambiguities. Not here yet (issue 74): fix-and-hold, partial
-//! fixing, the ambiguities as states of the INS filter itself.
+//! adds to it), and keeps the ambiguities. Partial fixing is [`RtkOptions::partial`]. Not
+//! here yet (issue 74): the ambiguities as states of the INS filter itself.
 
 use std::collections::HashMap;
 
@@ -55,6 +58,16 @@ use super::obs::{frequency, ObsEpoch};
 use super::spp::{azel, geometry, prepare, Ionosphere, Prepared, SppOptions, Troposphere};
 use super::{Ephemerides, GpsTime, Sat};
 use crate::geodesy::ecef_to_geodetic;
+
+/// The variance (cycles²) of a held fix's double-differenced ambiguities as measurements
+/// ([`RtkOptions::hold`]; RTKLIB's `VAR_HOLDAMB`).
+pub const HOLD_VARIANCE: f64 = 0.001;
+
+/// The least bootstrapped success rate of the float ambiguities for a fix to be held
+/// ([`RtkOptions::hold`]): a fix the ratio test passes on a covariance that promises less
+/// is used, not held. On the simulated drives, single frequency, holding every fix the
+/// ratio test passed (after 5 in a row) turned 27 wrong fixes into 452.
+pub const HOLD_SUCCESS_RATE: f64 = 0.999;
 
 /// The σ (m) a new single-differenced ambiguity starts with.
 pub const AMBIGUITY_SIGMA0: f64 = 30.0;
@@ -103,6 +116,12 @@ pub struct RtkOptions {
     /// The code biases' correlation time (s; a first-order Gauss–Markov process;
     /// infinite: constant).
     pub code_bias_tau: f64,
+    /// Fix-and-hold: after this many consecutive fixed epochs, each fix whose float
+    /// covariance promised a success rate of [`HOLD_SUCCESS_RATE`] goes back into the float
+    /// filter as measurements of its ambiguities (variance [`HOLD_VARIANCE`] cycles²), which
+    /// then keep them; with two frequencies only (`None`: never, as RTKLIB's `continuous`
+    /// mode).
+    pub hold: Option<usize>,
     /// The oldest a base epoch may be against the rover's (s; default 1, RTKLIB's 30): the
     /// satellites' clocks are modelled at each receiver's own transmission time, the
     /// receivers' cancel in the double differences, but what is left grows with the age
@@ -139,6 +158,7 @@ impl Default for RtkOptions {
             code_over_phase: 100.0,
             code_bias_sigma: 0.3,
             code_bias_tau: 60.0,
+            hold: Some(5),
             max_age: 1.0,
             troposphere: Troposphere::Saastamoinen,
             spp,
@@ -247,6 +267,10 @@ pub struct Rtk {
     biases: HashMap<(Sat, usize), (usize, u64)>,
     epoch: u64,
     started: bool,
+    /// Consecutive fixed epochs, and the last fix's integer combinations of the states
+    /// (cycles) with their integers.
+    fixed_run: usize,
+    fix: Option<(DMatrix<f64>, DVector<f64>)>,
     /// The last epoch's time and the shortest interval between epochs seen (s).
     last: Option<(GpsTime, f64)>,
     /// Each satellite, frequency and receiver's (rover: `true`) last phase (cycles) and
@@ -277,6 +301,8 @@ impl Rtk {
             biases: HashMap::new(),
             epoch: 0,
             started: false,
+            fixed_run: 0,
+            fix: None,
             last: None,
             phases: HashMap::new(),
             gf: HashMap::new(),
@@ -431,7 +457,32 @@ impl Rtk {
             self.p = p0;
             self.update(&groups, rover.time, &lin)?;
         }
-        Ok(self.resolve(rover.time, &groups, used))
+        self.fix = None;
+        let solved = self.resolve(rover.time, &groups, used);
+        self.fixed_run = if solved.fixed { self.fixed_run + 1 } else { 0 };
+        // (held only where a slip can be seen: the geometry-free combination of two
+        // frequencies; a single frequency's slip of a cycle or two passes the Doppler's test
+        // and a held ambiguity would carry it)
+        if let (Some(after), Some((h, a))) = (self.opt.hold, self.fix.take()) {
+            if self.fixed_run >= after && self.opt.frequencies >= 2 {
+                self.hold(&h, &a);
+            }
+        }
+        Ok(solved)
+    }
+
+    /// Fix-and-hold: the fix's integers `a` of the combinations `h` of the states as
+    /// measurements of variance [`HOLD_VARIANCE`].
+    fn hold(&mut self, h: &DMatrix<f64>, a: &DVector<f64>) {
+        let n = self.x.len();
+        let r = DMatrix::identity(h.nrows(), h.nrows()) * HOLD_VARIANCE;
+        let s = h * &self.p * h.transpose() + &r;
+        let Some(chol) = ((&s + s.transpose()) * 0.5).cholesky() else { return };
+        let k = &self.p * h.transpose() * chol.inverse();
+        self.x += &k * (a - h * &self.x);
+        let i_kh = DMatrix::identity(n, n) - &k * h;
+        self.p = &i_kh * &self.p * i_kh.transpose() + &k * r * k.transpose();
+        self.p = (&self.p + self.p.transpose()) * 0.5;
     }
 
     /// A new ambiguity state (zero, uncorrelated); its index.
@@ -605,7 +656,7 @@ impl Rtk {
     }
 
     /// The float solution, or the fixed one when the ratio test passes.
-    fn resolve(&self, time: GpsTime, groups: &[Vec<Common>], sats: usize) -> RtkEpoch {
+    fn resolve(&mut self, time: GpsTime, groups: &[Vec<Common>], sats: usize) -> RtkEpoch {
         let n = self.x.len();
         let pos = Vector3::new(self.x[0], self.x[1], self.x[2]);
         let cov = self.p.fixed_view::<3, 3>(0, 0).into_owned();
@@ -633,6 +684,9 @@ impl Rtk {
         let ratio = found.ratio();
         if ratio >= self.opt.ratio && found.success_rate >= self.opt.min_success_rate {
             if let Some(e) = self.condition(&float, &g_mat, &a, &q, found.best(), ratio) {
+                if found.success_rate >= HOLD_SUCCESS_RATE {
+                    self.fix = Some((g_mat, integers(found.best())));
+                }
                 return e;
             }
         }
@@ -647,6 +701,9 @@ impl Rtk {
                     let q_c = &combos * &self.p * combos.transpose();
                     let best = part.solution.best();
                     if let Some(e) = self.condition(&float, &combos, &a_c, &q_c, best, r) {
+                        if part.solution.success_rate >= HOLD_SUCCESS_RATE {
+                            self.fix = Some((combos, integers(best)));
+                        }
                         return e;
                     }
                 }
@@ -669,7 +726,7 @@ impl Rtk {
         ratio: f64,
     ) -> Option<RtkEpoch> {
         let qi = ((q + q.transpose()) * 0.5).cholesky()?.inverse();
-        let fixed = DVector::from_iterator(fixed.len(), fixed.iter().map(|&v| v as f64));
+        let fixed = integers(fixed);
         let pxa = self.p.rows(0, 3) * h.transpose();
         let gain = &pxa * qi;
         let dx = &gain * (a - fixed);
@@ -683,4 +740,9 @@ impl Rtk {
             ..float.clone()
         })
     }
+}
+
+/// Integers as a vector of floats.
+fn integers(v: &[i64]) -> DVector<f64> {
+    DVector::from_iterator(v.len(), v.iter().map(|&x| x as f64))
 }

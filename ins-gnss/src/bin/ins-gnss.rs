@@ -304,6 +304,10 @@ struct RtkArgs {
     /// The code biases' correlation time, s (first-order Gauss–Markov; `inf`: constant).
     #[arg(long, default_value_t = 60.0, value_parser = positive)]
     code_bias_tau: f64,
+    /// Fix-and-hold after this many consecutive fixed epochs (two frequencies, the fix's
+    /// float covariance promising a success rate of 0.999); 0: never.
+    #[arg(long, default_value_t = 5)]
+    hold: usize,
     /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
     #[arg(long)]
     against: Option<PathBuf>,
@@ -379,6 +383,7 @@ impl RtkArgs {
             partial: self.partial,
             code_bias_sigma: self.code_bias_sigma,
             code_bias_tau: self.code_bias_tau,
+            hold: (self.hold > 0).then_some(self.hold),
             ..Default::default()
         };
         let base_pos = self.base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose()?;
