@@ -154,17 +154,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let b = (tr.antenna - base).norm();
                 baseline = (baseline.0.min(b), baseline.1.max(b));
             }
-            let mut opt =
-                RtkOptions { mode: RtkMode::Kinematic, frequencies: freqs, ..Default::default() };
+            let mut opt = RtkOptions::for_frequencies(RtkMode::Kinematic, freqs);
             // (RTK_CODE_BIAS=σ[,τ]: the code biases as states, to compare)
             if let Ok(v) = std::env::var("RTK_CODE_BIAS") {
                 let mut it = v.split(',').map(|x| x.parse::<f64>().unwrap_or(0.0));
                 opt.code_bias_sigma = it.next().unwrap_or(0.0);
                 opt.code_bias_tau = it.next().unwrap_or(f64::INFINITY);
             }
-            // (RTK_HOLD=N: fix-and-hold after N consecutive fixes, to compare)
+            // (RTK_HOLD=N: fix-and-hold after N consecutive fixes, 0 never; RTK_PS=P: the
+            // least success rate of a fix beside the ratio test — to compare)
             if let Ok(v) = std::env::var("RTK_HOLD") {
-                opt.hold = v.parse().ok();
+                opt.hold = v.parse().ok().filter(|&n| n > 0);
+            }
+            if let Ok(v) = std::env::var("RTK_PS") {
+                opt.min_success_rate = v.parse().unwrap_or(0.0);
             }
             let run = solve_files(
                 &dir.join("rover.obs"),

@@ -59,8 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let data = drive.imu(&exact, &imu, seed);
         for (k, &(freqs, sky)) in cells.iter().enumerate() {
             let (rover, base_obs, truth) = drive.simulate(seed, sky);
-            let opt =
-                RtkOptions { mode: RtkMode::Kinematic, frequencies: freqs, ..Default::default() };
+            let opt = RtkOptions::for_frequencies(RtkMode::Kinematic, freqs);
             let alone = drive.alone(&rover, &base_obs, &truth, &opt, sky);
             // the INS-aided filter asks the float covariance's promise too: a wrong fix it
             // took would move the INS, whose prediction would hold the next ones wrong; its

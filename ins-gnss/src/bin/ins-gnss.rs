@@ -289,9 +289,9 @@ struct RtkArgs {
     max_age: f64,
     /// Fix only when the float ambiguities' covariance promises at least this success
     /// rate of integer bootstrapping, beside the ratio test (0: the ratio test alone,
-    /// as RTKLIB).
-    #[arg(long, default_value_t = 0.0, value_parser = probability)]
-    min_success_rate: f64,
+    /// as RTKLIB). Default: 0.999 with one frequency, 0 with two.
+    #[arg(long, value_parser = probability)]
+    min_success_rate: Option<f64>,
     /// When all the ambiguities cannot be fixed, fix the largest decorrelated subset
     /// that promises `--min-success-rate` (0.999 when 0) and passes the ratio test.
     #[arg(long)]
@@ -373,18 +373,18 @@ impl RtkArgs {
     /// `ins-gnss rtk`.
     fn run(self) -> Result<(), cli::CliError> {
         use gnss::rtk::{RtkMode, RtkOptions};
+        let mode = if self.fixed_rover { RtkMode::Static } else { RtkMode::Kinematic };
+        let defaults = RtkOptions::for_frequencies(mode, self.frequencies as usize);
         let opt = RtkOptions {
-            mode: if self.fixed_rover { RtkMode::Static } else { RtkMode::Kinematic },
-            frequencies: self.frequencies as usize,
             elevation_mask: self.mask.to_radians(),
             ratio: self.ratio,
             max_age: self.max_age,
-            min_success_rate: self.min_success_rate,
+            min_success_rate: self.min_success_rate.unwrap_or(defaults.min_success_rate),
             partial: self.partial,
             code_bias_sigma: self.code_bias_sigma,
             code_bias_tau: self.code_bias_tau,
             hold: (self.hold > 0).then_some(self.hold),
-            ..Default::default()
+            ..defaults
         };
         let base_pos = self.base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose()?;
         ins_gnss::rtk::run(
