@@ -55,134 +55,14 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use super::ephemeris::C;
 use super::lambda;
 use super::obs::{frequency, ObsEpoch};
-use super::spp::{azel, geometry, prepare, Ionosphere, Prepared, SppOptions, Troposphere};
+use super::spp::{azel, geometry, prepare, Prepared, Troposphere};
 use super::{Ephemerides, GpsTime, Sat};
 use crate::geodesy::ecef_to_geodetic;
 
-/// The variance (cycles²) of a held fix's double-differenced ambiguities as measurements
-/// ([`RtkOptions::hold`]; RTKLIB's `VAR_HOLDAMB`).
-pub const HOLD_VARIANCE: f64 = 0.001;
+mod options;
+mod resolve;
 
-/// The least bootstrapped success rate of the float ambiguities for a fix to be held
-/// ([`RtkOptions::hold`]): a fix the ratio test passes on a covariance that promises less
-/// is used, not held. On the simulated drives, single frequency, holding every fix the
-/// ratio test passed (after 5 in a row) turned 27 wrong fixes into 452.
-pub const HOLD_SUCCESS_RATE: f64 = 0.999;
-
-/// The σ (m) a new single-differenced ambiguity starts with.
-pub const AMBIGUITY_SIGMA0: f64 = 30.0;
-
-/// The σ (m) the rover's position restarts with each epoch in kinematic mode (around its
-/// single point) and starts with in static mode.
-pub const POSITION_SIGMA0: f64 = 30.0;
-
-/// How the rover moves.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RtkMode {
-    /// It does not: the position is a constant state.
-    Static,
-    /// Anyhow: the position restarts each epoch from the single point.
-    Kinematic,
-}
-
-/// The solution's settings.
-#[derive(Clone, Debug)]
-pub struct RtkOptions {
-    /// Static or kinematic.
-    pub mode: RtkMode,
-    /// Frequencies used: 1 (L1) or 2 (L1 and L2).
-    pub frequencies: usize,
-    /// Elevation mask at the base, rad.
-    pub elevation_mask: f64,
-    /// The ratio test's threshold (RTKLIB's default 3).
-    pub ratio: f64,
-    /// The least success rate of integer bootstrapping the float ambiguities' covariance
-    /// must promise before the ratio test is asked (0: the ratio test alone, as RTKLIB).
-    pub min_success_rate: f64,
-    /// When all the ambiguities cannot be fixed, fix the largest decorrelated subset that
-    /// promises [`min_success_rate`](Self::min_success_rate) (or 0.999 when that is 0) and
-    /// passes the ratio test ([`lambda::solve_partial`]). Off by default: on the simulated
-    /// drives it fixed single-frequency runs earlier but wrongly more often (RTK alone
-    /// 110 → 171 wrong fixes over 20 seeds; with an INS 0 → 9 over 10, `docs/results.md`).
-    pub partial: bool,
-    /// Phase noise of one receiver, `a + b / sin el` in quadrature, m.
-    pub phase_sigma: (f64, f64),
-    /// The code's noise over the phase's.
-    pub code_over_phase: f64,
-    /// σ (m) of each satellite and frequency's single-differenced code bias (the two
-    /// receivers' multipath and code biases, persisting from epoch to epoch), a state of
-    /// the filter beside the ambiguities; 0: none, the code's errors taken as white.
-    pub code_bias_sigma: f64,
-    /// The code biases' correlation time (s; a first-order Gauss–Markov process;
-    /// infinite: constant).
-    pub code_bias_tau: f64,
-    /// Fix-and-hold: after this many consecutive fixed epochs, each fix whose float
-    /// covariance promised a success rate of [`HOLD_SUCCESS_RATE`] goes back into the float
-    /// filter as measurements of its ambiguities (variance [`HOLD_VARIANCE`] cycles²), which
-    /// then keep them; with two frequencies only (`None`: never, as RTKLIB's `continuous`
-    /// mode).
-    pub hold: Option<usize>,
-    /// The oldest a base epoch may be against the rover's (s; default 1, RTKLIB's 30): the
-    /// satellites' clocks are modelled at each receiver's own transmission time, the
-    /// receivers' cancel in the double differences, but what is left grows with the age
-    /// (the atmosphere's change over the interval): on the shipped baseline with the base
-    /// at half the rover's rate (pairs 30 s apart), kinematic runs fixed 96.7 % of the
-    /// epochs with 6 of them more than 10 cm off (`tests/rtk.rs`).
-    pub max_age: f64,
-    /// The troposphere's model at each receiver (its height and elevation): the double
-    /// differences keep what the receivers' heights and elevations make of it, several
-    /// centimetres when one of them drives 40 m up a hill.
-    pub troposphere: Troposphere,
-    /// The single point's settings (the rover's first position, the satellites' states).
-    pub spp: SppOptions,
-}
-
-/// The least success rate [`RtkOptions::for_frequencies`] asks of a single-frequency fix.
-/// On the simulated drives (20 seeds, the code biases as states), single frequency: the
-/// ratio test alone 76.4 % fixed with 27 wrong fixes; with 0.99, 75.7 % and 1; with 0.999,
-/// 75.1 % and none (the first fix later: median 25 → 162 s). Two frequencies had no wrong
-/// fix with the ratio test alone, and asking 0.999 left the shipped baseline's first epoch
-/// unfixed.
-pub const SINGLE_FREQUENCY_SUCCESS_RATE: f64 = 0.999;
-
-impl RtkOptions {
-    /// The defaults for `mode` and `frequencies`: with one frequency a fix must also
-    /// promise [`SINGLE_FREQUENCY_SUCCESS_RATE`] (with two, the ratio test alone, as
-    /// RTKLIB's).
-    pub fn for_frequencies(mode: RtkMode, frequencies: usize) -> Self {
-        let min_success_rate = if frequencies == 1 { SINGLE_FREQUENCY_SUCCESS_RATE } else { 0.0 };
-        Self { mode, frequencies, min_success_rate, ..Self::default() }
-    }
-}
-
-impl Default for RtkOptions {
-    fn default() -> Self {
-        // RTKLIB's single point inside its RTK: the broadcast ionosphere and Saastamoinen's
-        // troposphere (the first frequency's code: the satellites' transmission times; the
-        // rover's height, where its troposphere is modelled, metres off without them)
-        let spp = SppOptions {
-            ionosphere: Ionosphere::Klobuchar,
-            troposphere: Troposphere::Saastamoinen,
-            ..SppOptions::rtklib_default()
-        };
-        Self {
-            mode: RtkMode::Kinematic,
-            frequencies: 2,
-            elevation_mask: 15f64.to_radians(),
-            ratio: 3.0,
-            min_success_rate: 0.0,
-            partial: false,
-            phase_sigma: (0.003, 0.003),
-            code_over_phase: 100.0,
-            code_bias_sigma: 0.3,
-            code_bias_tau: 60.0,
-            hold: Some(5),
-            max_age: 1.0,
-            troposphere: Troposphere::Saastamoinen,
-            spp,
-        }
-    }
-}
+pub use options::*;
 
 /// One epoch's solution.
 #[derive(Clone, Debug, PartialEq)]
@@ -489,20 +369,6 @@ impl Rtk {
         Ok(solved)
     }
 
-    /// Fix-and-hold: the fix's integers `a` of the combinations `h` of the states as
-    /// measurements of variance [`HOLD_VARIANCE`].
-    fn hold(&mut self, h: &DMatrix<f64>, a: &DVector<f64>) {
-        let n = self.x.len();
-        let r = DMatrix::identity(h.nrows(), h.nrows()) * HOLD_VARIANCE;
-        let s = h * &self.p * h.transpose() + &r;
-        let Some(chol) = ((&s + s.transpose()) * 0.5).cholesky() else { return };
-        let k = &self.p * h.transpose() * chol.inverse();
-        self.x += &k * (a - h * &self.x);
-        let i_kh = DMatrix::identity(n, n) - &k * h;
-        self.p = &i_kh * &self.p * i_kh.transpose() + &k * r * k.transpose();
-        self.p = (&self.p + self.p.transpose()) * 0.5;
-    }
-
     /// A new ambiguity state (zero, uncorrelated); its index.
     fn grow(&mut self) -> usize {
         let n = self.x.len();
@@ -672,95 +538,4 @@ impl Rtk {
         self.p = (&self.p + self.p.transpose()) * 0.5;
         Ok(())
     }
-
-    /// The float solution, or the fixed one when the ratio test passes.
-    fn resolve(&mut self, time: GpsTime, groups: &[Vec<Common>], sats: usize) -> RtkEpoch {
-        let n = self.x.len();
-        let pos = Vector3::new(self.x[0], self.x[1], self.x[2]);
-        let cov = self.p.fixed_view::<3, 3>(0, 0).into_owned();
-        let float =
-            RtkEpoch { time, pos, cov, fixed: false, fixed_ambiguities: 0, ratio: f64::NAN, sats };
-        // G: double-differenced ambiguities in cycles from the states
-        let m: usize = groups.iter().map(|g| g.len() - 1).sum();
-        let mut g_mat = DMatrix::zeros(m, n);
-        let mut row = 0;
-        for g in groups {
-            let j0 = self.slots[&g[0].key].0;
-            for c in &g[1..] {
-                let j = self.slots[&c.key].0;
-                g_mat[(row, j)] = 1.0 / c.wavelength;
-                g_mat[(row, j0)] = -1.0 / c.wavelength;
-                row += 1;
-            }
-        }
-        let a = &g_mat * &self.x;
-        let q = &g_mat * &self.p * g_mat.transpose();
-        let q = (&q + q.transpose()) * 0.5;
-        let Ok(found) = lambda::solve(a.as_slice(), &q, 2) else {
-            return float;
-        };
-        let ratio = found.ratio();
-        if ratio >= self.opt.ratio && found.success_rate >= self.opt.min_success_rate {
-            if let Some(e) = self.condition(&float, &g_mat, &a, &q, found.best(), ratio) {
-                if found.success_rate >= HOLD_SUCCESS_RATE {
-                    self.fix = Some((g_mat, integers(found.best())));
-                }
-                return e;
-            }
-        }
-        if self.opt.partial {
-            let least =
-                if self.opt.min_success_rate > 0.0 { self.opt.min_success_rate } else { 0.999 };
-            if let Ok(Some(part)) = lambda::solve_partial(a.as_slice(), &q, least) {
-                let r = part.solution.ratio();
-                if r >= self.opt.ratio {
-                    let combos = &part.combinations * &g_mat;
-                    let a_c = &combos * &self.x;
-                    let q_c = &combos * &self.p * combos.transpose();
-                    let best = part.solution.best();
-                    if let Some(e) = self.condition(&float, &combos, &a_c, &q_c, best, r) {
-                        if part.solution.success_rate >= HOLD_SUCCESS_RATE {
-                            self.fix = Some((combos, integers(best)));
-                        }
-                        return e;
-                    }
-                }
-            }
-        }
-        RtkEpoch { ratio, ..float }
-    }
-
-    /// The float solution conditioned on the integer combinations `h x = fixed` of the
-    /// states, whose float values `a = h x̂` and covariance `q = h P hᵀ` the caller has:
-    /// `x̌ = x̂ − P hᵀ q⁻¹ (a − ǎ)` for the position and its covariance.
-    #[allow(clippy::too_many_arguments)]
-    fn condition(
-        &self,
-        float: &RtkEpoch,
-        h: &DMatrix<f64>,
-        a: &DVector<f64>,
-        q: &DMatrix<f64>,
-        fixed: &[i64],
-        ratio: f64,
-    ) -> Option<RtkEpoch> {
-        let qi = ((q + q.transpose()) * 0.5).cholesky()?.inverse();
-        let fixed = integers(fixed);
-        let pxa = self.p.rows(0, 3) * h.transpose();
-        let gain = &pxa * qi;
-        let dx = &gain * (a - fixed);
-        let dp = &gain * pxa.transpose();
-        Some(RtkEpoch {
-            pos: float.pos - Vector3::new(dx[0], dx[1], dx[2]),
-            cov: float.cov - dp.fixed_view::<3, 3>(0, 0).into_owned(),
-            fixed: true,
-            fixed_ambiguities: h.nrows(),
-            ratio,
-            ..float.clone()
-        })
-    }
-}
-
-/// Integers as a vector of floats.
-fn integers(v: &[i64]) -> DVector<f64> {
-    DVector::from_iterator(v.len(), v.iter().map(|&x| x as f64))
 }
