@@ -156,11 +156,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             let mut opt = RtkOptions::for_frequencies(RtkMode::Kinematic, freqs);
             // (RTK_CODE_BIAS=σ[,τ]: the code biases as states, to compare)
-            if let Ok(v) = std::env::var("RTK_CODE_BIAS") {
-                let mut it = v.split(',').map(|x| x.parse::<f64>().unwrap_or(0.0));
-                opt.code_bias_sigma = it.next().unwrap_or(0.0);
-                opt.code_bias_tau = it.next().unwrap_or(f64::INFINITY);
-            }
+            rtk_drive::code_biases_from_env(&mut opt);
             // (RTK_HOLD=N: fix-and-hold after N consecutive fixes, 0 never; RTK_PS=P: the
             // least success rate of a fix beside the ratio test — to compare)
             if let Ok(v) = std::env::var("RTK_HOLD") {

@@ -66,11 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // code is white (with the code biases as states, σ 0.3 m, τ 60 s, the L1 cells
             // fixed less and wrongly more: `RTK_CODE_BIAS=σ[,τ]` turns them on, to compare)
             let mut opt_ins = RtkOptions { min_success_rate: min_ps, code_bias_sigma: 0.0, ..opt };
-            if let Ok(v) = std::env::var("RTK_CODE_BIAS") {
-                let mut it = v.split(',').map(|x| x.parse::<f64>().unwrap_or(0.0));
-                opt_ins.code_bias_sigma = it.next().unwrap_or(0.0);
-                opt_ins.code_bias_tau = it.next().unwrap_or(f64::INFINITY);
-            }
+            rtk_drive::code_biases_from_env(&mut opt_ins);
             let with =
                 drive.with_ins(&data, imu.noise, &rover, &base_obs, &truth, &opt_ins, sky)?;
             eprintln!(

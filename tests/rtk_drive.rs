@@ -433,3 +433,15 @@ pub fn figures(sol: &[Solution], truth: &[RawTruth], start: GpsTime, sky: Sky) -
     }
     f
 }
+
+/// The examples' switch `RTK_CODE_BIAS=σ[,τ]` (m, s; τ infinite when not given, σ 0: the
+/// code white): the code biases as states set on `opt`, to compare (the tests do not use
+/// it).
+#[allow(dead_code)]
+pub fn code_biases_from_env(opt: &mut RtkOptions) {
+    if let Ok(v) = std::env::var("RTK_CODE_BIAS") {
+        let mut it = v.split(',').map(|x| x.parse::<f64>().unwrap_or(0.0));
+        opt.code_bias_sigma = it.next().unwrap_or(0.0);
+        opt.code_bias_tau = it.next().unwrap_or(f64::INFINITY);
+    }
+}

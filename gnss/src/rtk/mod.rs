@@ -165,10 +165,8 @@ pub struct Rtk {
     biases: HashMap<(Sat, usize), (usize, u64)>,
     epoch: u64,
     started: bool,
-    /// Consecutive fixed epochs, and the last fix's integer combinations of the states
-    /// (cycles) with their integers.
+    /// Consecutive fixed epochs.
     fixed_run: usize,
-    fix: Option<(DMatrix<f64>, DVector<f64>)>,
     /// The last epoch's time and the shortest interval between epochs seen (s).
     last: Option<(GpsTime, f64)>,
     /// Each satellite, frequency and receiver's (rover: `true`) last phase (cycles) and
@@ -200,7 +198,6 @@ impl Rtk {
             epoch: 0,
             started: false,
             fixed_run: 0,
-            fix: None,
             last: None,
             phases: HashMap::new(),
             gf: HashMap::new(),
@@ -250,10 +247,7 @@ impl Rtk {
                 None => self.grow(),
             };
             if fresh {
-                self.p.row_mut(i).fill(0.0);
-                self.p.column_mut(i).fill(0.0);
-                self.p[(i, i)] = AMBIGUITY_SIGMA0.powi(2);
-                self.x[i] = c.phase - c.code;
+                self.restart(i, c.phase - c.code, AMBIGUITY_SIGMA0.powi(2));
             }
             self.slots.insert(c.key, (i, self.epoch));
         }
@@ -266,10 +260,7 @@ impl Rtk {
                 None => (self.grow(), true),
             };
             if fresh {
-                self.p.row_mut(i).fill(0.0);
-                self.p.column_mut(i).fill(0.0);
-                self.p[(i, i)] = self.opt.code_bias_sigma.powi(2);
-                self.x[i] = 0.0;
+                self.restart(i, 0.0, self.opt.code_bias_sigma.powi(2));
             }
             self.biases.insert(c.key, (i, self.epoch));
         }
@@ -355,15 +346,14 @@ impl Rtk {
             self.p = p0;
             self.update(&groups, rover.time, &lin)?;
         }
-        self.fix = None;
-        let solved = self.resolve(rover.time, &groups, used);
+        let (solved, fix) = self.resolve(rover.time, &groups, used);
         self.fixed_run = if solved.fixed { self.fixed_run + 1 } else { 0 };
         // (held only where a slip can be seen: the geometry-free combination of two
         // frequencies; a single frequency's slip of a cycle or two passes the Doppler's test
         // and a held ambiguity would carry it)
-        if let (Some(after), Some((h, a))) = (self.opt.hold, self.fix.take()) {
+        if let (Some(after), Some(fix)) = (self.opt.hold, fix) {
             if self.fixed_run >= after && self.opt.frequencies >= 2 {
-                self.hold(&h, &a);
+                self.hold(&fix);
             }
         }
         Ok(solved)
@@ -528,14 +518,34 @@ impl Rtk {
         }
         // (the innovation about the prior: z − h(lin) − H (prior − lin))
         v += &h * (lin - &self.x);
-        let ht = h.transpose();
-        let s = &h * &self.p * &ht + &r;
+        let s = &h * &self.p * h.transpose() + &r;
         let chol = s.cholesky().ok_or(RtkFailure::Singular)?;
-        let k = &self.p * &ht * chol.inverse();
+        self.correct(&h, &v, &r, chol.inverse());
+        Ok(())
+    }
+
+    /// The Kalman correction of the states by the innovation `v` of the measurements `h x`
+    /// with noise `r`, given the innovation covariance's inverse `s_inv` (Joseph's form).
+    fn correct(
+        &mut self,
+        h: &DMatrix<f64>,
+        v: &DVector<f64>,
+        r: &DMatrix<f64>,
+        s_inv: DMatrix<f64>,
+    ) {
+        let n = self.x.len();
+        let k = &self.p * h.transpose() * s_inv;
         self.x += &k * v;
-        let i_kh = DMatrix::identity(n, n) - &k * &h;
+        let i_kh = DMatrix::identity(n, n) - &k * h;
         self.p = &i_kh * &self.p * i_kh.transpose() + &k * r * k.transpose();
         self.p = (&self.p + self.p.transpose()) * 0.5;
-        Ok(())
+    }
+
+    /// State `i` started again: `value`, `variance`, uncorrelated with the others.
+    fn restart(&mut self, i: usize, value: f64, variance: f64) {
+        self.p.row_mut(i).fill(0.0);
+        self.p.column_mut(i).fill(0.0);
+        self.p[(i, i)] = variance;
+        self.x[i] = value;
     }
 }

@@ -6,13 +6,15 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use super::*;
 
 impl Rtk {
-    /// The float solution, or the fixed one when the ratio test passes.
+    /// The float solution, or the fixed one when the ratio test passes; with a fix whose
+    /// float covariance promised [`HOLD_SUCCESS_RATE`], its integer combinations of the
+    /// states (cycles) and their integers, which fix-and-hold may use.
     pub(super) fn resolve(
-        &mut self,
+        &self,
         time: GpsTime,
         groups: &[Vec<Common>],
         sats: usize,
-    ) -> RtkEpoch {
+    ) -> (RtkEpoch, Option<Fix>) {
         let n = self.x.len();
         let pos = Vector3::new(self.x[0], self.x[1], self.x[2]);
         let cov = self.p.fixed_view::<3, 3>(0, 0).into_owned();
@@ -35,15 +37,13 @@ impl Rtk {
         let q = &g_mat * &self.p * g_mat.transpose();
         let q = (&q + q.transpose()) * 0.5;
         let Ok(found) = lambda::solve(a.as_slice(), &q, 2) else {
-            return float;
+            return (float, None);
         };
         let ratio = found.ratio();
         if ratio >= self.opt.ratio && found.success_rate >= self.opt.min_success_rate {
             if let Some(e) = self.condition(&float, &g_mat, &a, &q, found.best(), ratio) {
-                if found.success_rate >= HOLD_SUCCESS_RATE {
-                    self.fix = Some((g_mat, integers(found.best())));
-                }
-                return e;
+                let holdable = found.success_rate >= HOLD_SUCCESS_RATE;
+                return (e, holdable.then(|| (g_mat, integers(found.best()))));
             }
         }
         if self.opt.partial {
@@ -57,15 +57,13 @@ impl Rtk {
                     let q_c = &combos * &self.p * combos.transpose();
                     let best = part.solution.best();
                     if let Some(e) = self.condition(&float, &combos, &a_c, &q_c, best, r) {
-                        if part.solution.success_rate >= HOLD_SUCCESS_RATE {
-                            self.fix = Some((combos, integers(best)));
-                        }
-                        return e;
+                        let holdable = part.solution.success_rate >= HOLD_SUCCESS_RATE;
+                        return (e, holdable.then(|| (combos, integers(best))));
                     }
                 }
             }
         }
-        RtkEpoch { ratio, ..float }
+        (RtkEpoch { ratio, ..float }, None)
     }
 
     /// The float solution conditioned on the integer combinations `h x = fixed` of the
@@ -99,18 +97,18 @@ impl Rtk {
 
     /// Fix-and-hold: the fix's integers `a` of the combinations `h` of the states as
     /// measurements of variance [`HOLD_VARIANCE`].
-    pub(super) fn hold(&mut self, h: &DMatrix<f64>, a: &DVector<f64>) {
-        let n = self.x.len();
+    pub(super) fn hold(&mut self, (h, a): &Fix) {
         let r = DMatrix::identity(h.nrows(), h.nrows()) * HOLD_VARIANCE;
         let s = h * &self.p * h.transpose() + &r;
         let Some(chol) = ((&s + s.transpose()) * 0.5).cholesky() else { return };
-        let k = &self.p * h.transpose() * chol.inverse();
-        self.x += &k * (a - h * &self.x);
-        let i_kh = DMatrix::identity(n, n) - &k * h;
-        self.p = &i_kh * &self.p * i_kh.transpose() + &k * r * k.transpose();
-        self.p = (&self.p + self.p.transpose()) * 0.5;
+        let v = a - h * &self.x;
+        self.correct(h, &v, &r, chol.inverse());
     }
 }
+
+/// A fix the filter may hold: integer combinations of the states (cycles), one per row,
+/// and their integers.
+pub(super) type Fix = (DMatrix<f64>, DVector<f64>);
 
 /// Integers as a vector of floats.
 fn integers(v: &[i64]) -> DVector<f64> {
