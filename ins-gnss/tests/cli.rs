@@ -1041,6 +1041,25 @@ fn rtk_base_position_is_taken_as_written_and_refused_when_wrong() {
     let out = bin().arg("rtk").args(&files).args(["--min-success-rate", "2"]).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("--min-success-rate"), "{err}");
+    // so are a code bias σ that is not finite, a correlation time of 0, a hold that is no
+    // count — each named, the earlier .pos untouched
+    for (option, value) in [
+        ("--code-bias-sigma", "inf"),
+        ("--code-bias-sigma", "nan"),
+        ("--code-bias-tau", "0"),
+        ("--hold", "x"),
+    ] {
+        let out = bin()
+            .arg("rtk")
+            .args(&files)
+            .args([option, value, "--out"])
+            .arg(&pos)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(option), "{option} {value}: {err}");
+        assert_eq!(std::fs::read(&pos).unwrap(), written, "{option} {value}: the .pos changed");
+    }
     let out = bin()
         .arg("rtk")
         .args(&files)

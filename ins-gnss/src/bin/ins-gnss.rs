@@ -474,11 +474,11 @@ fn probability(s: &str) -> Result<f64, String> {
     }
 }
 
-/// A number at least 0.
+/// A finite number at least 0.
 fn non_negative(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
-        Ok(v) if v >= 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a number at least 0")),
+        Ok(v) if v >= 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("{s:?} is not a finite number at least 0")),
     }
 }
 
