@@ -66,6 +66,7 @@ fn bank_after_standing(d: &SimDataset, standing: f64) -> (f64, f64) {
         tilt_std: 0.5 * DEG,
         gyro_bias_std: 15.0 * DEG_PER_H,
         vrw: 0.1 * M_S_PER_SQRT_H,
+        use_velocity: true,
     };
     let b = heading_bank(&imu, &d.gnss[first..], &start, 0.0).expect("fixes");
     let truth = d.truth.iter().find(|r| r.t >= standing).unwrap().state.att.euler().2;
@@ -110,6 +111,7 @@ fn standing_still_the_bank_claims_no_heading() {
         tilt_std: 0.5 * DEG,
         gyro_bias_std: 50.0 * DEG_PER_H,
         vrw: 0.1 * M_S_PER_SQRT_H,
+        use_velocity: true,
     };
     let b = heading_bank(&imu, &gnss, &start, 0.0).unwrap();
     // a uniform circle's σ is 180°/√3 ≈ 104°; no hypothesis may stand out
@@ -168,6 +170,7 @@ fn moving_from_the_first_sample_the_heading_is_found_within_three_sigma() {
                 tilt_std: 3.0 * DEG,
                 gyro_bias_std: 100.0 * DEG_PER_H,
                 vrw: 0.1 * M_S_PER_SQRT_H,
+                use_velocity: true,
             };
             let b = heading_bank(&d.imu, &d.gnss, &start, 0.0).unwrap();
             let truth = d.truth[0].state.att.euler().2;
@@ -179,5 +182,75 @@ fn moving_from_the_first_sample_the_heading_is_found_within_three_sigma() {
                 "seed {seed}, mounting {mounting}°: error {e:.2}° at σ {s:.2}°"
             );
         }
+    }
+}
+
+#[test]
+fn a_walker_with_a_receivers_doppler_velocity_is_headed_within_three_sigma() {
+    // a person walking at 1.4 m/s from the first sample with two square turns, the
+    // fixes of a receiver that sees four satellites: positions to 9 m, the Doppler's
+    // velocity to 0.2 m/s. The positions alone cannot tell the heading within the
+    // walk's 100 s (the program refused such walks); the velocities do.
+    for seed in 0..8u64 {
+        let yaw0 = (seed as f64 * 101.0 + 7.0) % 360.0 - 180.0;
+        let start = Start {
+            t: 0.0,
+            pos: GeoPos::from_degrees(30.5, 114.3, 25.0),
+            speed: 1.4,
+            yaw: yaw0 * DEG,
+            pitch: 0.0,
+        };
+        let segs = [
+            Segment::straight(30.0),
+            Segment::turn(2.0, 45.0 * DEG),
+            Segment::straight(30.0),
+            Segment::turn(2.0, -45.0 * DEG),
+            Segment::straight(36.0),
+        ];
+        let traj = Trajectory::new(start, &segs).unwrap();
+        let gnss = GnssSim {
+            rate_hz: 1.0,
+            pos_sigma: Vector3::new(9.0, 9.0, 13.0),
+            vel_sigma: Some(Vector3::repeat(0.2)),
+            lever_arm: Vector3::new(0.0, 0.0, -0.2),
+            windows: vec![],
+        };
+        let d = simulate(&traj, 100.0, &mems_imu(), &gnss, seed);
+        let first: Vec<_> = d.imu.iter().filter(|s| s.t <= 1.0).collect();
+        let mean_f =
+            first.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>() / first.len() as f64;
+        let (roll, pitch) = level(&mean_f);
+        let bank = |use_velocity: bool| {
+            let start = BankStart {
+                tilt: So3::from_euler(roll, pitch, 0.0),
+                gyro_bias: Vector3::zeros(),
+                // (the first fix's velocity, as the program's line through the first
+                // fixes gives it to its 1 m/s σ)
+                vel: d.gnss[0].vel.unwrap().0,
+                vel_std: 1.0,
+                lever: Vector3::new(0.0, 0.0, -0.2),
+                arw: 0.3 * DEG_PER_SQRT_H,
+                tilt_std: 3.0 * DEG,
+                gyro_bias_std: 100.0 * DEG_PER_H,
+                vrw: 0.1 * M_S_PER_SQRT_H,
+                use_velocity,
+            };
+            heading_bank(&d.imu, &d.gnss, &start, 0.0).unwrap()
+        };
+        let truth = d.truth[0].state.att.euler().2;
+        let (with, without) = (bank(true), bank(false));
+        let e = ins_gnss_core::heading::wrap(with.heading - truth) / DEG;
+        let s = with.std / DEG;
+        eprintln!(
+            "seed {seed}: error {e:.2}°, σ {s:.2}° with the velocities, {:.1}° without",
+            without.std / DEG
+        );
+        assert!(s < 8.0, "seed {seed}: σ {s:.1}° with the velocities");
+        assert!(e.abs() <= 3.0 * s, "seed {seed}: error {e:.2}° at σ {s:.2}°");
+        assert!(
+            without.std / DEG > 3.0 * s,
+            "seed {seed}: σ {:.1}° from the positions alone against {s:.1}°",
+            without.std / DEG
+        );
     }
 }

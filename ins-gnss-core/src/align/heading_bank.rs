@@ -11,14 +11,16 @@
 //! filter (north and east position and velocity, `ψ_k`, and the shared attitude's error
 //! about the body's x and y axes, which tilts gravity into the horizontal velocity
 //! increments and turns with the body; a horizontal accelerometer bias looks the same)
-//! updated
-//! by the fixes' horizontal position (lever arm included); its weight is multiplied by its
-//! innovation's Gaussian likelihood at every fix. The tilt as states, not as acceleration
-//! noise: with a white 0.5 m/s² standing in for it (PX4's kind of figure), a rover at
-//! 0.42 m/s with 5 m fixes kept its heading at ±60° after 120 s; what is left as noise is
-//! the accelerometer's (its bias and random walk). Started with `N` headings spread over the circle,
-//! the bank needs no motion assumption: standing, the likelihoods are equal and the
-//! mixture's spread stays the circle's; moving (forwards, backwards, turning), the
+//! updated by the fixes' horizontal position (lever arm included) and, when the fixes
+//! carry one and [`BankStart::use_velocity`] allows, their horizontal velocity (a
+//! receiver's Doppler velocity: a walker's heading to about ±10° per fix, where fixes good
+//! to metres tell little for minutes); its weight is multiplied by its innovations'
+//! Gaussian likelihood at every fix. The tilt as states, not as acceleration noise: with a
+//! white 0.5 m/s² standing in for it (PX4's kind of figure), a rover at 0.42 m/s with 5 m
+//! fixes kept its heading at ±60° after 120 s; what is left as noise is the
+//! accelerometer's (its bias and random walk). Started with `N` headings spread over the
+//! circle, the bank needs no motion assumption: standing, the likelihoods are equal and
+//! the mixture's spread stays the circle's; moving (forwards, backwards, turning), the
 //! hypotheses whose velocity increments point the wrong way lose.
 
 use super::*;
@@ -60,6 +62,9 @@ pub struct BankStart {
     pub gyro_bias_std: f64,
     /// Velocity random walk, m/s/√s.
     pub vrw: f64,
+    /// Whether the fixes' velocities (a receiver's Doppler velocity) update the members
+    /// beside their positions.
+    pub use_velocity: bool,
 }
 
 /// What the bank concluded.
@@ -135,8 +140,16 @@ pub fn heading_bank(
             advance(&mut members, &mut att, &mut t, s, e.t, start);
             let d = geodetic_to_local_ned(origin, e.pos.tuple());
             let lever = att.rotate(&start.lever).xy();
+            // the antenna's velocity about the body's centre (the rate of the last
+            // sample), heading-0 frame
+            let omega = (s.dtheta / s.dt.max(1e-9)) - start.gyro_bias;
+            let lever_rate = att.rotate(&omega.cross(&start.lever)).xy();
+            let vel = e.vel.filter(|_| start.use_velocity);
             for m in members.iter_mut() {
                 update(m, &d.xy(), &lever, &e.pos_std.xy());
+                if let Some((v, std)) = vel {
+                    update_velocity(m, &v.xy(), &lever_rate, &std.xy());
+                }
             }
             fixes += 1;
             result = summarise(&members, fixes, e.t);
@@ -252,6 +265,12 @@ fn update(m: &mut Member, d: &Vector2<f64>, lever: &Vector2<f64>, std: &Vector2<
     hm[(0, 4)] = dl.x;
     hm[(1, 4)] = dl.y;
     let r = Matrix2::from_diagonal(&std.map(|s| s.max(1e-3).powi(2)));
+    correct(m, &nu, &hm, &r);
+}
+
+/// A member's Kalman correction by the innovation `nu` of a two-row measurement (`hm`,
+/// noise `r`), its weight multiplied by the innovation's likelihood.
+fn correct(m: &mut Member, nu: &Vector2<f64>, hm: &SMatrix<f64, 2, 7>, r: &Matrix2<f64>) {
     let s = hm * m.p * hm.transpose() + r;
     let Some(si) = s.try_inverse() else { return };
     let k = m.p * hm.transpose() * si;
@@ -263,6 +282,32 @@ fn update(m: &mut Member, d: &Vector2<f64>, lever: &Vector2<f64>, std: &Vector2<
     let quad = (nu.transpose() * si * nu)[(0, 0)];
     m.log_w += -0.5 * (quad + s.determinant().max(1e-300).ln());
 }
+
+/// One member's update by a velocity `v` (north, east, m/s; σ `std`) of the antenna,
+/// whose velocity about the body's centre is `lever_rate` (heading-0 frame, north and
+/// east, m/s). The σ is at least [`BANK_VELOCITY_FLOOR`].
+fn update_velocity(
+    m: &mut Member,
+    v: &Vector2<f64>,
+    lever_rate: &Vector2<f64>,
+    std: &Vector2<f64>,
+) {
+    let psi = m.x[4];
+    let pred = m.x.fixed_rows::<2>(2) + yaw_turn(psi, lever_rate);
+    let mut hm = SMatrix::<f64, 2, 7>::zeros();
+    hm[(0, 2)] = 1.0;
+    hm[(1, 3)] = 1.0;
+    let dl = yaw_turn_d(psi, lever_rate);
+    hm[(0, 4)] = dl.x;
+    hm[(1, 4)] = dl.y;
+    let r = Matrix2::from_diagonal(&std.map(|s| s.max(BANK_VELOCITY_FLOOR).powi(2)));
+    correct(m, &(v - pred), &hm, &r);
+}
+
+/// The smallest velocity σ (m/s) a fix's velocity is taken with: what the bank does not
+/// model between the receiver's velocity and its own (the fixes' latency, the lever arm's
+/// dynamics within a sample).
+pub const BANK_VELOCITY_FLOOR: f64 = 0.05;
 
 /// The mixture: weights normalised (in place), circular mean and spread.
 fn summarise(members: &[Member], fixes: usize, t_end: f64) -> BankHeading {

@@ -52,6 +52,7 @@ fn imu_part(config: &Config) -> BankStart {
         tilt_std: 0.0,
         gyro_bias_std: 0.0,
         vrw: largest(n.vrw) * M_S_PER_SQRT_H,
+        use_velocity: config.gnss.use_velocity,
     }
 }
 
