@@ -43,4 +43,6 @@ pub use heading_bank::{
     heading_bank, BankHeading, BankStart, BANK_ACCEL_NOISE, BANK_DRIFT_TIME, BANK_SIZE,
 };
 pub use motion::{align_in_motion, fit_span, MotionFit, GROSS, MISFIT};
-pub use static_start::{detect_static, static_gyro_bias, still_span, StaticStart};
+pub use static_start::{
+    detect_static, static_gyro_bias, still_span, StaticStart, MOVING_SIGMAS, MOVING_SPEED,
+};

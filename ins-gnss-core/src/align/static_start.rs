@@ -160,9 +160,9 @@ impl Window {
 /// look like the first one (rates and specific force with the same mean and spread, to
 /// within what the first window's noise explains plus 0.1 deg/s and 0.05 m/s²) while the
 /// specific force stays near gravity (|f| within 0.5 m/s² of normal gravity at the first
-/// fix, or of 9.8 without one) and the GNSS fixes of the span measure no speed of 0.3
-/// m/s or more (their positions alone do not make motion: they jump and wander beyond
-/// their declared σ while the IMU shows rest). When the fixes of a span whose IMU never
+/// fix, or of 9.8 without one) and the GNSS fixes of the span measure no speed beyond
+/// [`MOVING_SPEED`] and [`MOVING_SIGMAS`] of its σ (their positions alone do not make
+/// motion: they jump and wander beyond their declared σ while the IMU shows rest). When the fixes of a span whose IMU never
 /// changed drift (a straight line fitted to them moves faster than 0.1 m/s, beyond what
 /// their noise and its persistence explain at a probability of 1e-6), nothing was static:
 /// a constant velocity from the first sample looks like rest to the IMU. A vibrating vehicle (engine
@@ -223,6 +223,21 @@ fn windows_of(imu: &[ImuSample], t0: f64, window: f64) -> Vec<Window> {
     windows
 }
 
+/// The horizontal speed (m/s) beyond which a fix's measured velocity (σ `std`, NED) is
+/// motion: [`MOVING_SPEED`], or [`MOVING_SIGMAS`] of its larger horizontal σ when that is
+/// more (a single point of 4 satellites gives its Doppler velocity to 0.3–1 m/s, and a
+/// walker standing still then "moves" at 0.3 m/s on every few fixes).
+fn moving_speed(std: &Vector3<f64>) -> f64 {
+    MOVING_SPEED.max(MOVING_SIGMAS * std.x.max(std.y))
+}
+
+/// The horizontal speed (m/s) a fix's velocity must show to be motion, whatever its σ.
+pub const MOVING_SPEED: f64 = 0.3;
+
+/// The multiple of its horizontal σ a fix's speed must exceed to be motion: a standing
+/// receiver's speed is Rayleigh-distributed, beyond 4σ on 3 fixes in 10,000.
+pub const MOVING_SIGMAS: f64 = 4.0;
+
 /// [`detect_static`] without the fixes' drift: the span the IMU shows still (and no
 /// measured velocity contradicts). A reader that stops once this span has ended inside
 /// what it read has read all [`detect_static`] judges.
@@ -241,7 +256,7 @@ pub fn still_span(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticS
     let moving_gnss = |ta: f64, tb: f64| {
         gnss.iter()
             .filter(|e| e.t >= ta - 1e-9 && e.t <= tb + 1e-9)
-            .any(|e| e.vel.is_some_and(|(v, _)| v.xy().norm() > 0.3))
+            .any(|e| e.vel.is_some_and(|(v, std)| v.xy().norm() > moving_speed(&std)))
     };
     let (m0w, m0f, s0w, s0f) = (w0.mean_w(), w0.mean_f(), w0.std_w(), w0.std_f());
     let deg = core::f64::consts::PI / 180.0;
