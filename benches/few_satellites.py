@@ -92,16 +92,27 @@ def load(path):
     return rows
 
 
-def errors(result, truth, t0):
-    """Horizontal errors (t from the start, m) at the whole seconds both files hold."""
+# the antenna's lever arm (forward, right; m) in scenarios/tight.toml: a single point is the
+# antenna's position, the truth and the runs' nav.txt the IMU's
+LEVER = (0.4, 0.1)
+
+
+def errors(result, truth, t0, antenna=False):
+    """Horizontal errors (t from the start, m) at the whole seconds both files hold; with
+    `antenna`, against the antenna's truth (the IMU's moved by the lever arm, turned by
+    the truth's heading)."""
     at = {round(r[0], 2): r for r in truth}
     out = []
     for t, lat, lon, _ in result:
         if abs(t - round(t)) > 1e-6 or round(t, 2) not in at:
             continue
-        _, la, lo, _ = at[round(t, 2)]
+        _, la, lo, yaw = at[round(t, 2)]
         dn = math.radians(lat - la) * 6378137.0
         de = math.radians(lon - lo) * 6378137.0 * math.cos(math.radians(la))
+        if antenna:
+            c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+            dn -= c * LEVER[0] - s * LEVER[1]
+            de -= s * LEVER[0] + c * LEVER[1]
         out.append((t - t0, math.hypot(dn, de)))
     return out
 
@@ -167,7 +178,7 @@ def one(cell, seed, keep):
         t0 = truth[0][0]
         for name, path in [("tight", "tight/nav.txt"), ("loose", "loose/nav.txt"), ("spp", "spp.pos")]:
             p = os.path.join(d, path)
-            out[name] = errors(load(p), truth, t0) if os.path.exists(p) else None
+            out[name] = errors(load(p), truth, t0, name == "spp") if os.path.exists(p) else None
         if out["tight"]:
             out["heading"] = heading_over_sigma(os.path.join(d, "tight"), truth)
         return cell, seed, out
