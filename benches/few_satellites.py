@@ -28,7 +28,8 @@ of tight and single point and the seeds where tight is worse (sky cells), or the
 and largest canyon maximum of tight and loose and the seeds where tight is above ⅓ of
 loose or above 5 m (canyon cells). `KEEP=DIR` keeps each seed's files there;
 `INS_GNSS=PATH` runs another build of the program (not built here); `VERBOSE=1` prints
-each seed's exits and heading on stderr.
+each seed's exits and heading on stderr; `EXTRA='[gnss.tight]\ndoppler = false'` appends
+TOML tables to the tight runs' configuration (one change to measure).
 """
 import concurrent.futures as cf
 import math
@@ -161,6 +162,8 @@ def one(cell, seed, keep):
         # the user's run: no [init]
         text = re.sub(r"\n\[init\]\n.*?(?=\n\[imu\])", "\n", text, flags=re.S)
         tight = text.replace('output = "out"', 'output = "tight"')
+        # (EXTRA: TOML tables appended to the tight run's configuration, e.g. one change)
+        tight += "\n" + os.environ.get("EXTRA", "").replace("\\n", "\n") + "\n"
         open(os.path.join(d, "tight.toml"), "w").write(tight)
         loose = text.replace('output = "out"', 'output = "loose"')
         loose = loose.replace('gnss = "obs.rnx"', 'gnss = "spp.pos"')
