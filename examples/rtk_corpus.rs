@@ -165,6 +165,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if let Ok(v) = std::env::var("RTK_PS") {
                 opt.min_success_rate = v.parse().unwrap_or(0.0);
             }
+            // (RTK_MASK=DEG: the elevation mask, to compare)
+            if let Ok(v) = std::env::var("RTK_MASK") {
+                opt.elevation_mask = v.parse::<f64>().unwrap_or(15.0).to_radians();
+            }
             let run = solve_files(
                 &dir.join("rover.obs"),
                 &dir.join("base.obs"),
