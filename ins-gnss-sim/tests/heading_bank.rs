@@ -120,6 +120,24 @@ fn standing_still_the_bank_claims_no_heading() {
     assert_eq!(b.fixes, gnss.len());
 }
 
+/// The bank's start while moving, as the program's start makes it for a consumer MEMS
+/// (`moving_bank`): levelled (`roll`, `pitch`) to 3°, the velocity `vel` known to 1 m/s,
+/// no gyro bias known (100°/h), the antenna at `lever`; the fixes' velocities used.
+fn moving_start(roll: f64, pitch: f64, vel: Vector3<f64>, lever: Vector3<f64>) -> BankStart {
+    BankStart {
+        tilt: So3::from_euler(roll, pitch, 0.0),
+        gyro_bias: Vector3::zeros(),
+        vel,
+        vel_std: 1.0,
+        lever,
+        arw: 0.3 * DEG_PER_SQRT_H,
+        tilt_std: 3.0 * DEG,
+        gyro_bias_std: 100.0 * DEG_PER_H,
+        vrw: 0.1 * M_S_PER_SQRT_H,
+        use_velocity: true,
+    }
+}
+
 #[test]
 fn moving_from_the_first_sample_the_heading_is_found_within_three_sigma() {
     // a car at 10 m/s from the first sample, forwards and backwards (IMU facing the
@@ -160,18 +178,12 @@ fn moving_from_the_first_sample_the_heading_is_found_within_three_sigma() {
             // (the true velocity at the first fix, as a line through the first fixes gives
             // it to about its 1 m/s σ)
             let v = d.truth[0].state.vel;
-            let start = BankStart {
-                tilt: So3::from_euler(roll, pitch, 0.0),
-                gyro_bias: Vector3::zeros(),
-                vel: v + Vector3::new(0.3, -0.3, 0.0),
-                vel_std: 1.0,
-                lever: Vector3::new(0.3, 0.0, -1.0),
-                arw: 0.3 * DEG_PER_SQRT_H,
-                tilt_std: 3.0 * DEG,
-                gyro_bias_std: 100.0 * DEG_PER_H,
-                vrw: 0.1 * M_S_PER_SQRT_H,
-                use_velocity: true,
-            };
+            let start = moving_start(
+                roll,
+                pitch,
+                v + Vector3::new(0.3, -0.3, 0.0),
+                Vector3::new(0.3, 0.0, -1.0),
+            );
             let b = heading_bank(&d.imu, &d.gnss, &start, 0.0).unwrap();
             let truth = d.truth[0].state.att.euler().2;
             let e = ins_gnss_core::heading::wrap(b.heading - truth) / DEG;
@@ -221,19 +233,12 @@ fn a_walker_with_a_receivers_doppler_velocity_is_headed_within_three_sigma() {
             first.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>() / first.len() as f64;
         let (roll, pitch) = level(&mean_f);
         let bank = |use_velocity: bool| {
+            // (the first fix's velocity, as the program's line through the first fixes
+            // gives it to its 1 m/s σ)
+            let vel = d.gnss[0].vel.unwrap().0;
             let start = BankStart {
-                tilt: So3::from_euler(roll, pitch, 0.0),
-                gyro_bias: Vector3::zeros(),
-                // (the first fix's velocity, as the program's line through the first
-                // fixes gives it to its 1 m/s σ)
-                vel: d.gnss[0].vel.unwrap().0,
-                vel_std: 1.0,
-                lever: Vector3::new(0.0, 0.0, -0.2),
-                arw: 0.3 * DEG_PER_SQRT_H,
-                tilt_std: 3.0 * DEG,
-                gyro_bias_std: 100.0 * DEG_PER_H,
-                vrw: 0.1 * M_S_PER_SQRT_H,
                 use_velocity,
+                ..moving_start(roll, pitch, vel, Vector3::new(0.0, 0.0, -0.2))
             };
             heading_bank(&d.imu, &d.gnss, &start, 0.0).unwrap()
         };

@@ -140,15 +140,16 @@ pub fn heading_bank(
             advance(&mut members, &mut att, &mut t, s, e.t, start);
             let d = geodetic_to_local_ned(origin, e.pos.tuple());
             let lever = att.rotate(&start.lever).xy();
-            // the antenna's velocity about the body's centre (the rate of the last
-            // sample), heading-0 frame
-            let omega = (s.dtheta / s.dt.max(1e-9)) - start.gyro_bias;
-            let lever_rate = att.rotate(&omega.cross(&start.lever)).xy();
-            let vel = e.vel.filter(|_| start.use_velocity);
+            // the velocity, with the antenna's velocity about the body's centre (the rate
+            // of the last sample, heading-0 frame)
+            let vel = e.vel.filter(|_| start.use_velocity).map(|(v, std)| {
+                let omega = (s.dtheta / s.dt.max(1e-9)) - start.gyro_bias;
+                (v.xy(), att.rotate(&omega.cross(&start.lever)).xy(), std.xy())
+            });
             for m in members.iter_mut() {
-                update(m, &d.xy(), &lever, &e.pos_std.xy());
-                if let Some((v, std)) = vel {
-                    update_velocity(m, &v.xy(), &lever_rate, &std.xy());
+                update(m, POSITION, &d.xy(), &lever, &e.pos_std.xy(), POSITION_FLOOR);
+                if let Some((v, lever_rate, std)) = &vel {
+                    update(m, VELOCITY, v, lever_rate, std, BANK_VELOCITY_FLOOR);
                 }
             }
             fixes += 1;
@@ -252,20 +253,36 @@ fn predict(members: &mut [Member], att: &So3, dv: &Vector3<f64>, h: f64, start: 
     }
 }
 
-/// One member's update by a fix `d` (north, east from the first fix, m; σ `std`), the
-/// lever arm `lever` (heading-0 frame, north and east, m).
-fn update(m: &mut Member, d: &Vector2<f64>, lever: &Vector2<f64>, std: &Vector2<f64>) {
+/// Where a member's north and east position and velocity start in its state.
+const POSITION: usize = 0;
+/// See [`POSITION`].
+const VELOCITY: usize = 2;
+
+/// The smallest position σ (m) a fix is taken with.
+const POSITION_FLOOR: f64 = 1e-3;
+
+/// One member's update by a measurement `z` (north, east; σ `std`, at least `floor`) of
+/// its position ([`POSITION`], m from the first fix) or velocity ([`VELOCITY`], m/s) at
+/// the antenna, which is `arm` from the body's centre in the heading-0 frame (the lever
+/// arm, or its velocity about the centre).
+fn update(
+    m: &mut Member,
+    at: usize,
+    z: &Vector2<f64>,
+    arm: &Vector2<f64>,
+    std: &Vector2<f64>,
+    floor: f64,
+) {
     let psi = m.x[4];
-    let pred = m.x.fixed_rows::<2>(0) + yaw_turn(psi, lever);
-    let nu = d - pred;
+    let pred = m.x.fixed_rows::<2>(at) + yaw_turn(psi, arm);
     let mut hm = SMatrix::<f64, 2, 7>::zeros();
-    hm[(0, 0)] = 1.0;
-    hm[(1, 1)] = 1.0;
-    let dl = yaw_turn_d(psi, lever);
+    hm[(0, at)] = 1.0;
+    hm[(1, at + 1)] = 1.0;
+    let dl = yaw_turn_d(psi, arm);
     hm[(0, 4)] = dl.x;
     hm[(1, 4)] = dl.y;
-    let r = Matrix2::from_diagonal(&std.map(|s| s.max(1e-3).powi(2)));
-    correct(m, &nu, &hm, &r);
+    let r = Matrix2::from_diagonal(&std.map(|s| s.max(floor).powi(2)));
+    correct(m, &(z - pred), &hm, &r);
 }
 
 /// A member's Kalman correction by the innovation `nu` of a two-row measurement (`hm`,
@@ -281,27 +298,6 @@ fn correct(m: &mut Member, nu: &Vector2<f64>, hm: &SMatrix<f64, 2, 7>, r: &Matri
     m.p = ikh * m.p * ikh.transpose() + k * r * k.transpose();
     let quad = (nu.transpose() * si * nu)[(0, 0)];
     m.log_w += -0.5 * (quad + s.determinant().max(1e-300).ln());
-}
-
-/// One member's update by a velocity `v` (north, east, m/s; σ `std`) of the antenna,
-/// whose velocity about the body's centre is `lever_rate` (heading-0 frame, north and
-/// east, m/s). The σ is at least [`BANK_VELOCITY_FLOOR`].
-fn update_velocity(
-    m: &mut Member,
-    v: &Vector2<f64>,
-    lever_rate: &Vector2<f64>,
-    std: &Vector2<f64>,
-) {
-    let psi = m.x[4];
-    let pred = m.x.fixed_rows::<2>(2) + yaw_turn(psi, lever_rate);
-    let mut hm = SMatrix::<f64, 2, 7>::zeros();
-    hm[(0, 2)] = 1.0;
-    hm[(1, 3)] = 1.0;
-    let dl = yaw_turn_d(psi, lever_rate);
-    hm[(0, 4)] = dl.x;
-    hm[(1, 4)] = dl.y;
-    let r = Matrix2::from_diagonal(&std.map(|s| s.max(BANK_VELOCITY_FLOOR).powi(2)));
-    correct(m, &(v - pred), &hm, &r);
 }
 
 /// The smallest velocity σ (m/s) a fix's velocity is taken with: what the bank does not

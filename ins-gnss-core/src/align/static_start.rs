@@ -162,11 +162,11 @@ impl Window {
 /// specific force stays near gravity (|f| within 0.5 m/s² of normal gravity at the first
 /// fix, or of 9.8 without one) and the GNSS fixes of the span measure no speed beyond
 /// [`MOVING_SPEED`] and [`MOVING_SIGMAS`] of its σ (their positions alone do not make
-/// motion: they jump and wander beyond their declared σ while the IMU shows rest). When the fixes of a span whose IMU never
-/// changed drift (a straight line fitted to them moves faster than 0.1 m/s, beyond what
-/// their noise and its persistence explain at a probability of 1e-6), nothing was static:
-/// a constant velocity from the first sample looks like rest to the IMU. A vibrating vehicle (engine
-/// running) is static too: the test is relative to the first window. Returns a span of
+/// motion: they jump and wander beyond their declared σ while the IMU shows rest). When
+/// the fixes of a span whose IMU never changed drift (a straight line fitted to them moves
+/// faster than 0.1 m/s, beyond what their noise and its persistence explain at a
+/// probability of 1e-6), nothing was static: a constant velocity from the first sample
+/// looks like rest to the IMU. A vibrating vehicle (engine running) is static too: the test is relative to the first window. Returns a span of
 /// zero samples when the first window already moves.
 pub fn detect_static(imu: &[ImuSample], gnss: &[GnssEpoch], window: f64) -> StaticStart {
     let still = still_span(imu, gnss, window);
