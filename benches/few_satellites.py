@@ -18,7 +18,8 @@ satellites throughout; and a 60 s canyon (300–360 s) of the 3 or 2 highest on 
 sky otherwise. Scores against the simulator's truth at the 1 Hz epochs: the horizontal
 RMS after the first 30 s (sky cells), the largest horizontal error inside the canyon and
 what the canyon added to the error at its entry (canyon cells); the tight run's heading
-against its own σ (`std.txt`) at every epoch.
+against its own σ (`std.txt`) at every epoch, and the share of its epochs after 30 s whose
+horizontal error lies beyond its own 99 % ellipse.
 
     python3 benches/few_satellites.py [SEEDS] [CELL-FILTER]
 
@@ -140,6 +141,31 @@ def heading_over_sigma(run_dir, truth):
     return worst, worst_deg
 
 
+def beyond_ellipse(run_dir, truth, skip):
+    """The share of the epochs after `skip` s whose horizontal error lies beyond the run's
+    own 99 % ellipse (σ N and E of std.txt, χ²₂ 9.21)."""
+    pos = {}
+    with open(os.path.join(run_dir, "nav.txt")) as f:
+        for line in f:
+            p = line.split()
+            pos[round(float(p[1]), 2)] = (float(p[2]), float(p[3]))
+    at = {round(float(r[0]), 2): r for r in truth}
+    t0 = truth[0][0]
+    out, n = 0, 0
+    with open(os.path.join(run_dir, "std.txt")) as f:
+        for line in f:
+            p = line.split()
+            t = round(float(p[0]), 2)
+            if t not in pos or t not in at or t - t0 < skip:
+                continue
+            _, la, lo, _ = at[t]
+            dn = math.radians(pos[t][0] - la) * 6378137.0
+            de = math.radians(pos[t][1] - lo) * 6378137.0 * math.cos(math.radians(la))
+            n += 1
+            out += (dn / float(p[1])) ** 2 + (de / float(p[2])) ** 2 > 9.21
+    return out / n if n else float("nan")
+
+
 def rms_after(e, skip):
     v = [x * x for t, x in e if t >= skip]
     return math.sqrt(sum(v) / len(v)) if v else float("nan")
@@ -184,6 +210,7 @@ def one(cell, seed, keep):
             out[name] = errors(load(p), truth, t0, name == "spp") if os.path.exists(p) else None
         if out["tight"]:
             out["heading"] = heading_over_sigma(os.path.join(d, "tight"), truth)
+            out["beyond"] = beyond_ellipse(os.path.join(d, "tight"), truth, 30.0)
         return cell, seed, out
     finally:
         if keep:
@@ -210,14 +237,15 @@ def main():
             h = o.get("heading") or (float("nan"), float("nan"))
             print("%s seed %d: exits %s/%s, heading worst %.2f σ, %.2f°"
                   % (c, seed, o.get("tight_exit"), o.get("loose_exit"), h[0], h[1]), file=sys.stderr)
-    print("| cell | runs | refused | flagged | tight | single point / loose | tight worse on | tight heading ≤ 3σ throughout (worst error median) | first refusal |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| cell | runs | refused | flagged | tight | single point / loose | tight worse on | tight heading ≤ 3σ throughout (worst error median) | tight beyond its 99 % ellipse | first refusal |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for c in cells:
         rows = [o for cc, s, o in done if cc == c]
         refused = [o for o in rows if "tight_why" in o or "error" in o]
         flagged = sum(1 for o in rows if o.get("tight_exit") == 3)
         ran = [o for o in rows if o.get("tight")]
         hd = sorted(o["heading"][1] for o in ran)
+        beyond = sum(o["beyond"] for o in ran) / len(ran) if ran else float("nan")
         covered = "%d of %d (%.2f°)" % (sum(1 for o in ran if o["heading"][0] <= 3.0), len(ran),
                                         hd[len(hd) // 2] if hd else float("nan"))
         why = (refused[0].get("tight_why") or refused[0].get("error", ""))[:120] if refused else ""
@@ -232,18 +260,18 @@ def main():
             grown = lambda e: max_in(e, a, b) - max_in(e, a - 1.0, a)
             tg = sorted(grown(o["tight"]) for o in ran)
             lg = sorted(grown(o["loose"]) for o in ran if o.get("loose"))
-            print("| %s | %d | %d | %d | canyon max median %.2f, largest %.2f m; grown by median %.2f, largest %.2f m | loose: max median %.2f, largest %.2f m; grown by median %.2f, largest %.2f m (%d ran) | %d (> ⅓ loose or > 5 m) | %s | %s |"
+            print("| %s | %d | %d | %d | canyon max median %.2f, largest %.2f m; grown by median %.2f, largest %.2f m | loose: max median %.2f, largest %.2f m; grown by median %.2f, largest %.2f m (%d ran) | %d (> ⅓ loose or > 5 m) | %s | %.1f %% | %s |"
                   % (c, len(rows), len(refused), flagged, med(tm), tm[-1] if tm else float("nan"),
                      med(tg), tg[-1] if tg else float("nan"),
                      med(lm), lm[-1] if lm else float("nan"), med(lg), lg[-1] if lg else float("nan"),
-                     len(lm), worse, covered, why))
+                     len(lm), worse, covered, 100 * beyond, why))
         else:
             pairs = [(rms_after(o["tight"], 30.0), rms_after(o["spp"], 30.0)) for o in ran if o.get("spp")]
             pool_rms = lambda i: math.sqrt(sum(p[i] ** 2 for p in pairs) / len(pairs)) if pairs else float("nan")
             worse = sum(1 for t, s in pairs if t > s)
-            print("| %s | %d | %d | %d | RMS %.2f m | single point RMS %.2f m | %d of %d (by ≤ %.2f m) | %s | %s |"
+            print("| %s | %d | %d | %d | RMS %.2f m | single point RMS %.2f m | %d of %d (by ≤ %.2f m) | %s | %.1f %% | %s |"
                   % (c, len(rows), len(refused), flagged, pool_rms(0), pool_rms(1), worse, len(pairs),
-                     max([t - s for t, s in pairs] + [0.0]), covered, why))
+                     max([t - s for t, s in pairs] + [0.0]), covered, 100 * beyond, why))
 
 
 if __name__ == "__main__":
