@@ -16,12 +16,15 @@ use rand_distr::StandardNormal;
 
 use crate::simulated_drive;
 
-fn spd(p: &nalgebra::SMatrix<f64, 15, 15>) -> bool {
+/// Finite, symmetric and positive definite (its Cholesky factor exists); with `eigen`,
+/// its smallest eigenvalue positive too (an independent path to the same property, at
+/// the epochs with fixes: the eigenvalues at every epoch were 60 % of this test's time).
+fn spd(p: &nalgebra::SMatrix<f64, 15, 15>, eigen: bool) -> bool {
     let scale = p.abs().max().max(f64::MIN_POSITIVE);
     p.iter().all(|v| v.is_finite())
         && (p - p.transpose()).abs().max() <= 1e-9 * scale
         && p.cholesky().is_some()
-        && p.symmetric_eigenvalues().min() > 0.0
+        && (!eigen || p.symmetric_eigenvalues().min() > 0.0)
 }
 
 /// The fixes as a receiver with a wrong σ would give them: declared σ × `declared`, the
@@ -74,7 +77,7 @@ proptest! {
                     out.clear();
                     let r = nav.process_into(imu, fixes, &mut NoObserver, &mut out);
                     prop_assert!(r.is_ok(), "{} gated={}: epoch {}: {:?}", name, gated, k, r.err());
-                    prop_assert!(spd(nav.covariance()), "{} gated={}: P not PD at epoch {}", name, gated, k);
+                    prop_assert!(spd(nav.covariance(), !fixes.is_empty()), "{} gated={}: P not PD at epoch {}", name, gated, k);
                 }
             }
         }

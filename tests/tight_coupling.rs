@@ -35,14 +35,20 @@ struct Case {
     epochs: Vec<ObsEpoch>,
 }
 
-fn case(sim: &RawSim, seed: u64) -> Case {
+/// The built-in 600 s drive, one for the file's cases: its exact IMU is integrated once
+/// ([`Trajectory::exact_imu`]) and each seed draws only its errors.
+static DRIVE: std::sync::LazyLock<Trajectory> = std::sync::LazyLock::new(|| {
     let (s, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(s, &segs).unwrap();
+    Trajectory::new(s, &segs).unwrap()
+});
+
+fn case(sim: &RawSim, seed: u64) -> Case {
+    let traj = &*DRIVE;
     let none = GnssSim::none();
-    let data = simulate(&traj, 100.0, &scenarios::mems_imu(), &none, seed);
+    let data = simulate(traj, 100.0, &scenarios::mems_imu(), &none, seed);
     let nav = nav();
     let sim = RawSim { lever_arm: LEVER, ..sim.clone() };
-    let (epochs, _) = simulate_raw(&traj, &nav.ephemerides, &nav.klobuchar.unwrap(), &sim, seed);
+    let (epochs, _) = simulate_raw(traj, &nav.ephemerides, &nav.klobuchar.unwrap(), &sim, seed);
     Case { data, epochs }
 }
 

@@ -181,7 +181,14 @@ pub struct Trajectory {
     t_start: f64,
     /// Identifies the nodes in the per-thread cache (clones share it: same nodes).
     id: u64,
+    /// The exact IMU last integrated from this trajectory, with its rate's bits
+    /// ([`Trajectory::exact_imu`]; clones share it).
+    pub(crate) exact: KeptExact,
 }
+
+/// The exact IMU a trajectory keeps: its rate's bits and the samples.
+pub(crate) type KeptExact =
+    std::sync::Arc<std::sync::Mutex<Option<(u64, std::sync::Arc<crate::ExactImu>)>>>;
 
 /// Identities of trajectories for the node cache.
 static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
@@ -284,7 +291,14 @@ impl Trajectory {
             checkpoints.push(p);
         }
         let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        Ok(Self { segs, checkpoints, n_nodes: steps_total + 1, t_start: start.t, id })
+        Ok(Self {
+            segs,
+            checkpoints,
+            n_nodes: steps_total + 1,
+            t_start: start.t,
+            id,
+            exact: Default::default(),
+        })
     }
 
     /// Grid nodes `i` and `i + 1`, from this thread's cache of the chunk holding them.

@@ -148,6 +148,13 @@ pub fn mounted_drive(seed: u64, late: f64, mounting: Vector3<f64>) -> Data {
     simulated("calibration drive", seed, Vector3::from(LEVER), late, mounting)
 }
 
+/// The built-in 600 s drive, one for the corpus's simulated cells: its exact IMU is
+/// integrated once ([`Trajectory::exact_imu`]) and each seed draws only its errors.
+static DRIVE: std::sync::LazyLock<Trajectory> = std::sync::LazyLock::new(|| {
+    let (start, segs) = scenarios::drive_600s();
+    Trajectory::new(start, &segs).unwrap()
+});
+
 /// The simulator's 600 s drive with the simulator's MEMS mounted at `mounting`, error-free
 /// fixes at 1 Hz from an antenna at `lever`, the IMU's stamps late by `late` s; the
 /// configuration gives the IMU's noise in its units and nothing else.
@@ -158,8 +165,7 @@ fn simulated(
     late: f64,
     mounting: Vector3<f64>,
 ) -> Data {
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs).unwrap();
+    let traj = &*DRIVE;
     let gnss = GnssSim {
         rate_hz: 1.0,
         pos_sigma: Vector3::zeros(),
@@ -168,7 +174,7 @@ fn simulated(
         windows: vec![],
     };
     let imu = ins_gnss_sim::ImuErrors { mounting, ..scenarios::mems_imu() };
-    let d = simulate(&traj, 100.0, &imu, &gnss, seed);
+    let d = simulate(traj, 100.0, &imu, &gnss, seed);
     sim_data(name, &d, late, MEMS_CONFIG.to_string(), None, 60.0)
 }
 
@@ -211,8 +217,7 @@ fn outage_drive(
     seed: u64,
 ) -> (Trajectory, ins_gnss_sim::SimDataset) {
     use ins_gnss_sim::{GnssWindow, GnssWindowKind};
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs).unwrap();
+    let traj = DRIVE.clone();
     let windows = ANTENNA_OUTAGES
         .iter()
         .map(|&(start, end)| GnssWindow { start, end, kind: GnssWindowKind::Outage })

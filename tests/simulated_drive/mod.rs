@@ -18,10 +18,23 @@ pub fn gnss_10hz() -> GnssSim {
     }
 }
 
-/// The first `segments` of the drive at `imu_hz`, noise drawn with `seed`.
+/// The first `segments` of the drive at `imu_hz`, noise drawn with `seed`. The
+/// trajectories are kept (one per number of segments), so the exact IMU of each is
+/// integrated once ([`Trajectory::exact_imu`]) and each seed draws only its errors.
 pub fn drive(segments: usize, imu_hz: f64, seed: u64) -> SimDataset {
-    let (start, segs) = scenarios::drive_600s();
-    let traj = Trajectory::new(start, &segs[..segments]).unwrap();
+    static KEPT: std::sync::Mutex<Vec<(usize, Trajectory)>> = std::sync::Mutex::new(Vec::new());
+    let traj = {
+        let mut kept = KEPT.lock().unwrap();
+        match kept.iter().find(|k| k.0 == segments) {
+            Some(k) => k.1.clone(),
+            None => {
+                let (start, segs) = scenarios::drive_600s();
+                let traj = Trajectory::new(start, &segs[..segments]).unwrap();
+                kept.push((segments, traj.clone()));
+                traj
+            }
+        }
+    };
     simulate(&traj, imu_hz, &scenarios::mems_imu(), &gnss_10hz(), seed)
 }
 
