@@ -120,6 +120,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &panels,
     )?;
     println!("plot: {}", svg.display());
-    println!("\nPaper (max, one run): conventional 32.23 / 14.23 / 50.22, modified 3.94 / 3.31 / 6.82, CS-MAEKF 1.13 / 1.41 / 4.43.");
+    println!(
+        "\nPaper (max, one run): conventional 32.23 / 14.23 / 50.22, modified 3.94 / 3.31 / 6.82, CS-MAEKF 1.13 / 1.41 / 4.43."
+    );
     Ok(())
 }

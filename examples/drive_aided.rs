@@ -54,13 +54,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut g = generic.clone();
         g.filter.states = states;
         let (h, v) = score(&g, "fixed")?;
-        println!("| {states} states, kf-gins-outage15.yaml as it is (generic MEMS noise) | {h:.3} | {v:.3} |");
+        println!(
+            "| {states} states, kf-gins-outage15.yaml as it is (generic MEMS noise) | {h:.3} | {v:.3} |"
+        );
     }
     let mut g = generic.clone();
     (g.filter.states, g.init.gyro_scale_std, g.init.accel_scale_std) =
         (21, [1000.0; 3], [1000.0; 3]);
     let (h, v) = score(&g, "fixed")?;
-    println!("| 21 states, kf-gins-outage15.yaml with initial scale-factor σ 1000 ppm | {h:.3} | {v:.3} |");
+    println!(
+        "| 21 states, kf-gins-outage15.yaml with initial scale-factor σ 1000 ppm | {h:.3} | {v:.3} |"
+    );
     for (name, states, nhc, zupt) in [
         ("15 states, aided.toml's measured noise, no aiding", 15, false, false),
         ("21 states, no aiding", 21, false, false),

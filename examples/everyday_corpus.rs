@@ -46,7 +46,9 @@ fn main() {
     ];
     let real: Vec<Data> =
         vec![drive_0708("kf-gins-outage15.yaml"), drive_0708("aided-noinit.toml"), navego()];
-    println!("| data | errors | declared | score (m) | true model (m) | ratio | beyond 99 % | true model beyond | refused | flagged | persisting chosen (median lag) | causes named |");
+    println!(
+        "| data | errors | declared | score (m) | true model (m) | ratio | beyond 99 % | true model beyond | refused | flagged | persisting chosen (median lag) | causes named |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for set in ["sim drive", "drive-0708 yaml", "drive-0708 noinit", "navego noinit"] {
         for e in errors {

@@ -136,7 +136,9 @@ fn run(d: &SimDataset, learn: bool) -> Outcome {
 
 fn main() {
     let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(20);
-    println!("| errors | declared σ | learning | horizontal RMS (m) | beyond the 99 % ellipse | refused steps | learned σ factor | lag-one autocorrelation |");
+    println!(
+        "| errors | declared σ | learning | horizontal RMS (m) | beyond the 99 % ellipse | refused steps | learned σ factor | lag-one autocorrelation |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     for errors in [Errors::White([1.0, 1.0, 2.0]), Errors::Wander([1.5, 1.5, 3.0], 100.0, 0.3)] {
         for declared in [0.1, 1.0, 3.0, 10.0, 30.0] {

@@ -72,7 +72,10 @@ fn main() {
                     s.streams.iter().filter(|x| x.gnss).map(|x| x.log_likelihood_settled).sum();
                 let t0 = r.nav.first().map_or(0.0, |x| x[0]);
                 let (score, beyond) = score(d, &r, t0);
-                println!("seed {seed} tau {tau:6.0} k {k:.1}: ll {ll:10.1} score {score:.3} beyond {:.1} %", beyond * 100.0);
+                println!(
+                    "seed {seed} tau {tau:6.0} k {k:.1}: ll {ll:10.1} score {score:.3} beyond {:.1} %",
+                    beyond * 100.0
+                );
             }
         }
     }

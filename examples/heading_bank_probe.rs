@@ -36,8 +36,15 @@ fn main() {
             format!(
                 "[data]\nend_time = {end}\n[init]\nattitude = [{}, {}, {psi}]\nvelocity = [{}, {}, {}]\nposition = [{}, {}, {}]\n\
                  attitude_std = [1.0, 1.0, {s}]\nvelocity_std = [0.3, 0.3, 0.3]\nposition_std = [5.0, 5.0, 5.0]\n",
-                m.4[0].to_degrees(), m.4[1].to_degrees(), m.1[0], m.1[1], m.1[2],
-                p[1].to_degrees(), p[2].to_degrees(), p[3])
+                m.4[0].to_degrees(),
+                m.4[1].to_degrees(),
+                m.1[0],
+                m.1[1],
+                m.1[2],
+                p[1].to_degrees(),
+                p[2].to_degrees(),
+                p[3]
+            )
         };
         let lls: Vec<f64> = (0..16)
             .into_par_iter()
@@ -74,7 +81,15 @@ fn main() {
         let sig = (var + half * half).sqrt();
         let o = judge_start(&d, &motion, Fixes::White5m, seed, &init(psib, sig, 1e9));
         let tr = judge_start(&d, &motion, Fixes::White5m, seed, &true_init(&d, &motion));
-        println!("seed {seed} truth {truth:.1} best {psib} σ {sig:.1} w_best {:.2}: covered {} after30 {} worst {:.2} rms {:.2} true-start rms {:.2} refused {:?}",
-            w[kb] / sw, o.heading_covered, o.heading_covered_after, o.worst_ratio, o.rms, tr.rms, o.refused.map(|s| s.chars().take(80).collect::<String>()));
+        println!(
+            "seed {seed} truth {truth:.1} best {psib} σ {sig:.1} w_best {:.2}: covered {} after30 {} worst {:.2} rms {:.2} true-start rms {:.2} refused {:?}",
+            w[kb] / sw,
+            o.heading_covered,
+            o.heading_covered_after,
+            o.worst_ratio,
+            o.rms,
+            tr.rms,
+            o.refused.map(|s| s.chars().take(80).collect::<String>())
+        );
     }
 }

@@ -67,7 +67,9 @@ fn main() {
             format!("{states}odometer_scale_std = 0.5\n"),
         ),
     ];
-    println!("| cell | outage score, median (worst) | scale |err|, median (worst) | lateral wheel point |err|, median (worst) | every axis within 3σ | position beyond its 99 % ellipse (mean) |");
+    println!(
+        "| cell | outage score, median (worst) | scale |err|, median (worst) | lateral wheel point |err|, median (worst) | every axis within 3σ | position beyond its 99 % ellipse (mean) |"
+    );
     println!("|---|---|---|---|---|---|");
     for (name, extra) in &cells {
         let outs: Vec<Out> = (1..=seeds).into_par_iter().map(|s| one(s, extra)).collect();

@@ -178,7 +178,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         )?;
     }
     println!("{} seeds; per-seed results in {}\n", seeds, csv.display());
-    println!("| filter | mean E (m) | mean N (m) | mean horizontal (m) | max E (m) | max N (m) | max horizontal (m) |");
+    println!(
+        "| filter | mean E (m) | mean N (m) | mean horizontal (m) | max E (m) | max N (m) | max horizontal (m) |"
+    );
     println!("|---|---|---|---|---|---|---|");
     for name in STRATEGIES {
         let rows: Vec<&[f64; 6]> = results.iter().filter(|r| r.1 == name).map(|r| &r.2).collect();
@@ -199,6 +201,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             cell(5)
         );
     }
-    println!("\nPaper (one run): mean horizontal KF 1.316, AKF 1.279, IAKF 1.198 m; max 8.668, 5.845, 5.234 m.");
+    println!(
+        "\nPaper (one run): mean horizontal KF 1.316, AKF 1.279, IAKF 1.198 m; max 8.668, 5.845, 5.234 m."
+    );
     Ok(())
 }

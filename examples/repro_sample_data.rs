@@ -203,7 +203,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let csv = PathBuf::from("repro-out/navego_interference_seeds.csv");
     std::fs::create_dir_all("repro-out")?;
     let mut f = std::io::BufWriter::new(std::fs::File::create(&csv)?);
-    writeln!(f, "seed,strategy,horizontal_rms,window_horizontal_rms,window_horizontal_max,yaw_rms,inflated_or_rejected")?;
+    writeln!(
+        f,
+        "seed,strategy,horizontal_rms,window_horizontal_rms,window_horizontal_max,yaw_rms,inflated_or_rejected"
+    )?;
     for (s, n, r) in &rows {
         writeln!(f, "{s},{n},{:.4},{:.4},{:.4},{:.4},{}", r[0], r[1], r[2], r[3], r[4])?;
     }
@@ -215,7 +218,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         t.elapsed().as_secs_f64(),
         csv.display()
     );
-    println!("| strategy | horizontal RMS after 60 s (m) | window horizontal RMS (m) | window horizontal max (m) | yaw RMS (°) | inflated + rejected |");
+    println!(
+        "| strategy | horizontal RMS after 60 s (m) | window horizontal RMS (m) | window horizontal max (m) | yaw RMS (°) | inflated + rejected |"
+    );
     println!("|---|---|---|---|---|---|");
     for name in STRATEGIES {
         let cell = |i: usize| {
@@ -246,7 +251,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = std::time::Instant::now();
     let scores = drive(&dir)?;
     println!("\ndrive-0708, ten 15 s outages ({:.1} s):\n", t.elapsed().as_secs_f64());
-    println!("| strategy | RMS over outages of the max horizontal drift (m) | vertical (m) | inflated + rejected |");
+    println!(
+        "| strategy | RMS over outages of the max horizontal drift (m) | vertical (m) | inflated + rejected |"
+    );
     println!("|---|---|---|---|");
     for (name, h, v, a) in scores {
         println!("| {name} | {h:.3} | {v:.3} | {a} |");

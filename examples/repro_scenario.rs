@@ -142,7 +142,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         t.elapsed().as_secs_f64(),
         csv.display()
     );
-    println!("| strategy | roll RMS ° | pitch RMS ° | heading RMS ° | roll max ° | pitch max ° | heading max ° | horizontal RMS m | horizontal max m | velocity RMS m/s | inflated + rejected |");
+    println!(
+        "| strategy | roll RMS ° | pitch RMS ° | heading RMS ° | roll max ° | pitch max ° | heading max ° | horizontal RMS m | horizontal max m | velocity RMS m/s | inflated + rejected |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for name in &strategies {
         let rows: Vec<&[f64; 10]> = results.iter().filter(|r| &r.1 == name).map(|r| &r.2).collect();

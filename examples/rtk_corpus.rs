@@ -186,15 +186,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 f.wrong,
                 f.worst
             );
-            if with_rtklib {
-                if let Some(sol) = rtklib(&dir, &nav_plain, &base, freqs) {
-                    let g = figures(&sol, &truth, drive.start, sky);
-                    line += &format!(
-                        "; RTKLIB {}/{} fixed, {} wrong, worst {:.3} m",
-                        g.fixed, g.solved, g.wrong, g.worst
-                    );
-                    theirs_cells[k].runs.push(g);
-                }
+            if with_rtklib && let Some(sol) = rtklib(&dir, &nav_plain, &base, freqs) {
+                let g = figures(&sol, &truth, drive.start, sky);
+                line += &format!(
+                    "; RTKLIB {}/{} fixed, {} wrong, worst {:.3} m",
+                    g.fixed, g.solved, g.wrong, g.worst
+                );
+                theirs_cells[k].runs.push(g);
             }
             // the fixed epochs' mean error (NED, m): a bias the model leaves
             let m = |f: &Figures| f.sum / f.fixed.max(1) as f64;
@@ -210,7 +208,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         baseline.0 / 1e3,
         baseline.1 / 1e3
     );
-    println!("| cell | fix rate, mean (worst seed) | wrong fixes | fixed RMS H / V, cm | worst fixed error, cm | fixed: NEES/3; beyond χ²₃ 99 % | first fix, s: median / worst | fixed again after the tunnel, s: median / worst |");
+    println!(
+        "| cell | fix rate, mean (worst seed) | wrong fixes | fixed RMS H / V, cm | worst fixed error, cm | fixed: NEES/3; beyond χ²₃ 99 % | first fix, s: median / worst | fixed again after the tunnel, s: median / worst |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     for (k, &(freqs, sky)) in cells.iter().enumerate() {
         let name = format!("L{}{}", if freqs == 1 { "1" } else { "1+L2" }, sky.label());

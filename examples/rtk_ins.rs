@@ -91,7 +91,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     println!("{seeds} seeds; wrong: a fixed epoch > 10 cm from the truth\n");
-    println!("| cell | RTK alone: fix rate (worst seed), wrong | RTK + INS: fix rate (worst seed), wrong | INS position H RMS, m; NEES/3 | error at the outage's end, m: median / worst (alone) | fixed again after it, s: median / worst (alone) |");
+    println!(
+        "| cell | RTK alone: fix rate (worst seed), wrong | RTK + INS: fix rate (worst seed), wrong | INS position H RMS, m; NEES/3 | error at the outage's end, m: median / worst (alone) | fixed again after it, s: median / worst (alone) |"
+    );
     println!("|---|---|---|---|---|---|");
     for (k, &(freqs, sky)) in cells.iter().enumerate() {
         let [a, w] = &table[k];

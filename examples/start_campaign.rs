@@ -32,7 +32,9 @@ fn main() {
     };
     let only = std::env::args().nth(2).unwrap_or_default();
     let extra = std::env::var("EXTRA").unwrap_or_default();
-    println!("| cell | runs | refused | flagged | heading ≤ 3σ throughout | … from 30 s | start velocity ≤ 3σ | worst heading error / σ (median / largest) | median worst heading error | median RMS (m) | RMS ÷ true start (median / largest; ≤ 1.2) | first refusal |");
+    println!(
+        "| cell | runs | refused | flagged | heading ≤ 3σ throughout | … from 30 s | start velocity ≤ 3σ | worst heading error / σ (median / largest) | median worst heading error | median RMS (m) | RMS ÷ true start (median / largest; ≤ 1.2) | first refusal |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut cells: Vec<Cell> = Vec::new();
     for fixes in [Fixes::Rtk, Fixes::SinglePoint] {

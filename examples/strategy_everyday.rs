@@ -117,7 +117,9 @@ fn main() {
                 "\ndeclared σ {declared}× the truth, gate {}, {seeds} seeds\n",
                 if gated { "default" } else { "open" }
             );
-            println!("| strategy | horizontal RMS (m) | beyond the 99 % ellipse | runs > 3× fixed | refused steps |");
+            println!(
+                "| strategy | horizontal RMS (m) | beyond the 99 % ellipse | runs > 3× fixed | refused steps |"
+            );
             println!("|---|---|---|---|---|");
             let fixed: Vec<Outcome> = sets.par_iter().map(|d| run(d, "fixed", gated)).collect();
             for name in STRATEGY_NAMES {

@@ -86,12 +86,13 @@ fn one(seed: u64, cell: &Cell) -> Out {
     for row in r.std.chunks(r.std_width) {
         let k = r.nav.partition_point(|x| x[0] < row[0] - 1e-9);
         let j = d.yaw.partition_point(|y| y.0 < row[0] - 1e-6);
-        if let (Some(x), Some(y)) = (r.nav.get(k), d.yaw.get(j)) {
-            if (x[0] - row[0]).abs() < 1e-6 && (y.0 - row[0]).abs() < 1e-6 {
-                n += 1;
-                let e = ins_gnss_core::heading::wrap(x[9].to_radians() - y.1).to_degrees();
-                beyond += usize::from(e.abs() > 2.576 * row[9]);
-            }
+        if let (Some(x), Some(y)) = (r.nav.get(k), d.yaw.get(j))
+            && (x[0] - row[0]).abs() < 1e-6
+            && (y.0 - row[0]).abs() < 1e-6
+        {
+            n += 1;
+            let e = ins_gnss_core::heading::wrap(x[9].to_radians() - y.1).to_degrees();
+            beyond += usize::from(e.abs() > 2.576 * row[9]);
         }
     }
     let heading_beyond = beyond as f64 / n.max(1) as f64;

@@ -30,7 +30,9 @@ fn iakf_paper_conclusion_as_measured() {
     let fixed = mean_max("fixed");
     let sage = mean_max("sage-husa");
     let iakf = mean_max("iakf-raw");
-    eprintln!("mean max horizontal over 6 seeds: fixed {fixed:.2} m, sage-husa {sage:.2} m, iakf-raw {iakf:.2} m");
+    eprintln!(
+        "mean max horizontal over 6 seeds: fixed {fixed:.2} m, sage-husa {sage:.2} m, iakf-raw {iakf:.2} m"
+    );
     assert!(sage < 0.85 * fixed, "Sage–Husa should cut the maximum error: {sage} vs {fixed}");
     assert!(
         iakf > 0.95 * fixed,
@@ -59,7 +61,9 @@ fn paper_like_noise_does_not_change_the_ranking() {
         v.iter().sum::<f64>() / v.len() as f64
     };
     let (fixed, raw, epoch) = (mean_max("fixed"), mean_max("iakf-raw"), mean_max("iakf"));
-    eprintln!("paper-like noise, mean max horizontal over 6 seeds: fixed {fixed:.2} m, iakf-raw {raw:.2} m, iakf {epoch:.2} m");
+    eprintln!(
+        "paper-like noise, mean max horizontal over 6 seeds: fixed {fixed:.2} m, iakf-raw {raw:.2} m, iakf {epoch:.2} m"
+    );
     assert!(epoch > 0.65 * fixed, "the paper's 35 % cut would be a change: {epoch} vs {fixed}");
     assert!(epoch < raw, "the 1/k reading beats the raw one: {epoch} vs {raw}");
 }

@@ -29,7 +29,9 @@ fn navego_with_injected_interference() {
     // Xia's AFKF as written reads the unreported noise as a prior too confident and follows
     // the fixes; the guarded default holds its fading off when it does not help
     let (afkf, guarded) = (mean("afkf-faithful", 1), mean("afkf", 1));
-    eprintln!("window horizontal RMS over 3 seeds: fixed {fixed:.3} m, sage-husa {sage:.3} m, afkf-faithful {afkf:.3} m, afkf {guarded:.3} m");
+    eprintln!(
+        "window horizontal RMS over 3 seeds: fixed {fixed:.3} m, sage-husa {sage:.3} m, afkf-faithful {afkf:.3} m, afkf {guarded:.3} m"
+    );
     assert!(sage < 0.95 * fixed, "Sage–Husa {sage} vs fixed {fixed}");
     assert!(afkf > 2.0 * fixed, "AFKF as written {afkf} vs fixed {fixed}");
     assert!(guarded < afkf, "the guarded AFKF {guarded} vs as written {afkf}");

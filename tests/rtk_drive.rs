@@ -256,10 +256,10 @@ impl Drive {
                 // position less well than one single point does (its errors persist
                 // for minutes: their information does not add up over epochs)
                 if !sol.fixed {
-                    if let Some(f) = spp.map(|s| GnssEpoch::from_single_point(&s, t + 1e-6)) {
-                        if p_ned.trace() > f.position_covariance().trace() {
-                            pending.push(f);
-                        }
+                    if let Some(f) = spp.map(|s| GnssEpoch::from_single_point(&s, t + 1e-6))
+                        && p_ned.trace() > f.position_covariance().trace()
+                    {
+                        pending.push(f);
                     }
                     continue;
                 }

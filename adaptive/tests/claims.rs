@@ -121,7 +121,9 @@ fn afkf_reacts_to_underestimated_process_noise() {
             0.0
         }
     };
-    eprintln!("mean NEES: fixed {nees_fixed:.2}, afkf {nees_afkf:.2}; band [{lo:.2}, {hi:.2}]; max λ {lambda_max:.2}");
+    eprintln!(
+        "mean NEES: fixed {nees_fixed:.2}, afkf {nees_afkf:.2}; band [{lo:.2}, {hi:.2}]; max λ {lambda_max:.2}"
+    );
     assert!(lambda_max > 1.0);
     assert!(
         dist(nees_afkf) < dist(nees_fixed),

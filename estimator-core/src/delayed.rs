@@ -538,10 +538,10 @@ where
     fn trim(&mut self) -> Result<(), FilterError> {
         let horizon = self.filter.time() - self.history;
         while let Some(e) = self.events.front() {
-            if let Some(dt) = e.dt() {
-                if self.start.time() + dt > horizon {
-                    break;
-                }
+            if let Some(dt) = e.dt()
+                && self.start.time() + dt > horizon
+            {
+                break;
             }
             run(&mut self.start, &self.model, e, self.smoother.as_mut())?;
             self.events.pop_front();

@@ -37,17 +37,17 @@ fn xz_reader(mut raw: BufReader<File>) -> XzInput {
     let (reader, mut writer) = match std::io::pipe() {
         Ok(p) => p,
         Err(e) => {
-            return XzInput { pipe: None, failure: Arc::new(Mutex::new(Some(e.to_string()))) }
+            return XzInput { pipe: None, failure: Arc::new(Mutex::new(Some(e.to_string()))) };
         }
     };
     let failure = Arc::new(Mutex::new(None));
     let slot = Arc::clone(&failure);
     std::thread::spawn(move || {
         let mut decoder = liblzma::bufread::XzDecoder::new_multi_decoder(&mut raw);
-        if let Err(e) = std::io::copy(&mut decoder, &mut writer) {
-            if let Ok(mut s) = slot.lock() {
-                *s = Some(format!("xz decoding failed: {e}"));
-            }
+        if let Err(e) = std::io::copy(&mut decoder, &mut writer)
+            && let Ok(mut s) = slot.lock()
+        {
+            *s = Some(format!("xz decoding failed: {e}"));
         }
         drop(writer);
     });
@@ -65,10 +65,10 @@ impl Read for XzInput {
             Some(p) => p.read(buf)?,
             None => 0,
         };
-        if n == 0 {
-            if let Some(e) = self.failure.lock().ok().and_then(|mut s| s.take()) {
-                return Err(std::io::Error::other(e));
-            }
+        if n == 0
+            && let Some(e) = self.failure.lock().ok().and_then(|mut s| s.take())
+        {
+            return Err(std::io::Error::other(e));
         }
         Ok(n)
     }

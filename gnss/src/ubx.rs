@@ -172,12 +172,11 @@ impl UbxDecoder {
         }
         let set = self.words.entry(f.sv_id()).or_default();
         set[t] = Some(w);
-        if t == 5 {
-            if let [Some(a), Some(b), Some(c), Some(d), Some(e), Some(g)] = *set {
-                if let Some(r) = inav::decode(&[a, b, c, d, e, g]) {
-                    push_new(&mut self.records, r);
-                }
-            }
+        if t == 5
+            && let [Some(a), Some(b), Some(c), Some(d), Some(e), Some(g)] = *set
+            && let Some(r) = inav::decode(&[a, b, c, d, e, g])
+        {
+            push_new(&mut self.records, r);
         }
     }
 
@@ -193,20 +192,21 @@ impl UbxDecoder {
             };
             let set = self.d2.entry(prn).or_default();
             set[usize::from(page) - 1] = Some(sf);
-            if page == 10 && set.iter().all(Option::is_some) {
-                if let Some(r) = bds::decode_d2(prn, &set.map(Option::unwrap_or_default)) {
-                    push_new(&mut self.records, r);
-                }
+            if page == 10
+                && set.iter().all(Option::is_some)
+                && let Some(r) = bds::decode_d2(prn, &set.map(Option::unwrap_or_default))
+            {
+                push_new(&mut self.records, r);
             }
             return;
         }
         let Some(id @ 1..=3) = bds::subframe_id(&sf) else { return };
         let set = self.d1.entry(prn).or_default();
         set[usize::from(id) - 1] = Some(sf);
-        if let (3, [Some(a), Some(b), Some(c)]) = (id, *set) {
-            if let Some(r) = bds::decode(prn, &[a, b, c]) {
-                push_new(&mut self.records, r);
-            }
+        if let (3, [Some(a), Some(b), Some(c)]) = (id, *set)
+            && let Some(r) = bds::decode(prn, &[a, b, c])
+        {
+            push_new(&mut self.records, r);
         }
     }
 

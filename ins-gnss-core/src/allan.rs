@@ -176,10 +176,11 @@ pub fn fit(curve: &[AdevPoint], span: f64) -> AxisNoise {
     let mut best: Option<([f64; 3], [f64; 3], f64)> = None;
     for mask in 1u8..8 {
         let cols: Vec<usize> = (0..3).filter(|c| mask & (1 << c) != 0).collect();
-        if let Some((coef, sig, res)) = solve(&rows, &cols) {
-            if coef.iter().all(|c| *c >= 0.0) && best.as_ref().is_none_or(|b| res < b.2) {
-                best = Some((coef, sig, res));
-            }
+        if let Some((coef, sig, res)) = solve(&rows, &cols)
+            && coef.iter().all(|c| *c >= 0.0)
+            && best.as_ref().is_none_or(|b| res < b.2)
+        {
+            best = Some((coef, sig, res));
         }
     }
     let tau_min = curve.iter().min_by(|a, b| a.adev.total_cmp(&b.adev)).map_or(f64::NAN, |p| p.tau);

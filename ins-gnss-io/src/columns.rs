@@ -159,11 +159,11 @@ impl Resolved {
             Ok((slot, scale, offset)) => values[*slot] * scale + offset,
             Err(v) => *v,
         }));
-        if self.time_scale != TimeScale::AsIs {
-            if let Some(t) = out.get_mut(self.time_field) {
-                let scale = self.time_scale;
-                *t += *self.time_offset.get_or_insert_with(|| scale.offset_at(*t));
-            }
+        if self.time_scale != TimeScale::AsIs
+            && let Some(t) = out.get_mut(self.time_field)
+        {
+            let scale = self.time_scale;
+            *t += *self.time_offset.get_or_insert_with(|| scale.offset_at(*t));
         }
     }
 }

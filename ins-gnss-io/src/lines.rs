@@ -295,19 +295,19 @@ impl<R: BufRead> NumericLines<R> {
         // (copying each line out first cost as much as finding its end)
         if self.select.is_none() && self.line > 0 {
             let (inner, values) = (&mut self.inner, &mut self.values);
-            if let Ok(buffered) = inner.fill_buf() {
-                if let Some(end) = memchr::memchr(b'\n', buffered) {
-                    let line = &buffered[..=end];
-                    if is_data(line) {
-                        values.clear();
-                        let read = parse_line(line, values);
-                        inner.consume(end + 1);
-                        self.line += 1;
-                        return match read {
-                            Ok(()) => Ok(Some(&self.values)),
-                            Err(kind) => Err(self.error(kind)),
-                        };
-                    }
+            if let Ok(buffered) = inner.fill_buf()
+                && let Some(end) = memchr::memchr(b'\n', buffered)
+            {
+                let line = &buffered[..=end];
+                if is_data(line) {
+                    values.clear();
+                    let read = parse_line(line, values);
+                    inner.consume(end + 1);
+                    self.line += 1;
+                    return match read {
+                        Ok(()) => Ok(Some(&self.values)),
+                        Err(kind) => Err(self.error(kind)),
+                    };
                 }
             }
         }

@@ -220,11 +220,12 @@ impl NmeaState {
         }
         let out = self.finish(quality, sigma)?;
         // after midnight with no new date since: the next day
-        if let (Some(last), Some((y, m, d))) = (self.last_tod, self.date) {
-            if tod + 43_200.0 < last && self.date == self.date_at_last {
-                let days = ::gnss::calendar::days_from_civil(y, m, d) + 1;
-                self.date = Some(::gnss::calendar::civil_from_days(days));
-            }
+        if let (Some(last), Some((y, m, d))) = (self.last_tod, self.date)
+            && tod + 43_200.0 < last
+            && self.date == self.date_at_last
+        {
+            let days = ::gnss::calendar::days_from_civil(y, m, d) + 1;
+            self.date = Some(::gnss::calendar::civil_from_days(days));
         }
         self.last_tod = Some(tod);
         self.date_at_last = self.date;

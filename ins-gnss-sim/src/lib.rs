@@ -104,16 +104,16 @@ impl Trajectory {
     pub fn exact_imu(&self, imu_rate_hz: f64) -> std::sync::Arc<ExactImu> {
         let key = imu_rate_hz.to_bits();
         let kept = self.exact.lock().ok().and_then(|k| k.clone());
-        if let Some((rate, exact)) = kept {
-            if rate == key {
-                return exact;
-            }
+        if let Some((rate, exact)) = kept
+            && rate == key
+        {
+            return exact;
         }
         let exact = std::sync::Arc::new(ExactImu::new(self, imu_rate_hz));
-        if exact.samples.len() <= EXACT_KEPT_SAMPLES {
-            if let Ok(mut k) = self.exact.lock() {
-                *k = Some((key, exact.clone()));
-            }
+        if exact.samples.len() <= EXACT_KEPT_SAMPLES
+            && let Ok(mut k) = self.exact.lock()
+        {
+            *k = Some((key, exact.clone()));
         }
         exact
     }

@@ -333,10 +333,10 @@ fn observe(
                 None => (SatErrors::draw(sim, &n01, rng), Vector3::zeros()),
                 Some(sky) => sky.errors(sat, sim, &n01, rng),
             };
-            if sim.white_errors {
-                if let Some(old) = tracks.get_mut(&sat) {
-                    (old.errors, old.gradient) = draw(&mut rng);
-                }
+            if sim.white_errors
+                && let Some(old) = tracks.get_mut(&sat)
+            {
+                (old.errors, old.gradient) = draw(&mut rng);
             }
             let tr = tracks.entry(sat).or_insert_with(|| {
                 let (errors, gradient) = draw(&mut rng);
@@ -535,11 +535,11 @@ pub fn write_ubx(
 ) -> Vec<u8> {
     let mut out = Vec::new();
     // the ionosphere (subframe 4, page 18) once, from the first satellite
-    if let (Some(k), Some(e)) = (klobuchar, epochs.first()) {
-        if let Some(o) = e.sats.iter().find(|o| o.sat.sys == gnss::System::Gps) {
-            let sf = gnss::lnav::encode_ionosphere(k, e.time.tow);
-            sfrbx(&mut out, 0, o.sat.prn, 0, &sf);
-        }
+    if let (Some(k), Some(e)) = (klobuchar, epochs.first())
+        && let Some(o) = e.sats.iter().find(|o| o.sat.sys == gnss::System::Gps)
+    {
+        let sf = gnss::lnav::encode_ionosphere(k, e.time.tow);
+        sfrbx(&mut out, 0, o.sat.prn, 0, &sf);
     }
     let mut sent: BTreeMap<Sat, (i32, f64)> = BTreeMap::new();
     let mut lock: BTreeMap<(Sat, usize), (GpsTime, GpsTime)> = BTreeMap::new();

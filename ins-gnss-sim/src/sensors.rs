@@ -245,11 +245,11 @@ impl GnssSim {
         rng: &mut StdRng,
     ) -> ins_gnss_core::GeoPos {
         let mut e = normal3(rng).component_mul(&self.pos_sigma) * factor;
-        if let Some((p, k)) = outliers {
-            if rng.random::<f64>() < p {
-                let signs = Vector3::from_fn(|_, _| if rng.random::<bool>() { 1.0 } else { -1.0 });
-                e += signs.component_mul(&self.pos_sigma) * k;
-            }
+        if let Some((p, k)) = outliers
+            && rng.random::<f64>() < p
+        {
+            let signs = Vector3::from_fn(|_, _| if rng.random::<bool>() { 1.0 } else { -1.0 });
+            e += signs.component_mul(&self.pos_sigma) * k;
         }
         truth.oplus(&e)
     }

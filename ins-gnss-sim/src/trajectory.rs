@@ -87,7 +87,10 @@ impl fmt::Display for TrajectoryError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             TrajectoryError::NegativeSpeed { segment } => {
-                write!(f, "segment {segment}: the speed would become negative (decelerate less or for shorter)")
+                write!(
+                    f,
+                    "segment {segment}: the speed would become negative (decelerate less or for shorter)"
+                )
             }
             TrajectoryError::NoSegments => write!(f, "the trajectory has no segment"),
             TrajectoryError::BadStart => write!(

@@ -86,7 +86,10 @@ fn after_a_static_start_the_heading_is_found_within_three_sigma_from_any_heading
                 s < 10.0,
                 "seed {seed}, yaw {yaw0}°, mounting {mounting}°, fixes σ {std} m: σ {s:.1}°"
             );
-            assert!(e.abs() <= 3.0 * s, "seed {seed}, yaw {yaw0}°, mounting {mounting}°, fixes σ {std} m: error {e:.2}° at σ {s:.2}°");
+            assert!(
+                e.abs() <= 3.0 * s,
+                "seed {seed}, yaw {yaw0}°, mounting {mounting}°, fixes σ {std} m: error {e:.2}° at σ {s:.2}°"
+            );
             worst = worst.max(e.abs() / s);
         }
     }

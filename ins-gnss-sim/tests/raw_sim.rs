@@ -90,7 +90,9 @@ fn single_point_on_simulated_observations_is_consistent_over_seeds() {
         n += s_n;
     }
     let mean = nees_sum / n as f64;
-    eprintln!("{solved}/{epochs_all} solved; NEES mean {mean:.2} (3 expected); per seed {per_seed:.2?}; worst clock error {worst_clock:.1} m");
+    eprintln!(
+        "{solved}/{epochs_all} solved; NEES mean {mean:.2} (3 expected); per seed {per_seed:.2?}; worst clock error {worst_clock:.1} m"
+    );
     assert!(solved as f64 > 0.95 * epochs_all as f64);
     // the errors are constant per satellite and run, so epochs of a run are not
     // independent: the band is that of 20 runs' means (3 dof each), widened for the rest

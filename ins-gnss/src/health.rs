@@ -287,19 +287,19 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
     }
     let mut diagnosis: Vec<String> = reversed.into_iter().map(|(_, d)| d).collect();
     // the initial position, farther from the first fix than its σ and the fix's allow
-    if let Some(((h, v), (sh, sv))) = initial_offset(summary, config) {
-        if h > 5.0 * sh.max(0.5) || v > 5.0 * sv.max(0.5) {
-            diagnosis.push(format!(
-                "the initial position `init.position` is {} horizontally and {} vertically \
+    if let Some(((h, v), (sh, sv))) = initial_offset(summary, config)
+        && (h > 5.0 * sh.max(0.5) || v > 5.0 * sv.max(0.5))
+    {
+        diagnosis.push(format!(
+            "the initial position `init.position` is {} horizontally and {} vertically \
                  from the first GNSS fix (at {:.3} s; 1σ together {:.2} m and {:.2} m): a typo \
                  in it, or in the file's position",
-                distance(h),
-                distance(v),
-                summary.first_fix.map_or(f64::NAN, |f| f.t),
-                sh,
-                sv
-            ));
-        }
+            distance(h),
+            distance(v),
+            summary.first_fix.map_or(f64::NAN, |f| f.t),
+            sh,
+            sv
+        ));
     }
     diagnosis.extend(stream_causes(&gnss, floor, tight));
     let lever = Vector3::from(config.gnss.lever_arm).norm();

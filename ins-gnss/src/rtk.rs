@@ -30,7 +30,7 @@ pub fn base_position(v: &[f64]) -> Result<Vector3<f64>, CliError> {
                 "--base-position: 3 numbers (ECEF X,Y,Z in m) expected, {} given",
                 v.len()
             )
-            .into())
+            .into());
         }
     };
     if !(r.iter().all(|c| c.is_finite()) && (6.3e6..=6.45e6).contains(&r.norm())) {

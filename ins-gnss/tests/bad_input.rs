@@ -490,7 +490,11 @@ fn cases(base: &Base) -> Vec<Case> {
     s.yaml("yaml-empty", "", &["kf-gins.yaml"]);
     // --- scenarios (`simulate`, into the existing dataset) ---
     for (key, from, to) in [
-        ("segment", "[[segment]]\nkind = \"straight\"\nduration = 20.0\n[[segment]]\nkind = \"turn\"\nduration = 10.0\nrate = 5.0\n", ""),
+        (
+            "segment",
+            "[[segment]]\nkind = \"straight\"\nduration = 20.0\n[[segment]]\nkind = \"turn\"\nduration = 10.0\nrate = 5.0\n",
+            "",
+        ),
         ("imu.rate", "rate = 50.0", "rate = 1e9"),
         ("imu.rate", "rate = 50.0", "rate = 0.0"),
         ("imu.rate", "rate = 50.0", "rate = nan"),
@@ -507,10 +511,22 @@ fn cases(base: &Base) -> Vec<Case> {
         ("imu.arw", "arw = 0.3", "arw = -0.3"),
         ("imu.corr_time", "corr_time = 1.0", "corr_time = 0.0"),
         ("init.position_std", "position_std = [2.0, 2.0, 3.0]", "position_std = [2.0, 0.0, 3.0]"),
-        ("gnss.window[0]", "position_std = [1.0, 1.0, 2.0]", "position_std = [1.0, 1.0, 2.0]\n[[gnss.window]]\nstart = 5.0\nend = 2.0\nkind = \"outage\""),
+        (
+            "gnss.window[0]",
+            "position_std = [1.0, 1.0, 2.0]",
+            "position_std = [1.0, 1.0, 2.0]\n[[gnss.window]]\nstart = 5.0\nend = 2.0\nkind = \"outage\"",
+        ),
         ("unknown field", "seed = 3", "seed = 3\nsede = 4"),
-        ("raw.troposphere", "[init]", "[raw]\nnav = \"x.nav\"\nweek = 1316\ntroposphere = \"flat\"\n[init]"),
-        ("raw.elevation_mask", "[init]", "[raw]\nnav = \"x.nav\"\nweek = 1316\nelevation_mask = 95.0\n[init]"),
+        (
+            "raw.troposphere",
+            "[init]",
+            "[raw]\nnav = \"x.nav\"\nweek = 1316\ntroposphere = \"flat\"\n[init]",
+        ),
+        (
+            "raw.elevation_mask",
+            "[init]",
+            "[raw]\nnav = \"x.nav\"\nweek = 1316\nelevation_mask = 95.0\n[init]",
+        ),
     ] {
         let name = format!("scenario-{}-{}", key.replace(['.', ' ', '[', ']'], "-"), s.cases.len());
         s.scenario(&name, from, to, &[key]);

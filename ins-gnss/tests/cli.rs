@@ -285,7 +285,9 @@ fn drive_0708_outage_score_with_a_position_only_reference() {
     let v = &both["forward"];
     let score = v["windows_rms_of_max_horizontal"].as_f64().unwrap();
     let vertical = v["windows_rms_of_max_vertical"].as_f64().unwrap();
-    eprintln!("drive-0708, ten 15 s outages: RMS of max horizontal drift {score:.2} m, vertical {vertical:.2} m (KF-GINS 12.4 / 1.08)");
+    eprintln!(
+        "drive-0708, ten 15 s outages: RMS of max horizontal drift {score:.2} m, vertical {vertical:.2} m (KF-GINS 12.4 / 1.08)"
+    );
     // KF-GINS (21 states) reaches 12.4 m on this file
     assert!(score > 1.0 && score <= 12.4, "score {score}");
     for w in v["windows"].as_array().unwrap() {
@@ -571,7 +573,9 @@ fn write_logger_csv(dir: &Path) -> String {
         );
     }
     std::fs::write(dir.join("imu_log.csv"), imu).unwrap();
-    let mut gnss = String::from("time_s,lat_deg,lon_deg,alt_m,sd_north_m,sd_east_m,sd_down_m,ve_mps,vn_mps,vu_mps,sd_vn,sd_ve,sd_vd\n");
+    let mut gnss = String::from(
+        "time_s,lat_deg,lon_deg,alt_m,sd_north_m,sd_east_m,sd_down_m,ve_mps,vn_mps,vu_mps,sd_vn,sd_ve,sd_vd\n",
+    );
     for r in rows(&read("GNSS.txt")) {
         let v = |k: usize| r.get(k).copied().unwrap_or(0.0);
         gnss += &format!(

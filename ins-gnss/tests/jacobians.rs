@@ -160,7 +160,10 @@ fn continuous_f_matches_the_nonlinear_error_dynamics() {
                     // Absolute floor: rounding of a 1e-3 difference step is ≈ 1e-13.
                     let tol = 1e-5 * n.abs().max() + 1e-12;
                     let err = (a - n).abs().max();
-                    assert!(err <= tol, "{mech:?} state {i}: block ({bi},{bj}) |Δ| {err:.3e} > {tol:.3e}\nanalytic {a}\nnumeric {n}");
+                    assert!(
+                        err <= tol,
+                        "{mech:?} state {i}: block ({bi},{bj}) |Δ| {err:.3e} > {tol:.3e}\nanalytic {a}\nnumeric {n}"
+                    );
                 }
             }
         }

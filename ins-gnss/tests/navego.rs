@@ -24,8 +24,16 @@ fn run_and_eval(cfg: Config, name: &str) -> Evaluation {
     eprintln!(
         "{name}: {} IMU epochs, {} GNSS updates; horizontal RMS {:.3} m, 3D {:.3} m, velocity 3D {:.3} m/s, \
          roll {:.3}°, pitch {:.3}°, yaw {:.3}° (max {:.2}°); wall {:.2} s",
-        summary.imu_epochs, summary.gnss_epochs, o.horizontal.rms, o.position_3d.rms, o.velocity_3d.rms,
-        o.roll.rms, o.pitch.rms, o.yaw.rms, o.yaw.max, summary.wall_time
+        summary.imu_epochs,
+        summary.gnss_epochs,
+        o.horizontal.rms,
+        o.position_3d.rms,
+        o.velocity_3d.rms,
+        o.roll.rms,
+        o.pitch.rms,
+        o.yaw.rms,
+        o.yaw.max,
+        summary.wall_time
     );
     let _ = std::fs::remove_dir_all(&out);
     ev

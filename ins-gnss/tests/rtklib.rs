@@ -202,7 +202,9 @@ fn an_rtklib_solution_runs_as_its_kf_gins_twin() {
 fn quality_scales_sigma_and_drops_what_is_asked() {
     let h = PosHeader::parse("%  GPST   latitude(deg) longitude(deg)  height(m)   Q  ns   sdn(m)   sde(m)   sdu(m)  sdne(m)  sdeu(m)  sdun(m) age(s)  ratio").unwrap();
     let line = |q: u8| {
-        format!("2025/08/28 17:30:39.749   40.0966268 -105.1474483 1601.474 {q} 8 0.0100 0.0200 0.0300 0.0100 -0.0050 0.0000 0.0 0.0")
+        format!(
+            "2025/08/28 17:30:39.749   40.0966268 -105.1474483 1601.474 {q} 8 0.0100 0.0200 0.0300 0.0100 -0.0050 0.0000 0.0 0.0"
+        )
     };
     let mut f = QualityFactors::default();
     let fix = parse_line(&h, &line(1), &f).unwrap().unwrap();
@@ -223,7 +225,12 @@ fn quality_scales_sigma_and_drops_what_is_asked() {
         "2025/08/28 17:30:39.749 40.0966268 -105.1474483 1601.474 1 8 0.01 0.01 0.03 0.02 0 0 0 0";
     assert!(parse_line(&h, bad, &f).is_err());
     // through the reader, with drops counted
-    let text = format!("{}\n{}\n{}\n", "%  GPST   latitude(deg) longitude(deg)  height(m)   Q  ns   sdn(m)   sde(m)   sdu(m)  sdne(m)  sdeu(m)  sdun(m) age(s)  ratio", line(5), line(1).replace("39.749", "40.749"));
+    let text = format!(
+        "{}\n{}\n{}\n",
+        "%  GPST   latitude(deg) longitude(deg)  height(m)   Q  ns   sdn(m)   sde(m)   sdu(m)  sdne(m)  sdeu(m)  sdun(m) age(s)  ratio",
+        line(5),
+        line(1).replace("39.749", "40.749")
+    );
     let mut r = GnssReader::new(Cursor::new(text), Path::new("a.pos"), BadLinePolicy::Error)
         .with_quality(f);
     let e = r.next_epoch().unwrap().unwrap();

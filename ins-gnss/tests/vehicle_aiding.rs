@@ -164,7 +164,10 @@ fn nhc_cuts_the_drift_of_a_moving_outage_and_stays_consistent() {
         nees.push(a.mean_nees);
     }
     let (p, a, q) = (mean(&plain), mean(&aided), mean(&nees));
-    eprintln!("60 s outage, max horizontal error over {} seeds: GNSS only {p:.2} m, + NHC {a:.2} m; mean NEES with NHC {q:.2} (15 states)", seeds.len());
+    eprintln!(
+        "60 s outage, max horizontal error over {} seeds: GNSS only {p:.2} m, + NHC {a:.2} m; mean NEES with NHC {q:.2} (15 states)",
+        seeds.len()
+    );
     assert!(a < 0.7 * p, "NHC {a} vs plain {p}");
     // NEES of 15 states: mean 15; over 4 runs × ~570 correlated samples allow a wide band
     assert!(q > 5.0 && q < 30.0, "mean NEES {q}");
@@ -184,7 +187,9 @@ fn zupt_holds_the_position_through_a_stop_without_gnss() {
         aided.push(a.max_outage_error);
     }
     let (p, a) = (mean(&plain), mean(&aided));
-    eprintln!("45 s outage over a 30 s stop, max horizontal error: GNSS only {p:.2} m, + ZUPT/ZARU {a:.2} m");
+    eprintln!(
+        "45 s outage over a 30 s stop, max horizontal error: GNSS only {p:.2} m, + ZUPT/ZARU {a:.2} m"
+    );
     assert!(a < 0.5 * p, "ZUPT {a} vs plain {p}");
 }
 

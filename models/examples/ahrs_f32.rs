@@ -45,7 +45,11 @@ fn main() {
              at every check: {}, smallest eigenvalue / largest {:.2e}, f32 failure: {:?}",
             hour.duration(),
             d.samples,
-            d.max_deg, d.rms_deg, d.positive_definite, d.min_relative_eigenvalue, d.failed_at
+            d.max_deg,
+            d.rms_deg,
+            d.positive_definite,
+            d.min_relative_eigenvalue,
+            d.failed_at
         );
     }
 }

@@ -25,7 +25,7 @@ fn parse_variant(name: &str) -> PyResult<Variant> {
         other => {
             return Err(PyValueError::new_err(format!(
                 "AHRS variant `{other}`: conventional, modified, modified-tuned or cs-maekf"
-            )))
+            )));
         }
     })
 }

@@ -64,7 +64,7 @@ impl DynFilter {
                     crate::cores::MAX_M,
                     crate::cores::MAX_N,
                     crate::cores::MAX_M
-                ))
+                ));
             }
         };
         let record = match (smooth, lag) {
@@ -186,10 +186,10 @@ impl Core for DynFilter {
                 x_prior: x.clone(),
                 p_prior: p.clone(),
             });
-            if let Record::Lag(k) = self.record {
-                if self.steps.len() > k {
-                    self.steps.remove(0);
-                }
+            if let Record::Lag(k) = self.record
+                && self.steps.len() > k
+            {
+                self.steps.remove(0);
             }
         }
         self.x = x;

@@ -65,11 +65,9 @@ fn load_config(text: &str, kind: &str, base: &str, arrays: bool) -> Result<Confi
         "json" => {
             let mut value: serde_json::Value =
                 serde_json::from_str(text).map_err(|e| format!("configuration: {e}"))?;
-            if arrays {
-                if let Some(data) = value.get_mut("data").and_then(|d| d.as_object_mut()) {
-                    for (key, name) in [("imu", IMU_ARRAY), ("gnss", GNSS_ARRAY)] {
-                        data.entry(key).or_insert_with(|| name.into());
-                    }
+            if arrays && let Some(data) = value.get_mut("data").and_then(|d| d.as_object_mut()) {
+                for (key, name) in [("imu", IMU_ARRAY), ("gnss", GNSS_ARRAY)] {
+                    data.entry(key).or_insert_with(|| name.into());
                 }
             }
             Config::parse(&value.to_string(), ConfigKind::Json, Path::new(base))
@@ -159,7 +157,7 @@ fn navigate<'py>(
         }
         (None, None) => Inputs::Files,
         _ => {
-            return Err(PyValueError::new_err("give both the IMU and the GNSS arrays, or neither"))
+            return Err(PyValueError::new_err("give both the IMU and the GNSS arrays, or neither"));
         }
     };
     if let Some(n) = states.filter(|n| ![15, 21].contains(n)) {
@@ -195,7 +193,7 @@ fn navigate<'py>(
             return Err(fail(format!(
                 "{u}(pass accept_inconsistent=True to keep the result, as the program's \
                  --accept-inconsistent)"
-            )))
+            )));
         }
     };
     let out = PyDict::new(py);

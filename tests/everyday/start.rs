@@ -385,12 +385,12 @@ pub fn judge_start(
         worst_error = worst_error.max(e);
     }
     let (mut velocity_covered, mut velocity_error) = (false, f64::NAN);
-    if let (Some(row), Some(s)) = (r.nav.first(), r.std.get(..r.std_width)) {
-        if let Some(m) = truth_at(row[0]) {
-            let e = [row[4] - m.1[0], row[5] - m.1[1], row[6] - m.1[2]];
-            velocity_covered = (0..3).all(|i| e[i].abs() <= 3.0 * s[4 + i]);
-            velocity_error = e.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        }
+    if let (Some(row), Some(s)) = (r.nav.first(), r.std.get(..r.std_width))
+        && let Some(m) = truth_at(row[0])
+    {
+        let e = [row[4] - m.1[0], row[5] - m.1[1], row[6] - m.1[2]];
+        velocity_covered = (0..3).all(|i| e[i].abs() <= 3.0 * s[4 + i]);
+        velocity_error = e.iter().fold(0.0f64, |a, x| a.max(x.abs()));
     }
     let e: Vec<f64> = r
         .nav

@@ -383,10 +383,10 @@ where
 
     /// Write the closed segments not written yet.
     fn write_pending(&mut self) {
-        if self.error.is_none() {
-            if let Err(e) = self.store.write_all(bytemuck::cast_slice(&self.pending)) {
-                self.error = Some(e);
-            }
+        if self.error.is_none()
+            && let Err(e) = self.store.write_all(bytemuck::cast_slice(&self.pending))
+        {
+            self.error = Some(e);
         }
         self.pending.clear();
     }
@@ -509,10 +509,10 @@ where
                 let mut batch: Vec<Replayed<X, U>> = Vec::new();
                 let (mut used, mut steps) = (0, 0);
                 for k in (0..segments).rev() {
-                    if used == 0 {
-                        if let Ok(b) = back_rx.try_recv() {
-                            batch = b;
-                        }
+                    if used == 0
+                        && let Ok(b) = back_rx.try_recv()
+                    {
+                        batch = b;
                     }
                     if used == batch.len() {
                         batch.push(Replayed::default());

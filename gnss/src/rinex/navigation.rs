@@ -39,7 +39,9 @@ fn nav_header(
                     return Err(format!("RINEX version {v}: 2.xx and 3.xx are read"));
                 }
                 if kind != 'N' {
-                    return Err(format!("file type `{kind}`: only GPS (RINEX 2) and mixed/any (RINEX 3) navigation files (`N`) hold Keplerian ephemerides"));
+                    return Err(format!(
+                        "file type `{kind}`: only GPS (RINEX 2) and mixed/any (RINEX 3) navigation files (`N`) hold Keplerian ephemerides"
+                    ));
                 }
                 version = v;
                 file_sys = if sys == ' ' { 'G' } else { sys };

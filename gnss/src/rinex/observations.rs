@@ -391,7 +391,7 @@ impl HeaderLines {
                 self.file_sys = sys;
             }
             "CRINEX VERS   / TYPE" => {
-                return Err("Hatanaka-compressed (CRINEX): decompress with `crx2rnx` first".into())
+                return Err("Hatanaka-compressed (CRINEX): decompress with `crx2rnx` first".into());
             }
             "MARKER NAME" => h.marker = l.get(..60).unwrap_or(l).trim().to_string(),
             "APPROX POSITION XYZ" => {
@@ -425,7 +425,7 @@ impl HeaderLines {
                     other => {
                         return Err(format!(
                             "time system `{other}` is not read (GPS, GAL, QZS, BDT)"
-                        ))
+                        ));
                     }
                 };
             }

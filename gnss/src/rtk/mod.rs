@@ -351,10 +351,11 @@ impl Rtk {
         // (held only where a slip can be seen: the geometry-free combination of two
         // frequencies; a single frequency's slip of a cycle or two passes the Doppler's test
         // and a held ambiguity would carry it)
-        if let (Some(after), Some(fix)) = (self.opt.hold, fix) {
-            if self.fixed_run >= after && self.opt.frequencies >= 2 {
-                self.hold(&fix);
-            }
+        if let (Some(after), Some(fix)) = (self.opt.hold, fix)
+            && self.fixed_run >= after
+            && self.opt.frequencies >= 2
+        {
+            self.hold(&fix);
         }
         Ok(solved)
     }
@@ -433,10 +434,11 @@ impl Rtk {
         for c in common.iter().filter(|c| c.key.1 == 0) {
             let Some(c2) = common.iter().find(|d| d.key == (c.key.0, 1)) else { continue };
             let gf = c.phase - c2.phase;
-            if let Some(&(epoch, gf0)) = self.gf.get(&c.key.0) {
-                if epoch + 1 == self.epoch && (gf - gf0).abs() > GF_SLIP {
-                    slipped.push(c.key.0);
-                }
+            if let Some(&(epoch, gf0)) = self.gf.get(&c.key.0)
+                && epoch + 1 == self.epoch
+                && (gf - gf0).abs() > GF_SLIP
+            {
+                slipped.push(c.key.0);
             }
             self.gf.insert(c.key.0, (self.epoch, gf));
         }

@@ -40,11 +40,12 @@ impl Rtk {
             return (float, None);
         };
         let ratio = found.ratio();
-        if ratio >= self.opt.ratio && found.success_rate >= self.opt.min_success_rate {
-            if let Some(e) = self.condition(&float, &g_mat, &a, &q, found.best(), ratio) {
-                let holdable = found.success_rate >= HOLD_SUCCESS_RATE;
-                return (e, holdable.then(|| (g_mat, integers(found.best()))));
-            }
+        if ratio >= self.opt.ratio
+            && found.success_rate >= self.opt.min_success_rate
+            && let Some(e) = self.condition(&float, &g_mat, &a, &q, found.best(), ratio)
+        {
+            let holdable = found.success_rate >= HOLD_SUCCESS_RATE;
+            return (e, holdable.then(|| (g_mat, integers(found.best()))));
         }
         if self.opt.partial {
             let least =

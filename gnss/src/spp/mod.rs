@@ -157,10 +157,10 @@ pub fn solve_prepared(
             }
             let mut ex = excluded.clone();
             ex.push(i);
-            if let Ok(f) = least_squares(time, sats, &ex, &kb, opt, prior) {
-                if f.used.len() > f.x.len() {
-                    ranked.push((i, f));
-                }
+            if let Ok(f) = least_squares(time, sats, &ex, &kb, opt, prior)
+                && f.used.len() > f.x.len()
+            {
+                ranked.push((i, f));
             }
         }
         ranked.sort_by(|a, b| a.1.chi2.total_cmp(&b.1.chi2));

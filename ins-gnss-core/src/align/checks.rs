@@ -78,10 +78,10 @@ pub fn turn_ratio(imu: &[ImuSample], gnss: &[GnssEpoch], t_a: f64, t_b: f64) -> 
     }
     let mut pairs = Vec::new();
     for i in 1..fixes.len() {
-        if let (Some(a), Some(b)) = (course[i - 1], course[i]) {
-            if fixes[i].t - fixes[i - 1].t <= 2.5 {
-                pairs.push((wrapped(b - a), psi[i] - psi[i - 1]));
-            }
+        if let (Some(a), Some(b)) = (course[i - 1], course[i])
+            && fixes[i].t - fixes[i - 1].t <= 2.5
+        {
+            pairs.push((wrapped(b - a), psi[i] - psi[i - 1]));
         }
     }
     if pairs.len() < 10 {
@@ -338,10 +338,10 @@ pub fn time_offset(
     };
     let mut pairs: Vec<(f64, CourseSpan, CourseSpan)> = Vec::new();
     for i in 1..fixes.len() {
-        if let (Some(a), Some(b)) = (course[i - 1], course[i]) {
-            if fixes[i].t - fixes[i - 1].t <= 2.5 {
-                pairs.push((wrapped(b - a), span(i - 1), span(i)));
-            }
+        if let (Some(a), Some(b)) = (course[i - 1], course[i])
+            && fixes[i].t - fixes[i - 1].t <= 2.5
+        {
+            pairs.push((wrapped(b - a), span(i - 1), span(i)));
         }
     }
     if pairs.len() < 10 {

@@ -217,10 +217,11 @@ where
                 out.push(report);
             }
         }
-        if cfg.error_floor && used >= 4 {
-            if let Some(f) = satellite_error_floor(&normal) {
-                self.floor = Some(f);
-            }
+        if cfg.error_floor
+            && used >= 4
+            && let Some(f) = satellite_error_floor(&normal)
+        {
+            self.floor = Some(f);
         }
         if cfg.carrier {
             // this epoch's phases, for the next one
@@ -341,10 +342,10 @@ fn carrier_rows(
         }
         let change = phase - p0;
         // a slip the receiver did not flag: the phase's rate far from the Doppler's
-        if let Some(rate) = s.range_rate {
-            if (change / dt - rate).abs() > SLIP_RATE {
-                continue;
-            }
+        if let Some(rate) = s.range_rate
+            && (change / dt - rate).abs() > SLIP_RATE
+        {
+            continue;
         }
         let sat_clock = ::gnss::ephemeris::C * (s.state.clock - clk0);
         let atm = phase_atmosphere(cfg, (ant.lat, ant.lon, ant.h), r_a, e.time, s);

@@ -151,20 +151,19 @@ where
                 );
                 out.push(report.map_err(err)?);
             }
-            if let Some(rate_std) = z.rate_std {
-                if t - v.last_zaru >= d.config().window - TIME_EPSILON {
-                    v.last_zaru = t;
-                    // the window mean's own white noise, ARW²/window, plus the configured σ
-                    let window = d.config().window.max(1e-3);
-                    let arw = S::imu_noise(&self.model).arw;
-                    let r = diag3(&arw.map(|a| a * a / window + rate_std * rate_std));
-                    let mean = d.mean_rate();
-                    coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
-                    recorder.before_update(&self.filter);
-                    let report =
-                        S::update::<A, Zaru, O>(&mut self.filter, &Zaru, &mean, &r, observer);
-                    out.push(report.map_err(err)?);
-                }
+            if let Some(rate_std) = z.rate_std
+                && t - v.last_zaru >= d.config().window - TIME_EPSILON
+            {
+                v.last_zaru = t;
+                // the window mean's own white noise, ARW²/window, plus the configured σ
+                let window = d.config().window.max(1e-3);
+                let arw = S::imu_noise(&self.model).arw;
+                let r = diag3(&arw.map(|a| a * a / window + rate_std * rate_std));
+                let mean = d.mean_rate();
+                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
+                recorder.before_update(&self.filter);
+                let report = S::update::<A, Zaru, O>(&mut self.filter, &Zaru, &mean, &r, observer);
+                out.push(report.map_err(err)?);
             }
             return Ok(true);
         }
@@ -183,24 +182,25 @@ where
         let t = imu.t;
         let err = |source| NavError::Measurement { t, source };
         let v = &mut self.vehicle;
-        if let Some(n) = v.aiding.nhc {
-            if t - v.last_nhc >= n.interval - TIME_EPSILON && speed >= n.min_speed {
-                v.last_nhc = t;
-                let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
-                let r = diag2(&n.std.component_mul(&n.std));
-                let z = nalgebra::Vector2::zeros();
-                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
-                recorder.before_update(&self.filter);
-                let report = S::update_vehicle::<A, Nhc, O>(
-                    &mut self.filter,
-                    &self.model,
-                    &model,
-                    &z,
-                    &r,
-                    observer,
-                );
-                out.push(report.map_err(err)?);
-            }
+        if let Some(n) = v.aiding.nhc
+            && t - v.last_nhc >= n.interval - TIME_EPSILON
+            && speed >= n.min_speed
+        {
+            v.last_nhc = t;
+            let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
+            let r = diag2(&n.std.component_mul(&n.std));
+            let z = nalgebra::Vector2::zeros();
+            coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
+            recorder.before_update(&self.filter);
+            let report = S::update_vehicle::<A, Nhc, O>(
+                &mut self.filter,
+                &self.model,
+                &model,
+                &z,
+                &r,
+                observer,
+            );
+            out.push(report.map_err(err)?);
         }
         Ok(())
     }

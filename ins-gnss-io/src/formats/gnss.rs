@@ -140,10 +140,10 @@ impl<R: BufRead> GnssReader<R> {
     /// The next epoch, `Ok(None)` at the end.
     pub fn next_epoch(&mut self) -> Result<Option<GnssEpoch>, LineError> {
         let mut e = self.next_fix()?;
-        if let Some(f) = e.as_mut() {
-            if let Some(m) = self.headings.take(f.t) {
-                f.heading = Some(m);
-            }
+        if let Some(f) = e.as_mut()
+            && let Some(m) = self.headings.take(f.t)
+        {
+            f.heading = Some(m);
         }
         Ok(e)
     }
@@ -289,7 +289,7 @@ impl<R: BufRead> GnssReader<R> {
                             path: self.lines.path().to_path_buf(),
                             line: 0,
                             kind: LineErrorKind::Empty,
-                        })
+                        });
                     }
                     other => {
                         let e = other.map_err(|k| self.lines.error(k))?;

@@ -100,7 +100,7 @@ fn next_record<R: BufRead>(
                     path: lines.path().to_path_buf(),
                     line: 0,
                     kind: LineErrorKind::Empty,
-                })
+                });
             }
             Ok(None) => return Ok(false),
             Err(e) if policy == BadLinePolicy::Skip && !matches!(e.kind, LineErrorKind::Io(_)) => {

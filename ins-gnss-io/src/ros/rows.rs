@@ -118,7 +118,7 @@ impl Recording {
                         kind: LineErrorKind::Invalid(format!(
                             "NavSatFix with an unknown covariance (type 0): set `{sigma_key}`"
                         )),
-                    })
+                    });
                 }
                 (_, None) => {
                     let v = r.var_enu;

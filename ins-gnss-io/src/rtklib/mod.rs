@@ -348,8 +348,21 @@ mod tests {
         let c = f * pc * f;
         let mut s = format!(
             "{:4} {:11.4} {:16.11} {:16.11} {:12.6} {:3} {:3} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:9.6} {:6.2} {:6.1}",
-            0, t, pos.lat * d, pos.lon * d, pos.h, q, 0, c[(0, 0)].sqrt(), c[(1, 1)].sqrt(),
-            c[(2, 2)].sqrt(), sqvar(c[(0, 1)]), sqvar(c[(1, 2)]), sqvar(c[(2, 0)]), 0.0, 0.0
+            0,
+            t,
+            pos.lat * d,
+            pos.lon * d,
+            pos.h,
+            q,
+            0,
+            c[(0, 0)].sqrt(),
+            c[(1, 1)].sqrt(),
+            c[(2, 2)].sqrt(),
+            sqvar(c[(0, 1)]),
+            sqvar(c[(1, 2)]),
+            sqvar(c[(2, 0)]),
+            0.0,
+            0.0
         );
         if let Some((v, vc)) = vel {
             let c = f * vc * f;

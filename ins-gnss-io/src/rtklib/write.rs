@@ -22,7 +22,10 @@ pub fn write_header_mode<W: Write>(
 ) -> std::io::Result<()> {
     writeln!(w, "% program   : {program}")?;
     writeln!(w, "% pos mode  : {mode}")?;
-    writeln!(w, "% (lat/lon/height=WGS84/ellipsoidal,Q=1:fix,2:float,3:sbas,4:dgps,5:single,6:ppp,ns=# of satellites)")?;
+    writeln!(
+        w,
+        "% (lat/lon/height=WGS84/ellipsoidal,Q=1:fix,2:float,3:sbas,4:dgps,5:single,6:ppp,ns=# of satellites)"
+    )?;
     write!(
         w,
         "%  GPST   {:>16} {:>16} {:>12} {:>3} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6}",

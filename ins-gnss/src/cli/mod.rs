@@ -339,7 +339,10 @@ pub fn demo() -> Result<(), CliError> {
     let t = Instant::now();
     let dir = PathBuf::from("ins-gnss-demo");
     let written = crate::scenario::Scenario::demo().write_dataset(&dir)?;
-    out!("demo: simulated a 600 s drive with a GNSS interference window (200–260 s) and a 60 s outage (400–460 s) into {}", dir.display());
+    out!(
+        "demo: simulated a 600 s drive with a GNSS interference window (200–260 s) and a 60 s outage (400–460 s) into {}",
+        dir.display()
+    );
     for f in &written {
         out!("  {}", f.display());
     }

@@ -260,7 +260,7 @@ impl QualitySection {
                     return Err(format!(
                         "`gnss.quality.drop`: unknown quality `{d}` (fix, float, sbas, dgps, \
                          single, ppp)"
-                    ))
+                    ));
                 }
             }
         }

@@ -301,10 +301,10 @@ impl ErrorsSection {
         if !(self.tau.is_finite() && self.tau > 0.0) {
             return Err(format!("`gnss.errors.tau = {}`: seconds, positive", self.tau));
         }
-        if let Some(s) = &self.sigma {
-            if !s.iter().all(|v| v.is_finite() && *v >= 0.0) {
-                return Err(format!("`gnss.errors.sigma = {s:?}`: metres, not negative"));
-            }
+        if let Some(s) = &self.sigma
+            && !s.iter().all(|v| v.is_finite() && *v >= 0.0)
+        {
+            return Err(format!("`gnss.errors.sigma = {s:?}`: metres, not negative"));
         }
         Ok(())
     }
@@ -433,7 +433,7 @@ impl TightSection {
             other => {
                 return Err(format!(
                     "`gnss.tight.ionosphere = \"{other}\"`: klobuchar, iono-free or off"
-                ))
+                ));
             }
         };
         let troposphere = Troposphere::from_name(&self.troposphere).ok_or_else(|| {

@@ -126,7 +126,7 @@ impl Mounting {
                             return Err(format!(
                                 "axis `{a}`: each entry is a sensor axis `x`, `y` or `z`, with a \
                                  sign if reversed (`-y`)"
-                            ))
+                            ));
                         }
                     };
                     if seen[col] {

@@ -219,12 +219,12 @@ impl Config {
         if let Some(t) = d.end_time {
             finite("data.end_time", &[t])?;
         }
-        if let (Some(s), Some(e)) = (d.start_time, d.end_time) {
-            if s >= e {
-                return Err(format!(
-                    "`data.start_time` ({s} s) must be before `data.end_time` ({e} s)"
-                ));
-            }
+        if let (Some(s), Some(e)) = (d.start_time, d.end_time)
+            && s >= e
+        {
+            return Err(format!(
+                "`data.start_time` ({s} s) must be before `data.end_time` ({e} s)"
+            ));
         }
         Ok(())
     }
@@ -253,10 +253,10 @@ impl Config {
                 return Err(format!("`init.position` height {} m is outside −1 km…+100 km", p[2]));
             }
         }
-        if let Some(v) = i.velocity {
-            if v.iter().any(|v| v.abs() > 2_000.0) {
-                return Err(format!("`init.velocity` {v:?} m/s: a component beyond 2 km/s"));
-            }
+        if let Some(v) = i.velocity
+            && v.iter().any(|v| v.abs() > 2_000.0)
+        {
+            return Err(format!("`init.velocity` {v:?} m/s: a component beyond 2 km/s"));
         }
         for (key, v) in [
             ("init.position_std", i.position_std),
@@ -475,7 +475,7 @@ impl Config {
                     return Err(format!(
                         "missing `imu_noise.{sensor}_bias_std` ({unit}, with `corr_time`) or \
                          `imu_noise.{sensor}_bias_rw` ({unit}/√h; `_si`: SI per √s)"
-                    ))
+                    ));
                 }
                 1 => {}
                 _ => {
@@ -483,7 +483,7 @@ impl Config {
                         "`{}`: give the bias noise once, either as an instability with \
                          `corr_time` or as a random walk",
                         given.join("`, `")
-                    ))
+                    ));
                 }
             }
             if let Some(v) = std {
@@ -492,7 +492,7 @@ impl Config {
                     None => {
                         return Err(format!(
                             "`imu_noise.{sensor}_bias_std` needs `imu_noise.corr_time` (hours)"
-                        ))
+                        ));
                     }
                     Some(t) => {
                         finite("imu_noise.corr_time", &[t])?;

@@ -82,15 +82,15 @@ impl RefReader {
                 return Err(self.lines.error(ins_gnss_io::LineErrorKind::ColumnCount {
                     expected: vec![11, 4],
                     found,
-                }))
+                }));
             }
         };
-        if let Some(p) = self.prev_t {
-            if rec.t <= p {
-                return Err(self
-                    .lines
-                    .error(ins_gnss_io::LineErrorKind::TimeBackwards { t: rec.t, previous: p }));
-            }
+        if let Some(p) = self.prev_t
+            && rec.t <= p
+        {
+            return Err(self
+                .lines
+                .error(ins_gnss_io::LineErrorKind::TimeBackwards { t: rec.t, previous: p }));
         }
         self.prev_t = Some(rec.t);
         Ok(Some(rec))

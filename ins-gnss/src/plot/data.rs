@@ -103,11 +103,13 @@ pub(super) fn error_series(
                 a = b.take();
                 b = res.next_record().map_err(|e| e.to_string())?;
             }
-            if let (Some(ra), Some(rb)) = (&a, &b) {
-                if ra.t <= t.t && rb.t >= t.t && rb.t - ra.t <= MAX_REFERENCE_GAP {
-                    let (dp, _, _) = errors(&interpolate(ra, rb, t.t), &t);
-                    all.push((t.t, [dp.x, dp.y, dp.z, f64::NAN, f64::NAN, f64::NAN]));
-                }
+            if let (Some(ra), Some(rb)) = (&a, &b)
+                && ra.t <= t.t
+                && rb.t >= t.t
+                && rb.t - ra.t <= MAX_REFERENCE_GAP
+            {
+                let (dp, _, _) = errors(&interpolate(ra, rb, t.t), &t);
+                all.push((t.t, [dp.x, dp.y, dp.z, f64::NAN, f64::NAN, f64::NAN]));
             }
             t_rec = tru.next_record().map_err(|e| e.to_string())?;
         }
@@ -119,11 +121,11 @@ pub(super) fn error_series(
             }
             t_rec = tru.next_record().map_err(|e| e.to_string())?;
         }
-        if let Some(t) = &t_rec {
-            if (t.t - r.t).abs() < 1e-6 {
-                let (dp, _, da) = errors(&r, t);
-                all.push((r.t, [dp.x, dp.y, dp.z, da.x, da.y, da.z]));
-            }
+        if let Some(t) = &t_rec
+            && (t.t - r.t).abs() < 1e-6
+        {
+            let (dp, _, da) = errors(&r, t);
+            all.push((r.t, [dp.x, dp.y, dp.z, da.x, da.y, da.z]));
         }
     }
     let mut out: [Series; 6] = Default::default();

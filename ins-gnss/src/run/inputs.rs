@@ -253,10 +253,10 @@ impl ImuFeed {
 
 /// A batch's samples to the checks' tee while it listens (closed once it hangs up).
 fn tee_samples(tee: &mut Option<Tee>, batch: &[(ImuSample, usize)]) {
-    if let Some(to) = tee {
-        if to.send(batch.iter().map(|(s, _)| *s).collect()).is_err() {
-            *tee = None;
-        }
+    if let Some(to) = tee
+        && to.send(batch.iter().map(|(s, _)| *s).collect()).is_err()
+    {
+        *tee = None;
     }
 }
 

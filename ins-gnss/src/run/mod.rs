@@ -335,10 +335,10 @@ where
                             Flow::Stop => return Ok(()),
                             Flow::Skipped => {}
                             Flow::Filtered => {
-                                if pass.summary.imu_epochs.is_multiple_of(2000) {
-                                    if let Some(p) = progress.as_mut() {
-                                        p(sample.t);
-                                    }
+                                if pass.summary.imu_epochs.is_multiple_of(2000)
+                                    && let Some(p) = progress.as_mut()
+                                {
+                                    p(sample.t);
                                 }
                             }
                         }

@@ -232,13 +232,13 @@ where
         for u in &self.updates {
             self.out.update(u)?;
         }
-        if let (Some(plan), false) = (self.probe, self.updates.is_empty()) {
-            if let Some(found) = probe_fix_errors(self.nav.filter().strategy(), &self.at) {
-                if plan.judges(found.factor, found.lag_one) {
-                    return Err(RunError::FixErrorsProbed(found));
-                }
-                self.probe = None;
+        if let (Some(plan), false) = (self.probe, self.updates.is_empty())
+            && let Some(found) = probe_fix_errors(self.nav.filter().strategy(), &self.at)
+        {
+            if plan.judges(found.factor, found.lag_one) {
+                return Err(RunError::FixErrorsProbed(found));
             }
+            self.probe = None;
         }
         // after every update, and once a second without (an outage's σ)
         if !self.updates.is_empty() || sample.t >= self.last_std + STD_EVERY - 1e-9 {

@@ -163,15 +163,15 @@ fn from_transforms(
         yaw.to_degrees()
     ));
     let from_imu = |t: Vector3<f64>| -> [f64; 3] { (flip * (t - t_imu)).into() };
-    if cfg.gnss.lever_arm == [0.0; 3] {
-        if let Some((_, t_ant)) = rec.transform(&base, &rec.fix_topic.1) {
-            let lever = from_imu(t_ant);
-            from.lever_arm = Some(lever);
-            notes.push(format!(
-                "gnss.lever_arm from /tf_static ({base} → {}): {lever:?} m (FRD)",
-                rec.fix_topic.1
-            ));
-        }
+    if cfg.gnss.lever_arm == [0.0; 3]
+        && let Some((_, t_ant)) = rec.transform(&base, &rec.fix_topic.1)
+    {
+        let lever = from_imu(t_ant);
+        from.lever_arm = Some(lever);
+        notes.push(format!(
+            "gnss.lever_arm from /tf_static ({base} → {}): {lever:?} m (FRD)",
+            rec.fix_topic.1
+        ));
     }
     if cfg.vehicle.odometer.as_ref().is_some_and(|o| o.lever_arm == [0.0; 3]) {
         let lever = from_imu(Vector3::zeros());

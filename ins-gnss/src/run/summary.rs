@@ -457,29 +457,29 @@ impl RunSummary {
     pub fn lines(&self) -> Vec<String> {
         let s = self;
         let mut lines = vec![format!(
-        "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {}{} rejected; \
+            "{}: {} IMU epochs ({:.1}–{:.1} s), {} GNSS epochs: {} accepted, {} inflated, {}{} rejected; \
          skipped IMU lines {} (gaps bridged {}), GNSS lines {}; {:.2} s wall, {:.0} epochs/s{}",
-        s.strategy,
-        s.imu_epochs,
-        s.span.0,
-        s.span.1,
-        s.gnss_epochs,
-        s.accepted,
-        s.inflated,
-        if s.deflated > 0 { format!("{} deflated, ", s.deflated) } else { String::new() },
-        s.rejected,
-        s.imu_skipped.total() - s.imu_skipped.gaps,
-        s.imu_skipped.gaps,
-        s.gnss_skipped.total(),
-        s.wall_time,
-        s.imu_epochs as f64 / s.wall_time.max(1e-9),
-        // (a run in memory has no output directory)
-        if s.out_dir.as_os_str().is_empty() {
-            String::new()
-        } else {
-            format!("; output {}", s.out_dir.display())
-        }
-    )];
+            s.strategy,
+            s.imu_epochs,
+            s.span.0,
+            s.span.1,
+            s.gnss_epochs,
+            s.accepted,
+            s.inflated,
+            if s.deflated > 0 { format!("{} deflated, ", s.deflated) } else { String::new() },
+            s.rejected,
+            s.imu_skipped.total() - s.imu_skipped.gaps,
+            s.imu_skipped.gaps,
+            s.gnss_skipped.total(),
+            s.wall_time,
+            s.imu_epochs as f64 / s.wall_time.max(1e-9),
+            // (a run in memory has no output directory)
+            if s.out_dir.as_os_str().is_empty() {
+                String::new()
+            } else {
+                format!("; output {}", s.out_dir.display())
+            }
+        )];
         if s.gnss_sigma_from_hdop > 0 {
             lines.push(format!(
                 "GNSS σ: {} fixes state none (no GST sentence): σ from their HDOP × the fix \

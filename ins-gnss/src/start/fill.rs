@@ -34,27 +34,28 @@ pub(super) fn fill_init(
     let fit_heading =
         motion.is_some_and(|m| m.att_std.z.hypot(0.25f64.to_radians()) <= MAX_HEADING_STD);
     let mut bank_says = String::new();
-    if !is_static && i.attitude.is_none() && !fit_heading {
-        if let Some(b) = moving_bank(config, imu, gnss, t0, bias_std) {
-            if b.bank.std.hypot(0.25f64.to_radians()) <= MAX_HEADING_STD {
-                fill_from_moving_bank(config, init, report, &b, gnss, t0)?;
-                return fill_rest(config, init, report, still, is_static, None);
-            }
-            bank_says = format!(
-                "; a bank of {BANK_SIZE} headings over {} fixes leaves it at ±{:.0}°",
-                b.bank.fixes,
-                b.bank.std.to_degrees()
-            );
+    if !is_static
+        && i.attitude.is_none()
+        && !fit_heading
+        && let Some(b) = moving_bank(config, imu, gnss, t0, bias_std)
+    {
+        if b.bank.std.hypot(0.25f64.to_radians()) <= MAX_HEADING_STD {
+            fill_from_moving_bank(config, init, report, &b, gnss, t0)?;
+            return fill_rest(config, init, report, still, is_static, None);
         }
+        bank_says = format!(
+            "; a bank of {BANK_SIZE} headings over {} fixes leaves it at ±{:.0}°",
+            b.bank.fixes,
+            b.bank.std.to_degrees()
+        );
     }
-    if i.attitude.is_none() {
-        if let Some(a) = antenna_heading(config, imu, gnss, t0) {
-            let took = fill_from_antennas(
-                config, init, report, still, is_static, motion, imu, gnss, t0, a,
-            )?;
-            if took && motion.is_none() {
-                return fill_rest(config, init, report, still, is_static, None);
-            }
+    if i.attitude.is_none()
+        && let Some(a) = antenna_heading(config, imu, gnss, t0)
+    {
+        let took =
+            fill_from_antennas(config, init, report, still, is_static, motion, imu, gnss, t0, a)?;
+        if took && motion.is_none() {
+            return fill_rest(config, init, report, still, is_static, None);
         }
     }
     let i = init.clone();

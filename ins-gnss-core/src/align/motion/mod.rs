@@ -162,10 +162,10 @@ pub fn align_in_motion(
                 best = Some(fit);
             }
             // good enough, or long past the best span (the drift only grows)
-            if let Some(b) = &best {
-                if b.att_std.z < heading_std || t - t_a > 2.0 * (b.t_b - t_a) + 10.0 {
-                    return false;
-                }
+            if let Some(b) = &best
+                && (b.att_std.z < heading_std || t - t_a > 2.0 * (b.t_b - t_a) + 10.0)
+            {
+                return false;
             }
         }
         true

@@ -125,7 +125,7 @@ pub(super) fn robust_solve(
         let mut inl: Vec<f64> = r.clone();
         inl.sort_by(f64::total_cmp);
         let scale = robust_scale(&inl[..=h]);
-        fixes.iter().zip(&r).filter(|(_, &v)| v <= GROSS * scale).map(|(f, _)| *f).collect()
+        fixes.iter().zip(&r).filter(|&(_, &v)| v <= GROSS * scale).map(|(f, _)| *f).collect()
     };
     let first = keep(&x);
     if first.len() < 8 {
