@@ -226,8 +226,7 @@ where
         if cfg.carrier {
             // this epoch's phases, for the next one
             let a = Antenna::at(self.filter.state().nav(), &lever);
-            let anchor = a.r;
-            let llh = (a.pos.lat, a.pos.lon, a.pos.h);
+            let (anchor, llh) = (a.r, (a.pos.lat, a.pos.lon, a.pos.h));
             let sats = e
                 .sats
                 .iter()
