@@ -33,7 +33,7 @@ unit_tests! {
         files_are_reversed_in_place,
     ],
     ins_gnss::run::unit_tests::fix_errors => [
-        the_bank_is_the_same_one_pass_at_a_time_or_two_replayed_or_read,
+        the_bank_is_the_same_one_pass_at_a_time_or_two_replayed_or_read_start_kept,
     ],
     ins_gnss::plot::tests => [
         series_are_cut_at_holes_only,

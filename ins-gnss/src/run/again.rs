@@ -18,7 +18,10 @@ pub(super) fn run_with<O: Sink>(
     mut create: impl FnMut() -> Result<(O, O::Nav), RunError>,
 ) -> Result<(RunSummary, O), (RunError, bool)> {
     let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
-    let first = attempt(config, strategy.clone(), inputs, again, &mut create, None, None);
+    // the start decided once for the attempts it serves (the bank's, the run after it)
+    let memo = StartMemo::default();
+    let shared = Shared { replay: None, start: Some(&memo) };
+    let first = attempt(config, strategy.clone(), inputs, again, &mut create, None, shared);
     // the start's lines of the attempts that started again
     let mut lines = Vec::new();
     // a time offset the start found and calibration applies: again, on shifted stamps
@@ -29,7 +32,7 @@ pub(super) fn run_with<O: Sink>(
             lines.extend(found);
             let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
             let run =
-                settled(attempt(&c, strategy.clone(), inputs, again, &mut create, None, None));
+                settled(attempt(&c, strategy.clone(), inputs, again, &mut create, None, shared));
             shifted = Some(c);
             run
         }
@@ -38,7 +41,7 @@ pub(super) fn run_with<O: Sink>(
     let config = shifted.as_ref().unwrap_or(config);
     let result = match first {
         Err((RunError::FixErrorsProbed(probe), _)) => {
-            let (chosen, bank) = judge_fix_errors(config, &strategy, inputs, probe);
+            let (chosen, bank) = judge_fix_errors(config, &strategy, inputs, probe, &memo);
             let again = progress.as_mut().map(|p| &mut **p as Progress<'_>);
             // (the white model chosen: a white run, which does not probe again)
             let white = bank.is_some_and(|b| b.white_chosen());
@@ -48,7 +51,7 @@ pub(super) fn run_with<O: Sink>(
                 None => (config, Some(probe)),
             };
             let (mut summary, out) =
-                attempt(c, strategy.clone(), inputs, again, &mut create, prior, None)?;
+                attempt(c, strategy.clone(), inputs, again, &mut create, prior, shared)?;
             if let Some(f) = summary.fix_errors.as_mut() {
                 f.probe = Some(probe);
             }
@@ -75,7 +78,7 @@ pub(super) fn run_with<O: Sink>(
                     sigma,
                     -late
                 ));
-                settled(attempt(&c, strategy, inputs, progress, &mut create, None, None))
+                settled(attempt(&c, strategy, inputs, progress, &mut create, None, shared))
             }
             _ => Ok((summary, out)),
         },

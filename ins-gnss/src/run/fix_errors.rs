@@ -78,20 +78,22 @@ pub(super) fn judge_fix_errors(
     strategy: &AnyStrategy,
     inputs: &Inputs,
     probe: FixErrorProbe,
+    start: &StartMemo,
 ) -> (Option<Config>, Option<FixErrorBank>) {
     let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
-    judge_with(config, strategy, inputs, probe, workers, true)
+    judge_with(config, strategy, inputs, probe, workers, (true, Some(start)))
 }
 
 /// [`judge_fix_errors`] with `workers` passes at once, the IMU read once into memory
-/// (`replay`, within [`IMU_RECORDING_BYTES`]) or by each pass.
+/// (`reuse.0`, within [`IMU_RECORDING_BYTES`]) or by each pass, and the start kept by
+/// `reuse.1` or decided by each pass.
 fn judge_with(
     config: &Config,
     strategy: &AnyStrategy,
     inputs: &Inputs,
     probe: FixErrorProbe,
     workers: usize,
-    replay: bool,
+    (replay, start): (bool, Option<&StartMemo>),
 ) -> (Option<Config>, Option<FixErrorBank>) {
     let judged = config.for_bank_pass();
     // the inputs read once for every pass: a ROS recording into rows (with the
@@ -113,6 +115,7 @@ fn judge_with(
         strategy,
         inputs,
         replay,
+        start,
         probe,
         total: probe.declared * probe.factor.max(0.0).sqrt(),
         scored: Vec::new(),
@@ -126,9 +129,9 @@ fn judge_with(
     // white model's run
     let (first, white_ll) = if bank.workers > 1 {
         let replay = bank.replay.clone();
+        let shared = Shared { replay: replay.as_ref(), start };
         std::thread::scope(|s| {
-            let white =
-                s.spawn(|| likelihood(&white_config, strategy, inputs, replay.as_ref(), None));
+            let white = s.spawn(|| likelihood(&white_config, strategy, inputs, shared, None));
             bank.workers -= 1;
             let first = bank.profile(BANK_TAU, k0);
             bank.workers += 1;
@@ -169,6 +172,8 @@ struct Hypotheses<'a> {
     inputs: &'a Inputs,
     /// The IMU's samples, read once (`None`: each pass reads them).
     replay: Option<Arc<ImuRecording>>,
+    /// The start, decided once (`None`: each pass decides it).
+    start: Option<&'a StartMemo>,
     probe: FixErrorProbe,
     /// The fixes' total σ the probe found (N, E, D), m.
     total: Vector3<f64>,
@@ -192,11 +197,11 @@ fn likelihood(
     c: &Config,
     strategy: &AnyStrategy,
     inputs: &Inputs,
-    replay: Option<&Arc<ImuRecording>>,
+    shared: Shared<'_>,
     prior: Option<FixErrorProbe>,
 ) -> f64 {
     let mut create = || Ok((Discard, DiscardRows));
-    match attempt(c, strategy.clone(), inputs, None, &mut create, prior, replay) {
+    match attempt(c, strategy.clone(), inputs, None, &mut create, prior, shared) {
         Ok((summary, _)) => {
             summary.streams.iter().filter(|s| s.gnss).map(|s| s.log_likelihood_settled).sum()
         }
@@ -207,7 +212,8 @@ fn likelihood(
 impl Hypotheses<'_> {
     /// The fixes' log-likelihood of one pass (−∞: it failed).
     fn likelihood(&self, c: &Config, prior: Option<FixErrorProbe>) -> f64 {
-        likelihood(c, self.strategy, self.inputs, self.replay.as_ref(), prior)
+        let shared = Shared { replay: self.replay.as_ref(), start: self.start };
+        likelihood(c, self.strategy, self.inputs, shared, prior)
     }
 
     /// The hypothesis (k, τ)'s log-likelihood, run once (with `next`, the hypotheses
@@ -399,10 +405,10 @@ pub mod fix_errors_tests {
     use ins_gnss_sim::{scenarios, simulate, GnssSim, Trajectory};
 
     /// Independent paths agree: the bank's choice and what it reports are the same with
-    /// one pass at a time or two, and with the IMU replayed from memory or read again by
-    /// each pass (a simulated 600 s drive, fixes with 1/1/2 m white errors declared as
+    /// one pass at a time or two, with the IMU replayed from memory or read again by each
+    /// pass, and with the start decided by each pass or kept from the first attempt (a simulated 600 s drive, fixes with 1/1/2 m white errors declared as
     /// such; the probe from the program's first attempt).
-    pub fn the_bank_is_the_same_one_pass_at_a_time_or_two_replayed_or_read() {
+    pub fn the_bank_is_the_same_one_pass_at_a_time_or_two_replayed_or_read_start_kept() {
         let (start, segs) = scenarios::drive_600s();
         let traj = Trajectory::new(start, &segs).unwrap();
         let sigma = Vector3::new(1.0, 1.0, 2.0);
@@ -447,16 +453,24 @@ pub mod fix_errors_tests {
                 .unwrap();
         let strategy: AnyStrategy = "fixed".parse().unwrap();
         let mut create = || Ok((Discard, DiscardRows));
-        let probe = match attempt(&config, strategy.clone(), &inputs, None, &mut create, None, None)
+        let memo = StartMemo::default();
+        let shared = Shared { replay: None, start: Some(&memo) };
+        let probe = match attempt(&config, strategy.clone(), &inputs, None, &mut create, None, shared)
         {
             Err((RunError::FixErrorsProbed(p), _)) => p,
             other => panic!("the fixes were not probed: {:?}", other.map(|r| r.0.lines())),
         };
-        let one = judge_with(&config, &strategy, &inputs, probe, 1, true);
+        // (the configuration has no `[init]`: each pass's start is the in-motion alignment)
+        assert_eq!(crate::start::Look::of(&config), crate::start::Look::Span);
+        let one = judge_with(&config, &strategy, &inputs, probe, 1, (true, None));
         let (chosen, bank) = (one.0.as_ref().expect("a choice"), one.1.expect("a bank"));
         assert!(bank.runs >= 5, "{bank:?}");
-        assert_eq!(judge_with(&config, &strategy, &inputs, probe, 2, true), one);
-        assert_eq!(judge_with(&config, &strategy, &inputs, probe, 1, false), one);
+        assert_eq!(judge_with(&config, &strategy, &inputs, probe, 2, (true, None)), one);
+        assert_eq!(judge_with(&config, &strategy, &inputs, probe, 1, (false, None)), one);
+        // the start kept from the first attempt
+        assert_eq!(memo.hits(), 0);
+        assert_eq!(judge_with(&config, &strategy, &inputs, probe, 2, (true, Some(&memo))), one);
+        assert!(memo.hits() >= bank.runs, "every pass given the start kept: {} of {}", memo.hits(), bank.runs);
         assert_eq!(chosen.gnss.errors.model, crate::config::ErrorModel::White, "{bank:?}");
     }
 }

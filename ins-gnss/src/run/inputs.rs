@@ -291,6 +291,57 @@ impl ImuRecording {
     }
 }
 
+/// What the attempts of one run share: the IMU read once into memory (the fix-error
+/// bank's passes), and the start decided once ([`StartMemo`]).
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Shared<'a> {
+    pub(crate) replay: Option<&'a std::sync::Arc<ImuRecording>>,
+    pub(crate) start: Option<&'a StartMemo>,
+}
+
+/// The start an attempt decided, for the later attempts of the same run on the same
+/// inputs whose configuration differs from its own only in the fixes' error model and in
+/// smoothing, which the start does not read: the fix-error bank's passes and the run
+/// after them decide it once instead of once each (on navego without `[init]`, the
+/// in-motion alignment was a fifth of the bank's time).
+#[derive(Default)]
+pub(crate) struct StartMemo {
+    kept: std::sync::OnceLock<(Config, Start)>,
+    /// Attempts given the start kept.
+    hits: std::sync::atomic::AtomicUsize,
+}
+
+impl StartMemo {
+    /// What of `config` the start reads: all but `gnss.errors` and `filter.smooth`.
+    fn key(config: &Config) -> Config {
+        let mut key = config.clone();
+        key.gnss.errors = Default::default();
+        key.filter.smooth = false;
+        key
+    }
+
+    /// The start `starter` decides for `config`: the one kept, when kept for the same
+    /// key; else decided, and kept when it is the first.
+    pub(crate) fn decide(&self, config: &Config, starter: &Starter<'_>) -> Result<Start, String> {
+        let key = Self::key(config);
+        if let Some((kept, start)) = self.kept.get()
+            && *kept == key
+        {
+            self.hits.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            return Ok(start.clone());
+        }
+        let start = starter.decide()?;
+        let _ = self.kept.set((key, start.clone()));
+        Ok(start)
+    }
+
+    /// How many attempts were given the start kept.
+    #[cfg(feature = "unit-tests")]
+    pub(crate) fn hits(&self) -> usize {
+        self.hits.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
 /// The IMU samples for [`Checks`], a batch per message (none if the reader stopped
 /// early).
 pub(crate) type Tee = std::sync::mpsc::Sender<Vec<ImuSample>>;

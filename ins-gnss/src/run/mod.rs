@@ -147,7 +147,8 @@ pub fn run_in_memory(
 
 /// One attempt of [`run_with`]: `persisting` is the probe whose total noise scale is the
 /// prior of a run with the fixes' persisting error as states (`None`: the plan the
-/// configuration and the first fixes make).
+/// configuration and the first fixes make). `shared`: what it takes from the run's other
+/// attempts.
 fn attempt<O: Sink>(
     config: &Config,
     strategy: AnyStrategy,
@@ -155,7 +156,7 @@ fn attempt<O: Sink>(
     progress: Option<Progress<'_>>,
     create: &mut impl FnMut() -> Result<(O, O::Nav), RunError>,
     persisting: Option<FixErrorProbe>,
-    replay: Option<&std::sync::Arc<ImuRecording>>,
+    shared: Shared<'_>,
 ) -> Result<(RunSummary, O), (RunError, bool)> {
     // a recording is read once, into rows, and completes the configuration
     let recording;
@@ -168,9 +169,13 @@ fn attempt<O: Sink>(
     };
     let look = Look::of(config);
     let (mut feed, mut gnss, checks) =
-        open_feed(config, inputs, replay, look).map_err(|e| (e, false))?;
+        open_feed(config, inputs, shared.replay, look).map_err(|e| (e, false))?;
+    let decide = |starter: &Starter<'_>| match shared.start {
+        Some(memo) => memo.decide(config, starter),
+        None => starter.decide(),
+    };
     let ready = read_prefix(config, &mut feed, &mut gnss, look)
-        .and_then(|prefix| Ok((prefix.starter.decide().map_err(RunError::Start)?, prefix)))
+        .and_then(|prefix| Ok((decide(&prefix.starter).map_err(RunError::Start)?, prefix)))
         .and_then(|(start, prefix)| {
             if let Some(offset) = start.time_offset.filter(|o| *o != config.data.imu_time_offset) {
                 return Err(RunError::TimeOffsetApplied(offset, start.report));
@@ -358,6 +363,13 @@ where
         pass.summary.imu_skipped = feed.finish()?;
         // the checks' verdict first: a refused input explains a failed run
         beside.extend(checks.take().map_or(Ok(Vec::new()), Checks::join)?);
+        if let Err(RunError::FixErrorsProbed(_)) = result {
+            // the run starts again after the bank: an output this stretch could not write
+            // (a full disk) is reported now, not after the bank's passes
+            let _ = written?;
+            pass.out.flush()?;
+            return result;
+        }
         result?;
         pass.out.nav_done(written?);
         Ok(())
