@@ -11,7 +11,7 @@ use crate::eval::{Evaluation, Stats};
 use crate::run::RunSummary;
 
 /// Text made safe for HTML.
-fn escape(s: &str) -> String {
+pub(crate) fn escape(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     for c in s.chars() {
         match c {
@@ -40,7 +40,7 @@ const HEADER: &str = "<tr><th>result</th><th>epochs</th><th>N RMS m</th><th>E RM
 <th>yaw max °</th></tr>\n";
 
 /// An SVG file's markup, for inlining (its XML declaration dropped).
-fn inline_svg(path: &Path) -> Result<String, String> {
+pub(crate) fn inline_svg(path: &Path) -> Result<String, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let start = text.find("<svg").ok_or_else(|| format!("{}: not an SVG", path.display()))?;
     Ok(text[start..].to_string())
@@ -84,6 +84,22 @@ fn truth_tables(h: &mut String, tables: &[(String, Evaluation)]) {
     }
 }
 
+/// A report's beginning: the document's head with its style, the body and the title.
+pub(crate) fn head(title: &str) -> String {
+    let mut h = String::new();
+    h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n");
+    let _ = writeln!(h, "<title>{}</title>", escape(title));
+    h.push_str(
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em}\
+         table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #bbb;\
+         padding:3px 6px;text-align:right}td:first-child{text-align:left}\
+         pre{background:#f4f4f4;padding:1em;overflow-x:auto}.bad{color:#b00}\
+         svg{max-width:100%;height:auto}</style>\n</head>\n<body>\n",
+    );
+    let _ = writeln!(h, "<h1>{}</h1>", escape(title));
+    h
+}
+
 /// Write `out_dir/report.html` (through a `.partial` file, renamed when complete).
 pub fn write(
     out_dir: &Path,
@@ -92,17 +108,7 @@ pub fn write(
     tables: &[(String, Evaluation)],
     plots: &[PathBuf],
 ) -> Result<PathBuf, String> {
-    let mut h = String::new();
-    h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n");
-    let _ = writeln!(h, "<title>ins-gnss run: {}</title>", escape(&summary.strategy));
-    h.push_str(
-        "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em}\
-         table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #bbb;\
-         padding:3px 6px;text-align:right}td:first-child{text-align:left}\
-         pre{background:#f4f4f4;padding:1em;overflow-x:auto}.bad{color:#b00}\
-         svg{max-width:100%;height:auto}</style>\n</head>\n<body>\n",
-    );
-    let _ = writeln!(h, "<h1>ins-gnss run: {}</h1>", escape(&summary.strategy));
+    let mut h = head(&format!("ins-gnss run: {}", summary.strategy));
     h.push_str("<h2>Summary</h2>\n<ul>\n");
     for line in summary.lines() {
         let _ = writeln!(h, "<li>{}</li>", escape(&line));

@@ -1052,6 +1052,9 @@ fn rtk_base_position_is_taken_as_written_and_refused_when_wrong() {
         ("--code-bias-sigma", "nan"),
         ("--code-bias-tau", "0"),
         ("--hold", "x"),
+        ("--mask", "95"),
+        ("--ratio", "0.5"),
+        ("--max-age", "0"),
     ] {
         let out = bin()
             .arg("rtk")
@@ -1073,5 +1076,50 @@ fn rtk_base_position_is_taken_as_written_and_refused_when_wrong() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("120 of 120 epochs solved, 119 fixed"), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `ins-gnss rtk --report FILE.html`: one self-contained file (no script, no link) with the
+/// summary the command prints, the fix's metrics as the summary gives them, and the three
+/// plots inline; no scratch file left beside it.
+#[test]
+fn rtk_report_holds_the_summary_the_metrics_and_the_plots() {
+    let d = sample_data("rinex-rtklib");
+    let dir = temp("rtk-report");
+    std::fs::create_dir_all(&dir).unwrap();
+    let report = dir.join("rtk.html");
+    let out = bin()
+        .arg("rtk")
+        .args([d.join("07590920.05o.zst"), d.join("30400920.05o.zst"), d.join("07590920.05n.zst")])
+        .args(["--frequencies", "1", "--report"])
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let html = std::fs::read_to_string(&report).unwrap();
+    // every line printed before the report's own is in it
+    for line in stdout.lines().filter(|l| !l.starts_with("wrote ")) {
+        let escaped = line.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+        assert!(html.contains(&escaped), "{line}");
+    }
+    // L1 on the shipped baseline: 108 of 120 fixed, the first at 360 s (the summary's)
+    assert!(stdout.contains("108 fixed (90.0 %)") && stdout.contains("time to first fix 360 s"));
+    for row in [
+        "<td>fixed</td><td>108</td>",
+        "<td>fix rate</td><td>90.0 %</td>",
+        "<td>time to first fix, s</td><td>360.0</td>",
+        "<td>outages of the fix</td><td>0</td>",
+    ] {
+        assert!(html.contains(row), "{row}");
+    }
+    assert_eq!(html.matches("<svg").count(), 3);
+    for title in ["the ratio test", "the solutions&apos; σ", "offset from the mean fixed position"]
+    {
+        assert!(html.contains(title), "{title}");
+    }
+    assert!(!html.contains("<script") && !html.contains("href="));
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, vec![std::ffi::OsString::from("rtk.html")], "{left:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

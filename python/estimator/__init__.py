@@ -55,6 +55,8 @@ __all__ = [
     "EstimatorError",
     "EstimatorFileNotFoundError",
     "read_truth",
+    "rtk",
+    "RTK_COLUMNS",
     "plot",
     "common",
     "NAV_COLUMNS",
@@ -334,6 +336,51 @@ def read_truth(path: PathLike) -> pd.DataFrame:
     with ``NAV_COLUMNS`` (NaN where the file has no velocity or attitude)."""
     _missing(path, "the truth file")
     return pd.DataFrame(_native_call(_native.read_truth, os.fspath(path)), columns=NAV_COLUMNS)
+
+
+RTK_COLUMNS = list(_native.RTK_COLUMNS)
+
+
+def rtk(rover: PathLike, base: PathLike, nav: Union[PathLike, Sequence[PathLike]] = (),
+        base_position: Optional[Sequence[float]] = None, static: bool = False,
+        frequencies: int = 2, mask: float = 15.0, ratio: float = 3.0, max_age: float = 1.0,
+        min_success_rate: Optional[float] = None, partial: bool = False,
+        code_bias_sigma: float = 0.3, code_bias_tau: float = 60.0, hold: int = 5,
+        against: Optional[PathLike] = None) -> dict:
+    """RTK positions of ``rover`` against ``base`` (RINEX observations or u-blox logs,
+    plain or compressed), as ``ins-gnss rtk``, with its options and defaults: ``nav`` the
+    navigation files, ``base_position`` the base's ECEF X, Y, Z (m; default: the base
+    file's ``APPROX POSITION XYZ``), ``static`` a rover standing still, ``against`` an
+    RTKLIB ``.pos`` to compare with. Returns a dict: ``solutions``, a DataFrame with
+    ``RTK_COLUMNS`` (week, time of week, latitude, longitude in degrees, height and the σ
+    north, east, down in m, ``q`` 1 fixed and 2 float, the ratio (NaN: not searched), the
+    satellites, the ambiguities fixed); ``metrics``: ``epochs``, ``solved``, ``fixed``,
+    ``fix_rate``, ``time_to_first_fix`` (s; None: never), ``refix_times`` (s, one per
+    outage of the fix), ``ratio_fixed`` and ``ratio_other`` (minimum, median),
+    ``failures`` (epochs without a solution, by reason); ``base`` (latitude, longitude,
+    height used); with ``against``: ``common`` epochs, ``rms`` (3-D, m), ``offset_ned``,
+    ``fixed_compared`` and ``wrong_fixes`` (fixed epochs more than ``wrong_fix_limit`` m
+    from it: wrong fixes, when it is the truth). A setting out of range raises
+    ``EstimatorError`` naming it."""
+    navs = [nav] if isinstance(nav, (str, os.PathLike)) else list(nav)
+    for path, what in [(rover, "the rover's observations"), (base, "the base's observations")] + [
+            (n, "the navigation file") for n in navs]:
+        _missing(path, what)
+    if against is not None:
+        _missing(against, "the solution to compare with")
+    raw = _native_call(
+        _native.rtk, os.fspath(rover), os.fspath(base), [os.fspath(n) for n in navs],
+        base_position=None if base_position is None else [float(v) for v in base_position],
+        static_rover=bool(static), frequencies=int(frequencies), mask=float(mask),
+        ratio=float(ratio), max_age=float(max_age),
+        min_success_rate=None if min_success_rate is None else float(min_success_rate),
+        partial=bool(partial), code_bias_sigma=float(code_bias_sigma),
+        code_bias_tau=float(code_bias_tau), hold=int(hold),
+        against=None if against is None else os.fspath(against))
+    raw["solutions"] = pd.DataFrame(raw["solutions"], columns=RTK_COLUMNS)
+    raw["solutions"]["q"] = raw["solutions"]["q"].astype(int)
+    del raw["columns"]
+    return raw
 
 
 def plot(result: "Navigation", truth: Optional[PathLike] = None, smoothed: bool = False):

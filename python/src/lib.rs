@@ -7,6 +7,9 @@
 //! - `evaluate`: a navigation result against a truth file, as `ins-gnss eval`.
 //! - `filter`: the generic error-state Kalman filter and RTS smoother on Euclidean
 //!   states, with every adaptive strategy by name, and the kinematic models' matrices.
+//! - `rtk`: a rover's RTK positions against a base station, as `ins-gnss rtk`, with the
+//!   fix's metrics (fix rate, time to first fix and to fix again, ratio statistics) and
+//!   the wrong fixes against another solution.
 //! - `ahrs`: the AHRS of the third paper (conventional, modified, CS-MAEKF) on sensor
 //!   arrays, and its simulated flight.
 //!
@@ -19,6 +22,7 @@ mod callables;
 mod cores;
 mod dynamic;
 mod filter;
+mod rtk;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -307,5 +311,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     filter::register(m)?;
     callables::register(m)?;
     ahrs::register(m)?;
+    rtk::register(m)?;
     Ok(())
 }

@@ -311,6 +311,10 @@ struct RtkArgs {
     /// Compare with another solution of the same rover (an RTKLIB `.pos`, GPST).
     #[arg(long)]
     against: Option<PathBuf>,
+    /// Write an HTML report: the summary, the fix's metrics, the ratio, σ and offsets
+    /// plotted (one self-contained file).
+    #[arg(long, value_name = "FILE.html")]
+    report: Option<PathBuf>,
 }
 
 impl RunArgs {
@@ -372,20 +376,22 @@ impl SppArgs {
 impl RtkArgs {
     /// `ins-gnss rtk`.
     fn run(self) -> Result<(), cli::CliError> {
-        use gnss::rtk::{RtkMode, RtkOptions};
-        let mode = if self.fixed_rover { RtkMode::Static } else { RtkMode::Kinematic };
-        let defaults = RtkOptions::for_frequencies(mode, self.frequencies as usize);
-        let opt = RtkOptions {
-            elevation_mask: self.mask.to_radians(),
+        let settings = ins_gnss::rtk::RtkSettings {
+            static_rover: self.fixed_rover,
+            frequencies: self.frequencies as usize,
+            mask: self.mask,
             ratio: self.ratio,
             max_age: self.max_age,
-            min_success_rate: self.min_success_rate.unwrap_or(defaults.min_success_rate),
+            min_success_rate: self.min_success_rate,
             partial: self.partial,
             code_bias_sigma: self.code_bias_sigma,
             code_bias_tau: self.code_bias_tau,
-            hold: (self.hold > 0).then_some(self.hold),
-            ..defaults
+            hold: self.hold,
         };
+        let opt = settings.options().map_err(|(name, why)| {
+            let flag = if name == "static_rover" { "static" } else { name };
+            format!("--{} {why}", flag.replace('_', "-"))
+        })?;
         let base_pos = self.base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose()?;
         ins_gnss::rtk::run(
             &self.rover,
@@ -395,6 +401,7 @@ impl RtkArgs {
             self.out.as_deref(),
             &opt,
             self.against.as_deref(),
+            self.report.as_deref(),
         )
     }
 }

@@ -35,6 +35,18 @@ pub fn comparison(
     labels: &[&str],
     series: &[Vec<Series>],
 ) -> Result<(), String> {
+    comparison_about(path, panels, labels, series, false)
+}
+
+/// [`comparison`] with each panel's y range from 0 up, or symmetric about 0 when
+/// `symmetric` (signed values: offsets, errors).
+pub fn comparison_about(
+    path: &Path,
+    panels: &[(&str, &str)],
+    labels: &[&str],
+    series: &[Vec<Series>],
+    symmetric: bool,
+) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
     let tmp = partial(path);
     let root = SVGBackend::new(&tmp, (1000, 320 * panels.len() as u32)).into_drawing_area();
@@ -57,7 +69,7 @@ pub fn comparison(
             .map(|(i, (l, name))| (*name, l.as_slice(), Palette99::pick(i).to_rgba().rgb(), false))
             .map(|(n, l, (r, g, b), m)| (n, l, RGBColor(r, g, b), m))
             .collect();
-        draw_lines(&areas[k], title, unit, &lines, false, &[])?;
+        draw_lines(&areas[k], title, unit, &lines, symmetric, &[])?;
     }
     root.present().map_err(e)?;
     drop(root);

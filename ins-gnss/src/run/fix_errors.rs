@@ -455,11 +455,11 @@ pub mod fix_errors_tests {
         let mut create = || Ok((Discard, DiscardRows));
         let memo = StartMemo::default();
         let shared = Shared { replay: None, start: Some(&memo) };
-        let probe = match attempt(&config, strategy.clone(), &inputs, None, &mut create, None, shared)
-        {
-            Err((RunError::FixErrorsProbed(p), _)) => p,
-            other => panic!("the fixes were not probed: {:?}", other.map(|r| r.0.lines())),
-        };
+        let probe =
+            match attempt(&config, strategy.clone(), &inputs, None, &mut create, None, shared) {
+                Err((RunError::FixErrorsProbed(p), _)) => p,
+                other => panic!("the fixes were not probed: {:?}", other.map(|r| r.0.lines())),
+            };
         // (the configuration has no `[init]`: each pass's start is the in-motion alignment)
         assert_eq!(crate::start::Look::of(&config), crate::start::Look::Span);
         let one = judge_with(&config, &strategy, &inputs, probe, 1, (true, None));
@@ -470,7 +470,12 @@ pub mod fix_errors_tests {
         // the start kept from the first attempt
         assert_eq!(memo.hits(), 0);
         assert_eq!(judge_with(&config, &strategy, &inputs, probe, 2, (true, Some(&memo))), one);
-        assert!(memo.hits() >= bank.runs, "every pass given the start kept: {} of {}", memo.hits(), bank.runs);
+        assert!(
+            memo.hits() >= bank.runs,
+            "every pass given the start kept: {} of {}",
+            memo.hits(),
+            bank.runs
+        );
         assert_eq!(chosen.gnss.errors.model, crate::config::ErrorModel::White, "{bank:?}");
     }
 }

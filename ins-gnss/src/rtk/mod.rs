@@ -15,6 +15,9 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+mod report;
+pub use report::write_report;
+
 /// How far (s) a base epoch may be after the rover's and still count as at or before it
 /// (receivers' stamps differ by their clocks' milliseconds).
 pub const PAIRING: f64 = 0.5;
@@ -45,6 +48,119 @@ pub fn base_position(v: &[f64]) -> Result<Vector3<f64>, CliError> {
         .into());
     }
     Ok(r)
+}
+
+/// The settings of `ins-gnss rtk` and of the Python package's `rtk`, in the command's
+/// units, with its defaults ([`Default`]); [`RtkSettings::options`] checks them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RtkSettings {
+    /// The rover stands still (`--static`): its position is one state over the run.
+    pub static_rover: bool,
+    /// Frequencies: 1 (L1/E1) or 2 (with L2/E5b).
+    pub frequencies: usize,
+    /// Elevation mask, degrees.
+    pub mask: f64,
+    /// The ratio test's threshold (≥ 1).
+    pub ratio: f64,
+    /// The oldest base epoch a rover epoch is paired with, s.
+    pub max_age: f64,
+    /// The integer bootstrapping success rate a fix needs (`None`: the frequencies'
+    /// default).
+    pub min_success_rate: Option<f64>,
+    /// Partial fixing (the subset of ambiguities that passes).
+    pub partial: bool,
+    /// The code's persisting single-differenced bias σ, m (0: white code).
+    pub code_bias_sigma: f64,
+    /// Its correlation time, s.
+    pub code_bias_tau: f64,
+    /// Fix-and-hold after this many consecutive fixed epochs (0: never).
+    pub hold: usize,
+}
+
+impl Default for RtkSettings {
+    fn default() -> Self {
+        Self {
+            static_rover: false,
+            frequencies: 2,
+            mask: 15.0,
+            ratio: 3.0,
+            max_age: 1.0,
+            min_success_rate: None,
+            partial: false,
+            code_bias_sigma: 0.3,
+            code_bias_tau: 60.0,
+            hold: 5,
+        }
+    }
+}
+
+impl RtkSettings {
+    /// The solver's options, or the setting that cannot be used: (its name, why).
+    pub fn options(&self) -> Result<RtkOptions, (&'static str, String)> {
+        let bad =
+            |name: &'static str, value: f64, want: &str| Err((name, format!("{value}: {want}")));
+        if !(1..=2).contains(&self.frequencies) {
+            return bad("frequencies", self.frequencies as f64, "1 or 2");
+        }
+        if !(0.0..90.0).contains(&self.mask) {
+            return bad("mask", self.mask, "degrees of elevation, 0 to below 90");
+        }
+        if !(self.ratio.is_finite() && self.ratio >= 1.0) {
+            return bad("ratio", self.ratio, "the ratio test's threshold, 1 or more");
+        }
+        if !(self.max_age.is_finite() && self.max_age > 0.0) {
+            return bad("max_age", self.max_age, "seconds, positive");
+        }
+        if let Some(p) = self.min_success_rate
+            && !(0.0..=1.0).contains(&p)
+        {
+            return bad("min_success_rate", p, "a probability, 0 to 1");
+        }
+        if !(self.code_bias_sigma.is_finite() && self.code_bias_sigma >= 0.0) {
+            return bad("code_bias_sigma", self.code_bias_sigma, "metres, not negative");
+        }
+        if !(self.code_bias_tau.is_finite() && self.code_bias_tau > 0.0) {
+            return bad("code_bias_tau", self.code_bias_tau, "seconds, positive");
+        }
+        let mode = if self.static_rover { RtkMode::Static } else { RtkMode::Kinematic };
+        let defaults = RtkOptions::for_frequencies(mode, self.frequencies);
+        Ok(RtkOptions {
+            elevation_mask: self.mask.to_radians(),
+            ratio: self.ratio,
+            max_age: self.max_age,
+            min_success_rate: self.min_success_rate.unwrap_or(defaults.min_success_rate),
+            partial: self.partial,
+            code_bias_sigma: self.code_bias_sigma,
+            code_bias_tau: self.code_bias_tau,
+            hold: (self.hold > 0).then_some(self.hold),
+            ..defaults
+        })
+    }
+}
+
+/// What users ask of an RTK run: how often and how soon it fixed, and how sure the fixes
+/// were ([`RtkRun::metrics`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RtkMetrics {
+    /// Rover epochs read.
+    pub epochs: usize,
+    /// Epochs with a solution (fixed or float).
+    pub solved: usize,
+    /// Fixed epochs.
+    pub fixed: usize,
+    /// Fixed over solved epochs.
+    pub fix_rate: f64,
+    /// Seconds from the first solution to the first fixed one (`None`: never fixed).
+    pub time_to_first_fix: Option<f64>,
+    /// Each outage of the fix: seconds from the last fixed epoch before it to the first
+    /// after it ([`RtkRun::refix_times`]).
+    pub refix_times: Vec<f64>,
+    /// The ratio test's minimum and median over the fixed epochs (NaN: none).
+    pub ratio_fixed: (f64, f64),
+    /// The same over the epochs searched and not fixed.
+    pub ratio_other: (f64, f64),
+    /// Epochs without a solution, by reason.
+    pub failures: BTreeMap<String, usize>,
 }
 
 /// What an RTK run found.
@@ -92,6 +208,22 @@ impl RtkRun {
             }
         }
         out
+    }
+
+    /// The run's [`RtkMetrics`].
+    pub fn metrics(&self) -> RtkMetrics {
+        let (ratio_fixed, ratio_other) = self.ratios();
+        RtkMetrics {
+            epochs: self.epochs,
+            solved: self.solutions.len(),
+            fixed: self.solutions.iter().filter(|s| s.fixed).count(),
+            fix_rate: self.fix_rate(),
+            time_to_first_fix: self.time_to_first_fix(),
+            refix_times: self.refix_times(),
+            ratio_fixed,
+            ratio_other,
+            failures: self.failures.clone(),
+        }
     }
 
     /// The ratio test's values over the epochs searched: (minimum, median) of the fixed
@@ -202,21 +334,7 @@ pub fn far_fixes(run: &RtkRun, reference: &[(f64, Vector3<f64>)], limit: f64) ->
 /// Writes the solutions as an RTKLIB `.pos` (Q = 1 fixed, 2 float), atomically.
 pub fn write_pos(path: &Path, run: &RtkRun, opt: &RtkOptions) -> Result<(), CliError> {
     let mut w = create_partial(path)?;
-    let (lat, lon, h) = ecef_to_geodetic(&run.base);
-    let mode = format!(
-        "{} RTK, {} frequenc{}, elevation mask {:.0}°, ratio {:.1}, base {:.9}° {:.9}° {:.4} m",
-        match opt.mode {
-            RtkMode::Static => "static",
-            RtkMode::Kinematic => "kinematic",
-        },
-        opt.frequencies,
-        if opt.frequencies == 1 { "y" } else { "ies" },
-        opt.elevation_mask.to_degrees(),
-        opt.ratio,
-        lat.to_degrees(),
-        lon.to_degrees(),
-        h
-    );
+    let mode = describe(run, opt);
     write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
     let mut line = Vec::with_capacity(200);
     for s in &run.solutions {
@@ -241,9 +359,9 @@ pub fn write_pos(path: &Path, run: &RtkRun, opt: &RtkOptions) -> Result<(), CliE
     Ok(())
 }
 
-/// The fix's metrics of a run: time to first fix, the outages of the fix and the time to
-/// fix again, the ratio's minimum and median over the fixed epochs and the others.
-fn print_fix_metrics(run: &RtkRun) {
+/// The fix's metrics of a run as a line: time to first fix, the outages of the fix and the
+/// time to fix again, the ratio's minimum and median over the fixed epochs and the others.
+fn fix_metrics_line(run: &RtkRun) -> String {
     let (fixed_ratios, other_ratios) = run.ratios();
     let ratios = |(min, median): (f64, f64)| {
         if min.is_nan() {
@@ -253,7 +371,7 @@ fn print_fix_metrics(run: &RtkRun) {
         }
     };
     let refix = run.refix_times();
-    out!(
+    format!(
         "time to first fix {}; {} outage{} of the fix{}; ratio of the fixed epochs: {}; of the others: {}",
         run.time_to_first_fix().map_or("never".into(), |t| format!("{t:.0} s")),
         refix.len(),
@@ -268,10 +386,12 @@ fn print_fix_metrics(run: &RtkRun) {
         },
         ratios(fixed_ratios),
         ratios(other_ratios)
-    );
+    )
 }
 
-/// `ins-gnss rtk`: solve, print, write, compare.
+/// `ins-gnss rtk`: solve, print, write, compare, and with `report` an HTML report of it
+/// ([`write_report`]).
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     rover: &Path,
     base: &Path,
@@ -280,16 +400,15 @@ pub fn run(
     out: Option<&Path>,
     opt: &RtkOptions,
     against: Option<&Path>,
+    report: Option<&Path>,
 ) -> Result<(), CliError> {
     let run = solve_files(rover, base, navs, base_pos, opt)?;
-    let fixed: Vec<Vector3<f64>> =
-        run.solutions.iter().filter(|s| s.fixed).map(|s| s.pos).collect();
-    out!(
+    let mut lines = vec![format!(
         "{}: {} of {} epochs solved, {} fixed ({:.1} %){}",
         rover.display(),
         run.solutions.len(),
         run.epochs,
-        fixed.len(),
+        run.solutions.iter().filter(|s| s.fixed).count(),
         100.0 * run.fix_rate(),
         if run.failures.is_empty() {
             String::new()
@@ -299,11 +418,10 @@ pub fn run(
                 run.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", ")
             )
         }
-    );
-    if !fixed.is_empty() {
-        let (hs, vs, mean) = scatter(&fixed);
+    )];
+    if let Some((mean, hs, vs)) = fixed_scatter(&run) {
         let (lat, lon, h) = ecef_to_geodetic(&mean);
-        out!(
+        lines.push(format!(
             "fixed: mean {:.9}° {:.9}° {:.4} m, baseline {:.3} m; scatter about it: horizontal {:.4} m, vertical {:.4} m (RMS)",
             lat.to_degrees(),
             lon.to_degrees(),
@@ -311,12 +429,12 @@ pub fn run(
             (mean - run.base).norm(),
             hs,
             vs
-        );
+        ));
     }
-    print_fix_metrics(&run);
+    lines.push(fix_metrics_line(&run));
     if let Some(out) = out {
         write_pos(out, &run, opt)?;
-        out!("wrote {}", out.display());
+        lines.push(format!("wrote {}", out.display()));
     }
     if let Some(a) = against {
         let theirs = read_pos(a)?;
@@ -324,7 +442,7 @@ pub fn run(
             run.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
         let (n, rms, d) = compare(&ours, &theirs);
         let (matched, far) = far_fixes(&run, &theirs, WRONG_FIX);
-        out!(
+        lines.push(format!(
             "against {} ({} epochs): {n} common, 3D RMS difference {rms:.4} m, mean offset N {:.4} E {:.4} D {:.4} m; {far} of the {matched} fixed epochs in common more than {:.0} cm from it (wrong fixes, if it is the truth)",
             a.display(),
             theirs.len(),
@@ -332,9 +450,46 @@ pub fn run(
             d.y,
             d.z,
             100.0 * WRONG_FIX
-        );
+        ));
+    }
+    for line in &lines {
+        out!("{line}");
+    }
+    if let Some(path) = report {
+        write_report(path, &format!("ins-gnss rtk: {}", rover.display()), &lines, &run, opt)?;
+        out!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The mean of the fixed positions (ECEF) and the horizontal and vertical RMS scatter
+/// about it (`None`: nothing fixed).
+pub(crate) fn fixed_scatter(run: &RtkRun) -> Option<(Vector3<f64>, f64, f64)> {
+    let fixed: Vec<Vector3<f64>> =
+        run.solutions.iter().filter(|s| s.fixed).map(|s| s.pos).collect();
+    (!fixed.is_empty()).then(|| {
+        let (hs, vs, mean) = scatter(&fixed);
+        (mean, hs, vs)
+    })
+}
+
+/// The solver's settings in words (the `.pos` header's and the report's).
+pub(crate) fn describe(run: &RtkRun, opt: &RtkOptions) -> String {
+    let (lat, lon, h) = ecef_to_geodetic(&run.base);
+    format!(
+        "{} RTK, {} frequenc{}, elevation mask {:.0}°, ratio {:.1}, base {:.9}° {:.9}° {:.4} m",
+        match opt.mode {
+            RtkMode::Static => "static",
+            RtkMode::Kinematic => "kinematic",
+        },
+        opt.frequencies,
+        if opt.frequencies == 1 { "y" } else { "ies" },
+        opt.elevation_mask.to_degrees(),
+        opt.ratio,
+        lat.to_degrees(),
+        lon.to_degrees(),
+        h
+    )
 }
 
 #[cfg(feature = "unit-tests")]
