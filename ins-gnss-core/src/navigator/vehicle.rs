@@ -57,6 +57,25 @@ where
         self.nhc_update(imu, speed, observer, out, recorder)
     }
 
+    /// One of the vehicle's updates at `t`: the coarse alignment settled, the recorder
+    /// told, `update` made on the filter (with the process model), its report pushed.
+    fn vehicle_update<R: StepRecorder<S, ImuInput>>(
+        &mut self,
+        t: f64,
+        out: &mut Vec<UpdateSummary>,
+        recorder: &mut R,
+        update: impl FnOnce(
+            &mut ErrorStateFilter<S, A>,
+            &S::Model,
+        ) -> Result<UpdateSummary, FilterError>,
+    ) -> Result<(), NavError> {
+        coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
+        recorder.before_update(&self.filter);
+        let report = update(&mut self.filter, &self.model);
+        out.push(report.map_err(|source| NavError::Measurement { t, source })?);
+        Ok(())
+    }
+
     /// The odometer's reading: the reversed-reading bookkeeping, its scale calibrated
     /// while GNSS keeps the forward speed right, then used as a forward speed.
     fn odometer_update<O: Observer, R: StepRecorder<S, ImuInput>>(
@@ -67,7 +86,6 @@ where
         recorder: &mut R,
     ) -> Result<(), NavError> {
         let t = imu.t;
-        let err = |source| NavError::Measurement { t, source };
         let v = &mut self.vehicle;
         if let (Some(o), Some(reading)) = (v.aiding.odometer, imu.odometer) {
             let model = Odometer { c_vb: v.c_vb, lever_arm: o.lever_arm, gyro_rate: imu.rate() };
@@ -92,17 +110,9 @@ where
                 v.last_odometer = t;
                 let z = nalgebra::Vector1::new(reading / k);
                 let r = nalgebra::Matrix1::new(o.std * o.std);
-                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
-                recorder.before_update(&self.filter);
-                let report = S::update_vehicle::<A, Odometer, O>(
-                    &mut self.filter,
-                    &self.model,
-                    &model,
-                    &z,
-                    &r,
-                    observer,
-                );
-                out.push(report.map_err(err)?);
+                self.vehicle_update(t, out, recorder, |f, p| {
+                    S::update_vehicle::<A, Odometer, O>(f, p, &model, &z, &r, observer)
+                })?;
             }
         }
         Ok(())
@@ -121,7 +131,6 @@ where
         recorder: &mut R,
     ) -> Result<bool, NavError> {
         let t = imu.t;
-        let err = |source| NavError::Measurement { t, source };
         let v = &mut self.vehicle;
         // the filter's speed must be consistent with rest: below `max_speed` plus three of
         // its σ (tight while GNSS holds the velocity, wide in an outage, when a stop is
@@ -136,34 +145,26 @@ where
             }
         });
         if let (Some(z), Some(d)) = (zupt, &v.detector) {
+            // (the detector's window and mean rate, which the updates do not change)
+            let (window, mean) = (d.config().window, d.mean_rate());
             v.stationary_time += imu.dt;
+            let zaru = z.rate_std.filter(|_| t - v.last_zaru >= window - TIME_EPSILON);
             if !z.zaru_only && t - v.last_zupt >= z.interval - TIME_EPSILON {
                 v.last_zupt = t;
                 let r = Matrix3::identity() * z.velocity_std.powi(2);
-                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
-                recorder.before_update(&self.filter);
-                let report = S::update::<A, Zupt, O>(
-                    &mut self.filter,
-                    &Zupt,
-                    &Vector3::zeros(),
-                    &r,
-                    observer,
-                );
-                out.push(report.map_err(err)?);
+                self.vehicle_update(t, out, recorder, |f, _| {
+                    S::update::<A, Zupt, O>(f, &Zupt, &Vector3::zeros(), &r, observer)
+                })?;
             }
-            if let Some(rate_std) = z.rate_std
-                && t - v.last_zaru >= d.config().window - TIME_EPSILON
-            {
-                v.last_zaru = t;
+            if let Some(rate_std) = zaru {
+                self.vehicle.last_zaru = t;
                 // the window mean's own white noise, ARW²/window, plus the configured σ
-                let window = d.config().window.max(1e-3);
+                let window = window.max(1e-3);
                 let arw = S::imu_noise(&self.model).arw;
                 let r = diag3(&arw.map(|a| a * a / window + rate_std * rate_std));
-                let mean = d.mean_rate();
-                coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
-                recorder.before_update(&self.filter);
-                let report = S::update::<A, Zaru, O>(&mut self.filter, &Zaru, &mean, &r, observer);
-                out.push(report.map_err(err)?);
+                self.vehicle_update(t, out, recorder, |f, _| {
+                    S::update::<A, Zaru, O>(f, &Zaru, &mean, &r, observer)
+                })?;
             }
             return Ok(true);
         }
@@ -180,7 +181,6 @@ where
         recorder: &mut R,
     ) -> Result<(), NavError> {
         let t = imu.t;
-        let err = |source| NavError::Measurement { t, source };
         let v = &mut self.vehicle;
         if let Some(n) = v.aiding.nhc
             && t - v.last_nhc >= n.interval - TIME_EPSILON
@@ -190,17 +190,9 @@ where
             let model = Nhc { c_vb: v.c_vb, lever_arm: n.lever_arm, gyro_rate: imu.rate() };
             let r = diag2(&n.std.component_mul(&n.std));
             let z = nalgebra::Vector2::zeros();
-            coarse::settle(&mut self.coarse, &mut self.filter, &self.model)?;
-            recorder.before_update(&self.filter);
-            let report = S::update_vehicle::<A, Nhc, O>(
-                &mut self.filter,
-                &self.model,
-                &model,
-                &z,
-                &r,
-                observer,
-            );
-            out.push(report.map_err(err)?);
+            self.vehicle_update(t, out, recorder, |f, p| {
+                S::update_vehicle::<A, Nhc, O>(f, p, &model, &z, &r, observer)
+            })?;
         }
         Ok(())
     }
