@@ -6,7 +6,10 @@ use crate::cli::CliError;
 use gnss::spp::{single_point, Ionosphere, SppFailure, SppOptions, Troposphere};
 use gnss::Spp;
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
-use ins_gnss_io::formats::{create_partial, publish, BadLinePolicy, GnssFormat, GnssReader};
+use ins_gnss_core::GeoPos;
+use ins_gnss_io::formats::{
+    create_partial, partial_path, publish, BadLinePolicy, GnssFormat, GnssReader,
+};
 use ins_gnss_io::rtklib::{push_epoch_ns, write_header_mode};
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
@@ -67,34 +70,43 @@ pub fn solve_file(obs: &Path, navs: &[&Path], opt: &SppOptions) -> Result<SppRun
 
 /// Writes the solutions as an RTKLIB `.pos` (GPST week and seconds, LLH, NEU σ), atomically.
 pub fn write_pos(path: &Path, run: &SppRun, opt: &SppOptions) -> Result<(), CliError> {
-    let mut w = create_partial(path)?;
     let mode = format!(
         "single point (ionosphere {:?}, troposphere {:?}, elevation mask {:.0}°)",
         opt.ionosphere,
         opt.troposphere,
         opt.elevation_mask.to_degrees()
     );
-    write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
-    let mut line = Vec::with_capacity(200);
-    for s in &run.solutions {
+    let epochs = run.solutions.iter().map(|s| {
         let fix = ins_gnss_core::GnssEpoch::from_single_point(s, 0.0);
-        line.clear();
         let t = s.solution_time();
-        push_epoch_ns(
-            &mut line,
-            t.week as f64,
-            t.tow,
-            &fix.pos,
-            &fix.position_covariance(),
-            None,
-            5,
-            s.used.len(),
-        );
-        w.write_all(&line)?;
+        (t.week as f64, t.tow, fix.pos, fix.position_covariance(), 5, s.used.len())
+    });
+    write_solutions(path, &mode, epochs)
+}
+
+/// Writes an RTKLIB `.pos` through `PATH.partial`, renamed into place when complete (an
+/// earlier file stays until then): the header with `mode`, then one line per epoch —
+/// (GPS week, seconds of week, position, its N E D covariance, Q, satellites). A failure
+/// names the file.
+pub(crate) fn write_solutions(
+    path: &Path,
+    mode: &str,
+    epochs: impl Iterator<Item = (f64, f64, GeoPos, Matrix3<f64>, u8, usize)>,
+) -> Result<(), CliError> {
+    let partial = partial_path(path);
+    let named = |e: std::io::Error| format!("{}: cannot write: {e}", partial.display());
+    let mut w = create_partial(path).map_err(named)?;
+    let program = format!("ins-gnss {}", env!("CARGO_PKG_VERSION"));
+    write_header_mode(&mut w, &program, mode, false).map_err(named)?;
+    let mut line = Vec::with_capacity(200);
+    for (week, tow, pos, cov, q, ns) in epochs {
+        line.clear();
+        push_epoch_ns(&mut line, week, tow, &pos, &cov, None, q, ns);
+        w.write_all(&line).map_err(named)?;
     }
-    w.flush()?;
+    w.flush().map_err(named)?;
     drop(w);
-    publish(path)?;
+    publish(path).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(())
 }
 

@@ -1076,6 +1076,11 @@ fn rtk_base_position_is_taken_as_written_and_refused_when_wrong() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("120 of 120 epochs solved, 119 fixed"), "{text}");
+    // a `.pos` that cannot be written is named (it was a bare "No such file or directory")
+    let missing = dir.join("no-such-folder").join("rtk.pos");
+    let out = bin().arg("rtk").args(&files).arg("--out").arg(&missing).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no-such-folder/rtk.pos.partial"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

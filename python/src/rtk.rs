@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ins_gnss::rtk::{base_position, far_fixes, solve_files, RtkSettings, WRONG_FIX};
-use ins_gnss::spp::{compare, read_pos};
+use ins_gnss::rtk::{base_position, solve_files, RtkSettings, WRONG_FIX};
+use ins_gnss::spp::read_pos;
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 
 use crate::{fail, matrix};
@@ -49,7 +49,7 @@ pub fn rtk<'py>(
     nav: Vec<PathBuf>,
     base_position: Option<Vec<f64>>,
     static_rover: bool,
-    frequencies: usize,
+    frequencies: i64,
     mask: f64,
     ratio: f64,
     max_age: f64,
@@ -57,12 +57,16 @@ pub fn rtk<'py>(
     partial: bool,
     code_bias_sigma: f64,
     code_bias_tau: f64,
-    hold: usize,
+    hold: i64,
     against: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    // (counts as Python's ints: a negative one is refused by name, not as an overflow)
+    let count = |name: &str, v: i64, want: &str| {
+        usize::try_from(v).map_err(|_| fail(format!("`{name}` = {v}: {want}")))
+    };
     let settings = RtkSettings {
         static_rover,
-        frequencies,
+        frequencies: count("frequencies", frequencies, "1 or 2")?,
         mask,
         ratio,
         max_age,
@@ -70,10 +74,13 @@ pub fn rtk<'py>(
         partial,
         code_bias_sigma,
         code_bias_tau,
-        hold,
+        hold: count("hold", hold, "a count of epochs, 0 or more")?,
     };
     let opt = settings.options().map_err(|(name, why)| fail(format!("`{name}` = {why}")))?;
-    let base_pos = base_position.map(|v| self::base_position(&v)).transpose().map_err(fail)?;
+    let base_pos = base_position
+        .map(|v| self::base_position(&v))
+        .transpose()
+        .map_err(|e| fail(format!("`base_position`: {e}")))?;
     let (run, theirs) = py
         .allow_threads(|| -> Result<_, String> {
             let run =
@@ -121,16 +128,14 @@ pub fn rtk<'py>(
     out.set_item("base", (lat.to_degrees(), lon.to_degrees(), h))?;
     let compared = match theirs {
         Some(theirs) => {
-            let ours: Vec<_> = run.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
-            let (common, rms, offset) = compare(&ours, &theirs);
-            let (fixed_compared, wrong) = far_fixes(&run, &theirs, WRONG_FIX);
+            let c = run.compared(&theirs);
             let d = PyDict::new(py);
             d.set_item("epochs", theirs.len())?;
-            d.set_item("common", common)?;
-            d.set_item("rms", rms)?;
-            d.set_item("offset_ned", (offset.x, offset.y, offset.z))?;
-            d.set_item("fixed_compared", fixed_compared)?;
-            d.set_item("wrong_fixes", wrong)?;
+            d.set_item("common", c.common)?;
+            d.set_item("rms", c.rms)?;
+            d.set_item("offset_ned", (c.offset.x, c.offset.y, c.offset.z))?;
+            d.set_item("fixed_compared", c.fixed_compared)?;
+            d.set_item("wrong_fixes", c.wrong_fixes)?;
             d.set_item("wrong_fix_limit", WRONG_FIX)?;
             Some(d)
         }

@@ -70,7 +70,9 @@ def test_a_static_rover_fixes_every_epoch_within_millimetres_of_rtklib():
 
 @pytest.mark.parametrize("setting, value", [("frequencies", 3), ("mask", 95.0), ("ratio", 0.5),
                                             ("max_age", 0.0), ("min_success_rate", 1.5),
-                                            ("code_bias_sigma", -1.0), ("code_bias_tau", 0.0)])
+                                            ("code_bias_sigma", -1.0), ("code_bias_tau", 0.0),
+                                            ("frequencies", -1), ("hold", -1),
+                                            ("base_position", [1.0, 2.0])])
 def test_a_setting_out_of_range_is_refused_by_name(setting, value):
     with pytest.raises(estimator.EstimatorError, match=f"`{setting}`"):
         estimator.rtk(ROVER, BASE, NAV, **{setting: value})

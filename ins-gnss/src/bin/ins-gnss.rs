@@ -392,7 +392,11 @@ impl RtkArgs {
             let flag = if name == "static_rover" { "static" } else { name };
             format!("--{} {why}", flag.replace('_', "-"))
         })?;
-        let base_pos = self.base_position.map(|v| ins_gnss::rtk::base_position(&v)).transpose()?;
+        let base_pos = self
+            .base_position
+            .map(|v| ins_gnss::rtk::base_position(&v))
+            .transpose()
+            .map_err(|e| format!("--base-position: {e}"))?;
         ins_gnss::rtk::run(
             &self.rover,
             &self.base,

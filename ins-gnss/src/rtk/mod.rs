@@ -8,11 +8,8 @@ use gnss::rtk::{Rtk, RtkEpoch, RtkFailure, RtkMode, RtkOptions};
 use gnss::{single_point, ObsEpoch};
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::GeoPos;
-use ins_gnss_io::formats::{create_partial, publish};
-use ins_gnss_io::rtklib::{push_epoch_ns, write_header_mode};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 mod report;
@@ -22,30 +19,23 @@ pub use report::write_report;
 /// (receivers' stamps differ by their clocks' milliseconds).
 pub const PAIRING: f64 = 0.5;
 
-/// The base's ECEF position from `--base-position X,Y,Z` (m): three finite numbers whose
-/// distance from the Earth's centre is a place on Earth (6,300–6,450 km), or an error
-/// naming the option.
-pub fn base_position(v: &[f64]) -> Result<Vector3<f64>, CliError> {
+/// The base's ECEF position from three numbers X, Y, Z (m; `--base-position X,Y,Z`,
+/// Python's `base_position`): three finite numbers whose distance from the Earth's centre
+/// is a place on Earth (6,300–6,450 km), or why not (the caller names its option).
+pub fn base_position(v: &[f64]) -> Result<Vector3<f64>, String> {
     let r = match v {
         [x, y, z] => Vector3::new(*x, *y, *z),
-        _ => {
-            return Err(format!(
-                "--base-position: 3 numbers (ECEF X,Y,Z in m) expected, {} given",
-                v.len()
-            )
-            .into());
-        }
+        _ => return Err(format!("3 numbers (ECEF X,Y,Z in m) expected, {} given", v.len())),
     };
     if !(r.iter().all(|c| c.is_finite()) && (6.3e6..=6.45e6).contains(&r.norm())) {
         return Err(format!(
-            "--base-position: {:.3},{:.3},{:.3} is {:.0} km from the Earth's centre: not an \
-             ECEF position on Earth (m)",
+            "{:.3},{:.3},{:.3} is {:.0} km from the Earth's centre: not an ECEF position on \
+             Earth (m)",
             r.x,
             r.y,
             r.z,
             r.norm() / 1e3
-        )
-        .into());
+        ));
     }
     Ok(r)
 }
@@ -246,6 +236,34 @@ impl RtkRun {
     }
 }
 
+/// The run against another solution of the same rover ([`RtkRun::compared`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Comparison {
+    /// Epochs in common (within 1 ms).
+    pub common: usize,
+    /// 3D RMS difference over them, m.
+    pub rms: f64,
+    /// Mean offset, ours − theirs, N E D, m.
+    pub offset: Vector3<f64>,
+    /// Fixed epochs with an epoch of the other at their time.
+    pub fixed_compared: usize,
+    /// Of those, the ones more than [`WRONG_FIX`] from it (wrong fixes, if it is the
+    /// truth).
+    pub wrong_fixes: usize,
+}
+
+impl RtkRun {
+    /// The run against `theirs` (time of week, ECEF; an RTKLIB `.pos` as
+    /// [`read_pos`] reads it).
+    pub fn compared(&self, theirs: &[(f64, Vector3<f64>)]) -> Comparison {
+        let ours: Vec<(f64, Vector3<f64>)> =
+            self.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
+        let (common, rms, offset) = compare(&ours, theirs);
+        let (fixed_compared, wrong_fixes) = far_fixes(self, theirs, WRONG_FIX);
+        Comparison { common, rms, offset, fixed_compared, wrong_fixes }
+    }
+}
+
 /// Solves every rover epoch that has a base epoch at most [`RtkOptions::max_age`] older.
 pub fn solve_files(
     rover: &Path,
@@ -333,30 +351,20 @@ pub fn far_fixes(run: &RtkRun, reference: &[(f64, Vector3<f64>)], limit: f64) ->
 
 /// Writes the solutions as an RTKLIB `.pos` (Q = 1 fixed, 2 float), atomically.
 pub fn write_pos(path: &Path, run: &RtkRun, opt: &RtkOptions) -> Result<(), CliError> {
-    let mut w = create_partial(path)?;
-    let mode = describe(run, opt);
-    write_header_mode(&mut w, &format!("ins-gnss {}", env!("CARGO_PKG_VERSION")), &mode, false)?;
-    let mut line = Vec::with_capacity(200);
-    for s in &run.solutions {
+    let epochs = run.solutions.iter().map(|s| {
         let (lat, lon, h) = ecef_to_geodetic(&s.pos);
         let c = ecef_to_ned_rotation(lat, lon);
-        line.clear();
-        push_epoch_ns(
-            &mut line,
+        let q = if s.fixed { 1 } else { 2 };
+        (
             s.time.week as f64,
             s.time.tow,
-            &GeoPos { lat, lon, h },
-            &(c * s.cov * c.transpose()),
-            None,
-            if s.fixed { 1 } else { 2 },
+            GeoPos { lat, lon, h },
+            c * s.cov * c.transpose(),
+            q,
             s.sats,
-        );
-        w.write_all(&line)?;
-    }
-    w.flush()?;
-    drop(w);
-    publish(path)?;
-    Ok(())
+        )
+    });
+    crate::spp::write_solutions(path, &describe(run, opt), epochs)
 }
 
 /// The fix's metrics of a run as a line: time to first fix, the outages of the fix and the
@@ -403,7 +411,14 @@ pub fn run(
     report: Option<&Path>,
 ) -> Result<(), CliError> {
     let run = solve_files(rover, base, navs, base_pos, opt)?;
-    let mut lines = vec![format!(
+    // each line printed as it comes (a failed write comes after the summary), and kept
+    // for the report
+    let mut lines = Vec::new();
+    let mut say = |line: String| {
+        out!("{line}");
+        lines.push(line);
+    };
+    say(format!(
         "{}: {} of {} epochs solved, {} fixed ({:.1} %){}",
         rover.display(),
         run.solutions.len(),
@@ -418,10 +433,10 @@ pub fn run(
                 run.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", ")
             )
         }
-    )];
+    ));
     if let Some((mean, hs, vs)) = fixed_scatter(&run) {
         let (lat, lon, h) = ecef_to_geodetic(&mean);
-        lines.push(format!(
+        say(format!(
             "fixed: mean {:.9}° {:.9}° {:.4} m, baseline {:.3} m; scatter about it: horizontal {:.4} m, vertical {:.4} m (RMS)",
             lat.to_degrees(),
             lon.to_degrees(),
@@ -431,29 +446,27 @@ pub fn run(
             vs
         ));
     }
-    lines.push(fix_metrics_line(&run));
+    say(fix_metrics_line(&run));
     if let Some(out) = out {
         write_pos(out, &run, opt)?;
-        lines.push(format!("wrote {}", out.display()));
+        say(format!("wrote {}", out.display()));
     }
     if let Some(a) = against {
         let theirs = read_pos(a)?;
-        let ours: Vec<(f64, Vector3<f64>)> =
-            run.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
-        let (n, rms, d) = compare(&ours, &theirs);
-        let (matched, far) = far_fixes(&run, &theirs, WRONG_FIX);
-        lines.push(format!(
-            "against {} ({} epochs): {n} common, 3D RMS difference {rms:.4} m, mean offset N {:.4} E {:.4} D {:.4} m; {far} of the {matched} fixed epochs in common more than {:.0} cm from it (wrong fixes, if it is the truth)",
+        let c = run.compared(&theirs);
+        say(format!(
+            "against {} ({} epochs): {} common, 3D RMS difference {:.4} m, mean offset N {:.4} E {:.4} D {:.4} m; {} of the {} fixed epochs in common more than {:.0} cm from it (wrong fixes, if it is the truth)",
             a.display(),
             theirs.len(),
-            d.x,
-            d.y,
-            d.z,
+            c.common,
+            c.rms,
+            c.offset.x,
+            c.offset.y,
+            c.offset.z,
+            c.wrong_fixes,
+            c.fixed_compared,
             100.0 * WRONG_FIX
         ));
-    }
-    for line in &lines {
-        out!("{line}");
     }
     if let Some(path) = report {
         write_report(path, &format!("ins-gnss rtk: {}", rover.display()), &lines, &run, opt)?;

@@ -85,8 +85,8 @@ pub(super) fn judge_fix_errors(
 }
 
 /// [`judge_fix_errors`] with `workers` passes at once, the IMU read once into memory
-/// (`reuse.0`, within [`IMU_RECORDING_BYTES`]) or by each pass, and the start kept by
-/// `reuse.1` or decided by each pass.
+/// (`replay`, within [`IMU_RECORDING_BYTES`]) or by each pass, and the start kept by
+/// `start` or decided by each pass (`None`).
 fn judge_with(
     config: &Config,
     strategy: &AnyStrategy,
@@ -406,8 +406,9 @@ pub mod fix_errors_tests {
 
     /// Independent paths agree: the bank's choice and what it reports are the same with
     /// one pass at a time or two, with the IMU replayed from memory or read again by each
-    /// pass, and with the start decided by each pass or kept from the first attempt (a simulated 600 s drive, fixes with 1/1/2 m white errors declared as
-    /// such; the probe from the program's first attempt).
+    /// pass, and with the start decided by each pass or kept from the first attempt (a
+    /// simulated 600 s drive, fixes with 1/1/2 m white errors declared as such; the probe
+    /// from the program's first attempt).
     pub fn the_bank_is_the_same_one_pass_at_a_time_or_two_replayed_or_read_start_kept() {
         let (start, segs) = scenarios::drive_600s();
         let traj = Trajectory::new(start, &segs).unwrap();

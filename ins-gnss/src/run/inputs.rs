@@ -303,10 +303,11 @@ pub(crate) struct Shared<'a> {
 /// inputs whose configuration differs from its own only in the fixes' error model and in
 /// smoothing, which the start does not read: the fix-error bank's passes and the run
 /// after them decide it once instead of once each (on navego without `[init]`, the
-/// in-motion alignment was a fifth of the bank's time).
+/// in-motion alignment was a fifth of the bank's time). It keeps the last start decided:
+/// after a time offset is applied, the attempts on the shifted stamps share theirs.
 #[derive(Default)]
 pub(crate) struct StartMemo {
-    kept: std::sync::OnceLock<(Config, Start)>,
+    kept: std::sync::Mutex<Option<(Config, Start)>>,
     /// Attempts given the start kept.
     hits: std::sync::atomic::AtomicUsize,
 }
@@ -321,17 +322,20 @@ impl StartMemo {
     }
 
     /// The start `starter` decides for `config`: the one kept, when kept for the same
-    /// key; else decided, and kept when it is the first.
+    /// key; else decided, and kept.
     pub(crate) fn decide(&self, config: &Config, starter: &Starter<'_>) -> Result<Start, String> {
         let key = Self::key(config);
-        if let Some((kept, start)) = self.kept.get()
-            && *kept == key
-        {
+        let kept = self.kept.lock().ok().and_then(|k| {
+            k.as_ref().filter(|(kept, _)| *kept == key).map(|(_, start)| start.clone())
+        });
+        if let Some(start) = kept {
             self.hits.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            return Ok(start.clone());
+            return Ok(start);
         }
         let start = starter.decide()?;
-        let _ = self.kept.set((key, start.clone()));
+        if let Ok(mut k) = self.kept.lock() {
+            *k = Some((key, start.clone()));
+        }
         Ok(start)
     }
 
