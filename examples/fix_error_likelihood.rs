@@ -15,6 +15,16 @@
 //! tell 0.5× at 33 s from the truth or from 1.4× at 300 s); off it, the hypotheses that
 //! under-cover (σ too small for their τ) are tens to hundreds of log-units less likely.
 //! Hence the bank's rule: of the hypotheses within the margin of the best, the longest τ.
+//!
+//! `fine` in place of `told`: σ on a fine grid at τ 300 s (1.5 × 1.025ⁱ × the truth's, 16
+//! steps), the way the bank's σ walk sees one profile; `fine-no-outages` the same with a
+//! drive-0708 configuration's fixes taken from `GNSS-RTK.txt.zst` (no outages) instead of
+//! `GNSS-RTK-outage10x15.txt.zst`. What it shows (`aided-noinit.toml 1 1 fine`): with the
+//! outages the likelihood jumps by ~1,500 log-units between neighbouring σ — the run after
+//! an outage goes one of two ways (the gate matches `R` to the returning innovations, or
+//! takes them at full weight while they keep their direction, and the drift goes into the
+//! fixes' persisting-error states), and its accuracy with it; without the outages it is
+//! smooth in σ.
 #[path = "../tests/everyday/mod.rs"]
 mod everyday;
 use everyday::*;
@@ -26,10 +36,13 @@ fn main() {
     let declared: f64 = std::env::args().nth(3).and_then(|s| s.parse().ok()).unwrap_or(1.0);
     // (`told`: the white part given its true σ and not learned, the gate's learning off)
     let told = std::env::args().nth(4).is_some_and(|a| a == "told");
+    // (`fine`: a fine σ grid at τ 300 s; `fine-no-outages`: drive-0708's fixes without outages)
+    let fine = std::env::args().nth(4).is_some_and(|a| a.starts_with("fine"));
+    let no_outages = std::env::args().nth(4).is_some_and(|a| a == "fine-no-outages");
     let e = Errors::Wander([1.5, 1.5, 3.0], 100.0, 0.3);
     for seed in 1..=seeds {
         let sim;
-        let real;
+        let mut real;
         let d = match set.as_str() {
             "sim drive" => {
                 sim = sim_drive(seed);
@@ -41,12 +54,24 @@ fn main() {
             }
             s => {
                 real = drive_0708(s);
+                if no_outages {
+                    let (g, w) = rows(&data_dir("drive-0708").join("GNSS-RTK.txt.zst"));
+                    real.fixes = g
+                        .chunks(w)
+                        .map(|r| [r[0], r[1].to_radians(), r[2].to_radians(), r[3]])
+                        .collect();
+                }
                 &real
             }
         };
         let g = gnss_rows(d, e, declared, seed);
-        for tau in [33.3, 100.0, 300.0] {
-            for k in [0.5, 0.7, 1.0, 1.4] {
+        let (taus, ks): (&[f64], Vec<f64>) = if fine {
+            (&[300.0], (0..16).map(|i| 1.5 * 1.025f64.powi(i)).collect())
+        } else {
+            (&[33.3, 100.0, 300.0], vec![0.5, 0.7, 1.0, 1.4])
+        };
+        for &tau in taus {
+            for &k in &ks {
                 let mut extra = format!(
                     "[gnss.errors]\nmodel = \"persisting\"\n\
                      sigma = [{}, {}, {}]\ntau = {tau}\nlearn = {}\n",
@@ -73,7 +98,7 @@ fn main() {
                 let t0 = r.nav.first().map_or(0.0, |x| x[0]);
                 let (score, beyond) = score(d, &r, t0);
                 println!(
-                    "seed {seed} tau {tau:6.0} k {k:.1}: ll {ll:10.1} score {score:.3} beyond {:.1} %",
+                    "seed {seed} tau {tau:6.0} k {k:.3}: ll {ll:10.1} score {score:.3} beyond {:.1} %",
                     beyond * 100.0
                 );
             }
