@@ -19,12 +19,12 @@
 //! `fine` in place of `told`: σ on a fine grid at τ 300 s (1.5 × 1.025ⁱ × the truth's, 16
 //! steps), the way the bank's σ walk sees one profile; `fine-no-outages` the same with a
 //! drive-0708 configuration's fixes taken from `GNSS-RTK.txt.zst` (no outages) instead of
-//! `GNSS-RTK-outage10x15.txt.zst`. What it shows (`aided-noinit.toml 1 1 fine`): with the
-//! outages the likelihood jumps by ~1,500 log-units between neighbouring σ — the run after
-//! an outage goes one of two ways (the gate matches `R` to the returning innovations, or
-//! takes them at full weight while they keep their direction, and the drift goes into the
-//! fixes' persisting-error states), and its accuracy with it; without the outages it is
-//! smooth in σ.
+//! `GNSS-RTK-outage10x15.txt.zst`. What it showed (`aided-noinit.toml 1 1 fine`) while
+//! that configuration had a ZUPT that fired as the car crept: the likelihood jumped by
+//! ~1,500 log-units between neighbouring σ — the run after an outage went one of two ways
+//! (the gate matched `R` to the returning innovations, or took them at full weight while
+//! they kept their direction) — and was smooth without the outages; without that ZUPT it
+//! is smooth either way (−2,396 at 1.5×, −2,375 at 1.87×, −2,387 at 2.17×).
 #[path = "../tests/everyday/mod.rs"]
 mod everyday;
 use everyday::*;

@@ -310,11 +310,11 @@ impl Hypotheses<'_> {
     /// The best σ at one correlation time, from `k0`, by steps while the likelihood
     /// rises: (k, its log-likelihood). (Not refined between the steps: the likelihood of
     /// neighbouring hypotheses differs by the run's own discrete decisions — which fixes
-    /// the gate inflates, and what follows — by up to ~1,500 log-units between σ 5 %
-    /// apart on drive-0708 with wandering fixes, so a parabola through three steps
-    /// chased that noise: its vertex beat the steps' best in none of navego's six
-    /// profiles, and leaving it out changed no rate of the everyday corpus beyond its
-    /// seeds' scatter, for a fifth fewer runs.)
+    /// the gate inflates, and what follows — by 4–20 log-units on navego, where the
+    /// vertex of a parabola through three steps beat their best in none of six profiles
+    /// (and by ~1,500 on drive-0708 when a ZUPT held the creeping car); leaving it out
+    /// changed no rate of the everyday corpus beyond its seeds' scatter, for a fifth
+    /// fewer runs.)
     fn profile(&mut self, tau: f64, k0: f64) -> (f64, f64) {
         let (lo, hi) = BANK_SIGMA_RANGE;
         let k0 = k0.clamp(lo, hi);
