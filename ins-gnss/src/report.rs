@@ -146,8 +146,6 @@ pub fn write(
     h.push_str(&escape(&toml));
     h.push_str("</pre>\n</body>\n</html>\n");
     let path = out_dir.join("report.html");
-    let partial = ins_gnss_io::formats::partial_path(&path);
-    std::fs::write(&partial, h).map_err(|e| format!("{}: {e}", partial.display()))?;
-    std::fs::rename(&partial, &path).map_err(|e| format!("{}: {e}", path.display()))?;
+    ins_gnss_io::formats::write_published(&path, h)?;
     Ok(path)
 }

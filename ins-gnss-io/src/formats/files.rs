@@ -50,6 +50,14 @@ pub fn publish(path: &Path) -> std::io::Result<()> {
     std::fs::rename(partial, path)
 }
 
+/// Write `contents` whole to `path.partial` and [`publish`] it: an earlier `path` stays
+/// until the new one is complete. The error names the file that failed.
+pub fn write_published(path: &Path, contents: impl AsRef<[u8]>) -> Result<(), String> {
+    let partial = partial_path(path);
+    std::fs::write(&partial, contents).map_err(|e| format!("{}: {e}", partial.display()))?;
+    publish(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// Create a file for buffered writing (truncating it).
 pub fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
     Ok(BufWriter::with_capacity(1 << 16, File::create(path)?))
@@ -88,6 +96,25 @@ mod tests {
         std::fs::hard_link(&out, dir.join("kept2.txt")).unwrap();
         assert!(publish(&out).is_err());
         assert_eq!(std::fs::read_to_string(&out).unwrap(), "newer\n");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// `write_published` replaces the file when the write succeeds; a write that fails (a
+    /// full disk: its `.partial` is `/dev/full`) names the `.partial` and leaves the
+    /// earlier file as it was.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_failed_write_names_its_file_and_keeps_the_earlier_one() {
+        let dir = std::env::temp_dir().join(format!("write-published-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("report.html");
+        write_published(&out, "first\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "first\n");
+        std::os::unix::fs::symlink("/dev/full", partial_path(&out)).unwrap();
+        let e = write_published(&out, "second\n").unwrap_err();
+        assert!(e.contains("report.html.partial") && e.contains("No space left"), "{e}");
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "first\n");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

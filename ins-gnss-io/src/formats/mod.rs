@@ -163,7 +163,7 @@ mod heading;
 mod imu;
 mod nav;
 
-pub use files::{create, create_partial, open, partial_path, publish, Input};
+pub use files::{create, create_partial, open, partial_path, publish, write_published, Input};
 pub use gnss::{write_gnss, GnssFormat, GnssReader};
 pub use heading::{attach_headings, read_headings, write_headings, Headings};
 pub use imu::{write_imu, ImuFormat, ImuReader, DEFAULT_MAX_BRIDGE};

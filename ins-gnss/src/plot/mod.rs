@@ -84,7 +84,7 @@ fn partial(path: &Path) -> PathBuf {
 
 /// Move a finished plot into place.
 fn publish(path: &Path) -> Result<(), String> {
-    std::fs::rename(partial(path), path).map_err(|e| format!("{}: {e}", path.display()))
+    ins_gnss_io::formats::publish(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Every file [`write_all`] can write.

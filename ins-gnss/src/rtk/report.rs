@@ -55,9 +55,7 @@ pub fn write_report(
     }
     let _ = writeln!(h, "<h2>Settings</h2>\n<pre>{}</pre>", escape(&describe(run, opt)));
     h.push_str("</body>\n</html>\n");
-    let partial = ins_gnss_io::formats::partial_path(path);
-    std::fs::write(&partial, h).map_err(|e| format!("{}: {e}", partial.display()))?;
-    std::fs::rename(&partial, path).map_err(|e| format!("{}: {e}", path.display()))?;
+    ins_gnss_io::formats::write_published(path, h)?;
     Ok(())
 }
 
