@@ -12,7 +12,9 @@
 //! (exit 3) and run with the fixes' persisting error as states, and the causes the
 //! flagged runs named (`VERBOSE=1`: each seed's on stderr). `FILTER` keeps the cells whose name contains it (ends with
 //! it, when it ends in `$`). `EXTRA`: configuration lines merged into the user's runs (a prior
-//! to compare); `DUMP=DIR`: each seed's GNSS file written there (for KF-GINS).
+//! to compare); `DUMP=DIR`: each seed's GNSS file written there (for KF-GINS);
+//! `CORRUPT=gyro-deg`: the user's runs read angle increments in degrees as if in rad (a
+//! mislabelled unit the start must refuse: the refusal's rate over the corpus).
 //!
 //! The data: the simulator's 600 s drive (a MEMS IMU, standing 20 s first, fixes at 1
 //! Hz), drive-0708's real IMU with its RTK fixes moved (both shipped configurations: the
@@ -77,8 +79,24 @@ fn main() {
                         if let Ok(dir) = std::env::var("DUMP") {
                             dump(&dir, d, &g, seed);
                         }
-                        let o = run(d, g.clone(), &extra);
-                        let truth_run = run(d, gnss_rows(d, e, 1.0, seed), &e.oracle());
+                        let corrupted;
+                        let user = match std::env::var("CORRUPT").as_deref() {
+                            Ok("gyro-deg") => {
+                                let mut imu = d.imu.to_vec();
+                                for r in imu.chunks_mut(7) {
+                                    r[1..4].iter_mut().for_each(|v| *v = v.to_degrees());
+                                }
+                                corrupted = Data { imu: imu.into(), ..d.clone() };
+                                &corrupted
+                            }
+                            _ => d,
+                        };
+                        let o = run(user, g.clone(), &extra);
+                        // (a corrupted corpus counts refusals: no oracle run)
+                        let truth_run = match &o.refused {
+                            Some(_) if std::env::var_os("CORRUPT").is_some() => o.clone(),
+                            _ => run(d, gnss_rows(d, e, 1.0, seed), &e.oracle()),
+                        };
                         // (VERBOSE: each seed's score, the oracle's, and whether it restarted)
                         if std::env::var_os("VERBOSE").is_some() {
                             eprintln!(

@@ -486,6 +486,28 @@ fn mislabelled_units_axes_and_times_are_refused_with_the_key() {
     if ok || !err.contains("swapped") || !err.contains("GNSS_swapped.txt:1") {
         failures.push(format!("latitude/longitude swapped: ok = {ok}, {err}"));
     }
+    // a gyro in deg/s beside fixes that declare a single point's σ (15 m) for RTK's
+    // centimetres: a course between fixes was taken for noise unless they were 4 × 21 m
+    // apart, and no check looked at the turns (the declared σ is a prior: the course is
+    // judged on the noise the fixes show; the everyday corpus's fixes declaring ten times
+    // their σ, `CORRUPT=gyro-deg`, were not refused before either)
+    let mut gnss = String::new();
+    for r in rows(&dir.join("GNSS.txt")) {
+        // (positions only: a course from a fix's velocity does not ask its position σ)
+        let mut r = r[..7].to_vec();
+        r[4..7].copy_from_slice(&[15.0, 15.0, 30.0]);
+        gnss += &r.iter().map(|v| format!("{v:.12}")).collect::<Vec<_>>().join(" ");
+        gnss += "\n";
+    }
+    std::fs::write(dir.join("GNSS_x10.txt"), gnss).unwrap();
+    let in_deg = std::fs::read_to_string(dir.join("in_deg.toml"))
+        .unwrap()
+        .replace("gnss = \"GNSS.txt\"", "gnss = \"GNSS_x10.txt\"");
+    std::fs::write(dir.join("in_deg_x10.toml"), in_deg).unwrap();
+    let (ok, _, err) = run(&dir.join("in_deg_x10.toml"), &dir.join("out"));
+    if ok || !err.contains("`data.imu_columns.gyro_unit`") {
+        failures.push(format!("gyro in deg/s, fixes declaring 15 m: ok = {ok}, {err}"));
+    }
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
     std::fs::remove_dir_all(&dir).unwrap();
 }

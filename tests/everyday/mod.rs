@@ -86,6 +86,7 @@ impl Errors {
 }
 
 /// A data set: IMU rows, the fixes' true antenna positions, the truth, the configuration.
+#[derive(Clone)]
 pub struct Data {
     pub name: &'static str,
     pub imu: Arc<[f64]>,
@@ -101,6 +102,7 @@ pub struct Data {
     pub skip: f64,
 }
 
+#[derive(Clone)]
 pub enum Source {
     Toml(String),
     File(PathBuf),

@@ -14,11 +14,13 @@ pub struct NoiseSection {
     pub vrw: [f64; 3],
     /// Measure ARW and VRW per axis on the static start (σ of the rates and specific
     /// forces times √dt; vibration at rest included) instead of `arw` and `vrw`; the run
-    /// stops when the start is not static for `align.min_static` seconds.
+    /// stops when the IMU does not show the start still for `align.min_static` seconds
+    /// (a span the IMU shows still counts even when the fixes drift over it: no zero
+    /// velocity or gyro bias is taken from it then, but its noise is the IMU's).
     #[serde(default)]
     pub from_static: bool,
-    /// Raise `arw` / `vrw` on an axis where the static start (at least `align.min_static`
-    /// seconds) shows the IMU 1.5× noisier at rest than
+    /// Raise `arw` / `vrw` on an axis where the static start, or the span the IMU shows
+    /// still while the fixes drift (at least `align.min_static` seconds), shows the IMU 1.5× noisier at rest than
     /// declared: a filter told of less noise than the sensor has at rest is overconfident
     /// (on drive-0708 with KF-GINS's generic figures the innovations are 4.5× their σ and
     /// the 21-state filter diverges). Reported in the run summary. Default true; `false`

@@ -152,8 +152,8 @@ fn prepare(
     }
     if config.imu_noise.from_static {
         noise_from_static(config, &scene, &mut start)?;
-    } else if is_static {
-        noise_floor(config, &mut start.noise, &mut start.report, still);
+    } else if let (quiet, true, what) = noise_span(config, imu, gnss, t0) {
+        noise_floor(config, &mut start.noise, &mut start.report, (&quiet, what));
     }
     if need_init {
         let found = Found {
@@ -326,10 +326,11 @@ fn check_upright(
 /// `imu_noise.from_static`: the ARW and VRW measured on the static start, which must last
 /// `align.min_static`.
 fn noise_from_static(config: &Config, scene: &Scene<'_>, start: &mut Start) -> Result<(), String> {
-    let still = &scene.still;
-    if !scene.is_static {
+    let (still, enough, what) = noise_span(config, scene.imu, scene.gnss, scene.t0);
+    let still = &still;
+    if !enough {
         return Err(format!(
-            "`imu_noise.from_static`: the start is static for {:.1} s ({:.3}–{:.3} s); at \
+            "`imu_noise.from_static`: the IMU shows the start still for {:.1} s ({:.3}–{:.3} s); at \
              least `align.min_static` = {} s are needed to measure the noise: give \
              `imu_noise.arw` and `imu_noise.vrw` instead",
             still.duration(),
@@ -343,7 +344,8 @@ fn noise_from_static(config: &Config, scene: &Scene<'_>, start: &mut Start) -> R
     let arw = still.arw() / DEG_PER_SQRT_H;
     let vrw = still.vrw() / M_S_PER_SQRT_H;
     start.report.push(format!(
-        "noise from the static start {:.3}–{:.3} s ({:.1} s): ARW {} deg/√h, VRW {} m/s/√h",
+        "noise from the {} {:.3}–{:.3} s ({:.1} s): ARW {} deg/√h, VRW {} m/s/√h",
+        what,
         still.span.0,
         still.span.1,
         still.duration(),
@@ -443,11 +445,35 @@ fn after<'a>(
 /// the filter).
 fn prepare_floor(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Start {
     let mut start = Start::given(config, t0);
-    let (still, is_static) = static_start(config, imu, gnss, t0);
-    if is_static && !config.imu_noise.from_static {
-        noise_floor(config, &mut start.noise, &mut start.report, &still);
+    if let (quiet, true, what) = noise_span(config, imu, gnss, t0)
+        && !config.imu_noise.from_static
+    {
+        noise_floor(config, &mut start.noise, &mut start.report, (&quiet, what));
     }
     start
+}
+
+/// The span the IMU's noise is measured on (`imu_noise.from_static`, `static_floor`), and
+/// whether it lasts `align.min_static`, and how the report names it: the static start,
+/// else the span from `t0` the IMU shows still. The noise is the IMU's: fixes that drift over a span the IMU shows still
+/// (a constant velocity from the first sample, or fixes that wander faster than their
+/// declared σ says) make it no static start — no zero velocity, no gyro bias from its mean
+/// rate — but its samples show the sensors' noise as well (drive-0708 with a 3 m wander
+/// declared 0.15 m: the 33 s the car stands were taken for motion and the datasheet's ARW,
+/// 17× below what the IMU shows there, kept: 74–83 m on 3 of 20 seeds against 17–21 m).
+fn noise_span(
+    config: &Config,
+    imu: &[ImuSample],
+    gnss: &[GnssEpoch],
+    t0: f64,
+) -> (StaticStart, bool, &'static str) {
+    let (still, is_static) = static_start(config, imu, gnss, t0);
+    if is_static {
+        return (still, true, "static start");
+    }
+    let quiet = still_imu_span(config, imu, gnss, t0);
+    let long = quiet.samples > 0 && quiet.duration() >= config.align.min_static;
+    (quiet, long, "span the IMU shows still (the fixes drift over it: no static start)")
 }
 
 /// `imu_noise.static_floor`: raise each ARW / VRW axis of `noise` (the declared, SI) the
@@ -456,7 +482,7 @@ fn noise_floor(
     config: &Config,
     noise: &mut ImuNoise,
     report: &mut Vec<String>,
-    still: &StaticStart,
+    (still, what): (&StaticStart, &str),
 ) {
     if !config.imu_noise.static_floor {
         return;
@@ -479,7 +505,7 @@ fn noise_floor(
     let n = (noise.arw / DEG_PER_SQRT_H, noise.vrw / M_S_PER_SQRT_H);
     if raised {
         report.push(format!(
-            "noise raised to what the IMU shows at rest (static start {:.3}–{:.3} s, {:.1} s): \
+            "noise raised to what the IMU shows at rest ({what} {:.3}–{:.3} s, {:.1} s): \
              ARW {} deg/√h (declared {}), VRW {} m/s/√h (declared {}); \
              `imu_noise.static_floor = false` keeps the declared",
             still.span.0,
