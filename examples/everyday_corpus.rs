@@ -40,6 +40,19 @@ fn main() {
     let only = std::env::args().nth(2).unwrap_or_default();
     // (EXTRA: configuration lines for the user's runs, e.g. a prior to compare)
     let extra = std::env::var("EXTRA").unwrap_or_default();
+    // (CORRUPT: the one corruption known, or none; any other value is refused, not ignored)
+    let corrupt = match std::env::var("CORRUPT").as_deref() {
+        Ok("gyro-deg") => true,
+        Err(std::env::VarError::NotPresent) => false,
+        Ok(other) => {
+            eprintln!("CORRUPT = {other:?}: the corruptions known are \"gyro-deg\"");
+            std::process::exit(2);
+        }
+        Err(e) => {
+            eprintln!("CORRUPT: {e}");
+            std::process::exit(2);
+        }
+    };
     let errors = [
         Errors::White([1.0, 1.0, 2.0]),
         Errors::Wander([0.5, 0.5, 1.0], 30.0, 0.1),
@@ -80,21 +93,20 @@ fn main() {
                             dump(&dir, d, &g, seed);
                         }
                         let corrupted;
-                        let user = match std::env::var("CORRUPT").as_deref() {
-                            Ok("gyro-deg") => {
-                                let mut imu = d.imu.to_vec();
-                                for r in imu.chunks_mut(7) {
-                                    r[1..4].iter_mut().for_each(|v| *v = v.to_degrees());
-                                }
-                                corrupted = Data { imu: imu.into(), ..d.clone() };
-                                &corrupted
+                        let user = if corrupt {
+                            let mut imu = d.imu.to_vec();
+                            for r in imu.chunks_mut(7) {
+                                r[1..4].iter_mut().for_each(|v| *v = v.to_degrees());
                             }
-                            _ => d,
+                            corrupted = Data { imu: imu.into(), ..d.clone() };
+                            &corrupted
+                        } else {
+                            d
                         };
                         let o = run(user, g.clone(), &extra);
                         // (a corrupted corpus counts refusals: no oracle run)
                         let truth_run = match &o.refused {
-                            Some(_) if std::env::var_os("CORRUPT").is_some() => o.clone(),
+                            Some(_) if corrupt => o.clone(),
                             _ => run(d, gnss_rows(d, e, 1.0, seed), &e.oracle()),
                         };
                         // (VERBOSE: each seed's score, the oracle's, and whether it restarted)

@@ -499,12 +499,12 @@ fn mislabelled_units_axes_and_times_are_refused_with_the_key() {
         gnss += &r.iter().map(|v| format!("{v:.12}")).collect::<Vec<_>>().join(" ");
         gnss += "\n";
     }
-    std::fs::write(dir.join("GNSS_x10.txt"), gnss).unwrap();
+    std::fs::write(dir.join("GNSS_15m.txt"), gnss).unwrap();
     let in_deg = std::fs::read_to_string(dir.join("in_deg.toml"))
         .unwrap()
-        .replace("gnss = \"GNSS.txt\"", "gnss = \"GNSS_x10.txt\"");
-    std::fs::write(dir.join("in_deg_x10.toml"), in_deg).unwrap();
-    let (ok, _, err) = run(&dir.join("in_deg_x10.toml"), &dir.join("out"));
+        .replace("gnss = \"GNSS.txt\"", "gnss = \"GNSS_15m.txt\"");
+    std::fs::write(dir.join("in_deg_15m.toml"), in_deg).unwrap();
+    let (ok, _, err) = run(&dir.join("in_deg_15m.toml"), &dir.join("out"));
     if ok || !err.contains("`data.imu_columns.gyro_unit`") {
         failures.push(format!("gyro in deg/s, fixes declaring 15 m: ok = {ok}, {err}"));
     }

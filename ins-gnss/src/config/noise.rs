@@ -20,8 +20,9 @@ pub struct NoiseSection {
     #[serde(default)]
     pub from_static: bool,
     /// Raise `arw` / `vrw` on an axis where the static start, or the span the IMU shows
-    /// still while the fixes drift (at least `align.min_static` seconds), shows the IMU 1.5× noisier at rest than
-    /// declared: a filter told of less noise than the sensor has at rest is overconfident
+    /// still while the fixes drift (at least `align.min_static` seconds), shows the IMU
+    /// 1.5× noisier at rest than declared: a filter told of less noise than the sensor
+    /// has at rest is overconfident
     /// (on drive-0708 with KF-GINS's generic figures the innovations are 4.5× their σ and
     /// the 21-state filter diverges). Reported in the run summary. Default true; `false`
     /// keeps the declared noise whatever the data show.

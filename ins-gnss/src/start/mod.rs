@@ -152,8 +152,8 @@ fn prepare(
     }
     if config.imu_noise.from_static {
         noise_from_static(config, &scene, &mut start)?;
-    } else if let (quiet, true, what) = noise_span(config, imu, gnss, t0) {
-        noise_floor(config, &mut start.noise, &mut start.report, (&quiet, what));
+    } else if let (quiet, true, what) = noise_span(config, imu, gnss, t0, (*still, is_static)) {
+        noise_floor(config, &mut start.noise, &mut start.report, &quiet, what);
     }
     if need_init {
         let found = Found {
@@ -326,8 +326,9 @@ fn check_upright(
 /// `imu_noise.from_static`: the ARW and VRW measured on the static start, which must last
 /// `align.min_static`.
 fn noise_from_static(config: &Config, scene: &Scene<'_>, start: &mut Start) -> Result<(), String> {
-    let (still, enough, what) = noise_span(config, scene.imu, scene.gnss, scene.t0);
-    let still = &still;
+    let found = (scene.still, scene.is_static);
+    let (quiet, enough, what) = noise_span(config, scene.imu, scene.gnss, scene.t0, found);
+    let still = &quiet;
     if !enough {
         return Err(format!(
             "`imu_noise.from_static`: the IMU shows the start still for {:.1} s ({:.3}–{:.3} s); at \
@@ -445,29 +446,31 @@ fn after<'a>(
 /// the filter).
 fn prepare_floor(config: &Config, imu: &[ImuSample], gnss: &[GnssEpoch], t0: f64) -> Start {
     let mut start = Start::given(config, t0);
-    if let (quiet, true, what) = noise_span(config, imu, gnss, t0)
+    let found = static_start(config, imu, gnss, t0);
+    if let (quiet, true, what) = noise_span(config, imu, gnss, t0, found)
         && !config.imu_noise.from_static
     {
-        noise_floor(config, &mut start.noise, &mut start.report, (&quiet, what));
+        noise_floor(config, &mut start.noise, &mut start.report, &quiet, what);
     }
     start
 }
 
-/// The span the IMU's noise is measured on (`imu_noise.from_static`, `static_floor`), and
-/// whether it lasts `align.min_static`, and how the report names it: the static start,
-/// else the span from `t0` the IMU shows still. The noise is the IMU's: fixes that drift over a span the IMU shows still
-/// (a constant velocity from the first sample, or fixes that wander faster than their
-/// declared σ says) make it no static start — no zero velocity, no gyro bias from its mean
-/// rate — but its samples show the sensors' noise as well (drive-0708 with a 3 m wander
-/// declared 0.15 m: the 33 s the car stands were taken for motion and the datasheet's ARW,
-/// 17× below what the IMU shows there, kept: 74–83 m on 3 of 20 seeds against 17–21 m).
+/// The span the IMU's noise is measured on (`imu_noise.from_static`, `static_floor`),
+/// whether it lasts `align.min_static`, and how the report names it: the static start
+/// ([`static_start`]'s `found`), else the span from `t0` the IMU shows still. The noise is
+/// the IMU's: fixes that drift over a span the IMU shows still (a constant velocity from
+/// the first sample, or fixes that wander faster than their declared σ says) make it no
+/// static start — no zero velocity, no gyro bias from its mean rate — but its samples show
+/// the sensors' noise as well (drive-0708 with a 3 m wander declared 0.15 m: the 33 s the
+/// car stands were taken for motion and the datasheet's ARW, 17× below what the IMU shows
+/// there, kept: 74–83 m on 3 of 20 seeds against 17–21 m).
 fn noise_span(
     config: &Config,
     imu: &[ImuSample],
     gnss: &[GnssEpoch],
     t0: f64,
+    (still, is_static): (StaticStart, bool),
 ) -> (StaticStart, bool, &'static str) {
-    let (still, is_static) = static_start(config, imu, gnss, t0);
     if is_static {
         return (still, true, "static start");
     }
@@ -476,13 +479,15 @@ fn noise_span(
     (quiet, long, "span the IMU shows still (the fixes drift over it: no static start)")
 }
 
-/// `imu_noise.static_floor`: raise each ARW / VRW axis of `noise` (the declared, SI) the
-/// static start shows [`FLOOR_FACTOR`]× noisier than declared to the measured value.
+/// `imu_noise.static_floor`: raise each ARW / VRW axis of `noise` (the declared, SI) that
+/// `still` ([`noise_span`], named `what` in the report) shows [`FLOOR_FACTOR`]× noisier
+/// than declared to the measured value.
 fn noise_floor(
     config: &Config,
     noise: &mut ImuNoise,
     report: &mut Vec<String>,
-    (still, what): (&StaticStart, &str),
+    still: &StaticStart,
+    what: &str,
 ) {
     if !config.imu_noise.static_floor {
         return;
