@@ -271,7 +271,7 @@ impl VehicleModel for Odometer {
 
 /// The odometer's scale `r` (reading = r × true speed), calibrated against the filter's
 /// forward speed while GNSS keeps that speed right: an exponentially weighted least
-/// squares `r = Σ w v_odo v̂ / Σ w v̂²` over samples above `min_speed`, with time constant
+/// squares `r = Σ w v_odo v̂ / Σ w v̂²` over the samples the caller picks, with time constant
 /// `tau`. Outside the filter (a cascade): the filter does not carry the scale's
 /// uncertainty, which the odometer's σ must cover.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -314,8 +314,8 @@ pub struct OdometerConfig {
     pub interval: f64,
     /// Time constant of the scale calibration, s.
     pub calibration_time: f64,
-    /// Samples (above 1 m/s, with GNSS) before the calibrated scale is used; until then
-    /// the odometer is not used.
+    /// Samples (the wheels turning, with GNSS) before the calibrated scale is used; until
+    /// then the odometer is not used.
     pub calibration_samples: f64,
 }
 

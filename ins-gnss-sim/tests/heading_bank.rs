@@ -3,7 +3,7 @@
 //! rear), from any heading, its heading within 3σ of the truth on every seed; standing
 //! still, it claims nothing (the mixture's σ stays the circle's).
 
-use ins_gnss_core::align::{heading_bank, BankStart, BANK_SIZE};
+use ins_gnss_core::align::{heading_bank, BankStart, Wheels, BANK_SIZE};
 use ins_gnss_core::imu::{DEG_PER_H, DEG_PER_SQRT_H, M_S_PER_SQRT_H};
 use ins_gnss_core::init::level;
 use ins_gnss_core::GeoPos;
@@ -67,6 +67,7 @@ fn bank_after_standing(d: &SimDataset, standing: f64) -> (f64, f64) {
         gyro_bias_std: 15.0 * DEG_PER_H,
         vrw: 0.1 * M_S_PER_SQRT_H,
         use_velocity: true,
+        wheels: None,
     };
     let b = heading_bank(&imu, &d.gnss[first..], &start, 0.0).expect("fixes");
     let truth = d.truth.iter().find(|r| r.t >= standing).unwrap().state.att.euler().2;
@@ -115,6 +116,7 @@ fn standing_still_the_bank_claims_no_heading() {
         gyro_bias_std: 50.0 * DEG_PER_H,
         vrw: 0.1 * M_S_PER_SQRT_H,
         use_velocity: true,
+        wheels: None,
     };
     let b = heading_bank(&imu, &gnss, &start, 0.0).unwrap();
     // a uniform circle's σ is 180°/√3 ≈ 104°; no hypothesis may stand out
@@ -138,6 +140,7 @@ fn moving_start(roll: f64, pitch: f64, vel: Vector3<f64>, lever: Vector3<f64>) -
         gyro_bias_std: 100.0 * DEG_PER_H,
         vrw: 0.1 * M_S_PER_SQRT_H,
         use_velocity: true,
+        wheels: None,
     }
 }
 
@@ -260,5 +263,63 @@ fn a_walker_with_a_receivers_doppler_velocity_is_headed_within_three_sigma() {
             "seed {seed}: σ {:.1}° from the positions alone against {s:.1}°",
             without.std / DEG
         );
+    }
+}
+
+#[test]
+fn a_rover_driving_straight_shows_its_heading_through_its_wheels() {
+    // a rover at 1 m/s in a straight line from the first sample for 120 s, fixes of 1 m
+    // σ: nothing turns and nothing accelerates, so the specific force cannot tell the
+    // heading (the Husky bag's case); its wheels can: no lateral velocity (a
+    // non-holonomic constraint) and the odometer's forward speed (5 % scale error)
+    let wheels = |nhc: bool, odometer: bool| Wheels {
+        c_vb: nalgebra::Matrix3::identity(),
+        nhc: nhc.then(|| (0.1, Vector3::zeros())),
+        odometer: odometer.then(|| (0.1, Vector3::zeros())),
+        interval: 0.1,
+        min_speed: 0.0,
+    };
+    for seed in 0..8u64 {
+        let yaw0 = (seed as f64 * 101.0 + 7.0) % 360.0 - 180.0;
+        let start = Start {
+            t: 0.0,
+            pos: GeoPos::from_degrees(30.5, 114.3, 25.0),
+            speed: 1.0,
+            yaw: yaw0 * DEG,
+            pitch: 0.0,
+        };
+        let traj = Trajectory::new(start, &[Segment::straight(120.0)]).unwrap();
+        let gnss = GnssSim {
+            rate_hz: 1.0,
+            pos_sigma: Vector3::repeat(1.0),
+            vel_sigma: None,
+            lever_arm: Vector3::new(0.3, 0.0, -1.0),
+            windows: vec![],
+        };
+        let imu = ImuErrors { odometer: Some((0.05, 0.05)), ..mems_imu() };
+        let d = simulate(&traj, 100.0, &imu, &gnss, seed);
+        let first5: Vec<_> = d.imu.iter().filter(|s| s.t <= 5.0).collect();
+        let mean_f =
+            first5.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>() / first5.len() as f64;
+        let (roll, pitch) = level(&mean_f);
+        let v = d.truth[0].state.vel + Vector3::new(0.3, -0.3, 0.0);
+        let truth = d.truth[0].state.att.euler().2;
+        let bank = |w: Option<Wheels>| {
+            let start = BankStart { wheels: w, ..moving_start(roll, pitch, v, gnss.lever_arm) };
+            let b = heading_bank(&d.imu, &d.gnss, &start, 0.0).unwrap();
+            (ins_gnss_core::heading::wrap(b.heading - truth) / DEG, b.std / DEG)
+        };
+        let (_, s) = bank(None);
+        assert!(s > 20.0, "seed {seed}, no wheels: σ {s:.1}°");
+        // the constraint alone cannot tell forward from backward: both stay
+        let (_, s) = bank(Some(wheels(true, false)));
+        assert!(s > 45.0, "seed {seed}, nhc alone: σ {s:.1}°");
+        for (nhc, odometer, at_most) in [(false, true, 30.0), (true, true, 5.0)] {
+            let (e, s) = bank(Some(wheels(nhc, odometer)));
+            let what = format!("seed {seed}, nhc {nhc}, odometer {odometer}");
+            eprintln!("{what}: error {e:.2}° at σ {s:.2}°");
+            assert!(s < at_most, "{what}: σ {s:.1}°");
+            assert!(e.abs() <= 3.0 * s, "{what}: error {e:.2}° at σ {s:.2}°");
+        }
     }
 }

@@ -24,7 +24,7 @@ const COURSE_BASE: f64 = 6.0;
 
 /// Fixes of `(t_a, t_b]` about a second apart (a course from 0.2 s of noisy positions is
 /// noise).
-fn fixes_a_second_apart(gnss: &[GnssEpoch], t_a: f64, t_b: f64) -> Vec<&GnssEpoch> {
+pub(super) fn fixes_a_second_apart(gnss: &[GnssEpoch], t_a: f64, t_b: f64) -> Vec<&GnssEpoch> {
     let mut fixes: Vec<&GnssEpoch> = Vec::new();
     for e in gnss.iter().filter(|e| e.t > t_a && e.t <= t_b) {
         if fixes.last().is_none_or(|l| e.t >= l.t + 0.9) {
@@ -39,7 +39,7 @@ fn fixes_a_second_apart(gnss: &[GnssEpoch], t_a: f64, t_b: f64) -> Vec<&GnssEpoc
 /// median of white noise (`1.177 · √6 σ` per axis); motion's curvature only adds to it.
 /// Errors that wander cancel in it as they cancel in a course from two fixes. `∞` for
 /// fewer than 5 fixes (the declared σ then decides).
-fn shown_noise(fixes: &[&GnssEpoch]) -> f64 {
+pub(super) fn shown_noise(fixes: &[&GnssEpoch]) -> f64 {
     let mut d2: Vec<f64> = fixes
         .windows(3)
         .map(|w| {

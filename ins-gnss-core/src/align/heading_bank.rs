@@ -65,7 +65,43 @@ pub struct BankStart {
     /// Whether the fixes' velocities (a receiver's Doppler velocity) update the members
     /// beside their positions.
     pub use_velocity: bool,
+    /// What the configuration says of the vehicle's wheels (a non-holonomic constraint, an
+    /// odometer): the members' velocity in the vehicle frame judged by them too.
+    pub wheels: Option<Wheels>,
 }
+
+/// A wheeled vehicle's constraints as the bank takes them: the velocity in the vehicle
+/// frame at the constraint point is forward (no lateral component) and, with an odometer,
+/// the wheels' speed. A member whose heading puts the track's velocity sideways or
+/// backward in its body loses, so a vehicle moving straight at constant speed — which
+/// shows its heading to the specific force only through its turns — shows it through its
+/// course.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wheels {
+    /// `C_vb`, body → vehicle frame (the mounting).
+    pub c_vb: Matrix3<f64>,
+    /// The lateral velocity's 1σ (m/s) when a non-holonomic constraint is declared, and its
+    /// point from the IMU (body frame, m).
+    pub nhc: Option<(f64, Vector3<f64>)>,
+    /// The odometer's speed 1σ (m/s) and its wheel point from the IMU (body frame, m), when
+    /// the samples carry an odometer. Its scale is not calibrated at the start: the bank
+    /// takes [`ODOMETER_SCALE_STD`] of the speed beside the 1σ, so that it tells forward
+    /// from backward and sideways, not a few degrees.
+    pub odometer: Option<(f64, Vector3<f64>)>,
+    /// Time between the bank's wheel updates, s (at least [`WHEEL_INTERVAL`]).
+    pub interval: f64,
+    /// The constraint is applied only above this speed (the members' own), m/s.
+    pub min_speed: f64,
+}
+
+/// The odometer's scale uncertainty the bank allows (a fraction of the speed): before the
+/// run calibrates it, a wheel's radius and slip are known to tens of percent.
+pub const ODOMETER_SCALE_STD: f64 = 0.3;
+
+/// The shortest time (s) between the bank's wheel updates: the constraints' errors (a
+/// mounting angle, a skid-steer's slip in a turn) persist for seconds, and updates
+/// closer than that would count one error many times.
+pub const WHEEL_INTERVAL: f64 = 1.0;
 
 /// What the bank concluded.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,8 +139,62 @@ pub fn heading_bank(
 ) -> Option<BankHeading> {
     let first = gnss.first()?;
     let origin = first.pos.tuple();
+    let mut members = members_at(first, start);
+    let t_first = imu.first().map_or(first.t, |s| s.t - s.dt);
+    let mut att = start.tilt;
+    let mut t = t_first;
+    let mut g = gnss.partition_point(|e| e.t < t_first - 1e-9);
+    let mut fixes = 0usize;
+    let mut result = summarise(&members, 0, first.t);
+    let mut last_wheels = f64::NEG_INFINITY;
+    let shown = shown_floor(gnss, start);
+    for s in imu {
+        // fixes inside this sample's interval: predict to each, update
+        while g < gnss.len() && gnss[g].t <= s.t + 1e-9 {
+            let e = &gnss[g];
+            advance(&mut members, &mut att, &mut t, s, e.t, start);
+            let d = geodetic_to_local_ned(origin, e.pos.tuple());
+            let lever = att.rotate(&start.lever).xy();
+            // the velocity, with the antenna's velocity about the body's centre (the rate
+            // of the last sample, heading-0 frame)
+            let vel = e.vel.filter(|_| start.use_velocity).map(|(v, std)| {
+                let omega = (s.dtheta / s.dt.max(1e-9)) - start.gyro_bias;
+                (v.xy(), att.rotate(&omega.cross(&start.lever)).xy(), std.xy())
+            });
+            for m in members.iter_mut() {
+                let std = e.pos_std.xy().map(|s| s.max(shown));
+                update(m, POSITION, &d.xy(), &lever, &std, POSITION_FLOOR);
+                if let Some((v, lever_rate, std)) = &vel {
+                    update(m, VELOCITY, v, lever_rate, std, BANK_VELOCITY_FLOOR);
+                }
+            }
+            fixes += 1;
+            result = summarise(&members, fixes, e.t);
+            g += 1;
+            if fixes >= 3 && result.std < target {
+                return Some(result);
+            }
+        }
+        advance(&mut members, &mut att, &mut t, s, s.t, start);
+        if let Some(w) = &start.wheels
+            && fixes > 0
+            && s.t - last_wheels >= w.interval.max(WHEEL_INTERVAL) - 1e-9
+        {
+            last_wheels = s.t;
+            let omega = (s.dtheta / s.dt.max(1e-9)) - start.gyro_bias;
+            for m in members.iter_mut() {
+                wheel_update(m, &att, w, &omega, s.odometer);
+            }
+        }
+    }
+    Some(result)
+}
+
+/// The bank's members at its first fix: headings spread over the circle, each with half
+/// the spacing as its σ, the position of the body's centre from the antenna's.
+fn members_at(first: &GnssEpoch, start: &BankStart) -> Vec<Member> {
     let spacing = 2.0 * core::f64::consts::PI / BANK_SIZE as f64;
-    let mut members: Vec<Member> = (0..BANK_SIZE)
+    (0..BANK_SIZE)
         .map(|k| {
             let psi = crate::heading::wrap(k as f64 * spacing);
             let lever = yaw_turn(psi, &start.tilt.rotate(&start.lever).xy());
@@ -126,42 +216,69 @@ pub fn heading_bank(
             ]));
             Member { x, p, log_w: 0.0 }
         })
-        .collect();
-    let t_first = imu.first().map_or(first.t, |s| s.t - s.dt);
-    let mut att = start.tilt;
-    let mut t = t_first;
-    let mut g = gnss.partition_point(|e| e.t < t_first - 1e-9);
-    let mut fixes = 0usize;
-    let mut result = summarise(&members, 0, first.t);
-    for s in imu {
-        // fixes inside this sample's interval: predict to each, update
-        while g < gnss.len() && gnss[g].t <= s.t + 1e-9 {
-            let e = &gnss[g];
-            advance(&mut members, &mut att, &mut t, s, e.t, start);
-            let d = geodetic_to_local_ned(origin, e.pos.tuple());
-            let lever = att.rotate(&start.lever).xy();
-            // the velocity, with the antenna's velocity about the body's centre (the rate
-            // of the last sample, heading-0 frame)
-            let vel = e.vel.filter(|_| start.use_velocity).map(|(v, std)| {
-                let omega = (s.dtheta / s.dt.max(1e-9)) - start.gyro_bias;
-                (v.xy(), att.rotate(&omega.cross(&start.lever)).xy(), std.xy())
-            });
-            for m in members.iter_mut() {
-                update(m, POSITION, &d.xy(), &lever, &e.pos_std.xy(), POSITION_FLOOR);
-                if let Some((v, lever_rate, std)) = &vel {
-                    update(m, VELOCITY, v, lever_rate, std, BANK_VELOCITY_FLOOR);
-                }
-            }
-            fixes += 1;
-            result = summarise(&members, fixes, e.t);
-            g += 1;
-            if fixes >= 3 && result.std < target {
-                return Some(result);
-            }
-        }
-        advance(&mut members, &mut att, &mut t, s, s.t, start);
+        .collect()
+}
+
+/// With the wheels, the heading comes from the direction of the members' velocity, which
+/// fixes declared more precise than they are would make confident and wrong: their σ (per
+/// axis) is then at least the noise they show (a declared σ is a prior). 0 without wheels.
+fn shown_floor(gnss: &[GnssEpoch], start: &BankStart) -> f64 {
+    if start.wheels.is_none() {
+        return 0.0;
     }
-    Some(result)
+    let refs = super::checks::fixes_a_second_apart(gnss, f64::NEG_INFINITY, f64::INFINITY);
+    let s = super::checks::shown_noise(&refs) / core::f64::consts::SQRT_2;
+    if s.is_finite() {
+        s
+    } else {
+        0.0
+    }
+}
+
+/// A member's update by the vehicle's wheels: the lateral velocity at the constraint
+/// point is zero (with a non-holonomic constraint), the forward one the odometer's
+/// `speed` (when there is one). The vertical velocity is taken as zero (a ground
+/// vehicle); the tilt's error is left out of the Jacobian (its effect is second order).
+fn wheel_update(m: &mut Member, att: &So3, w: &Wheels, omega: &Vector3<f64>, speed: Option<f64>) {
+    let v = Vector2::new(m.x[2], m.x[3]);
+    if v.norm() < w.min_speed {
+        return;
+    }
+    // the vehicle-frame velocity: `C_vb R₀ᵀ Rz(ψ)ᵀ v` plus the point's turn about the IMU
+    let a = w.c_vb * att.matrix().transpose();
+    // (rows: forward with the odometer, lateral with the constraint)
+    let rows = [
+        speed.zip(w.odometer).map(|(z, (std, arm))| {
+            (0, z, std.hypot(ODOMETER_SCALE_STD * z), w.c_vb * omega.cross(&arm))
+        }),
+        w.nhc.map(|(std, arm)| (1, 0.0, std, w.c_vb * omega.cross(&arm))),
+    ];
+    for (i, z, std, turn) in rows.into_iter().flatten() {
+        let v = Vector2::new(m.x[2], m.x[3]);
+        let (sn, cs) = m.x[4].sin_cos();
+        let u = Vector2::new(cs * v.x + sn * v.y, -sn * v.x + cs * v.y);
+        let pred = a[(i, 0)] * u.x + a[(i, 1)] * u.y + turn[i];
+        let mut hm = SMatrix::<f64, 1, 7>::zeros();
+        hm[(0, 2)] = a[(i, 0)] * cs - a[(i, 1)] * sn;
+        hm[(0, 3)] = a[(i, 0)] * sn + a[(i, 1)] * cs;
+        hm[(0, 4)] = a[(i, 0)] * u.y - a[(i, 1)] * u.x;
+        correct_scalar(m, z - pred, &hm, std * std);
+    }
+}
+
+/// [`correct`] for one row.
+fn correct_scalar(m: &mut Member, nu: f64, hm: &SMatrix<f64, 1, 7>, r: f64) {
+    let s = (hm * m.p * hm.transpose())[(0, 0)] + r;
+    // (a NaN or non-positive innovation variance: no update)
+    if s.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+        return;
+    }
+    let k = m.p * hm.transpose() / s;
+    m.x += k * nu;
+    m.x[4] = crate::heading::wrap(m.x[4]);
+    let ikh = SMatrix::<f64, 7, 7>::identity() - k * hm;
+    m.p = ikh * m.p * ikh.transpose() + k * k.transpose() * r;
+    m.log_w += -0.5 * (nu * nu / s + s.ln());
 }
 
 /// Every member and the shared attitude `att` from `t` to `to` (inside sample `s`'s

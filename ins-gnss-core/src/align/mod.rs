@@ -40,7 +40,8 @@ mod static_start;
 
 pub use checks::{time_offset, turn_ratio, TimeOffset, TurnRatio};
 pub use heading_bank::{
-    heading_bank, BankHeading, BankStart, BANK_ACCEL_NOISE, BANK_DRIFT_TIME, BANK_SIZE,
+    heading_bank, BankHeading, BankStart, Wheels, BANK_ACCEL_NOISE, BANK_DRIFT_TIME, BANK_SIZE,
+    ODOMETER_SCALE_STD, WHEEL_INTERVAL,
 };
 pub use motion::{align_in_motion, fit_span, MotionFit, GROSS, MISFIT};
 pub use static_start::{

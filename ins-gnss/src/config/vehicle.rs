@@ -37,7 +37,8 @@ pub struct OdometerSection {
     /// Time constant of the scale calibration, s. Default 120.
     #[serde(default = "default_calibration_time")]
     pub calibration_time: f64,
-    /// Samples above 1 m/s with GNSS before the odometer is used. Default 500.
+    /// Samples with the odometer reading above 1 m/s and GNSS before the
+    /// odometer is used. Default 500.
     #[serde(default = "default_calibration_samples")]
     pub calibration_samples: f64,
 }

@@ -53,7 +53,27 @@ fn imu_part(config: &Config) -> BankStart {
         gyro_bias_std: 0.0,
         vrw: largest(n.vrw) * M_S_PER_SQRT_H,
         use_velocity: config.gnss.use_velocity,
+        wheels: wheels(config),
     }
+}
+
+/// The vehicle's wheels as the configuration declares them (`[vehicle.nhc]`,
+/// `[vehicle.odometer]`), for the bank; `None` without either.
+fn wheels(config: &Config) -> Option<Wheels> {
+    let v = &config.vehicle;
+    if v.nhc.is_none() && v.odometer.is_none() {
+        return None;
+    }
+    let mounting = v.nhc.as_ref().map_or([0.0; 3], |n| n.mounting);
+    Some(Wheels {
+        c_vb: ins_gnss_core::vehicle::mounting_matrix(
+            &Vector3::from(mounting).map(f64::to_radians),
+        ),
+        nhc: v.nhc.as_ref().map(|n| (n.std[0], Vector3::from(n.lever_arm))),
+        odometer: v.odometer.as_ref().map(|o| (o.std, Vector3::from(o.lever_arm))),
+        interval: v.nhc.as_ref().map_or(0.0, |n| n.interval),
+        min_speed: v.nhc.as_ref().map_or(0.0, |n| n.min_speed),
+    })
 }
 
 /// Seconds of fixes whose straight line gives a moving start's velocity.

@@ -18,7 +18,8 @@ use nalgebra::Vector3;
 use crate::config::{Config, InitialParts};
 use ins_gnss_core::align::{
     align_in_motion, detect_static, fit_span, heading_bank, static_gyro_bias, time_offset,
-    turn_ratio, BankHeading, BankStart, MotionFit, StaticStart, TimeOffset, TurnRatio, BANK_SIZE,
+    turn_ratio, BankHeading, BankStart, MotionFit, StaticStart, TimeOffset, TurnRatio, Wheels,
+    BANK_SIZE,
 };
 use ins_gnss_core::earth::{geodetic_to_local_ned, normal_gravity};
 use ins_gnss_core::gnss::GnssEpoch;
