@@ -79,5 +79,5 @@ pub use guard::FadingGuard;
 pub use iae::Iae;
 pub use iakf::{Iakf, Inflation};
 pub use per_stream::{PerStream, Route};
-pub use sage_husa::SageHusa;
+pub use sage_husa::{SageHusa, PRIOR_UPDATES as SAGE_HUSA_PRIOR_UPDATES};
 pub use window::NoiseBounds;
