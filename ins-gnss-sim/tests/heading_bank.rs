@@ -46,6 +46,25 @@ fn drive(seed: u64, yaw0: f64, standing: f64, mounting: f64, std: f64) -> SimDat
     simulate(&traj, 100.0, &imu, &gnss, seed)
 }
 
+/// A start from the first sample at `speed` m/s, headed by the seed (spread over the
+/// circle).
+fn moving(seed: u64, speed: f64) -> Start {
+    let yaw0 = (seed as f64 * 101.0 + 7.0) % 360.0 - 180.0;
+    Start {
+        t: 0.0,
+        pos: GeoPos::from_degrees(30.5, 114.3, 25.0),
+        speed,
+        yaw: yaw0 * DEG,
+        pitch: 0.0,
+    }
+}
+
+/// Roll and pitch levelled on the mean specific force of the first `secs` s.
+fn level_on_first(d: &SimDataset, secs: f64) -> (f64, f64) {
+    let first: Vec<_> = d.imu.iter().filter(|s| s.t <= secs).collect();
+    level(&(first.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>() / first.len() as f64))
+}
+
 /// The bank from the end of the first `standing` s (levelled on them, their mean rate
 /// taken off), as the program's start runs it; its heading error (deg) and σ (deg).
 fn bank_after_standing(d: &SimDataset, standing: f64) -> (f64, f64) {
@@ -152,14 +171,7 @@ fn moving_from_the_first_sample_the_heading_is_found_within_three_sigma() {
     // cannot tell the heading
     for seed in 0..8u64 {
         for mounting in [0.0, 180.0] {
-            let yaw0 = (seed as f64 * 101.0 + 7.0) % 360.0 - 180.0;
-            let start = Start {
-                t: 0.0,
-                pos: GeoPos::from_degrees(30.5, 114.3, 25.0),
-                speed: 10.0,
-                yaw: yaw0 * DEG,
-                pitch: 0.0,
-            };
+            let start = moving(seed, 10.0);
             let segs = [
                 Segment::straight(10.0),
                 Segment::turn(15.0, 6.0 * DEG),
@@ -177,10 +189,7 @@ fn moving_from_the_first_sample_the_heading_is_found_within_three_sigma() {
             };
             let imu = ImuErrors { mounting: Vector3::new(0.0, 0.0, mounting * DEG), ..mems_imu() };
             let d = simulate(&traj, 100.0, &imu, &gnss, seed);
-            let first5: Vec<_> = d.imu.iter().filter(|s| s.t <= 5.0).collect();
-            let mean_f = first5.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>()
-                / first5.len() as f64;
-            let (roll, pitch) = level(&mean_f);
+            let (roll, pitch) = level_on_first(&d, 5.0);
             // (the true velocity at the first fix, as a line through the first fixes gives
             // it to about its 1 m/s σ)
             let v = d.truth[0].state.vel;
@@ -210,14 +219,7 @@ fn a_walker_with_a_receivers_doppler_velocity_is_headed_within_three_sigma() {
     // velocity to 0.2 m/s. The positions alone cannot tell the heading within the
     // walk's 100 s (the program refused such walks); the velocities do.
     for seed in 0..8u64 {
-        let yaw0 = (seed as f64 * 101.0 + 7.0) % 360.0 - 180.0;
-        let start = Start {
-            t: 0.0,
-            pos: GeoPos::from_degrees(30.5, 114.3, 25.0),
-            speed: 1.4,
-            yaw: yaw0 * DEG,
-            pitch: 0.0,
-        };
+        let start = moving(seed, 1.4);
         let segs = [
             Segment::straight(30.0),
             Segment::turn(2.0, 45.0 * DEG),
@@ -234,10 +236,7 @@ fn a_walker_with_a_receivers_doppler_velocity_is_headed_within_three_sigma() {
             windows: vec![],
         };
         let d = simulate(&traj, 100.0, &mems_imu(), &gnss, seed);
-        let first: Vec<_> = d.imu.iter().filter(|s| s.t <= 1.0).collect();
-        let mean_f =
-            first.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>() / first.len() as f64;
-        let (roll, pitch) = level(&mean_f);
+        let (roll, pitch) = level_on_first(&d, 1.0);
         let bank = |use_velocity: bool| {
             // (the first fix's velocity, as the program's line through the first fixes
             // gives it to its 1 m/s σ)
@@ -280,14 +279,7 @@ fn a_rover_driving_straight_shows_its_heading_through_its_wheels() {
         min_speed: 0.0,
     };
     for seed in 0..8u64 {
-        let yaw0 = (seed as f64 * 101.0 + 7.0) % 360.0 - 180.0;
-        let start = Start {
-            t: 0.0,
-            pos: GeoPos::from_degrees(30.5, 114.3, 25.0),
-            speed: 1.0,
-            yaw: yaw0 * DEG,
-            pitch: 0.0,
-        };
+        let start = moving(seed, 1.0);
         let traj = Trajectory::new(start, &[Segment::straight(120.0)]).unwrap();
         let gnss = GnssSim {
             rate_hz: 1.0,
@@ -298,10 +290,7 @@ fn a_rover_driving_straight_shows_its_heading_through_its_wheels() {
         };
         let imu = ImuErrors { odometer: Some((0.05, 0.05)), ..mems_imu() };
         let d = simulate(&traj, 100.0, &imu, &gnss, seed);
-        let first5: Vec<_> = d.imu.iter().filter(|s| s.t <= 5.0).collect();
-        let mean_f =
-            first5.iter().map(|s| s.specific_force()).sum::<Vector3<f64>>() / first5.len() as f64;
-        let (roll, pitch) = level(&mean_f);
+        let (roll, pitch) = level_on_first(&d, 5.0);
         let v = d.truth[0].state.vel + Vector3::new(0.3, -0.3, 0.0);
         let truth = d.truth[0].state.att.euler().2;
         let bank = |w: Option<Wheels>| {

@@ -36,6 +36,16 @@ fn config(dir: &Path, recording: &Path, extra: &str) -> PathBuf {
     path
 }
 
+/// The bag as the library reads it (IMU, fixes, odometry).
+fn bag() -> Recording {
+    Recording::read(
+        &husky().join("test1.bag"),
+        &Selection::default(),
+        ["data.ros.imu_topic", "data.ros.fix_topic", "data.ros.odometry_topic"],
+    )
+    .unwrap()
+}
+
 /// [`config`] with a heading given (a hand-written `[init]` attitude), `heading` degrees.
 fn config_with_heading(dir: &Path, recording: &Path, heading: f64) -> PathBuf {
     let path = config(dir, recording, "");
@@ -65,18 +75,9 @@ fn horizontal(a: (f64, f64), b: (f64, f64)) -> f64 {
 /// (nearest row), the distance of the row nearest the last fix from it, the track's and
 /// the fixes' start-to-end distances (m), and the fixes compared.
 fn against_fixes(out: &Path) -> (f64, f64, f64, f64, usize) {
-    let rec = Recording::read(
-        &husky().join("test1.bag"),
-        &Selection::default(),
-        ["data.ros.imu_topic", "data.ros.fix_topic", "data.ros.odometry_topic"],
-    )
-    .unwrap();
+    let rec = bag();
     let offset = rec.gpst_offset();
-    let nav: Vec<Vec<f64>> = std::fs::read_to_string(out.join("nav.txt"))
-        .unwrap()
-        .lines()
-        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
-        .collect();
+    let nav = table(&out.join("nav.txt"));
     let (mut sum, mut n, mut last) = (0.0, 0, f64::NAN);
     for f in &rec.fixes {
         let t = f.t + offset;
@@ -168,12 +169,7 @@ fn the_husky_bag_runs_as_shipped_and_its_mcap_copies_give_the_same_bytes() {
 /// (its odometer reads +1 m/s), so its course is its heading there. Returns the reference
 /// at each of `times`, the windows' RMS about it (deg) and their number.
 fn gyro_and_course_heading(times: &[f64]) -> (Vec<f64>, f64, usize) {
-    let rec = Recording::read(
-        &husky().join("test1.bag"),
-        &Selection::default(),
-        ["data.ros.imu_topic", "data.ros.fix_topic", "data.ros.odometry_topic"],
-    )
-    .unwrap();
+    let rec = bag();
     let offset = rec.gpst_offset();
     let t: Vec<f64> = rec.imu.iter().map(|s| s.t + offset).collect();
     let mut yaw = vec![0.0f64];
@@ -336,13 +332,7 @@ fn the_mounting_and_lever_arm_come_from_tf_static() {
     assert!(stdout.contains("vehicle.odometer.lever_arm from /tf_static"), "{stdout}");
     let o = run(&config(&dir, &bag, ""), &dir.join("hand"), &["--accept-inconsistent"]);
     assert!(o.status.success());
-    let rows = |d: &str| -> Vec<Vec<f64>> {
-        std::fs::read_to_string(dir.join(d).join("nav.txt"))
-            .unwrap()
-            .lines()
-            .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
-            .collect()
-    };
+    let rows = |d: &str| table(&dir.join(d).join("nav.txt"));
     let (a, b) = (rows("tf"), rows("hand"));
     assert_eq!(a.len(), b.len());
     let mut worst = [0.0f64; 11];

@@ -24,6 +24,7 @@
 //! hypotheses whose velocity increments point the wrong way lose.
 
 use super::*;
+use nalgebra::{Const, DimMin, Matrix1, Vector1};
 
 /// Hypotheses in the bank: 16, 22.5° apart (each starts with half of that as its σ, well
 /// inside the extended filter's linear range).
@@ -262,23 +263,8 @@ fn wheel_update(m: &mut Member, att: &So3, w: &Wheels, omega: &Vector3<f64>, spe
         hm[(0, 2)] = a[(i, 0)] * cs - a[(i, 1)] * sn;
         hm[(0, 3)] = a[(i, 0)] * sn + a[(i, 1)] * cs;
         hm[(0, 4)] = a[(i, 0)] * u.y - a[(i, 1)] * u.x;
-        correct_scalar(m, z - pred, &hm, std * std);
+        correct(m, &Vector1::new(z - pred), &hm, &Matrix1::new(std * std));
     }
-}
-
-/// [`correct`] for one row.
-fn correct_scalar(m: &mut Member, nu: f64, hm: &SMatrix<f64, 1, 7>, r: f64) {
-    let s = (hm * m.p * hm.transpose())[(0, 0)] + r;
-    // (a NaN or non-positive innovation variance: no update)
-    if s.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
-        return;
-    }
-    let k = m.p * hm.transpose() / s;
-    m.x += k * nu;
-    m.x[4] = crate::heading::wrap(m.x[4]);
-    let ikh = SMatrix::<f64, 7, 7>::identity() - k * hm;
-    m.p = ikh * m.p * ikh.transpose() + k * k.transpose() * r;
-    m.log_w += -0.5 * (nu * nu / s + s.ln());
 }
 
 /// Every member and the shared attitude `att` from `t` to `to` (inside sample `s`'s
@@ -402,9 +388,16 @@ fn update(
     correct(m, &(z - pred), &hm, &r);
 }
 
-/// A member's Kalman correction by the innovation `nu` of a two-row measurement (`hm`,
+/// A member's Kalman correction by the innovation `nu` of an `R`-row measurement (`hm`,
 /// noise `r`), its weight multiplied by the innovation's likelihood.
-fn correct(m: &mut Member, nu: &Vector2<f64>, hm: &SMatrix<f64, 2, 7>, r: &Matrix2<f64>) {
+fn correct<const R: usize>(
+    m: &mut Member,
+    nu: &SVector<f64, R>,
+    hm: &SMatrix<f64, R, 7>,
+    r: &SMatrix<f64, R, R>,
+) where
+    Const<R>: DimMin<Const<R>, Output = Const<R>>,
+{
     let s = hm * m.p * hm.transpose() + r;
     let Some(si) = s.try_inverse() else { return };
     let k = m.p * hm.transpose() * si;
