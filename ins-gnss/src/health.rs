@@ -82,7 +82,11 @@ impl std::error::Error for Unhealthy {}
 /// persist from epoch to epoch (a tight run's pseudoranges with `gnss.tight.error_floor`),
 /// so its innovations are not a sample of independent draws and are judged with the other
 /// satellites' ([`pseudorange_problem`]) instead of alone.
-fn stream_problems(s: &StreamStats, persisting: bool) -> Vec<String> {
+/// `persisting`: the stream's errors persist from epoch to epoch (its innovations say
+/// nothing either way); `follows`: the filter follows them (RTK's fixes: the ionosphere's
+/// and troposphere's residuals and the multipath change over minutes, so their
+/// innovations are smaller than their errors), and only innovations too large count.
+fn stream_problems(s: &StreamStats, persisting: bool, follows: bool) -> Vec<String> {
     let mut out = Vec::new();
     if s.refused * 2 > s.epochs {
         out.push(format!(
@@ -98,7 +102,11 @@ fn stream_problems(s: &StreamStats, persisting: bool) -> Vec<String> {
         // no reason to distrust its result
         let factor = s.median_ratio.max(0.0).sqrt();
         let material = !(1.0 / MATERIAL_FACTOR..=MATERIAL_FACTOR).contains(&factor) && !persisting;
-        if (f < lo || f > hi) && material {
+        // (a stream the filter follows: its innovations too large on the whole — a tail of
+        // them, where the median says nothing — counts as well)
+        let (mean, (_, mean_hi)) = s.mean_nis();
+        let too_large = follows && mean > mean_hi;
+        if (((f < lo && !follows) || f > hi) && material) || too_large {
             out.push(format!(
                 "{}: {:.1} % of the innovations used lie above their χ² median, where a \
                  consistent filter has 50 % (outside [{:.1}, {:.1}] %, probability 1e-6), the \
@@ -275,8 +283,17 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
     let gnss: Vec<&StreamStats> = summary.streams.iter().filter(|s| s.gnss).collect();
     let tight = config.gnss.coupling == crate::config::Coupling::Tight;
     let floor = tight && config.gnss.tight.error_floor;
-    let mut problems: Vec<String> =
-        gnss.iter().flat_map(|s| stream_problems(s, floor && is_pseudorange(s))).collect();
+    let rtk = config.gnss.coupling == crate::config::Coupling::Rtk;
+    let mut problems: Vec<String> = gnss
+        .iter()
+        .flat_map(|s| {
+            stream_problems(
+                s,
+                floor && is_pseudorange(s),
+                rtk && s.stream == ins_gnss_core::gnss::GNSS_POSITION,
+            )
+        })
+        .collect();
     if floor {
         problems.extend(pseudorange_problem(&gnss));
     }

@@ -22,6 +22,7 @@ mod navigator;
 mod plots_report;
 mod rate_path;
 mod ros;
+mod rtk_run;
 mod rtklib;
 #[path = "../../tests/sample_data/mod.rs"]
 mod sample_data;

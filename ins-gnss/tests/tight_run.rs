@@ -284,7 +284,7 @@ fn tight_config_refusals() {
     parse(&format!("{nav}[gnss]\ncoupling = \"tight\"\n")).unwrap();
     parse(&format!("{nav}[gnss]\ncoupling = \"tight\"\n[filter]\nstates = 21\n")).unwrap();
     let e = parse(nav).unwrap_err();
-    assert!(e.contains("`data.nav` is read by tight coupling only"), "{e}");
+    assert!(e.contains("`data.nav` is read by tight coupling and RTK only"), "{e}");
     let e =
         parse(&format!("{nav}[gnss]\ncoupling = \"tight\"\n[gnss.tight]\nionosphere = \"x\"\n"))
             .unwrap_err();

@@ -106,6 +106,17 @@ fn summary_dict<'py>(
     d.set_item("nis_band", c.as_ref().map(|c| c.band))?;
     d.set_item("consistent", c.as_ref().map(|c| c.consistent()))?;
     d.set_item("start", s.start.clone())?;
+    // RTK (`gnss.coupling = "rtk"`): the fix metrics, and the fixes the INS prediction
+    // contradicted
+    let rtk = match &s.rtk {
+        Some(r) => {
+            let m = rtk::metrics_dict(py, r.metrics.clone())?;
+            m.set_item("gated", r.gated)?;
+            Some(m)
+        }
+        None => None,
+    };
+    d.set_item("rtk", rtk)?;
     d.set_item("lines", s.lines())?;
     d.set_item("warning", warning)?;
     Ok(d)

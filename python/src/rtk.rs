@@ -112,23 +112,12 @@ pub fn rtk<'py>(
     let out = PyDict::new(py);
     out.set_item("solutions", matrix(py, rows, RTK_COLUMNS.len())?)?;
     out.set_item("columns", RTK_COLUMNS.to_vec())?;
-    let m = run.metrics();
-    let metrics = PyDict::new(py);
-    metrics.set_item("epochs", m.epochs)?;
-    metrics.set_item("solved", m.solved)?;
-    metrics.set_item("fixed", m.fixed)?;
-    metrics.set_item("fix_rate", m.fix_rate)?;
-    metrics.set_item("time_to_first_fix", m.time_to_first_fix)?;
-    metrics.set_item("refix_times", m.refix_times)?;
-    metrics.set_item("ratio_fixed", m.ratio_fixed)?;
-    metrics.set_item("ratio_other", m.ratio_other)?;
-    metrics.set_item("failures", m.failures)?;
-    out.set_item("metrics", metrics)?;
+    out.set_item("metrics", metrics_dict(py, run.metrics())?)?;
     let (lat, lon, h) = ecef_to_geodetic(&run.base);
     out.set_item("base", (lat.to_degrees(), lon.to_degrees(), h))?;
     let compared = match theirs {
         Some(theirs) => {
-            let c = run.compared(&theirs);
+            let c = ins_gnss::rtk::compared(&run, &theirs);
             let d = PyDict::new(py);
             d.set_item("epochs", theirs.len())?;
             d.set_item("common", c.common)?;
@@ -155,4 +144,23 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(rtk, m)?)?;
     m.add("RTK_COLUMNS", RTK_COLUMNS.to_vec())?;
     Ok(())
+}
+
+/// An RTK run's fix metrics as a dict (`rtk(...)["metrics"]`, and a run's
+/// `summary["rtk"]`).
+pub(crate) fn metrics_dict(
+    py: Python<'_>,
+    m: ins_gnss::rtk::RtkMetrics,
+) -> PyResult<Bound<'_, PyDict>> {
+    let metrics = PyDict::new(py);
+    metrics.set_item("epochs", m.epochs)?;
+    metrics.set_item("solved", m.solved)?;
+    metrics.set_item("fixed", m.fixed)?;
+    metrics.set_item("fix_rate", m.fix_rate)?;
+    metrics.set_item("time_to_first_fix", m.time_to_first_fix)?;
+    metrics.set_item("refix_times", m.refix_times)?;
+    metrics.set_item("ratio_fixed", m.ratio_fixed)?;
+    metrics.set_item("ratio_other", m.ratio_other)?;
+    metrics.set_item("failures", m.failures)?;
+    Ok(metrics)
 }

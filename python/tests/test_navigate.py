@@ -14,6 +14,8 @@ import pytest
 import estimator
 from conftest import DATA, read_zst
 
+ROOT = DATA.parent
+
 NAVEGO = DATA / "navego" / "kf-gins-ADIS16488.yaml"
 TRUTH = DATA / "navego" / "truth.nav.zst"
 
@@ -297,3 +299,32 @@ def test_the_three_figures_are_drawn(both):
     ep = py.evaluate(TRUTH)["epochs"]
     drawn = errors.axes[0].lines[0].get_ydata()
     assert np.allclose(drawn, ep["north"].to_numpy())
+
+
+def test_an_rtk_run_runs_from_python_as_from_the_program(cli, tmp_path):
+    """RTK in the INS filter from Python (`gnss.coupling = "rtk"`): the program's
+    simulated rover and base station (`ins-gnss/scenarios/rtk.toml`, GPS L1 + L2, no
+    `[init]`); the same nav.txt as the program's, and the summary's `rtk` dict carries the
+    fix metrics the program prints."""
+    scenario = (ROOT / "ins-gnss" / "scenarios" / "rtk.toml").read_text()
+    scenario = scenario.replace("../../data/", f"{DATA}/")
+    spec = tmp_path / "rtk.toml"
+    spec.write_text(scenario)
+    data = tmp_path / "data"
+    subprocess.run([str(cli), "simulate", str(spec), "--out", str(data)], check=True,
+                   capture_output=True)
+    text = (data / "config.toml").read_text()
+    start = text.index("\n[init]\n")
+    end = text.index("\n[", start + 1)
+    config = data / "noinit.toml"
+    config.write_text(text[:start] + text[end:])
+    out = tmp_path / "cli"
+    printed = subprocess.run([str(cli), "run", str(config), "--out", str(out)], check=True,
+                             capture_output=True, text=True).stdout
+    py = estimator.navigate(config)
+    assert_printed(py.nav.to_numpy(), out / "nav.txt", NAV_DECIMALS, "nav.txt", 1)
+    rtk = py.summary["rtk"]
+    assert rtk["epochs"] == 600 and rtk["fixed"] >= 0.95 * rtk["epochs"]
+    assert 0.0 <= rtk["time_to_first_fix"] <= 40.0 and rtk["gated"] == 0
+    line = next(line for line in py.summary["lines"] if line.startswith("RTK: "))
+    assert line in printed and f"{rtk['fixed']} fixed" in line

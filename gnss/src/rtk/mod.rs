@@ -59,9 +59,11 @@ use super::spp::{azel, geometry, prepare, Prepared, Troposphere};
 use super::{Ephemerides, GpsTime, Sat};
 use crate::geodesy::ecef_to_geodetic;
 
+mod metrics;
 mod options;
 mod resolve;
 
+pub use metrics::*;
 pub use options::*;
 
 /// One epoch's solution.

@@ -1,6 +1,7 @@
 //! The covariance at a lower rate than the state ([`Navigator::with_covariance_interval`]):
 //! the mechanization at every IMU sample, the covariance once per interval over the
-//! samples' increments combined, and always before an update.
+//! samples' increments combined, and always before an update; and the covariance widened
+//! from outside ([`Navigator::widen`]).
 //!
 //! PX4's EKF2 propagates its covariance this way (at the filter's rate, not the IMU's).
 //! Over a stretch of samples `k = 1 … n` the step is taken at the state where the stretch
@@ -88,4 +89,33 @@ where
     filter
         .predict_covariance(model, &x0, &input, sum.dt, n)
         .map_err(|source| NavError::Filter { t: sum.t, source })
+}
+
+/// The covariance widened from outside the filter.
+impl<A: NoiseStrategy, S: NavState> Navigator<A, S>
+where
+    DefaultAllocator: DimAlloc<S::Dim>,
+{
+    /// Adds `pos` (N, E, D, m²) to the position error's variances and `vel` (m²/s²) to
+    /// the velocity's: evidence from outside the filter that its position is less certain
+    /// than its covariance says (RTK: an independent fix contradicting the INS by metres,
+    /// which a velocity error may have made). The smoother takes the step as process
+    /// noise. Refused (the navigator unchanged) when a variance is negative or not finite.
+    pub fn widen(
+        &mut self,
+        pos: &nalgebra::Vector3<f64>,
+        vel: &nalgebra::Vector3<f64>,
+    ) -> Result<(), NavError> {
+        let t = self.time();
+        let bad = |what| NavError::BadSample { t, what };
+        if !pos.iter().chain(vel.iter()).all(|v| v.is_finite() && *v >= 0.0) {
+            return Err(bad("a variance to add must be finite and not negative"));
+        }
+        let mut p = self.filter.covariance().into_owned();
+        for i in 0..3 {
+            p[(3 + i, 3 + i)] += vel[i];
+            p[(6 + i, 6 + i)] += pos[i];
+        }
+        self.filter.set_covariance(p).map_err(|source| NavError::Filter { t, source })
+    }
 }

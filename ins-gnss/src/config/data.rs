@@ -75,6 +75,10 @@ pub struct DataSection {
     /// needs these.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub nav: Vec<PathBuf>,
+    /// A base station's raw observations (RINEX, or a u-blox log) for `gnss.coupling =
+    /// "rtk"`: its position from `gnss.rtk.base_position` or its RINEX header.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base: Option<PathBuf>,
     /// A ROS recording ([`RosSection`]) instead of `imu` and `gnss`.
     #[serde(default)]
     pub ros: Option<RosSection>,

@@ -21,14 +21,18 @@ pub struct GnssSection {
     /// RTKLIB solutions: σ factor per quality, qualities dropped.
     #[serde(default)]
     pub quality: QualitySection,
-    /// `loose` (default: `data.gnss` holds a receiver's fixes) or `tight` (`data.gnss` is
+    /// `loose` (default: `data.gnss` holds a receiver's fixes), `tight` (`data.gnss` is
     /// a RINEX observation file or a u-blox log, with `data.nav`: each satellite's
-    /// pseudorange and Doppler update the filter).
+    /// pseudorange and Doppler update the filter) or `rtk` (the same, with a base
+    /// station's observations in `data.base`: RTK's fixes update the filter).
     #[serde(default, skip_serializing_if = "Coupling::is_loose")]
     pub coupling: Coupling,
     /// Tight coupling's models ([`TightSection`]).
     #[serde(default, skip_serializing_if = "TightSection::is_default")]
     pub tight: TightSection,
+    /// RTK's settings ([`RtkSection`]).
+    #[serde(default, skip_serializing_if = "RtkSection::is_default")]
+    pub rtk: RtkSection,
     /// The fixes' errors: white, or with a persisting part as states ([`ErrorsSection`]).
     #[serde(default, skip_serializing_if = "ErrorsSection::is_default")]
     pub errors: ErrorsSection,
@@ -321,11 +325,104 @@ pub enum Coupling {
     Loose,
     /// Raw observations: one update per satellite.
     Tight,
+    /// Raw observations of the rover and of a base station (`data.base`): each epoch's
+    /// double differences, their ambiguities fixed to integers where they can be, by an
+    /// RTK filter of its own and one around the INS prediction, which the first
+    /// validates ([`RtkSection`]); a fix updates the filter as a position, `nav.pos`
+    /// writes Q = 1 where one was taken.
+    Rtk,
 }
 
 impl Coupling {
     pub(crate) fn is_loose(&self) -> bool {
         *self == Coupling::Loose
+    }
+
+    /// Whether `data.gnss` holds raw observations (tight coupling, RTK).
+    pub fn is_raw(&self) -> bool {
+        *self != Coupling::Loose
+    }
+}
+
+/// `[gnss.rtk]`: RTK's settings (`gnss.coupling = "rtk"`). The satellites' models of the
+/// rover's single points (its first position, the start) are `[gnss.tight]`'s.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RtkSection {
+    /// The base station's antenna, ECEF X, Y, Z (m). Default: its RINEX header's `APPROX
+    /// POSITION XYZ` (a u-blox base log needs it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_position: Option<[f64; 3]>,
+    /// Frequencies: 1 (L1/E1) or 2 (with L2/E5b). Default 2.
+    #[serde(default = "two")]
+    pub frequencies: usize,
+    /// Elevation mask at the base, degrees. Default 15.
+    #[serde(default = "default_elevation_mask")]
+    pub elevation_mask: f64,
+    /// The ratio test's threshold. Default 3 (RTKLIB's).
+    #[serde(default = "three")]
+    pub ratio: f64,
+    /// The integer bootstrapping success rate the float ambiguities must promise before a
+    /// fix. Default: 0.999 with one frequency, none (the ratio test alone) with two.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_success_rate: Option<f64>,
+    /// The oldest base epoch a rover epoch is paired with, s. Default 1.
+    #[serde(default = "one_second")]
+    pub max_age: f64,
+}
+
+fn two() -> usize {
+    2
+}
+fn three() -> f64 {
+    3.0
+}
+fn one_second() -> f64 {
+    1.0
+}
+
+impl Default for RtkSection {
+    fn default() -> Self {
+        Self {
+            base_position: None,
+            frequencies: 2,
+            elevation_mask: default_elevation_mask(),
+            ratio: 3.0,
+            min_success_rate: None,
+            max_age: 1.0,
+        }
+    }
+}
+
+impl RtkSection {
+    pub(crate) fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The RTK filter's options these settings make, with `ins-gnss rtk`'s defaults (the
+    /// code biases as states, a fix held with two frequencies). The error names its key
+    /// (`gnss.rtk.*`).
+    pub fn options(&self) -> Result<::gnss::rtk::RtkOptions, String> {
+        let settings = super::rtk_settings::RtkSettings {
+            frequencies: self.frequencies,
+            mask: self.elevation_mask,
+            ratio: self.ratio,
+            max_age: self.max_age,
+            min_success_rate: self.min_success_rate,
+            ..Default::default()
+        };
+        let opt = settings.options().map_err(|(key, why)| {
+            let key = match key {
+                "mask" => "elevation_mask",
+                k => k,
+            };
+            format!("`gnss.rtk.{key}` {why}")
+        })?;
+        if let Some(p) = self.base_position {
+            super::rtk_settings::base_position(&p)
+                .map_err(|e| format!("`gnss.rtk.base_position`: {e}"))?;
+        }
+        Ok(opt)
     }
 }
 
@@ -486,6 +583,7 @@ impl Default for GnssSection {
             quality: QualitySection::default(),
             coupling: Coupling::Loose,
             tight: TightSection::default(),
+            rtk: RtkSection::default(),
             errors: ErrorsSection::default(),
             heading: HeadingSection::default(),
         }

@@ -137,6 +137,7 @@ pub fn from_yaml(text_in: &str) -> Result<Config, String> {
             gnss_format: Default::default(),
             truth_columns: None,
             nav: Vec::new(),
+            base: None,
             ros: None,
         },
         init: InitSection {

@@ -36,6 +36,7 @@ mod kf_gins;
 mod noise;
 mod options;
 pub mod reference;
+pub mod rtk_settings;
 mod validate;
 mod vehicle;
 
@@ -169,6 +170,7 @@ impl Config {
             .iter_mut()
             .chain(cfg.data.heading.iter_mut())
             .chain(cfg.data.nav.iter_mut())
+            .chain(cfg.data.base.iter_mut())
         {
             if t.is_relative() {
                 *t = base.join(&*t);

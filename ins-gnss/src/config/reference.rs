@@ -58,6 +58,7 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("data.truth", "—", r#""truth.nav""#),
     ("data.gnss_format", "—", r#""rtklib""#),
     ("data.nav", "—", r#"["brdc0590.05n"]"#),
+    ("data.base", "—", r#""base.obs""#),
     ("data.ros.recording", "—", r#""test1.bag""#),
     ("data.ros.imu_topic", "—", r#""/imu/data""#),
     ("data.ros.fix_topic", "—", r#""/fix""#),
@@ -164,6 +165,12 @@ pub static UNITS: &[(&str, &str, &str)] = &[
     ("gnss.tight.carrier", "—", "true"),
     ("gnss.tight.phase_std", "m", "0.003"),
     ("gnss.tight.systems", "—", r#"["G", "C"]"#),
+    ("gnss.rtk.base_position", "m (ECEF)", "[-3947762.8, 3364399.8, 3699428.5]"),
+    ("gnss.rtk.frequencies", "—", "1"),
+    ("gnss.rtk.elevation_mask", "deg", "10.0"),
+    ("gnss.rtk.ratio", "—", "2.0"),
+    ("gnss.rtk.min_success_rate", "probability", "0.99"),
+    ("gnss.rtk.max_age", "s", "30.0"),
     ("gnss.errors.model", "—", r#""persisting""#),
     ("gnss.errors.share", "fraction", "0.95"),
     ("gnss.errors.tau", "s", "100.0"),
@@ -272,11 +279,13 @@ fn minimal() -> String {
 pub fn defaults() -> Result<std::collections::BTreeMap<String, String>, String> {
     let cfg: super::Config = toml::from_str(&minimal()).map_err(|e| e.to_string())?;
     let mut value = toml::Value::try_from(&cfg).map_err(|e| e.to_string())?;
-    // the tight, errors, heading and calibrate sections are left out of a written configuration while they are
+    // the tight, rtk, errors, heading and calibrate sections are left out of a written configuration while they are
     // the default
     if let Some(gnss) = value.get_mut("gnss").and_then(toml::Value::as_table_mut) {
         let tight = toml::Value::try_from(&cfg.gnss.tight).map_err(|e| e.to_string())?;
         gnss.insert("tight".into(), tight);
+        let rtk = toml::Value::try_from(&cfg.gnss.rtk).map_err(|e| e.to_string())?;
+        gnss.insert("rtk".into(), rtk);
         let errors = toml::Value::try_from(&cfg.gnss.errors).map_err(|e| e.to_string())?;
         gnss.insert("errors".into(), errors);
         let heading = toml::Value::try_from(&cfg.gnss.heading).map_err(|e| e.to_string())?;

@@ -12,6 +12,7 @@ impl Config {
             ("data.gnss (gnsspath in a KF-GINS YAML)", Some(&self.data.gnss).filter(|_| files)),
             ("data.ros.recording", self.data.ros.as_ref().map(|r| &r.recording)),
             ("data.truth", self.data.truth.as_ref()),
+            ("data.base", self.data.base.as_ref()),
         ];
         let navs = self.data.nav.iter().map(|n| ("data.nav", Some(n)));
         for (key, file) in inputs.into_iter().chain(navs) {
@@ -49,6 +50,7 @@ impl Config {
             ("data.gnss_columns", d.gnss_columns.is_some()),
             ("data.gnss_format", d.gnss_format != GnssFormatName::Auto),
             ("gnss.coupling = \"tight\"", self.gnss.coupling == Coupling::Tight),
+            ("gnss.coupling = \"rtk\"", self.gnss.coupling == Coupling::Rtk),
         ];
         match excluded.iter().find(|(_, set)| *set) {
             Some((key, _)) => Err(format!(
@@ -63,18 +65,37 @@ impl Config {
     /// (the raw file names its contents).
     pub(crate) fn validate_tight(&self) -> Result<(), String> {
         self.gnss.tight.spp_options()?;
-        if self.gnss.coupling != Coupling::Tight {
+        if self.gnss.coupling == Coupling::Rtk {
+            self.gnss.rtk.options()?;
+            if self.data.base.is_none() {
+                return Err("`gnss.coupling = \"rtk\"` needs a base station's raw observations \
+                            in `data.base` (RINEX or a u-blox log)"
+                    .into());
+            }
+        } else if self.data.base.is_some() {
+            return Err("`data.base` is read by RTK only: set `gnss.coupling = \"rtk\"` (with \
+                        the rover's raw observations in `data.gnss`) or remove it"
+                .into());
+        } else if self.gnss.rtk != RtkSection::default() {
+            return Err("`[gnss.rtk]` is read by RTK only: set `gnss.coupling = \"rtk\"` or \
+                        remove it"
+                .into());
+        }
+        if !self.gnss.coupling.is_raw() {
             if !self.data.nav.is_empty() {
-                return Err("`data.nav` is read by tight coupling only: set `gnss.coupling = \
-                            \"tight\"` (with raw observations in `data.gnss`) or remove it"
+                return Err("`data.nav` is read by tight coupling and RTK only: set \
+                            `gnss.coupling = \"tight\"` (with raw observations in \
+                            `data.gnss`) or remove it"
                     .into());
             }
             return Ok(());
         }
         if self.data.gnss_columns.is_some() || self.data.gnss_format != GnssFormatName::Auto {
-            return Err("`gnss.coupling = \"tight\"` reads `data.gnss` as RINEX observations \
-                        or a u-blox log: remove `data.gnss_columns` and `data.gnss_format`"
-                .into());
+            return Err(format!(
+                "`gnss.coupling = \"{}\"` reads `data.gnss` as RINEX observations or a u-blox \
+                 log: remove `data.gnss_columns` and `data.gnss_format`",
+                if self.gnss.coupling == Coupling::Rtk { "rtk" } else { "tight" }
+            ));
         }
         Ok(())
     }

@@ -9,234 +9,15 @@ use gnss::{single_point, ObsEpoch};
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::GeoPos;
 use nalgebra::Vector3;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 mod report;
 pub use report::write_report;
 
-/// How far (s) a base epoch may be after the rover's and still count as at or before it
-/// (receivers' stamps differ by their clocks' milliseconds).
-pub const PAIRING: f64 = 0.5;
+pub use crate::config::rtk_settings::{base_position, RtkSettings};
+pub use gnss::rtk::{metrics_line, RtkMetrics, RtkRun, PAIRING};
 
-/// The base's ECEF position from three numbers X, Y, Z (m; `--base-position X,Y,Z`,
-/// Python's `base_position`): three finite numbers whose distance from the Earth's centre
-/// is a place on Earth (6,300–6,450 km), or why not (the caller names its option).
-pub fn base_position(v: &[f64]) -> Result<Vector3<f64>, String> {
-    let r = match v {
-        [x, y, z] => Vector3::new(*x, *y, *z),
-        _ => return Err(format!("3 numbers (ECEF X,Y,Z in m) expected, {} given", v.len())),
-    };
-    if !(r.iter().all(|c| c.is_finite()) && (6.3e6..=6.45e6).contains(&r.norm())) {
-        return Err(format!(
-            "{:.3},{:.3},{:.3} is {:.0} km from the Earth's centre: not an ECEF position on \
-             Earth (m)",
-            r.x,
-            r.y,
-            r.z,
-            r.norm() / 1e3
-        ));
-    }
-    Ok(r)
-}
-
-/// The settings of `ins-gnss rtk` and of the Python package's `rtk`, in the command's
-/// units, with its defaults ([`Default`]); [`RtkSettings::options`] checks them.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RtkSettings {
-    /// The rover stands still (`--static`): its position is one state over the run.
-    pub static_rover: bool,
-    /// Frequencies: 1 (L1/E1) or 2 (with L2/E5b).
-    pub frequencies: usize,
-    /// Elevation mask, degrees.
-    pub mask: f64,
-    /// The ratio test's threshold (≥ 1).
-    pub ratio: f64,
-    /// The oldest base epoch a rover epoch is paired with, s.
-    pub max_age: f64,
-    /// The integer bootstrapping success rate a fix needs (`None`: the frequencies'
-    /// default).
-    pub min_success_rate: Option<f64>,
-    /// Partial fixing (the subset of ambiguities that passes).
-    pub partial: bool,
-    /// The code's persisting single-differenced bias σ, m (0: white code).
-    pub code_bias_sigma: f64,
-    /// Its correlation time, s.
-    pub code_bias_tau: f64,
-    /// Fix-and-hold after this many consecutive fixed epochs (0: never).
-    pub hold: usize,
-}
-
-impl Default for RtkSettings {
-    fn default() -> Self {
-        Self {
-            static_rover: false,
-            frequencies: 2,
-            mask: 15.0,
-            ratio: 3.0,
-            max_age: 1.0,
-            min_success_rate: None,
-            partial: false,
-            code_bias_sigma: 0.3,
-            code_bias_tau: 60.0,
-            hold: 5,
-        }
-    }
-}
-
-impl RtkSettings {
-    /// The solver's options, or the setting that cannot be used: (its name, why).
-    pub fn options(&self) -> Result<RtkOptions, (&'static str, String)> {
-        let bad =
-            |name: &'static str, value: f64, want: &str| Err((name, format!("{value}: {want}")));
-        if !(1..=2).contains(&self.frequencies) {
-            return bad("frequencies", self.frequencies as f64, "1 or 2");
-        }
-        if !(0.0..90.0).contains(&self.mask) {
-            return bad("mask", self.mask, "degrees of elevation, 0 to below 90");
-        }
-        if !(self.ratio.is_finite() && self.ratio >= 1.0) {
-            return bad("ratio", self.ratio, "the ratio test's threshold, 1 or more");
-        }
-        if !(self.max_age.is_finite() && self.max_age > 0.0) {
-            return bad("max_age", self.max_age, "seconds, positive");
-        }
-        if let Some(p) = self.min_success_rate
-            && !(0.0..=1.0).contains(&p)
-        {
-            return bad("min_success_rate", p, "a probability, 0 to 1");
-        }
-        if !(self.code_bias_sigma.is_finite() && self.code_bias_sigma >= 0.0) {
-            return bad("code_bias_sigma", self.code_bias_sigma, "metres, not negative");
-        }
-        if !(self.code_bias_tau.is_finite() && self.code_bias_tau > 0.0) {
-            return bad("code_bias_tau", self.code_bias_tau, "seconds, positive");
-        }
-        let mode = if self.static_rover { RtkMode::Static } else { RtkMode::Kinematic };
-        let defaults = RtkOptions::for_frequencies(mode, self.frequencies);
-        Ok(RtkOptions {
-            elevation_mask: self.mask.to_radians(),
-            ratio: self.ratio,
-            max_age: self.max_age,
-            min_success_rate: self.min_success_rate.unwrap_or(defaults.min_success_rate),
-            partial: self.partial,
-            code_bias_sigma: self.code_bias_sigma,
-            code_bias_tau: self.code_bias_tau,
-            hold: (self.hold > 0).then_some(self.hold),
-            ..defaults
-        })
-    }
-}
-
-/// What users ask of an RTK run: how often and how soon it fixed, and how sure the fixes
-/// were ([`RtkRun::metrics`]).
-#[derive(Clone, Debug, PartialEq)]
-pub struct RtkMetrics {
-    /// Rover epochs read.
-    pub epochs: usize,
-    /// Epochs with a solution (fixed or float).
-    pub solved: usize,
-    /// Fixed epochs.
-    pub fixed: usize,
-    /// Fixed over solved epochs.
-    pub fix_rate: f64,
-    /// Seconds from the first solution to the first fixed one (`None`: never fixed).
-    pub time_to_first_fix: Option<f64>,
-    /// Each outage of the fix: seconds from the last fixed epoch before it to the first
-    /// after it ([`RtkRun::refix_times`]).
-    pub refix_times: Vec<f64>,
-    /// The ratio test's minimum and median over the fixed epochs (NaN: none).
-    pub ratio_fixed: (f64, f64),
-    /// The same over the epochs searched and not fixed.
-    pub ratio_other: (f64, f64),
-    /// Epochs without a solution, by reason.
-    pub failures: BTreeMap<String, usize>,
-}
-
-/// What an RTK run found.
-#[derive(Clone, Debug, Default)]
-pub struct RtkRun {
-    /// Rover epochs read.
-    pub epochs: usize,
-    /// The solutions.
-    pub solutions: Vec<RtkEpoch>,
-    /// Epochs without a solution, by reason.
-    pub failures: BTreeMap<String, usize>,
-    /// The base position used (ECEF, m).
-    pub base: Vector3<f64>,
-}
-
-impl RtkRun {
-    /// Fixed solutions over all solutions.
-    pub fn fix_rate(&self) -> f64 {
-        self.solutions.iter().filter(|s| s.fixed).count() as f64
-            / self.solutions.len().max(1) as f64
-    }
-
-    /// Seconds from the first solution to the first fixed one (`None`: never fixed).
-    pub fn time_to_first_fix(&self) -> Option<f64> {
-        let first = self.solutions.first()?;
-        self.solutions.iter().find(|s| s.fixed).map(|s| s.time.diff(&first.time))
-    }
-
-    /// Each outage of the fix (a run of float epochs after a fixed one): seconds from the
-    /// last fixed epoch before it to the first after it (an outage still open at the end
-    /// is left out).
-    pub fn refix_times(&self) -> Vec<f64> {
-        let mut out = Vec::new();
-        let mut last_fixed: Option<&RtkEpoch> = None;
-        let mut lost = false;
-        for s in &self.solutions {
-            match (s.fixed, last_fixed) {
-                (true, Some(l)) if lost => out.push(s.time.diff(&l.time)),
-                (false, Some(_)) => lost = true,
-                _ => {}
-            }
-            if s.fixed {
-                last_fixed = Some(s);
-                lost = false;
-            }
-        }
-        out
-    }
-
-    /// The run's [`RtkMetrics`].
-    pub fn metrics(&self) -> RtkMetrics {
-        let (ratio_fixed, ratio_other) = self.ratios();
-        RtkMetrics {
-            epochs: self.epochs,
-            solved: self.solutions.len(),
-            fixed: self.solutions.iter().filter(|s| s.fixed).count(),
-            fix_rate: self.fix_rate(),
-            time_to_first_fix: self.time_to_first_fix(),
-            refix_times: self.refix_times(),
-            ratio_fixed,
-            ratio_other,
-            failures: self.failures.clone(),
-        }
-    }
-
-    /// The ratio test's values over the epochs searched: (minimum, median) of the fixed
-    /// ones and of the others (NaN where there are none).
-    pub fn ratios(&self) -> ((f64, f64), (f64, f64)) {
-        let stats = |fixed: bool| {
-            let mut r: Vec<f64> = self
-                .solutions
-                .iter()
-                .filter(|s| s.fixed == fixed && s.ratio.is_finite())
-                .map(|s| s.ratio)
-                .collect();
-            r.sort_by(f64::total_cmp);
-            match r.len() {
-                0 => (f64::NAN, f64::NAN),
-                n => (r[0], r[n / 2]),
-            }
-        };
-        (stats(true), stats(false))
-    }
-}
-
-/// The run against another solution of the same rover ([`RtkRun::compared`]).
+/// The run against another solution of the same rover ([`compared`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Comparison {
     /// Epochs in common (within 1 ms).
@@ -252,16 +33,14 @@ pub struct Comparison {
     pub wrong_fixes: usize,
 }
 
-impl RtkRun {
-    /// The run against `theirs` (time of week, ECEF; an RTKLIB `.pos` as
-    /// [`read_pos`] reads it).
-    pub fn compared(&self, theirs: &[(f64, Vector3<f64>)]) -> Comparison {
-        let ours: Vec<(f64, Vector3<f64>)> =
-            self.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
-        let (common, rms, offset) = compare(&ours, theirs);
-        let (fixed_compared, wrong_fixes) = far_fixes(self, theirs, WRONG_FIX);
-        Comparison { common, rms, offset, fixed_compared, wrong_fixes }
-    }
+/// The run against `theirs` (time of week, ECEF; an RTKLIB `.pos` as [`read_pos`] reads
+/// it).
+pub fn compared(run: &RtkRun, theirs: &[(f64, Vector3<f64>)]) -> Comparison {
+    let ours: Vec<(f64, Vector3<f64>)> =
+        run.solutions.iter().map(|s| (s.time.tow, s.pos)).collect();
+    let (common, rms, offset) = compare(&ours, theirs);
+    let (fixed_compared, wrong_fixes) = far_fixes(run, theirs, WRONG_FIX);
+    Comparison { common, rms, offset, fixed_compared, wrong_fixes }
 }
 
 /// Solves every rover epoch that has a base epoch at most [`RtkOptions::max_age`] older.
@@ -367,34 +146,9 @@ pub fn write_pos(path: &Path, run: &RtkRun, opt: &RtkOptions) -> Result<(), CliE
     crate::spp::write_solutions(path, &describe(run, opt), epochs)
 }
 
-/// The fix's metrics of a run as a line: time to first fix, the outages of the fix and the
-/// time to fix again, the ratio's minimum and median over the fixed epochs and the others.
+/// The fix's metrics of a run as a line ([`metrics_line`]).
 fn fix_metrics_line(run: &RtkRun) -> String {
-    let (fixed_ratios, other_ratios) = run.ratios();
-    let ratios = |(min, median): (f64, f64)| {
-        if min.is_nan() {
-            "none".to_string()
-        } else {
-            format!("min {min:.1}, median {median:.1}")
-        }
-    };
-    let refix = run.refix_times();
-    format!(
-        "time to first fix {}; {} outage{} of the fix{}; ratio of the fixed epochs: {}; of the others: {}",
-        run.time_to_first_fix().map_or("never".into(), |t| format!("{t:.0} s")),
-        refix.len(),
-        if refix.len() == 1 { "" } else { "s" },
-        if refix.is_empty() {
-            String::new()
-        } else {
-            format!(
-                " (fixed again after {} s at most)",
-                refix.iter().fold(0.0f64, |a, b| a.max(*b)).round()
-            )
-        },
-        ratios(fixed_ratios),
-        ratios(other_ratios)
-    )
+    metrics_line(&run.metrics())
 }
 
 /// `ins-gnss rtk`: solve, print, write, compare, and with `report` an HTML report of it
@@ -453,7 +207,7 @@ pub fn run(
     }
     if let Some(a) = against {
         let theirs = read_pos(a)?;
-        let c = run.compared(&theirs);
+        let c = compared(&run, &theirs);
         say(format!(
             "against {} ({} epochs): {} common, 3D RMS difference {:.4} m, mean offset N {:.4} E {:.4} D {:.4} m; {} of the {} fixed epochs in common more than {:.0} cm from it (wrong fixes, if it is the truth)",
             a.display(),

@@ -46,11 +46,11 @@ pub(crate) fn open_imu(
 
 /// The configured GNSS input: fixes, or raw observations (tight coupling, files only).
 pub(crate) fn open_aid(config: &Config, inputs: &Inputs) -> Result<AidReader, RunError> {
-    if config.gnss.coupling == crate::config::Coupling::Tight && !matches!(inputs, Inputs::Files) {
+    if config.gnss.coupling.is_raw() && !matches!(inputs, Inputs::Files) {
         return Err(bad_map(
             "gnss.coupling",
-            "tight coupling reads raw observations from `data.gnss` and `data.nav` files; \
-             arrays and recordings hold fixes (loose coupling)"
+            "tight coupling and RTK read raw observations from `data.gnss` and `data.nav` \
+             files; arrays and recordings hold fixes (loose coupling)"
                 .into(),
         ));
     }

@@ -70,7 +70,7 @@ impl Sink for Results {
         &mut self,
         t: f64,
         nav: &Navigator<RunStrategy, S>,
-        _gnss_fix: bool,
+        _quality: u8,
     ) -> Result<(), RunError>
     where
         DefaultAllocator: DimAlloc<S::Dim>,
@@ -181,7 +181,7 @@ impl Sink for Discard {
         &mut self,
         _t: f64,
         _nav: &Navigator<RunStrategy, S>,
-        _gnss_fix: bool,
+        _quality: u8,
     ) -> Result<(), RunError>
     where
         DefaultAllocator: DimAlloc<S::Dim>,

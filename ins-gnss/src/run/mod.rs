@@ -55,6 +55,7 @@ mod outputs;
 mod pass;
 mod recording;
 mod rows;
+mod rtk_aid;
 mod slices;
 mod smoothed;
 
@@ -317,7 +318,8 @@ where
     let at = gnss_at_start(config, start.time, &first_epochs, found);
     let started = start_navigator::<S>(config, start, strategy, &at)?;
     let tight = gnss.tight().cloned();
-    let mut pass = Pass::<S, O>::new(config, started, out, probe, at, tight)?;
+    let rtk = gnss.rtk().map(|s| rtk_aid::RtkAid::new(s, Vector3::from(config.gnss.lever_arm)));
+    let mut pass = Pass::<S, O>::new(config, started, out, probe, at, tight, rtk)?;
     let locate = Locate { imu: names.0, gnss: names.1 };
 
     // what the checks beside the filter report (an offset named, not refused)

@@ -18,13 +18,14 @@ pub(crate) trait Sink {
     fn recorder<S: RunState>(&mut self) -> Result<Recorder<S, Self::Store>, RunError>
     where
         DefaultAllocator: DimAlloc<S::Dim>;
-    /// The σ and IMU-error rows (and `nav.pos`) at `t`; `gnss_fix`: a GNSS update was used
-    /// at `t`.
+    /// The σ and IMU-error rows (and `nav.pos`) at `t`; `quality`: `nav.pos`'s Q (RTKLIB's:
+    /// 1 fixed — with loose and tight coupling, a GNSS update used at `t` — 2 float, 5 no
+    /// GNSS).
     fn epoch<S: RunState>(
         &mut self,
         t: f64,
         nav: &Navigator<RunStrategy, S>,
-        gnss_fix: bool,
+        quality: u8,
     ) -> Result<(), RunError>
     where
         DefaultAllocator: DimAlloc<S::Dim>;
@@ -83,8 +84,8 @@ pub(crate) enum Row {
 /// What [`EpochFiles::write_epoch`] writes at an epoch.
 pub(crate) struct EpochRow {
     pub(crate) t: f64,
-    /// A GNSS update was used at `t`.
-    pub(crate) gnss_fix: bool,
+    /// `nav.pos`'s Q.
+    pub(crate) quality: u8,
     /// The error states' 1σ, `sigma[..n]`.
     pub(crate) sigma: [f64; 21],
     pub(crate) n: usize,
@@ -290,12 +291,12 @@ impl EpochFiles {
         push_row(&mut self.line, &row[..n]);
         self.std.write_all(&self.line).map_err(|err| self.err("std.txt", err))?;
         // nav.pos: the position and velocity with their NED covariance blocks (error
-        // states 6–8 and 3–5); Q 1 after a GNSS update, 5 (no GNSS) otherwise
+        // states 6–8 and 3–5); Q as the pass says
         if self.pos_last_t == Some(e.t) {
             return Ok(());
         }
         self.pos_last_t = Some(e.t);
-        let q = if e.gnss_fix { 1 } else { 5 };
+        let q = e.quality;
         // (these files were written by `format!`; `push_epoch` and `push_exact_row` write
         // the same bytes, faster)
         self.line.clear();
@@ -355,7 +356,7 @@ impl Sink for Outputs {
         &mut self,
         t: f64,
         nav: &Navigator<RunStrategy, S>,
-        gnss_fix: bool,
+        quality: u8,
     ) -> Result<(), RunError>
     where
         DefaultAllocator: DimAlloc<S::Dim>,
@@ -375,7 +376,7 @@ impl Sink for Outputs {
         }
         self.push(Row::Epoch(EpochRow {
             t,
-            gnss_fix,
+            quality,
             sigma,
             n,
             x: nav.nav_state().clone(),

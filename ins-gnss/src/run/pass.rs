@@ -17,6 +17,10 @@ pub(super) struct GnssQueue<'g> {
     fixes: Vec<GnssEpoch>,
     raws: Vec<RawEpoch>,
     lines: Vec<(f64, usize)>,
+    /// RTK: the interval's rover epochs (their single point, and the base epoch paired
+    /// with them if any), for the RTK filter before the INS takes its fixes.
+    rtks: Vec<(Option<GnssEpoch>, Option<Box<super::aid::RtkPair>>)>,
+    rtk: bool,
 }
 
 impl<'g> GnssQueue<'g> {
@@ -24,8 +28,11 @@ impl<'g> GnssQueue<'g> {
         first: std::collections::VecDeque<(AidEpoch, usize)>,
         reader: &'g mut AidReader,
     ) -> Result<Self, RunError> {
+        let rtk = reader.rtk().is_some();
         let mut q = Self {
             first,
+            rtk,
+            rtks: Vec::new(),
             reader,
             next: None,
             span: (f64::NAN, f64::NAN),
@@ -62,9 +69,18 @@ impl<'g> GnssQueue<'g> {
         self.fixes.clear();
         self.raws.clear();
         self.lines.clear();
+        self.rtks.clear();
         while self.next.as_ref().is_some_and(|(g, _)| g.t <= t + 1e-9) {
             let Some((g, line)) = self.next.take() else { break };
-            if g.t > start + 1e-9 {
+            if g.t > start + 1e-9 && self.rtk {
+                // (RTK: the single point is the start's first fix; the RTK filter decides
+                // what the INS takes)
+                if let Some(fix) = g.fix {
+                    first_fix.get_or_insert(fix);
+                }
+                self.rtks.push((g.fix, g.rtk));
+                self.lines.push((g.t, line));
+            } else if g.t > start + 1e-9 {
                 if let Some(fix) = g.fix {
                     first_fix.get_or_insert(fix);
                     // (raw epochs: their single points served the start and this first
@@ -133,6 +149,8 @@ where
     pub(super) probe: Option<crate::config::FixErrorPlan>,
     pub(super) at: GnssAtStart,
     pub(super) tight: Option<TightConfig>,
+    /// RTK's filter (`gnss.coupling = "rtk"`).
+    pub(super) rtk: Option<super::rtk_aid::RtkAid>,
     last_std: f64,
     records: Vec<(f64, InsState)>,
     updates: Vec<UpdateSummary>,
@@ -154,6 +172,7 @@ where
         probe: Option<crate::config::FixErrorPlan>,
         at: GnssAtStart,
         tight: Option<TightConfig>,
+        rtk: Option<super::rtk_aid::RtkAid>,
     ) -> Result<Self, RunError> {
         let (nav, summary, end) = started;
         // (the exact mode keeps the step-by-step adjoint: its outputs stay those of
@@ -183,6 +202,7 @@ where
             probe,
             at,
             tight,
+            rtk,
             last_std: f64::NEG_INFINITY,
             records: Vec::with_capacity(BATCH),
             updates: Vec::with_capacity(4),
@@ -207,6 +227,7 @@ where
             return Ok(Flow::Stop);
         }
         gnss.take_until(sample.t, start, &mut self.summary.first_fix)?;
+        let rtk_quality = self.rtk_epochs(gnss, sample.t)?;
         self.updates.clear();
         S::process(
             &mut self.nav,
@@ -240,19 +261,63 @@ where
             }
             self.probe = None;
         }
-        // after every update, and once a second without (an outage's σ)
-        if !self.updates.is_empty() || sample.t >= self.last_std + STD_EVERY - 1e-9 {
-            let fix = self
-                .updates
-                .iter()
-                .any(|u| S::is_fix(u.stream) && u.verdict != estimator_core::Verdict::Rejected);
-            self.out.epoch(sample.t, &self.nav, fix)?;
+        // after every update and RTK epoch, and once a second without (an outage's σ)
+        if !self.updates.is_empty()
+            || rtk_quality.is_some()
+            || sample.t >= self.last_std + STD_EVERY - 1e-9
+        {
+            let q = self.nav_pos_quality(rtk_quality);
+            self.out.epoch(sample.t, &self.nav, q)?;
             // the smoothed σ at the same epochs
             estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut self.recorder);
             self.last_std = sample.t;
         }
         self.summary.span.1 = sample.t;
         Ok(Flow::Filtered)
+    }
+
+    /// `nav.pos`'s Q after this sample's updates, RTKLIB's: RTK's at its epochs
+    /// (`rtk_quality`), 1 fixed and 2 float — 1 only where the INS took the fix as it is,
+    /// not refused or its noise inflated by the gate; else 1 after a GNSS fix, 5 without.
+    fn nav_pos_quality(&self, rtk_quality: Option<u8>) -> u8 {
+        let fix = |ok: &dyn Fn(estimator_core::Verdict) -> bool| {
+            self.updates.iter().any(|u| S::is_fix(u.stream) && ok(u.verdict))
+        };
+        use estimator_core::Verdict::{Accepted, Deflated, Rejected};
+        match rtk_quality {
+            Some(1) if !fix(&|v| matches!(v, Accepted | Deflated)) => 2,
+            Some(q) => q,
+            None if fix(&|v| v != Rejected) => 1,
+            None => 5,
+        }
+    }
+
+    /// RTK: the interval's rover epochs through the RTK filter around the INS's
+    /// prediction, their fixes into `gnss.fixes` (in time order) for the INS; the
+    /// interval's RTKLIB quality (1 when an epoch fixed, else 2; `None`: no RTK epoch).
+    /// A fixed epoch's covariance is the smoothed position σ's floor from `t` on.
+    fn rtk_epochs(&mut self, gnss: &mut GnssQueue<'_>, t: f64) -> Result<Option<u8>, RunError> {
+        let Some(aid) = self.rtk.as_mut() else { return Ok(None) };
+        let mut quality = None;
+        let t_x = self.nav.time();
+        for (spp, pair) in gnss.rtks.drain(..) {
+            let Some(pair) = pair else {
+                aid.unpaired();
+                quality = quality.or(Some(2));
+                continue;
+            };
+            let p9 = self.nav.covariance().fixed_view::<9, 9>(0, 0).into_owned();
+            let step = aid.step(&pair, spp.as_ref(), self.nav.nav_state(), t_x, &p9);
+            if let Some((p, v)) = &step.widen {
+                self.nav.widen(p, v)?;
+            }
+            quality = Some(quality.map_or(step.quality, |q: u8| q.min(step.quality)));
+            gnss.fixes.extend(step.fix);
+            if let (Some(_), Some(f)) = (&self.recorder, step.floor) {
+                self.floors.push(t, f);
+            }
+        }
+        Ok(quality)
     }
 
     /// The rows not yet sent.
@@ -278,7 +343,7 @@ where
         }
         summary.finish_streams();
         check_gnss_overlap(summary, &locate.gnss)?;
-        self.out.epoch(summary.span.1, &self.nav, false)?;
+        self.out.epoch(summary.span.1, &self.nav, 5)?;
         estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut self.recorder);
         self.out.flush()?;
         summary.gnss_skipped = gnss.skipped();
@@ -289,6 +354,11 @@ where
         summary.learned = self.nav.filter().strategy().learned().collect();
         summary.fix_errors = fix_errors_learned(&self.nav);
         summary.calibration = calibration_learned(config, &self.nav);
+        summary.rtk = self.rtk.as_ref().map(|a| RtkSummary {
+            metrics: a.run.metrics(),
+            gated: a.gated,
+            base: a.run.base,
+        });
         if let Some(recorder) = self.recorder {
             let backward = Instant::now();
             // (a covariance at a lower rate than the state: the backward pass starts from

@@ -6,10 +6,11 @@ use super::*;
 /// [`run`], for repeated in-memory runs ([`run_slices`]): Monte Carlo over injected
 /// errors, strategy sweeps. Memory grows with the dataset (≈ 64 bytes per IMU sample).
 pub fn load_inputs(config: &Config) -> Result<(Vec<ImuSample>, Vec<GnssEpoch>), RunError> {
-    if config.gnss.coupling == crate::config::Coupling::Tight {
+    if config.gnss.coupling.is_raw() {
         return Err(bad_map(
             "gnss.coupling",
-            "in-memory slices hold fixes (loose coupling); a tight run goes through `run`".into(),
+            "in-memory slices hold fixes (loose coupling); a tight or RTK run goes through `run`"
+                .into(),
         ));
     }
     let (mut imu, mut gnss) = open_inputs(config, &Inputs::Files)?;

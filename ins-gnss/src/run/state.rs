@@ -239,11 +239,12 @@ impl GnssAtStart {
         Self { clock: None, fix_std, fix_factor: None }
     }
 
-    /// How the run models the fixes' errors (`gnss.errors`; tight coupling: white).
+    /// How the run models the fixes' errors (`gnss.errors`; tight coupling and RTK:
+    /// white — RTK's fixes are what its double differences add to the INS prediction).
     pub fn plan(&self, config: &Config) -> crate::config::FixErrorPlan {
         // (the calibration states run on the white model: `validate` refuses
         // `persisting` with them)
-        if config.gnss.coupling == crate::config::Coupling::Tight || config.calibrate.any() {
+        if config.gnss.coupling.is_raw() || config.calibrate.any() {
             return crate::config::FixErrorPlan::White;
         }
         config.gnss.errors.plan(self.fix_std.map(|s| s[0].max(s[1])))

@@ -118,6 +118,12 @@ impl StreamStats {
 
     /// One line for the run summary.
     pub fn verdict(&self) -> String {
+        self.verdict_of(false)
+    }
+
+    /// [`verdict`](Self::verdict) of a stream whose errors the filter follows (`follows`:
+    /// RTK's fixes), whose innovations are then smaller than its errors.
+    pub fn verdict_of(&self, follows: bool) -> String {
         let (m, (lo, hi)) = self.mean_nis();
         let (f, (flo, fhi)) = self.above_median_band();
         let head = format!(
@@ -141,6 +147,13 @@ impl StreamStats {
                  (the typical one {:.2}× its σ, the excess in the largest ones), so its \
                  reported σ (std.txt) is too small",
                 self.median_ratio.max(0.0).sqrt()
+            )
+        } else if follows {
+            format!(
+                "{head}: smaller than the filter believes, as the innovations of errors that \
+                 persist from epoch to epoch are (RTK's: the atmosphere's residuals and the \
+                 multipath change over minutes, and the filter follows them); not a sign of a \
+                 σ too large (judge it against a truth)"
             )
         } else if self.stream.to_string().starts_with("pr ") {
             // a satellite's pseudoranges (tight coupling): see `health::assess`

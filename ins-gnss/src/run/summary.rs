@@ -1,6 +1,7 @@
 //! What a run did: [`RunSummary`], the per-stream statistics and the consistency verdicts.
 
 use super::*;
+use ins_gnss_core::gnss::GNSS_POSITION;
 
 /// What a run did.
 #[derive(Clone, Debug, Default)]
@@ -76,6 +77,51 @@ pub struct RunSummary {
     pub fix_bank: Option<super::FixErrorBank>,
     /// The rig's calibration as the filter estimated it (`calibrate`).
     pub calibration: Option<CalibrationLearned>,
+    /// RTK's fix metrics (`gnss.coupling = "rtk"`).
+    pub rtk: Option<RtkSummary>,
+}
+
+/// What RTK did in a run: its fix metrics, the fixes the INS prediction contradicted, the
+/// base station's position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RtkSummary {
+    /// Fix rate, time to first fix, the fix's outages, the ratio test's values.
+    pub metrics: gnss::rtk::RtkMetrics,
+    /// Fixes of the INS-aided RTK filter that the RTK filter alone contradicted (χ²₃
+    /// 99.9 %), not used (the INS's position widened, the alone filter's fix used).
+    pub gated: usize,
+    /// The base station's antenna (ECEF, m).
+    pub base: Vector3<f64>,
+}
+
+impl RtkSummary {
+    /// The summary's line.
+    pub fn line(&self) -> String {
+        let m = &self.metrics;
+        format!(
+            "RTK: {} of {} rover epochs solved, {} fixed ({:.1} %), {} INS-aided fix{} the RTK \
+             alone contradicted (not used){}; {}",
+            m.solved,
+            m.epochs,
+            m.fixed,
+            100.0 * m.fix_rate,
+            self.gated,
+            if self.gated == 1 { "" } else { "es" },
+            if m.failures.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; unsolved: {}",
+                    m.failures
+                        .iter()
+                        .map(|(k, v)| format!("{v} {k}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            },
+            gnss::rtk::metrics_line(m)
+        )
+    }
 }
 
 /// The calibration states at the end of a run (`calibrate`): each estimate, its σ
@@ -452,6 +498,26 @@ impl RunSummary {
 }
 
 impl RunSummary {
+    /// The summary's line on two antennas' headings (`None`: none in the data).
+    fn headings_line(&self) -> Option<String> {
+        let s = self;
+        if s.headings.used + s.headings.rejected + s.headings_unmatched == 0 {
+            return None;
+        }
+        let mut line = format!(
+            "two antennas: {} headings used, {} refused",
+            s.headings.used, s.headings.rejected
+        );
+        if s.headings_unmatched > 0 {
+            line += &format!(
+                "; {} of `data.heading` found no fix at their time (within 1 ms) and were \
+                 not used",
+                s.headings_unmatched
+            );
+        }
+        Some(line)
+    }
+
     /// The lines of the summary (printed by the program, in the report, and in the Python
     /// package's summary).
     pub fn lines(&self) -> Vec<String> {
@@ -495,7 +561,9 @@ impl RunSummary {
         }
         lines.extend(s.learned_line());
         lines.extend(s.fix_errors_line());
-        lines.extend(s.calibration.map(|c| c.line()));
+        lines.extend(
+            s.calibration.map(|c| c.line()).into_iter().chain(s.rtk.as_ref().map(RtkSummary::line)),
+        );
         if s.aiding.iter().any(|a| a.used + a.rejected > 0) || s.stationary_time > 0.0 {
             let [n, z, r, o] = s.aiding;
             lines.push(format!(
@@ -503,22 +571,9 @@ impl RunSummary {
             n.used, n.rejected, z.used, z.rejected, r.used, r.rejected, o.used, o.rejected, s.stationary_time
         ));
         }
-        if s.headings.used + s.headings.rejected + s.headings_unmatched > 0 {
-            let mut line = format!(
-                "two antennas: {} headings used, {} refused",
-                s.headings.used, s.headings.rejected
-            );
-            if s.headings_unmatched > 0 {
-                line += &format!(
-                    "; {} of `data.heading` found no fix at their time (within 1 ms) and were \
-                     not used",
-                    s.headings_unmatched
-                );
-            }
-            lines.push(line);
-        }
+        lines.extend(s.headings_line());
         for st in &s.streams {
-            lines.push(st.verdict());
+            lines.push(st.verdict_of(s.rtk.is_some() && st.stream == GNSS_POSITION));
             lines.extend(st.adaptation());
         }
         if let Some((rows, secs)) = s.smoothed {

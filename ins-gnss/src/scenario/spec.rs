@@ -194,6 +194,11 @@ pub struct RawSpec {
     /// Whether the receiver flags its slips (loss of lock). Default true.
     #[serde(default = "yes")]
     pub flag_slips: bool,
+    /// A base station this far from the start (north, east, up, m) under the same sky
+    /// (`ins_gnss_sim::raw::simulate_rtk`): written as `base.obs`, its position in the
+    /// header, and the configuration runs RTK (`gnss.coupling = "rtk"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base: Option<[f64; 3]>,
 }
 
 impl RawSpec {
@@ -287,6 +292,12 @@ impl RawSpec {
     pub(super) fn validate(&self) -> Result<(), String> {
         positive("raw.rate", &[self.rate])?;
         self.true_troposphere()?;
+        if let Some(b) = &self.base {
+            finite("raw.base", b)?;
+            if nalgebra::Vector3::from(*b).norm() > 100e3 {
+                return Err(format!("`raw.base` {b:?} m: a baseline of at most 100 km"));
+            }
+        }
         if !(0.0..90.0).contains(&self.elevation_mask) {
             return Err(format!("`raw.elevation_mask` {}: degrees in 0…90", self.elevation_mask));
         }

@@ -84,14 +84,16 @@ impl Scenario {
         Ok(paths)
     }
 
-    /// `[raw]`: `obs.rnx` and the navigation file beside it (as `.partial` files).
+    /// `[raw]`: `obs.rnx` and the navigation file beside it, and `base.obs` with a base
+    /// station (as `.partial` files).
     fn write_raw(
         &self,
         raw: &RawSpec,
         traj: &Trajectory,
         dir: &Path,
-    ) -> Result<[PathBuf; 2], String> {
-        use ins_gnss_sim::raw::{simulate_raw, write_rinex_obs, RawSim, SkyMask};
+    ) -> Result<Vec<PathBuf>, String> {
+        use ins_gnss_sim::raw::SkyMask;
+        use ins_gnss_sim::raw::{simulate_raw, simulate_rtk, write_rinex_obs, RawSim, RtkSim};
         let nav = gnss::read_nav(&raw.nav).map_err(|e| e.to_string())?;
         let klobuchar = nav.klobuchar.unwrap_or_default();
         let start = gnss::GpsTime { week: raw.week, tow: self.start.time };
@@ -112,7 +114,24 @@ impl Scenario {
                 .collect(),
             ..RawSim::spp_budget(start)
         };
-        let (epochs, _) = simulate_raw(traj, &nav.ephemerides, &klobuchar, &sim, self.seed);
+        let (epochs, base) = match raw.base {
+            Some(offset) => {
+                let p0 = traj.position(traj.start_time());
+                let c = ins_gnss_core::earth::ecef_to_ned_rotation(p0.lat, p0.lon).transpose();
+                let ned = nalgebra::Vector3::new(offset[0], offset[1], -offset[2]);
+                let at = ins_gnss_core::earth::geodetic_to_ecef(p0.lat, p0.lon, p0.h) + c * ned;
+                let (rover, base, _) = simulate_rtk(
+                    traj,
+                    &nav.ephemerides,
+                    &klobuchar,
+                    &sim,
+                    &RtkSim::new(at),
+                    self.seed,
+                );
+                (rover, Some((base, at)))
+            }
+            None => (simulate_raw(traj, &nav.ephemerides, &klobuchar, &sim, self.seed).0, None),
+        };
         let usable = epochs.iter().filter(|e| e.sats.len() >= 4).count();
         if usable == 0 {
             return Err(format!(
@@ -131,7 +150,16 @@ impl Scenario {
             .and_then(|()| w.flush())
             .map_err(|e| io_err(&partial_path(&obs), e))?;
         std::fs::copy(&raw.nav, partial_path(&nav_copy)).map_err(|e| io_err(&raw.nav, e))?;
-        Ok([obs, nav_copy])
+        let mut paths = vec![obs, nav_copy];
+        if let Some((epochs, at)) = base {
+            let path = dir.join("base.obs");
+            let mut w = create_partial(&path).map_err(|e| io_err(&partial_path(&path), e))?;
+            write_rinex_obs(&mut w, &epochs, Some(&at))
+                .and_then(|()| w.flush())
+                .map_err(|e| io_err(&partial_path(&path), e))?;
+            paths.push(path);
+        }
+        Ok(paths)
     }
 
     /// The simulated files' `[data]`: the IMU, the GNSS (fixes, or the raw observations
@@ -157,6 +185,7 @@ impl Scenario {
             gnss_format: Default::default(),
             truth_columns: None,
             nav: self.raw.iter().filter_map(|r| r.nav.file_name().map(PathBuf::from)).collect(),
+            base: self.raw.as_ref().and_then(|r| r.base).map(|_| "base.obs".into()),
             ros: None,
         }
     }
@@ -221,7 +250,8 @@ impl Scenario {
                     baseline: self.gnss.heading.as_ref().map_or([1.0, 0.0, 0.0], |h| h.baseline),
                     ..Default::default()
                 },
-                coupling: match self.raw {
+                coupling: match &self.raw {
+                    Some(r) if r.base.is_some() => crate::config::Coupling::Rtk,
                     Some(_) => crate::config::Coupling::Tight,
                     None => crate::config::Coupling::Loose,
                 },
