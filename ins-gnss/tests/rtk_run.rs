@@ -204,7 +204,7 @@ fn an_rtk_run_fixes_and_follows_the_truth_to_centimetres() {
 /// first comes later (median 174 s over 20 seeds); none of these seeds' `nav.pos` rows
 /// with Q = 1 is more than 10 cm off, and from 20 s after the first fix the forward
 /// horizontal RMS is at most 2 cm (median; at most 10 cm each). (Seed 5, not here, fixes
-/// wrongly 43 s in — `ins-gnss rtk` alone on its files too — and its INS holds 157 rows
+/// wrongly 43 s in — `ins-gnss rtk` alone on its files too — and its INS holds 81 rows
 /// wrong: `docs/results.md`.)
 #[test]
 fn an_rtk_run_on_one_frequency_fixes_later_and_right() {
