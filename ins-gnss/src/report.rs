@@ -123,11 +123,17 @@ pub fn write(
     }
     // every innovation of each stream, before adaptation
     for st in &summary.streams {
-        let class = if st.consistent() { "" } else { " class=\"bad\"" };
-        let _ = writeln!(h, "<p{class}>{}</p>", escape(&st.verdict()));
+        // (RTK's fixes are followed: their small innovations are no sign of a σ too large)
+        let follows = summary.rtk.is_some() && st.stream == ins_gnss_core::gnss::GNSS_POSITION;
+        let bad = !st.consistent() && !(follows && st.mean_nis().0 <= st.mean_nis().1 .1);
+        let class = if bad { " class=\"bad\"" } else { "" };
+        let _ = writeln!(h, "<p{class}>{}</p>", escape(&st.verdict_of(follows)));
         if let Some(a) = st.adaptation() {
             let _ = writeln!(h, "<p>{}</p>", escape(&a));
         }
+    }
+    if let Some(rtk) = &summary.rtk {
+        fix_table(&mut h, &rtk.metrics);
     }
     if !tables.is_empty() {
         truth_tables(&mut h, tables);
@@ -148,4 +154,41 @@ pub fn write(
     let path = out_dir.join("report.html");
     ins_gnss_io::formats::write_published(&path, h)?;
     Ok(path)
+}
+
+/// An RTK run's fix metrics as a table (`ins-gnss rtk --report`, and a run's report with
+/// `gnss.coupling = "rtk"`): fix rate, time to first fix, the outages of the fix and the
+/// longest time to fix again, the ratio's statistics, the epochs unsolved and why.
+pub fn fix_table(h: &mut String, m: &gnss::rtk::RtkMetrics) {
+    h.push_str("<h2>The fix (RTK)</h2>\n<table>\n");
+    let none = |v: Option<f64>| v.map_or("—".to_string(), |t| format!("{t:.1}"));
+    let longest = m.refix_times.iter().copied().reduce(f64::max);
+    let rows: [(&str, String); 10] = [
+        ("rover epochs", m.epochs.to_string()),
+        ("solved", m.solved.to_string()),
+        ("fixed", m.fixed.to_string()),
+        ("fix rate", format!("{:.1} %", 100.0 * m.fix_rate)),
+        ("time to first fix, s", none(m.time_to_first_fix)),
+        ("outages of the fix", m.refix_times.len().to_string()),
+        ("longest time to fix again, s", none(longest)),
+        ("ratio of the fixed epochs: min, median", ratio_pair(m.ratio_fixed)),
+        ("ratio of the others: min, median", ratio_pair(m.ratio_other)),
+        (
+            "epochs unsolved",
+            m.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", "),
+        ),
+    ];
+    for (label, value) in rows {
+        let _ = writeln!(h, "<tr><td>{label}</td><td>{}</td></tr>", escape(&value));
+    }
+    h.push_str("</table>\n");
+}
+
+/// (minimum, median) of the ratio as text ("—": none).
+fn ratio_pair((min, median): (f64, f64)) -> String {
+    if min.is_nan() {
+        "—".into()
+    } else {
+        format!("{min:.1}, {median:.1}")
+    }
 }

@@ -23,28 +23,9 @@ pub fn write_report(
     for line in lines {
         let _ = writeln!(h, "<li>{}</li>", escape(line));
     }
-    h.push_str("</ul>\n<h2>The fix</h2>\n<table>\n");
-    let none = |v: Option<f64>| v.map_or("—".to_string(), |t| format!("{t:.1}"));
-    let longest = m.refix_times.iter().copied().reduce(f64::max);
-    let rows: [(&str, String); 10] = [
-        ("rover epochs", m.epochs.to_string()),
-        ("solved", m.solved.to_string()),
-        ("fixed", m.fixed.to_string()),
-        ("fix rate", format!("{:.1} %", 100.0 * m.fix_rate)),
-        ("time to first fix, s", none(m.time_to_first_fix)),
-        ("outages of the fix", m.refix_times.len().to_string()),
-        ("longest time to fix again, s", none(longest)),
-        ("ratio of the fixed epochs: min, median", ratio_pair(m.ratio_fixed)),
-        ("ratio of the others: min, median", ratio_pair(m.ratio_other)),
-        (
-            "epochs unsolved",
-            m.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", "),
-        ),
-    ];
-    for (label, value) in rows {
-        let _ = writeln!(h, "<tr><td>{label}</td><td>{}</td></tr>", escape(&value));
-    }
-    h.push_str("</table>\n<h2>Plots</h2>\n");
+    h.push_str("</ul>\n");
+    crate::report::fix_table(&mut h, &m);
+    h.push_str("<h2>Plots</h2>\n");
     let dir = tempdir(path)?;
     let drawn = plots(&dir, run, opt).and_then(|files| {
         files.iter().map(|f| inline_svg(f)).collect::<Result<Vec<String>, String>>()
@@ -57,15 +38,6 @@ pub fn write_report(
     h.push_str("</body>\n</html>\n");
     ins_gnss_io::formats::write_published(path, h)?;
     Ok(())
-}
-
-/// (minimum, median) of the ratio as text ("—": none).
-fn ratio_pair((min, median): (f64, f64)) -> String {
-    if min.is_nan() {
-        "—".into()
-    } else {
-        format!("{min:.1}, {median:.1}")
-    }
 }
 
 /// A scratch folder beside `path` for the report's plots.
