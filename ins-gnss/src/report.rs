@@ -125,8 +125,9 @@ pub fn write(
     for st in &summary.streams {
         // (RTK's fixes are followed: their small innovations are no sign of a σ too large)
         let follows = summary.rtk.is_some() && st.stream == ins_gnss_core::gnss::GNSS_POSITION;
-        let bad = !st.consistent() && !(follows && st.mean_nis().0 <= st.mean_nis().1 .1);
-        let class = if bad { " class=\"bad\"" } else { "" };
+        let (mean, (_, hi)) = st.mean_nis();
+        let fine = st.consistent() || (follows && mean <= hi);
+        let class = if fine { "" } else { " class=\"bad\"" };
         let _ = writeln!(h, "<p{class}>{}</p>", escape(&st.verdict_of(follows)));
         if let Some(a) = st.adaptation() {
             let _ = writeln!(h, "<p>{}</p>", escape(&a));
