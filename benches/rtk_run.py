@@ -10,8 +10,11 @@ removed (the run starts from the data), smoothing on, `gnss.rtk.frequencies` set
 Q = 1 more than 10 cm from the truth, 3D), the forward horizontal RMS after the first
 fix outside the canyon and the minute after it, the error at the canyon's end, the
 smoothed horizontal RMS, the forward and smoothed position NEES beyond their 99 %
-quantile (`ins-gnss` prints them), exit codes. `INS_GNSS` names the binary (default
-`target/release/ins-gnss`); `EXTRA` adds configuration lines to `[gnss.rtk]`.
+quantile (`ins-gnss` prints them), exit codes, and the longest time to fix again after an
+outage of the fix. `INS_GNSS` names the binary (default `target/release/ins-gnss`); `EXTRA`
+adds configuration lines to `[gnss.rtk]`; `MASKS` replaces the scenario's sky masks (e.g.
+`MASKS='[[300.0, 330.0, 0.0]]'`: a 30 s tunnel instead of the canyon; the canyon columns
+then read the tunnel).
 """
 
 import math
@@ -30,11 +33,17 @@ T0 = 529200.0
 
 def dataset(tmp: Path, seed: int) -> Path:
     d = tmp / f"s{seed}"
+    global CANYON
+    m = re.match(r"\[\[([\d.]+), ([\d.]+)", os.environ.get("MASKS", ""))
+    if m:
+        CANYON = (float(m.group(1)), float(m.group(2)))
     if (d / "config.toml").exists():
         return d
     text = (ROOT / "ins-gnss/scenarios/rtk.toml").read_text()
     text = re.sub(r"^seed = \d+", f"seed = {seed}", text, flags=re.M)
     text = text.replace("../../data/", str(ROOT / "data") + "/")
+    if "MASKS" in os.environ:
+        text = re.sub(r"^masks = .*$", f"masks = {os.environ['MASKS']}", text, flags=re.M)
     spec = tmp / f"s{seed}.toml"
     spec.write_text(text)
     subprocess.run([BIN, "simulate", str(spec), "--out", str(d)], check=True, capture_output=True)
@@ -78,12 +87,16 @@ def one(d: Path, freqs: int):
     tr = truth(d)
     m = re.search(r"RTK: (\d+) of (\d+) rover epochs solved, (\d+) fixed", log)
     first = re.search(r"time to first fix (\d+) s", log)
+    refix = re.search(r"fixed again after (\d+) s at most", log)
     fixed, epochs = (int(m.group(3)), int(m.group(2))) if m else (0, 0)
     wrong = q1 = 0
+    back = None
     for line in (out / "nav.pos").read_text().splitlines():
         if line.startswith("%"):
             continue
         v = [float(x) for x in line.split()[:6]]
+        if v[5] == 1 and back is None and v[1] - T0 >= CANYON[1] - 0.5:
+            back = v[1] - T0 - CANYON[1]
         t = tr.get(round(v[1] * 100))
         if v[5] != 1 or t is None:
             continue
@@ -125,7 +138,14 @@ def one(d: Path, freqs: int):
         "sm": rms(sm, 10.0),
         "sm_canyon": max(math.hypot(e[1], e[2]) for e in sm if CANYON[0] <= e[0] < CANYON[1]),
         "beyond": [float(x[1]) for x in nees],
+        "refix": int(refix.group(1)) if refix else None,
+        "back": back if back is not None else 10**9,
     }
+
+
+def refixes(rs):
+    v = sorted(r["refix"] for r in rs if r["refix"] is not None)
+    return f"{v[len(v) // 2]} / {v[-1]}" if v else "–"
 
 
 def main():
@@ -145,9 +165,9 @@ def main():
         "| frequencies | exit 0 / 3 / other | fix rate, mean (worst seed) | first fix, s: median / worst"
         " | wrong fixes | forward H RMS after the first fix, m: median / worst | canyon end, m: median / worst"
         " | smoothed H RMS, m: median / worst | smoothed canyon max, m: median / worst"
-        " | position beyond 99 %: forward / smoothed, mean % |"
+        " | position beyond 99 %: forward / smoothed, mean % | longest time to fix again, s: median / worst | first Q = 1 row after the canyon (tunnel), s: median / worst |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for f, rs in cells.items():
         med = lambda v: sorted(v)[len(v) // 2]  # noqa: E731
         worst = lambda v: max(v)  # noqa: E731
@@ -163,7 +183,8 @@ def main():
             f" | {fm(med(firsts))} / {fm(worst(firsts))}"
             f" | {sum(r['wrong'] for r in rs)} of {sum(r['q1'] for r in rs)}"
             f" | {col('fwd')} | {col('end')} | {col('sm')} | {col('sm_canyon')}"
-            f" | {beyond[0]:.1f} / {beyond[1]:.1f} |"
+            f" | {beyond[0]:.1f} / {beyond[1]:.1f} | {refixes(rs)}"
+            f" | {fm(round(med([r['back'] for r in rs])))} / {fm(round(worst([r['back'] for r in rs])))} |"
         )
 
 
