@@ -27,6 +27,17 @@ impl RawInput {
     /// Opens `obs` (the file's name says a u-blox log: `.ubx`, compressed or not) with the
     /// ephemerides of `navs`. No ephemeris at all is refused.
     pub fn open(obs: &Path, navs: &[PathBuf]) -> Result<Self, RawError> {
+        Self::open_with(obs, navs, true)
+    }
+
+    /// A base station's observations (RTK): its ephemerides are not needed (the rover's
+    /// serve the double differences), so a file without them — a RINEX base beside a
+    /// u-blox rover log that brings its own — is taken; those of `navs` are kept.
+    pub fn open_base(obs: &Path, navs: &[PathBuf]) -> Result<Self, RawError> {
+        Self::open_with(obs, navs, false)
+    }
+
+    fn open_with(obs: &Path, navs: &[PathBuf], need_ephemerides: bool) -> Result<Self, RawError> {
         let mut nav = NavData::default();
         let mut records = Vec::new();
         for n in navs {
@@ -47,7 +58,7 @@ impl RawInput {
         } else {
             RawEpochs::Rinex(Box::new(ObsReader::open(obs)?))
         };
-        if records.is_empty() {
+        if records.is_empty() && need_ephemerides {
             let what = navs.first().map_or(obs, PathBuf::as_path);
             return Err(RawError {
                 path: what.to_path_buf(),

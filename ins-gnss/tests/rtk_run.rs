@@ -313,3 +313,30 @@ fn rtk_configurations_refused_with_their_keys() {
     assert!(!fixes.contains("class=\"bad\"") && fixes.contains("not a sign of a σ too large"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A u-blox rover log (its GPS ephemerides inside) with a RINEX base and no navigation
+/// file: the base needs none (the rover's ephemerides serve the double differences), and
+/// the run fixes as with RINEX rover and navigation files (seed 7, L1 + L2).
+#[test]
+fn a_ublox_rover_with_a_rinex_base_needs_no_navigation_file() {
+    let (dir, mut cfg) = dataset("ubx", 7, 2);
+    let mut reader = gnss::ObsReader::open(&cfg.data.gnss).unwrap();
+    let mut epochs = Vec::new();
+    while let Some(e) = reader.next_epoch().unwrap() {
+        epochs.push(e);
+    }
+    let nav = gnss::read_nav(&cfg.data.nav[0]).unwrap();
+    let log = ins_gnss_sim::raw::write_ubx(&epochs, &nav.ephemerides, nav.klobuchar.as_ref(), 13);
+    std::fs::write(dir.join("rover.ubx"), log).unwrap();
+    let rinex = run(&cfg, "fixed".parse().unwrap(), &dir.join("out-rinex"), None).unwrap();
+    cfg.data.gnss = dir.join("rover.ubx");
+    cfg.data.nav.clear();
+    let ubx = run(&cfg, "fixed".parse().unwrap(), &dir.join("out-ubx"), None).unwrap();
+    let (a, b) = (&rinex.rtk.unwrap().metrics, &ubx.rtk.unwrap().metrics);
+    eprintln!(
+        "RINEX rover: {}/{} fixed; u-blox rover: {}/{} fixed",
+        a.fixed, a.epochs, b.fixed, b.epochs
+    );
+    assert!(b.epochs == a.epochs && b.fix_rate >= 0.95 && b.fixed + 5 >= a.fixed, "{a:?} {b:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}

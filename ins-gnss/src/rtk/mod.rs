@@ -52,7 +52,7 @@ pub fn solve_files(
     opt: &RtkOptions,
 ) -> Result<RtkRun, CliError> {
     let mut r = crate::raw_input::RawInput::open(rover, navs)?;
-    let mut b = crate::raw_input::RawInput::open(base, navs)?;
+    let mut b = crate::raw_input::RawInput::open_base(base, navs)?;
     let Some(base_pos) = base_pos.or_else(|| b.approx_position()) else {
         return Err(format!(
             "{}: no APPROX POSITION XYZ in the header: give the base position (--base-position X,Y,Z)",

@@ -231,7 +231,7 @@ fn open_base(config: &Config, rover: &RawInput) -> Result<(BaseStream, RtkSetup)
     let path = config.data.base.as_ref().ok_or_else(|| {
         key("data.base", "`gnss.coupling = \"rtk\"` needs a base station's observations".into())
     })?;
-    let mut input = RawInput::open(path, &config.data.nav).map_err(RunError::Raw)?;
+    let mut input = RawInput::open_base(path, &config.data.nav).map_err(RunError::Raw)?;
     let base = match config.gnss.rtk.base_position {
         Some(p) => Vector3::from(p),
         None => input.approx_position().ok_or_else(|| {
