@@ -283,16 +283,9 @@ pub fn assess(summary: &RunSummary, config: &Config) -> Result<(), Unhealthy> {
     let gnss: Vec<&StreamStats> = summary.streams.iter().filter(|s| s.gnss).collect();
     let tight = config.gnss.coupling == crate::config::Coupling::Tight;
     let floor = tight && config.gnss.tight.error_floor;
-    let rtk = config.gnss.coupling == crate::config::Coupling::Rtk;
     let mut problems: Vec<String> = gnss
         .iter()
-        .flat_map(|s| {
-            stream_problems(
-                s,
-                floor && is_pseudorange(s),
-                rtk && s.stream == ins_gnss_core::gnss::GNSS_POSITION,
-            )
-        })
+        .flat_map(|s| stream_problems(s, floor && is_pseudorange(s), summary.follows(s)))
         .collect();
     if floor {
         problems.extend(pseudorange_problem(&gnss));

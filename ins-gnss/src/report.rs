@@ -123,8 +123,7 @@ pub fn write(
     }
     // every innovation of each stream, before adaptation
     for st in &summary.streams {
-        // (RTK's fixes are followed: their small innovations are no sign of a σ too large)
-        let follows = summary.rtk.is_some() && st.stream == ins_gnss_core::gnss::GNSS_POSITION;
+        let follows = summary.follows(st);
         let (mean, (_, hi)) = st.mean_nis();
         let fine = st.consistent() || (follows && mean <= hi);
         let class = if fine { "" } else { " class=\"bad\"" };
@@ -174,10 +173,7 @@ pub fn fix_table(h: &mut String, m: &gnss::rtk::RtkMetrics) {
         ("longest time to fix again, s", none(longest)),
         ("ratio of the fixed epochs: min, median", ratio_pair(m.ratio_fixed)),
         ("ratio of the others: min, median", ratio_pair(m.ratio_other)),
-        (
-            "epochs unsolved",
-            m.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", "),
-        ),
+        ("epochs unsolved", gnss::rtk::reasons_text(&m.failures)),
     ];
     for (label, value) in rows {
         let _ = writeln!(h, "<tr><td>{label}</td><td>{}</td></tr>", escape(&value));

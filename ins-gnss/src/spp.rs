@@ -211,7 +211,7 @@ pub fn run(
         if run.failures.is_empty() {
             "no failures".to_string()
         } else {
-            run.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", ")
+            gnss::rtk::reasons_text(&run.failures)
         },
         run.excluded
     );

@@ -47,7 +47,21 @@ pub struct RtkRun {
     pub base: Vector3<f64>,
 }
 
+/// The failure of a rover epoch without a base epoch recent enough.
+pub const NO_BASE_EPOCH: &str = "no base epoch recent enough";
+
+/// Counts by reason as text: each count before its reason, comma-separated ("3 too few
+/// common satellites, 1 singular update").
+pub fn reasons_text(counts: &BTreeMap<String, usize>) -> String {
+    counts.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", ")
+}
+
 impl RtkRun {
+    /// One more epoch without a solution, for `reason`.
+    pub fn fail(&mut self, reason: &str) {
+        *self.failures.entry(reason.into()).or_default() += 1;
+    }
+
     /// Fixed solutions over all solutions.
     pub fn fix_rate(&self) -> f64 {
         self.solutions.iter().filter(|s| s.fixed).count() as f64

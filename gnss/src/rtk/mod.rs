@@ -97,6 +97,17 @@ pub enum RtkFailure {
     Singular,
 }
 
+impl RtkFailure {
+    /// The reason in words, as a run's failures count it.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            RtkFailure::TooFewSatellites(_) => "too few common satellites",
+            RtkFailure::NoSinglePoint => "no single point yet",
+            RtkFailure::Singular => "singular update",
+        }
+    }
+}
+
 /// What an epoch's solution `post` (ECEF position and covariance) adds to the `prior` it
 /// started from, as an independent measurement of the position: `R⁻¹ = P_post⁻¹ −
 /// P_prior⁻¹`, `z = x_prior + R P_post⁻¹ (x_post − x_prior)` (the information form of the

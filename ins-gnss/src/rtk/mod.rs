@@ -4,7 +4,7 @@
 use crate::cli::CliError;
 use crate::spp::{compare, read_pos, scatter};
 
-use gnss::rtk::{Rtk, RtkEpoch, RtkFailure, RtkMode, RtkOptions};
+use gnss::rtk::{Rtk, RtkEpoch, RtkMode, RtkOptions};
 use gnss::{single_point, ObsEpoch};
 use ins_gnss_core::earth::{ecef_to_geodetic, ecef_to_ned_rotation};
 use ins_gnss_core::GeoPos;
@@ -84,7 +84,7 @@ pub fn solve_epochs(
         }
         let Some(be) = current.as_ref().filter(|x| e.time.diff(&x.time) <= opt.max_age + PAIRING)
         else {
-            *run.failures.entry("no base epoch recent enough".into()).or_default() += 1;
+            run.fail(gnss::rtk::NO_BASE_EPOCH);
             continue;
         };
         let nav = &r.nav;
@@ -98,14 +98,7 @@ pub fn solve_epochs(
             Ok(s) => run
                 .solutions
                 .push(RtkEpoch { time: spp.as_ref().map_or(s.time, |p| p.solution_time()), ..s }),
-            Err(f) => {
-                let key = match f {
-                    RtkFailure::TooFewSatellites(_) => "too few common satellites",
-                    RtkFailure::NoSinglePoint => "no single point yet",
-                    RtkFailure::Singular => "singular update",
-                };
-                *run.failures.entry(key.into()).or_default() += 1;
-            }
+            Err(f) => run.fail(f.reason()),
         }
     }
     Ok(run)
@@ -182,10 +175,7 @@ pub fn run(
         if run.failures.is_empty() {
             String::new()
         } else {
-            format!(
-                "; unsolved: {}",
-                run.failures.iter().map(|(k, v)| format!("{v} {k}")).collect::<Vec<_>>().join(", ")
-            )
+            format!("; unsolved: {}", gnss::rtk::reasons_text(&run.failures))
         }
     ));
     if let Some((mean, hs, vs)) = fixed_scatter(&run) {

@@ -282,18 +282,17 @@ impl RawReader {
         });
         // the heading file's heading at this epoch (within 1 ms)
         let heading = self.headings.take(t);
+        // (RTK: the instant of the rover's position, the stamp less the receiver clock's
+        // offset; the single point's fix at the stamp, as tight coupling's)
+        let offset = spp.as_ref().map_or(0.0, |s| s.solution_time().diff(&e.time));
+        let fix = spp.map(|s| GnssEpoch { heading, ..GnssEpoch::from_single_point(&s, t) });
         if let Some((base, _)) = &mut self.base {
-            // (the instant of the rover's position: the stamp less the receiver clock's
-            // offset; the single point's fix at the stamp, as tight coupling's)
-            let clock = spp.as_ref().map_or(0.0, |s| s.solution_time().diff(&e.time));
-            let fix = spp.map(|s| GnssEpoch { heading, ..GnssEpoch::from_single_point(&s, t) });
             let rtk = base
                 .pair(&e.time)?
                 .cloned()
-                .map(|b| Box::new(RtkPair { rover: e, base: b, t: t + clock, clock }));
+                .map(|b| Box::new(RtkPair { rover: e, base: b, t: t + offset, clock: offset }));
             return Ok(Some(AidEpoch { t, fix, raw: None, rtk }));
         }
-        let fix = spp.map(|s| GnssEpoch { heading, ..GnssEpoch::from_single_point(&s, t) });
         Ok(Some(AidEpoch {
             t,
             fix,

@@ -72,17 +72,15 @@ impl<'g> GnssQueue<'g> {
         self.rtks.clear();
         while self.next.as_ref().is_some_and(|(g, _)| g.t <= t + 1e-9) {
             let Some((g, line)) = self.next.take() else { break };
-            if g.t > start + 1e-9 && self.rtk {
-                // (RTK: the single point is the start's first fix; the RTK filter decides
-                // what the INS takes)
+            if g.t > start + 1e-9 {
                 if let Some(fix) = g.fix {
                     first_fix.get_or_insert(fix);
                 }
-                self.rtks.push((g.fix, g.rtk));
-                self.lines.push((g.t, line));
-            } else if g.t > start + 1e-9 {
-                if let Some(fix) = g.fix {
-                    first_fix.get_or_insert(fix);
+                if self.rtk {
+                    // (RTK: the single point was the start's first fix; the RTK filter
+                    // decides what the INS takes)
+                    self.rtks.push((g.fix, g.rtk));
+                } else if let Some(fix) = g.fix {
                     // (raw epochs: their single points served the start and this first
                     // fix; the filter takes the satellites)
                     self.reader.skip_single_points();

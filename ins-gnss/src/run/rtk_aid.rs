@@ -132,7 +132,7 @@ impl RtkAid {
     /// A rover epoch without a base epoch recent enough.
     pub(crate) fn unpaired(&mut self) {
         self.run.epochs += 1;
-        *self.run.failures.entry("no base epoch recent enough".into()).or_default() += 1;
+        self.run.fail(gnss::rtk::NO_BASE_EPOCH);
     }
 
     /// The rover epoch `pair` with its single point `spp` (a fix at the stamp), the INS
@@ -282,12 +282,7 @@ impl RtkAid {
                 Some(s)
             }
             Err(f) => {
-                let key = match f {
-                    RtkFailure::TooFewSatellites(_) => "too few common satellites",
-                    RtkFailure::NoSinglePoint => "no single point yet",
-                    RtkFailure::Singular => "singular update",
-                };
-                *self.run.failures.entry(key.into()).or_default() += 1;
+                self.run.fail(f.reason());
                 None
             }
         }

@@ -110,14 +110,7 @@ impl RtkSummary {
             if m.failures.is_empty() {
                 String::new()
             } else {
-                format!(
-                    "; unsolved: {}",
-                    m.failures
-                        .iter()
-                        .map(|(k, v)| format!("{v} {k}"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
+                format!("; unsolved: {}", gnss::rtk::reasons_text(&m.failures))
             },
             gnss::rtk::metrics_line(m)
         )
@@ -498,6 +491,13 @@ impl RunSummary {
 }
 
 impl RunSummary {
+    /// Whether the filter follows `st`'s errors: RTK's fixes (the atmosphere's residuals
+    /// and the multipath persist for minutes), whose small innovations are then no sign
+    /// of a σ too large (the summary's verdicts, the report, [`crate::health::assess`]).
+    pub fn follows(&self, st: &StreamStats) -> bool {
+        self.rtk.is_some() && st.stream == GNSS_POSITION
+    }
+
     /// The summary's line on two antennas' headings (`None`: none in the data).
     fn headings_line(&self) -> Option<String> {
         let s = self;
@@ -573,7 +573,7 @@ impl RunSummary {
         }
         lines.extend(s.headings_line());
         for st in &s.streams {
-            lines.push(st.verdict_of(s.rtk.is_some() && st.stream == GNSS_POSITION));
+            lines.push(st.verdict_of(s.follows(st)));
             lines.extend(st.adaptation());
         }
         if let Some((rows, secs)) = s.smoothed {
