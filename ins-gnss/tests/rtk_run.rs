@@ -296,6 +296,21 @@ fn rtk_configurations_refused_with_their_keys() {
         }
         other => panic!("{:?}", other.map(|s| s.lines())),
     }
+    // a base of another day: no rover epoch pairs, refused naming the base (not the
+    // rover's file), an earlier result left as it was
+    let base = std::fs::read_to_string(dir.join("base.obs")).unwrap();
+    std::fs::write(dir.join("base-day.obs"), base.replace("> 2005 04 02", "> 2005 04 03")).unwrap();
+    let mut d = cfg.clone();
+    d.data.base = Some(dir.join("base-day.obs"));
+    run(&cfg, "fixed".parse().unwrap(), &dir.join("out-day"), None).unwrap();
+    let before = std::fs::read(dir.join("out-day/nav.txt")).unwrap();
+    match run(&d, "fixed".parse().unwrap(), &dir.join("out-day"), None) {
+        Err(RunError::Start(e)) => {
+            assert!(e.contains("base-day.obs") && e.contains("gnss.rtk.max_age"), "{e}")
+        }
+        other => panic!("{:?}", other.map(|s| s.lines())),
+    }
+    assert_eq!(std::fs::read(dir.join("out-day/nav.txt")).unwrap(), before);
     // …and runs with the position given
     let header = ins_gnss::raw_input::RawInput::open(&dir.join("base.obs"), &cfg.data.nav)
         .unwrap()

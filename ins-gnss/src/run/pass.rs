@@ -340,6 +340,9 @@ where
             )));
         }
         summary.finish_streams();
+        if let Some(aid) = &self.rtk {
+            aid.check_base_overlap(config)?;
+        }
         check_gnss_overlap(summary, &locate.gnss)?;
         self.out.epoch(summary.span.1, &self.nav, 5)?;
         estimator_core::StepRecorder::<S, ImuInput>::mark_variances(&mut self.recorder);

@@ -129,6 +129,28 @@ impl RtkAid {
         }
     }
 
+    /// A run none of whose rover epochs found a base epoch recent enough (the base file
+    /// of another day, another time scale): refused, naming `data.base`, rather than left
+    /// to the INS alone (and blamed on the rover's file).
+    pub(crate) fn check_base_overlap(
+        &self,
+        config: &crate::config::Config,
+    ) -> Result<(), super::RunError> {
+        let unpaired = self.run.failures.get(gnss::rtk::NO_BASE_EPOCH).copied().unwrap_or(0);
+        if self.run.epochs == 0 || unpaired < self.run.epochs {
+            return Ok(());
+        }
+        let base = config.data.base.as_deref().unwrap_or(std::path::Path::new("data.base"));
+        Err(super::RunError::Start(format!(
+            "{}: none of the rover's {} epochs in the IMU span has a base epoch at most \
+             {} s older (`gnss.rtk.max_age`): check that `data.base` covers the rover's \
+             time (the same day and time scale)",
+            base.display(),
+            self.run.epochs,
+            self.setup.options.max_age
+        )))
+    }
+
     /// A rover epoch without a base epoch recent enough.
     pub(crate) fn unpaired(&mut self) {
         self.run.epochs += 1;
