@@ -389,3 +389,175 @@ fn ins_aided_rtk_keeps_the_fix_through_outages() {
     }
     assert!(alone_wrong > 0, "RTK alone had no wrong fix in the canyons: the test shows nothing");
 }
+
+/// Each satellite's slot-`f` code, phase and Doppler of an epoch, by satellite.
+fn signals(e: &gnss::ObsEpoch, f: usize) -> Vec<(gnss::Sat, gnss::Signal)> {
+    e.sats.iter().map(|s| (s.sat, s.signals[f])).collect()
+}
+
+/// The base station as RTCM 3 — its RINEX written as GPS MSM7 and a 1005 message
+/// (`ins_gnss_sim::rtcm::write_rtcm`) — reads back (`gnss::rtcm::read_rtcm`, the time of
+/// week put in the rover's week) to the RINEX's observations: the same epochs and
+/// satellites, code within 1 mm (MSM7 resolves 0.6 mm), phase within 0.001 cycle less a
+/// whole number of cycles constant over the hour (MSM keeps the phase near the code), no
+/// slip flagged; the 1005 message's position is the base position. `ins-gnss rtk` with it
+/// as the base fixes the epochs the RINEX base fixes, within 3 mm of them (the code's
+/// resolution through the last epochs' 5 satellites: 1.1 mm at most). With RTKLIB's
+/// `convbin` here (required when `ESTIMATOR_REQUIRE_RTKLIB` is set, as `.ci/run` sets it),
+/// RTKLIB reads the same file to the same codes (1 mm): the encoding is RTCM's, not only
+/// ours.
+#[test]
+fn a_base_station_as_rtcm3() {
+    let dir = tempfile_dir().join("rtcm");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut reader = gnss::ObsReader::open(&data("30400920.05o.zst")).unwrap();
+    let position = reader.header.approx_position.unwrap();
+    let mut epochs = Vec::new();
+    while let Some(e) = reader.next_epoch().unwrap() {
+        epochs.push(e);
+    }
+    let path = dir.join("base.rtcm3");
+    std::fs::write(&path, ins_gnss_sim::rtcm::write_rtcm(&epochs, &position, 3040)).unwrap();
+    let near = epochs[0].time.add(3.0 * 86_400.0);
+    let log = gnss::rtcm::read_rtcm(&path, near).unwrap();
+    assert_eq!(log.position.map(|p| (p - position).norm() < 1e-3), Some(true));
+    assert_eq!(log.epochs.len(), epochs.len());
+    let (mut offsets, mut slips) = (std::collections::HashMap::new(), 0);
+    for (a, b) in epochs.iter().zip(&log.epochs) {
+        assert!(a.time.diff(&b.time).abs() < 1e-6, "{} {}", a.time, b.time);
+        for f in 0..2 {
+            let (x, y) = (signals(a, f), signals(b, f));
+            let with_code: Vec<_> = x.iter().filter(|s| s.1.code.is_some()).collect();
+            let decoded = y.iter().filter(|s| s.1.code.is_some()).count();
+            assert_eq!(with_code.len(), decoded, "{} slot {f}", a.time);
+            for (sat, s) in with_code {
+                let r = &y.iter().find(|t| t.0 == *sat).unwrap().1;
+                assert!((s.code.unwrap() - r.code.unwrap()).abs() < 1e-3);
+                if let (Some(p), Some(q)) = (s.phase, r.phase) {
+                    let k = (p - q).round();
+                    assert!((p - q - k).abs() < 1e-3, "{sat} {f}: {}", p - q);
+                    // a slip the RINEX flags starts a new arc, flagged in the RTCM too
+                    let seen = offsets.contains_key(&(*sat, f));
+                    if s.lli & 1 != 0 {
+                        slips += 1;
+                        offsets.insert((*sat, f), k);
+                    }
+                    assert_eq!(r.lli, u8::from(seen && s.lli & 1 != 0), "{sat} {f} {}", a.time);
+                    assert_eq!(*offsets.entry((*sat, f)).or_insert(k), k, "{sat} {f} {}", a.time);
+                }
+            }
+        }
+    }
+    eprintln!("{} epochs, {slips} slips flagged", epochs.len());
+    // RTK with the RTCM base: the same fixes as with the RINEX one
+    let opt = RtkOptions { mode: RtkMode::Kinematic, ..Default::default() };
+    let rover = data("07590920.05o.zst");
+    let navs = [data("07590920.05n.zst")];
+    let rinex = solve_files(&rover, &data("30400920.05o.zst"), &navs, None, &opt).unwrap();
+    let rtcm = solve_files(&rover, &path, &navs, None, &opt).unwrap();
+    let fixed = |r: &RtkRun| r.solutions.iter().filter(|s| s.fixed).count();
+    eprintln!("fixed: RINEX base {}, RTCM base {}", fixed(&rinex), fixed(&rtcm));
+    assert_eq!(fixed(&rinex), fixed(&rtcm));
+    let mut largest = 0.0f64;
+    for (a, b) in rinex.solutions.iter().zip(&rtcm.solutions) {
+        assert!(a.fixed == b.fixed && (a.pos - b.pos).norm() < 3e-3, "{a:?} {b:?}");
+        largest = largest.max((a.pos - b.pos).norm());
+    }
+    eprintln!("largest difference {:.2} mm", largest * 1e3);
+    if std::env::var_os("ESTIMATOR_REQUIRE_RTKLIB").is_some()
+        || std::process::Command::new("convbin").arg("-h").output().is_ok()
+    {
+        convbin_reads_the_same(&dir, &path, &epochs);
+        rtklib_writes_what_we_read(&dir, &epochs, &position);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// RTKLIB's `convbin` turns the RTCM 3 file into RINEX with the codes of `epochs` (its
+/// header leaves the 1005 message's position out).
+fn convbin_reads_the_same(dir: &Path, path: &Path, epochs: &[gnss::ObsEpoch]) {
+    let out = dir.join("convbin.obs");
+    let t = &epochs[0].time;
+    let days = i64::from(t.week) * 7 + (t.tow / 86_400.0).floor() as i64;
+    let (y, m, d) =
+        gnss::calendar::civil_from_days(gnss::calendar::days_from_civil(1980, 1, 6) + days);
+    let status = std::process::Command::new("convbin")
+        .args(["-r", "rtcm3", "-v", "3.03", "-tr"])
+        .arg(format!("{y}/{m}/{d}"))
+        .arg("0:0:0")
+        .arg("-o")
+        .arg(&out)
+        .arg(path)
+        .output()
+        .expect("convbin (Debian package rtklib) runs");
+    assert!(out.exists(), "convbin: {}", String::from_utf8_lossy(&status.stderr));
+    let mut back = gnss::ObsReader::open(&out).unwrap();
+    let mut n = 0;
+    while let Some(e) = back.next_epoch().unwrap() {
+        let a = epochs.iter().find(|a| a.time.diff(&e.time).abs() < 1e-3).unwrap();
+        for (sat, s) in signals(&e, 0) {
+            let x = a.sats.iter().find(|o| o.sat == sat).unwrap().signals[0];
+            assert!((x.code.unwrap() - s.code.unwrap()).abs() < 1e-3, "{sat}");
+        }
+        n += 1;
+    }
+    eprintln!("convbin read {n} epochs to the same codes");
+    assert_eq!(n, epochs.len());
+}
+
+/// RTKLIB's `str2str` turns the base's observations (as a u-blox log) into RTCM 3 MSM7,
+/// which `read_rtcm` reads to the same codes (1 mm), and with which as the base RTK fixes
+/// every epoch. (Its 1005 message is not written from a u-blox input: str2str 2.4.3 leaves
+/// it out; the base position is given.)
+fn rtklib_writes_what_we_read(dir: &Path, epochs: &[gnss::ObsEpoch], position: &Vector3<f64>) {
+    let nav = gnss::read_nav(&data("07590920.05n.zst")).unwrap();
+    let ubx = dir.join("base.ubx");
+    std::fs::write(&ubx, ins_gnss_sim::raw::write_ubx(epochs, &nav.ephemerides, None, 13)).unwrap();
+    let out = dir.join("rtklib.rtcm3");
+    // (str2str stays resident after the end of its input: stopped once its output stops
+    // growing)
+    let mut child = std::process::Command::new("str2str")
+        .arg("-in")
+        .arg(format!("file://{}#ubx", ubx.display()))
+        .arg("-out")
+        .arg(format!("file://{}#rtcm3", out.display()))
+        .args(["-msg", "1077,1005(1)", "-px"])
+        .args([position.x, position.y, position.z].map(|v| format!("{v:.4}")))
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("str2str (Debian package rtklib) runs");
+    let mut last = (0, 0);
+    for _ in 0..300 {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        let len = std::fs::metadata(&out).map_or(0, |m| m.len());
+        last = if len > 0 && len == last.0 { (len, last.1 + 1) } else { (len, 0) };
+        if last.1 >= 10 {
+            break;
+        }
+    }
+    child.kill().ok();
+    child.wait().ok();
+    let log = gnss::rtcm::read_rtcm(&out, epochs[0].time).unwrap_or_else(|e| panic!("{e}"));
+    let mut n = 0;
+    for e in &log.epochs {
+        let Some(a) = epochs.iter().find(|a| a.time.diff(&e.time).abs() < 1e-3) else { continue };
+        for (sat, s) in signals(e, 0) {
+            let x = a.sats.iter().find(|o| o.sat == sat).unwrap().signals[0];
+            assert!((x.code.unwrap() - s.code.unwrap()).abs() < 1e-3, "{sat}");
+        }
+        n += 1;
+    }
+    eprintln!("str2str wrote {n} epochs we read to the same codes");
+    assert!(n + 2 >= epochs.len(), "{n} of {}", epochs.len());
+    // and RTK with it as the base (its position given) fixes every epoch
+    let opt = RtkOptions { mode: RtkMode::Kinematic, ..Default::default() };
+    let rover = data("07590920.05o.zst");
+    let run = solve_files(&rover, &out, &[data("07590920.05n.zst")], Some(*position), &opt);
+    let run = run.unwrap();
+    eprintln!(
+        "RTK on str2str's base: {} of {} fixed",
+        run.solutions.iter().filter(|s| s.fixed).count(),
+        run.epochs
+    );
+    assert!(run.fix_rate() >= 0.99, "{}", run.fix_rate());
+}

@@ -35,6 +35,7 @@ pub mod lambda;
 pub mod lnav;
 pub mod obs;
 pub mod rinex;
+pub mod rtcm;
 pub mod rtk;
 pub mod spp;
 pub mod time;

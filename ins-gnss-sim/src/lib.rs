@@ -8,6 +8,7 @@
 #![allow(non_snake_case)]
 
 pub mod raw;
+pub mod rtcm;
 pub mod scenarios;
 mod sensors;
 mod trajectory;

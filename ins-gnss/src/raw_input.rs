@@ -1,7 +1,8 @@
-//! Raw GNSS input, epoch by epoch: a receiver's observations (RINEX or a u-blox log) with
-//! their broadcast ephemerides, [`RawInput`] — what a tightly coupled run
-//! (`run`'s GNSS side), `ins-gnss spp` and `ins-gnss rtk` read.
+//! Raw GNSS input, epoch by epoch: a receiver's observations (RINEX or a u-blox log; a base
+//! station's also RTCM 3) with their broadcast ephemerides, [`RawInput`] — what a tightly
+//! coupled run (`run`'s GNSS side), `ins-gnss spp` and `ins-gnss rtk` read.
 
+use gnss::rtcm::read_rtcm;
 use gnss::ubx::read_ubx;
 use gnss::{read_nav, Ephemerides, NavData, ObsEpoch, ObsReader, RawError};
 use std::path::{Path, PathBuf};
@@ -16,6 +17,8 @@ pub struct RawInput {
     navs: Vec<PathBuf>,
     /// Whether the first epoch was checked against the ephemerides' weeks.
     checked: bool,
+    /// An RTCM 3 station's antenna reference point (1005/1006), ECEF m.
+    station: Option<nalgebra::Vector3<f64>>,
 }
 
 enum RawEpochs {
@@ -27,17 +30,52 @@ impl RawInput {
     /// Opens `obs` (the file's name says a u-blox log: `.ubx`, compressed or not) with the
     /// ephemerides of `navs`. No ephemeris at all is refused.
     pub fn open(obs: &Path, navs: &[PathBuf]) -> Result<Self, RawError> {
-        Self::open_with(obs, navs, true)
+        Self::open_with(obs, navs, true, None)
     }
 
     /// A base station's observations (RTK): its ephemerides are not needed (the rover's
     /// serve the double differences), so a file without them — a RINEX base beside a
-    /// u-blox rover log that brings its own — is taken; those of `navs` are kept.
-    pub fn open_base(obs: &Path, navs: &[PathBuf]) -> Result<Self, RawError> {
-        Self::open_with(obs, navs, false)
+    /// u-blox rover log that brings its own — is taken; those of `navs` are kept. A file
+    /// whose name says RTCM 3 (`.rtcm`, `.rtcm3`, compressed or not) is read as one, its
+    /// times of week in the week nearest `near` (the rover's ephemerides: MSM carries no
+    /// week); without `near` it is refused.
+    pub fn open_base(
+        obs: &Path,
+        navs: &[PathBuf],
+        near: Option<gnss::GpsTime>,
+    ) -> Result<Self, RawError> {
+        if has_in_name(obs, ".rtcm") {
+            let Some(near) = near else {
+                return Err(RawError {
+                    path: obs.to_path_buf(),
+                    line: 0,
+                    message: "RTCM 3 carries the time of week, not the week: give a \
+                              navigation file (or a rover log with ephemerides)"
+                        .into(),
+                });
+            };
+            let log = read_rtcm(obs, near)?;
+            let mut input = Self::open_with(obs, navs, false, Some(log.epochs))?;
+            input.station = log.position;
+            return Ok(input);
+        }
+        Self::open_with(obs, navs, false, None)
     }
 
-    fn open_with(obs: &Path, navs: &[PathBuf], need_ephemerides: bool) -> Result<Self, RawError> {
+    /// A time near the observations: the median of the ephemerides' reference times.
+    pub fn near(&self) -> Option<gnss::GpsTime> {
+        let mut toes: Vec<gnss::GpsTime> =
+            self.nav.ephemerides.records().iter().map(|r| r.toe).collect();
+        toes.sort_by(|a, b| a.diff(b).total_cmp(&0.0));
+        toes.get(toes.len() / 2).copied()
+    }
+
+    fn open_with(
+        obs: &Path,
+        navs: &[PathBuf],
+        need_ephemerides: bool,
+        decoded: Option<Vec<ObsEpoch>>,
+    ) -> Result<Self, RawError> {
         let mut nav = NavData::default();
         let mut records = Vec::new();
         for n in navs {
@@ -46,11 +84,9 @@ impl RawInput {
             nav.klobuchar = nav.klobuchar.or(d.klobuchar);
             nav.unused += d.unused;
         }
-        let is_ubx = obs
-            .file_name()
-            .and_then(|n| n.to_str())
-            .is_some_and(|n| n.to_ascii_lowercase().contains(".ubx"));
-        let epochs = if is_ubx {
+        let epochs = if let Some(d) = decoded {
+            RawEpochs::Log(d.into_iter())
+        } else if has_in_name(obs, ".ubx") {
             let log = read_ubx(obs)?;
             records.extend(log.ephemerides.records().iter().cloned());
             nav.klobuchar = nav.klobuchar.or(log.klobuchar);
@@ -69,7 +105,14 @@ impl RawInput {
             });
         }
         nav.ephemerides = Ephemerides::new(records);
-        Ok(Self { nav, epochs, path: obs.to_path_buf(), navs: navs.to_vec(), checked: false })
+        Ok(Self {
+            nav,
+            epochs,
+            path: obs.to_path_buf(),
+            navs: navs.to_vec(),
+            checked: false,
+            station: None,
+        })
     }
 
     /// The next epoch (`None` at the end). The first is checked against the ephemerides:
@@ -94,12 +137,12 @@ impl RawInput {
         }
     }
 
-    /// A RINEX file's `APPROX POSITION XYZ` (ECEF, m; `None` for a log or a header
-    /// without one).
+    /// A RINEX file's `APPROX POSITION XYZ` or an RTCM 3 station's antenna reference
+    /// point (ECEF, m; `None` for a u-blox log or a header without one).
     pub fn approx_position(&self) -> Option<nalgebra::Vector3<f64>> {
         match &self.epochs {
             RawEpochs::Rinex(r) => r.header.approx_position,
-            RawEpochs::Log(_) => None,
+            RawEpochs::Log(_) => self.station,
         }
     }
 
@@ -150,4 +193,9 @@ impl RawInput {
         }
         Ok(())
     }
+}
+
+/// Whether the file's name contains `part` (case aside).
+fn has_in_name(path: &Path, part: &str) -> bool {
+    path.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.to_ascii_lowercase().contains(part))
 }

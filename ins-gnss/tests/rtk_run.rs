@@ -355,3 +355,39 @@ fn a_ublox_rover_with_a_rinex_base_needs_no_navigation_file() {
     assert!(b.epochs == a.epochs && b.fix_rate >= 0.95 && b.fixed + 5 >= a.fixed, "{a:?} {b:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The base station as RTCM 3 (`ins_gnss_sim::rtcm::write_rtcm`: GPS MSM7 and the 1005
+/// position; the base's clock stamping whole milliseconds, as a receiver's RTCM stream
+/// carries them — `[raw] base_clock = [0, 0]`), its week from the rover's ephemerides and
+/// its position from the 1005 message: the run pairs every rover epoch and fixes as with
+/// the same base as RINEX (seed 3, L1 + L2; within 1 % of the epochs).
+#[test]
+fn a_base_station_as_rtcm3_runs_as_its_rinex() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/rtk.toml");
+    let mut sc = Scenario::load(&path).unwrap();
+    sc.seed = 3;
+    sc.raw.as_mut().unwrap().base_clock = Some([0.0, 0.0]);
+    let dir = std::env::temp_dir().join(format!("rtk-run-rtcm-{}", std::process::id()));
+    sc.write_dataset(&dir).unwrap();
+    let mut cfg = Config::load(&dir.join("config.toml")).unwrap();
+    cfg.init = Default::default();
+    let mut reader = gnss::ObsReader::open(&dir.join("base.obs")).unwrap();
+    let at = reader.header.approx_position.unwrap();
+    let mut epochs = Vec::new();
+    while let Some(e) = reader.next_epoch().unwrap() {
+        epochs.push(e);
+    }
+    std::fs::write(dir.join("base.rtcm3"), ins_gnss_sim::rtcm::write_rtcm(&epochs, &at, 7))
+        .unwrap();
+    let rinex = run(&cfg, "fixed".parse().unwrap(), &dir.join("out-rinex"), None).unwrap();
+    cfg.data.base = Some(dir.join("base.rtcm3"));
+    let rtcm = run(&cfg, "fixed".parse().unwrap(), &dir.join("out-rtcm"), None).unwrap();
+    let (a, b) = (&rinex.rtk.unwrap().metrics, &rtcm.rtk.unwrap().metrics);
+    eprintln!(
+        "RINEX base: {}/{} fixed; RTCM 3 base: {}/{} fixed",
+        a.fixed, a.epochs, b.fixed, b.epochs
+    );
+    assert!(b.epochs == a.epochs && b.solved == a.solved, "{a:?} {b:?}");
+    assert!(b.fixed.abs_diff(a.fixed) * 100 <= a.epochs && b.fix_rate >= 0.9, "{a:?} {b:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}

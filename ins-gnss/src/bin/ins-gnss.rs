@@ -261,7 +261,8 @@ struct SppArgs {
 struct RtkArgs {
     /// The rover's RINEX observation file (or a u-blox log).
     rover: PathBuf,
-    /// The base station's RINEX observation file, observed at the rover's instants.
+    /// The base station's observations, at the rover's instants: RINEX, a u-blox log, or
+    /// RTCM 3 (a name with `.rtcm`: MSM4/MSM7, its 1005/1006 position)
     base: PathBuf,
     /// RINEX navigation file(s).
     nav: Vec<PathBuf>,

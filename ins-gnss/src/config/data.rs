@@ -75,8 +75,9 @@ pub struct DataSection {
     /// needs these.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub nav: Vec<PathBuf>,
-    /// A base station's raw observations (RINEX, or a u-blox log) for `gnss.coupling =
-    /// "rtk"`: its position from `gnss.rtk.base_position` or its RINEX header.
+    /// A base station's raw observations (RINEX, a u-blox log, or RTCM 3 — a name with
+    /// `.rtcm`, its MSM4/MSM7 messages) for `gnss.coupling = "rtk"`: its position from
+    /// `gnss.rtk.base_position`, its RINEX header or its RTCM 1005/1006 message.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base: Option<PathBuf>,
     /// A ROS recording ([`RosSection`]) instead of `imu` and `gnss`.

@@ -46,7 +46,7 @@ pub struct RtkSettings {
     pub partial: bool,
     /// The code's persisting single-differenced bias σ, m (0: white code).
     pub code_bias_sigma: f64,
-    /// Its correlation time, s.
+    /// Its correlation time, s (`inf`: constant).
     pub code_bias_tau: f64,
     /// Fix-and-hold after this many consecutive fixed epochs (0: never).
     pub hold: usize,
@@ -94,8 +94,9 @@ impl RtkSettings {
         if !(self.code_bias_sigma.is_finite() && self.code_bias_sigma >= 0.0) {
             return bad("code_bias_sigma", self.code_bias_sigma, "metres, not negative");
         }
-        if !(self.code_bias_tau.is_finite() && self.code_bias_tau > 0.0) {
-            return bad("code_bias_tau", self.code_bias_tau, "seconds, positive");
+        // (infinite: a constant bias)
+        if self.code_bias_tau.is_nan() || self.code_bias_tau <= 0.0 {
+            return bad("code_bias_tau", self.code_bias_tau, "seconds, positive (or inf)");
         }
         let mode = if self.static_rover { RtkMode::Static } else { RtkMode::Kinematic };
         let defaults = RtkOptions::for_frequencies(mode, self.frequencies);
@@ -110,5 +111,22 @@ impl RtkSettings {
             hold: (self.hold > 0).then_some(self.hold),
             ..defaults
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RtkSettings;
+
+    /// A constant code bias is `code_bias_tau = inf` (`--code-bias-tau inf`, as the help
+    /// says); zero, negative and NaN are refused with the key.
+    #[test]
+    fn an_infinite_correlation_time_is_a_constant_bias() {
+        let with = |tau: f64| RtkSettings { code_bias_tau: tau, ..Default::default() }.options();
+        assert_eq!(with(f64::INFINITY).map(|o| o.code_bias_tau).ok(), Some(f64::INFINITY));
+        assert_eq!(with(300.0).map(|o| o.code_bias_tau).ok(), Some(300.0));
+        for bad in [0.0, -1.0, f64::NAN] {
+            assert_eq!(with(bad).err().map(|e| e.0), Some("code_bias_tau"), "{bad}");
+        }
     }
 }

@@ -52,10 +52,11 @@ pub fn solve_files(
     opt: &RtkOptions,
 ) -> Result<RtkRun, CliError> {
     let mut r = crate::raw_input::RawInput::open(rover, navs)?;
-    let mut b = crate::raw_input::RawInput::open_base(base, navs)?;
+    let mut b = crate::raw_input::RawInput::open_base(base, navs, r.near())?;
     let Some(base_pos) = base_pos.or_else(|| b.approx_position()) else {
         return Err(format!(
-            "{}: no APPROX POSITION XYZ in the header: give the base position (--base-position X,Y,Z)",
+            "{}: no APPROX POSITION XYZ in the header (RTCM 3: no 1005 or 1006 message): give \
+             the base position (--base-position X,Y,Z)",
             base.display()
         )
         .into());

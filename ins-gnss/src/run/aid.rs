@@ -231,15 +231,16 @@ fn open_base(config: &Config, rover: &RawInput) -> Result<(BaseStream, RtkSetup)
     let path = config.data.base.as_ref().ok_or_else(|| {
         key("data.base", "`gnss.coupling = \"rtk\"` needs a base station's observations".into())
     })?;
-    let mut input = RawInput::open_base(path, &config.data.nav).map_err(RunError::Raw)?;
+    let mut input =
+        RawInput::open_base(path, &config.data.nav, rover.near()).map_err(RunError::Raw)?;
     let base = match config.gnss.rtk.base_position {
         Some(p) => Vector3::from(p),
         None => input.approx_position().ok_or_else(|| {
             key(
                 "gnss.rtk.base_position",
                 format!(
-                    "{}: no APPROX POSITION XYZ in the header: give the base station's ECEF \
-                     position",
+                    "{}: no APPROX POSITION XYZ in the header (RTCM 3: no 1005 or 1006 \
+                     message): give the base station's ECEF position",
                     path.display()
                 ),
             )

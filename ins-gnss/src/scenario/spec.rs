@@ -199,6 +199,11 @@ pub struct RawSpec {
     /// header, and the configuration runs RTK (`gnss.coupling = "rtk"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base: Option<[f64; 3]>,
+    /// The base receiver's clock at the start: bias (m) and drift (m/s); default
+    /// [−12 km, −0.3 m/s]. A receiver stamps its epochs in its own time; `[0.0, 0.0]`
+    /// stamps them on whole milliseconds, as an RTCM 3 stream carries them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_clock: Option<[f64; 2]>,
 }
 
 impl RawSpec {

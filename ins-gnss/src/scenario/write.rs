@@ -125,7 +125,12 @@ impl Scenario {
                     &nav.ephemerides,
                     &klobuchar,
                     &sim,
-                    &RtkSim::new(at),
+                    &RtkSim {
+                        base_clock: raw
+                            .base_clock
+                            .map_or(RtkSim::new(at).base_clock, |c| (c[0], c[1])),
+                        ..RtkSim::new(at)
+                    },
                     self.seed,
                 );
                 (rover, Some((base, at)))
