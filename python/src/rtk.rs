@@ -28,9 +28,9 @@ pub const RTK_COLUMNS: [&str; 12] = [
     "fixed_ambiguities",
 ];
 
-/// RTK positions of `rover` (RINEX observations, or a u-blox log) against `base`, with the
-/// navigation files `nav`; the base position from `base_position` (ECEF, m) or the base
-/// file's header. The settings are `ins-gnss rtk`'s options, with its defaults. Returns a
+/// RTK positions of `rover` (RINEX observations, or a u-blox log) against `base` (the same,
+/// or RTCM 3: a name with `.rtcm`), with the navigation files `nav`; the base position from
+/// `base_position` (ECEF, m), the base file's header or its RTCM 1005/1006 message. The settings are `ins-gnss rtk`'s options, with its defaults. Returns a
 /// dict: `solutions` (`N × 12`: week, time of week (s), latitude, longitude (deg), height
 /// (m), σ north, east, down (m), Q (1 fixed, 2 float), the ratio (NaN: not searched), the
 /// satellites, the ambiguities fixed), `metrics` (the fix's), `base` (latitude, longitude,

@@ -75,8 +75,8 @@ pub struct RtkSetup {
     pub options: gnss::rtk::RtkOptions,
     /// The base station's antenna (ECEF, m).
     pub base: Vector3<f64>,
-    /// The broadcast ephemerides.
-    pub ephemerides: gnss::Ephemerides,
+    /// The broadcast ephemerides (the rover's, copied once: the setup is shared).
+    pub ephemerides: std::sync::Arc<gnss::Ephemerides>,
 }
 
 /// Where a run's GNSS epochs come from.
@@ -255,7 +255,8 @@ fn open_base(config: &Config, rover: &RawInput) -> Result<(BaseStream, RtkSetup)
     let options = config.gnss.rtk.options().map_err(|m| key("gnss.rtk", m))?;
     let coming = input.next_epoch().map_err(RunError::Raw)?;
     let max_age = options.max_age;
-    let setup = RtkSetup { options, base, ephemerides: rover.nav.ephemerides.clone() };
+    let ephemerides = std::sync::Arc::new(rover.nav.ephemerides.clone());
+    let setup = RtkSetup { options, base, ephemerides };
     Ok((BaseStream { input, current: None, coming, max_age }, setup))
 }
 
