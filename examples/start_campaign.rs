@@ -12,7 +12,9 @@
 //! of each run's worst heading error over its σ, the median worst heading error, the
 //! median horizontal RMS, and (walks, rovers, the backwards car) the RMS over that of the
 //! same run given the true initial state; the first refusal's message. `EXTRA`:
-//! configuration lines for every run; `VERBOSE=1`: each run on stderr.
+//! configuration lines for every run; `VERBOSE=1`: each run on stderr; `ORACLE=1`: every
+//! cell run given the true initial state as well (its RMS ratio in the row; with
+//! `VERBOSE`, its heading's coverage on stderr).
 
 #[path = "../tests/everyday/mod.rs"]
 mod everyday;
@@ -76,14 +78,14 @@ fn main() {
             .map(|seed| {
                 let (d, motion) = make(seed);
                 let o = judge_start(&d, &motion, *fixes, seed, &extra);
-                let t = oracle.then(|| {
+                let t = (*oracle || std::env::var_os("ORACLE").is_some()).then(|| {
                     let init = format!("{}{extra}", true_init(&d, &motion));
                     judge_start(&d, &motion, *fixes, seed, &init)
                 });
                 if std::env::var("VERBOSE").is_ok() {
                     eprintln!(
                         "{name} seed {seed}: {o:?} true start: {:?}",
-                        t.as_ref().map(|t| t.rms)
+                        t.as_ref().map(|t| (t.rms, t.heading_covered, t.worst_ratio, t.worst_t))
                     );
                 }
                 (o, t)
