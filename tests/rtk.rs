@@ -408,7 +408,8 @@ fn signals(e: &gnss::ObsEpoch, f: usize) -> Vec<(gnss::Sat, gnss::Signal)> {
 /// ours.
 #[test]
 fn a_base_station_as_rtcm3() {
-    let dir = tempfile_dir().join("rtcm");
+    // (a directory of its own: `the_pos_file_reads_back` removes the shared one)
+    let dir = std::env::temp_dir().join(format!("rtk-rtcm-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut reader = gnss::ObsReader::open(&data("30400920.05o.zst")).unwrap();
     let position = reader.header.approx_position.unwrap();
@@ -596,7 +597,7 @@ proptest::proptest! {
                 *v ^= x;
             }
         }
-        let dir = tempfile_dir().join(format!("damaged-{}", b.len()));
+        let dir = std::env::temp_dir().join(format!("rtk-damaged-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("base.rtcm3");
         std::fs::write(&path, &b).unwrap();
