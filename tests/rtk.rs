@@ -418,7 +418,13 @@ fn a_base_station_as_rtcm3() {
         epochs.push(e);
     }
     let path = dir.join("base.rtcm3");
-    std::fs::write(&path, ins_gnss_sim::rtcm::write_rtcm(&epochs, &position, 3040)).unwrap();
+    let mut bytes = ins_gnss_sim::rtcm::write_rtcm(&epochs, &position, 3040);
+    // two antenna descriptors (1033), a message not read: named in the run's notes
+    bytes.extend(
+        [ins_gnss_sim::rtcm::blank_frame(1033, 8), ins_gnss_sim::rtcm::blank_frame(1033, 8)]
+            .concat(),
+    );
+    std::fs::write(&path, bytes).unwrap();
     let near = epochs[0].time.add(3.0 * 86_400.0);
     let log = gnss::rtcm::read_rtcm(&path, near).unwrap();
     assert_eq!(log.position.map(|p| (p - position).norm() < 1e-3), Some(true));
@@ -459,6 +465,11 @@ fn a_base_station_as_rtcm3() {
     let fixed = |r: &RtkRun| r.solutions.iter().filter(|s| s.fixed).count();
     eprintln!("fixed: RINEX base {}, RTCM base {}", fixed(&rinex), fixed(&rtcm));
     assert_eq!(fixed(&rinex), fixed(&rtcm));
+    assert!(
+        rtcm.notes.iter().any(|n| n.contains("not read: 1033 ×2 (antenna descriptor)")),
+        "{:?}",
+        rtcm.notes
+    );
     let mut largest = 0.0f64;
     for (a, b) in rinex.solutions.iter().zip(&rtcm.solutions) {
         assert!(a.fixed == b.fixed && (a.pos - b.pos).norm() < 3e-3, "{a:?} {b:?}");

@@ -222,6 +222,32 @@ pub fn read_rtcm(path: &Path, near: GpsTime) -> Result<RtcmLog, RawError> {
     Ok(log)
 }
 
+/// The messages of `other` (message number → frames) as a note: "RTCM 3 messages not
+/// read: 1087 ×120 (GLONASS MSM7), 1019 ×4 (ephemeris)"; `None` when there are none.
+pub fn unread_text(other: &BTreeMap<u16, usize>) -> Option<String> {
+    if other.is_empty() {
+        return None;
+    }
+    let kind = |n: u16| -> String {
+        let msm = ["GPS", "GLONASS", "Galileo", "SBAS", "QZSS", "BeiDou", "NavIC"];
+        match n {
+            1071..=1137 => match msm.get(usize::from((n - 1071) / 10)) {
+                Some(sys) => format!("{sys} MSM{}", (n - 1) % 10),
+                None => "MSM".into(),
+            },
+            1001..=1004 => "GPS legacy observations".into(),
+            1009..=1012 => "GLONASS legacy observations".into(),
+            1019 | 1020 | 1041..=1046 => "ephemeris".into(),
+            1007 | 1008 | 1033 => "antenna descriptor".into(),
+            1230 => "GLONASS biases".into(),
+            _ => "other".into(),
+        }
+    };
+    let parts: Vec<String> =
+        other.iter().map(|(n, c)| format!("{n} ×{c} ({})", kind(*n))).collect();
+    Some(format!("RTCM 3 messages not read: {}", parts.join(", ")))
+}
+
 /// An MSM's instant as GPS time, in the week that puts it nearest `near`.
 fn gps_time(msm: &Msm, near: GpsTime) -> GpsTime {
     let mut tow = f64::from(msm.tow_ms) / 1000.0;

@@ -110,6 +110,30 @@ pub fn write_rtcm(epochs: &[ObsEpoch], position: &Vector3<f64>, station: u16) ->
     out
 }
 
+/// An RTCM 3 frame of message `number` whose `len`-byte payload is zeros after the
+/// number, with its CRC-24Q (RTCM 10403's parity): a message of any number, for a file
+/// that holds messages a reader does not read.
+pub fn blank_frame(number: u16, len: usize) -> Vec<u8> {
+    let len = len.clamp(2, 1023);
+    let mut payload = vec![0u8; len];
+    payload[0] = (number >> 4) as u8;
+    payload[1] = ((number & 0xF) << 4) as u8;
+    let mut f = vec![0xD3, (len >> 8) as u8 & 0x03, len as u8];
+    f.extend(payload);
+    let mut crc = 0u32;
+    for &b in &f {
+        crc ^= u32::from(b) << 16;
+        for _ in 0..8 {
+            crc <<= 1;
+            if crc & 0x100_0000 != 0 {
+                crc ^= 0x186_4CFB;
+            }
+        }
+    }
+    f.extend([(crc >> 16) as u8, (crc >> 8) as u8, crc as u8]);
+    f
+}
+
 #[cfg(test)]
 mod tests {
     use super::lock_indicator;

@@ -19,6 +19,8 @@ pub struct RawInput {
     checked: bool,
     /// An RTCM 3 station's antenna reference point (1005/1006), ECEF m.
     station: Option<nalgebra::Vector3<f64>>,
+    /// An RTCM 3 file's messages not read, as a note.
+    unread: Option<String>,
 }
 
 enum RawEpochs {
@@ -57,6 +59,7 @@ impl RawInput {
             let log = read_rtcm(obs, near)?;
             let mut input = Self::open_with(obs, navs, false, Some(log.epochs))?;
             input.station = log.position;
+            input.unread = gnss::rtcm::unread_text(&log.other);
             return Ok(input);
         }
         Self::open_with(obs, navs, false, None)
@@ -112,6 +115,7 @@ impl RawInput {
             navs: navs.to_vec(),
             checked: false,
             station: None,
+            unread: None,
         })
     }
 
@@ -144,6 +148,11 @@ impl RawInput {
             RawEpochs::Rinex(r) => r.header.approx_position,
             RawEpochs::Log(_) => self.station,
         }
+    }
+
+    /// What the file held that is not read (an RTCM 3 file's other messages), as a note.
+    pub fn unread(&self) -> Option<&str> {
+        self.unread.as_deref()
     }
 
     /// The observation file.

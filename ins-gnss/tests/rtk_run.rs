@@ -365,7 +365,8 @@ fn a_ublox_rover_with_a_rinex_base_needs_no_navigation_file() {
 /// position; the base's clock stamping whole milliseconds, as a receiver's RTCM stream
 /// carries them — `[raw] base_clock = [0, 0]`), its week from the rover's ephemerides and
 /// its position from the 1005 message: the run pairs every rover epoch and fixes as with
-/// the same base as RINEX (seed 3, L1 + L2; within 1 % of the epochs).
+/// the same base as RINEX (seed 3, L1 + L2; within 1 % of the epochs), and its summary
+/// names the message it did not read (an ephemeris, 1019).
 #[test]
 fn a_base_station_as_rtcm3_runs_as_its_rinex() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/rtk.toml");
@@ -382,11 +383,14 @@ fn a_base_station_as_rtcm3_runs_as_its_rinex() {
     while let Some(e) = reader.next_epoch().unwrap() {
         epochs.push(e);
     }
-    std::fs::write(dir.join("base.rtcm3"), ins_gnss_sim::rtcm::write_rtcm(&epochs, &at, 7))
-        .unwrap();
+    // (and an ephemeris message, 1019, which is not read: the summary says so)
+    let mut bytes = ins_gnss_sim::rtcm::write_rtcm(&epochs, &at, 7);
+    bytes.extend(ins_gnss_sim::rtcm::blank_frame(1019, 61));
+    std::fs::write(dir.join("base.rtcm3"), bytes).unwrap();
     let rinex = run(&cfg, "fixed".parse().unwrap(), &dir.join("out-rinex"), None).unwrap();
     cfg.data.base = Some(dir.join("base.rtcm3"));
     let rtcm = run(&cfg, "fixed".parse().unwrap(), &dir.join("out-rtcm"), None).unwrap();
+    let line = rtcm.lines().into_iter().find(|l| l.starts_with("RTK:")).unwrap();
     let (a, b) = (&rinex.rtk.unwrap().metrics, &rtcm.rtk.unwrap().metrics);
     eprintln!(
         "RINEX base: {}/{} fixed; RTCM 3 base: {}/{} fixed",
@@ -394,5 +398,6 @@ fn a_base_station_as_rtcm3_runs_as_its_rinex() {
     );
     assert!(b.epochs == a.epochs && b.solved == a.solved, "{a:?} {b:?}");
     assert!(b.fixed.abs_diff(a.fixed) * 100 <= a.epochs && b.fix_rate >= 0.9, "{a:?} {b:?}");
+    assert!(line.contains("not read: 1019 ×1 (ephemeris)"), "{line}");
     std::fs::remove_dir_all(&dir).ok();
 }

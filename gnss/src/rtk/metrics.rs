@@ -45,6 +45,9 @@ pub struct RtkRun {
     pub failures: BTreeMap<String, usize>,
     /// The base position used (ECEF, m).
     pub base: Vector3<f64>,
+    /// What the inputs held that the solution did not use (an RTCM 3 base's other
+    /// messages), one note each.
+    pub notes: Vec<String>,
 }
 
 /// The failure of a rover epoch without a base epoch recent enough.

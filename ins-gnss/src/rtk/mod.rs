@@ -61,7 +61,9 @@ pub fn solve_files(
         )
         .into());
     };
-    solve_epochs(&mut r, || Ok(b.next_epoch()?), base_pos, opt)
+    let mut run = solve_epochs(&mut r, || Ok(b.next_epoch()?), base_pos, opt)?;
+    run.notes.extend(b.unread().map(|n| format!("{}: {n}", base.display())));
+    Ok(run)
 }
 
 /// [`solve_files`] on an opened rover and the base's epochs (in time order) from
@@ -192,6 +194,9 @@ pub fn run(
         ));
     }
     say(fix_metrics_line(&run));
+    for n in &run.notes {
+        say(n.clone());
+    }
     if let Some(out) = out {
         write_pos(out, &run, opt)?;
         say(format!("wrote {}", out.display()));

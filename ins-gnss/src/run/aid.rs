@@ -77,6 +77,8 @@ pub struct RtkSetup {
     pub base: Vector3<f64>,
     /// The broadcast ephemerides (the rover's, copied once: the setup is shared).
     pub ephemerides: std::sync::Arc<gnss::Ephemerides>,
+    /// What the base's file held that is not read (an RTCM 3 file's other messages).
+    pub notes: Vec<String>,
 }
 
 /// Where a run's GNSS epochs come from.
@@ -256,7 +258,8 @@ fn open_base(config: &Config, rover: &RawInput) -> Result<(BaseStream, RtkSetup)
     let coming = input.next_epoch().map_err(RunError::Raw)?;
     let max_age = options.max_age;
     let ephemerides = std::sync::Arc::new(rover.nav.ephemerides.clone());
-    let setup = RtkSetup { options, base, ephemerides };
+    let notes = input.unread().map(|n| format!("{}: {n}", path.display())).into_iter().collect();
+    let setup = RtkSetup { options, base, ephemerides, notes };
     Ok((BaseStream { input, current: None, coming, max_age }, setup))
 }
 

@@ -359,6 +359,7 @@ where
             metrics: a.run.metrics(),
             gated: a.gated,
             base: a.run.base,
+            notes: a.run.notes.clone(),
         });
         if let Some(recorder) = self.recorder {
             let backward = Instant::now();

@@ -127,7 +127,7 @@ impl RtkAid {
             anchored: false,
             setup: setup.clone(),
             lever,
-            run: RtkRun { base: setup.base, ..Default::default() },
+            run: RtkRun { base: setup.base, notes: setup.notes.clone(), ..Default::default() },
             gated: 0,
             last_fix: None,
         }

@@ -92,6 +92,8 @@ pub struct RtkSummary {
     pub gated: usize,
     /// The base station's antenna (ECEF, m).
     pub base: Vector3<f64>,
+    /// What the base's file held that is not read (an RTCM 3 file's other messages).
+    pub notes: Vec<String>,
 }
 
 impl RtkSummary {
@@ -100,7 +102,7 @@ impl RtkSummary {
         let m = &self.metrics;
         format!(
             "RTK: {} of {} rover epochs solved, {} fixed ({:.1} %), {} INS-aided fix{} the RTK \
-             alone contradicted (not used){}; {}",
+             alone contradicted (not used){}; {}{}",
             m.solved,
             m.epochs,
             m.fixed,
@@ -112,7 +114,8 @@ impl RtkSummary {
             } else {
                 format!("; unsolved: {}", gnss::rtk::reasons_text(&m.failures))
             },
-            gnss::rtk::metrics_line(m)
+            gnss::rtk::metrics_line(m),
+            self.notes.iter().map(|n| format!("; {n}")).collect::<String>()
         )
     }
 }
