@@ -411,14 +411,9 @@ fn a_base_station_as_rtcm3() {
     // (a directory of its own: `the_pos_file_reads_back` removes the shared one)
     let dir = std::env::temp_dir().join(format!("rtk-rtcm-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let mut reader = gnss::ObsReader::open(&data("30400920.05o.zst")).unwrap();
-    let position = reader.header.approx_position.unwrap();
-    let mut epochs = Vec::new();
-    while let Some(e) = reader.next_epoch().unwrap() {
-        epochs.push(e);
-    }
+    let (bytes, epochs, position) = base_rtcm();
     let path = dir.join("base.rtcm3");
-    let mut bytes = ins_gnss_sim::rtcm::write_rtcm(&epochs, &position, 3040);
+    let mut bytes = bytes.clone();
     // two antenna descriptors (1033), a message not read: named in the run's notes
     bytes.extend(
         [ins_gnss_sim::rtcm::blank_frame(1033, 8), ins_gnss_sim::rtcm::blank_frame(1033, 8)]
@@ -479,8 +474,8 @@ fn a_base_station_as_rtcm3() {
     if std::env::var_os("ESTIMATOR_REQUIRE_RTKLIB").is_some()
         || std::process::Command::new("convbin").arg("-h").output().is_ok()
     {
-        convbin_reads_the_same(&dir, &path, &epochs);
-        rtklib_writes_what_we_read(&dir, &epochs, &position);
+        convbin_reads_the_same(&dir, &path, epochs);
+        rtklib_writes_what_we_read(&dir, epochs, position);
     }
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -574,17 +569,16 @@ fn rtklib_writes_what_we_read(dir: &Path, epochs: &[gnss::ObsEpoch], position: &
     assert!(run.fix_rate() >= 0.99, "{}", run.fix_rate());
 }
 
-/// The shipped base (GEONET 3040, 120 epochs) as RTCM 3 MSM7, once, and its epochs.
-fn base_rtcm() -> &'static (Vec<u8>, Vec<gnss::ObsEpoch>) {
-    static BASE: std::sync::OnceLock<(Vec<u8>, Vec<gnss::ObsEpoch>)> = std::sync::OnceLock::new();
+/// The shipped base (GEONET 3040, 120 epochs) as RTCM 3 (MSM7 and 1005), once; its
+/// epochs and its header's position.
+fn base_rtcm() -> &'static (Vec<u8>, Vec<gnss::ObsEpoch>, Vector3<f64>) {
+    type Base = (Vec<u8>, Vec<gnss::ObsEpoch>, Vector3<f64>);
+    static BASE: std::sync::OnceLock<Base> = std::sync::OnceLock::new();
     BASE.get_or_init(|| {
-        let mut reader = gnss::ObsReader::open(&data("30400920.05o.zst")).unwrap();
+        let reader = gnss::ObsReader::open(&data("30400920.05o.zst")).unwrap();
         let at = reader.header.approx_position.unwrap();
-        let mut epochs = Vec::new();
-        while let Some(e) = reader.next_epoch().unwrap() {
-            epochs.push(e);
-        }
-        (ins_gnss_sim::rtcm::write_rtcm(&epochs, &at, 3040), epochs)
+        let epochs: Vec<gnss::ObsEpoch> = reader.collect::<Result<_, _>>().unwrap();
+        (ins_gnss_sim::rtcm::write_rtcm(&epochs, &at, 3040), epochs, at)
     })
 }
 
@@ -600,7 +594,7 @@ proptest::proptest! {
         cut in 0.0f64..1.0,
         changes in proptest::collection::vec((0.0f64..1.0, 1u8..=255), 0..24),
     ) {
-        let (bytes, epochs) = base_rtcm();
+        let (bytes, epochs, _) = base_rtcm();
         let mut b = bytes[..(cut * bytes.len() as f64) as usize].to_vec();
         for (at, x) in changes {
             let i = (at * b.len() as f64) as usize;

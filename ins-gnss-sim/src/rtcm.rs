@@ -111,8 +111,9 @@ pub fn write_rtcm(epochs: &[ObsEpoch], position: &Vector3<f64>, station: u16) ->
 }
 
 /// An RTCM 3 frame of message `number` whose `len`-byte payload is zeros after the
-/// number, with its CRC-24Q (RTCM 10403's parity): a message of any number, for a file
-/// that holds messages a reader does not read.
+/// number, with its CRC-24Q (RTCM 10403's parity; rtcm-rs encodes only the messages
+/// compiled in): a message of any number, for a file that holds messages a reader does
+/// not read.
 pub fn blank_frame(number: u16, len: usize) -> Vec<u8> {
     let len = len.clamp(2, 1023);
     let mut payload = vec![0u8; len];
@@ -120,16 +121,10 @@ pub fn blank_frame(number: u16, len: usize) -> Vec<u8> {
     payload[1] = ((number & 0xF) << 4) as u8;
     let mut f = vec![0xD3, (len >> 8) as u8 & 0x03, len as u8];
     f.extend(payload);
-    let mut crc = 0u32;
-    for &b in &f {
-        crc ^= u32::from(b) << 16;
-        for _ in 0..8 {
-            crc <<= 1;
-            if crc & 0x100_0000 != 0 {
-                crc ^= 0x186_4CFB;
-            }
-        }
-    }
+    // (CRC-24Q is the CRC-24 that `crc-any` names after LTE's CRC24A, as rtcm-rs uses it)
+    let mut crc = crc_any::CRC::crc24lte_a();
+    crc.digest(&f);
+    let crc = crc.get_crc();
     f.extend([(crc >> 16) as u8, (crc >> 8) as u8, crc as u8]);
     f
 }

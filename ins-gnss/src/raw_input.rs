@@ -19,7 +19,7 @@ pub struct RawInput {
     checked: bool,
     /// An RTCM 3 station's antenna reference point (1005/1006), ECEF m.
     station: Option<nalgebra::Vector3<f64>>,
-    /// An RTCM 3 file's messages not read, as a note.
+    /// An RTCM 3 file's messages not read, as a note naming the file.
     unread: Option<String>,
 }
 
@@ -59,7 +59,8 @@ impl RawInput {
             let log = read_rtcm(obs, near)?;
             let mut input = Self::open_with(obs, navs, false, Some(log.epochs))?;
             input.station = log.position;
-            input.unread = gnss::rtcm::unread_text(&log.other);
+            input.unread =
+                gnss::rtcm::unread_text(&log.other).map(|n| format!("{}: {n}", obs.display()));
             return Ok(input);
         }
         Self::open_with(obs, navs, false, None)
@@ -150,7 +151,8 @@ impl RawInput {
         }
     }
 
-    /// What the file held that is not read (an RTCM 3 file's other messages), as a note.
+    /// What the file held that is not read (an RTCM 3 file's other messages), as a note
+    /// naming the file.
     pub fn unread(&self) -> Option<&str> {
         self.unread.as_deref()
     }

@@ -340,11 +340,8 @@ fn rtk_configurations_refused_with_their_keys() {
 #[test]
 fn a_ublox_rover_with_a_rinex_base_needs_no_navigation_file() {
     let (dir, mut cfg) = dataset("ubx", 7, 2);
-    let mut reader = gnss::ObsReader::open(&cfg.data.gnss).unwrap();
-    let mut epochs = Vec::new();
-    while let Some(e) = reader.next_epoch().unwrap() {
-        epochs.push(e);
-    }
+    let reader = gnss::ObsReader::open(&cfg.data.gnss).unwrap();
+    let epochs: Vec<gnss::ObsEpoch> = reader.collect::<Result<_, _>>().unwrap();
     let nav = gnss::read_nav(&cfg.data.nav[0]).unwrap();
     let log = ins_gnss_sim::raw::write_ubx(&epochs, &nav.ephemerides, nav.klobuchar.as_ref(), 13);
     std::fs::write(dir.join("rover.ubx"), log).unwrap();
@@ -377,12 +374,9 @@ fn a_base_station_as_rtcm3_runs_as_its_rinex() {
     sc.write_dataset(&dir).unwrap();
     let mut cfg = Config::load(&dir.join("config.toml")).unwrap();
     cfg.init = Default::default();
-    let mut reader = gnss::ObsReader::open(&dir.join("base.obs")).unwrap();
+    let reader = gnss::ObsReader::open(&dir.join("base.obs")).unwrap();
     let at = reader.header.approx_position.unwrap();
-    let mut epochs = Vec::new();
-    while let Some(e) = reader.next_epoch().unwrap() {
-        epochs.push(e);
-    }
+    let epochs: Vec<gnss::ObsEpoch> = reader.collect::<Result<_, _>>().unwrap();
     // (and an ephemeris message, 1019, which is not read: the summary says so)
     let mut bytes = ins_gnss_sim::rtcm::write_rtcm(&epochs, &at, 7);
     bytes.extend(ins_gnss_sim::rtcm::blank_frame(1019, 61));

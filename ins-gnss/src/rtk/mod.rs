@@ -62,7 +62,7 @@ pub fn solve_files(
         .into());
     };
     let mut run = solve_epochs(&mut r, || Ok(b.next_epoch()?), base_pos, opt)?;
-    run.notes.extend(b.unread().map(|n| format!("{}: {n}", base.display())));
+    run.notes.extend(b.unread().map(str::to_owned));
     Ok(run)
 }
 

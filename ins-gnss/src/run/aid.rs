@@ -258,7 +258,7 @@ fn open_base(config: &Config, rover: &RawInput) -> Result<(BaseStream, RtkSetup)
     let coming = input.next_epoch().map_err(RunError::Raw)?;
     let max_age = options.max_age;
     let ephemerides = std::sync::Arc::new(rover.nav.ephemerides.clone());
-    let notes = input.unread().map(|n| format!("{}: {n}", path.display())).into_iter().collect();
+    let notes = input.unread().map(str::to_owned).into_iter().collect();
     let setup = RtkSetup { options, base, ephemerides, notes };
     Ok((BaseStream { input, current: None, coming, max_age }, setup))
 }

@@ -185,11 +185,7 @@ impl RtkAid {
         // the leash at a float epoch: the alone filter's float solution (independent of
         // the INS) when it has one, else the single point
         let leash = match &alone {
-            // (its σ taken [`FLOAT_SIGMA_FACTOR`]× larger, as where it checks a fix)
-            Ok(b) if !b.fixed => {
-                Some(fix_of(pair.t, &b.pos, &(b.cov * FLOAT_SIGMA_FACTOR.powi(2))))
-            }
-            Ok(b) => Some(fix_of(pair.t, &b.pos, &b.cov)),
+            Ok(b) => Some(fix_of(pair.t, &b.pos, &alone_cov(b))),
             Err(_) => spp.copied(),
         };
         let (sol, anchored, confirmed) = self.choose(pair, spp_pos, alone, (prior, p));
@@ -219,27 +215,17 @@ impl RtkAid {
         let eph = &self.setup.ephemerides;
         let aided = self.aided.step_with_prior(&pair.rover, &pair.base, eph, spp_pos, Some(prior));
         match (&aided, &alone) {
-            (Ok(a), Ok(b)) if a.fixed && b.fixed => {
-                let d = a.pos - b.pos;
-                if (a.cov + b.cov).cholesky().is_none_or(|ch| d.dot(&ch.solve(&d)) > RTK_GATE) {
-                    self.gated += 1;
-                    (alone, false, true)
-                } else {
-                    (aided, true, true)
-                }
-            }
             // (its prior, the INS, may be what keeps the aided filter from fixing)
             (Ok(a), Ok(b)) if !a.fixed && b.fixed => (alone, false, true),
-            // a fix the alone filter's float solution contradicts, its σ taken twice as
-            // large (before a fix it covers the error about 2.5× short)
+            // a fix the alone filter's solution contradicts — its fix, or its float
+            // solution with its σ taken [`FLOAT_SIGMA_FACTOR`]× larger — is not used; one
+            // it fixes too is confirmed
             (Ok(a), Ok(b)) if a.fixed => {
-                let d = a.pos - b.pos;
-                let s = FLOAT_SIGMA_FACTOR * FLOAT_SIGMA_FACTOR;
-                if (a.cov + b.cov * s).cholesky().is_none_or(|ch| d.dot(&ch.solve(&d)) > RTK_GATE) {
+                if beyond_gate(&(a.pos - b.pos), &(a.cov + alone_cov(b))) {
                     self.gated += 1;
                     (alone, false, true)
                 } else {
-                    (aided, true, false)
+                    (aided, true, b.fixed)
                 }
             }
             _ => (aided, true, false),
@@ -282,9 +268,7 @@ impl RtkAid {
         // difference: its position's variance widened by it, its velocity's by it over the
         // time since its last fix, so that its gate takes the fix
         let d = z - prior;
-        let widen = (confirmed
-            && (p + r).cholesky().is_none_or(|ch| d.dot(&ch.solve(&d)) > RTK_GATE))
-        .then(|| {
+        let widen = (confirmed && beyond_gate(&d, &(p + r))).then(|| {
             let d = c * d;
             let dt = self.last_fix.map_or(1.0, |t| (pair.t - t).max(1.0));
             (d.map(|v| v * v), d.map(|v| (v / dt).powi(2)))
@@ -345,6 +329,23 @@ impl RtkAid {
         let p = j * p9 * j.transpose();
         (at, (p + p.transpose()) * 0.5)
     }
+}
+
+/// The alone filter's covariance as the run takes it: a fix's as it is, a float
+/// solution's with its σ taken [`FLOAT_SIGMA_FACTOR`]× larger (before a fix it covers its
+/// error about 2.5× short).
+fn alone_cov(e: &RtkEpoch) -> Matrix3<f64> {
+    if e.fixed {
+        e.cov
+    } else {
+        e.cov * FLOAT_SIGMA_FACTOR.powi(2)
+    }
+}
+
+/// Whether a difference `d` of two positions lies beyond [`RTK_GATE`] of their summed
+/// covariance `s` (or `s` is not positive definite).
+fn beyond_gate(d: &Vector3<f64>, s: &Matrix3<f64>) -> bool {
+    s.cholesky().is_none_or(|ch| d.dot(&ch.solve(d)) > RTK_GATE)
 }
 
 /// A position (ECEF, m) and its covariance (m²) as a fix at `t`: geodetic, the covariance
