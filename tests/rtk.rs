@@ -623,3 +623,25 @@ proptest::proptest! {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+/// A file named RTCM 3 that is not — text, or frames none of which is an MSM read — is
+/// refused naming the file and what it holds; a base named RTCM 3 without a week to put
+/// it in (no ephemerides) is refused saying so.
+#[test]
+fn files_that_are_not_rtcm3_observations_are_refused_with_what_they_hold() {
+    let dir = std::env::temp_dir().join(format!("rtk-not-rtcm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let near = gnss::GpsTime::new(1316, 0.0);
+    let text = dir.join("base.rtcm3");
+    std::fs::write(&text, "2005 04 02 00:00:00 not a frame\n").unwrap();
+    let e = gnss::rtcm::read_rtcm(&text, near).unwrap_err();
+    assert!(e.path == text && e.message.contains("no RTCM 3 frame"), "{e}");
+    let frames = dir.join("stations.rtcm");
+    let blank = ins_gnss_sim::rtcm::blank_frame;
+    std::fs::write(&frames, [blank(1033, 8), blank(1087, 20), blank(1033, 8)].concat()).unwrap();
+    let e = gnss::rtcm::read_rtcm(&frames, near).unwrap_err();
+    assert!(e.message.contains("no MSM4 or MSM7") && e.message.contains("1033 ×2"), "{e}");
+    let e = ins_gnss::raw_input::RawInput::open_base(&frames, &[], None).err().unwrap();
+    assert!(e.path == frames && e.message.contains("not the week"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
